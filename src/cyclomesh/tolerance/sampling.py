@@ -1,0 +1,153 @@
+"""Monte Carlo sampling of pin-ring errors, reproducible ring by ring.
+
+Ring k's errors depend only on (seed, k): each error kind of ring k draws from its own
+stream ``numpy.random.Generator(PCG64(SeedSequence([seed, k, kind])))``. The results
+are therefore bit-for-bit identical however rings are split into chunks and wherever
+the chunks run, and changing the distribution of one kind leaves the draws of the
+others unchanged.
+
+Every distribution is a fixed standard draw times a scale (uniform: U(−1, 1) times the
+half range; normal: N(0, 1) times sigma; true position: a point of the unit disc
+times the zone radius), so scaling all tolerances by a factor scales the same
+underlying draws: common random numbers for :mod:`cyclomesh.tolerance.allocation`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cyclomesh.tolerance.spec import Normal, ToleranceSpec, Uniform
+
+__all__ = ["RingErrors", "draw_ring_errors", "unit_disc"]
+
+# stream ids of the error kinds (part of the reproducibility contract: never renumber)
+_RADIAL, _ANGULAR, _PIN_RADIUS, _ECCENTRICITY, _POSITION = 1, 2, 3, 4, 5
+
+
+@dataclass(frozen=True)
+class RingErrors:
+    """Errors of a batch of rings in study-file units, leading axis = ring.
+
+    Study-file units (not SI) so that a ring written to a study file as decimal
+    numbers reads back bit for bit (see :mod:`cyclomesh.tolerance.worst`).
+
+    Attributes
+    ----------
+    rings : ndarray, shape (R,)
+        Ring indices k.
+    radial_um : ndarray, shape (R, n1)
+        εa,i, radial pin position error [µm], positive outwards.
+    angular_urad : ndarray, shape (R, n1)
+        εψ,i, angular pin position error [µrad].
+    pin_radius_um : ndarray, shape (R, n1)
+        ερ,i, pin radius error [µm].
+    eccentricity_um : ndarray, shape (R,)
+        εe, eccentricity error [µm].
+    """
+
+    rings: NDArray[np.int64]
+    radial_um: NDArray[np.float64]
+    angular_urad: NDArray[np.float64]
+    pin_radius_um: NDArray[np.float64]
+    eccentricity_um: NDArray[np.float64]
+
+    def scaled(self, factor: ArrayLike) -> RingErrors:
+        """The same draws times ``factor`` (scalar, or one value per ring) [-]."""
+        f = np.asarray(factor, dtype=float)
+        fp = f[..., None] if f.ndim else f
+        return RingErrors(
+            self.rings,
+            self.radial_um * fp,
+            self.angular_urad * fp,
+            self.pin_radius_um * fp,
+            self.eccentricity_um * f,
+        )
+
+    def take(self, index: ArrayLike) -> RingErrors:
+        """The rings at positions ``index`` of this batch."""
+        i = np.asarray(index)
+        return RingErrors(
+            self.rings[i],
+            self.radial_um[i],
+            self.angular_urad[i],
+            self.pin_radius_um[i],
+            self.eccentricity_um[i],
+        )
+
+
+def _stream(seed: int, ring: int, kind: int) -> np.random.Generator:
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence([seed, ring, kind])))
+
+
+def unit_disc(rng: np.random.Generator, size: int) -> tuple[NDArray[np.float64], ...]:
+    """Points uniform in area over the unit disc: r = sqrt(U1), θ = 2π·U2.
+
+    Returns
+    -------
+    x, y : ndarray
+        Cartesian coordinates [-] (x radial, y tangential for a pin).
+    """
+    u = rng.random((2, size))
+    r = np.sqrt(u[0])
+    theta = 2.0 * np.pi * u[1]
+    return r * np.cos(theta), r * np.sin(theta)
+
+
+def _standard(dist: Uniform | Normal, rng: np.random.Generator, size: int) -> NDArray[np.float64]:
+    if isinstance(dist, Uniform):
+        return rng.uniform(-1.0, 1.0, size) * dist.half_range
+    return rng.standard_normal(size) * dist.sigma
+
+
+def draw_ring_errors(
+    spec: ToleranceSpec,
+    pins: int,
+    pin_circle_radius: float,
+    rings: Sequence[int] | NDArray[np.integer],
+) -> RingErrors:
+    """Draw the errors of the given rings at the stated tolerances (scale factor 1).
+
+    Parameters
+    ----------
+    spec : ToleranceSpec
+        Distributions and seed.
+    pins : int
+        Number of pins n1 [-].
+    pin_circle_radius : float
+        Pin-circle radius a [m], to turn the tangential true-position error into
+        the angular error εψ,i = tangential / a.
+    rings : sequence of int
+        Ring indices k ≥ 0.
+
+    Returns
+    -------
+    RingErrors
+        In µm and µrad.
+    """
+    ks = np.asarray(rings, dtype=np.int64).reshape(-1)
+    n = ks.size
+    radial = np.zeros((n, pins))
+    angular = np.zeros((n, pins))
+    pin_radius = np.zeros((n, pins))
+    eccentricity = np.zeros(n)
+    seed = spec.seed
+    for j, k in enumerate(ks.tolist()):
+        if spec.radial_um is not None:
+            radial[j] = _standard(spec.radial_um, _stream(seed, k, _RADIAL), pins)
+        if spec.angular_urad is not None:
+            angular[j] = _standard(spec.angular_urad, _stream(seed, k, _ANGULAR), pins)
+        if spec.position is not None:
+            x, y = unit_disc(_stream(seed, k, _POSITION), pins)
+            radius_um = 0.5 * spec.position.zone_diameter_um
+            radial[j] = radius_um * x
+            angular[j] = radius_um * y / pin_circle_radius  # µm / m = µrad
+        if spec.pin_radius_um is not None:
+            pin_radius[j] = _standard(spec.pin_radius_um, _stream(seed, k, _PIN_RADIUS), pins)
+        if spec.eccentricity_um is not None:
+            eccentricity[j] = _standard(spec.eccentricity_um, _stream(seed, k, _ECCENTRICITY), 1)[0]
+    return RingErrors(ks, radial, angular, pin_radius, eccentricity)
+

@@ -1,0 +1,144 @@
+"""Statistics over Monte Carlo rings: percentiles with intervals, exceedance probability.
+
+Methods (stated in every output that uses them):
+
+- Percentiles: point estimate by linear interpolation between order statistics
+  (``numpy.percentile`` default, Hyndman & Fan type 7).
+- Percentile confidence interval: distribution-free order-statistic interval
+  [x(l), x(u)] with l, u from the binomial distribution of the number of rings below
+  the true quantile, B ~ Bin(n, p): l is the largest rank with P(B ≤ l − 1) ≤ α/2 and
+  u the smallest with P(B ≤ u − 1) ≥ 1 − α/2, so that P(x(l) ≤ ξp ≤ x(u)) ≥ 1 − α
+  (Hahn & Meeker, Statistical Intervals, 1991, §5.2). A bound that needs a rank
+  outside 1..n is not available (NaN): too few rings for that percentile.
+- Exceedance probability: k/n with the exact Clopper–Pearson interval
+  (``scipy.stats.binomtest(...).proportion_ci(method="exact")``).
+- One-sided lower confidence bound on a p-quantile (used by the allocation): the
+  order statistic x(r) with the largest r such that P(B ≥ r) ≥ confidence.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import stats
+
+__all__ = [
+    "PERCENTILES",
+    "Percentile",
+    "Proportion",
+    "percentile_with_interval",
+    "order_statistic_ranks",
+    "exceedance_probability",
+    "lower_quantile_bound_rank",
+    "describe",
+]
+
+PERCENTILES: tuple[float, ...] = (5.0, 50.0, 95.0, 99.0)
+
+
+@dataclass(frozen=True)
+class Percentile:
+    """A percentile estimate with its distribution-free confidence interval."""
+
+    percent: float
+    estimate: float
+    lower: float
+    upper: float
+
+
+@dataclass(frozen=True)
+class Proportion:
+    """A binomial proportion k/n with its Clopper–Pearson interval."""
+
+    count: int
+    total: int
+    estimate: float
+    lower: float
+    upper: float
+    confidence: float
+
+
+def order_statistic_ranks(n: int, p: float, confidence: float = 0.95) -> tuple[int, int]:
+    """1-based ranks (l, u) of the order-statistic interval for the p-quantile.
+
+    A rank of 0 (lower) or n + 1 (upper) means the bound is not available.
+    """
+    alpha = 1.0 - confidence
+    r = np.arange(0, n + 2)
+    cdf = stats.binom.cdf(r - 1, n, p)  # P(B ≤ r − 1)
+    lower_ok = np.nonzero(cdf <= alpha / 2)[0]
+    lower = int(r[lower_ok[-1]]) if lower_ok.size else 0
+    upper_ok = np.nonzero(cdf >= 1.0 - alpha / 2)[0]
+    upper = int(r[upper_ok[0]]) if upper_ok.size else n + 1
+    return max(lower, 0), min(upper, n + 1)
+
+
+def percentile_with_interval(
+    values: ArrayLike, percents: Sequence[float] = PERCENTILES, confidence: float = 0.95
+) -> list[Percentile]:
+    """Percentiles of ``values`` with order-statistic confidence intervals.
+
+    Parameters
+    ----------
+    values : array_like
+        One value per ring, any unit (NaN not allowed).
+    percents : sequence of float
+        Percentiles in [0, 100].
+    confidence : float
+        Two-sided confidence level of the intervals [-].
+    """
+    x = np.sort(np.asarray(values, dtype=float).reshape(-1))
+    n = x.size
+    out = []
+    for q in percents:
+        est = float(np.percentile(x, q)) if n else float("nan")
+        lo_rank, hi_rank = order_statistic_ranks(n, q / 100.0, confidence) if n else (0, 1)
+        lo = float(x[lo_rank - 1]) if 1 <= lo_rank <= n else float("nan")
+        hi = float(x[hi_rank - 1]) if 1 <= hi_rank <= n else float("nan")
+        out.append(Percentile(float(q), est, lo, hi))
+    return out
+
+
+def exceedance_probability(count: int, total: int, confidence: float = 0.95) -> Proportion:
+    """Probability estimate count/total with its exact Clopper–Pearson interval."""
+    if total <= 0:
+        return Proportion(count, total, float("nan"), 0.0, 1.0, confidence)
+    ci = stats.binomtest(int(count), int(total)).proportion_ci(
+        confidence_level=confidence, method="exact"
+    )
+    return Proportion(
+        int(count), int(total), count / total, float(ci.low), float(ci.high), confidence
+    )
+
+
+def lower_quantile_bound_rank(n: int, p: float, confidence: float = 0.95) -> int:
+    """Largest 1-based rank r with P(Bin(n, p) ≥ r) ≥ confidence (0 if none).
+
+    With that r, x(r) is a lower confidence bound on the p-quantile: with the stated
+    confidence, the fraction of the population below x(r) is at most p.
+    """
+    r = np.arange(1, n + 1)
+    ok = np.nonzero(stats.binom.sf(r - 1, n, p) >= confidence)[0]
+    return int(r[ok[-1]]) if ok.size else 0
+
+
+def describe(
+    values: ArrayLike, percents: Sequence[float] = PERCENTILES, confidence: float = 0.95
+) -> dict[str, float | list[dict[str, float]]]:
+    """Mean, sample standard deviation (ddof 1), min, max and percentiles with intervals."""
+    x: NDArray[np.float64] = np.asarray(values, dtype=float).reshape(-1)
+    n = x.size
+    return {
+        "count": n,
+        "mean": float(np.mean(x)) if n else float("nan"),
+        "std": float(np.std(x, ddof=1)) if n > 1 else float("nan"),
+        "min": float(np.min(x)) if n else float("nan"),
+        "max": float(np.max(x)) if n else float("nan"),
+        "percentiles": [
+            {"percent": p.percent, "estimate": p.estimate, "lower": p.lower, "upper": p.upper}
+            for p in percentile_with_interval(x, percents, confidence)
+        ],
+    }

@@ -1,0 +1,195 @@
+"""Chunk functions of the tolerance studies: rings → per-ring metrics through the core.
+
+A :class:`RingModel` holds what is fixed across rings (the study's base case as core
+objects, the crank angles, the sampling spec); :class:`ToleranceTask` and
+:class:`AllocationTask` are picklable callables ``(start, stop) -> {name: array}`` for
+:func:`cyclomesh.tolerance.engine.run_rings`.
+
+The sampled errors are added to the base case's own per-pin errors (``[errors]`` of
+the study file) in study units, then converted to SI exactly as the study loader does,
+so that a ring written out as a study file reproduces bit for bit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cyclomesh.design import Modification, PairDesign, PinErrors
+from cyclomesh.exceptions import CyclomeshError
+from cyclomesh.tolerance.sampling import RingErrors, draw_ring_errors
+from cyclomesh.tolerance.spec import ToleranceSpec
+
+__all__ = ["RingModel", "ToleranceTask", "AllocationTask", "STRESS_METRIC"]
+
+UM = 1e-6  # m per µm (as cyclomesh.study.config)
+URAD = 1e-6  # rad per µrad
+
+STRESS_METRIC = "max_contact_stress_mpa"
+"""The per-ring metric compared with the allowable contact stress (tooth side)."""
+
+
+@dataclass(frozen=True)
+class RingModel:
+    """The fixed part of a tolerance study.
+
+    Parameters
+    ----------
+    design, modification : PairDesign, Modification
+        Core objects of the base case (SI).
+    base_errors_um : dict of ndarray
+        The base case's own per-pin errors in study units: ``radial_um`` [µm],
+        ``angular_urad`` [µrad], ``pin_radius_um`` [µm], shape (n1,) each.
+    base_eccentricity_um : float
+        The base case's eccentricity error [µm].
+    torque_nm : float
+        Torque on the disc [N·m].
+    crank_angles_deg : ndarray
+        Crank angles φin [deg].
+    groove_deformation : bool
+        Pin-groove deformation on (the improved model of [1]).
+    spec : ToleranceSpec
+        Distributions and seed.
+    """
+
+    design: PairDesign
+    modification: Modification
+    base_errors_um: dict[str, NDArray[np.float64]]
+    base_eccentricity_um: float
+    torque_nm: float
+    crank_angles_deg: NDArray[np.float64]
+    groove_deformation: bool
+    spec: ToleranceSpec
+    solve_rings: int = 16
+    """Rings handed to the core at once (bounds the memory of one core call)."""
+
+    def draw(self, rings: ArrayLike) -> RingErrors:
+        """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
+        return draw_ring_errors(
+            self.spec, self.design.pins, self.design.pin_circle_radius, np.asarray(rings)
+        )
+
+    def total_errors_um(self, drawn: RingErrors) -> dict[str, NDArray[np.float64]]:
+        """Base errors plus the drawn ones, in study units (what a study file holds)."""
+        out = {}
+        for name in ("radial_um", "angular_urad", "pin_radius_um"):
+            total = np.broadcast_to(self.base_errors_um[name], getattr(drawn, name).shape).copy()
+            total += getattr(drawn, name)
+            out[name] = total
+        out["eccentricity_um"] = self.base_eccentricity_um + drawn.eccentricity_um
+        return out
+
+    def pin_errors(self, drawn: RingErrors) -> PinErrors:
+        """Core errors (SI) of a batch of rings: base + drawn, leading axis = ring."""
+        total = self.total_errors_um(drawn)
+        return PinErrors(
+            radial=total["radial_um"] * UM,
+            angular=total["angular_urad"] * URAD,
+            pin_radius=total["pin_radius_um"] * UM,
+            eccentricity=total["eccentricity_um"] * UM,
+        )
+
+    def metrics(self, drawn: RingErrors) -> dict[str, NDArray[Any]]:
+        """Per-ring metrics of ``summarize(analyse(...))`` for a batch of rings.
+
+        Raises
+        ------
+        CyclomeshError
+            The core's error, prefixed with the first ring that fails.
+        """
+        n = drawn.rings.size
+        parts: list[dict[str, NDArray[Any]]] = []
+        for lo in range(0, n, self.solve_rings):
+            block = drawn.take(np.arange(lo, min(lo + self.solve_rings, n)))
+            try:
+                parts.append(self._solve(block))
+            except CyclomeshError:
+                self._blame(block)
+                raise
+        return {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}
+
+    def _solve(self, block: RingErrors) -> dict[str, NDArray[Any]]:
+        from cyclomesh import analyse, summarize
+
+        ds = analyse(
+            self.design,
+            self.modification,
+            self.pin_errors(block),
+            torque=self.torque_nm,
+            crank_angles=np.deg2rad(self.crank_angles_deg),
+            groove_deformation=self.groove_deformation,
+        )
+        summary = summarize(ds)
+        return {name: np.asarray(summary[name].values) for name in summary.data_vars}
+
+    def _blame(self, block: RingErrors) -> None:
+        """Re-solve ring by ring and raise the core's error naming the failing ring."""
+        for i, k in enumerate(block.rings.tolist()):
+            try:
+                self._solve(block.take([i]))
+            except CyclomeshError as exc:
+                raise type(exc)(f"ring {k} (seed {self.spec.seed}): {exc}") from None
+
+
+@dataclass(frozen=True)
+class ToleranceTask:
+    """Chunk function: per-ring metrics of rings start .. stop − 1 at the stated tolerances."""
+
+    model: RingModel
+
+    def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
+        drawn = self.model.draw(np.arange(start, stop))
+        out = self.model.metrics(drawn)
+        out["ring"] = drawn.rings
+        return out
+
+
+@dataclass(frozen=True)
+class AllocationTask:
+    """Chunk function: critical scale factor of every ring (common random numbers).
+
+    The ring's draws are scaled by a factor f (all error kinds together). The ring's
+    critical factor is the smallest f at which its peak tooth contact stress exceeds
+    the allowable: found by stepping f over ``factors`` (first passage, so a ring that
+    once exceeded counts as exceeding at every larger factor) and then bisecting
+    within the step where it first exceeds. The result brackets it: ``lower < f* ≤
+    upper`` (upper = +inf if the ring never exceeds up to the largest factor).
+
+    The nominal ring (f = 0) must not exceed the allowable (checked by the caller).
+    """
+
+    model: RingModel
+    factors: tuple[float, ...]
+    bisections: int
+    allowable_contact_stress_mpa: float
+    metric: str = field(default=STRESS_METRIC)
+
+    def _exceeds(self, drawn: RingErrors, factor: NDArray[np.float64]) -> NDArray[np.bool_]:
+        stress = self.model.metrics(drawn.scaled(factor))[self.metric]
+        return stress > self.allowable_contact_stress_mpa
+
+    def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
+        drawn = self.model.draw(np.arange(start, stop))
+        n = drawn.rings.size
+        lower = np.zeros(n)
+        upper = np.full(n, np.inf)
+        active = np.arange(n)
+        for f in self.factors:
+            if active.size == 0:
+                break
+            exceeded = self._exceeds(drawn.take(active), np.full(active.size, f))
+            upper[active[exceeded]] = f
+            lower[active[~exceeded]] = f
+            active = active[~exceeded]
+        bracketed = np.nonzero(np.isfinite(upper))[0]
+        for _ in range(self.bisections):
+            if bracketed.size == 0:
+                break
+            mid = 0.5 * (lower[bracketed] + upper[bracketed])
+            exceeded = self._exceeds(drawn.take(bracketed), mid)
+            upper[bracketed[exceeded]] = mid[exceeded]
+            lower[bracketed[~exceeded]] = mid[~exceeded]
+        return {"ring": drawn.rings, "critical_factor_lower": lower, "critical_factor_upper": upper}
