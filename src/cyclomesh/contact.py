@@ -121,17 +121,10 @@ def contact_phase(
     reachable : ndarray of bool
         False where the pin lies outside the tip circle of the modified profile.
 
-    Raises
-    ------
-    DesignError
-        If a pin overlaps the tooth-space bottom whatever the disc rotation.
+    A pin inside the root circle of the offset locus (|w| < a' − e + s) overlaps the
+    tooth-space bottom whatever the disc rotation; the caller checks for it.
     """
     w = np.sqrt(w2)
-    if np.any(w < a - e + s - CONTACT_TOLERANCE):
-        raise DesignError(
-            "a pin overlaps the disc at the tooth-space bottom whatever the disc rotation: "
-            "pin radius or negative radial errors exceed the clearance"
-        )
     reachable = w <= a + e + s
     k0 = a * a + e * e + s * s - w2
     g0, g1 = a * a + e * e * n1, a * e * (n1 + 1)
@@ -206,6 +199,14 @@ def unloaded_contact(
     u_nominal = n2 * index * design.pitch + phi
     t_root = 2.0 * np.pi * np.round(u_nominal / (2.0 * np.pi)) / n2
 
+    jammed = np.sqrt(w2) < a - e + s - CONTACT_TOLERANCE
+    if np.any(jammed):
+        where = np.unravel_index(np.argmax(jammed), jammed.shape)
+        raise DesignError(
+            f"pin {where[-1] + 1} overlaps the disc at its tooth-space bottom at crank angle "
+            f"{np.degrees(phi[where[-2], 0]):.6g}° whatever the disc rotation: its radius or "
+            "negative radial error exceeds the clearance of the modification"
+        )
     c, residual, reach = contact_phase(w2, a, e, n1, s)
     if not np.all(residual <= CONTACT_TOLERANCE):
         flat = np.unravel_index(np.argmax(residual), residual.shape)
@@ -223,13 +224,15 @@ def unloaded_contact(
     arg_w = np.arctan2(wy, wx)
     arg_z = np.arctan2(zy, zx)
     t = t_root + u / n2
-    rotation = _wrap(arg_w - t - arg_z - phi_t) + modification.rotation
+    rotation = _wrap(arg_w - t - arg_z - phi_t)
+    # angle of the line of action in the fixed frame minus the pin's radial angle (a
+    # rotation modification turns flank and disc alike, so it does not enter here)
+    lateral = phi_t + rotation + t + np.arctan2(ny, nx) - pin_angle
+    rotation = rotation + modification.rotation
     # unloaded flank: the mirror image about the tooth-space bottom
     reverse = _wrap(arg_w - (t_root - u / n2) + arg_z - phi_t) - modification.rotation
 
     moment_arm = -a * e * n2 * sin_u / d
-    # angle of the line of action in the fixed frame minus the pin's radial angle
-    lateral = phi_t + rotation + t + np.arctan2(ny, nx) - pin_angle
     rho_x, rho_y = a - e * c - rho_gen * nx, -e * sin_u - rho_gen * ny
     return UnloadedContact(
         rotation=np.where(reach, rotation, np.inf),

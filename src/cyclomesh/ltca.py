@@ -33,7 +33,7 @@ from cyclomesh.loadsharing import share_load
 from cyclomesh.profile import check_profile
 from cyclomesh.transmission import gear_ratio, transmission_error
 
-__all__ = ["LTCA", "solve_ltca"]
+__all__ = ["LTCA", "solve_ltca", "rest_position"]
 
 FloatArray = NDArray[np.float64]
 
@@ -88,6 +88,36 @@ class LTCA:
     contacts: NDArray[np.int64]
 
 
+CONDITIONED_ARM = 1e-4
+"""Smallest moment arm [m] of a pin that can set the rest position of the disc."""
+
+
+def rest_position(rotation: FloatArray, moment_arm: FloatArray) -> FloatArray:
+    """Rest position φc − φt of the unloaded disc: the first pin it touches (Eq. 11 of [1]).
+
+    φc is the extreme (here the smallest counter-clockwise) contact rotation over the
+    pins. A pin right at a tip or a tooth-space bottom (moment arm below
+    :data:`CONDITIONED_ARM`) is left out: its gap does not change to first order with
+    the disc rotation, so it cannot stop the disc, and its contact rotation is
+    ill-conditioned (set only to about 1e-9 rad by round-off).
+
+    Parameters
+    ----------
+    rotation : ndarray
+        Contact rotations φc,i − φt, shape (..., n1) [rad].
+    moment_arm : ndarray
+        Moment arms l_i [m].
+
+    Returns
+    -------
+    ndarray
+        Shape (...) [rad].
+    """
+    conditioned = np.where(moment_arm >= CONDITIONED_ARM, rotation, np.inf)
+    rest = np.min(conditioned, axis=-1)
+    return np.where(np.isfinite(rest), rest, np.min(rotation, axis=-1))
+
+
 def solve_ltca(
     design: PairDesign,
     modification: Modification | None = None,
@@ -138,7 +168,7 @@ def solve_ltca(
     ring_shape = errors.ring_shape(design.pins)
 
     geo = unloaded_contact(design, modification, errors, phi)
-    rest = np.min(geo.rotation, axis=-1)
+    rest = rest_position(geo.rotation, geo.moment_arm)
     backlash = geo.rotation - rest[..., None]
 
     pin_c = design.pin_material.compliance

@@ -1,0 +1,58 @@
+"""Pin-steps per second of the core solver (one pin at one crank angle, fully solved).
+
+Example design of Table 1 (Li et al., Machines 2022), Δρ = 8 µm, groove deformation on,
+250 N·m, one revolution at 0.1° (3600 crank angles × 40 pins), on one core.
+
+    python benchmarks/bench_core.py [--repeat 7] [--profile]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+# one core: keep BLAS/OpenMP pools from spreading over the machine
+for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(var, "1")
+
+import numpy as np  # noqa: E402
+
+from cyclomesh import TABLE1, Modification  # noqa: E402
+from cyclomesh.ltca import solve_ltca  # noqa: E402
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=7)
+    parser.add_argument("--profile", action="store_true", help="print where the time goes")
+    args = parser.parse_args()
+
+    phi = np.deg2rad(np.arange(3600) * 0.1)
+    mod = Modification(pin_radius=8e-6)
+
+    def run():
+        return solve_ltca(TABLE1, mod, None, 250.0, phi, True)
+
+    run()  # warm-up
+    times = []
+    for _ in range(args.repeat):
+        start = time.perf_counter()
+        run()
+        times.append(time.perf_counter() - start)
+    best = min(times)
+    pin_steps = phi.size * TABLE1.pins
+    print(f"revolution of {phi.size} steps x {TABLE1.pins} pins: best {best * 1e3:.1f} ms, "
+          f"median {np.median(times) * 1e3:.1f} ms over {args.repeat} runs")
+    print(f"pin-steps per second: {pin_steps / best:,.0f}")
+    if args.profile:
+        import cProfile
+        import pstats
+
+        profiler = cProfile.Profile()
+        profiler.runcall(run)
+        pstats.Stats(profiler).sort_stats("tottime").print_stats(10)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,113 @@
+"""Unloaded tooth contact analysis (Eqs. 5-14 of Li et al., Machines 2022)."""
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize_scalar
+
+from cyclomesh import TABLE1, Modification, PinErrors
+from cyclomesh.contact import CONTACT_TOLERANCE, unloaded_contact
+from cyclomesh.profile import modified_profile
+
+PSI = 2 * np.pi / TABLE1.pins
+TPM = Modification(pin_radius=8e-6)
+
+
+def random_errors(seed, rings=()):
+    rng = np.random.default_rng(seed)
+    shape = (*rings, TABLE1.pins)
+    return PinErrors(
+        radial=rng.uniform(-4e-6, 4e-6, shape),
+        angular=rng.uniform(-5e-5, 5e-5, shape),
+        pin_radius=rng.uniform(-2e-6, 2e-6, shape),
+        eccentricity=rng.uniform(-2e-6, 2e-6, rings),
+    )
+
+
+def test_unmodified_pair_has_zero_backlash_on_the_loaded_side():
+    """No TPM, no errors: every loaded-side pin touches at once (Section 5 of the spec)."""
+    phi = np.deg2rad(np.arange(0.0, 9.0, 0.37))
+    geo = unloaded_contact(TABLE1, None, None, phi)
+    backlash = geo.rotation - geo.rotation.min(axis=-1, keepdims=True)
+    # tooth phase of each pin, n2·(i·ψ + φ/n2) wrapped to (−π, π]; loaded flank (−π, 0)
+    phase = np.angle(np.exp(1j * (TABLE1.teeth * np.arange(40) * PSI + phi[:, None])))
+    loaded_side = (phase < -0.05) & (phase > -np.pi + 0.05)
+    # pins at the bottom or tip of a space (arm ~ 0) are excluded: there the contact
+    # rotation is ill-conditioned (the gap does not change to first order)
+    assert np.all(np.abs(backlash[loaded_side]) < 1e-12)
+    assert np.all(np.abs(geo.rotation[loaded_side]) < 1e-12)  # and at the theoretical angle
+    count = loaded_side.sum(axis=-1)
+    assert np.all((count >= 18) & (count <= 20))  # about half of 40
+
+
+def test_loaded_pins_at_zero_are_2_to_20():
+    """Convention of the issue: at 0° the loaded pins are numbers 2 to about 20."""
+    geo = unloaded_contact(TABLE1, None, None, [0.0])
+    arm = geo.moment_arm[0]
+    assert np.all(arm[1:20] > 1e-3)
+    assert arm[0] == pytest.approx(0.0, abs=1e-7)  # pin 1 sits in a tooth-space bottom
+
+
+@pytest.mark.parametrize("mod", [TPM, Modification(pin_circle_radius=-5e-6, pin_radius=3e-6)])
+def test_contact_condition_is_met_to_round_off(mod):
+    geo = unloaded_contact(TABLE1, mod, random_errors(3, (2,)), np.deg2rad(np.arange(0, 360, 7.3)))
+    reachable = np.isfinite(geo.rotation)
+    assert np.all(geo.residual[reachable] <= CONTACT_TOLERANCE)
+    assert reachable.mean() > 0.9
+
+
+def test_contact_against_brute_force_distance_to_the_profile():
+    """At the computed rotation the pin circle touches the modified profile (Eq. 10).
+
+    Independent check: the distance from the pin centre to the profile (found by
+    minimising over the profile parameter) equals the pin radius, and the pin does not
+    cut the profile.
+    """
+    errors = random_errors(11)
+    phi = np.deg2rad(23.0)
+    geo = unloaded_contact(TABLE1, TPM, errors, [phi])
+    n2 = TABLE1.teeth
+    for i in (3, 7, 12, 17):
+        rot = -phi / n2 + geo.rotation[0, i]
+        ang = i * PSI + errors.angular[i]
+        r = TABLE1.pin_circle_radius + errors.radial[i]
+        ecc = TABLE1.eccentricity + float(errors.eccentricity)
+        cx = r * np.cos(ang) - ecc * np.cos(phi)
+        cy = r * np.sin(ang) - ecc * np.sin(phi)
+        qx = np.cos(rot) * cx + np.sin(rot) * cy
+        qy = -np.sin(rot) * cx + np.cos(rot) * cy
+        grid = n2 * np.arctan2(qy, qx) + np.linspace(-np.pi, np.pi, 20001)
+        gx, gy = modified_profile(TABLE1, TPM, grid)
+        start = grid[np.argmin(np.hypot(gx - qx, gy - qy))]
+
+        def dist(p1, qx=qx, qy=qy):
+            x, y = modified_profile(TABLE1, TPM, p1)
+            return float(np.hypot(x - qx, y - qy))
+
+        best = minimize_scalar(
+            dist, bounds=(start - 1e-3, start + 1e-3), method="bounded", options={"xatol": 1e-12}
+        )
+        r_pin = TABLE1.pin_radius + errors.pin_radius[i]
+        assert best.fun == pytest.approx(r_pin, abs=1e-11)  # 1e-8 mm
+
+
+def test_explicit_zero_errors_equal_no_errors():
+    phi = np.deg2rad(np.arange(0, 20, 1.0))
+    a = unloaded_contact(TABLE1, TPM, None, phi)
+    z = np.zeros(TABLE1.pins)
+    b = unloaded_contact(TABLE1, TPM, PinErrors(z, z, z, 0.0), phi)
+    for name in ("rotation", "moment_arm", "cos_beta", "curvature_radius", "profile_angle"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
+def test_moment_arm_is_the_derivative_of_the_contact_rotation():
+    """Virtual work: moving pin i radially inward by dr turns its contact by dr·(n·r̂)/l."""
+    phi = [np.deg2rad(4.0)]
+    base = unloaded_contact(TABLE1, TPM, None, phi)
+    i = 8
+    dr = np.zeros(TABLE1.pins)
+    dr[i] = -1e-8
+    moved = unloaded_contact(TABLE1, TPM, PinErrors(radial=dr), phi)
+    d_rot = moved.rotation[0, i] - base.rotation[0, i]
+    # the pin moves by dr along its radial line; the gap closes by |dr|·cos β
+    expected = -abs(dr[i]) * base.cos_beta[0, i] / base.moment_arm[0, i]
+    assert d_rot == pytest.approx(expected, rel=1e-4)
