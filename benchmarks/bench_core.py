@@ -42,8 +42,10 @@ def main() -> None:
         times.append(time.perf_counter() - start)
     best = min(times)
     pin_steps = phi.size * TABLE1.pins
-    print(f"revolution of {phi.size} steps x {TABLE1.pins} pins: best {best * 1e3:.1f} ms, "
-          f"median {np.median(times) * 1e3:.1f} ms over {args.repeat} runs")
+    print(
+        f"revolution of {phi.size} steps x {TABLE1.pins} pins: best {best * 1e3:.1f} ms, "
+        f"median {np.median(times) * 1e3:.1f} ms over {args.repeat} runs"
+    )
     print(f"pin-steps per second: {pin_steps / best:,.0f}")
     if args.profile:
         import cProfile

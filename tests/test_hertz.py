@@ -28,7 +28,9 @@ def test_coefficients_reproduce_eq19_to_eq21(rho_c, cos_beta):
     delta_c = approach(force, rho_c, RP, C, C, pin_tooth_radius(RP, rho_c), B)
     delta_p = approach(force * cos_beta, RG, RP, C, C, pin_groove_radius(RP, RG), B)
     alpha, gamma = compliance_coefficients(RP, rho_c, RG, cos_beta, B, C, C, C, True)
-    np.testing.assert_allclose(force * (alpha - gamma * np.log(force)), delta_c + cos_beta * delta_p, rtol=1e-12)
+    np.testing.assert_allclose(
+        force * (alpha - gamma * np.log(force)), delta_c + cos_beta * delta_p, rtol=1e-12
+    )
     alpha0, gamma0 = compliance_coefficients(RP, rho_c, RG, cos_beta, B, C, C, C, False)
     np.testing.assert_allclose(force * (alpha0 - gamma0 * np.log(force)), delta_c, rtol=1e-12)
 
@@ -58,7 +60,9 @@ def test_max_pressure_is_eq24():
     e_star = effective_modulus(C, C)
     rho = pin_tooth_radius(RP, 4.3e-3)
     b = half_width(700.0, rho, e_star, B)
-    assert max_pressure(700.0, rho, e_star, B) == pytest.approx(2 * 700.0 / (np.pi * b * B), rel=1e-14)
+    assert max_pressure(700.0, rho, e_star, B) == pytest.approx(
+        2 * 700.0 / (np.pi * b * B), rel=1e-14
+    )
 
 
 def test_concave_contact_is_conforming():

@@ -3,7 +3,15 @@
 import numpy as np
 import pytest
 
-from cyclomesh import TABLE1, ConvergenceError, DesignError, Modification, PinErrors, analyse, summarize
+from cyclomesh import (
+    TABLE1,
+    ConvergenceError,
+    DesignError,
+    Modification,
+    PinErrors,
+    analyse,
+    summarize,
+)
 from cyclomesh.loadsharing import TORQUE_TOLERANCE
 from cyclomesh.ltca import solve_ltca
 
@@ -97,10 +105,17 @@ def test_rings_solved_together_equal_rings_solved_alone():
     together = solve_ltca(TABLE1, TPM, errors, 250.0, REV[::6], True)
     for k in range(3):
         alone = solve_ltca(
-            TABLE1, TPM, PinErrors(radial=errors.radial[k], angular=errors.angular[k]), 250.0, REV[::6], True
+            TABLE1,
+            TPM,
+            PinErrors(radial=errors.radial[k], angular=errors.angular[k]),
+            250.0,
+            REV[::6],
+            True,
         )
         np.testing.assert_allclose(together.pin_load[k], alone.pin_load, rtol=1e-12, atol=1e-9)
-        np.testing.assert_allclose(together.transmission_error[k], alone.transmission_error, rtol=1e-12)
+        np.testing.assert_allclose(
+            together.transmission_error[k], alone.transmission_error, rtol=1e-12
+        )
 
 
 def test_results_converge_as_the_crank_step_shrinks():
@@ -136,8 +151,12 @@ def test_gear_ratio_converges_as_the_crank_step_shrinks():
 def test_rotation_modification_shifts_te_and_keeps_loads():
     delta = 20e-6
     a = solve_ltca(TABLE1, TPM, None, 250.0, REV[:30], True)
-    b = solve_ltca(TABLE1, Modification(pin_radius=8e-6, rotation=delta), None, 250.0, REV[:30], True)
-    np.testing.assert_allclose(b.transmission_error, a.transmission_error - delta, rtol=0, atol=1e-15)
+    b = solve_ltca(
+        TABLE1, Modification(pin_radius=8e-6, rotation=delta), None, 250.0, REV[:30], True
+    )
+    np.testing.assert_allclose(
+        b.transmission_error, a.transmission_error - delta, rtol=0, atol=1e-15
+    )
     np.testing.assert_allclose(b.pin_load, a.pin_load, rtol=1e-12, atol=1e-9)
 
 
@@ -176,8 +195,14 @@ def test_pin_overlapping_the_tooth_space_bottom_is_refused():
 def test_dataset_units_and_summary():
     ds = analyse(TABLE1, TPM, crank_angles=REV[::10])
     expected = {
-        "pin_load": "N", "groove_load": "N", "contact_stress": "MPa", "groove_stress": "MPa",
-        "backlash": "arcsec", "transmission_error": "arcsec", "gear_ratio": "1", "contacts": "1",
+        "pin_load": "N",
+        "groove_load": "N",
+        "contact_stress": "MPa",
+        "groove_stress": "MPa",
+        "backlash": "arcsec",
+        "transmission_error": "arcsec",
+        "gear_ratio": "1",
+        "contacts": "1",
     }
     for name, unit in expected.items():
         assert ds[name].attrs["units"] == unit

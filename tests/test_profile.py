@@ -65,7 +65,9 @@ def test_profile_offset_is_exact():
 
 
 def test_undercut_profile_is_refused():
-    design = dataclasses.replace(TABLE1, eccentricity=1.9e-3, pin_radius=4.5e-3, groove_radius=4.6e-3)
+    design = dataclasses.replace(
+        TABLE1, eccentricity=1.9e-3, pin_radius=4.5e-3, groove_radius=4.6e-3
+    )
     with pytest.raises(DesignError, match="undercut"):
         check_profile(design, Modification())
 
