@@ -215,3 +215,10 @@ def test_dataset_units_and_summary():
     rings = analyse(TABLE1, TPM, random_errors(0, (2,)), crank_angles=REV[::10])
     assert rings["pin_load"].dims == ("ring", "crank_angle", "pin")
     assert summarize(rings)["max_pin_load_n"].dims == ("ring",)
+
+
+def test_pin_larger_than_its_groove_is_refused():
+    radius = np.zeros(TABLE1.pins)
+    radius[12] = 6e-6  # 3.506 mm in a 3.505 mm groove
+    with pytest.raises(DesignError, match="pin 13"):
+        solve_ltca(TABLE1, TPM, PinErrors(pin_radius=radius), 250.0, REV[:4], True)

@@ -166,6 +166,13 @@ def solve_ltca(
         raise DesignError("crank angles must increase")
     check_profile(design, modification)
     ring_shape = errors.ring_shape(design.pins)
+    pin_radii = design.pin_radius + np.broadcast_to(errors.pin_radius, (*ring_shape, design.pins))
+    if not np.all((pin_radii > 0) & (pin_radii < design.groove_radius)):
+        pin = int(np.argmax(~((pin_radii > 0) & (pin_radii < design.groove_radius))) % design.pins)
+        raise DesignError(
+            f"errors.pin_radius: pin {pin + 1} radius must stay between 0 and the groove "
+            f"radius {design.groove_radius * 1e3:.4g} mm"
+        )
 
     geo = unloaded_contact(design, modification, errors, phi)
     rest = rest_position(geo.rotation, geo.moment_arm)
