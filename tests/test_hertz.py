@@ -9,6 +9,7 @@ from cyclomesh.hertz import (
     compliance_coefficients,
     effective_modulus,
     force_from_approach,
+    force_from_approach_w,
     half_width,
     max_pressure,
     pin_groove_radius,
@@ -40,6 +41,8 @@ def test_force_from_approach_inverts_to_round_off():
     force = np.geomspace(1e-6, 1e5, 200)
     delta = force * (alpha - gamma * np.log(force))
     np.testing.assert_allclose(force_from_approach(delta, alpha, gamma), force, rtol=1e-13)
+    # the closed form through Lambert W agrees
+    np.testing.assert_allclose(force_from_approach_w(delta, alpha, gamma), force, rtol=1e-13)
     assert force_from_approach(0.0, alpha, gamma) == 0.0
 
 
