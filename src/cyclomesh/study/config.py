@@ -51,6 +51,7 @@ from pydantic import (
 
 from cyclomesh.design import Material, Modification, PairDesign, PinErrors
 from cyclomesh.exceptions import DesignError, StudyError
+from cyclomesh.profile import check_profile
 from cyclomesh.study.measurements import PIN_ERROR_COLUMNS, read_pin_errors_csv
 
 __all__ = [
@@ -236,6 +237,9 @@ class FiguresSection(_Section):
     stress_pin: int = Field(
         20, ge=1, description="pin whose contact stress is drawn over the profile"
     )
+    stress_over: Literal["profile_angle", "contact_radius"] = Field(
+        "profile_angle", description="abscissa of the contact stress over the tooth profile"
+    )
     formats: list[Literal["png", "svg", "pdf"]] = Field(["png", "svg"], min_length=1)
     dpi: int = Field(150, ge=50, le=600, description="resolution of PNG figures [dots/inch]")
 
@@ -352,7 +356,7 @@ class CaseSpec(_Section):
                 eccentricity=self.errors.eccentricity_um * UM,
             )
             errors.ring_shape(design.pins)
-            _check_profile(design, modification)
+            check_profile(design, modification)
         except DesignError as exc:
             raise StudyError(f"{self.label}: {exc}") from None
         return CaseInputs(
@@ -363,15 +367,6 @@ class CaseSpec(_Section):
             crank_angles=np.deg2rad(self.analysis.crank_angles_deg()),
             groove_deformation=self.analysis.groove_deformation,
         )
-
-
-def _check_profile(design: PairDesign, modification: Modification) -> None:
-    """The core's undercut check, if the core provides it."""
-    try:
-        from cyclomesh.profile import check_profile
-    except ImportError:  # pragma: no cover - the core always has it once complete
-        return
-    check_profile(design, modification)
 
 
 class _StudyFile(_Section):

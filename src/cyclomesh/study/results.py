@@ -82,12 +82,17 @@ def run_case(case: CaseSpec) -> xr.Dataset:
 def annotate(ds: xr.Dataset, case: CaseSpec, study: Study | None = None) -> xr.Dataset:
     """Add the case's per-pin errors [µm, µrad] and its inputs (attributes) to ``ds``."""
     errors = case.pin_errors()
-    pins = ds["pin"]
     out = ds.assign(
         pin_radial_error=("pin", errors["radial_um"], {"units": "um", "long_name": "εa,i"}),
         pin_angular_error=("pin", errors["angular_urad"], {"units": "urad", "long_name": "εψ,i"}),
         pin_radius_error=("pin", errors["pin_radius_um"], {"units": "um", "long_name": "ερ,i"}),
-    ).assign_coords(pin=pins)
+    )
+    # The core converts the crank angles to radians and back; put back the angles of the
+    # study file exactly (15.0, not 14.999999999999998) so that ds.sel(crank_angle=15) works.
+    exact = case.analysis.crank_angles_deg()
+    crank = out["crank_angle"]
+    if crank.shape == exact.shape and np.allclose(crank.values, exact, rtol=0, atol=1e-9):
+        out = out.assign_coords(crank_angle=crank.copy(data=exact))
     out.attrs.update(
         case_name=case.name,
         case_description=case.description,
@@ -119,6 +124,8 @@ def summary_record(summary: xr.Dataset) -> dict[str, float | int | bool | None]:
             if key.startswith("contacts_") and isinstance(value, float):
                 value = int(round(value))
             record[key] = value
+    if "gear_ratio_step_deg" in summary.attrs:  # the step the ratio ripple was taken over
+        record["gear_ratio_step_deg"] = _number(summary.attrs["gear_ratio_step_deg"])
     return record
 
 
@@ -140,7 +147,9 @@ def write_results_csv(ds: xr.Dataset, path: Path) -> Path:
     names = {}
     for column in frame.columns:
         source = ds[column] if column in ds.variables else None
-        names[column] = csv_column(column, source.attrs.get("units") if source is not None else None)
+        names[column] = csv_column(
+            column, source.attrs.get("units") if source is not None else None
+        )
     frame = frame.rename(columns=names)
     for column in frame.columns:
         if frame[column].dtype.kind == "f":

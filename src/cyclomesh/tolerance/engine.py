@@ -23,6 +23,7 @@ import multiprocessing
 import os
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -32,6 +33,7 @@ from numpy.typing import NDArray
 from cyclomesh.exceptions import CyclomeshError
 
 __all__ = [
+    "ExecutionError",
     "ClusterError",
     "ChunkFunction",
     "Backend",
@@ -39,6 +41,7 @@ __all__ = [
     "ProcessBackend",
     "DaskBackend",
     "make_backend",
+    "default_chunk_rings",
     "chunk_bounds",
     "run_rings",
 ]
@@ -48,7 +51,11 @@ ChunkFunction = Callable[[int, int], ChunkResult]
 Chunk = tuple[int, int]
 
 
-class ClusterError(CyclomeshError):
+class ExecutionError(CyclomeshError):
+    """The chunks could not be run (a worker process died, the cluster is unusable)."""
+
+
+class ClusterError(ExecutionError):
     """The Dask cluster cannot be used (``distributed`` missing, scheduler unreachable)."""
 
 
@@ -127,7 +134,16 @@ class ProcessBackend:
                     return
                 done, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for future in done:
-                    yield pending.pop(future), future.result()
+                    chunk = pending.pop(future)
+                    try:
+                        result = future.result()
+                    except BrokenProcessPool:
+                        raise ExecutionError(
+                            f"a local worker process died while computing rings {chunk[0]} to "
+                            f"{chunk[1] - 1} (out of memory?); try fewer --workers or a "
+                            "smaller --chunk-rings"
+                        ) from None
+                    yield chunk, result
         finally:
             for future in pending:
                 future.cancel()
@@ -171,13 +187,12 @@ class DaskBackend:
         self._own = client is None
         if client is None:
             try:
-                client = distributed.Client(
-                    address, timeout=f"{timeout_s}s", set_as_default=False
-                )
+                client = distributed.Client(address, timeout=f"{timeout_s}s", set_as_default=False)
             except Exception as exc:  # OSError, TimeoutError, ValueError (bad address), ...
                 first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
                 raise ClusterError(
-                    f"cannot reach the Dask scheduler at {address!r} within {timeout_s:g} s: {first}"
+                    f"cannot reach the Dask scheduler at {address!r} "
+                    f"within {timeout_s:g} s: {first}"
                 ) from None
         self.client = client
         threads = sum(client.nthreads().values())
@@ -223,7 +238,38 @@ class DaskBackend:
 
 
 def _call(task: ChunkFunction, start: int, stop: int) -> Any:
+    _tune_malloc()
     return task(start, stop)
+
+
+_MALLOC_TUNED = False
+
+
+def _tune_malloc() -> None:
+    """Undo, in a Dask worker, the malloc setting that makes the core 4x slower.
+
+    Dask's nanny starts workers with ``MALLOC_TRIM_THRESHOLD_=65536``; setting any
+    glibc malloc threshold switches off glibc's dynamic mmap threshold, so every
+    temporary array above 128 KiB is mmap-ed and unmapped again, and the core spends
+    most of its time in page faults (measured: 0.43 s instead of 0.10 s for 16 rings
+    at 360 crank angles). Raising the mmap threshold to 32 MiB and the trim threshold
+    to 64 MiB in the worker process restores the speed (0.115 s) while memory above
+    64 MiB is still given back. glibc only; elsewhere nothing happens.
+    """
+    global _MALLOC_TUNED
+    if _MALLOC_TUNED:
+        return
+    _MALLOC_TUNED = True
+    if "MALLOC_TRIM_THRESHOLD_" not in os.environ or "MALLOC_MMAP_THRESHOLD_" in os.environ:
+        return
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6")
+        libc.mallopt(-3, 32 * 1024 * 1024)  # M_MMAP_THRESHOLD
+        libc.mallopt(-1, 64 * 1024 * 1024)  # M_TRIM_THRESHOLD
+    except (OSError, AttributeError):  # pragma: no cover - not glibc
+        pass
 
 
 def _cpu_count() -> int:

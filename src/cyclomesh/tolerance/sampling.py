@@ -150,4 +150,3 @@ def draw_ring_errors(
         if spec.eccentricity_um is not None:
             eccentricity[j] = _standard(spec.eccentricity_um, _stream(seed, k, _ECCENTRICITY), 1)[0]
     return RingErrors(ks, radial, angular, pin_radius, eccentricity)
-

@@ -169,7 +169,8 @@ class ToleranceSpec(BaseModel):
             self.radial_um is not None or self.angular_urad is not None
         ):
             raise ValueError(
-                "position (true_position) replaces radial_um and angular_urad; give one or the other"
+                "position (true_position) replaces radial_um and angular_urad; "
+                "give one or the other"
             )
         if self.crank_stop_deg <= self.crank_start_deg:
             raise ValueError("crank_stop_deg must be larger than crank_start_deg")

@@ -1,0 +1,73 @@
+"""Benchmark of the tolerance study: rings per second for examples/tolerance.toml.
+
+The example design (Table 1 of Li et al. 2022, TPM Δρ = 8 µm, 250 N·m, uniform ±4 µm
+radial and ±50 µrad angular pin errors) at a 1° crank step (360 crank angles):
+
+- ``serial``: one process, no pool (the core alone);
+- ``local``: all local cores through the process pool (the default of
+  ``cyclomesh tolerance``), including the start of the worker processes;
+- ``dask``: a 2-worker ``distributed.LocalCluster`` on loopback (``--scheduler``),
+  including the connection, not the start of the cluster.
+
+Target: 10,000 rings in under 5 minutes on a 2-core machine.
+
+    python benchmarks/bench_tolerance.py --rings 2000
+    python benchmarks/bench_tolerance.py --rings 10000 --only local
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+EXAMPLE = Path(__file__).parents[1] / "examples" / "tolerance.toml"
+
+
+def _run(label: str, rings: int, out: Path, **kwargs) -> float:
+    from cyclomesh.tolerance.runner import run_tolerance
+
+    start = time.perf_counter()
+    result = run_tolerance(EXAMPLE, out / label, rings=rings, quiet=True, figures=False, **kwargs)
+    seconds = time.perf_counter() - start
+    rate = rings / seconds
+    ex = result.summary["exceedance"]["max_contact_stress_mpa"]
+    print(
+        f"{label:>7}: {rings} rings in {seconds:7.1f} s = {rate:6.1f} rings/s "
+        f"-> 10,000 rings in {10_000 / rate / 60:4.1f} min "
+        f"(P(exceed) = {ex['probability']:.4f}, worst {result.summary['worst_ring']['ring']})"
+    )
+    return rate
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rings", type=int, default=1000)
+    parser.add_argument("--only", choices=("serial", "local", "dask"), action="append")
+    args = parser.parse_args()
+    which = args.only or ["serial", "local", "dask"]
+    print(f"cores: {len(os.sched_getaffinity(0))}, crank step 1° (360 angles)")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp)
+        if "serial" in which:
+            _run("serial", max(1, args.rings // 4), out, workers=1)
+        if "local" in which:
+            _run("local", args.rings, out)
+        if "dask" in which:
+            import distributed
+
+            with distributed.LocalCluster(
+                n_workers=2,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+                silence_logs=40,
+            ) as cluster:
+                _run("dask", args.rings, out, scheduler=cluster.scheduler_address)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,5 @@
+"""``python -m cyclomesh``: the ``cyclomesh`` command."""
+
+from cyclomesh.cli import app
+
+app(prog_name="cyclomesh")

@@ -1,0 +1,334 @@
+"""Figures of a loaded tooth contact analysis, after the figures of [1].
+
+Every function takes results (one Dataset of :func:`cyclomesh.analyse`, or a mapping
+``{case name: Dataset}`` to compare cases) or core design objects, and returns a
+:class:`matplotlib.figure.Figure` drawn on the Agg canvas, without touching pyplot's
+global state. Save it with ``fig.savefig(path)``. Tests check a figure's structure
+(axes, labels, lines), not its pixels. Datasets with a ``ring`` dimension must be
+reduced to one ring first (``ds.isel(ring=0)``).
+
+References
+----------
+[1] X. Li, L. Tang, H. He, L. Sun, "Design and Load Distribution Analysis of the
+    Mismatched Cycloid-Pin Gear Pair in RV Speed Reducers", Machines 10 (2022) 672,
+    doi:10.3390/machines10080672.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import xarray as xr
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle
+from scipy.spatial import cKDTree
+
+from cyclomesh.design import Modification, PairDesign, PinErrors
+from cyclomesh.profile import modified_profile
+
+__all__ = [
+    "plot_profile",
+    "plot_pin_errors",
+    "plot_loads",
+    "plot_profile_stress",
+    "plot_stress_maps",
+    "plot_transmission_error",
+    "plot_gear_ratio",
+    "plot_contacts",
+    "plot_backlash",
+]
+
+Results = xr.Dataset | Mapping[str, xr.Dataset]
+
+
+def _figure(width: float, height: float) -> Figure:
+    fig = Figure(figsize=(width, height), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _cases(results: Results) -> dict[str, xr.Dataset]:
+    if isinstance(results, xr.Dataset):
+        results = {str(results.attrs.get("case_name", "")): results}
+    cases = dict(results)
+    if not cases:
+        raise ValueError("no results to plot")
+    for name, ds in cases.items():
+        if "ring" in ds.dims:
+            raise ValueError(f"{name}: select one ring first (ds.isel(ring=0))")
+    return cases
+
+
+def _legend(ax, cases: Mapping[str, object]) -> None:
+    if len(cases) > 1 or any(cases):
+        ax.legend(fontsize="small")
+
+
+def _nearest_angle(ds: xr.Dataset, angle_deg: float) -> float:
+    """The computed crank angle [deg] nearest to ``angle_deg`` (modulo 360)."""
+    crank = ds["crank_angle"].values
+    distance = np.abs((crank - angle_deg + 180.0) % 360.0 - 180.0)
+    return float(crank[np.argmin(distance)])
+
+
+def plot_profile(
+    design: PairDesign,
+    modifications: Modification | Mapping[str, Modification] | None = None,
+    samples: int = 4001,
+) -> Figure:
+    """One tooth of the disc with its modification (Eqs. 1-3 of [1]).
+
+    Left: one tooth space of the standard profile (dashed) and of each modified
+    profile, with the pin seated at the bottom [mm]. Right: the modification, i.e. the
+    normal distance from the standard to the modified profile [µm] (positive = material
+    removed, clearance opened) over the generating angle φ1 within the tooth [deg]
+    (0 = tooth-space bottom, ±180 = tips). The right axes has one line per case, then
+    the zero line.
+    """
+    if modifications is None or isinstance(modifications, Modification):
+        modifications = {"modified": modifications or Modification()}
+    phi1 = np.linspace(-np.pi, np.pi, samples)
+    fig = _figure(10.0, 4.2)
+    ax_tooth, ax_mod = fig.subplots(1, 2, width_ratios=[1.0, 1.4])
+    # The standard profile, densely, to measure the modification along its normal.
+    dense = np.linspace(-1.1 * np.pi, 1.1 * np.pi, 40 * samples)
+    sx, sy = modified_profile(design, Modification(), dense)
+    tx, ty = np.gradient(sx), np.gradient(sy)
+    length = np.hypot(tx, ty)
+    normal = np.column_stack([ty / length, -tx / length])  # outward: towards the pins
+    tree = cKDTree(np.column_stack([sx, sy]))
+    x0, y0 = modified_profile(design, Modification(), phi1)
+    ax_tooth.plot(x0 * 1e3, y0 * 1e3, "k--", lw=1.0, label="standard")
+    for name, modification in modifications.items():
+        x, y = modified_profile(design, modification, phi1)
+        ax_tooth.plot(x * 1e3, y * 1e3, lw=1.2, label=name)
+        _, nearest = tree.query(np.column_stack([x, y]))
+        removed = np.einsum(
+            "ij,ij->i", np.column_stack([sx[nearest] - x, sy[nearest] - y]), normal[nearest]
+        )
+        ax_mod.plot(np.rad2deg(phi1), removed * 1e6, label=name)
+    seat = design.pin_circle_radius - design.eccentricity
+    ax_tooth.add_patch(
+        Circle((seat * 1e3, 0.0), design.pin_radius * 1e3, fill=False, color="0.5", lw=0.8)
+    )
+    ax_tooth.set_aspect("equal")
+    ax_tooth.set_xlabel("x [mm]")
+    ax_tooth.set_ylabel("y [mm]")
+    ax_tooth.set_title("one tooth space, disc frame")
+    ax_tooth.legend(fontsize="small")
+    ax_mod.axhline(0.0, color="k", lw=0.6)
+    ax_mod.set_xlabel("generating angle φ1 within the tooth [deg] (0 = tooth-space bottom)")
+    ax_mod.set_ylabel("modification, normal to profile [µm]")
+    ax_mod.set_title("profile modification (positive = clearance)")
+    ax_mod.set_xlim(-180.0, 180.0)
+    ax_mod.legend(fontsize="small")
+    return fig
+
+
+def plot_pin_errors(errors: PinErrors | Mapping[str, PinErrors], pins: int) -> Figure:
+    """Pin errors per pin as bars (Eq. 5 of [1]): radial [µm], angular [µrad], radius [µm].
+
+    One bar series (``BarContainer``) per case in each of the three axes.
+    """
+    if isinstance(errors, PinErrors):
+        errors = {"": errors}
+    fig = _figure(10.0, 7.0)
+    axes = fig.subplots(3, 1, sharex=True)
+    numbers = np.arange(1, pins + 1)
+    width = 0.8 / len(errors)
+    fields = (
+        ("radial", 1e6, "radial position error εa [µm]"),
+        ("angular", 1e6, "angular position error εψ [µrad]"),
+        ("pin_radius", 1e6, "pin radius error ερ [µm]"),
+    )
+    for k, (name, pin_errors) in enumerate(errors.items()):
+        offset = (k - (len(errors) - 1) / 2) * width
+        for ax, (field, scale, _) in zip(axes, fields, strict=True):
+            values = np.broadcast_to(getattr(pin_errors, field), (pins,)) * scale
+            ax.bar(numbers + offset, values, width=width, label=name or None)
+    for ax, (_, _, label) in zip(axes, fields, strict=True):
+        ax.set_ylabel(label, fontsize="small")
+        ax.axhline(0.0, color="k", lw=0.6)
+    axes[-1].set_xlabel("pin")
+    if len(errors) > 1 or any(errors):
+        axes[0].legend(fontsize="small")
+    return fig
+
+
+def plot_loads(results: Results, crank_angles_deg: Sequence[float] = (0, 60, 120, 180)) -> Figure:
+    """Load on every pin and every groove at a few crank angles (Figs. of [1], Eq. 18).
+
+    One row per crank angle (the computed angle nearest to each); left the pin-tooth load
+    Fc [N], right the groove load Fp [N]; one line per case in each axes.
+    """
+    cases = _cases(results)
+    fig = _figure(10.0, 2.4 * len(crank_angles_deg) + 0.6)
+    axes = np.atleast_2d(fig.subplots(len(crank_angles_deg), 2, sharex=True, squeeze=False))
+    for row, angle in zip(axes, crank_angles_deg, strict=True):
+        for name, ds in cases.items():
+            at = _nearest_angle(ds, angle)
+            one = ds.sel(crank_angle=at)
+            row[0].plot(one["pin"], one["pin_load"], ".-", label=name)
+            row[1].plot(one["pin"], one["groove_load"], ".-", label=name)
+        row[0].set_title(f"pin-tooth load, crank angle {at:g}°", fontsize="medium")
+        row[1].set_title(f"pin-groove load, crank angle {at:g}°", fontsize="medium")
+        row[0].set_ylabel("pin load Fc [N]")
+        row[1].set_ylabel("groove load Fp [N]")
+    for ax in axes[-1]:
+        ax.set_xlabel("pin")
+    _legend(axes[0, 0], cases)
+    return fig
+
+
+def plot_profile_stress(results: Results, pin: int = 20, x: str = "profile_angle") -> Figure:
+    """Contact stress over the tooth profile for one pin through its mesh cycle (Eq. 24).
+
+    Parameters
+    ----------
+    results : Dataset or mapping of Datasets
+    pin : int
+        Pin number (1 … n1).
+    x : {"profile_angle", "contact_radius"}
+        Abscissa: generating angle φ1 of the contact [deg] or its radius on the disc [mm].
+
+    One line per case; angles where the pin carries no load are left out.
+    """
+    if x not in ("profile_angle", "contact_radius"):
+        raise ValueError(f"x must be 'profile_angle' or 'contact_radius', got {x!r}")
+    cases = _cases(results)
+    fig = _figure(7.5, 4.5)
+    ax = fig.subplots()
+    for name, ds in cases.items():
+        one = ds.sel(pin=pin)
+        loaded = one["pin_load"].values > 0
+        abscissa = np.where(loaded, one[x].values, np.nan)
+        stress = np.where(loaded, one["contact_stress"].values, np.nan)
+        order = np.argsort(np.where(loaded, abscissa, np.inf), kind="stable")
+        ax.plot(abscissa[order], stress[order], label=name)
+    if x == "profile_angle":
+        ax.set_xlabel("generating angle φ1 of the contact [deg] (0 = tooth-space bottom)")
+    else:
+        ax.set_xlabel("radius of the contact point on the disc [mm]")
+    ax.set_ylabel("contact stress σH [MPa]")
+    ax.set_title(f"pin {pin}: contact stress over the tooth profile")
+    _legend(ax, cases)
+    return fig
+
+
+def plot_stress_maps(results: Results) -> Figure:
+    """Contact stress of every pin over the crank angle, on the teeth and on the grooves.
+
+    One row per case; left tooth contact stress, right groove stress [MPa], colour scale
+    shared by a column; blank where a pin carries no load. Drawn rasterized.
+    """
+    cases = _cases(results)
+    fig = _figure(11.0, 2.6 * len(cases) + 0.8)
+    axes = fig.subplots(len(cases), 2, sharex=True, sharey=True, squeeze=False)
+    for column, (variable, label) in enumerate(
+        (("contact_stress", "tooth contact stress [MPa]"), ("groove_stress", "groove stress [MPa]"))
+    ):
+        top = max(float(ds[variable].max()) for ds in cases.values()) or 1.0
+        for ax, (name, ds) in zip(axes[:, column], cases.items(), strict=True):
+            values = ds[variable].transpose("pin", "crank_angle").values
+            mesh = ax.pcolormesh(
+                ds["crank_angle"].values,
+                ds["pin"].values,
+                np.ma.masked_less_equal(values, 0.0),
+                vmin=0.0,
+                vmax=top,
+                shading="nearest",
+                rasterized=True,
+            )
+            ax.set_ylabel("pin")
+            ax.set_title(f"{name}: {label.split(' [')[0]}" if name else label, fontsize="medium")
+        fig.colorbar(mesh, ax=axes[:, column], label=label, fraction=0.05, aspect=40)
+    for ax in axes[-1]:
+        ax.set_xlabel("crank angle [deg]")
+    return fig
+
+
+def plot_transmission_error(results: Results) -> Figure:
+    """Loaded transmission error (Eq. 25 of [1]) over one mesh cycle and over the run.
+
+    Left: the first mesh cycle, 360°/n1 of crank angle; right: all computed angles.
+    One line per case in each axes; TE [arcsec], negative = the disc lags.
+    """
+    cases = _cases(results)
+    fig = _figure(11.0, 4.0)
+    ax_mesh, ax_all = fig.subplots(1, 2, width_ratios=[1.0, 2.0], sharey=True)
+    for name, ds in cases.items():
+        crank = ds["crank_angle"].values
+        te = ds["transmission_error"].values
+        period = 360.0 / int(ds.sizes["pin"])
+        cycle = crank <= crank[0] + period + 1e-9
+        ax_mesh.plot(crank[cycle], te[cycle], label=name)
+        ax_all.plot(crank, te, label=name)
+    ax_mesh.set_title("one mesh cycle (360°/n1)", fontsize="medium")
+    ax_all.set_title("all computed crank angles", fontsize="medium")
+    ax_mesh.set_ylabel("loaded transmission error [arcsec]")
+    for ax in (ax_mesh, ax_all):
+        ax.set_xlabel("crank angle [deg]")
+    _legend(ax_all, cases)
+    return fig
+
+
+def plot_gear_ratio(results: Results) -> Figure:
+    """Instantaneous gear ratio over the crank angle (Eq. 26 of [1]); dotted line at n2.
+
+    One line per case plus the ideal ratio n2.
+    """
+    cases = _cases(results)
+    fig = _figure(9.0, 4.0)
+    ax = fig.subplots()
+    for name, ds in cases.items():
+        ax.plot(ds["crank_angle"], ds["gear_ratio"], label=name)
+    first = next(iter(cases.values()))
+    teeth = int(first.sizes["pin"]) - 1
+    ax.axhline(teeth, color="k", ls=":", lw=1.0, label=f"ideal n2 = {teeth}")
+    step = first.attrs.get("gear_ratio_step_deg")
+    ax.set_title(
+        "instantaneous gear ratio" + (f" (taken over {step:g}° of crank angle)" if step else ""),
+        fontsize="medium",
+    )
+    ax.set_xlabel("crank angle [deg]")
+    ax.set_ylabel("instantaneous gear ratio [-]")
+    ax.legend(fontsize="small")
+    return fig
+
+
+def plot_contacts(results: Results) -> Figure:
+    """Number of pins in contact over the crank angle; one step line per case."""
+    cases = _cases(results)
+    fig = _figure(9.0, 3.6)
+    ax = fig.subplots()
+    for name, ds in cases.items():
+        ax.step(ds["crank_angle"], ds["contacts"], where="mid", label=name)
+    ax.set_xlabel("crank angle [deg]")
+    ax.set_ylabel("pins in contact [-]")
+    ax.yaxis.get_major_locator().set_params(integer=True)
+    _legend(ax, cases)
+    return fig
+
+
+def plot_backlash(results: Results, crank_angles_deg: Sequence[float] = (0.0,)) -> Figure:
+    """Unloaded backlash of every pin (Eq. 11 of [1]) at a few crank angles [arcsec].
+
+    One axes per crank angle (the computed angle nearest to each), one line per case;
+    pins the loaded flank cannot reach (infinite backlash) are left out.
+    """
+    cases = _cases(results)
+    fig = _figure(9.0, 2.4 * len(crank_angles_deg) + 0.6)
+    axes = fig.subplots(len(crank_angles_deg), 1, sharex=True, squeeze=False)[:, 0]
+    for ax, angle in zip(axes, crank_angles_deg, strict=True):
+        for name, ds in cases.items():
+            at = _nearest_angle(ds, angle)
+            one = ds["backlash"].sel(crank_angle=at)
+            values = np.where(np.isfinite(one.values), one.values, np.nan)
+            ax.plot(one["pin"], values, ".-", label=name)
+        ax.set_title(f"crank angle {at:g}°", fontsize="medium")
+        ax.set_ylabel("backlash [arcsec]")
+    axes[-1].set_xlabel("pin")
+    _legend(axes[0], cases)
+    return fig

@@ -1,0 +1,263 @@
+"""Figures and report sections of tolerance studies.
+
+Plot functions take results (the per-ring Dataset of
+:func:`cyclomesh.tolerance.runner.run_tolerance`, or an
+:class:`~cyclomesh.tolerance.allocation.Allocation`) and return a matplotlib
+:class:`~matplotlib.figure.Figure` on the Agg canvas, without pyplot's global state.
+"""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from cyclomesh.report import Section, table_html, write_report
+from cyclomesh.tolerance.allocation import Allocation, clopper_pearson
+from cyclomesh.tolerance.output import METRICS
+from cyclomesh.tolerance.tasks import STRESS_METRIC
+
+__all__ = [
+    "plot_metric_histograms",
+    "plot_metric_ecdfs",
+    "plot_stress_exceedance",
+    "plot_allocation",
+    "tolerance_section",
+    "allocation_section",
+    "write_tolerance_figures",
+    "write_allocation_figures",
+]
+
+
+def _figure(width: float, height: float) -> Figure:
+    fig = Figure(figsize=(width, height), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _metrics(ds: xr.Dataset) -> list[str]:
+    return [name for name in METRICS if name in ds]
+
+
+def _label(name: str) -> str:
+    unit, text = METRICS[name]
+    return f"{text} [{unit}]" if unit != "1" else text
+
+
+def plot_metric_histograms(ds: xr.Dataset, allowable_contact_stress_mpa: float | None = None):
+    """Histogram of every per-ring metric (one panel each)."""
+    names = _metrics(ds)
+    cols = 4
+    rows = -(-len(names) // cols)
+    fig = _figure(3.2 * cols, 2.5 * rows)
+    axes = fig.subplots(rows, cols, squeeze=False).ravel()
+    for ax, name in zip(axes, names, strict=False):
+        values = np.asarray(ds[name].values, dtype=float)
+        integer = np.issubdtype(ds[name].dtype, np.integer)
+        if integer:
+            bins = np.arange(values.min() - 0.5, values.max() + 1.5)
+        else:
+            bins = min(50, max(5, int(np.sqrt(values.size))))
+        ax.hist(values, bins=bins, color="tab:blue", alpha=0.8)
+        if name == STRESS_METRIC and allowable_contact_stress_mpa is not None:
+            ax.axvline(allowable_contact_stress_mpa, color="tab:red", label="allowable")
+            ax.legend(fontsize="small")
+        ax.set_xlabel(_label(name), fontsize="small")
+        ax.set_ylabel("rings")
+    for ax in axes[len(names) :]:
+        ax.set_visible(False)
+    fig.suptitle(f"Per-ring metrics over {ds.sizes['ring']} rings")
+    return fig
+
+
+def plot_metric_ecdfs(ds: xr.Dataset, allowable_contact_stress_mpa: float | None = None):
+    """Empirical distribution function of every per-ring metric (one panel each)."""
+    names = _metrics(ds)
+    cols = 4
+    rows = -(-len(names) // cols)
+    fig = _figure(3.2 * cols, 2.5 * rows)
+    axes = fig.subplots(rows, cols, squeeze=False).ravel()
+    n = ds.sizes["ring"]
+    for ax, name in zip(axes, names, strict=False):
+        values = np.sort(np.asarray(ds[name].values, dtype=float))
+        ax.step(values, np.arange(1, n + 1) / n, where="post", color="tab:blue")
+        if name == STRESS_METRIC and allowable_contact_stress_mpa is not None:
+            ax.axvline(allowable_contact_stress_mpa, color="tab:red", label="allowable")
+            ax.legend(fontsize="small")
+        ax.set_xlabel(_label(name), fontsize="small")
+        ax.set_ylabel("fraction of rings ≤ x")
+        ax.set_ylim(0, 1)
+    for ax in axes[len(names) :]:
+        ax.set_visible(False)
+    fig.suptitle(f"Empirical distribution functions over {n} rings")
+    return fig
+
+
+def plot_stress_exceedance(
+    ds: xr.Dataset, allowable_contact_stress_mpa: float, confidence: float = 0.95
+):
+    """Probability that the peak tooth contact stress exceeds a level, vs. the level.
+
+    The band is the pointwise Clopper–Pearson interval.
+    """
+    stress = np.sort(np.asarray(ds[STRESS_METRIC].values, dtype=float))
+    n = stress.size
+    span = max(stress[-1] - stress[0], 1.0)
+    levels = np.linspace(
+        min(stress[0], allowable_contact_stress_mpa) - 0.05 * span,
+        max(stress[-1], allowable_contact_stress_mpa) + 0.05 * span,
+        400,
+    )
+    counts = n - np.searchsorted(stress, levels, side="right")  # #{σ > level}
+    lo, hi = clopper_pearson(counts, n, confidence)
+    fig = _figure(6.4, 4.2)
+    ax = fig.add_subplot()
+    ax.fill_between(
+        levels,
+        lo,
+        hi,
+        step="post",
+        color="tab:blue",
+        alpha=0.2,
+        label=f"{confidence:.0%} Clopper–Pearson",
+    )
+    ax.step(levels, counts / n, where="post", color="tab:blue", label="estimate")
+    ax.axvline(allowable_contact_stress_mpa, color="tab:red", label="allowable")
+    p = float(np.count_nonzero(stress > allowable_contact_stress_mpa)) / n
+    ax.set_title(f"P(σH > {allowable_contact_stress_mpa:g} MPa) = {p:.3g}  ({n} rings)")
+    ax.set_xlabel("peak tooth contact stress level [MPa]")
+    ax.set_ylabel("exceedance probability [-]")
+    ax.set_ylim(0, 1)
+    ax.legend()
+    return fig
+
+
+def plot_allocation(allocation: Allocation):
+    """Exceedance probability vs. scale factor on the stated tolerances."""
+    a = allocation
+    fig = _figure(6.4, 4.2)
+    ax = fig.add_subplot()
+    ax.fill_between(
+        a.curve_factor,
+        a.curve_lower,
+        a.curve_upper,
+        step="post",
+        alpha=0.2,
+        color="tab:blue",
+        label=f"{a.confidence:.0%} Clopper–Pearson",
+    )
+    ax.step(
+        a.curve_factor,
+        a.curve_probability,
+        where="post",
+        color="tab:blue",
+        label="estimate (common random numbers)",
+    )
+    ax.axhline(a.target_probability, color="tab:red", linestyle="--", label="target")
+    ax.axvline(a.factor, color="tab:green", label=f"allowed factor {a.factor:.3f}")
+    if np.isfinite(a.confident_factor):
+        ax.axvline(
+            a.confident_factor,
+            color="tab:green",
+            linestyle=":",
+            label=f"{a.confidence:.0%} lower bound {a.confident_factor:.3f}",
+        )
+    ax.axvline(1.0, color="0.5", linewidth=0.8, label="stated tolerances")
+    ax.set_xlabel("scale factor on the stated tolerances [-]")
+    ax.set_ylabel("P(peak tooth contact stress > allowable) [-]")
+    ax.set_xlim(0, a.factor_max)
+    ax.set_ylim(0, 1)
+    ax.legend(fontsize="small")
+    return fig
+
+
+def _fmt(x: Any) -> str:
+    return "n/a" if x is None or (isinstance(x, float) and not np.isfinite(x)) else f"{x:.4g}"
+
+
+def tolerance_section(ds: xr.Dataset, stats: dict[str, Any], figures: list) -> Section:
+    """Report section of a tolerance study: statistics table, exceedance, worst ring."""
+    conf = stats["confidence"]
+    rows = []
+    for name, s in stats["metrics"].items():
+        pct = [
+            f"{_fmt(p['estimate'])} [{_fmt(p['lower'])}, {_fmt(p['upper'])}]"
+            for p in s["percentiles"]
+        ]
+        rows.append([name, s["unit"], _fmt(s["mean"]), _fmt(s["std"]), *pct])
+    header = ["metric", "unit", "mean", "std"] + [
+        f"P{p:g} [{conf:.0%} CI]" for p in stats["percentiles"]
+    ]
+    ex = stats["exceedance"][STRESS_METRIC]
+    worst = stats["worst_ring"]
+    text = (
+        f"<p>{stats['rings']} rings, seed {stats['seed']}. Probability that the peak tooth "
+        f"contact stress exceeds {stats['allowable_contact_stress_mpa']:g} MPa: "
+        f"<b>{ex['probability']:.4g}</b> ({ex['count']} of {ex['rings']} rings; {conf:.0%} "
+        f"Clopper–Pearson interval [{ex['lower']:.4g}, {ex['upper']:.4g}]). Worst ring: "
+        f"{worst['ring']} ({worst[STRESS_METRIC]:.5g} MPa), written to "
+        f"<code>{html.escape(worst['file'])}</code>.</p>"
+        + table_html(header, rows)
+        + "<p>Methods: "
+        + html.escape("; ".join(f"{k}: {v}" for k, v in stats["methods"].items()))
+        + ".</p>"
+    )
+    return Section("Tolerance study (Monte Carlo)", text, figures)
+
+
+def allocation_section(allocation: Allocation, figures: list) -> Section:
+    """Report section of a tolerance allocation."""
+    return Section("Tolerance allocation", f"<p>{html.escape(allocation.statement())}</p>", figures)
+
+
+def _save(fig: Figure, path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=130)
+    return path
+
+
+def write_tolerance_figures(ds: xr.Dataset, stats: dict[str, Any], out: Path) -> dict[str, Path]:
+    """Write the figures (PNG) and ``report.html`` of a tolerance study."""
+    allowable = stats["allowable_contact_stress_mpa"]
+    figs = {
+        "tolerance_histograms": (
+            plot_metric_histograms(ds, allowable),
+            "Histograms of the per-ring metrics",
+        ),
+        "tolerance_ecdfs": (plot_metric_ecdfs(ds, allowable), "Empirical distribution functions"),
+        "tolerance_exceedance": (
+            plot_stress_exceedance(ds, allowable, stats["confidence"]),
+            "Probability that the peak tooth contact stress exceeds a level",
+        ),
+    }
+    files = {name: _save(fig, out / "figures" / f"{name}.png") for name, (fig, _) in figs.items()}
+    section = tolerance_section(ds, stats, [(fig, caption) for fig, caption in figs.values()])
+    files["report"] = write_report(
+        out / "report.html",
+        f"{ds.attrs.get('study_title', 'study')}: tolerance study",
+        [section],
+        {"SHA-256 of the study file": str(ds.attrs.get("study_sha256", ""))},
+    )
+    return files
+
+
+def write_allocation_figures(
+    allocation: Allocation, record: dict[str, Any], out: Path
+) -> dict[str, Path]:
+    """Write the allocation figure (PNG) and ``allocation_report.html``."""
+    fig = plot_allocation(allocation)
+    files = {"allocation_exceedance": _save(fig, out / "figures" / "allocation_exceedance.png")}
+    section = allocation_section(
+        allocation, [(fig, "Exceedance probability vs. scale factor on the tolerances")]
+    )
+    files["report"] = write_report(
+        out / "allocation_report.html",
+        f"{record.get('study_title', 'study')}: tolerance allocation",
+        [section],
+    )
+    return files

@@ -1,0 +1,158 @@
+"""Figures, report and result files: structure, not pixels."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import xarray as xr
+from matplotlib.collections import QuadMesh
+from matplotlib.container import BarContainer
+
+from cyclomesh import TABLE1, Modification, PinErrors, analyse, figures
+from cyclomesh.report import Section, figure_html, render_report, table_html
+from cyclomesh.study.results import csv_column, summary_record, write_results_csv
+
+ANGLES = np.deg2rad(np.arange(0.0, 360.0, 10.0))
+TPM = Modification(pin_radius=8e-6)
+
+
+@pytest.fixture(scope="module")
+def cases() -> dict[str, xr.Dataset]:
+    return {
+        "TPM": analyse(TABLE1, TPM, crank_angles=ANGLES),
+        "no TPM": analyse(TABLE1, None, crank_angles=ANGLES, groove_deformation=False),
+    }
+
+
+def labels(ax) -> tuple[str, str]:
+    return ax.get_xlabel(), ax.get_ylabel()
+
+
+def test_profile_shows_the_modification_in_micrometres():
+    fig = figures.plot_profile(TABLE1, {"Δρ = 8 µm": TPM, "Δa = -5 µm": Modification(-5e-6)})
+    tooth, modification = fig.axes
+    assert labels(tooth) == ("x [mm]", "y [mm]")
+    assert labels(modification)[1] == "modification, normal to profile [µm]"
+    assert len(tooth.lines) == 3  # standard + two modified
+    equidistant, shifted, zero = modification.lines
+    assert zero.get_ydata()[0] == 0.0
+    # an equidistant modification Δρ removes Δρ everywhere along the normal (Eq. 3)
+    np.testing.assert_allclose(equidistant.get_ydata(), 8.0, atol=0.02)
+    # a negative shift Δa removes material at the tooth-space bottom, |Δa| there
+    phi = shifted.get_xdata()
+    assert shifted.get_ydata()[np.argmin(np.abs(phi))] == pytest.approx(5.0, abs=0.02)
+
+
+def test_pin_errors_are_bars_per_case():
+    rng = np.random.default_rng(1)
+    errors = {
+        "a": PinErrors(radial=rng.uniform(-4e-6, 4e-6, 40)),
+        "b": PinErrors(angular=rng.uniform(-5e-5, 5e-5, 40)),
+    }
+    fig = figures.plot_pin_errors(errors, 40)
+    assert len(fig.axes) == 3
+    for ax in fig.axes:
+        bars = [c for c in ax.containers if isinstance(c, BarContainer)]
+        assert len(bars) == 2 and all(len(b) == 40 for b in bars)
+    assert fig.axes[0].get_ylabel() == "radial position error εa [µm]"
+    heights = [bar.get_height() for bar in fig.axes[0].containers[0]]
+    np.testing.assert_allclose(heights, errors["a"].radial * 1e6)
+    assert fig.axes[-1].get_xlabel() == "pin"
+
+
+def test_loads_one_row_per_crank_angle(cases):
+    fig = figures.plot_loads(cases, [0, 60, 125])
+    assert len(fig.axes) == 6
+    for ax in fig.axes:
+        assert len(ax.lines) == 2
+    assert fig.axes[0].get_ylabel() == "pin load Fc [N]"
+    assert fig.axes[1].get_ylabel() == "groove load Fp [N]"
+    assert "120°" in fig.axes[4].get_title()  # nearest computed angle to 125°
+    np.testing.assert_allclose(
+        fig.axes[0].lines[0].get_ydata(), cases["TPM"]["pin_load"].isel(crank_angle=0)
+    )
+
+
+def test_profile_stress_only_where_loaded(cases):
+    fig = figures.plot_profile_stress(cases, pin=20)
+    (ax,) = fig.axes
+    assert labels(ax)[1] == "contact stress σH [MPa]" and "[deg]" in labels(ax)[0]
+    assert len(ax.lines) == 2
+    loaded = int((cases["TPM"]["pin_load"].sel(pin=20) > 0).sum())
+    assert np.count_nonzero(np.isfinite(ax.lines[0].get_ydata())) == loaded
+    fig = figures.plot_profile_stress(cases, pin=20, x="contact_radius")
+    assert fig.axes[0].get_xlabel() == "radius of the contact point on the disc [mm]"
+    with pytest.raises(ValueError, match="x must be"):
+        figures.plot_profile_stress(cases, x="roll")
+
+
+def test_stress_maps_teeth_and_grooves(cases):
+    fig = figures.plot_stress_maps(cases)
+    colorbar_axes = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    maps = [ax for ax in fig.axes if ax not in colorbar_axes]
+    assert len(maps) == 4
+    assert all(any(isinstance(c, QuadMesh) for c in ax.collections) for ax in maps)
+    colorbars = {ax.get_ylabel() for ax in colorbar_axes}
+    assert colorbars == {"tooth contact stress [MPa]", "groove stress [MPa]"}
+    assert all(labels(ax)[1] == "pin" for ax in maps)
+
+
+def test_transmission_error_gear_ratio_contacts_backlash(cases):
+    te = figures.plot_transmission_error(cases)
+    assert [len(ax.lines) for ax in te.axes] == [2, 2]
+    assert te.axes[0].get_ylabel() == "loaded transmission error [arcsec]"
+    mesh_cycle = te.axes[0].lines[0].get_xdata()
+    assert mesh_cycle.max() <= 360.0 / 40 + 1e-9
+    ratio = figures.plot_gear_ratio(cases)
+    assert len(ratio.axes[0].lines) == 3  # two cases + ideal n2
+    assert ratio.axes[0].lines[-1].get_ydata()[0] == 39
+    assert labels(ratio.axes[0]) == ("crank angle [deg]", "instantaneous gear ratio [-]")
+    contacts = figures.plot_contacts(cases)
+    assert labels(contacts.axes[0]) == ("crank angle [deg]", "pins in contact [-]")
+    assert len(contacts.axes[0].lines) == 2
+    backlash = figures.plot_backlash(cases, [0, 90])
+    assert len(backlash.axes) == 2 and backlash.axes[0].get_ylabel() == "backlash [arcsec]"
+    values = backlash.axes[0].lines[0].get_ydata()
+    assert np.all(np.isfinite(values) | np.isnan(values))
+
+
+def test_a_single_dataset_is_accepted(cases):
+    fig = figures.plot_contacts(cases["TPM"])
+    assert len(fig.axes[0].lines) == 1
+
+
+def test_report_embeds_figures_and_escapes_text(cases):
+    fig = figures.plot_contacts(cases)
+    page = render_report(
+        "A <study>",
+        [
+            Section("Summary", table_html(["case", "x [N]"], [["<a>", 1.23456], ["b", None]])),
+            Section("Figures", "", [(fig, "contacts"), (b"\x89PNG fake", "bytes")]),
+            Section("SVG", "", [(fig, "as svg")]),
+        ],
+        {"SHA-256 of the study file": "abc123"},
+    )
+    assert "<h1>A &lt;study&gt;</h1>" in page and "<td>&lt;a&gt;</td>" in page
+    assert "<td>1.235</td>" in page
+    assert page.count("data:image/png;base64,") == 3
+    assert "abc123" in page and "cyclomesh version: <code>" in page
+    svg = figure_html(fig, "svg", embed="svg")
+    assert svg.startswith("<figure><svg") and "<?xml" not in svg
+
+
+def test_result_files_helpers(tmp_path, cases):
+    assert csv_column("pin_load", "N") == "pin_load_n"
+    assert csv_column("profile_angle", "deg") == "profile_angle_deg"
+    assert csv_column("gear_ratio", "1") == "gear_ratio"
+    assert csv_column("contact_stress", "MPa") == "contact_stress_mpa"
+    path = write_results_csv(cases["TPM"], tmp_path / "r.csv")
+    header = path.read_text().splitlines()[0].split(",")
+    assert header[:3] == ["crank_angle_deg", "pin", "pin_load_n"]
+    record = summary_record(
+        xr.Dataset({"te_pp_arcsec": math.inf, "contacts_min": np.int64(3), "overlap": False})
+    )
+    assert record == {"te_pp_arcsec": None, "contacts_min": 3, "overlap": False}
+    json.dumps(record, allow_nan=False)

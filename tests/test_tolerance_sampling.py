@@ -1,0 +1,154 @@
+"""Sampling of pin-ring errors and validation of the [tolerance] section."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from cyclomesh.exceptions import StudyError
+from cyclomesh.tolerance.sampling import draw_ring_errors
+from cyclomesh.tolerance.spec import parse_tolerance
+
+A_M = 82e-3  # pin-circle radius of Table 1 [m]
+
+
+def spec(**kinds):
+    return parse_tolerance({"seed": 11, "allowable_contact_stress_mpa": 1500.0, **kinds})
+
+
+UNIFORM = {"distribution": "uniform", "half_range": 4.0}
+
+
+def test_ring_errors_depend_only_on_seed_and_ring():
+    s = spec(radial_um=UNIFORM, angular_urad={"distribution": "normal", "sigma": 30.0})
+    batch = draw_ring_errors(s, 40, A_M, range(10))
+    for k in (0, 3, 9):
+        alone = draw_ring_errors(s, 40, A_M, [k])
+        np.testing.assert_array_equal(alone.radial_um[0], batch.radial_um[k], strict=True)
+        np.testing.assert_array_equal(alone.angular_urad[0], batch.angular_urad[k])
+    reordered = draw_ring_errors(s, 40, A_M, [9, 3, 0])
+    np.testing.assert_array_equal(reordered.radial_um, batch.radial_um[[9, 3, 0]])
+    other_seed = draw_ring_errors(
+        spec(radial_um=UNIFORM).model_copy(update={"seed": 12}), 40, A_M, range(10)
+    )
+    assert not np.array_equal(other_seed.radial_um, batch.radial_um)
+
+
+def test_each_kind_has_its_own_stream():
+    """Adding a pin-radius distribution leaves the radial draws unchanged."""
+    a = draw_ring_errors(spec(radial_um=UNIFORM), 40, A_M, range(5))
+    b = draw_ring_errors(
+        spec(radial_um=UNIFORM, pin_radius_um={"distribution": "normal", "sigma": 1.0}),
+        40,
+        A_M,
+        range(5),
+    )
+    np.testing.assert_array_equal(a.radial_um, b.radial_um)
+    assert np.all(a.pin_radius_um == 0) and np.all(b.pin_radius_um != 0)
+
+
+def test_uniform_and_normal_draws_have_the_stated_distribution():
+    s = spec(
+        radial_um=UNIFORM,
+        angular_urad={"distribution": "normal", "sigma": 50.0},
+        eccentricity_um={"distribution": "uniform", "half_range": 2.0},
+    )
+    e = draw_ring_errors(s, 40, A_M, range(500))  # 20,000 pins
+    radial = e.radial_um.ravel()
+    assert np.all(np.abs(radial) <= 4.0)
+    assert stats.kstest(radial, stats.uniform(loc=-4.0, scale=8.0).cdf).pvalue > 1e-3
+    assert stats.kstest(e.angular_urad.ravel(), stats.norm(scale=50.0).cdf).pvalue > 1e-3
+    assert e.eccentricity_um.shape == (500,)
+    assert np.all(np.abs(e.eccentricity_um) <= 2.0)
+
+
+def test_true_position_is_uniform_over_the_zone():
+    """The pin centre is uniform in area over the zone: not crowded at the centre."""
+    zone_um = 10.0
+    radius = zone_um / 2
+    s = spec(position={"distribution": "true_position", "zone_diameter_um": zone_um})
+    e = draw_ring_errors(s, 40, A_M, range(500))
+    x = e.radial_um.ravel()
+    y = e.angular_urad.ravel() * A_M  # tangential [µm] = angular [µrad] * a [m]
+    r2 = (x**2 + y**2) / radius**2
+    assert r2.max() <= 1.0 + 1e-12
+    # half of the area of a disc lies within R/sqrt(2)
+    n = r2.size
+    inside = np.count_nonzero(r2 <= 0.5) / n
+    assert inside == pytest.approx(0.5, abs=4 * np.sqrt(0.25 / n))
+    # r²/R² is uniform on [0, 1] and the direction is uniform
+    assert stats.kstest(r2, "uniform").pvalue > 1e-3
+    theta = np.arctan2(y, x)
+    assert stats.kstest(theta, stats.uniform(loc=-np.pi, scale=2 * np.pi).cdf).pvalue > 1e-3
+
+
+def test_scaling_scales_the_same_draws():
+    s = spec(radial_um=UNIFORM, eccentricity_um={"distribution": "normal", "sigma": 1.0})
+    e = draw_ring_errors(s, 40, A_M, range(4))
+    half = e.scaled(0.5)
+    np.testing.assert_array_equal(half.radial_um, 0.5 * e.radial_um)
+    np.testing.assert_array_equal(half.eccentricity_um, 0.5 * e.eccentricity_um)
+    per_ring = e.scaled(np.array([0.0, 1.0, 2.0, 3.0]))
+    np.testing.assert_array_equal(per_ring.radial_um[3], 3.0 * e.radial_um[3])
+    assert np.all(per_ring.radial_um[0] == 0)
+
+
+@pytest.mark.parametrize(
+    ("raw", "message"),
+    [
+        (
+            {"radial_um": {"distribution": "triangular", "half_range": 4.0}},
+            r"^tolerance\.radial_um\.distribution: unknown distribution 'triangular'",
+        ),
+        (
+            {"radial_um": {"distribution": "uniform", "half_range": -4.0}},
+            r"^tolerance\.radial_um\.half_range: .*greater than or equal to 0",
+        ),
+        (
+            {"angular_urad": {"distribution": "normal", "sigma": -1.0}},
+            r"^tolerance\.angular_urad\.sigma: ",
+        ),
+        (
+            {"radial_um": {"distribution": "uniform", "half_rnge": 4.0}},
+            r"^tolerance\.radial_um\.half_rnge: unknown key",
+        ),
+        ({"radial_um": {"half_range": 4.0}}, r"^tolerance\.radial_um: missing distribution"),
+        (
+            {"radial_um": {"distribution": "true_position", "zone_diameter_um": 4.0}},
+            r"true-position zone goes under tolerance\.position",
+        ),
+        (
+            {
+                "position": {"distribution": "true_position", "zone_diameter_um": 8.0},
+                "radial_um": UNIFORM,
+            },
+            r"^tolerance: position .* replaces radial_um",
+        ),
+        (
+            {"position": {"distribution": "true_position", "zone_diameter_um": -8.0}},
+            r"^tolerance\.position\.zone_diameter_um: ",
+        ),
+        ({"rings": 0}, r"^tolerance\.rings: "),
+        ({"crank_step_deg": 0.0}, r"^tolerance\.crank_step_deg: "),
+        ({"crank_stop_deg": 0.5, "crank_step_deg": 1.0}, r"fewer than 2 crank angles"),
+        ({"allocation": {"target_probability": 1.5}}, r"^tolerance\.allocation\.target_prob"),
+        ({"bogus": 1}, r"^tolerance\.bogus: unknown key"),
+    ],
+)
+def test_bad_tolerance_sections_give_one_line_errors(raw, message):
+    with pytest.raises(StudyError, match=message) as info:
+        parse_tolerance({"seed": 1, "allowable_contact_stress_mpa": 1500.0, **raw})
+    assert "\n" not in str(info.value)
+
+
+def test_seed_and_allowable_are_required():
+    with pytest.raises(StudyError, match=r"^tolerance\.seed: missing"):
+        parse_tolerance({"allowable_contact_stress_mpa": 1500.0})
+    with pytest.raises(StudyError, match=r"^tolerance\.allowable_contact_stress_mpa: missing"):
+        parse_tolerance({"seed": 1})
+
+
+def test_crank_angles_default_to_a_revolution_in_degree_steps():
+    angles = spec().crank_angles_deg()
+    assert angles.size == 360 and angles[0] == 0.0 and angles[-1] == 359.0

@@ -1,0 +1,292 @@
+"""End to end: `cyclomesh tolerance` and `cyclomesh allocate` on the real core.
+
+Few rings and a 10° crank step keep these fast. Results must be bit-for-bit identical
+whatever the chunking and wherever the chunks run (this process, local processes, a
+Dask cluster on loopback).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import typer
+import xarray as xr
+from typer.testing import CliRunner
+
+from cyclomesh.tolerance.commands import register
+from cyclomesh.tolerance.runner import run_allocation, run_tolerance
+
+EXAMPLE = Path(__file__).parents[1] / "examples" / "tolerance.toml"
+
+STUDY = """
+title = "tolerance test"
+
+[design]
+pins = 40
+pin_circle_radius_mm = 82.0
+pin_radius_mm = 3.5
+groove_radius_mm = 3.505
+eccentricity_mm = 1.5
+width_mm = 12.0
+
+[modification]
+pin_radius_um = 8.0
+
+[load]
+torque_nm = 250.0
+
+[tolerance]
+seed = 4
+rings = 12
+allowable_contact_stress_mpa = {allowable}
+crank_step_deg = 10.0
+{kinds}
+
+[tolerance.allocation]
+factor_max = 2.0
+factor_steps = 4
+bisections = 3
+"""
+
+KINDS = """radial_um = { distribution = "uniform", half_range = 4.0 }
+angular_urad = { distribution = "uniform", half_range = 50.0 }"""
+
+
+def write_study(folder: Path, allowable: float = 1850.0, kinds: str = KINDS) -> Path:
+    path = folder / "study.toml"
+    path.write_text(STUDY.format(allowable=allowable, kinds=kinds), encoding="utf-8")
+    return path
+
+
+@pytest.fixture(scope="module")
+def cli() -> typer.Typer:
+    """The cyclomesh command, with tolerance and allocate registered by cyclomesh.cli."""
+    from cyclomesh.cli import app
+
+    if not any(c.name == "tolerance" for c in app.registered_commands):  # not wired yet
+        register(app)
+    return app
+
+
+def test_register_adds_both_commands():
+    app = typer.Typer()
+    register(app)
+    assert [c.name for c in app.registered_commands] == ["tolerance", "allocate"]
+
+
+def invoke(app, *args):
+    return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def rings_nc(folder: Path) -> xr.Dataset:
+    with xr.open_dataset(folder / "tolerance_rings.nc") as ds:
+        return ds.load()
+
+
+def assert_identical_metrics(a: xr.Dataset, b: xr.Dataset) -> None:
+    assert list(a.data_vars) == list(b.data_vars)
+    np.testing.assert_array_equal(a["ring"].values, b["ring"].values)
+    for name in a.data_vars:
+        np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name, strict=True)
+
+
+def test_example_file_is_a_valid_study_and_tolerance_section():
+    from cyclomesh.tolerance.runner import load_tolerance_study
+
+    study, spec = load_tolerance_study(EXAMPLE)
+    assert spec.rings == 1000 and spec.allowable_contact_stress_mpa == 2000.0
+    assert spec.radial_um.half_range == 4.0 and spec.angular_urad.half_range == 50.0
+    assert study.base.modification.pin_radius_um == 8.0
+
+
+def test_tolerance_command_writes_its_files(cli, tmp_path):
+    study = write_study(tmp_path)
+    out = tmp_path / "out"
+    result = invoke(cli, "tolerance", study, "--out", out, "--workers", "1")
+    assert result.exit_code == 0, result.output
+    for name in (
+        "tolerance_rings.nc",
+        "tolerance_summary.json",
+        "worst_ring.toml",
+        "report.html",
+        "figures/tolerance_histograms.png",
+        "figures/tolerance_exceedance.png",
+        "figures/tolerance_ecdfs.png",
+    ):
+        assert (out / name).is_file(), name
+    ds = rings_nc(out)
+    assert ds.sizes["ring"] == 12
+    assert ds["max_contact_stress_mpa"].attrs["units"] == "MPa"
+    summary = json.loads((out / "tolerance_summary.json").read_text())
+    stress = ds["max_contact_stress_mpa"].values
+    ex = summary["exceedance"]["max_contact_stress_mpa"]
+    assert ex["count"] == np.count_nonzero(stress > 1850.0)
+    assert ex["lower"] <= ex["probability"] <= ex["upper"]
+    assert summary["worst_ring"]["ring"] == int(np.argmax(stress))
+    p50 = summary["metrics"]["max_contact_stress_mpa"]["percentiles"][1]
+    assert p50["estimate"] == pytest.approx(np.median(stress))
+    assert "Tolerance study" in (out / "report.html").read_text()
+
+
+def test_results_are_bit_for_bit_across_chunkings_and_engines(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    study = write_study(tmp_path)
+    runs = {
+        "serial, one chunk": dict(workers=1, chunk_rings=12),
+        "serial, chunks of 5": dict(workers=1, chunk_rings=5),
+        "2 processes, chunks of 1": dict(workers=2, chunk_rings=1),
+    }
+    results = {
+        name: run_tolerance(study, tmp_path / str(i), quiet=True, figures=False, **kw).rings
+        for i, (name, kw) in enumerate(runs.items())
+    }
+    with distributed.LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address=None,
+        silence_logs=40,
+    ) as cluster:
+        results["Dask LocalCluster, chunks of 3"] = run_tolerance(
+            study,
+            tmp_path / "dask",
+            scheduler=cluster.scheduler_address,
+            chunk_rings=3,
+            quiet=True,
+            figures=False,
+        ).rings
+    reference = results.pop("serial, one chunk")
+    for name, ds in results.items():
+        assert_identical_metrics(reference, ds), name
+
+
+def test_worst_ring_round_trip_through_cyclomesh_run(cli, tmp_path):
+    study = write_study(tmp_path)
+    out = tmp_path / "tol"
+    assert invoke(cli, "tolerance", study, "--out", out, "--workers", "1", "-q").exit_code == 0
+    summary = json.loads((out / "tolerance_summary.json").read_text())
+    worst = summary["worst_ring"]
+    result = invoke(cli, "run", out / "worst_ring.toml", "--out", tmp_path / "run", "-q")
+    assert result.exit_code == 0, result.output
+    record = json.loads((tmp_path / "run" / "summary.json").read_text())
+    (case,) = record["cases"] if "cases" in record else [record]
+    assert case["max_contact_stress_mpa"] == pytest.approx(
+        worst["max_contact_stress_mpa"], rel=1e-12
+    )
+    ring = rings_nc(out).sel(ring=worst["ring"])
+    for name in ("te_pp_arcsec", "max_pin_load_n", "gear_ratio_ripple_pct", "contacts_min"):
+        assert case[name] == pytest.approx(float(ring[name]), rel=1e-12), name
+
+
+def test_allocation_is_monotone_and_consistent(tmp_path):
+    factors = {}
+    for allowable in (1700.0, 1850.0, 2000.0):
+        study = write_study(tmp_path, allowable)
+        run = run_allocation(
+            study,
+            tmp_path / f"a{allowable:g}",
+            target_probability=0.25,
+            workers=1,
+            quiet=True,
+            figures=allowable == 1850.0,
+        )
+        a = run.allocation
+        assert np.all(np.diff(a.curve_probability) >= 0)
+        factors[allowable] = a.factor
+        if allowable == 1850.0:
+            tol = run_tolerance(study, tmp_path / "t", workers=1, quiet=True, figures=False)
+            exceeded = np.count_nonzero(tol.rings["max_contact_stress_mpa"].values > allowable)
+            # first passage: a ring that exceeds at the stated tolerances has f* ≤ 1
+            assert a.probability_at_stated >= exceeded / 12
+            lower = run.rings["critical_factor_lower"].values
+            upper = run.rings["critical_factor_upper"].values
+            assert np.all(lower < upper)
+            assert (tmp_path / "a1850" / "figures" / "allocation_exceedance.png").is_file()
+    assert factors[1700.0] <= factors[1850.0] <= factors[2000.0]
+    assert factors[1700.0] < factors[2000.0]
+    study = write_study(tmp_path, 1850.0)
+    loose = run_allocation(
+        study, tmp_path / "b", target_probability=0.5, workers=1, quiet=True, figures=False
+    ).allocation
+    assert loose.factor >= factors[1850.0]
+
+
+def test_allocate_command_states_the_factor(cli, tmp_path):
+    study = write_study(tmp_path)
+    result = invoke(
+        cli,
+        "allocate",
+        study,
+        "--out",
+        tmp_path / "a",
+        "--workers",
+        "1",
+        "--target-probability",
+        "0.2",
+    )
+    assert result.exit_code == 0, result.output
+    assert "Scale factor on the stated tolerances" in result.output
+    record = json.loads((tmp_path / "a" / "allocation.json").read_text())
+    assert record["target_probability"] == 0.2 and record["rings"] == 12
+
+
+@pytest.mark.parametrize(
+    ("kinds", "allowable", "extra", "message"),
+    [
+        (
+            'radial_um = { distribution = "triangular", half_range = 4.0 }',
+            1850.0,
+            [],
+            "error: tolerance.radial_um.distribution: unknown distribution 'triangular'",
+        ),
+        (
+            'radial_um = { distribution = "uniform", half_range = -4.0 }',
+            1850.0,
+            [],
+            "error: tolerance.radial_um.half_range:",
+        ),
+        (
+            KINDS,
+            1850.0,
+            ["--scheduler", "tcp://127.0.0.1:9"],
+            "error: cannot reach the Dask scheduler at 'tcp://127.0.0.1:9'",
+        ),
+    ],
+)
+def test_bad_inputs_exit_2_with_one_line(cli, tmp_path, kinds, allowable, extra, message):
+    study = write_study(tmp_path, allowable, kinds)
+    result = invoke(cli, "tolerance", study, "--out", tmp_path / "o", "-q", *extra)
+    assert result.exit_code == 2
+    assert result.stderr.startswith(message), result.stderr
+    assert result.stderr.count("\n") == 1 and "Traceback" not in result.stderr
+
+
+def test_allocate_refuses_a_nominal_design_above_the_allowable(cli, tmp_path):
+    study = write_study(tmp_path, allowable=500.0)
+    result = invoke(cli, "allocate", study, "--out", tmp_path / "o", "-q")
+    assert result.exit_code == 2
+    assert "nominal ring (no sampled errors) already exceeds" in result.stderr
+
+
+def test_study_without_tolerance_section_is_refused(cli, tmp_path):
+    path = tmp_path / "plain.toml"
+    path.write_text(STUDY.split("[tolerance]")[0], encoding="utf-8")
+    result = invoke(cli, "tolerance", path, "--out", tmp_path / "o")
+    assert result.exit_code == 2
+    assert "no [tolerance] section" in result.stderr
+
+
+def test_importing_cyclomesh_does_not_import_distributed():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, cyclomesh, cyclomesh.tolerance.commands, cyclomesh.tolerance.runner;"
+        "print('distributed' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
