@@ -222,3 +222,9 @@ def test_pin_larger_than_its_groove_is_refused():
     radius[12] = 6e-6  # 3.506 mm in a 3.505 mm groove
     with pytest.raises(DesignError, match="pin 13"):
         solve_ltca(TABLE1, TPM, PinErrors(pin_radius=radius), 250.0, REV[:4], True)
+
+
+def test_degrees_label_the_dataset_exactly():
+    ds = analyse(TABLE1, TPM, crank_angles_deg=np.arange(0, 360, 15.0))
+    assert float(ds["pin_load"].sel(crank_angle=60.0).sum()) > 0
+    np.testing.assert_array_equal(ds["crank_angle"].values, np.arange(0, 360, 15.0))

@@ -122,6 +122,8 @@ def analyse(
     torque: float = 250.0,
     crank_angles: ArrayLike | None = None,
     groove_deformation: bool = True,
+    *,
+    crank_angles_deg: ArrayLike | None = None,
 ) -> xr.Dataset:
     """Loaded tooth contact analysis of a cycloid-pin pair as a labelled Dataset.
 
@@ -139,6 +141,9 @@ def analyse(
         Crank angles [rad]; default a revolution at 1°.
     groove_deformation : bool
         "Improved model" (True) or "current model" (False).
+    crank_angles_deg : array_like, optional
+        Crank angles [deg], instead of ``crank_angles``; they become the ``crank_angle``
+        coordinate exactly as given, so ``ds.sel(crank_angle=60.0)`` finds them.
 
     Returns
     -------
@@ -151,10 +156,21 @@ def analyse(
     [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672.
     """
     modification = modification or Modification()
-    if crank_angles is None:
-        crank_angles = np.deg2rad(np.arange(360.0))
+    if crank_angles_deg is not None:
+        if crank_angles is not None:
+            raise TypeError("give crank_angles [rad] or crank_angles_deg, not both")
+        degrees = np.atleast_1d(np.asarray(crank_angles_deg, float))
+        crank_angles = np.deg2rad(degrees)
+    elif crank_angles is None:
+        degrees = np.arange(360.0)
+        crank_angles = np.deg2rad(degrees)
+    else:
+        degrees = None
     result = solve_ltca(design, modification, errors, torque, crank_angles, groove_deformation)
-    return to_dataset(result, design, modification, torque, groove_deformation)
+    ds = to_dataset(result, design, modification, torque, groove_deformation)
+    if degrees is not None:
+        ds = ds.assign_coords(crank_angle=("crank_angle", degrees, {"units": "deg"}))
+    return ds
 
 
 def summarize(ds: xr.Dataset) -> xr.Dataset:
