@@ -64,7 +64,7 @@ def main() -> None:
                 processes=True,
                 host="127.0.0.1",
                 dashboard_address=None,
-                silence_logs=40,
+                silence_logs=50,
             ) as cluster:
                 _run("dask", args.rings, out, scheduler=cluster.scheduler_address)
 

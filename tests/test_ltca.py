@@ -101,9 +101,10 @@ def test_explicit_zero_errors_give_exactly_the_error_free_result():
 
 
 def test_rings_solved_together_equal_rings_solved_alone():
-    errors = random_errors(4, (3,))
+    """Bit for bit: a ring's result does not depend on the rings batched with it."""
+    errors = random_errors(4, (5,))
     together = solve_ltca(TABLE1, TPM, errors, 250.0, REV[::6], True)
-    for k in range(3):
+    for k in range(5):
         alone = solve_ltca(
             TABLE1,
             TPM,
@@ -112,10 +113,8 @@ def test_rings_solved_together_equal_rings_solved_alone():
             REV[::6],
             True,
         )
-        np.testing.assert_allclose(together.pin_load[k], alone.pin_load, rtol=1e-12, atol=1e-9)
-        np.testing.assert_allclose(
-            together.transmission_error[k], alone.transmission_error, rtol=1e-12
-        )
+        np.testing.assert_array_equal(together.pin_load[k], alone.pin_load)
+        np.testing.assert_array_equal(together.transmission_error[k], alone.transmission_error)
 
 
 def test_results_converge_as_the_crank_step_shrinks():

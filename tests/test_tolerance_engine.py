@@ -89,7 +89,7 @@ def cluster():
         processes=True,
         host="127.0.0.1",
         dashboard_address=None,
-        silence_logs=40,
+        silence_logs=50,
     ) as local:
         with distributed.Client(local, set_as_default=False) as client:
             yield local, client

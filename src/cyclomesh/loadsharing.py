@@ -34,6 +34,20 @@ TORQUE_TOLERANCE = 1e-12
 _MAX_ITERATIONS = 100
 
 
+def _column_sum(values: FloatArray) -> FloatArray:
+    """Sum over the last axis, column after column.
+
+    The candidate pins are padded to the widest case of the batch; numpy's pairwise
+    ``sum`` would group the additions by that width, so a ring's result would depend on
+    which rings it was solved with. Adding the columns in pin order (padding adds exact
+    zeros at the end) gives the same bits for a ring however it is batched.
+    """
+    total = np.zeros(values.shape[:-1])
+    for column in np.moveaxis(values, -1, 0):
+        total += column
+    return total
+
+
 def share_load(
     backlash: ArrayLike,
     moment_arm: ArrayLike,
@@ -120,13 +134,13 @@ def share_load(
         delta = np.maximum(xa[:, None] - c_bl[active], 0.0) * c_arm[active]
         f = force_from_approach(delta, c_alpha[active], c_gamma[active])
         force[active] = f
-        resid = np.sum(f * c_arm[active], axis=-1) - torque
+        resid = _column_sum(f * c_arm[active]) - torque
         # dM/dΔφ = Σ l²·dF/dδ, dδ/dF = α − γ − γ·ln F on the loaded pins
         engaged = f > 0
         with np.errstate(divide="ignore"):
             log_f = np.log(np.where(engaged, f, 1.0))
         dddf = c_alpha[active] - c_gamma[active] * (1.0 + log_f)
-        slope = np.sum(np.where(engaged, c_arm[active] ** 2 / dddf, 0.0), axis=-1)
+        slope = _column_sum(np.where(engaged, c_arm[active] ** 2 / dddf, 0.0))
         done = np.abs(resid) <= tol
         step = np.where(done, 0.0, resid / np.where(slope > 0, slope, np.inf))
         idx = np.flatnonzero(active)

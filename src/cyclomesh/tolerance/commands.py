@@ -45,7 +45,7 @@ ChunkOption = Annotated[
     typer.Option(
         "--chunk-rings",
         min=1,
-        help="Rings per chunk of work (default: automatic).",
+        help="Rings per chunk of work (default: 16; best a multiple of 16).",
         show_default=False,
     ),
 ]

@@ -103,7 +103,8 @@ def plot_stress_exceedance(
 ):
     """Probability that the peak tooth contact stress exceeds a level, vs. the level.
 
-    The band is the pointwise Clopper–Pearson interval.
+    The band is the pointwise Clopper–Pearson interval; log scale, probabilities below
+    half a ring (0.5/n, including 0) drawn at that floor.
     """
     stress = np.sort(np.asarray(ds[STRESS_METRIC].values, dtype=float))
     n = stress.size
@@ -115,6 +116,8 @@ def plot_stress_exceedance(
     )
     counts = n - np.searchsorted(stress, levels, side="right")  # #{σ > level}
     lo, hi = clopper_pearson(counts, n, confidence)
+    floor = 0.5 / n
+    lo, hi = np.maximum(lo, floor), np.maximum(hi, floor)
     fig = _figure(6.4, 4.2)
     ax = fig.add_subplot()
     ax.fill_between(
@@ -126,26 +129,31 @@ def plot_stress_exceedance(
         alpha=0.2,
         label=f"{confidence:.0%} Clopper–Pearson",
     )
-    ax.step(levels, counts / n, where="post", color="tab:blue", label="estimate")
+    ax.step(levels, np.maximum(counts / n, floor), where="post", color="tab:blue", label="estimate")
     ax.axvline(allowable_contact_stress_mpa, color="tab:red", label="allowable")
     p = float(np.count_nonzero(stress > allowable_contact_stress_mpa)) / n
     ax.set_title(f"P(σH > {allowable_contact_stress_mpa:g} MPa) = {p:.3g}  ({n} rings)")
     ax.set_xlabel("peak tooth contact stress level [MPa]")
-    ax.set_ylabel("exceedance probability [-]")
-    ax.set_ylim(0, 1)
+    ax.set_ylabel("exceedance probability [-] (log)")
+    ax.set_yscale("log")
+    ax.set_ylim(floor * 0.8, 1.05)
     ax.legend()
     return fig
 
 
 def plot_allocation(allocation: Allocation):
-    """Exceedance probability vs. scale factor on the stated tolerances."""
+    """Exceedance probability vs. scale factor on the stated tolerances (log scale).
+
+    Probabilities below half a ring (0.5/n, including 0) are drawn at that floor.
+    """
     a = allocation
+    floor = 0.5 / a.rings
     fig = _figure(6.4, 4.2)
     ax = fig.add_subplot()
     ax.fill_between(
         a.curve_factor,
-        a.curve_lower,
-        a.curve_upper,
+        np.maximum(a.curve_lower, floor),
+        np.maximum(a.curve_upper, floor),
         step="post",
         alpha=0.2,
         color="tab:blue",
@@ -153,7 +161,7 @@ def plot_allocation(allocation: Allocation):
     )
     ax.step(
         a.curve_factor,
-        a.curve_probability,
+        np.maximum(a.curve_probability, floor),
         where="post",
         color="tab:blue",
         label="estimate (common random numbers)",
@@ -168,11 +176,13 @@ def plot_allocation(allocation: Allocation):
             label=f"{a.confidence:.0%} lower bound {a.confident_factor:.3f}",
         )
     ax.axvline(1.0, color="0.5", linewidth=0.8, label="stated tolerances")
+    ax.set_yscale("log")
     ax.set_xlabel("scale factor on the stated tolerances [-]")
     ax.set_ylabel("P(peak tooth contact stress > allowable) [-]")
+    ax.set_title(f"{a.rings} rings; below {floor:.2g} means no ring", fontsize="small")
     ax.set_xlim(0, a.factor_max)
-    ax.set_ylim(0, 1)
-    ax.legend(fontsize="small")
+    ax.set_ylim(floor * 0.8, 1.05)
+    ax.legend(fontsize="small", loc="lower right")
     return fig
 
 

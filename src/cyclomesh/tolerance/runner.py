@@ -48,11 +48,17 @@ from rich.text import Text
 from cyclomesh.exceptions import StudyError
 from cyclomesh.study.config import Study, load_study
 from cyclomesh.tolerance.allocation import Allocation, allocate_factor
-from cyclomesh.tolerance.engine import Backend, default_chunk_rings, make_backend, run_rings
+from cyclomesh.tolerance.engine import Backend, make_backend, run_rings
 from cyclomesh.tolerance.output import metrics_dataset, summary, worst_ring, worst_ring_study
 from cyclomesh.tolerance.sampling import RingErrors
 from cyclomesh.tolerance.spec import ToleranceSpec, parse_tolerance
-from cyclomesh.tolerance.tasks import STRESS_METRIC, AllocationTask, RingModel, ToleranceTask
+from cyclomesh.tolerance.tasks import (
+    BLOCK_RINGS,
+    STRESS_METRIC,
+    AllocationTask,
+    RingModel,
+    ToleranceTask,
+)
 
 __all__ = [
     "ToleranceRun",
@@ -78,7 +84,7 @@ def load_tolerance_study(path: str | Path) -> tuple[Study, ToleranceSpec]:
     return study, parse_tolerance(study.tolerance)
 
 
-def ring_model(study: Study, spec: ToleranceSpec, solve_rings: int = 16) -> RingModel:
+def ring_model(study: Study, spec: ToleranceSpec) -> RingModel:
     """The fixed part of the tolerance study: the study's base case as core objects."""
     base = study.base
     core = base.to_core()
@@ -91,7 +97,6 @@ def ring_model(study: Study, spec: ToleranceSpec, solve_rings: int = 16) -> Ring
         crank_angles_deg=spec.crank_angles_deg(),
         groove_deformation=bool(core.groove_deformation),
         spec=spec,
-        solve_rings=solve_rings,
     )
 
 
@@ -178,7 +183,8 @@ def run_tolerance(
     workers : int, optional
         Local processes (default: all cores; 1 runs in this process).
     chunk_rings : int, optional
-        Rings per chunk.
+        Rings per chunk (default 16, one solve block; a chunk that does not start and
+        end on multiples of 16 computes the blocks it touches in full).
     quiet : bool
         No progress bar and no messages.
     figures : bool
@@ -197,7 +203,7 @@ def run_tolerance(
     own = backend is None
     backend = backend or _backend(scheduler, workers)
     try:
-        chunk = chunk_rings or default_chunk_rings(n, backend.workers)
+        chunk = chunk_rings or BLOCK_RINGS
         _say(
             f"tolerance study: {n} rings, {len(model.crank_angles_deg)} crank angles, "
             f"{backend.workers} worker(s), {chunk} rings per chunk",
@@ -291,7 +297,7 @@ def run_allocation(
     own = backend is None
     backend = backend or _backend(scheduler, workers)
     try:
-        chunk = chunk_rings or default_chunk_rings(n, backend.workers)
+        chunk = chunk_rings or BLOCK_RINGS
         _say(
             f"tolerance allocation: {n} rings, scale factors up to {alloc.factor_max:g} in "
             f"{alloc.factor_steps} steps + {alloc.bisections} bisections, "

@@ -7,7 +7,12 @@ objects, the crank angles, the sampling spec); :class:`ToleranceTask` and
 
 The sampled errors are added to the base case's own per-pin errors (``[errors]`` of
 the study file) in study units, then converted to SI exactly as the study loader does,
-so that a ring written out as a study file reproduces bit for bit.
+so that a ring written out as a study file has bit-for-bit the same errors.
+
+Batches: the core solves several rings in one call, and its result for a ring is bit
+for bit the same whichever rings share the call (the core sums pin contributions in a
+fixed order). A chunk is solved in batches of at most :data:`BLOCK_RINGS` rings only to
+bound the memory of one core call, so ring k's metrics depend on (seed, k) alone.
 """
 
 from __future__ import annotations
@@ -23,7 +28,10 @@ from cyclomesh.exceptions import CyclomeshError
 from cyclomesh.tolerance.sampling import RingErrors, draw_ring_errors
 from cyclomesh.tolerance.spec import ToleranceSpec
 
-__all__ = ["RingModel", "ToleranceTask", "AllocationTask", "STRESS_METRIC"]
+__all__ = ["BLOCK_RINGS", "RingModel", "ToleranceTask", "AllocationTask", "STRESS_METRIC"]
+
+BLOCK_RINGS = 16
+"""Largest number of rings per core call (bounds the memory of one call)."""
 
 UM = 1e-6  # m per µm (as cyclomesh.study.config)
 URAD = 1e-6  # rad per µrad
@@ -63,8 +71,6 @@ class RingModel:
     crank_angles_deg: NDArray[np.float64]
     groove_deformation: bool
     spec: ToleranceSpec
-    solve_rings: int = 16
-    """Rings handed to the core at once (bounds the memory of one core call)."""
 
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
@@ -93,23 +99,18 @@ class RingModel:
         )
 
     def metrics(self, drawn: RingErrors) -> dict[str, NDArray[Any]]:
-        """Per-ring metrics of ``summarize(analyse(...))`` for a batch of rings.
+        """Per-ring metrics of ``summarize(analyse(...))``, all rings in one core call.
 
         Raises
         ------
         CyclomeshError
             The core's error, prefixed with the first ring that fails.
         """
-        n = drawn.rings.size
-        parts: list[dict[str, NDArray[Any]]] = []
-        for lo in range(0, n, self.solve_rings):
-            block = drawn.take(np.arange(lo, min(lo + self.solve_rings, n)))
-            try:
-                parts.append(self._solve(block))
-            except CyclomeshError:
-                self._blame(block)
-                raise
-        return {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}
+        try:
+            return self._solve(drawn)
+        except CyclomeshError:
+            self._blame(drawn)
+            raise
 
     def _solve(self, block: RingErrors) -> dict[str, NDArray[Any]]:
         from cyclomesh import analyse, summarize
@@ -134,17 +135,31 @@ class RingModel:
                 raise type(exc)(f"ring {k} (seed {self.spec.seed}): {exc}") from None
 
 
+def _by_blocks(
+    start: int, stop: int, solve: Any, block_rings: int = BLOCK_RINGS
+) -> dict[str, NDArray[Any]]:
+    """Run ``solve(first, last)`` on batches of at most ``block_rings`` rings covering
+    [start, stop) and concatenate the results."""
+    parts = [
+        solve(first, min(stop, first + block_rings)) for first in range(start, stop, block_rings)
+    ]
+    return {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}
+
+
 @dataclass(frozen=True)
 class ToleranceTask:
     """Chunk function: per-ring metrics of rings start .. stop − 1 at the stated tolerances."""
 
     model: RingModel
 
-    def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
-        drawn = self.model.draw(np.arange(start, stop))
+    def _block(self, first: int, last: int) -> dict[str, NDArray[Any]]:
+        drawn = self.model.draw(np.arange(first, last))
         out = self.model.metrics(drawn)
         out["ring"] = drawn.rings
         return out
+
+    def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
+        return _by_blocks(start, stop, self._block)
 
 
 @dataclass(frozen=True)
@@ -159,6 +174,8 @@ class AllocationTask:
     upper`` (upper = +inf if the ring never exceeds up to the largest factor).
 
     The nominal ring (f = 0) must not exceed the allowable (checked by the caller).
+    Every step solves the whole batch (rings already settled ride along and their
+    results are ignored).
     """
 
     model: RingModel
@@ -171,25 +188,28 @@ class AllocationTask:
         stress = self.model.metrics(drawn.scaled(factor))[self.metric]
         return stress > self.allowable_contact_stress_mpa
 
-    def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
-        drawn = self.model.draw(np.arange(start, stop))
+    def _block(self, first: int, last: int) -> dict[str, NDArray[Any]]:
+        drawn = self.model.draw(np.arange(first, last))
         n = drawn.rings.size
         lower = np.zeros(n)
         upper = np.full(n, np.inf)
-        active = np.arange(n)
+        active = np.ones(n, dtype=bool)  # not yet seen exceeding
         for f in self.factors:
-            if active.size == 0:
+            if not active.any():
                 break
-            exceeded = self._exceeds(drawn.take(active), np.full(active.size, f))
-            upper[active[exceeded]] = f
-            lower[active[~exceeded]] = f
-            active = active[~exceeded]
-        bracketed = np.nonzero(np.isfinite(upper))[0]
+            exceeded = self._exceeds(drawn, np.full(n, f))
+            upper[active & exceeded] = f
+            lower[active & ~exceeded] = f
+            active &= ~exceeded
+        bracketed = np.isfinite(upper)
         for _ in range(self.bisections):
-            if bracketed.size == 0:
+            if not bracketed.any():
                 break
-            mid = 0.5 * (lower[bracketed] + upper[bracketed])
-            exceeded = self._exceeds(drawn.take(bracketed), mid)
-            upper[bracketed[exceeded]] = mid[exceeded]
-            lower[bracketed[~exceeded]] = mid[~exceeded]
+            mid = np.where(bracketed, 0.5 * (lower + upper), 0.0)
+            exceeded = self._exceeds(drawn, mid)
+            upper = np.where(bracketed & exceeded, mid, upper)
+            lower = np.where(bracketed & ~exceeded, mid, lower)
         return {"ring": drawn.rings, "critical_factor_lower": lower, "critical_factor_upper": upper}
+
+    def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
+        return _by_blocks(start, stop, self._block)
