@@ -80,6 +80,27 @@ def test_process_pool_is_bit_for_bit_serial():
     assert os.getpid() not in set(got["pid"].tolist())
 
 
+def test_killing_a_local_worker_loses_no_ring_and_counts_none_twice():
+    task = DummyTask(SPEC, sleep_s=0.1)
+    rings, chunk = 30, 2
+    reference = run_rings(DummyTask(SPEC), rings, chunk_rings=chunk)
+    backend = ProcessBackend(workers=2, in_flight_per_worker=1)
+    finished = []
+
+    def kill_after_a_few(done: int) -> None:
+        finished.append(done)
+        if len(finished) == 3:
+            os.kill(backend.worker_pids()[0], signal.SIGKILL)
+
+    try:
+        got = run_rings(task, rings, chunk_rings=chunk, backend=backend, progress=kill_after_a_few)
+    finally:
+        backend.close()
+    assert backend.restarts == 1
+    assert sum(finished) == rings  # each chunk reported once
+    _same(reference, got)  # and stored once (run_rings checks the ring counts too)
+
+
 @pytest.fixture(scope="module")
 def cluster():
     distributed = pytest.importorskip("distributed")

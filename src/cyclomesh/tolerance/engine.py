@@ -11,7 +11,8 @@ bit-for-bit identical for every chunking and every backend.
 Every ring is stored exactly once: the engine counts the chunks that cover each ring
 and refuses to return if a ring is missing or was stored twice. On a Dask cluster a
 chunk whose worker dies is recomputed elsewhere by the scheduler; its future
-completes once, so it is stored once.
+completes once, so it is stored once. On local cores a dead worker breaks the process
+pool: the pool is rebuilt and the chunks that never came back run again.
 
 ``distributed`` is imported only when a scheduler address is given.
 """
@@ -106,9 +107,13 @@ class ProcessBackend:
         Chunks submitted ahead per worker; bounds the memory held by results.
     """
 
-    def __init__(self, workers: int | None = None, in_flight_per_worker: int = 2) -> None:
+    def __init__(
+        self, workers: int | None = None, in_flight_per_worker: int = 2, max_restarts: int = 3
+    ) -> None:
         self.workers = workers or _cpu_count()
         self.in_flight = max(1, in_flight_per_worker * self.workers)
+        self.max_restarts = max_restarts
+        self.restarts = 0
         self._pool: ProcessPoolExecutor | None = None
 
     def _executor(self) -> ProcessPoolExecutor:
@@ -119,34 +124,56 @@ class ProcessBackend:
             )
         return self._pool
 
+    def worker_pids(self) -> list[int]:
+        """Process ids of the live pool's workers (empty before the first chunk)."""
+        processes = getattr(self._pool, "_processes", None) or {}
+        return sorted(processes)
+
     def run(self, task: ChunkFunction, chunks: Iterable[Chunk]) -> Iterator[tuple[Chunk, Any]]:
-        pool = self._executor()
+        """Run the chunks; if a worker process dies, the pool is rebuilt and every chunk
+        that had not come back is run again (up to ``max_restarts`` times), so no ring is
+        lost, and none is stored twice since only chunks that never returned are rerun."""
         pending: dict[Future[Any], Chunk] = {}
+        rerun: list[Chunk] = []
         todo = iter(chunks)
         try:
             while True:
                 while len(pending) < self.in_flight:
-                    chunk = next(todo, None)
+                    chunk = rerun.pop() if rerun else next(todo, None)
                     if chunk is None:
                         break
-                    pending[pool.submit(task, *chunk)] = chunk
+                    pending[self._executor().submit(task, *chunk)] = chunk
                 if not pending:
                     return
                 done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                lost = []
                 for future in done:
                     chunk = pending.pop(future)
                     try:
                         result = future.result()
                     except BrokenProcessPool:
-                        raise ExecutionError(
-                            f"a local worker process died while computing rings {chunk[0]} to "
-                            f"{chunk[1] - 1} (out of memory?); try fewer --workers or a "
-                            "smaller --chunk-rings"
-                        ) from None
+                        lost.append(chunk)
+                        continue
                     yield chunk, result
+                if lost:
+                    # the whole pool is gone: every chunk still out must run again
+                    rerun.extend(lost + list(pending.values()))
+                    pending.clear()
+                    self._discard_pool()
+                    self.restarts += 1
+                    if self.restarts > self.max_restarts:
+                        raise ExecutionError(
+                            f"local worker processes died {self.restarts} times (out of "
+                            "memory?); try fewer --workers or a smaller --chunk-rings"
+                        )
         finally:
             for future in pending:
                 future.cancel()
+
+    def _discard_pool(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=False, cancel_futures=True)
+            self._pool = None
 
     def close(self) -> None:
         if self._pool is not None:
