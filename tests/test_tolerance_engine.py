@@ -101,21 +101,6 @@ def test_killing_a_local_worker_loses_no_ring_and_counts_none_twice():
     _same(reference, got)  # and stored once (run_rings checks the ring counts too)
 
 
-@pytest.fixture(scope="module")
-def cluster():
-    distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(
-        n_workers=2,
-        threads_per_worker=1,
-        processes=True,
-        host="127.0.0.1",
-        dashboard_address=None,
-        silence_logs=50,
-    ) as local:
-        with distributed.Client(local, set_as_default=False) as client:
-            yield local, client
-
-
 def test_dask_cluster_is_bit_for_bit_serial(cluster):
     local, _ = cluster
     task = DummyTask(SPEC)

@@ -131,8 +131,8 @@ def test_tolerance_command_writes_its_files(cli, tmp_path):
     assert "Tolerance study" in (out / "report.html").read_text()
 
 
-def test_results_are_bit_for_bit_across_chunkings_and_engines(tmp_path):
-    distributed = pytest.importorskip("distributed")
+def test_results_are_bit_for_bit_across_chunkings_and_engines(tmp_path, cluster):
+    local, _ = cluster
     study = write_study(tmp_path)
     runs = {
         "serial, one chunk": dict(workers=1, chunk_rings=12),
@@ -143,22 +143,14 @@ def test_results_are_bit_for_bit_across_chunkings_and_engines(tmp_path):
         name: run_tolerance(study, tmp_path / str(i), quiet=True, figures=False, **kw).rings
         for i, (name, kw) in enumerate(runs.items())
     }
-    with distributed.LocalCluster(
-        n_workers=2,
-        threads_per_worker=1,
-        processes=True,
-        host="127.0.0.1",
-        dashboard_address=None,
-        silence_logs=50,
-    ) as cluster:
-        results["Dask LocalCluster, chunks of 3"] = run_tolerance(
-            study,
-            tmp_path / "dask",
-            scheduler=cluster.scheduler_address,
-            chunk_rings=3,
-            quiet=True,
-            figures=False,
-        ).rings
+    results["Dask LocalCluster, chunks of 3"] = run_tolerance(
+        study,
+        tmp_path / "dask",
+        scheduler=local.scheduler_address,
+        chunk_rings=3,
+        quiet=True,
+        figures=False,
+    ).rings
     reference = results.pop("serial, one chunk")
     for name, ds in results.items():
         assert_identical_metrics(reference, ds), name

@@ -22,25 +22,25 @@ __all__ = ["analyse", "to_dataset", "summarize", "ARCSEC"]
 ARCSEC = np.pi / (180.0 * 3600.0)
 """One second of arc [rad]."""
 
-# name: (LTCA field, scale from SI, units, long name)
+# name (an LTCA field): (scale from SI, units, long name)
 _PER_PIN = {
-    "pin_load": ("pin_load", 1.0, "N", "pin-tooth contact force Fc"),
-    "groove_load": ("groove_load", 1.0, "N", "pin-groove contact force Fp"),
-    "contact_stress": ("contact_stress", 1e-6, "MPa", "max. Hertzian pressure, pin-tooth"),
-    "groove_stress": ("groove_stress", 1e-6, "MPa", "max. Hertzian pressure, pin-groove"),
-    "backlash": ("backlash", 1.0 / ARCSEC, "arcsec", "unloaded backlash φbl (inf: unreachable)"),
-    "overlap": ("overlap", 1.0 / ARCSEC, "arcsec", "interference with the unloaded flank"),
-    "profile_angle": ("profile_angle", 180.0 / np.pi, "deg", "generating angle φ1 of contact"),
-    "contact_radius": ("contact_radius", 1e3, "mm", "radius of the contact point on the disc"),
-    "moment_arm": ("moment_arm", 1e3, "mm", "moment arm of the line of action"),
-    "curvature_radius": ("curvature_radius", 1e3, "mm", "signed profile curvature radius ρc"),
+    "pin_load": (1.0, "N", "pin-tooth contact force Fc"),
+    "groove_load": (1.0, "N", "pin-groove contact force Fp"),
+    "contact_stress": (1e-6, "MPa", "max. Hertzian pressure, pin-tooth"),
+    "groove_stress": (1e-6, "MPa", "max. Hertzian pressure, pin-groove"),
+    "backlash": (1.0 / ARCSEC, "arcsec", "unloaded backlash φbl (inf: unreachable)"),
+    "overlap": (1.0 / ARCSEC, "arcsec", "interference with the unloaded flank"),
+    "profile_angle": (180.0 / np.pi, "deg", "generating angle φ1 of contact"),
+    "contact_radius": (1e3, "mm", "radius of the contact point on the disc"),
+    "moment_arm": (1e3, "mm", "moment arm of the line of action"),
+    "curvature_radius": (1e3, "mm", "signed profile curvature radius ρc"),
 }
 _PER_ANGLE = {
-    "transmission_error": ("transmission_error", 1.0 / ARCSEC, "arcsec", "loaded TE"),
-    "gear_ratio": ("gear_ratio", 1.0, "1", "instantaneous gear ratio"),
-    "contacts": ("contacts", 1, "1", "number of pins in contact"),
-    "loaded_rotation": ("loaded_rotation", 1.0 / ARCSEC, "arcsec", "disc rotation under load Δφc"),
-    "rest_rotation": ("rest_rotation", 1.0 / ARCSEC, "arcsec", "unloaded rest position φc − φt"),
+    "transmission_error": (1.0 / ARCSEC, "arcsec", "loaded TE"),
+    "gear_ratio": (1.0, "1", "instantaneous gear ratio"),
+    "contacts": (1, "1", "number of pins in contact"),
+    "loaded_rotation": (1.0 / ARCSEC, "arcsec", "disc rotation under load Δφc"),
+    "rest_rotation": (1.0 / ARCSEC, "arcsec", "unloaded rest position φc − φt"),
 }
 
 
@@ -65,18 +65,10 @@ def to_dataset(
     dims_pin = (*ring_dims, "crank_angle", "pin")
     dims_angle = (*ring_dims, "crank_angle")
     data = {}
-    for name, (field, scale, units, long_name) in _PER_PIN.items():
-        data[name] = (
-            dims_pin,
-            getattr(result, field) * scale,
-            {"units": units, "long_name": long_name},
-        )
-    for name, (field, scale, units, long_name) in _PER_ANGLE.items():
-        data[name] = (
-            dims_angle,
-            getattr(result, field) * scale,
-            {"units": units, "long_name": long_name},
-        )
+    for dims, table in ((dims_pin, _PER_PIN), (dims_angle, _PER_ANGLE)):
+        for name, (scale, units, long_name) in table.items():
+            attrs = {"units": units, "long_name": long_name}
+            data[name] = (dims, getattr(result, name) * scale, attrs)
     coords = {
         "crank_angle": ("crank_angle", np.degrees(result.crank_angle), {"units": "deg"}),
         "pin": ("pin", np.arange(1, design.pins + 1), {"units": "1"}),

@@ -70,6 +70,7 @@ __all__ = [
     "load_study",
     "crank_angles_deg",
     "deep_merge",
+    "pin_errors_si",
 ]
 
 MM = 1e-3
@@ -78,6 +79,22 @@ URAD = 1e-6
 GPA = 1e9
 CASE_SECTIONS = ("design", "modification", "material", "load", "errors", "analysis")
 """Sections that a case may override."""
+
+
+def pin_errors_si(
+    radial_um: Any, angular_urad: Any, pin_radius_um: Any, eccentricity_um: Any
+) -> PinErrors:
+    """Core errors (SI) from the study units µm, µrad, µm, µm (leading axes = rings).
+
+    The one conversion of study-file errors, shared with the tolerance studies so that a
+    ring written out as a study file reads back to bit-for-bit the same errors.
+    """
+    return PinErrors(
+        radial=np.asarray(radial_um, float) * UM,
+        angular=np.asarray(angular_urad, float) * URAD,
+        pin_radius=np.asarray(pin_radius_um, float) * UM,
+        eccentricity=np.asarray(eccentricity_um, float) * UM,
+    )
 
 
 class _Section(BaseModel):
@@ -349,11 +366,11 @@ class CaseSpec(_Section):
                 pin_radius=m.pin_radius_um * UM,
                 rotation=m.rotation_urad * URAD,
             )
-            errors = PinErrors(
-                radial=per_pin["radial_um"] * UM,
-                angular=per_pin["angular_urad"] * URAD,
-                pin_radius=per_pin["pin_radius_um"] * UM,
-                eccentricity=self.errors.eccentricity_um * UM,
+            errors = pin_errors_si(
+                per_pin["radial_um"],
+                per_pin["angular_urad"],
+                per_pin["pin_radius_um"],
+                self.errors.eccentricity_um,
             )
             errors.ring_shape(design.pins)
             check_profile(design, modification)

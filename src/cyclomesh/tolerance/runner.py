@@ -152,10 +152,6 @@ class AllocationRun:
     seconds: float
 
 
-def _backend(scheduler: str | None, workers: int | None) -> Backend:
-    return make_backend(scheduler, workers)
-
-
 def run_tolerance(
     study_path: str | Path,
     out_dir: str | Path,
@@ -201,7 +197,7 @@ def run_tolerance(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     own = backend is None
-    backend = backend or _backend(scheduler, workers)
+    backend = backend or make_backend(scheduler, workers)
     try:
         chunk = chunk_rings or BLOCK_RINGS
         _say(
@@ -295,7 +291,7 @@ def run_allocation(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     own = backend is None
-    backend = backend or _backend(scheduler, workers)
+    backend = backend or make_backend(scheduler, workers)
     try:
         chunk = chunk_rings or BLOCK_RINGS
         _say(

@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.exceptions import CyclomeshError
+from cyclomesh.study.config import pin_errors_si
 from cyclomesh.tolerance.sampling import RingErrors, draw_ring_errors
 from cyclomesh.tolerance.spec import ToleranceSpec
 
@@ -33,8 +34,6 @@ __all__ = ["BLOCK_RINGS", "RingModel", "ToleranceTask", "AllocationTask", "STRES
 BLOCK_RINGS = 16
 """Largest number of rings per core call (bounds the memory of one call)."""
 
-UM = 1e-6  # m per µm (as cyclomesh.study.config)
-URAD = 1e-6  # rad per µrad
 
 STRESS_METRIC = "max_contact_stress_mpa"
 """The per-ring metric compared with the allowable contact stress (tooth side)."""
@@ -91,11 +90,11 @@ class RingModel:
     def pin_errors(self, drawn: RingErrors) -> PinErrors:
         """Core errors (SI) of a batch of rings: base + drawn, leading axis = ring."""
         total = self.total_errors_um(drawn)
-        return PinErrors(
-            radial=total["radial_um"] * UM,
-            angular=total["angular_urad"] * URAD,
-            pin_radius=total["pin_radius_um"] * UM,
-            eccentricity=total["eccentricity_um"] * UM,
+        return pin_errors_si(
+            total["radial_um"],
+            total["angular_urad"],
+            total["pin_radius_um"],
+            total["eccentricity_um"],
         )
 
     def metrics(self, drawn: RingErrors) -> dict[str, NDArray[Any]]:
