@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.contact import unloaded_contact
+from cyclomesh.contact import UnloadedContact, unloaded_contact
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.exceptions import ConvergenceError, DesignError
 from cyclomesh.hertz import (
@@ -159,61 +159,18 @@ def solve_ltca(
     errors = errors or PinErrors()
     if not (isinstance(torque, int | float) and math.isfinite(torque) and torque > 0):
         raise DesignError(f"torque must be a positive number of N·m, got {torque!r}")
-    phi = np.atleast_1d(np.asarray(crank_angles, float))
-    if phi.ndim != 1 or phi.size == 0 or not np.all(np.isfinite(phi)):
-        raise DesignError("crank angles must be a non-empty one-dimensional list of numbers")
-    if phi.size > 1 and not np.all(np.diff(phi) > 0):
-        raise DesignError("crank angles must increase")
-    check_profile(design, modification)
-    ring_shape = errors.ring_shape(design.pins)
-    pin_radii = design.pin_radius + np.broadcast_to(errors.pin_radius, (*ring_shape, design.pins))
-    if not np.all((pin_radii > 0) & (pin_radii < design.groove_radius)):
-        pin = int(np.argmax(~((pin_radii > 0) & (pin_radii < design.groove_radius))) % design.pins)
-        raise DesignError(
-            f"errors.pin_radius: pin {pin + 1} radius must stay between 0 and the groove "
-            f"radius {design.groove_radius * 1e3:.4g} mm"
-        )
+    phi = check_crank_angles(crank_angles)
+    ring_shape = check_pair(design, modification, errors)
 
     geo = unloaded_contact(design, modification, errors, phi)
     rest = rest_position(geo.rotation, geo.moment_arm)
     backlash = geo.rotation - rest[..., None]
-
-    pin_c = design.pin_material.compliance
-    disc_c = design.disc_material.compliance
-    ring_c = design.ring_material.compliance
-    with np.errstate(divide="ignore", invalid="ignore"):  # unreachable pins: never loaded
-        alpha, gamma = compliance_coefficients(
-            geo.pin_radius,
-            geo.curvature_radius,
-            design.groove_radius,
-            geo.cos_beta,
-            design.width,
-            pin_c,
-            disc_c,
-            ring_c,
-            groove_deformation,
-        )
+    alpha, gamma = pin_compliance(geo, design, groove_deformation)
     try:
         loaded, force = share_load(backlash, geo.moment_arm, alpha, gamma, torque)
     except ConvergenceError as exc:
-        index = getattr(exc, "case_index", None)
-        if index is None:
-            raise
-        where = np.unravel_index(index, (*ring_shape, phi.size))
-        ring = f"ring {where[0]}, " if len(where) > 1 else ""
-        raise ConvergenceError(
-            f"{ring}crank angle {np.degrees(phi[where[-1]]):.6g}°: {exc}"
-        ) from None
-
-    groove_force = force * geo.cos_beta
-    tooth_modulus = effective_modulus(pin_c, disc_c)
-    groove_modulus = effective_modulus(pin_c, ring_c)
-    loaded_pin = force > 0
-    with np.errstate(invalid="ignore"):  # unreachable pins have ρc = inf and no load
-        rho_pc = np.where(loaded_pin, pin_tooth_radius(geo.pin_radius, geo.curvature_radius), 1.0)
-    rho_pg = pin_groove_radius(geo.pin_radius, design.groove_radius)
-    contact_stress = max_pressure(force, rho_pc, tooth_modulus, design.width)
-    groove_stress = max_pressure(groove_force, rho_pg, groove_modulus, design.width)
+        raise locate_failure(exc, (*ring_shape, phi.size), phi) from None
+    groove_force, contact_stress, groove_stress = contact_stresses(geo, design, force)
 
     # unloaded flank: interference when the loaded disc sits clockwise of its contact angle
     overlap = np.maximum(geo.reverse_rotation - (rest + loaded)[..., None], 0.0)
@@ -235,5 +192,79 @@ def solve_ltca(
         loaded_rotation=loaded,
         transmission_error=te,
         gear_ratio=gear_ratio(te, phi, design.teeth),
-        contacts=np.sum(loaded_pin, axis=-1),
+        contacts=np.sum(force > 0, axis=-1),
     )
+
+
+def check_crank_angles(crank_angles: ArrayLike) -> FloatArray:
+    """Crank angles [rad] as a one-dimensional increasing array, or a :class:`DesignError`."""
+    phi = np.atleast_1d(np.asarray(crank_angles, float))
+    if phi.ndim != 1 or phi.size == 0 or not np.all(np.isfinite(phi)):
+        raise DesignError("crank angles must be a non-empty one-dimensional list of numbers")
+    if phi.size > 1 and not np.all(np.diff(phi) > 0):
+        raise DesignError("crank angles must increase")
+    return phi
+
+
+def check_pair(design: PairDesign, modification: Modification, errors: PinErrors) -> tuple:
+    """Check profile and pin radii; return the ring shape of the errors.
+
+    Raises
+    ------
+    DesignError
+        For an undercut profile or a pin that does not fit its groove.
+    """
+    check_profile(design, modification)
+    ring_shape = errors.ring_shape(design.pins)
+    pin_radii = design.pin_radius + np.broadcast_to(errors.pin_radius, (*ring_shape, design.pins))
+    if not np.all((pin_radii > 0) & (pin_radii < design.groove_radius)):
+        pin = int(np.argmax(~((pin_radii > 0) & (pin_radii < design.groove_radius))) % design.pins)
+        raise DesignError(
+            f"errors.pin_radius: pin {pin + 1} radius must stay between 0 and the groove "
+            f"radius {design.groove_radius * 1e3:.4g} mm"
+        )
+    return ring_shape
+
+
+def pin_compliance(
+    geo: UnloadedContact, design: PairDesign, groove_deformation: bool
+) -> tuple[FloatArray, FloatArray]:
+    """Coefficients (α, γ) of δ = F(α − γ ln F) of every pin contact (Eqs. 19–23 of [1]) [m/N]."""
+    with np.errstate(divide="ignore", invalid="ignore"):  # unreachable pins: never loaded
+        return compliance_coefficients(
+            geo.pin_radius,
+            geo.curvature_radius,
+            design.groove_radius,
+            geo.cos_beta,
+            design.width,
+            design.pin_material.compliance,
+            design.disc_material.compliance,
+            design.ring_material.compliance,
+            groove_deformation,
+        )
+
+
+def contact_stresses(
+    geo: UnloadedContact, design: PairDesign, force: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Groove force Fc·cos β [N] and the Hertzian pressures of tooth and groove (Eq. 24) [Pa]."""
+    pin_c = design.pin_material.compliance
+    groove_force = force * geo.cos_beta
+    tooth_modulus = effective_modulus(pin_c, design.disc_material.compliance)
+    groove_modulus = effective_modulus(pin_c, design.ring_material.compliance)
+    with np.errstate(invalid="ignore"):  # unreachable pins have ρc = inf and no load
+        rho_pc = np.where(force > 0, pin_tooth_radius(geo.pin_radius, geo.curvature_radius), 1.0)
+    rho_pg = pin_groove_radius(geo.pin_radius, design.groove_radius)
+    contact_stress = max_pressure(force, rho_pc, tooth_modulus, design.width)
+    groove_stress = max_pressure(groove_force, rho_pg, groove_modulus, design.width)
+    return groove_force, contact_stress, groove_stress
+
+
+def locate_failure(exc: ConvergenceError, shape: tuple, phi: FloatArray) -> ConvergenceError:
+    """The load-sharing error ``exc`` with the ring and crank angle of its case named."""
+    index = getattr(exc, "case_index", None)
+    if index is None:
+        return exc
+    where = np.unravel_index(index, shape)
+    ring = f"ring {where[0]}, " if len(where) > 1 else ""
+    return ConvergenceError(f"{ring}crank angle {np.degrees(phi[where[-1]]):.6g}°: {exc}")
