@@ -109,12 +109,12 @@ def test_play_of_modified_pair_matches_closed_form(delta_a, delta_rho):
 def test_moments_of_pin_forces_balance_the_torque_on_both_flanks():
     errors = ring_errors(6)
     torques = np.array([-300.0, -20.0, 20.0, 300.0])
-    res = solve_drive(TABLE1, TPM, errors, torques, REV, discs=2)
+    res = solve_drive(TABLE1, TPM, errors, torques, REV, discs=3)
     # pin centre relative to each disc centre, fixed frame
     pin_angle = np.arange(40) * TABLE1.pitch + errors.angular
     pin_r = TABLE1.pin_circle_radius + errors.radial
     ecc = TABLE1.eccentricity + errors.eccentricity
-    crank = REV[:, None, None] + np.array([0.0, np.pi])[None, :, None]
+    crank = REV[:, None, None] + np.deg2rad([0.0, 120.0, 240.0])[None, :, None]
     wx = pin_r * np.cos(pin_angle) - ecc * np.cos(crank)
     wy = pin_r * np.sin(pin_angle) - ecc * np.sin(crank)
     fx = res.pin_load * np.cos(res.force_angle)

@@ -387,11 +387,18 @@ def _directions(
     return fwd, rev
 
 
-def _unmirror(arr: FloatArray, pins: int | None, angle_axis: int) -> FloatArray:
-    """Map an array of the mirrored problem back: crank angles −φ → φ, pins re-indexed."""
+def _unmirror(arr: FloatArray, angle_axis: int, disc_axis: int | None, pins: bool) -> FloatArray:
+    """Map an array of the mirrored problem back onto the reverse flanks.
+
+    Crank angle −φ → φ (the mirrored problem is solved on the reversed angles), disc k at
+    −φ − (k − 1)·2π/N is disc (1 − k) mod N + 1 of the mirrored stack, pin i is pin
+    (n1 − i) mod n1.
+    """
     out = np.flip(arr, axis=angle_axis)
-    if pins is not None:
-        out = out[..., mirror_index(pins)]
+    if disc_axis is not None:
+        out = np.take(out, mirror_index(out.shape[disc_axis]), axis=disc_axis)
+    if pins:
+        out = out[..., mirror_index(out.shape[-1])]
     return out
 
 
@@ -447,7 +454,6 @@ def solve_drive(
         raise DesignError(f"discs must be a whole number of at least 1, got {discs!r}")
     phi = check_crank_angles(crank_angles)
     check_pair(design, modification, errors)
-    n1 = design.pins
     fwd, rev = _directions(
         design,
         modification,
@@ -461,7 +467,7 @@ def solve_drive(
     if fwd is not None:
         play = fwd.rest - fwd.reverse_rest
     else:
-        play = _unmirror(rev.rest - rev.reverse_rest, None, -1)
+        play = _unmirror(rev.rest - rev.reverse_rest, -1, None, False)
 
     per_torque = []
     for value in torques:
@@ -477,7 +483,7 @@ def solve_drive(
             rest_rotation=mesh.rest,
         )
         if value < 0:
-            fields = _reverse(fields, n1)
+            fields = _reverse(fields)
         per_torque.append(fields)
 
     def stacked(name: str) -> FloatArray:
@@ -531,16 +537,16 @@ _ODD = {
 _PER_DISC = {"torque_share", "contacts", "mesh_force_x", "mesh_force_y", "max_contact_stress"}
 
 
-def _reverse(fields: dict[str, FloatArray], pins: int) -> dict[str, FloatArray]:
+def _reverse(fields: dict[str, FloatArray]) -> dict[str, FloatArray]:
     """Fields of the mirrored forward problem mapped back onto the reverse flanks."""
     out = {}
     for name, value in fields.items():
         if _PIN.get(name, False):
-            arr = _unmirror(value, pins, -3)
+            arr = _unmirror(value, -3, -2, True)
         elif name in _PER_DISC:
-            arr = _unmirror(value, None, -2)
+            arr = _unmirror(value, -2, -1, False)
         else:
-            arr = _unmirror(value, None, -1)
+            arr = _unmirror(value, -1, None, False)
         if name in _ODD:
             arr = -arr
         out[name] = arr
@@ -730,7 +736,7 @@ def torsion_curve(
         keep = ("torque_share", "contacts", "rest_rotation", "loaded_rotation")
         fields = {name: fields[name] for name in (*keep, "max_contact_stress")}
         if value < 0:
-            fields = _reverse(fields, design.pins)
+            fields = _reverse(fields)
         rotation.append(transmission_error(fields["rest_rotation"], fields["loaded_rotation"]))
         contacts.append(fields["contacts"])
         stress.append(fields["max_contact_stress"])
