@@ -15,9 +15,10 @@ import xarray as xr
 from numpy.typing import ArrayLike
 
 from cyclomesh.design import Modification, PairDesign, PinErrors
-from cyclomesh.ltca import LTCA, solve_ltca
+from cyclomesh.drive import Drive, check_torques, solve_drive
+from cyclomesh.ltca import LTCA
 
-__all__ = ["analyse", "to_dataset", "summarize", "ARCSEC"]
+__all__ = ["analyse", "to_dataset", "drive_to_dataset", "summarize", "ARCSEC"]
 
 ARCSEC = np.pi / (180.0 * 3600.0)
 """One second of arc [rad]."""
@@ -42,6 +43,16 @@ _PER_ANGLE = {
     "loaded_rotation": (1.0 / ARCSEC, "arcsec", "disc rotation under load Δφc"),
     "rest_rotation": (1.0 / ARCSEC, "arcsec", "unloaded rest position φc − φt"),
 }
+# drive-level results (cyclomesh.drive): per pin, per disc, per crank angle only
+_DRIVE_PER_PIN = {
+    "force_angle": (180.0 / np.pi, "deg", "direction of the pin force on the disc, from x"),
+}
+_PER_DISC = {
+    "mesh_force": (1.0, "N", "resultant of the pin forces on the disc (crank bearing load)"),
+    "mesh_force_angle": (180.0 / np.pi, "deg", "direction of the mesh force, from x"),
+    "torque_share": (1.0, "N m", "torque carried by the disc"),
+}
+_PLAY = ("play", 1.0 / ARCSEC, "arcsec", "angular play between the flanks at zero load")
 
 
 def _version() -> str:
@@ -75,7 +86,19 @@ def to_dataset(
     }
     if ring_dims:
         coords["ring"] = ("ring", np.arange(result.transmission_error.shape[0]))
-    step = np.degrees(np.diff(result.crank_angle))
+    attrs = _attrs(result.crank_angle, design, modification, torque, groove_deformation)
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def _attrs(
+    phi: np.ndarray,
+    design: PairDesign,
+    modification: Modification,
+    torque: float | None,
+    groove_deformation: bool,
+) -> dict:
+    """Attributes of a result Dataset: the inputs with unit-suffixed names."""
+    step = np.degrees(np.diff(phi))
     attrs = {
         "title": "cyclomesh loaded tooth contact analysis",
         "source": "Li, Tang, He, Sun, Machines 2022, 10, 672, doi:10.3390/machines10080672",
@@ -96,7 +119,6 @@ def to_dataset(
         "modification_pin_circle_radius_um": modification.pin_circle_radius * 1e6,
         "modification_pin_radius_um": modification.pin_radius * 1e6,
         "modification_rotation_urad": modification.rotation * 1e6,
-        "torque_nm": float(torque),
         "groove_deformation": int(bool(groove_deformation)),
         "gear_ratio_step_deg": float(step[0]) if step.size else 0.0,
         "sign_convention": (
@@ -104,6 +126,81 @@ def to_dataset(
             "direction of motion (a lagging disc has negative TE)"
         ),
     }
+    if torque is not None:
+        attrs["torque_nm"] = float(torque)
+    return attrs
+
+
+def drive_to_dataset(
+    result: Drive,
+    design: PairDesign,
+    modification: Modification,
+    groove_deformation: bool,
+    torque_dim: bool,
+) -> xr.Dataset:
+    """Label a :class:`~cyclomesh.drive.Drive` result (SI) as a Dataset in engineering units.
+
+    Dimensions ``ring`` (one ring axis at most), ``torque`` [N·m] (if ``torque_dim``, else
+    the one torque is the attribute ``torque_nm``), ``crank_angle`` [deg], ``disc`` (1 … N,
+    only for a stack of more than one disc) and ``pin``.
+    """
+    lead = result.transmission_error.ndim - 2
+    if lead > 1:
+        raise ValueError("drive_to_dataset supports at most one ring axis")
+    discs = result.contacts.shape[-1]
+    ring = ("ring",) * lead
+    keep = ("torque",) if torque_dim else ()
+    stack = ("disc",) if discs > 1 else ()
+
+    trailing = {"pin": 3, "disc": 2, "angle": 1}  # axes after the torque axis
+
+    def select(value: np.ndarray, per: str) -> np.ndarray:
+        """Drop the torque axis of a single torque and the disc axis of a single disc."""
+        if not torque_dim:
+            value = np.take(value, 0, axis=-1 - trailing[per])
+        if discs == 1 and per != "angle":
+            value = np.take(value, 0, axis=-2 if per == "pin" else -1)
+        return value
+
+    tables = (
+        ((*ring, *keep, "crank_angle", *stack, "pin"), "pin", _PER_PIN | _DRIVE_PER_PIN),
+        (
+            (*ring, *keep, "crank_angle", *stack),
+            "disc",
+            _PER_DISC | {"contacts": _PER_ANGLE["contacts"]},
+        ),
+        (
+            (*ring, *keep, "crank_angle"),
+            "angle",
+            {k: v for k, v in _PER_ANGLE.items() if k != "contacts"},
+        ),
+    )
+    data = {}
+    for dims, per, table in tables:
+        for name, (scale, units, long_name) in table.items():
+            if name == "torque_share" and discs == 1:
+                continue
+            value = select(getattr(result, name), per)
+            data[name] = (dims, value * scale, {"units": units, "long_name": long_name})
+    name, scale, units, long_name = _PLAY
+    data[name] = (
+        (*ring, "crank_angle"),
+        result.play * scale,
+        {"units": units, "long_name": long_name},
+    )
+    coords = {
+        "crank_angle": ("crank_angle", np.degrees(result.crank_angle), {"units": "deg"}),
+        "pin": ("pin", np.arange(1, design.pins + 1), {"units": "1"}),
+    }
+    if torque_dim:
+        coords["torque"] = ("torque", result.torque, {"units": "N m", "long_name": "torque"})
+    if stack:
+        coords["disc"] = ("disc", np.arange(1, discs + 1), {"units": "1"})
+    if ring:
+        coords["ring"] = ("ring", np.arange(result.transmission_error.shape[0]))
+    single = None if torque_dim else float(result.torque[0])
+    attrs = _attrs(result.crank_angle, design, modification, single, groove_deformation)
+    attrs["discs"] = int(discs)
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
@@ -111,11 +208,12 @@ def analyse(
     design: PairDesign,
     modification: Modification | None = None,
     errors: PinErrors | None = None,
-    torque: float = 250.0,
+    torque: float | ArrayLike = 250.0,
     crank_angles: ArrayLike | None = None,
     groove_deformation: bool = True,
     *,
     crank_angles_deg: ArrayLike | None = None,
+    discs: int = 1,
 ) -> xr.Dataset:
     """Loaded tooth contact analysis of a cycloid-pin pair as a labelled Dataset.
 
@@ -127,8 +225,10 @@ def analyse(
         Tooth profile modification (Eq. 3 of [1]).
     errors : PinErrors, optional
         Pin ring errors (Eq. 5 of [1]); one leading axis gives a ``ring`` dimension.
-    torque : float
-        Torque on the disc [N·m].
+    torque : float or list of float
+        Torque on the disc (on the stack of discs) [N·m]; positive loads the forward
+        flanks (the disc lags, TE < 0), negative the reverse flanks (TE > 0); 0 is refused.
+        A list adds a ``torque`` dimension.
     crank_angles : array_like, optional
         Crank angles [rad]; default a revolution at 1°.
     groove_deformation : bool
@@ -136,12 +236,19 @@ def analyse(
     crank_angles_deg : array_like, optional
         Crank angles [deg], instead of ``crank_angles``; they become the ``crank_angle``
         coordinate exactly as given, so ``ds.sel(crank_angle=60.0)`` finds them.
+    discs : int
+        Number N of identical discs on the ring, disc k's eccentric at φ + (k − 1)·360°/N;
+        they share one rotation and split the torque by their stiffness.
 
     Returns
     -------
     xarray.Dataset
         Dimensions ``crank_angle`` [deg] and ``pin`` (1 … n1), plus ``ring`` for several
-        rings; variables carry a ``units`` attribute (see :mod:`cyclomesh.analysis`).
+        rings, ``torque`` [N·m] for a list of torques and ``disc`` (1 … N) for N > 1;
+        variables carry a ``units`` attribute (see :mod:`cyclomesh.analysis` and
+        ``docs/drive.md``). Besides the loaded contact: ``play`` [arcsec] per crank angle,
+        ``mesh_force`` [N] and ``mesh_force_angle`` [deg] per disc, ``force_angle`` [deg]
+        per pin, ``torque_share`` [N·m] per disc of a stack.
 
     References
     ----------
@@ -158,8 +265,12 @@ def analyse(
         crank_angles = np.deg2rad(degrees)
     else:
         degrees = None
-    result = solve_ltca(design, modification, errors, torque, crank_angles, groove_deformation)
-    ds = to_dataset(result, design, modification, torque, groove_deformation)
+    torque_dim = np.ndim(torque) > 0
+    torques = check_torques(torque)
+    result = solve_drive(
+        design, modification, errors, torques, crank_angles, groove_deformation, discs
+    )
+    ds = drive_to_dataset(result, design, modification, groove_deformation, torque_dim)
     if degrees is not None:
         ds = ds.assign_coords(crank_angle=("crank_angle", degrees, {"units": "deg"}))
     return ds
@@ -172,9 +283,12 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
     ``max_groove_load_n``, ``max_contact_stress_mpa``, ``max_groove_stress_mpa``,
     ``contacts_min``, ``contacts_max``, ``gear_ratio_ripple_pct`` (peak-to-peak of the
     instantaneous ratio in % of n2, over the step ``gear_ratio_step_deg``),
-    ``max_overlap_arcsec`` and ``overlap`` (any interference with an unloaded flank).
+    ``max_overlap_arcsec`` and ``overlap`` (any interference with an unloaded flank),
+    ``play_arcsec_mean``, ``play_arcsec_max`` and ``max_mesh_force_n`` when the result has
+    them. The ``torque`` dimension of a torque list is kept; a ``disc`` dimension is reduced.
     """
-    both = ("crank_angle", "pin")
+    both = tuple(d for d in ("crank_angle", "disc", "pin") if d in ds.dims)
+    per_angle = tuple(d for d in ("crank_angle", "disc") if d in ds.dims)
     te = ds["transmission_error"]
     ratio = ds["gear_ratio"]
     teeth = ds.attrs["teeth"]
@@ -185,13 +299,18 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
         "max_groove_load_n": ds["groove_load"].max(both),
         "max_contact_stress_mpa": ds["contact_stress"].max(both),
         "max_groove_stress_mpa": ds["groove_stress"].max(both),
-        "contacts_min": ds["contacts"].min("crank_angle"),
-        "contacts_max": ds["contacts"].max("crank_angle"),
+        "contacts_min": ds["contacts"].min(per_angle),
+        "contacts_max": ds["contacts"].max(per_angle),
         "gear_ratio_ripple_pct": (ratio.max("crank_angle") - ratio.min("crank_angle"))
         / teeth
         * 100.0,
         "max_overlap_arcsec": ds["overlap"].max(both),
     }
+    if "play" in ds:
+        out["play_arcsec_mean"] = ds["play"].mean("crank_angle")
+        out["play_arcsec_max"] = ds["play"].max("crank_angle")
+    if "mesh_force" in ds:
+        out["max_mesh_force_n"] = ds["mesh_force"].max(per_angle)
     summary = xr.Dataset(out)
     summary["overlap"] = summary["max_overlap_arcsec"] > 0
     units = {
@@ -205,8 +324,12 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
         "contacts_max": "1",
         "gear_ratio_ripple_pct": "%",
         "max_overlap_arcsec": "arcsec",
+        "play_arcsec_mean": "arcsec",
+        "play_arcsec_max": "arcsec",
+        "max_mesh_force_n": "N",
     }
     for name, unit in units.items():
-        summary[name].attrs = {"units": unit}
+        if name in summary:
+            summary[name].attrs = {"units": unit}
     summary.attrs["gear_ratio_step_deg"] = ds.attrs.get("gear_ratio_step_deg", 0.0)
     return summary
