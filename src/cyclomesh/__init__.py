@@ -9,11 +9,14 @@ from cyclomesh.analysis import analyse, summarize, to_dataset
 from cyclomesh.design import STEEL, TABLE1, Material, Modification, PairDesign, PinErrors
 from cyclomesh.exceptions import ConvergenceError, CyclomeshError, DesignError, StudyError
 from cyclomesh.ltca import LTCA, solve_ltca
+from cyclomesh.torsion import stiffness, summarize_stiffness
 
 __all__ = [
     "analyse",
     "summarize",
     "to_dataset",
+    "stiffness",
+    "summarize_stiffness",
     "solve_ltca",
     "LTCA",
     "PairDesign",
