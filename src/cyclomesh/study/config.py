@@ -63,6 +63,7 @@ __all__ = [
     "RandomErrorsSection",
     "ErrorsSection",
     "AnalysisSection",
+    "StiffnessSection",
     "FiguresSection",
     "CaseSpec",
     "CaseInputs",
@@ -77,7 +78,7 @@ MM = 1e-3
 UM = 1e-6
 URAD = 1e-6
 GPA = 1e9
-CASE_SECTIONS = ("design", "modification", "material", "load", "errors", "analysis")
+CASE_SECTIONS = ("design", "modification", "material", "load", "errors", "analysis", "stiffness")
 """Sections that a case may override."""
 
 
@@ -129,6 +130,11 @@ class DesignSection(_Section):
     groove_radius_mm: float = Field(gt=0, description="pin-groove radius ρg [mm]")
     eccentricity_mm: float = Field(gt=0, description="eccentricity e [mm]")
     width_mm: float = Field(gt=0, description="disc face width B [mm]")
+    discs: int = Field(
+        1,
+        ge=1,
+        description="identical discs on the pin ring, disc k's eccentric at φ + (k - 1)·360°/N",
+    )
 
 
 class ModificationSection(_Section):
@@ -161,10 +167,55 @@ class MaterialSection(MaterialProperties):
         return Material(youngs_modulus=modulus * GPA, poisson_ratio=0.3 if ratio is None else ratio)
 
 
+def _torques(value: Any) -> float | list[float]:
+    """One torque or a non-empty list of distinct torques [N·m], none of them 0."""
+    if isinstance(value, bool) or not isinstance(value, int | float | list):
+        raise ValueError(f"expected a number or a list of numbers, got {_show(value)}")
+    items = value if isinstance(value, list) else [value]
+    if not items:
+        raise ValueError("expected at least one torque")
+    for i, item in enumerate(items):
+        if isinstance(item, bool) or not isinstance(item, int | float):
+            what = "a number"
+        elif not math.isfinite(item):
+            what = "a finite number"
+        elif item == 0:
+            what = (
+                "a torque other than 0 (with no load the disc can sit anywhere in the play; "
+                "give a positive (forward) or negative (reverse) torque)"
+            )
+        else:
+            continue
+        if isinstance(value, list):
+            raise ValueError(f"item {i + 1} is {_show(item)}: expected {what}")
+        raise ValueError(f"expected {what}, got {_show(item)}")
+    if len(set(items)) != len(items):
+        raise ValueError("the torques must differ from each other")
+    return [float(v) for v in value] if isinstance(value, list) else float(value)
+
+
 class LoadSection(_Section):
     """``[load]``."""
 
-    torque_nm: float = Field(250.0, gt=0, description="torque on the disc T [N·m]")
+    torque_nm: Annotated[float | list[float], BeforeValidator(_torques)] = Field(
+        250.0,
+        description="torque on the disc (stack) T [N·m], or a list; negative loads the "
+        "reverse flanks; 0 is refused",
+    )
+
+
+class StiffnessSection(_Section):
+    """``[stiffness]``: the torsion curve of ``cyclomesh stiffness`` (see docs/drive.md)."""
+
+    rated_torque_nm: float = Field(gt=0, description="rated torque T_r of the stack [N·m]")
+    points: int = Field(
+        41, ge=2, description="evenly spaced torques from -T_r to +T_r (0 left out)"
+    )
+    series_stiffness_nm_per_arcmin: float | None = Field(
+        None,
+        gt=0,
+        description="torsional stiffness of the rest of the drive, in series [N·m/arcmin]",
+    )
 
 
 class RandomErrorsSection(_Section):
@@ -268,11 +319,13 @@ class CaseInputs:
     design: PairDesign
     modification: Modification
     errors: PinErrors
-    torque: float
-    """Torque on the disc [N·m]."""
+    torque: float | NDArray
+    """Torque on the disc (stack) [N·m], one value or an array."""
     crank_angles: NDArray
     """Crank angles φin [rad]."""
     groove_deformation: bool
+    discs: int = 1
+    """Number of discs on the pin ring."""
 
     def kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`cyclomesh.analyse`."""
@@ -283,6 +336,7 @@ class CaseInputs:
             "torque": self.torque,
             "crank_angles": self.crank_angles,
             "groove_deformation": self.groove_deformation,
+            "discs": self.discs,
         }
 
 
@@ -297,6 +351,7 @@ class CaseSpec(_Section):
     load: LoadSection = LoadSection()
     errors: ErrorsSection = ErrorsSection()
     analysis: AnalysisSection = AnalysisSection()
+    stiffness: StiffnessSection | None = None
 
     _base_dir: Path = PrivateAttr(default_factory=Path)
 
@@ -380,9 +435,14 @@ class CaseSpec(_Section):
             design=design,
             modification=modification,
             errors=errors,
-            torque=self.load.torque_nm,
+            torque=(
+                np.asarray(self.load.torque_nm, float)
+                if isinstance(self.load.torque_nm, list)
+                else self.load.torque_nm
+            ),
             crank_angles=np.deg2rad(self.analysis.crank_angles_deg()),
             groove_deformation=self.analysis.groove_deformation,
+            discs=d.discs,
         )
 
 
@@ -397,6 +457,7 @@ class _StudyFile(_Section):
     load: LoadSection = LoadSection()
     errors: ErrorsSection = ErrorsSection()
     analysis: AnalysisSection = AnalysisSection()
+    stiffness: StiffnessSection | None = None
     figures: FiguresSection = FiguresSection()
     cases: list[dict[str, Any]] = []
     tolerance: dict[str, Any] | None = None

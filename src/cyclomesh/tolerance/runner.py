@@ -88,6 +88,11 @@ def ring_model(study: Study, spec: ToleranceSpec) -> RingModel:
     """The fixed part of the tolerance study: the study's base case as core objects."""
     base = study.base
     core = base.to_core()
+    if np.ndim(core.torque) or core.discs != 1:
+        raise StudyError(
+            "tolerance studies take one disc and one torque: set [load] torque_nm to a "
+            "number and leave [design] discs at 1"
+        )
     return RingModel(
         design=core.design,
         modification=core.modification,
