@@ -40,6 +40,7 @@ FIGURES = (
     "gear_ratio",
     "contacts",
     "backlash",
+    "mesh_force",
 )
 STEP_DEG = "5"
 

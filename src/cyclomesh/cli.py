@@ -1,7 +1,8 @@
 """The ``cyclomesh`` command.
 
 ``cyclomesh run STUDY.toml --out DIR`` runs a study file (see ``docs/study-files.md``)
-and writes its results, figures and report. Every refused input comes out as
+and writes its results, figures and report; ``cyclomesh stiffness STUDY.toml --out DIR``
+computes the torsion curve of every case (see ``docs/drive.md``). Every refused input comes out as
 ``error: <one line>`` on stderr with exit status 2 and no traceback; commands get that
 behaviour from :func:`cli_errors`::
 
@@ -168,6 +169,58 @@ def run(
         _print_summary(result.summaries, out)
 
 
+@app.command()
+@cli_errors()
+def stiffness(
+    study: StudyArg,
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (created if needed).")],
+    quiet: Annotated[
+        bool, typer.Option("--quiet", "-q", help="No progress and no summary table.")
+    ] = False,
+    crank_step_deg: StepOption = None,
+) -> None:
+    """Torsion curve of every case ([stiffness] section): play, lost motion, rigidity.
+
+    Writes <case>/stiffness.nc, summary.json, figures and report.html. The numbers are
+    those of the cycloid-pin mesh alone (see docs/drive.md).
+    """
+    from rich.console import Console
+    from rich.markup import escape
+    from rich.table import Table
+
+    from cyclomesh.study import load_study
+    from cyclomesh.study.stiffness import compute_stiffness, stiffness_figures, write_stiffness
+
+    loaded = load_study(study, _overrides(crank_step_deg))
+    console = stderr_console(quiet)
+    with console.status("torsion curves") if console.is_terminal and not quiet else _nothing():
+        result = compute_stiffness(loaded)
+        figs = stiffness_figures(result) if loaded.figures.enabled else {}
+        write_stiffness(result, out, figs)
+    if quiet:
+        return
+    columns = (
+        ("play_arcmin_mean", "play [arcmin]"),
+        ("lost_motion_arcmin_mean", "lost motion [arcmin]"),
+        ("torsional_rigidity_nm_per_arcmin_mean", "mesh rigidity [N·m/arcmin]"),
+        ("drive_lost_motion_arcmin_mean", "drive lost motion [arcmin]"),
+        ("drive_torsional_rigidity_nm_per_arcmin_mean", "drive rigidity [N·m/arcmin]"),
+    )
+    table = Table("case", *(escape(label) for _, label in columns))
+    for name, record in result.summaries.items():
+        cells = [record.get(key) for key, _ in columns]
+        table.add_row(escape(name), *("–" if v is None else f"{v:.4g}" for v in cells))
+    console = Console()
+    console.print(table)
+    console.print("mesh only: crank bearings, crankshafts and the first stage are not included")
+    console.print(f"report: {out / 'report.html'}")
+
+
+@contextmanager
+def _nothing() -> Iterator[None]:
+    yield
+
+
 _SUMMARY_COLUMNS = (
     ("te_pp_arcsec", "TE p-p [arcsec]"),
     ("max_pin_load_n", "max pin load [N]"),
@@ -184,13 +237,20 @@ def _print_summary(summaries: dict, out: Path) -> None:
     from rich.markup import escape
     from rich.table import Table
 
+    def text(value) -> str:
+        if isinstance(value, list):  # one value per torque of a torque list
+            return " / ".join(text(v) for v in value)
+        return "–" if value is None else f"{value:.4g}"
+
     table = Table("case", *(escape(label) for _, label in _SUMMARY_COLUMNS))
     for name, record in summaries.items():
-        cells = [record.get(key) for key, _ in _SUMMARY_COLUMNS]
-        table.add_row(escape(name), *("–" if v is None else f"{v:.4g}" for v in cells))
+        if "torque_nm" in record:
+            name = f"{name} ({text(record['torque_nm'])} N·m)"
+        table.add_row(escape(name), *(text(record.get(key)) for key, _ in _SUMMARY_COLUMNS))
     console = Console()
     console.print(table)
-    if any(record.get("overlap") for record in summaries.values()):
+    overlap = [record.get("overlap") for record in summaries.values()]
+    if any(any(v) if isinstance(v, list) else v for v in overlap):
         console.print(
             "warning: the disc interferes with unloaded-side pins (see max_overlap_arcsec)"
         )

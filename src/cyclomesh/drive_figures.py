@@ -90,7 +90,7 @@ def plot_torsion_curve(results: Results) -> Figure:
                 ax.plot([pct[k50], pct[k100]], [mean[k50], mean[k100]], ":", color="k", lw=2)
             ax.text(
                 0.98,
-                0.98 - 0.12 * i,
+                0.98 - 0.06 * i,
                 f"{name + ': ' if name else ''}lost motion {float(ds[lost].mean()):.3g}′, "
                 f"rigidity {float(ds[rigidity].mean()):.4g} N·m/′",
                 transform=ax.transAxes,

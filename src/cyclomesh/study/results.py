@@ -55,6 +55,8 @@ SUMMARY_KEYS = (
     "overlap",
 )
 """Keys of a case's record in ``summary.json`` besides ``name`` and ``results``."""
+DRIVE_SUMMARY_KEYS = ("play_arcsec_mean", "play_arcsec_max", "max_mesh_force_n")
+"""Keys of the drive characteristics in a case's record (see docs/drive.md)."""
 
 _UNIT_SUFFIX = {
     "N": "n",
@@ -115,15 +117,22 @@ def _number(value: Any) -> float | int | bool | None:
     return item if math.isfinite(item) else None
 
 
-def summary_record(summary: xr.Dataset) -> dict[str, float | int | bool | None]:
-    """The numbers of :func:`cyclomesh.summarize` as plain JSON values (non-finite → null)."""
-    record = {}
-    for key in SUMMARY_KEYS:
+def summary_record(summary: xr.Dataset) -> dict[str, Any]:
+    """The numbers of :func:`cyclomesh.summarize` as plain JSON values (non-finite → null).
+
+    A summary with a ``torque`` dimension (a list of torques) gives ``torque_nm`` and a
+    list per key, one value per torque.
+    """
+    record: dict[str, Any] = {}
+    if "torque" in summary.dims:
+        record["torque_nm"] = [_number(t) for t in summary["torque"].values]
+    for key in (*SUMMARY_KEYS, *DRIVE_SUMMARY_KEYS):
         if key in summary:
-            value = _number(summary[key].values)
-            if key.startswith("contacts_") and isinstance(value, float):
-                value = int(round(value))
-            record[key] = value
+            values = np.atleast_1d(summary[key].values)
+            numbers = [_number(v) for v in values]
+            if key.startswith("contacts_"):
+                numbers = [int(round(v)) if isinstance(v, float) else v for v in numbers]
+            record[key] = numbers if "torque" in summary[key].dims else numbers[0]
     if "gear_ratio_step_deg" in summary.attrs:  # the step the ratio ripple was taken over
         record["gear_ratio_step_deg"] = _number(summary.attrs["gear_ratio_step_deg"])
     return record

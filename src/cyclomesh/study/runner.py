@@ -71,12 +71,34 @@ def compute_study(
     return run
 
 
+def figure_cases(results: dict[str, xr.Dataset]) -> dict[str, xr.Dataset]:
+    """Results as the figures take them: one torque and one disc each.
+
+    A case with a list of torques becomes one entry per torque (``"case, 250 N·m"``), a
+    stack of discs one entry per disc (``"case, disc 2"``).
+    """
+    out: dict[str, xr.Dataset] = {}
+    for name, ds in results.items():
+        parts = {name: ds}
+        for dim, label in (("torque", "{:g} N·m"), ("disc", "disc {}")):
+            split = {}
+            for key, part in parts.items():
+                if dim not in part.dims:
+                    split[key] = part
+                    continue
+                for value in part[dim].values:
+                    split[f"{key}, {label.format(value)}"] = part.sel({dim: value})
+            parts = split
+        out.update(parts)
+    return out
+
+
 def study_figures(run: StudyRun) -> dict[str, tuple[Any, str]]:
     """The figures of a study: name → (Figure, caption)."""
     from cyclomesh import figures
 
     settings = run.study.figures
-    results = run.results
+    results = figure_cases(run.results)
     first = run.inputs[0]
     modifications: dict[str, Any] = {}
     for case, inputs in zip(run.study.cases, run.inputs, strict=True):
@@ -134,6 +156,20 @@ def study_figures(run: StudyRun) -> dict[str, tuple[Any, str]]:
             "Unloaded backlash of every pin (Eq. 11); unreachable pins are left out.",
         ),
     )
+    from cyclomesh import drive_figures
+
+    out["mesh_force"] = (
+        drive_figures.plot_mesh_force(results),
+        "Mesh force: magnitude and direction of the resultant of the pin forces on the "
+        "disc, the load its crank bearing carries (docs/drive.md).",
+    )
+    stacks = {name: ds for name, ds in run.results.items() if "torque_share" in ds}
+    if stacks:
+        out["torque_share"] = (
+            drive_figures.plot_torque_share(stacks),
+            "Split of the torque between the discs of a stack over the revolution "
+            "(largest torque of a torque list).",
+        )
     return out
 
 
@@ -147,6 +183,8 @@ _HEADINGS = {
     "gear_ratio": "Instantaneous gear ratio",
     "contacts": "Pins in contact",
     "backlash": "Backlash",
+    "mesh_force": "Mesh force (crank bearing load)",
+    "torque_share": "Torque split between the discs",
 }
 
 
