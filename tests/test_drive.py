@@ -136,7 +136,7 @@ def test_mesh_force_of_unmodified_pair_passes_through_the_pitch_point():
     fx = res.mesh_force[..., 0] * np.cos(res.mesh_force_angle[..., 0])
     fy = res.mesh_force[..., 0] * np.sin(res.mesh_force_angle[..., 0])
     moment = e * n2 * (np.cos(REV) * fy - np.sin(REV) * fx)
-    np.testing.assert_allclose(moment, [[250.0], [-250.0]] * np.ones(REV.size), rtol=1e-6)
+    np.testing.assert_allclose(moment, [[250.0], [-250.0]] * np.ones(REV.size), rtol=1e-12)
 
 
 def test_error_free_two_disc_stack_splits_the_torque_equally():
