@@ -3,27 +3,34 @@
 This is the notebook entry point. The numbers come from the SI core; here they are
 converted to the units a gear engineer reads (N, MPa, arcsec, degrees, mm), labelled
 with ``crank_angle`` (degrees) and ``pin`` (1 … n1), and the inputs recorded as
-attributes. :func:`summarize` reduces a result to the headline numbers of a study.
+attributes. :func:`summarize` reduces a result to the headline numbers of a study
+(:mod:`cyclomesh.metrics`); :func:`ltca_metrics` does the same straight from the core's
+result, without a Dataset (tolerance studies). xarray is imported only when a Dataset
+is built, so the variable tables below can be read by worker processes cheaply.
 """
 
 from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING
 
 import numpy as np
-import xarray as xr
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.ltca import LTCA, solve_ltca
+from cyclomesh.metrics import METRICS, summary_metrics
 
-__all__ = ["analyse", "to_dataset", "summarize", "ARCSEC"]
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = ["analyse", "to_dataset", "summarize", "ltca_metrics", "ARCSEC", "PER_PIN", "PER_ANGLE"]
 
 ARCSEC = np.pi / (180.0 * 3600.0)
 """One second of arc [rad]."""
 
 # name (an LTCA field): (scale from SI, units, long name)
-_PER_PIN = {
+PER_PIN = {
     "pin_load": (1.0, "N", "pin-tooth contact force Fc"),
     "groove_load": (1.0, "N", "pin-groove contact force Fp"),
     "contact_stress": (1e-6, "MPa", "max. Hertzian pressure, pin-tooth"),
@@ -35,7 +42,7 @@ _PER_PIN = {
     "moment_arm": (1e3, "mm", "moment arm of the line of action"),
     "curvature_radius": (1e3, "mm", "signed profile curvature radius ρc"),
 }
-_PER_ANGLE = {
+PER_ANGLE = {
     "transmission_error": (1.0 / ARCSEC, "arcsec", "loaded TE"),
     "gear_ratio": (1.0, "1", "instantaneous gear ratio"),
     "contacts": (1, "1", "number of pins in contact"),
@@ -65,7 +72,9 @@ def to_dataset(
     dims_pin = (*ring_dims, "crank_angle", "pin")
     dims_angle = (*ring_dims, "crank_angle")
     data = {}
-    for dims, table in ((dims_pin, _PER_PIN), (dims_angle, _PER_ANGLE)):
+    import xarray as xr
+
+    for dims, table in ((dims_pin, PER_PIN), (dims_angle, PER_ANGLE)):
         for name, (scale, units, long_name) in table.items():
             attrs = {"units": units, "long_name": long_name}
             data[name] = (dims, getattr(result, name) * scale, attrs)
@@ -168,45 +177,65 @@ def analyse(
 def summarize(ds: xr.Dataset) -> xr.Dataset:
     """Headline numbers of a result, reduced over crank angle and pin (ring kept).
 
-    Returns a Dataset with ``te_mean_arcsec``, ``te_pp_arcsec``, ``max_pin_load_n``,
-    ``max_groove_load_n``, ``max_contact_stress_mpa``, ``max_groove_stress_mpa``,
-    ``contacts_min``, ``contacts_max``, ``gear_ratio_ripple_pct`` (peak-to-peak of the
-    instantaneous ratio in % of n2, over the step ``gear_ratio_step_deg``),
-    ``max_overlap_arcsec`` and ``overlap`` (any interference with an unloaded flank).
+    Returns a Dataset with the metrics of :data:`cyclomesh.metrics.METRICS`
+    (``te_mean_arcsec``, ``te_pp_arcsec``, ``max_pin_load_n``, ``max_groove_load_n``,
+    ``max_contact_stress_mpa``, ``max_groove_stress_mpa``, ``contacts_min``,
+    ``contacts_max``, ``gear_ratio_ripple_pct`` (peak-to-peak of the instantaneous ratio
+    in % of n2, over the step ``gear_ratio_step_deg``), ``max_overlap_arcsec`` and
+    ``overlap``), each with its ``units`` and ``long_name``.
     """
-    both = ("crank_angle", "pin")
-    te = ds["transmission_error"]
-    ratio = ds["gear_ratio"]
-    teeth = ds.attrs["teeth"]
-    out = {
-        "te_mean_arcsec": te.mean("crank_angle"),
-        "te_pp_arcsec": te.max("crank_angle") - te.min("crank_angle"),
-        "max_pin_load_n": ds["pin_load"].max(both),
-        "max_groove_load_n": ds["groove_load"].max(both),
-        "max_contact_stress_mpa": ds["contact_stress"].max(both),
-        "max_groove_stress_mpa": ds["groove_stress"].max(both),
-        "contacts_min": ds["contacts"].min("crank_angle"),
-        "contacts_max": ds["contacts"].max("crank_angle"),
-        "gear_ratio_ripple_pct": (ratio.max("crank_angle") - ratio.min("crank_angle"))
-        / teeth
-        * 100.0,
-        "max_overlap_arcsec": ds["overlap"].max(both),
-    }
-    summary = xr.Dataset(out)
-    summary["overlap"] = summary["max_overlap_arcsec"] > 0
-    units = {
-        "te_mean_arcsec": "arcsec",
-        "te_pp_arcsec": "arcsec",
-        "max_pin_load_n": "N",
-        "max_groove_load_n": "N",
-        "max_contact_stress_mpa": "MPa",
-        "max_groove_stress_mpa": "MPa",
-        "contacts_min": "1",
-        "contacts_max": "1",
-        "gear_ratio_ripple_pct": "%",
-        "max_overlap_arcsec": "arcsec",
-    }
-    for name, unit in units.items():
-        summary[name].attrs = {"units": unit}
+    import xarray as xr
+
+    order = [d for d in ds["pin_load"].dims if d not in ("crank_angle", "pin")]
+    pin_dims = (*order, "crank_angle", "pin")
+    angle_dims = (*order, "crank_angle")
+    values = summary_metrics(
+        **{
+            name: ds[name].transpose(*angle_dims).values
+            for name in ("transmission_error", "gear_ratio", "contacts")
+        },
+        **{
+            name: ds[name].transpose(*pin_dims).values
+            for name in ("pin_load", "groove_load", "contact_stress", "groove_stress", "overlap")
+        },
+        teeth=ds.attrs["teeth"],
+    )
+    coords = {d: ds[d] for d in order if d in ds.coords}
+    summary = xr.Dataset(
+        {
+            name: (
+                tuple(order),
+                values[name],
+                {"units": METRICS[name].unit, "long_name": METRICS[name].long_name},
+            )
+            for name in METRICS
+        },
+        coords=coords,
+    )
     summary.attrs["gear_ratio_step_deg"] = ds.attrs.get("gear_ratio_step_deg", 0.0)
     return summary
+
+
+def ltca_metrics(result: LTCA, teeth: int) -> dict[str, NDArray]:
+    """The metrics of :data:`cyclomesh.metrics.METRICS` straight from a core result (SI).
+
+    The same numbers as ``summarize(to_dataset(result, ...))``, bit for bit (same unit
+    scales, same reductions), without building a Dataset; leading ring axes are kept.
+    """
+    scaled = {
+        name: getattr(result, name) * table[name][0]
+        for table in (PER_PIN, PER_ANGLE)
+        for name in table
+        if name
+        in (
+            "transmission_error",
+            "gear_ratio",
+            "contacts",
+            "pin_load",
+            "groove_load",
+            "contact_stress",
+            "groove_stress",
+            "overlap",
+        )
+    }
+    return summary_metrics(**scaled, teeth=teeth)
