@@ -79,6 +79,7 @@ __all__ = [
     "ToleranceSection",
     "CaseSpec",
     "CaseInputs",
+    "StudyFile",
     "Study",
     "load_study",
     "crank_angles_deg",
@@ -508,8 +509,12 @@ class CaseSpec(_Section):
         )
 
 
-class _StudyFile(_Section):
-    """Top level of a study file, before the cases are merged."""
+class StudyFile(_Section):
+    """Top level of a study file, before the cases are merged.
+
+    The section of every kind of study is a field here (``tolerance``; add yours next
+    to it, see ``docs/pipeline.md``) and is read as ``study.file.<section>``.
+    """
 
     title: str | None = None
     description: str = ""
@@ -521,6 +526,7 @@ class _StudyFile(_Section):
     analysis: AnalysisSection = AnalysisSection()
     figures: FiguresSection = FiguresSection()
     cases: list[dict[str, Any]] = []
+    # --- sections of the kinds of study (one line each; None when absent)
     tolerance: ToleranceSection | None = None
 
 
@@ -544,8 +550,8 @@ class Study:
         The cases; a file without ``[[cases]]`` has one case, the base, named after the
         title.
     figures : FiguresSection
-    tolerance : ToleranceSection or None
-        The validated ``[tolerance]`` section.
+    file : StudyFile
+        Every validated top-level section (``study.file.tolerance``, ...).
     inputs : list of CaseInputs
         The core inputs of every case, built (and checked by the core) once on loading.
     """
@@ -558,9 +564,14 @@ class Study:
     base: CaseSpec
     cases: list[CaseSpec]
     figures: FiguresSection
-    tolerance: ToleranceSection | None
+    file: StudyFile
     raw: dict[str, Any]
     inputs: list[CaseInputs]
+
+    @property
+    def tolerance(self) -> ToleranceSection | None:
+        """The validated ``[tolerance]`` section, if any."""
+        return self.file.tolerance
 
 
 def deep_merge(base: Mapping[str, Any], override: Mapping[str, Any]) -> dict[str, Any]:
@@ -618,9 +629,9 @@ def load_study(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     overrides = dict(overrides or {})
     top = deep_merge(raw, {k: v for k, v in overrides.items() if k in CASE_SECTIONS})
     try:
-        study_file = _StudyFile.model_validate(top)
+        study_file = StudyFile.model_validate(top)
     except ValidationError as exc:
-        raise StudyError(one_line(exc, _StudyFile)) from None
+        raise StudyError(one_line(exc, StudyFile)) from None
 
     base_raw = {key: top[key] for key in CASE_SECTIONS if key in top}
     base = _validate_case({"name": "base", **base_raw}, "base", path.parent)
@@ -660,7 +671,7 @@ def load_study(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         base=base,
         cases=cases,
         figures=study_file.figures,
-        tolerance=study_file.tolerance,
+        file=study_file,
         raw=raw,
         inputs=inputs,
     )
