@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cyclomesh import TABLE1, DesignError, Modification, PinErrors, analyse, summarize
-from cyclomesh.drive_figures import (
+from cyclomesh.figures.drive import (
     plot_mesh_force,
     plot_play,
     plot_rigidity,

@@ -12,8 +12,10 @@ from matplotlib.collections import QuadMesh
 from matplotlib.container import BarContainer
 
 from cyclomesh import TABLE1, Modification, PinErrors, analyse, figures
+from cyclomesh.figures.render import decimate
+from cyclomesh.output import csv_column, write_pin_csv
 from cyclomesh.report import Section, figure_html, render_report, table_html
-from cyclomesh.study.results import csv_column, summary_record, write_results_csv
+from cyclomesh.studies.run import profile_curves, summary_record
 
 ANGLES = np.deg2rad(np.arange(0.0, 360.0, 10.0))
 TPM = Modification(pin_radius=8e-6)
@@ -32,7 +34,8 @@ def labels(ax) -> tuple[str, str]:
 
 
 def test_profile_shows_the_modification_in_micrometres():
-    fig = figures.plot_profile(TABLE1, {"Δρ = 8 µm": TPM, "Δa = -5 µm": Modification(-5e-6)})
+    curves = profile_curves(TABLE1, {"Δρ = 8 µm": TPM, "Δa = -5 µm": Modification(-5e-6)})
+    fig = figures.plot_profile(curves)
     tooth, modification = fig.axes
     assert labels(tooth) == ("x [mm]", "y [mm]")
     assert labels(modification)[1] == "modification, normal to profile [µm]"
@@ -148,7 +151,7 @@ def test_result_files_helpers(tmp_path, cases):
     assert csv_column("profile_angle", "deg") == "profile_angle_deg"
     assert csv_column("gear_ratio", "1") == "gear_ratio"
     assert csv_column("contact_stress", "MPa") == "contact_stress_mpa"
-    path = write_results_csv(cases["TPM"], tmp_path / "r.csv")
+    path = write_pin_csv(cases["TPM"], tmp_path / "r.csv")
     header = path.read_text().splitlines()[0].split(",")
     assert header[:3] == ["crank_angle_deg", "pin", "pin_load_n"]
     record = summary_record(
@@ -156,3 +159,23 @@ def test_result_files_helpers(tmp_path, cases):
     )
     assert record == {"te_pp_arcsec": None, "contacts_min": 3, "overlap": False}
     json.dumps(record, allow_nan=False)
+
+
+def test_decimation_keeps_every_spike_and_the_envelope():
+    x = np.arange(100_000, dtype=float)
+    y = np.sin(x / 5000.0)
+    spikes = [777, 50_001, 99_998]
+    y[spikes] = [5.0, -7.0, 9.0]  # one-sample spikes, like the gear-ratio spikes
+    dx, dy = decimate(x, y, bins=500)
+    assert dx.size <= 4 * 500 and np.all(np.diff(dx) > 0)
+    for k in spikes:
+        assert k in dx and dy[np.searchsorted(dx, k)] == y[k]
+    assert dy.max() == y.max() and dy.min() == y.min()
+    assert dx[0] == 0 and dx[-1] == x[-1]
+    # per bin of the original, the decimated line spans the same range
+    edges = np.linspace(0, x.size, 501).astype(int)
+    for a, b in zip(edges[:-1:37], edges[1::37], strict=True):
+        inside = (dx >= a) & (dx < b)
+        assert dy[inside].max() == y[a:b].max() and dy[inside].min() == y[a:b].min()
+    short_x, short_y = decimate(x[:100], y[:100], bins=500)
+    assert short_x.size == 100  # short lines are left alone

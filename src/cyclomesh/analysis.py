@@ -3,28 +3,45 @@
 This is the notebook entry point. The numbers come from the SI core; here they are
 converted to the units a gear engineer reads (N, MPa, arcsec, degrees, mm), labelled
 with ``crank_angle`` (degrees) and ``pin`` (1 … n1), and the inputs recorded as
-attributes. :func:`summarize` reduces a result to the headline numbers of a study.
+attributes. :func:`summarize` reduces a result to the headline numbers of a study
+(:mod:`cyclomesh.metrics`); :func:`ltca_metrics` does the same straight from the core's
+result, without a Dataset (tolerance studies). xarray is imported only when a Dataset
+is built, so the variable tables below can be read by worker processes cheaply.
 """
 
 from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING
 
 import numpy as np
-import xarray as xr
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.drive import Drive, check_torques, solve_drive
 from cyclomesh.ltca import LTCA
+from cyclomesh.metrics import DRIVE_METRICS, METRICS, summary_metrics
 
-__all__ = ["analyse", "to_dataset", "drive_to_dataset", "summarize", "ARCSEC"]
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = [
+    "analyse",
+    "to_dataset",
+    "drive_to_dataset",
+    "summarize",
+    "ltca_metrics",
+    "ARCSEC",
+    "PER_PIN",
+    "PER_ANGLE",
+    "PER_DISC",
+]
 
 ARCSEC = np.pi / (180.0 * 3600.0)
 """One second of arc [rad]."""
 
 # name (an LTCA field): (scale from SI, units, long name)
-_PER_PIN = {
+PER_PIN = {
     "pin_load": (1.0, "N", "pin-tooth contact force Fc"),
     "groove_load": (1.0, "N", "pin-groove contact force Fp"),
     "contact_stress": (1e-6, "MPa", "max. Hertzian pressure, pin-tooth"),
@@ -36,7 +53,7 @@ _PER_PIN = {
     "moment_arm": (1e3, "mm", "moment arm of the line of action"),
     "curvature_radius": (1e3, "mm", "signed profile curvature radius ρc"),
 }
-_PER_ANGLE = {
+PER_ANGLE = {
     "transmission_error": (1.0 / ARCSEC, "arcsec", "loaded TE"),
     "gear_ratio": (1.0, "1", "instantaneous gear ratio"),
     "contacts": (1, "1", "number of pins in contact"),
@@ -47,7 +64,7 @@ _PER_ANGLE = {
 _DRIVE_PER_PIN = {
     "force_angle": (180.0 / np.pi, "deg", "direction of the pin force on the disc, from x"),
 }
-_PER_DISC = {
+PER_DISC = {
     "mesh_force": (1.0, "N", "resultant of the pin forces on the disc (crank bearing load)"),
     "mesh_force_angle": (180.0 / np.pi, "deg", "direction of the mesh force, from x"),
     "torque_share": (1.0, "N m", "torque carried by the disc"),
@@ -76,7 +93,9 @@ def to_dataset(
     dims_pin = (*ring_dims, "crank_angle", "pin")
     dims_angle = (*ring_dims, "crank_angle")
     data = {}
-    for dims, table in ((dims_pin, _PER_PIN), (dims_angle, _PER_ANGLE)):
+    import xarray as xr
+
+    for dims, table in ((dims_pin, PER_PIN), (dims_angle, PER_ANGLE)):
         for name, (scale, units, long_name) in table.items():
             attrs = {"units": units, "long_name": long_name}
             data[name] = (dims, getattr(result, name) * scale, attrs)
@@ -162,18 +181,18 @@ def drive_to_dataset(
             value = np.take(value, 0, axis=-2 if per == "pin" else -1)
         return value
 
+    pin_dims = (*ring, *keep, "crank_angle", *stack, "pin")
+    disc_dims = (*ring, *keep, "crank_angle", *stack)
+    angle_dims = (*ring, *keep, "crank_angle")
+    # the variables of to_dataset first, in its order, then the drive's own
     tables = (
-        ((*ring, *keep, "crank_angle", *stack, "pin"), "pin", _PER_PIN | _DRIVE_PER_PIN),
-        (
-            (*ring, *keep, "crank_angle", *stack),
-            "disc",
-            _PER_DISC | {"contacts": _PER_ANGLE["contacts"]},
+        (pin_dims, "pin", PER_PIN),
+        *(
+            (disc_dims, "disc", {k: v}) if k == "contacts" else (angle_dims, "angle", {k: v})
+            for k, v in PER_ANGLE.items()
         ),
-        (
-            (*ring, *keep, "crank_angle"),
-            "angle",
-            {k: v for k, v in _PER_ANGLE.items() if k != "contacts"},
-        ),
+        (pin_dims, "pin", _DRIVE_PER_PIN),
+        (disc_dims, "disc", PER_DISC),
     )
     data = {}
     for dims, per, table in tables:
@@ -198,6 +217,8 @@ def drive_to_dataset(
         coords["disc"] = ("disc", np.arange(1, discs + 1), {"units": "1"})
     if ring:
         coords["ring"] = ("ring", np.arange(result.transmission_error.shape[0]))
+    import xarray as xr
+
     single = None if torque_dim else float(result.torque[0])
     attrs = _attrs(result.crank_angle, design, modification, single, groove_deformation)
     attrs["discs"] = int(discs)
@@ -279,57 +300,74 @@ def analyse(
 def summarize(ds: xr.Dataset) -> xr.Dataset:
     """Headline numbers of a result, reduced over crank angle and pin (ring kept).
 
-    Returns a Dataset with ``te_mean_arcsec``, ``te_pp_arcsec``, ``max_pin_load_n``,
-    ``max_groove_load_n``, ``max_contact_stress_mpa``, ``max_groove_stress_mpa``,
-    ``contacts_min``, ``contacts_max``, ``gear_ratio_ripple_pct`` (peak-to-peak of the
-    instantaneous ratio in % of n2, over the step ``gear_ratio_step_deg``),
-    ``max_overlap_arcsec`` and ``overlap`` (any interference with an unloaded flank),
-    ``play_arcsec_mean``, ``play_arcsec_max`` and ``max_mesh_force_n`` when the result has
-    them. The ``torque`` dimension of a torque list is kept; a ``disc`` dimension is reduced.
+    Returns a Dataset with the metrics of :data:`cyclomesh.metrics.METRICS`
+    (``te_mean_arcsec``, ``te_pp_arcsec``, ``max_pin_load_n``, ``max_groove_load_n``,
+    ``max_contact_stress_mpa``, ``max_groove_stress_mpa``, ``contacts_min``,
+    ``contacts_max``, ``gear_ratio_ripple_pct`` (peak-to-peak of the instantaneous ratio
+    in % of n2, over the step ``gear_ratio_step_deg``), ``max_overlap_arcsec`` and
+    ``overlap``), each with its ``units`` and ``long_name``, and those of
+    :data:`cyclomesh.metrics.DRIVE_METRICS` the result has (``play_arcsec_mean``,
+    ``play_arcsec_max``, ``max_mesh_force_n``). A ``torque`` dimension (a list of
+    torques) is kept; a ``disc`` dimension (a stack) is reduced with the pins (per-disc
+    contacts with the crank angles).
     """
-    both = tuple(d for d in ("crank_angle", "disc", "pin") if d in ds.dims)
-    per_angle = tuple(d for d in ("crank_angle", "disc") if d in ds.dims)
-    te = ds["transmission_error"]
-    ratio = ds["gear_ratio"]
-    teeth = ds.attrs["teeth"]
-    out = {
-        "te_mean_arcsec": te.mean("crank_angle"),
-        "te_pp_arcsec": te.max("crank_angle") - te.min("crank_angle"),
-        "max_pin_load_n": ds["pin_load"].max(both),
-        "max_groove_load_n": ds["groove_load"].max(both),
-        "max_contact_stress_mpa": ds["contact_stress"].max(both),
-        "max_groove_stress_mpa": ds["groove_stress"].max(both),
-        "contacts_min": ds["contacts"].min(per_angle),
-        "contacts_max": ds["contacts"].max(per_angle),
-        "gear_ratio_ripple_pct": (ratio.max("crank_angle") - ratio.min("crank_angle"))
-        / teeth
-        * 100.0,
-        "max_overlap_arcsec": ds["overlap"].max(both),
-    }
+    import xarray as xr
+
+    order = [d for d in ds["pin_load"].dims if d not in ("crank_angle", "disc", "pin")]
+    stack = ("disc",) if "disc" in ds.dims else ()
+
+    def merged(name: str, dims: tuple[str, ...]) -> np.ndarray:
+        """``ds[name]`` over ``(*order, *dims)``, the last two of dims merged if stacked."""
+        present = tuple(d for d in dims if d in ds[name].dims)
+        values = ds[name].transpose(*order, *present).values
+        extra = len(present) - (2 if present[-1] == "pin" else 1)
+        return values.reshape(*values.shape[: values.ndim - extra - 1], -1) if extra else values
+
+    values = summary_metrics(
+        transmission_error=merged("transmission_error", ("crank_angle",)),
+        gear_ratio=merged("gear_ratio", ("crank_angle",)),
+        contacts=merged("contacts", ("crank_angle", *stack)),
+        **{
+            name: merged(name, ("crank_angle", *stack, "pin"))
+            for name in ("pin_load", "groove_load", "contact_stress", "groove_stress", "overlap")
+        },
+        teeth=ds.attrs["teeth"],
+    )
+    coords = {d: ds[d] for d in order if d in ds.coords}
+    data = {name: (tuple(order), values[name]) for name in METRICS}
     if "play" in ds:
-        out["play_arcsec_mean"] = ds["play"].mean("crank_angle")
-        out["play_arcsec_max"] = ds["play"].max("crank_angle")
+        data["play_arcsec_mean"] = ds["play"].mean("crank_angle")
+        data["play_arcsec_max"] = ds["play"].max("crank_angle")
     if "mesh_force" in ds:
-        out["max_mesh_force_n"] = ds["mesh_force"].max(per_angle)
-    summary = xr.Dataset(out)
-    summary["overlap"] = summary["max_overlap_arcsec"] > 0
-    units = {
-        "te_mean_arcsec": "arcsec",
-        "te_pp_arcsec": "arcsec",
-        "max_pin_load_n": "N",
-        "max_groove_load_n": "N",
-        "max_contact_stress_mpa": "MPa",
-        "max_groove_stress_mpa": "MPa",
-        "contacts_min": "1",
-        "contacts_max": "1",
-        "gear_ratio_ripple_pct": "%",
-        "max_overlap_arcsec": "arcsec",
-        "play_arcsec_mean": "arcsec",
-        "play_arcsec_max": "arcsec",
-        "max_mesh_force_n": "N",
-    }
-    for name, unit in units.items():
-        if name in summary:
-            summary[name].attrs = {"units": unit}
+        data["max_mesh_force_n"] = ds["mesh_force"].max(("crank_angle", *stack))
+    summary = xr.Dataset(data, coords=coords)
+    for name in summary.data_vars:
+        metric = METRICS.get(name) or DRIVE_METRICS[name]
+        summary[name].attrs = {"units": metric.unit, "long_name": metric.long_name}
     summary.attrs["gear_ratio_step_deg"] = ds.attrs.get("gear_ratio_step_deg", 0.0)
     return summary
+
+
+def ltca_metrics(result: LTCA, teeth: int) -> dict[str, NDArray]:
+    """The metrics of :data:`cyclomesh.metrics.METRICS` straight from a core result (SI).
+
+    The same numbers as ``summarize(to_dataset(result, ...))``, bit for bit (same unit
+    scales, same reductions), without building a Dataset; leading ring axes are kept.
+    """
+    scaled = {
+        name: getattr(result, name) * table[name][0]
+        for table in (PER_PIN, PER_ANGLE)
+        for name in table
+        if name
+        in (
+            "transmission_error",
+            "gear_ratio",
+            "contacts",
+            "pin_load",
+            "groove_load",
+            "contact_stress",
+            "groove_stress",
+            "overlap",
+        )
+    }
+    return summary_metrics(**scaled, teeth=teeth)

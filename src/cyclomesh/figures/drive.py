@@ -1,4 +1,4 @@
-"""Figures of the drive characteristics: torsion curve, rigidity, play, torque split.
+"""Figures of the drive characteristics: torsion curve, rigidity, play, torque split, mesh force.
 
 Every function takes results (a Dataset of :func:`cyclomesh.torsion.stiffness` or
 :func:`cyclomesh.analyse`, or a mapping ``{case name: Dataset}``) and returns a
@@ -13,8 +13,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import xarray as xr
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+
+from cyclomesh.figures.render import new_figure
 
 __all__ = [
     "plot_torsion_curve",
@@ -28,9 +29,7 @@ Results = xr.Dataset | Mapping[str, xr.Dataset]
 
 
 def _figure(width: float, height: float) -> Figure:
-    fig = Figure(figsize=(width, height), layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
+    return new_figure(width, height, layout="constrained")  # long labels, twin panels
 
 
 def _cases(results: Results, needs: str) -> dict[str, xr.Dataset]:

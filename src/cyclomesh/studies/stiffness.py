@@ -1,0 +1,298 @@
+"""Stiffness studies: the torsion curve of every case of a study file (``cyclomesh stiffness``).
+
+For each case, the ``[stiffness]`` section (:class:`~cyclomesh.study.schema.StiffnessSection`,
+per case: cases may override it) gives ``rated_torque_nm`` (required), ``points``
+(default 41) and ``series_stiffness_nm_per_arcmin`` (optional); the crank angles come
+from ``[analysis]``. Stages (see ``docs/pipeline.md``):
+
+1. :func:`check_stiffness`: every case has a ``[stiffness]`` section;
+2. :func:`compute_stiffness`: the torsion curve of every case
+   (:func:`cyclomesh.torsion.stiffness`) and its headline numbers
+   (:data:`cyclomesh.metrics.STIFFNESS_METRICS`); nothing is written;
+3. :func:`write_stiffness`: ``<case>/stiffness.nc`` and ``summary.json``;
+4. :func:`stiffness_figures`, :func:`stiffness_sections`: figure jobs and report sections
+   for :func:`cyclomesh.pipeline.publish`.
+
+The numbers are those of the cycloid-pin mesh alone; the whole-drive curve (with the
+series stiffness) is reported beside it, never instead of it. See ``docs/drive.md``.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from cyclomesh.exceptions import StudyError
+from cyclomesh.metrics import STIFFNESS_METRICS
+from cyclomesh.study.schema import CaseSpec, StiffnessSection, Study, folder_name
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from cyclomesh.figures.render import FigureJob
+    from cyclomesh.report import Section
+
+__all__ = [
+    "CAVEAT",
+    "StiffnessResult",
+    "check_stiffness",
+    "compute_stiffness",
+    "write_stiffness",
+    "stiffness_figures",
+    "stiffness_sections",
+]
+
+CAVEAT = (
+    "These are the characteristics of the cycloid-pin mesh alone. A whole RV reducer is "
+    "much softer: crank bearings, crankshafts and the first stage add compliance in series "
+    "(RV catalogues quote about 113 N·m/arcmin for a reducer of the size of the Table 1 "
+    "pair, RV-42N, rated 412 N·m, lost motion < 1 arcmin). Do not compare the mesh "
+    "rigidity with a catalogue figure; [stiffness] series_stiffness_nm_per_arcmin adds "
+    "the rest of the drive as a linear spring in series, reported beside the mesh."
+)
+DEFINITIONS = (
+    "play = TE of the reverse-flank rest position − TE of the forward-flank rest position "
+    "(zero load); lost motion = TE(−3 % T_r) − TE(+3 % T_r); torsional rigidity = mean "
+    "over both directions of 0.5·T_r/|TE(±T_r) − TE(±0.5·T_r)|."
+)
+
+
+@dataclass
+class StiffnessResult:
+    """The torsion curves of a study, in memory."""
+
+    study: Study
+    curves: dict[str, xr.Dataset] = field(default_factory=dict)
+    """Case name → Dataset of :func:`cyclomesh.torsion.stiffness`, with the case inputs."""
+    summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """Case name → rated torque, discs and :data:`STIFFNESS_METRICS` (JSON numbers)."""
+    seconds: float = 0.0
+
+
+def _section(case: CaseSpec) -> StiffnessSection:
+    if case.stiffness is None:
+        raise StudyError(
+            f"{case.label}: no [stiffness] section: give at least stiffness.rated_torque_nm "
+            "(see examples/stiffness.toml)"
+        )
+    return case.stiffness
+
+
+def check_stiffness(study: Study) -> None:
+    """Raise a :class:`StudyError` naming the first case without a ``[stiffness]`` section."""
+    for case in study.cases:
+        _section(case)
+
+
+def compute_stiffness(
+    study: Study, *, progress: Callable[[int], None] | None = None
+) -> StiffnessResult:
+    """Compute the torsion curve of every case (nothing is written).
+
+    ``progress(1)`` is called after each case. One case is one vectorised core call per
+    torque (0.4 s for 42 torques × 360 crank angles × 40 pins), so the cases run here.
+    """
+    from cyclomesh.output import jsonable
+    from cyclomesh.torsion import stiffness, summarize_stiffness
+
+    check_stiffness(study)
+    start = time.perf_counter()
+    result = StiffnessResult(study=study)
+    for case, inputs in zip(study.cases, study.inputs, strict=True):
+        section = _section(case)
+        ds = stiffness(
+            inputs.design,
+            inputs.modification,
+            inputs.errors,
+            section.rated_torque_nm,
+            section.points,
+            groove_deformation=inputs.groove_deformation,
+            crank_angles_deg=case.analysis.crank_angles_deg(),
+            discs=inputs.discs,
+            series_stiffness_nm_per_arcmin=section.series_stiffness_nm_per_arcmin,
+        )
+        ds.attrs.update(
+            case_name=case.name,
+            case_description=case.description,
+            case_inputs_json=json.dumps(case.model_dump(mode="json"), ensure_ascii=False),
+            study_title=study.title,
+            study_file=study.path.name,
+            study_sha256=study.sha256,
+        )
+        result.curves[case.name] = ds
+        summary = summarize_stiffness(ds)
+        record: dict[str, Any] = {"rated_torque_nm": section.rated_torque_nm}
+        record["discs"] = inputs.discs
+        record.update(
+            {
+                name: jsonable(summary[name].values[()])
+                for name in STIFFNESS_METRICS
+                if name in summary
+            }
+        )
+        result.summaries[case.name] = record
+        if progress:
+            progress(1)
+    result.seconds = time.perf_counter() - start
+    return result
+
+
+def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
+    """Write ``<case>/stiffness.nc`` of every case and ``summary.json`` into ``out``."""
+    from cyclomesh.output import write_json, write_netcdf
+    from cyclomesh.report import cyclomesh_version
+
+    study = result.study
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    records = []
+    for case in study.cases:
+        folder = out / folder_name(case.name)
+        folder.mkdir(parents=True, exist_ok=True)
+        written.append(write_netcdf(result.curves[case.name], folder / "stiffness.nc"))
+        records.append(
+            {
+                "name": case.name,
+                "results": f"{folder_name(case.name)}/stiffness.nc",
+                **result.summaries[case.name],
+            }
+        )
+    document = {
+        "title": study.title,
+        "study_file": study.path.name,
+        "study_sha256": study.sha256,
+        "cyclomesh_version": cyclomesh_version(),
+        "scope": "cycloid-pin mesh only; drive_* numbers add the series stiffness",
+        "units": {name: m.unit for name, m in STIFFNESS_METRICS.items()},
+        "cases": records,
+    }
+    written.append(write_json(out / "summary.json", document))
+    return written
+
+
+_HEADINGS = {
+    "torsion_curve": "Torsion curve",
+    "torsional_rigidity": "Torsional rigidity",
+    "play": "Play and lost motion",
+    "torque_share": "Torque split between the discs",
+}
+
+
+def _curves(result: StiffnessResult, names: tuple[str, ...]) -> dict[str, xr.Dataset]:
+    """Only the variables a figure needs (jobs may be pickled to a worker)."""
+    return {
+        case: ds[[n for n in names if n in ds]].assign_attrs(ds.attrs)
+        for case, ds in result.curves.items()
+    }
+
+
+def stiffness_figures(result: StiffnessResult) -> list[FigureJob]:
+    """The figures of a stiffness study as jobs for :func:`cyclomesh.pipeline.publish`."""
+    from cyclomesh.figures import drive as plots
+    from cyclomesh.figures.render import FigureJob
+
+    def job(name: str, plot: Callable[..., Any], *args: Any, caption: str) -> FigureJob:
+        return FigureJob(name, plot, args, caption=caption, section=_HEADINGS[name])
+
+    jobs = [
+        job(
+            "torsion_curve",
+            plots.plot_torsion_curve,
+            _curves(
+                result,
+                (
+                    "rotation",
+                    "drive_rotation",
+                    "lost_motion",
+                    "drive_lost_motion",
+                    "torsional_rigidity",
+                    "drive_torsional_rigidity",
+                ),
+            ),
+            caption="Torsion curve: rotation of the disc (stack) from its theoretical position "
+            "against torque in % of rated; band: range over the crank angles, line: mean; "
+            "arrow: lost motion between -3 % and +3 %; dotted: rigidity secants 50-100 %. "
+            "Right: the whole drive with the series stiffness, if given.",
+        ),
+        job(
+            "torsional_rigidity",
+            plots.plot_rigidity,
+            _curves(result, ("torsional_rigidity", "drive_torsional_rigidity")),
+            caption="Torsional rigidity over the crank angle (secant between 50 % and 100 % "
+            "of rated, mean of both directions).",
+        ),
+        job(
+            "play",
+            plots.plot_play,
+            _curves(result, ("play", "lost_motion", "drive_lost_motion")),
+            caption="Play at zero load and lost motion (±3 % of rated) over the crank angle.",
+        ),
+    ]
+    stacks = {k: v for k, v in _curves(result, ("torque_share",)).items() if "torque_share" in v}
+    if stacks:
+        jobs.append(
+            job(
+                "torque_share",
+                plots.plot_torque_share,
+                stacks,
+                caption="Split of the rated torque between the discs of a stack over the "
+                "revolution.",
+            )
+        )
+    return jobs
+
+
+def stiffness_sections(result: StiffnessResult) -> list[Section]:
+    """Report sections of a stiffness study: study and scope, summary (figures follow)."""
+    from cyclomesh.report import Section, table_html
+
+    study = result.study
+    intro = f"<p>{html.escape(study.description)}</p>" if study.description else ""
+    intro += f"<p><strong>{html.escape(CAVEAT)}</strong></p>"
+    intro += f"<p>{html.escape(DEFINITIONS)} Definitions: docs/drive.md.</p>"
+    rows = []
+    for case, inputs in zip(study.cases, study.inputs, strict=True):
+        section = _section(case)
+        curve = result.curves[case.name]
+        rows.append(
+            (
+                case.name,
+                case.description,
+                section.rated_torque_nm,
+                inputs.discs,
+                curve.sizes["torque"],
+                curve.sizes["crank_angle"],
+                section.series_stiffness_nm_per_arcmin,
+                f"{folder_name(case.name)}/stiffness.nc",
+            )
+        )
+    intro += table_html(
+        [
+            "case",
+            "description",
+            "rated torque [N·m]",
+            "discs",
+            "torques",
+            "crank angles",
+            "series stiffness [N·m/arcmin]",
+            "results",
+        ],
+        rows,
+    )
+    intro += (
+        f"<details><summary>study file {html.escape(study.path.name)}</summary>"
+        f"<pre>{html.escape(study.text)}</pre></details>"
+    )
+    names = [case.name for case in study.cases]
+    columns = [c for c in STIFFNESS_METRICS if any(c in result.summaries[n] for n in names)]
+    header = [f"{STIFFNESS_METRICS[c].label} [{STIFFNESS_METRICS[c].unit}]" for c in columns]
+    summary = table_html(
+        ["case", *header], [[n, *(result.summaries[n].get(c) for c in columns)] for n in names]
+    )
+    return [Section("Study", intro), Section("Summary", summary)]
