@@ -75,12 +75,16 @@ def test_reverse_of_error_free_pair_mirrors_forward(groove):
     )
 
 
-def test_reverse_rest_from_mirror_agrees_with_unloaded_flank_contact():
+@pytest.mark.parametrize(
+    "mod",
+    [TPM, Modification(pin_radius=8e-6, rotation=3e-5), Modification(-8e-6, 4e-6, 2e-5)],
+)
+def test_reverse_rest_from_mirror_agrees_with_unloaded_flank_contact(mod):
     # the play from the mirrored problem against the reverse contact rotations of the
     # forward geometry (contact.py), with pin errors that break the symmetry
     errors = ring_errors(5, rings=(3,))
-    both = solve_drive(TABLE1, TPM, errors, [100.0, -100.0], REV)
-    rev_only = solve_drive(TABLE1, TPM, errors, -100.0, REV)
+    both = solve_drive(TABLE1, mod, errors, [100.0, -100.0], REV)
+    rev_only = solve_drive(TABLE1, mod, errors, -100.0, REV)
     np.testing.assert_allclose(rev_only.play, both.play, rtol=0, atol=1e-14)
     # TE of the reverse rest position minus TE of the forward one
     te_rest = -both.rest_rotation

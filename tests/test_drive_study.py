@@ -66,6 +66,12 @@ def test_torque_list_discs_and_stiffness_reach_the_core(tmp_path):
             "stiffness.rated_torque_nm: expected a number > 0",
         ),
         ("[stiffness]\nrated_torque_nm = 1.0\npoints = 1\n", "stiffness.points"),
+        ('[stiffness]\nrated_torque_nm = "250"\n', "stiffness.rated_torque_nm: expected a number"),
+        ("[stiffness]\nrated_torque_nm = 1.0\nrated_nm = 1.0\n", "stiffness.rated_nm: unknown key"),
+        (
+            "[stiffness]\nrated_torque_nm = 1.0\nseries_stiffness_nm_per_arcmin = 0.0\n",
+            "stiffness.series_stiffness_nm_per_arcmin: expected a number > 0",
+        ),
     ],
 )
 def test_bad_drive_keys_give_one_line(tmp_path, text, message):
@@ -76,3 +82,16 @@ def test_bad_drive_keys_give_one_line(tmp_path, text, message):
 def test_discs_must_be_positive(tmp_path):
     with pytest.raises(StudyError, match="design.discs"):
         load_study(write(tmp_path, DESIGN.replace("width_mm = 12.0", "width_mm = 12.0\ndiscs = 0")))
+
+
+def test_a_case_overrides_the_stiffness_section(tmp_path):
+    study = load_study(
+        write(
+            tmp_path,
+            DESIGN
+            + "[stiffness]\nrated_torque_nm = 250.0\n"
+            + '[[cases]]\nname = "a"\n[[cases]]\nname = "b"\nstiffness.rated_torque_nm = 100.0\n',
+        )
+    )
+    assert [c.stiffness.rated_torque_nm for c in study.cases] == [250.0, 100.0]
+    assert study.file.stiffness.rated_torque_nm == 250.0

@@ -242,6 +242,8 @@ def check(study: StudyArg, crank_step_deg: StepOption = None) -> None:
     loaded = load_study(study, _overrides(crank_step_deg))
     names = ", ".join(case.name for case in loaded.cases)
     more = "; [tolerance] OK" if loaded.tolerance is not None else ""
+    if any(case.stiffness is not None for case in loaded.cases):
+        more += "; [stiffness] OK"
     typer.echo(f"{study}: {len(loaded.cases)} case(s) OK: {names}{more}")
 
 
