@@ -46,9 +46,10 @@ def _cases(results: Results, needs: str) -> dict[str, xr.Dataset]:
     return cases
 
 
-def _legend(ax, cases: Mapping[str, object]) -> None:
+def _legend(ax, cases: Mapping[str, object], outside: bool = False) -> None:
     if len(cases) > 1 or any(cases):
-        ax.legend(fontsize="small")
+        where = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)} if outside else {}
+        ax.legend(fontsize="small", **where)
 
 
 def plot_torsion_curve(results: Results) -> Figure:
@@ -112,7 +113,7 @@ def plot_rigidity(results: Results) -> Figure:
     """Torsional rigidity [N·m/arcmin] over the crank angle; whole drive on its own axes."""
     cases = _cases(results, "torsional_rigidity")
     drive = any("drive_torsional_rigidity" in ds for ds in cases.values())
-    fig = _figure(7.0, 5.6 if drive else 3.6)
+    fig = _figure(8.5, 5.6 if drive else 3.6)
     axes = fig.subplots(2 if drive else 1, 1, sharex=True, squeeze=False)[:, 0]
     for name, ds in cases.items():
         crank = ds["crank_angle"].values
@@ -124,15 +125,14 @@ def plot_rigidity(results: Results) -> Figure:
         axes[1].set_ylabel("whole-drive rigidity\n[N·m/arcmin]")
     axes[-1].set_xlabel("crank angle [deg]")
     axes[0].set_title("Torsional rigidity (secant 50–100 % of rated, mean of both directions)")
-    for ax in axes:
-        _legend(ax, cases)
+    _legend(axes[0], cases, outside=True)
     return fig
 
 
 def plot_play(results: Results) -> Figure:
     """Play and lost motion [arcmin] over the crank angle."""
     cases = _cases(results, "play")
-    fig = _figure(7.0, 3.6)
+    fig = _figure(9.0, 3.8)
     ax = fig.add_subplot()
     for i, (name, ds) in enumerate(cases.items()):
         crank = ds["crank_angle"].values
@@ -159,7 +159,7 @@ def plot_play(results: Results) -> Figure:
     ax.set_xlabel("crank angle [deg]")
     ax.set_ylabel("[arcmin]")
     ax.set_title("Play (zero load) and lost motion")
-    ax.legend(fontsize="small")
+    ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return fig
 
 
