@@ -179,3 +179,20 @@ def test_decimation_keeps_every_spike_and_the_envelope():
         assert dy[inside].max() == y[a:b].max() and dy[inside].min() == y[a:b].min()
     short_x, short_y = decimate(x[:100], y[:100], bins=500)
     assert short_x.size == 100  # short lines are left alone
+
+
+def test_netcdf_writer_reads_back_as_xarray_writes_it(tmp_path, cases):
+    from cyclomesh.output import write_netcdf
+
+    ds = cases["TPM"].assign(flag=("pin", np.arange(40) % 2 == 0))
+    ds.attrs["switch"] = True
+    write_netcdf(ds, tmp_path / "ours.nc")
+    reference = ds.assign(flag=ds["flag"].astype(np.int8))
+    reference.attrs["switch"] = np.int8(1)
+    reference.to_netcdf(tmp_path / "xarray.nc")
+    with (
+        xr.open_dataset(tmp_path / "ours.nc") as ours,
+        xr.open_dataset(tmp_path / "xarray.nc") as ref,
+    ):
+        xr.testing.assert_identical(ours.load(), ref.load())
+        assert np.isinf(ours["backlash"].values).any()  # infinities kept in NetCDF

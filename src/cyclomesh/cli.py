@@ -402,6 +402,8 @@ def _figure_pool(options: Any) -> Any:
 
     if not options.figures:
         return nullcontext(None)
+    import xarray  # noqa: F401  (needed here anyway: inherited by the forked workers)
+
     from cyclomesh.figures.render import FigurePool
 
     return FigurePool(options.figure_workers)

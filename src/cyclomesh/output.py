@@ -98,13 +98,49 @@ def write_json(path: Path, document: Mapping[str, Any]) -> Path:
 
 
 def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
-    """Write ``ds`` to NetCDF-4 (booleans as 0/1 bytes)."""
-    out = ds.copy()
-    for name in list(out.data_vars):
-        if out[name].dtype == np.bool_:
-            out[name] = out[name].astype(np.int8)
-    out.to_netcdf(path)
+    """Write ``ds`` to NetCDF-4 (booleans as 0/1 bytes); ``xarray.open_dataset`` reads
+    it back equal, attributes and units included.
+
+    Datasets of numbers with dimension coordinates only (all of cyclomesh's) are
+    written with netCDF4 directly: ``Dataset.to_netcdf`` imports dask and
+    ``distributed`` when they are installed, which costs more than the writing.
+    Anything else goes through ``Dataset.to_netcdf``.
+    """
+    plain = all(name in ds.dims for name in ds.coords) and all(
+        var.dtype.kind in "biuf" for var in ds.variables.values()
+    )
+    if not plain:
+        out = ds.copy()
+        for name in list(out.data_vars):
+            if out[name].dtype == np.bool_:
+                out[name] = out[name].astype(np.int8)
+        out.to_netcdf(path)
+        return path
+    import netCDF4
+
+    with netCDF4.Dataset(path, "w", format="NETCDF4") as nc:
+        for dim, size in ds.sizes.items():
+            nc.createDimension(str(dim), size)
+        for name, var in ds.variables.items():
+            values = np.asarray(var.values)
+            if values.dtype == np.bool_:
+                values = values.astype(np.int8)
+            out = nc.createVariable(
+                str(name), values.dtype, tuple(str(d) for d in var.dims), fill_value=False
+            )
+            if values.ndim:
+                out[...] = values
+            else:
+                out.assignValue(values)
+            out.setncatts({str(k): _nc_attr(v) for k, v in var.attrs.items()})
+        nc.setncatts({str(k): _nc_attr(v) for k, v in ds.attrs.items()})
     return path
+
+
+def _nc_attr(value: Any) -> Any:
+    if isinstance(value, bool | np.bool_):
+        return np.int8(value)
+    return value
 
 
 def _column(values: np.ndarray, name: str, units: str, long_name: str) -> tuple[Any, Any]:

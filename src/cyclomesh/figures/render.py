@@ -44,6 +44,10 @@ FORMATS = ("png", "svg", "pdf")
 MAX_POINTS = 1500
 """Bins of :func:`decimate` along a line (a figure is at most ~1700 px wide at 150 dpi)."""
 
+PNG_COMPRESSION = 3
+"""zlib level of PNG files (matplotlib's default 6 takes about twice as long for files
+about 10 % smaller)."""
+
 POOL_MIN_FIGURES = 4
 """Fewest figures for which a process pool pays for its start (measured: a fork costs
 ~20 ms, a figure 100–600 ms)."""
@@ -133,7 +137,7 @@ def decimate(
 def _draw(job: FigureJob, folder: Path | None, formats: Sequence[str], dpi: int) -> RenderedFigure:
     fig = job.plot(*job.args, **dict(job.kwargs))
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=dpi)
+    fig.savefig(buffer, format="png", dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESSION})
     png = buffer.getvalue()
     files = []
     if folder is not None:

@@ -254,7 +254,7 @@ def plot_transmission_error(results: Results) -> Figure:
     for name, ds in cases.items():
         crank = ds["crank_angle"].values
         te = ds["transmission_error"].values
-        period = 360.0 / int(ds.sizes["pin"])
+        period = 360.0 / int(ds.attrs.get("pins") or ds.sizes["pin"])
         cycle = crank <= crank[0] + period + 1e-9
         ax_mesh.plot(*decimate(crank[cycle], te[cycle]), label=name)
         ax_all.plot(*decimate(crank, te), label=name)
@@ -278,7 +278,7 @@ def plot_gear_ratio(results: Results) -> Figure:
     for name, ds in cases.items():
         ax.plot(*decimate(ds["crank_angle"].values, ds["gear_ratio"].values), label=name)
     first = next(iter(cases.values()))
-    teeth = int(first.sizes["pin"]) - 1
+    teeth = int(first.attrs.get("teeth") or first.sizes["pin"] - 1)
     ax.axhline(teeth, color="k", ls=":", lw=1.0, label=f"ideal n2 = {teeth}")
     step = first.attrs.get("gear_ratio_step_deg")
     ax.set_title(

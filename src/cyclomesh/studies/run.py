@@ -78,7 +78,7 @@ class ProfileCurves:
 
 
 def profile_curves(
-    design: PairDesign, modifications: dict[str, Modification], samples: int = 4001
+    design: PairDesign, modifications: dict[str, Modification], samples: int = 2001
 ) -> ProfileCurves:
     """The standard and modified profiles of one tooth space and the modification
     measured along the standard profile's normal (nearest point of a dense standard
@@ -88,7 +88,7 @@ def profile_curves(
     from cyclomesh.profile import modified_profile
 
     phi1 = np.linspace(-np.pi, np.pi, samples)
-    dense = np.linspace(-1.1 * np.pi, 1.1 * np.pi, 40 * samples)
+    dense = np.linspace(-1.1 * np.pi, 1.1 * np.pi, 20 * samples)
     sx, sy = modified_profile(design, Modification(), dense)
     tx, ty = np.gradient(sx), np.gradient(sy)
     length = np.hypot(tx, ty)
@@ -306,6 +306,10 @@ def run_figures(run: RunResult) -> list[FigureJob]:
     def job(name: str, plot: Callable[..., Any], *args: Any, caption: str) -> FigureJob:
         return FigureJob(name, plot, args, caption=caption, section=_HEADINGS[name])
 
+    def only(*names: str) -> dict[str, xr.Dataset]:
+        """The variables a figure draws (figures may be drawn in other processes)."""
+        return {case: ds[list(names)] for case, ds in results.items()}
+
     jobs = [
         job(
             "profile",
@@ -336,7 +340,7 @@ def run_figures(run: RunResult) -> list[FigureJob]:
         job(
             "loads",
             plots.plot_loads,
-            results,
+            only("pin_load", "groove_load"),
             angles,
             caption="Load on every pin (tooth side) and on every groove at the chosen crank "
             "angles.",
@@ -344,7 +348,7 @@ def run_figures(run: RunResult) -> list[FigureJob]:
         job(
             "profile_stress",
             plots.plot_profile_stress,
-            results,
+            only("pin_load", "contact_stress", settings.stress_over),
             pin,
             settings.stress_over,
             caption=f"Contact stress over the tooth profile, pin {pin}, through its mesh cycle.",
@@ -352,27 +356,29 @@ def run_figures(run: RunResult) -> list[FigureJob]:
         job(
             "stress_maps",
             plots.plot_stress_maps,
-            results,
+            only("contact_stress", "groove_stress"),
             caption="Contact stress of every pin over the crank angle, on teeth and on grooves.",
         ),
         job(
             "transmission_error",
             plots.plot_transmission_error,
-            results,
+            only("transmission_error"),
             caption="Loaded transmission error (Eq. 25) over one mesh cycle and over all angles.",
         ),
         job(
             "gear_ratio",
             plots.plot_gear_ratio,
-            results,
+            only("gear_ratio"),
             caption="Instantaneous gear ratio (Eq. 26); the dotted line is the ideal ratio n2. "
             "The spikes where a pin enters or leaves contact are real.",
         ),
-        job("contacts", plots.plot_contacts, results, caption="Number of pins in contact."),
+        job(
+            "contacts", plots.plot_contacts, only("contacts"), caption="Number of pins in contact."
+        ),
         job(
             "backlash",
             plots.plot_backlash,
-            results,
+            only("backlash"),
             angles,
             caption="Unloaded backlash of every pin (Eq. 11); unreachable pins are left out.",
         ),
