@@ -100,3 +100,14 @@ def test_run_with_torque_list_and_stack(tmp_path):
     assert "torque_share" in ds and "play" in ds
     ds.close()
     assert (out / "figures" / "torque_share.png").exists()
+    # angles.csv: one row per torque and crank angle, per-disc values in their own columns
+    lines = (out / "s" / "angles.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    assert header[:2] == ["torque_nm", "crank_angle_deg"] and len(lines) == 1 + 2 * 36
+    for column in (
+        "play_arcsec",
+        "mesh_force_n_disc1",
+        "mesh_force_n_disc2",
+        "torque_share_nm_disc2",
+    ):
+        assert column in header, column
