@@ -175,6 +175,8 @@ def test_pin_errors_unbalance_a_two_disc_stack():
 def test_zero_torque_and_bad_inputs_are_refused():
     with pytest.raises(DesignError, match="torque 0"):
         solve_drive(TABLE1, TPM, None, [250.0, 0.0], REV)
+    with pytest.raises(DesignError, match="differ"):
+        solve_drive(TABLE1, TPM, None, [250.0, 250.0], REV)
     with pytest.raises(DesignError, match="discs"):
         solve_drive(TABLE1, TPM, None, 250.0, REV, discs=0)
     with pytest.raises(DesignError, match="rated_torque_nm"):

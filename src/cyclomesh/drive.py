@@ -139,8 +139,8 @@ def check_torques(torque: ArrayLike) -> FloatArray:
     Raises
     ------
     DesignError
-        For an empty list, a non-finite value or a torque of exactly 0 (with no load the
-        disc can sit anywhere in the play; the play itself is a result).
+        For an empty list, a non-finite value, a repeated torque or a torque of exactly 0
+        (with no load the disc can sit anywhere in the play; the play itself is a result).
     """
     try:
         values = np.atleast_1d(np.asarray(torque, dtype=float))
@@ -157,6 +157,8 @@ def check_torques(torque: ArrayLike) -> FloatArray:
             "torque 0 N·m: with no load the disc can sit anywhere in the play; give a "
             "positive (forward flanks) or negative (reverse flanks) torque; the play is a result"
         )
+    if np.unique(values).size != values.size:
+        raise DesignError("torque: the torques of a list must differ from each other")
     return values
 
 
