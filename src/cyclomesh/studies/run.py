@@ -420,6 +420,8 @@ def _flat(prefix: str, value: Any) -> dict[str, Any]:
 def _cell(value: Any) -> Any:
     if isinstance(value, bool):
         return "true" if value else "false"
+    if isinstance(value, list):  # one value per torque of a torque list
+        return " / ".join(f"{v:.4g}" if isinstance(v, float) else str(_cell(v)) for v in value)
     return value
 
 
@@ -460,7 +462,8 @@ def run_sections(run: RunResult) -> list[Section]:
         f"{c} [{every[c].unit}]" if c in every and every[c].unit != "1" else c for c in columns
     ]
     summary = table_html(
-        ["case", *header], [[n, *(run.summaries[n].get(c) for c in columns)] for n in names]
+        ["case", *header],
+        [[n, *(_cell(run.summaries[n].get(c)) for c in columns)] for n in names],
     )
     return [Section("Study", intro), Section("Inputs", inputs_html), Section("Summary", summary)]
 
