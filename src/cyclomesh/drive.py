@@ -83,6 +83,7 @@ __all__ = [
     "TorsionCurve",
     "mirror_errors",
     "mirror_index",
+    "mirror_problem",
     "solve_drive",
     "check_torques",
     "torsion_torques",
@@ -131,6 +132,21 @@ def mirror_errors(errors: PinErrors, pins: int) -> PinErrors:
         pin_radius=per_pin(errors.pin_radius),
         eccentricity=errors.eccentricity,
     )
+
+
+def mirror_problem(
+    modification: Modification, errors: PinErrors, pins: int
+) -> tuple[Modification, PinErrors]:
+    """The gear pair reflected about the x-axis: the one place that maps a problem to its
+    mirror image (used for the reverse flanks).
+
+    Δa, Δρ and the rotation modification δ are symmetric about a tooth-space bottom, so a
+    modification made of them is its own mirror image; a modification that is not (a
+    tabulated profile deviation, per tooth or not) must provide ``mirrored()``, which
+    is used when present. The ring goes through :func:`mirror_errors`.
+    """
+    mirrored = getattr(modification, "mirrored", None)
+    return (mirrored() if callable(mirrored) else modification), mirror_errors(errors, pins)
 
 
 def check_torques(torque: ArrayLike) -> FloatArray:
@@ -383,9 +399,9 @@ def _directions(
     fwd = _mesh(design, modification, errors, phi, discs, groove_deformation) if forward else None
     rev = None
     if reverse:
-        mirrored = mirror_errors(errors, design.pins)
+        mod_m, errors_m = mirror_problem(modification, errors, design.pins)
         # the mirror of crank angle φ is −φ; solve increasing angles and flip back below
-        rev = _mesh(design, modification, mirrored, -phi[::-1], discs, groove_deformation)
+        rev = _mesh(design, mod_m, errors_m, -phi[::-1], discs, groove_deformation)
     return fwd, rev
 
 
