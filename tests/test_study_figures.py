@@ -97,6 +97,14 @@ def test_stress_maps_teeth_and_grooves(cases):
     colorbar_axes = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
     maps = [ax for ax in fig.axes if ax not in colorbar_axes]
     assert len(maps) == 4
+    assert all(len(ax.images) == 1 for ax in maps)  # equally spaced angles: an image
+    image = maps[0].images[0].get_array()  # first case, teeth: pins × angles, unloaded blank
+    stress = cases["TPM"]["contact_stress"].transpose("pin", "crank_angle").values
+    np.testing.assert_array_equal(image.filled(0.0), np.where(stress > 0, stress, 0.0))
+    assert np.array_equal(image.mask, stress <= 0)
+    uneven = {k: ds.isel(crank_angle=[0, 1, 3, 7]) for k, ds in cases.items()}
+    fig = figures.plot_stress_maps(uneven)
+    maps = [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
     assert all(any(isinstance(c, QuadMesh) for c in ax.collections) for ax in maps)
     colorbars = {ax.get_ylabel() for ax in colorbar_axes}
     assert colorbars == {"tooth contact stress [MPa]", "groove stress [MPa]"}

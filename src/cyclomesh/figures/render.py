@@ -156,7 +156,6 @@ def _warm() -> None:
     import matplotlib.backends.backend_agg  # noqa: F401
 
     import cyclomesh.figures.run  # noqa: F401
-    import cyclomesh.figures.tolerance  # noqa: F401
 
 
 def _nothing() -> None:
