@@ -298,6 +298,7 @@ BAD_RUNS = {
         "undercut",
     ),
     "bad step option": (TABLE2, ["--crank-step-deg", "-1"], "analysis.crank_step_deg"),
+    "bad figures option": (TABLE2, ["--figures", "png,gif"], "--figures: unknown format 'gif'"),
     "bad case key": (
         TABLE2.replace('name = "Case 4"', 'name = "Case 4"\nanalysis.groove = true'),
         [],

@@ -97,6 +97,14 @@ def test_stress_maps_teeth_and_grooves(cases):
     colorbar_axes = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
     maps = [ax for ax in fig.axes if ax not in colorbar_axes]
     assert len(maps) == 4
+    assert all(len(ax.images) == 1 for ax in maps)  # equally spaced angles: an image
+    image = maps[0].images[0].get_array()  # first case, teeth: pins × angles, unloaded blank
+    stress = cases["TPM"]["contact_stress"].transpose("pin", "crank_angle").values
+    np.testing.assert_array_equal(image.filled(0.0), np.where(stress > 0, stress, 0.0))
+    assert np.array_equal(image.mask, stress <= 0)
+    uneven = {k: ds.isel(crank_angle=[0, 1, 3, 7]) for k, ds in cases.items()}
+    fig = figures.plot_stress_maps(uneven)
+    maps = [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
     assert all(any(isinstance(c, QuadMesh) for c in ax.collections) for ax in maps)
     colorbars = {ax.get_ylabel() for ax in colorbar_axes}
     assert colorbars == {"tooth contact stress [MPa]", "groove stress [MPa]"}
@@ -196,3 +204,33 @@ def test_netcdf_writer_reads_back_as_xarray_writes_it(tmp_path, cases):
     ):
         xr.testing.assert_identical(ours.load(), ref.load())
         assert np.isinf(ours["backlash"].values).any()  # infinities kept in NetCDF
+
+
+def test_renderer_saves_every_format_the_same_in_a_pool_or_not(tmp_path, cases):
+    from cyclomesh.figures.render import FigureJob, render_figures
+
+    jobs = [
+        FigureJob("contacts", figures.plot_contacts, (cases,), caption="c", section="A"),
+        FigureJob("ratio", figures.plot_gear_ratio, (cases,), caption="r", section="B"),
+        FigureJob("te", figures.plot_transmission_error, (cases,), caption="t", section="B"),
+    ]
+    serial = render_figures(jobs, tmp_path / "one", ("png", "svg", "pdf"), 60, workers=1)
+    pooled = render_figures(jobs, tmp_path / "two", ("png",), 60, workers=2)
+    assert [f.name for f in pooled] == [f.name for f in serial] == ["contacts", "ratio", "te"]
+    for one, two in zip(serial, pooled, strict=True):
+        assert one.png == two.png and one.png[:8] == b"\x89PNG\r\n\x1a\n"
+        assert [p.suffix for p in one.files] == [".png", ".svg", ".pdf"]
+        assert (tmp_path / "two" / f"{two.name}.png").read_bytes() == two.png
+    with pytest.raises(ValueError, match="unknown figure format 'gif'"):
+        render_figures(jobs, tmp_path, ("gif",))
+
+
+def test_figure_formats_option():
+    from cyclomesh.exceptions import StudyError
+    from cyclomesh.pipeline import parse_figure_formats
+
+    assert parse_figure_formats("png,svg") == ("png", "svg")
+    assert parse_figure_formats(" PDF , png,pdf") == ("pdf", "png")
+    assert parse_figure_formats("none") == ()
+    with pytest.raises(StudyError, match="--figures: unknown format 'jpg'"):
+        parse_figure_formats("png,jpg")

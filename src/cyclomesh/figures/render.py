@@ -48,9 +48,9 @@ PNG_COMPRESSION = 3
 """zlib level of PNG files (matplotlib's default 6 takes about twice as long for files
 about 10 % smaller)."""
 
-POOL_MIN_FIGURES = 4
+POOL_MIN_FIGURES = 2
 """Fewest figures for which a process pool pays for its start (measured: a fork costs
-~20 ms, a figure 100–600 ms)."""
+~20 ms, a figure 70–600 ms of CPU; matplotlib is imported once before the fork)."""
 
 
 @dataclass(frozen=True)
@@ -156,7 +156,6 @@ def _warm() -> None:
     import matplotlib.backends.backend_agg  # noqa: F401
 
     import cyclomesh.figures.run  # noqa: F401
-    import cyclomesh.figures.tolerance  # noqa: F401
 
 
 def _nothing() -> None:

@@ -214,31 +214,59 @@ def plot_stress_maps(results: Results) -> Figure:
     """Contact stress of every pin over the crank angle, on the teeth and on the grooves.
 
     One row per case; left tooth contact stress, right groove stress [MPa], colour scale
-    shared by a column; blank where a pin carries no load. Drawn rasterized.
+    shared by a column; blank where a pin carries no load. Equally spaced crank angles
+    are drawn as an image (one pixel per angle and pin), others as a mesh.
     """
     cases = _cases(results)
-    fig = new_figure(11.0, 2.6 * len(cases) + 0.8, layout="constrained")
-    axes = fig.subplots(len(cases), 2, sharex=True, sharey=True, squeeze=False)
+    height = 2.6 * len(cases) + 0.8
+    fig = new_figure(11.0, height)
+    grid = fig.add_gridspec(
+        len(cases),
+        5,
+        width_ratios=[1.0, 0.03, 0.32, 1.0, 0.03],
+        left=0.7 / 11.0,
+        right=1 - 0.75 / 11.0,
+        bottom=0.55 / height,
+        top=1 - 0.4 / height,
+        hspace=0.45,
+        wspace=0.08,
+    )
+    axes = np.empty((len(cases), 2), dtype=object)
+    for row in range(len(cases)):
+        for column, slot in enumerate((0, 3)):
+            share = axes[0, 0] if row or column else None
+            axes[row, column] = fig.add_subplot(grid[row, slot], sharex=share, sharey=share)
     for column, (variable, label) in enumerate(
         (("contact_stress", "tooth contact stress [MPa]"), ("groove_stress", "groove stress [MPa]"))
     ):
         top = max(float(ds[variable].max()) for ds in cases.values()) or 1.0
         for ax, (name, ds) in zip(axes[:, column], cases.items(), strict=True):
-            values = ds[variable].transpose("pin", "crank_angle").values
-            mesh = ax.pcolormesh(
-                ds["crank_angle"].values,
-                ds["pin"].values,
-                np.ma.masked_less_equal(values, 0.0),
-                vmin=0.0,
-                vmax=top,
-                shading="nearest",
-                rasterized=True,
-            )
+            values = np.ma.masked_less_equal(ds[variable].transpose("pin", "crank_angle").values, 0)
+            crank, pins = ds["crank_angle"].values, ds["pin"].values
+            step = np.diff(crank)
+            if crank.size > 1 and np.allclose(step, step[0], rtol=1e-9, atol=0.0):
+                half = step[0] / 2
+                image = ax.imshow(
+                    values,
+                    extent=(crank[0] - half, crank[-1] + half, pins[0] - 0.5, pins[-1] + 0.5),
+                    origin="lower",
+                    aspect="auto",
+                    interpolation="nearest",
+                    vmin=0.0,
+                    vmax=top,
+                )
+            else:
+                image = ax.pcolormesh(
+                    crank, pins, values, vmin=0.0, vmax=top, shading="nearest", rasterized=True
+                )
             ax.set_ylabel("pin")
             ax.set_title(f"{name}: {label.split(' [')[0]}" if name else label, fontsize="medium")
-        fig.colorbar(mesh, ax=axes[:, column], label=label, fraction=0.05, aspect=40)
+        cax = fig.add_subplot(grid[:, 1 + 3 * column], label="<colorbar>")
+        fig.colorbar(image, cax=cax, label=label)
     for ax in axes[-1]:
         ax.set_xlabel("crank angle [deg]")
+    for ax in axes[:-1].ravel():
+        ax.tick_params(labelbottom=False)
     return fig
 
 

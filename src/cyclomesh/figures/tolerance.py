@@ -9,13 +9,17 @@ they write no file (:mod:`cyclomesh.figures.render` does).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
 from cyclomesh.figures.render import new_figure
 from cyclomesh.metrics import METRICS, STRESS_METRIC, metric_label
-from cyclomesh.tolerance.allocation import Allocation, clopper_pearson
+
+if TYPE_CHECKING:
+    from cyclomesh.tolerance.allocation import Allocation
 
 __all__ = [
     "plot_metric_histograms",
@@ -103,6 +107,8 @@ def plot_stress_exceedance(
     The band is the pointwise Clopper–Pearson interval; log scale, probabilities below
     half a ring (0.5/n, including 0) drawn at that floor.
     """
+    from cyclomesh.tolerance.allocation import clopper_pearson
+
     stress = np.sort(np.asarray(ds[STRESS_METRIC].values, dtype=float))
     n = stress.size
     span = max(stress[-1] - stress[0], 1.0)
