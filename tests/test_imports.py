@@ -12,9 +12,11 @@ HEAVY = ("xarray", "pandas", "matplotlib", "pyarrow", "netCDF4", "distributed")
     "modules, absent",
     [
         ("cyclomesh.ltca", HEAVY),  # the core: NumPy and SciPy only
+        ("cyclomesh.drive, cyclomesh.torsion", HEAVY),  # drive characteristics, same
         ("cyclomesh, cyclomesh.cli", (*HEAVY, "scipy", "pydantic")),  # --help
         ("cyclomesh.tolerance.tasks", HEAVY),  # what tolerance workers run
         ("cyclomesh.studies.run, cyclomesh.studies.tolerance, cyclomesh.pipeline", HEAVY),
+        ("cyclomesh.studies.stiffness", HEAVY),
     ],
 )
 def test_modules_import_without_heavy_libraries(modules, absent):

@@ -18,14 +18,18 @@ Dataset then carries the whole-drive curve beside the mesh curve.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import xarray as xr
 from numpy.typing import ArrayLike
 
 from cyclomesh.analysis import _attrs
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.drive import torsion_curve
 from cyclomesh.exceptions import DesignError
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 __all__ = ["stiffness", "summarize_stiffness", "ARCMIN"]
 
@@ -193,6 +197,8 @@ def stiffness(
     )
     if series is not None:
         attrs["series_stiffness_nm_per_arcmin"] = float(series_stiffness_nm_per_arcmin)
+    import xarray as xr
+
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
@@ -223,6 +229,8 @@ def summarize_stiffness(ds: xr.Dataset) -> xr.Dataset:
                 continue
             value = getattr(ds[prefix + name], how)("crank_angle")
             out[prefix + key] = value.assign_attrs(units=units)
+    import xarray as xr
+
     summary = xr.Dataset(out)
     summary.attrs["rated_torque_nm"] = ds.attrs["rated_torque_nm"]
     return summary
