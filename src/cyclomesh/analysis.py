@@ -24,13 +24,13 @@ from cyclomesh.metrics import METRICS, summary_metrics
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["analyse", "to_dataset", "summarize", "ltca_metrics", "ARCSEC", "PER_PIN", "PER_ANGLE"]
+__all__ = ["analyse", "to_dataset", "summarize", "ltca_metrics", "ARCSEC"]
 
 ARCSEC = np.pi / (180.0 * 3600.0)
 """One second of arc [rad]."""
 
 # name (an LTCA field): (scale from SI, units, long name)
-PER_PIN = {
+_PER_PIN = {
     "pin_load": (1.0, "N", "pin-tooth contact force Fc"),
     "groove_load": (1.0, "N", "pin-groove contact force Fp"),
     "contact_stress": (1e-6, "MPa", "max. Hertzian pressure, pin-tooth"),
@@ -42,7 +42,7 @@ PER_PIN = {
     "moment_arm": (1e3, "mm", "moment arm of the line of action"),
     "curvature_radius": (1e3, "mm", "signed profile curvature radius ρc"),
 }
-PER_ANGLE = {
+_PER_ANGLE = {
     "transmission_error": (1.0 / ARCSEC, "arcsec", "loaded TE"),
     "gear_ratio": (1.0, "1", "instantaneous gear ratio"),
     "contacts": (1, "1", "number of pins in contact"),
@@ -66,15 +66,15 @@ def to_dataset(
     groove_deformation: bool,
 ) -> xr.Dataset:
     """Label an :class:`~cyclomesh.ltca.LTCA` result (SI) as a Dataset in engineering units."""
+    import xarray as xr
+
     ring_dims = ("ring",) if result.transmission_error.ndim == 2 else ()
     if result.transmission_error.ndim > 2:
         raise ValueError("to_dataset supports at most one ring axis")
     dims_pin = (*ring_dims, "crank_angle", "pin")
     dims_angle = (*ring_dims, "crank_angle")
     data = {}
-    import xarray as xr
-
-    for dims, table in ((dims_pin, PER_PIN), (dims_angle, PER_ANGLE)):
+    for dims, table in ((dims_pin, _PER_PIN), (dims_angle, _PER_ANGLE)):
         for name, (scale, units, long_name) in table.items():
             attrs = {"units": units, "long_name": long_name}
             data[name] = (dims, getattr(result, name) * scale, attrs)
@@ -224,7 +224,7 @@ def ltca_metrics(result: LTCA, teeth: int) -> dict[str, NDArray]:
     """
     scaled = {
         name: getattr(result, name) * table[name][0]
-        for table in (PER_PIN, PER_ANGLE)
+        for table in (_PER_PIN, _PER_ANGLE)
         for name in table
         if name
         in (
