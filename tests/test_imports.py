@@ -17,6 +17,11 @@ HEAVY = ("xarray", "pandas", "matplotlib", "pyarrow", "netCDF4", "distributed")
         ("cyclomesh.tolerance.tasks", HEAVY),  # what tolerance workers run
         ("cyclomesh.studies.run, cyclomesh.studies.tolerance, cyclomesh.pipeline", HEAVY),
         ("cyclomesh.studies.stiffness", HEAVY),
+        # plot modules: matplotlib only when a figure is drawn (in the figure workers)
+        (
+            "cyclomesh.figures.run, cyclomesh.figures.tolerance, cyclomesh.figures.drive",
+            ("matplotlib", "scipy.stats"),
+        ),
     ],
 )
 def test_modules_import_without_heavy_libraries(modules, absent):

@@ -25,23 +25,13 @@ from cyclomesh.metrics import DRIVE_METRICS, METRICS, summary_metrics
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = [
-    "analyse",
-    "to_dataset",
-    "drive_to_dataset",
-    "summarize",
-    "ltca_metrics",
-    "ARCSEC",
-    "PER_PIN",
-    "PER_ANGLE",
-    "PER_DISC",
-]
+__all__ = ["analyse", "to_dataset", "drive_to_dataset", "summarize", "ltca_metrics", "ARCSEC"]
 
 ARCSEC = np.pi / (180.0 * 3600.0)
 """One second of arc [rad]."""
 
 # name (an LTCA field): (scale from SI, units, long name)
-PER_PIN = {
+_PER_PIN = {
     "pin_load": (1.0, "N", "pin-tooth contact force Fc"),
     "groove_load": (1.0, "N", "pin-groove contact force Fp"),
     "contact_stress": (1e-6, "MPa", "max. Hertzian pressure, pin-tooth"),
@@ -53,7 +43,7 @@ PER_PIN = {
     "moment_arm": (1e3, "mm", "moment arm of the line of action"),
     "curvature_radius": (1e3, "mm", "signed profile curvature radius ρc"),
 }
-PER_ANGLE = {
+_PER_ANGLE = {
     "transmission_error": (1.0 / ARCSEC, "arcsec", "loaded TE"),
     "gear_ratio": (1.0, "1", "instantaneous gear ratio"),
     "contacts": (1, "1", "number of pins in contact"),
@@ -64,7 +54,7 @@ PER_ANGLE = {
 _DRIVE_PER_PIN = {
     "force_angle": (180.0 / np.pi, "deg", "direction of the pin force on the disc, from x"),
 }
-PER_DISC = {
+_PER_DISC = {
     "mesh_force": (1.0, "N", "resultant of the pin forces on the disc (crank bearing load)"),
     "mesh_force_angle": (180.0 / np.pi, "deg", "direction of the mesh force, from x"),
     "torque_share": (1.0, "N m", "torque carried by the disc"),
@@ -87,15 +77,15 @@ def to_dataset(
     groove_deformation: bool,
 ) -> xr.Dataset:
     """Label an :class:`~cyclomesh.ltca.LTCA` result (SI) as a Dataset in engineering units."""
+    import xarray as xr
+
     ring_dims = ("ring",) if result.transmission_error.ndim == 2 else ()
     if result.transmission_error.ndim > 2:
         raise ValueError("to_dataset supports at most one ring axis")
     dims_pin = (*ring_dims, "crank_angle", "pin")
     dims_angle = (*ring_dims, "crank_angle")
     data = {}
-    import xarray as xr
-
-    for dims, table in ((dims_pin, PER_PIN), (dims_angle, PER_ANGLE)):
+    for dims, table in ((dims_pin, _PER_PIN), (dims_angle, _PER_ANGLE)):
         for name, (scale, units, long_name) in table.items():
             attrs = {"units": units, "long_name": long_name}
             data[name] = (dims, getattr(result, name) * scale, attrs)
@@ -186,13 +176,13 @@ def drive_to_dataset(
     angle_dims = (*ring, *keep, "crank_angle")
     # the variables of to_dataset first, in its order, then the drive's own
     tables = (
-        (pin_dims, "pin", PER_PIN),
+        (pin_dims, "pin", _PER_PIN),
         *(
             (disc_dims, "disc", {k: v}) if k == "contacts" else (angle_dims, "angle", {k: v})
-            for k, v in PER_ANGLE.items()
+            for k, v in _PER_ANGLE.items()
         ),
         (pin_dims, "pin", _DRIVE_PER_PIN),
-        (disc_dims, "disc", PER_DISC),
+        (disc_dims, "disc", _PER_DISC),
     )
     data = {}
     for dims, per, table in tables:
@@ -356,7 +346,7 @@ def ltca_metrics(result: LTCA, teeth: int) -> dict[str, NDArray]:
     """
     scaled = {
         name: getattr(result, name) * table[name][0]
-        for table in (PER_PIN, PER_ANGLE)
+        for table in (_PER_PIN, _PER_ANGLE)
         for name in table
         if name
         in (

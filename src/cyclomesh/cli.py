@@ -409,6 +409,29 @@ def _figure_pool(options: Any) -> Any:
     return FigurePool(options.figure_workers)
 
 
+def _preload(figures: bool) -> Any:
+    """Import xarray (and matplotlib) in a thread while the workers compute.
+
+    Started after the worker processes are forked; joined before anything else forks,
+    so the figure workers inherit the imported modules.
+    """
+    import threading
+
+    def work() -> None:
+        import numpy as np
+        import xarray as xr
+
+        xr.DataArray(np.zeros(1))  # the first array makes xarray import its array backends
+        if figures:
+            from cyclomesh.figures.render import _warm
+
+            _warm()
+
+    thread = threading.Thread(target=work, name="cyclomesh-preload", daemon=True)
+    thread.start()
+    return thread
+
+
 def _backend(scheduler: str | None, workers: int | None) -> Any:
     from cyclomesh.execution import make_backend
 
@@ -440,6 +463,7 @@ def tolerance(
     backend = _backend(scheduler, workers)
     try:
         backend.start()
+        preload = _preload(bool(options.figures))
         _say(
             f"tolerance study: {n} rings, {len(spec.crank_angles_deg())} crank angles, "
             f"{backend.workers} worker(s)",
@@ -451,6 +475,7 @@ def tolerance(
             )
     finally:
         backend.close()
+    preload.join()
     files = kind.write_tolerance(result, out)
     jobs = kind.tolerance_figures(result) if options.figures else []
     publish(
@@ -501,6 +526,7 @@ def allocate(
     backend = _backend(scheduler, workers)
     try:
         backend.start()
+        preload = _preload(bool(options.figures))
         _say(
             f"tolerance allocation: {n} rings, scale factors up to {alloc.factor_max:g} in "
             f"{alloc.factor_steps} steps + {alloc.bisections} bisections, "
@@ -518,6 +544,7 @@ def allocate(
             )
     finally:
         backend.close()
+    preload.join()
     files = kind.write_allocation(result, out)
     jobs = kind.allocation_figures(result) if options.figures else []
     publish(

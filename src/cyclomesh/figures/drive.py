@@ -11,11 +11,14 @@ first. The definitions of play, lost motion and torsional rigidity are in
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import xarray as xr
-from matplotlib.figure import Figure
 
 from cyclomesh.figures.render import new_figure
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = [
     "plot_torsion_curve",

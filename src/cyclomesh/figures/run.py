@@ -23,13 +23,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import xarray as xr
-from matplotlib.figure import Figure
-from matplotlib.patches import Circle
 
 from cyclomesh.design import PinErrors
 from cyclomesh.figures.render import decimate, new_figure
 
 if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
     from cyclomesh.studies.run import ProfileCurves
 
 __all__ = [
@@ -103,6 +103,8 @@ def plot_profile(curves: ProfileCurves) -> Figure:
     for name, (x, y, removed) in curves.modified.items():
         ax_tooth.plot(x, y, lw=1.2, label=name)
         ax_mod.plot(curves.phi1_deg, removed, label=name)
+    from matplotlib.patches import Circle
+
     ax_tooth.add_patch(
         Circle((curves.seat_mm, 0.0), curves.pin_radius_mm, fill=False, color="0.5", lw=0.8)
     )

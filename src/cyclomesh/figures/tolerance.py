@@ -13,12 +13,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import xarray as xr
-from matplotlib.figure import Figure
 
 from cyclomesh.figures.render import new_figure
 from cyclomesh.metrics import METRICS, STRESS_METRIC, metric_label
 
 if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
     from cyclomesh.tolerance.allocation import Allocation
 
 __all__ = [

@@ -80,28 +80,25 @@ class ProfileCurves:
 def profile_curves(
     design: PairDesign, modifications: dict[str, Modification], samples: int = 2001
 ) -> ProfileCurves:
-    """The standard and modified profiles of one tooth space and the modification
-    measured along the standard profile's normal (nearest point of a dense standard
-    profile; Eqs. 1–3 of [1])."""
-    from scipy.spatial import cKDTree
+    """The standard and modified profiles of one tooth space and the modification:
+    the offset of each modified point from the standard point of the same generating
+    angle, projected on the standard profile's outward normal (Eqs. 1–3 of [1]).
 
+    Exact for the equidistant modification Δρ (a pure normal offset) and at the
+    tooth-space bottom; elsewhere the error is of second order in the tangential offset
+    (µm² over a curvature radius of millimetres: below 0.02 µm here).
+    """
     from cyclomesh.profile import modified_profile
 
     phi1 = np.linspace(-np.pi, np.pi, samples)
-    dense = np.linspace(-1.1 * np.pi, 1.1 * np.pi, 20 * samples)
-    sx, sy = modified_profile(design, Modification(), dense)
-    tx, ty = np.gradient(sx), np.gradient(sy)
-    length = np.hypot(tx, ty)
-    normal = np.column_stack([ty / length, -tx / length])  # outward: towards the pins
-    tree = cKDTree(np.column_stack([sx, sy]))
     x0, y0 = modified_profile(design, Modification(), phi1)
+    tx, ty = np.gradient(x0, phi1), np.gradient(y0, phi1)
+    length = np.hypot(tx, ty)
+    nx, ny = ty / length, -tx / length  # outward: towards the pins
     modified = {}
     for name, modification in modifications.items():
         x, y = modified_profile(design, modification, phi1)
-        _, nearest = tree.query(np.column_stack([x, y]))
-        removed = np.einsum(
-            "ij,ij->i", np.column_stack([sx[nearest] - x, sy[nearest] - y]), normal[nearest]
-        )
+        removed = (x0 - x) * nx + (y0 - y) * ny
         modified[name] = (x * 1e3, y * 1e3, removed * 1e6)
     return ProfileCurves(
         phi1_deg=np.rad2deg(phi1),
