@@ -383,3 +383,34 @@ def test_check_refuses_bad_tolerance_keys_before_any_work(tmp_path, old, new, ex
         assert result.stderr.startswith(f"error: {expected}"), result.stderr
         assert result.stderr.count("\n") == 1
     assert not (tmp_path / "o").exists()
+
+
+def test_installed_command_runs_with_forked_figure_and_ring_workers(tmp_path):
+    """The command as users start it: figure workers forked before the solve (run), ring
+    workers forked before the progress bar (tolerance); every file written."""
+    out = tmp_path / "run"
+    command = [sys.executable, "-m", "cyclomesh"]
+    run = subprocess.run(
+        [*command, "run", str(EXAMPLES / "section42.toml"), "-o", str(out), "-q"]
+        + ["--crank-step-deg", "10", "--figures", "png,svg"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert run.returncode == 0, run.stderr
+    names = {p.name for p in (out / "figures").iterdir()}
+    assert names == {f"{n}.{ext}" for n in (*FIGURES, "pin_errors") for ext in ("png", "svg")}
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert page.count("data:image/png;base64,") == len(FIGURES) + 1
+    tolerance = subprocess.run(
+        [*command, "tolerance", str(EXAMPLES / "tolerance.toml"), "-o", str(tmp_path / "tol")]
+        + ["--rings", "8", "-q", "--workers", "2"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert tolerance.returncode == 0, tolerance.stderr
+    for name in ("tolerance_histograms", "tolerance_ecdfs", "tolerance_exceedance"):
+        assert (tmp_path / "tol" / "figures" / f"{name}.png").is_file()
+    summary = json.loads((tmp_path / "tol" / "tolerance_summary.json").read_text())
+    assert summary["rings"] == 8
