@@ -344,9 +344,7 @@ def _deviated_contact(
     if modification.profile.symmetric:
         u_rev, rev_reach = -u, reach
     else:
-        u_rev, res_rev, rev_reach, _, _ = _flank_phase(
-            design, modification, w2, r_pin, space, 1.0
-        )
+        u_rev, res_rev, rev_reach, _, _ = _flank_phase(design, modification, w2, r_pin, space, 1.0)
         if not np.all(res_rev <= CONTACT_TOLERANCE):
             flat = np.unravel_index(np.argmax(res_rev), res_rev.shape)
             raise ConvergenceError(

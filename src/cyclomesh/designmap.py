@@ -515,7 +515,8 @@ def design_map(
             for key, values in coords.items()
         },
     )
-    rings = 1 if errors is None else math.prod(errors.ring_shape(design.pins)) or 1
+    ring_shape = () if errors is None else errors.ring_shape(design.pins)
+    rings = math.prod(ring_shape)
     ds.attrs.update(
         {
             "title": "cyclomesh design map",
@@ -523,7 +524,7 @@ def design_map(
             "objective_variable": METRICS[OBJECTIVES[objective]][0],
             "torque_nm": float(torque),
             "rings": int(rings),
-            "robust": int(rings > 1 and errors is not None and bool(errors.ring_shape(design.pins))),
+            "robust": int(bool(ring_shape)),
             "robust_percentile": ROBUST_PERCENTILE,
             "groove_deformation": int(bool(groove_deformation)),
             "crank_angles": len(task.crank_angles),

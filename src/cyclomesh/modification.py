@@ -188,9 +188,7 @@ class ProfileDeviation:
         """True for one table per tooth space."""
         return self.teeth > 1
 
-    def evaluate(
-        self, phase: ArrayLike, space: ArrayLike = 0, derivative: int = 0
-    ) -> FloatArray:
+    def evaluate(self, phase: ArrayLike, space: ArrayLike = 0, derivative: int = 0) -> FloatArray:
         """Deviation d or its derivative with respect to φ1 [m/rad^k].
 
         Parameters
@@ -204,6 +202,8 @@ class ProfileDeviation:
         """
         phase = np.asarray(phase, dtype=float)
         if self.teeth > 1:
+            # φ1 = π is the last point of its own tooth space, not the next one's first
+            phase = np.minimum(phase, math.pi - 1e-12)
             phase = phase + 2.0 * math.pi * (np.asarray(space) % self.teeth)
         return self._spline(phase, derivative)
 

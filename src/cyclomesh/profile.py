@@ -20,9 +20,9 @@ References
 
 from __future__ import annotations
 
-import numpy as np
 from typing import NamedTuple
 
+import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.design import Modification, PairDesign
