@@ -7,8 +7,10 @@ Analysis of the Mismatched Cycloid-Pin Gear Pair in RV Speed Reducers", Machines
 
 from cyclomesh.analysis import analyse, summarize, to_dataset
 from cyclomesh.design import STEEL, TABLE1, Material, Modification, PairDesign, PinErrors
+from cyclomesh.designmap import Constraints, design_map
 from cyclomesh.exceptions import ConvergenceError, CyclomeshError, DesignError, StudyError
 from cyclomesh.ltca import LTCA, solve_ltca
+from cyclomesh.modification import ProfileDeviation
 
 __all__ = [
     "analyse",
@@ -20,6 +22,9 @@ __all__ = [
     "Material",
     "Modification",
     "PinErrors",
+    "ProfileDeviation",
+    "design_map",
+    "Constraints",
     "STEEL",
     "TABLE1",
     "CyclomeshError",
