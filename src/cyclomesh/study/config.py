@@ -51,8 +51,10 @@ from pydantic import (
 
 from cyclomesh.design import Material, Modification, PairDesign, PinErrors
 from cyclomesh.exceptions import DesignError, StudyError
+from cyclomesh.modification import ProfileDeviation
 from cyclomesh.profile import check_profile
 from cyclomesh.study.measurements import PIN_ERROR_COLUMNS, read_pin_errors_csv
+from cyclomesh.study.profile_csv import read_profile_csv
 
 __all__ = [
     "DesignSection",
@@ -137,6 +139,9 @@ class ModificationSection(_Section):
     pin_circle_radius_um: float = Field(0.0, description="Δa [µm], negative opens clearance")
     pin_radius_um: float = Field(0.0, description="Δρ [µm], positive opens clearance")
     rotation_urad: float = Field(0.0, description="rotation-angle modification δ [µrad]")
+    profile_file: str | None = Field(
+        None, description="CSV of a tabulated normal profile deviation (docs/modification.md)"
+    )
 
 
 class MaterialProperties(_Section):
@@ -338,6 +343,23 @@ class CaseSpec(_Section):
                 total[name] += drawn[name]
         return total
 
+    def profile_deviation(self) -> ProfileDeviation | None:
+        """The table of ``modification.profile_file`` (SI), or None.
+
+        Raises
+        ------
+        StudyError
+            A bad file or table, naming the case, the file and the line.
+        """
+        if self.modification.profile_file is None:
+            return None
+        try:
+            return read_profile_csv(
+                self._base_dir / self.modification.profile_file, self.design.pins - 1
+            )
+        except StudyError as exc:
+            raise StudyError(f"{self.label}: {exc}") from None
+
     def to_core(self) -> CaseInputs:
         """Convert to the core's SI objects, checked by the core.
 
@@ -365,6 +387,7 @@ class CaseSpec(_Section):
                 pin_circle_radius=m.pin_circle_radius_um * UM,
                 pin_radius=m.pin_radius_um * UM,
                 rotation=m.rotation_urad * URAD,
+                profile=self.profile_deviation(),
             )
             errors = pin_errors_si(
                 per_pin["radial_um"],
@@ -400,6 +423,7 @@ class _StudyFile(_Section):
     figures: FiguresSection = FiguresSection()
     cases: list[dict[str, Any]] = []
     tolerance: dict[str, Any] | None = None
+    design_space: dict[str, Any] | None = None
 
 
 @dataclass(frozen=True)
@@ -424,6 +448,8 @@ class Study:
     figures : FiguresSection
     tolerance : dict or None
         The raw ``[tolerance]`` table, validated by :mod:`cyclomesh.tolerance`.
+    design_space : dict or None
+        The raw ``[design_space]`` table, validated by :mod:`cyclomesh.design_study`.
     """
 
     title: str
@@ -436,6 +462,7 @@ class Study:
     figures: FiguresSection
     tolerance: dict[str, Any] | None
     raw: dict[str, Any]
+    design_space: dict[str, Any] | None = None
 
     def to_core(self) -> list[CaseInputs]:
         """Core inputs of every case (checks them all; see :meth:`CaseSpec.to_core`)."""
@@ -541,6 +568,7 @@ def load_study(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         figures=study_file.figures,
         tolerance=study_file.tolerance,
         raw=raw,
+        design_space=study_file.design_space,
     )
     study.to_core()
     return study
