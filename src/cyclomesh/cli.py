@@ -199,9 +199,11 @@ def _print_summary(summaries: dict, out: Path) -> None:
 
 def _add_layer_commands() -> None:
     """Commands of the other layers: ``tolerance`` and ``allocate`` (cyclomesh.tolerance)."""
+    from cyclomesh.design_study import register as register_design
     from cyclomesh.tolerance.commands import register
 
     register(app)
+    register_design(app)
 
 
 _add_layer_commands()
