@@ -269,3 +269,22 @@ def test_per_tooth_table_needs_every_tooth():
     table = ProfileDeviation(np.tile(phi1, (5, 1)), np.zeros((5, phi1.size)))
     with pytest.raises(DesignError, match="5 teeth tabulated"):
         check_profile(TABLE1, Modification(profile=table))
+
+
+def test_profile_figure_shows_the_rotation_and_a_table():
+    from cyclomesh.figures import plot_profile
+
+    delta = 20e-6
+    phi1 = flank(5.0)
+    mods = {
+        "rotation": Modification(rotation=delta),
+        "table": Modification(profile=ProfileDeviation(phi1, np.full_like(phi1, 3e-6))),
+    }
+    fig = plot_profile(TABLE1, mods, samples=721)
+    lines = fig.axes[1].get_lines()
+    x, rot = lines[0].get_data()
+    _, tab = lines[1].get_data()
+    inner = np.abs(x) < 170  # away from the tips, where the turned flanks meet
+    expected = rotation_relief(np.deg2rad(x), delta) * 1e6
+    np.testing.assert_allclose(rot[inner], expected[inner], atol=0.02 * expected.max())
+    np.testing.assert_allclose(tab, 3.0, atol=0.05)
