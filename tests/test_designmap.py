@@ -117,11 +117,16 @@ def test_robust_metric_is_the_percentile_over_common_rings():
     )
     cell = ds.sel(pin_radius_um=9.0)
     assert float(cell["max_contact_stress_mpa"]) == pytest.approx(
-        np.percentile(per_ring["max_contact_stress"], 95) * 1e-6, rel=1e-14
+        np.percentile(per_ring["max_contact_stress"], 95, method="higher") * 1e-6, rel=1e-14
     )
-    assert float(cell["min_contacts"]) == np.percentile(per_ring["min_contacts"], 5)
+    assert float(cell["min_contacts"]) == np.percentile(per_ring["min_contacts"], 5, method="lower")
     assert float(cell["min_play_arcmin"]) == pytest.approx(
-        np.percentile(per_ring["min_play"], 5) / ARCMIN, rel=1e-14
+        np.percentile(per_ring["min_play"], 5, method="lower") / ARCMIN, rel=1e-14
+    )
+    # conservative order statistics: at least 95 % of rings do as well
+    assert (
+        np.mean(per_ring["max_contact_stress"] <= float(cell["max_contact_stress_mpa"]) * 1e6)
+        >= 0.95
     )
     # lost motion includes the play and the elastic deflection at ±3 % of the torque
     assert np.all(per_ring["lost_motion"] > per_ring["max_play"])

@@ -364,11 +364,19 @@ def _deviated_contact(
         moment_arm=np.where(reach, moment_arm, 0.0),
         cos_beta=np.where(reach, np.abs(np.cos(lateral)), 1.0),
         profile_angle=np.where(reach, u, -np.pi),
-        contact_radius=np.where(reach, np.hypot(geo.x, geo.y), np.hypot(geo.x, geo.y)),
+        contact_radius=np.where(
+            reach, np.hypot(geo.x, geo.y), _tip_radius(design, modification, space)
+        ),
         curvature_radius=np.where(reach, geo.curvature_radius, np.inf),
         pin_radius=r_pin,
         residual=residual,
     )
+
+
+def _tip_radius(design: PairDesign, modification: Modification, space: FloatArray) -> FloatArray:
+    """Radius of the tip of the deviated profile (where unreachable pins are reported) [m]."""
+    a, rho_gen = generating_radii(design, modification)
+    return a + design.eccentricity - rho_gen - modification.profile.evaluate(-np.pi, space)
 
 
 def _wrap(angle: FloatArray) -> FloatArray:

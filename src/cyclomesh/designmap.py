@@ -5,8 +5,9 @@ model of [1] (:func:`cyclomesh.ltca.solve_ltca`) at the study's torque over its 
 angles, with the given pin errors. With a ring axis on the errors (K rings drawn once:
 the same rings for every candidate, i.e. common random numbers), each metric is reduced
 over the rings to a robust value: the 95th percentile of a metric where larger is worse,
-the 5th percentile of one where smaller is worse (``min_contacts``, ``min_play``), so
-95 % of rings do at least as well as the map says.
+the 5th percentile of one where smaller is worse (``min_contacts``, ``min_play``), taken
+as conservative order statistics (a value some ring has), so at least 95 % of rings do
+as well as the map says.
 
 Metrics (per candidate, SI inside, engineering units in the Dataset):
 
@@ -275,12 +276,16 @@ def candidate_metrics(
 
 
 def _robust(name: str, values: FloatArray) -> float:
-    """Reduce a metric over rings: 95th percentile if larger is worse, else 5th."""
+    """Reduce a metric over rings: 95th percentile if larger is worse, else 5th.
+
+    Conservative order statistics (numpy's ``higher``/``lower`` methods): the value is one
+    that a ring actually has, and at least 95 % of the rings do as well or better.
+    """
     if values.ndim == 0:
         return float(values)
-    worse_high = METRICS[name][4]
-    q = ROBUST_PERCENTILE if worse_high else 100.0 - ROBUST_PERCENTILE
-    return float(np.percentile(values.reshape(-1), q))
+    if METRICS[name][4]:
+        return float(np.percentile(values.reshape(-1), ROBUST_PERCENTILE, method="higher"))
+    return float(np.percentile(values.reshape(-1), 100.0 - ROBUST_PERCENTILE, method="lower"))
 
 
 _REASON_LENGTH = 160
