@@ -246,7 +246,7 @@ def test_bad_tables_are_refused_naming_the_row(angle, deviation, message):
     rows = np.arange(2, angle.size + 2)
     with pytest.raises(DesignError, match=message) as info:
         ProfileDeviation(angle, deviation, rows)
-    assert "row " in str(info.value) and "\n" not in str(info.value)
+    assert "line " in str(info.value) and "\n" not in str(info.value)
 
 
 def test_coarseness_limit_is_the_documented_step():
@@ -260,7 +260,7 @@ def test_a_table_that_loops_the_profile_is_refused():
     mod = Modification(
         pin_radius=8e-6, profile=ProfileDeviation(phi1, bump, np.arange(phi1.size) + 2)
     )
-    with pytest.raises(DesignError, match=r"row \d+: .* (loop|tighter)"):
+    with pytest.raises(DesignError, match=r"line \d+: .* (loop|tighter)"):
         check_profile(TABLE1, mod)
 
 

@@ -91,5 +91,5 @@ def test_a_table_that_loops_the_profile_is_refused_naming_the_line(tmp_path):
     path = write(
         tmp_path, 'profile_file = "profile.csv"\npin_radius_um = 8.0\n', table(angles, bump)
     )
-    with pytest.raises(StudyError, match=r"row \d+: .*(loop|tighter)"):
+    with pytest.raises(StudyError, match=r"line \d+: .*(loop|tighter)"):
         load_study(path)

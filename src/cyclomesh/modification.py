@@ -69,7 +69,7 @@ class ProfileDeviation:
         Material removed along the profile normal [m] (positive = relief), same shape.
     rows : array_like of int, optional
         Line numbers of the table's points in their source file, same shape; only used
-        to name the offending row in error messages.
+        to name the offending line in error messages.
 
     Raises
     ------
@@ -114,7 +114,7 @@ class ProfileDeviation:
 
     def _where(self, j: int, k: int) -> str:
         if self.rows is not None:
-            return f"row {int(self.rows[j, k])}"
+            return f"line {int(self.rows[j, k])}"
         tooth = f" of tooth {j + 1}" if self.angle.shape[0] > 1 else ""
         return f"point {k + 1}{tooth}"
 

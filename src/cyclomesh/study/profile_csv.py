@@ -130,4 +130,4 @@ def read_profile_csv(
             rows[0] if squeeze else rows,
         )
     except DesignError as exc:
-        raise StudyError(f"{where}: {str(exc).replace('profile deviation: row', 'line')}") from None
+        raise StudyError(f"{where}: {str(exc).replace('profile deviation: ', '')}") from None
