@@ -58,8 +58,8 @@ def robust(rings: int) -> None:
     import distributed
 
     from cyclomesh.designmap import DesignTask, evaluate_grid
-    from cyclomesh.tolerance.engine import ProcessBackend
-    from cyclomesh.tolerance.runner import load_tolerance_study, ring_model
+    from cyclomesh.execution import ProcessBackend
+    from cyclomesh.studies.tolerance import load_tolerance_study, ring_model
 
     study, spec = load_tolerance_study(EXAMPLE)
     model = ring_model(study, spec)
@@ -88,7 +88,7 @@ def robust(rings: int) -> None:
         f"robust 11x11 x {rings} rings, local ({backend.workers} processes): "
         f"{steps / 1e6:.0f} M pin-steps in {seconds:.1f} s = {steps / seconds / 1e6:.2f} M/s"
     )
-    from cyclomesh.tolerance.engine import DaskBackend
+    from cyclomesh.execution import DaskBackend
 
     with distributed.LocalCluster(
         n_workers=2,

@@ -6,6 +6,7 @@ radial and ±50 µrad angular pin errors) at a 1° crank step (360 crank angles)
 - ``serial``: one process, no pool (the core alone);
 - ``local``: all local cores through the process pool (the default of
   ``cyclomesh tolerance``), including the start of the worker processes;
+  ``--step 10`` runs at a 10° crank step (36 angles) instead;
 - ``dask``: a 2-worker ``distributed.LocalCluster`` on loopback (``--scheduler``),
   including the connection, not the start of the cluster.
 
@@ -27,10 +28,10 @@ EXAMPLE = Path(__file__).parents[1] / "examples" / "tolerance.toml"
 
 
 def _run(label: str, rings: int, out: Path, **kwargs) -> float:
-    from cyclomesh.tolerance.runner import run_tolerance
+    from cyclomesh.studies.tolerance import run_tolerance
 
     start = time.perf_counter()
-    result = run_tolerance(EXAMPLE, out / label, rings=rings, quiet=True, figures=False, **kwargs)
+    result = run_tolerance(EXAMPLE, out / label, rings=rings, figures=False, **kwargs)
     seconds = time.perf_counter() - start
     rate = rings / seconds
     ex = result.summary["exceedance"]["max_contact_stress_mpa"]
@@ -46,15 +47,32 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rings", type=int, default=1000)
     parser.add_argument("--only", choices=("serial", "local", "dask"), action="append")
+    parser.add_argument("--step", type=float, default=1.0, help="crank step [deg]")
     args = parser.parse_args()
+    global EXAMPLE
+    if args.step != 1.0:
+        tmp = Path(tempfile.mkdtemp())
+        EXAMPLE = tmp / "tolerance.toml"
+        EXAMPLE.write_text(
+            (Path(__file__).parents[1] / "examples" / "tolerance.toml")
+            .read_text()
+            .replace("crank_step_deg = 1.0", f"crank_step_deg = {args.step}")
+        )
     which = args.only or ["serial", "local", "dask"]
-    print(f"cores: {len(os.sched_getaffinity(0))}, crank step 1° (360 angles)")
+    print(f"cores: {len(os.sched_getaffinity(0))}, crank step {args.step:g}°")
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         if "serial" in which:
             _run("serial", max(1, args.rings // 4), out, workers=1)
         if "local" in which:
-            _run("local", args.rings, out)
+            from cyclomesh.execution import ProcessBackend
+
+            backend = ProcessBackend()
+            try:
+                backend.start()
+                _run("local", args.rings, out, backend=backend)
+            finally:
+                backend.close()
         if "dask" in which:
             import distributed
 

@@ -8,15 +8,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cyclomesh.study.schema import ToleranceSection
 from cyclomesh.tolerance.sampling import draw_ring_errors
-from cyclomesh.tolerance.spec import ToleranceSpec
 
 
 @dataclass(frozen=True)
 class DummyTask:
     """Per-ring 'metrics' computed from the sampled errors only."""
 
-    spec: ToleranceSpec
+    spec: ToleranceSection
     pins: int = 40
     sleep_s: float = 0.0
 

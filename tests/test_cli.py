@@ -52,7 +52,15 @@ def invoke(*args: str):
 def table2(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("table2") / "out"
     result = invoke(
-        "run", str(EXAMPLES / "table2.toml"), "--out", str(out), "--crank-step-deg", STEP_DEG
+        "run",
+        str(EXAMPLES / "table2.toml"),
+        "--out",
+        str(out),
+        "--crank-step-deg",
+        STEP_DEG,
+        "--csv",
+        "--figures",
+        "png,svg,pdf",
     )
     assert result.exit_code == 0, result.output
     return out
@@ -162,12 +170,56 @@ def test_results_csv_is_long_format_with_unit_suffixes(table2):
     )
 
 
-def test_figures_written_as_png_and_svg(table2):
+def test_parquet_has_every_csv_column_with_its_unit(table2):
+    import pyarrow.parquet as pq
+
+    folder = table2 / "Case_2"
+    table = pq.read_table(folder / "results.parquet")
+    with (folder / "results.csv").open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert table.column_names == list(rows[0])
+    assert table.num_rows == len(rows) == 72 * 40
+    units = {f.name: f.metadata[b"units"].decode() for f in table.schema}
+    assert units["pin_load_n"] == "N" and units["contact_stress_mpa"] == "MPa"
+    assert units["transmission_error_arcsec"] == "arcsec" and units["crank_angle_deg"] == "deg"
+    with xr.open_dataset(folder / "results.nc") as ds:
+        ds = ds.load()
+    load = table.column("pin_load_n").to_numpy().reshape(72, 40)
+    np.testing.assert_array_equal(load, ds["pin_load"].values)  # bit for bit
+    backlash = table.column("backlash_arcsec")
+    assert backlash.null_count == np.count_nonzero(~np.isfinite(ds["backlash"].values)) > 0
+    te = table.column("transmission_error_arcsec").to_numpy().reshape(72, 40)
+    np.testing.assert_array_equal(te, np.repeat(ds["transmission_error"].values[:, None], 40, 1))
+
+
+def test_angle_csv_has_one_row_per_crank_angle(table2):
+    folder = table2 / "Case_2"
+    with (folder / "angles.csv").open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    with xr.open_dataset(folder / "results.nc") as ds:
+        ds = ds.load()
+    assert len(rows) == 72
+    assert list(rows[0])[:4] == [
+        "crank_angle_deg",
+        "transmission_error_arcsec",
+        "gear_ratio",
+        "contacts",
+    ]
+    stress = np.array([float(r["max_contact_stress_mpa"]) for r in rows])
+    np.testing.assert_array_equal(stress, ds["contact_stress"].max("pin").values)
+    te = np.array([float(r["transmission_error_arcsec"]) for r in rows])
+    np.testing.assert_array_equal(te, ds["transmission_error"].values)  # shortest round trip
+    assert {"max_pin_load_n", "max_groove_load_n", "max_groove_stress_mpa"} <= set(rows[0])
+
+
+def test_figures_written_in_every_requested_format(table2):
     for name in FIGURES:
         png = table2 / "figures" / f"{name}.png"
         svg = table2 / "figures" / f"{name}.svg"
+        pdf = table2 / "figures" / f"{name}.pdf"
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
         assert b"<svg" in svg.read_bytes()[:1000], name
+        assert pdf.read_bytes()[:5] == b"%PDF-", name
     assert not (table2 / "figures" / "pin_errors.png").exists()  # no case has pin errors
 
 
@@ -191,7 +243,9 @@ def test_section42_random_errors_and_their_figure(section42):
     assert cases["Case 3"]["max_contact_stress_mpa"] > cases["Case 2"]["max_contact_stress_mpa"]
     assert cases["Case 1"]["contacts_min"] > cases["Case 2"]["contacts_max"]
     assert (section42 / "figures" / "pin_errors.png").exists()
-    assert (section42 / "figures" / "pin_errors.svg").exists()
+    assert not (section42 / "figures" / "pin_errors.svg").exists()  # PNG only by default
+    assert not (section42 / "Case_3" / "results.csv").exists()  # the pin CSV is opt-in
+    assert (section42 / "Case_3" / "results.parquet").exists()
 
 
 def test_measured_example_records_the_csv_errors(tmp_path):
@@ -243,6 +297,7 @@ BAD_RUNS = {
         "undercut",
     ),
     "bad step option": (TABLE2, ["--crank-step-deg", "-1"], "analysis.crank_step_deg"),
+    "bad figures option": (TABLE2, ["--figures", "png,gif"], "--figures: unknown format 'gif'"),
     "bad case key": (
         TABLE2.replace('name = "Case 4"', 'name = "Case 4"\nanalysis.groove = true'),
         [],
@@ -301,3 +356,29 @@ def test_check_command(tmp_path):
     result = invoke("check", str(EXAMPLES / "section42.toml"))
     assert result.exit_code == 0
     assert "3 case(s) OK: Case 1, Case 2, Case 3" in result.stdout
+    assert invoke("check", str(EXAMPLES / "tolerance.toml")).stdout.endswith("[tolerance] OK\n")
+
+
+TOLERANCE = (EXAMPLES / "tolerance.toml").read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize(
+    "old, new, expected",
+    [
+        ("seed = 20220810", "seed = true", "tolerance.seed: expected an integer, got true"),
+        ("rings = 1000", 'rings = "12"', 'tolerance.rings: expected an integer, got "12"'),
+        ("rings = 1000", "rings = 1000\nring = 5", "tolerance.ring: unknown key"),
+        ("bisections = 6", "bisections = 6\nbisect = 2", "tolerance.allocation.bisect: unknown"),
+        ("half_range = 4.0", "half_range = -4.0", "tolerance.radial_um.half_range: expected a"),
+    ],
+)
+def test_check_refuses_bad_tolerance_keys_before_any_work(tmp_path, old, new, expected):
+    study = tmp_path / "study.toml"
+    assert old in TOLERANCE
+    study.write_text(TOLERANCE.replace(old, new, 1), encoding="utf-8")
+    for command in (["check"], ["run", "--out", str(tmp_path / "o")]):
+        result = invoke(command[0], str(study), *command[1:])
+        assert result.exit_code == 2, result.output
+        assert result.stderr.startswith(f"error: {expected}"), result.stderr
+        assert result.stderr.count("\n") == 1
+    assert not (tmp_path / "o").exists()

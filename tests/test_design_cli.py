@@ -70,7 +70,7 @@ def test_design_writes_the_map_summary_figures_report_and_best(tmp_path):
     )
     assert summary["failed_candidates"] >= 1
     for name in ("max_contact_stress_mpa", "te_pp_arcsec", "play_arcmin", "min_contacts"):
-        assert (out / f"design_{name}.png").stat().st_size > 1000
+        assert (out / "figures" / f"design_{name}.png").stat().st_size > 1000
     report = (out / "report.html").read_text()
     assert "Design map" in report and "best.toml" in report
 
@@ -109,6 +109,8 @@ def test_robust_design_is_the_same_on_one_and_two_processes(tmp_path):
         (("points = 3", "points = 0"), "design_space.pin_radius_um.points"),
         (('objective = "max_contact_stress"', 'objective = "cost"'), "design_space.objective"),
         (("max_play_arcmin = 1.0", "max_play = 1.0"), "design_space.max_play"),
+        ((", points = 3 }", " }"), "design_space.pin_radius_um.points"),
+        (("max_play_arcmin = 1.0", "max_play_arcmin = true"), "design_space.max_play_arcmin"),
         (('objective = "max_contact_stress"', "rings = 5"), "needs a \\[tolerance\\] section"),
     ],
 )
@@ -131,11 +133,9 @@ def test_study_without_design_space_is_refused(tmp_path):
 def test_example_design_study_is_valid_and_marks_the_paper_tpm():
     from pathlib import Path
 
-    from cyclomesh.design_study import parse_design_space
-    from cyclomesh.study.config import load_study
+    from cyclomesh.studies.design import load_design_study
 
-    study = load_study(Path(__file__).parents[1] / "examples" / "design.toml")
-    space = parse_design_space(study.design_space)
+    study, space = load_design_study(Path(__file__).parents[1] / "examples" / "design.toml")
     axes = space.axes()
     assert list(axes) == ["pin_circle_radius_um", "pin_radius_um"]
     assert 8.0 in axes["pin_radius_um"] and 0.0 in axes["pin_circle_radius_um"]

@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 
 from cyclomesh import TABLE1, DesignError, Modification, PinErrors
-from cyclomesh.design_figures import map_metrics, plot_design_map, plot_design_maps
 from cyclomesh.designmap import (
     ARCMIN,
     Constraints,
@@ -15,8 +14,9 @@ from cyclomesh.designmap import (
     play,
     reverse_transmission_error,
 )
+from cyclomesh.execution import ProcessBackend, SerialBackend
+from cyclomesh.figures.design import map_metrics, plot_design_map, plot_design_maps
 from cyclomesh.ltca import solve_ltca
-from cyclomesh.tolerance.engine import ProcessBackend, SerialBackend
 
 ANGLES = np.arange(0.0, 9.0, 0.5)
 PHI = np.deg2rad(ANGLES)

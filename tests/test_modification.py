@@ -273,6 +273,7 @@ def test_per_tooth_table_needs_every_tooth():
 
 def test_profile_figure_shows_the_rotation_and_a_table():
     from cyclomesh.figures import plot_profile
+    from cyclomesh.studies.run import profile_curves
 
     delta = 20e-6
     phi1 = flank(5.0)
@@ -280,7 +281,7 @@ def test_profile_figure_shows_the_rotation_and_a_table():
         "rotation": Modification(rotation=delta),
         "table": Modification(profile=ProfileDeviation(phi1, np.full_like(phi1, 3e-6))),
     }
-    fig = plot_profile(TABLE1, mods, samples=721)
+    fig = plot_profile(profile_curves(TABLE1, mods, samples=721))
     lines = fig.axes[1].get_lines()
     x, rot = lines[0].get_data()
     _, tab = lines[1].get_data()

@@ -5,7 +5,7 @@ import pytest
 
 from cyclomesh import StudyError
 from cyclomesh.ltca import solve_ltca
-from cyclomesh.study.config import load_study
+from cyclomesh.study.schema import load_study
 
 DESIGN = """
 [design]

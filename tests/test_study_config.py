@@ -10,8 +10,8 @@ import pytest
 
 from cyclomesh.exceptions import StudyError
 from cyclomesh.study import load_study
-from cyclomesh.study.config import crank_angles_deg, deep_merge
 from cyclomesh.study.measurements import read_pin_errors_csv
+from cyclomesh.study.schema import crank_angles_deg, deep_merge
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -202,12 +202,38 @@ def test_random_draws_are_reproducible_and_independent_per_field(tmp_path):
     assert np.all(np.abs(more["angular_urad"]) <= 50.0) and np.any(more["angular_urad"])
 
 
-def test_tolerance_table_is_passed_through_raw(tmp_path):
-    text = DESIGN + "[tolerance]\nrings = 100\n[tolerance.radial_um]\nhalf_range = 4\n"
-    assert load_study(write(tmp_path, text)).tolerance == {
-        "rings": 100,
-        "radial_um": {"half_range": 4},
-    }
+TOLERANCE = """
+[tolerance]
+seed = 1
+rings = 100
+allowable_contact_stress_mpa = 2000.0
+radial_um = { distribution = "uniform", half_range = 4.0 }
+"""
+
+
+def test_tolerance_section_is_validated_with_the_study(tmp_path):
+    spec = load_study(write(tmp_path, DESIGN + TOLERANCE)).tolerance
+    assert spec.rings == 100 and spec.radial_um.half_range == 4.0
+    assert spec.angular_urad is None and spec.allocation.confidence == 0.95
+
+
+@pytest.mark.parametrize(
+    "old, new, expected",
+    [
+        ("seed = 1", "seed = true", "tolerance.seed: expected an integer, got true"),
+        ("rings = 100", 'rings = "12"', 'tolerance.rings: expected an integer, got "12"'),
+        ("rings = 100", "rings = 12.0", "tolerance.rings: expected an integer, got 12.0"),
+        ("rings = 100", "rings = 100\nring = 3", "tolerance.ring: unknown key (expected one of"),
+        ("half_range = 4.0", 'half_range = "4"', "tolerance.radial_um.half_range: expected a "),
+        ("half_range = 4.0", "half_range = 4.0, hlf = 1", "tolerance.radial_um.hlf: unknown key"),
+        ("seed = 1", "", "tolerance.seed: required key missing"),
+    ],
+)
+def test_tolerance_section_refuses_what_run_sections_refuse(tmp_path, old, new, expected):
+    with pytest.raises(StudyError) as info:
+        load_study(write(tmp_path, DESIGN + TOLERANCE.replace(old, new)))
+    assert str(info.value).startswith(expected)
+    assert "\n" not in str(info.value)
 
 
 # --- one-line messages naming the key -------------------------------------------------

@@ -12,8 +12,10 @@ from matplotlib.collections import QuadMesh
 from matplotlib.container import BarContainer
 
 from cyclomesh import TABLE1, Modification, PinErrors, analyse, figures
+from cyclomesh.figures.render import decimate
+from cyclomesh.output import csv_column, write_pin_csv
 from cyclomesh.report import Section, figure_html, render_report, table_html
-from cyclomesh.study.results import csv_column, summary_record, write_results_csv
+from cyclomesh.studies.run import profile_curves, summary_record
 
 ANGLES = np.deg2rad(np.arange(0.0, 360.0, 10.0))
 TPM = Modification(pin_radius=8e-6)
@@ -32,7 +34,8 @@ def labels(ax) -> tuple[str, str]:
 
 
 def test_profile_shows_the_modification_in_micrometres():
-    fig = figures.plot_profile(TABLE1, {"Δρ = 8 µm": TPM, "Δa = -5 µm": Modification(-5e-6)})
+    curves = profile_curves(TABLE1, {"Δρ = 8 µm": TPM, "Δa = -5 µm": Modification(-5e-6)})
+    fig = figures.plot_profile(curves)
     tooth, modification = fig.axes
     assert labels(tooth) == ("x [mm]", "y [mm]")
     assert labels(modification)[1] == "modification, normal to profile [µm]"
@@ -94,6 +97,14 @@ def test_stress_maps_teeth_and_grooves(cases):
     colorbar_axes = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
     maps = [ax for ax in fig.axes if ax not in colorbar_axes]
     assert len(maps) == 4
+    assert all(len(ax.images) == 1 for ax in maps)  # equally spaced angles: an image
+    image = maps[0].images[0].get_array()  # first case, teeth: pins × angles, unloaded blank
+    stress = cases["TPM"]["contact_stress"].transpose("pin", "crank_angle").values
+    np.testing.assert_array_equal(image.filled(0.0), np.where(stress > 0, stress, 0.0))
+    assert np.array_equal(image.mask, stress <= 0)
+    uneven = {k: ds.isel(crank_angle=[0, 1, 3, 7]) for k, ds in cases.items()}
+    fig = figures.plot_stress_maps(uneven)
+    maps = [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
     assert all(any(isinstance(c, QuadMesh) for c in ax.collections) for ax in maps)
     colorbars = {ax.get_ylabel() for ax in colorbar_axes}
     assert colorbars == {"tooth contact stress [MPa]", "groove stress [MPa]"}
@@ -148,7 +159,7 @@ def test_result_files_helpers(tmp_path, cases):
     assert csv_column("profile_angle", "deg") == "profile_angle_deg"
     assert csv_column("gear_ratio", "1") == "gear_ratio"
     assert csv_column("contact_stress", "MPa") == "contact_stress_mpa"
-    path = write_results_csv(cases["TPM"], tmp_path / "r.csv")
+    path = write_pin_csv(cases["TPM"], tmp_path / "r.csv")
     header = path.read_text().splitlines()[0].split(",")
     assert header[:3] == ["crank_angle_deg", "pin", "pin_load_n"]
     record = summary_record(
@@ -156,3 +167,70 @@ def test_result_files_helpers(tmp_path, cases):
     )
     assert record == {"te_pp_arcsec": None, "contacts_min": 3, "overlap": False}
     json.dumps(record, allow_nan=False)
+
+
+def test_decimation_keeps_every_spike_and_the_envelope():
+    x = np.arange(100_000, dtype=float)
+    y = np.sin(x / 5000.0)
+    spikes = [777, 50_001, 99_998]
+    y[spikes] = [5.0, -7.0, 9.0]  # one-sample spikes, like the gear-ratio spikes
+    dx, dy = decimate(x, y, bins=500)
+    assert dx.size <= 4 * 500 and np.all(np.diff(dx) > 0)
+    for k in spikes:
+        assert k in dx and dy[np.searchsorted(dx, k)] == y[k]
+    assert dy.max() == y.max() and dy.min() == y.min()
+    assert dx[0] == 0 and dx[-1] == x[-1]
+    # per bin of the original, the decimated line spans the same range
+    edges = np.linspace(0, x.size, 501).astype(int)
+    for a, b in zip(edges[:-1:37], edges[1::37], strict=True):
+        inside = (dx >= a) & (dx < b)
+        assert dy[inside].max() == y[a:b].max() and dy[inside].min() == y[a:b].min()
+    short_x, short_y = decimate(x[:100], y[:100], bins=500)
+    assert short_x.size == 100  # short lines are left alone
+
+
+def test_netcdf_writer_reads_back_as_xarray_writes_it(tmp_path, cases):
+    from cyclomesh.output import write_netcdf
+
+    ds = cases["TPM"].assign(flag=("pin", np.arange(40) % 2 == 0))
+    ds.attrs["switch"] = True
+    write_netcdf(ds, tmp_path / "ours.nc")
+    reference = ds.assign(flag=ds["flag"].astype(np.int8))
+    reference.attrs["switch"] = np.int8(1)
+    reference.to_netcdf(tmp_path / "xarray.nc")
+    with (
+        xr.open_dataset(tmp_path / "ours.nc") as ours,
+        xr.open_dataset(tmp_path / "xarray.nc") as ref,
+    ):
+        xr.testing.assert_identical(ours.load(), ref.load())
+        assert np.isinf(ours["backlash"].values).any()  # infinities kept in NetCDF
+
+
+def test_renderer_saves_every_format_the_same_in_a_pool_or_not(tmp_path, cases):
+    from cyclomesh.figures.render import FigureJob, render_figures
+
+    jobs = [
+        FigureJob("contacts", figures.plot_contacts, (cases,), caption="c", section="A"),
+        FigureJob("ratio", figures.plot_gear_ratio, (cases,), caption="r", section="B"),
+        FigureJob("te", figures.plot_transmission_error, (cases,), caption="t", section="B"),
+    ]
+    serial = render_figures(jobs, tmp_path / "one", ("png", "svg", "pdf"), 60, workers=1)
+    pooled = render_figures(jobs, tmp_path / "two", ("png",), 60, workers=2)
+    assert [f.name for f in pooled] == [f.name for f in serial] == ["contacts", "ratio", "te"]
+    for one, two in zip(serial, pooled, strict=True):
+        assert one.png == two.png and one.png[:8] == b"\x89PNG\r\n\x1a\n"
+        assert [p.suffix for p in one.files] == [".png", ".svg", ".pdf"]
+        assert (tmp_path / "two" / f"{two.name}.png").read_bytes() == two.png
+    with pytest.raises(ValueError, match="unknown figure format 'gif'"):
+        render_figures(jobs, tmp_path, ("gif",))
+
+
+def test_figure_formats_option():
+    from cyclomesh.exceptions import StudyError
+    from cyclomesh.pipeline import parse_figure_formats
+
+    assert parse_figure_formats("png,svg") == ("png", "svg")
+    assert parse_figure_formats(" PDF , png,pdf") == ("pdf", "png")
+    assert parse_figure_formats("none") == ()
+    with pytest.raises(StudyError, match="--figures: unknown format 'jpg'"):
+        parse_figure_formats("png,jpg")

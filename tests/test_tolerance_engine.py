@@ -14,26 +14,28 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cyclomesh.tolerance.engine import (
+from cyclomesh.execution import (
     ClusterError,
     DaskBackend,
     ProcessBackend,
     SerialBackend,
     chunk_bounds,
-    run_rings,
+    run_chunks,
 )
-from cyclomesh.tolerance.spec import parse_tolerance
+from cyclomesh.study.schema import ToleranceSection, parse_section
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tolerance_dummy import DummyTask  # noqa: E402
 
-SPEC = parse_tolerance(
+SPEC = parse_section(
+    ToleranceSection,
     {
         "seed": 7,
         "allowable_contact_stress_mpa": 1090.0,
         "radial_um": {"distribution": "uniform", "half_range": 4.0},
         "angular_urad": {"distribution": "normal", "sigma": 20.0},
-    }
+    },
+    "tolerance",
 )
 
 
@@ -53,26 +55,26 @@ def test_chunk_bounds_cover_every_ring_once():
 @pytest.mark.parametrize("chunk_rings", [1, 3, 7, 50])
 def test_serial_results_independent_of_chunking(chunk_rings):
     task = DummyTask(SPEC)
-    reference = run_rings(task, 23, chunk_rings=23)
-    _same(reference, run_rings(task, 23, chunk_rings=chunk_rings))
+    reference = run_chunks(task, 23, chunk_size=23)
+    _same(reference, run_chunks(task, 23, chunk_size=chunk_rings))
     np.testing.assert_array_equal(reference["ring"], np.arange(23))
 
 
 def test_first_ring_offset_gives_the_same_rings():
     task = DummyTask(SPEC)
-    whole = run_rings(task, 20, chunk_rings=6)
-    tail = run_rings(task, 8, chunk_rings=3, first_ring=12)
+    whole = run_chunks(task, 20, chunk_size=6)
+    tail = run_chunks(task, 8, chunk_size=3, first=12)
     for name in ("ring", "max_contact_stress_mpa", "radial_um"):
         np.testing.assert_array_equal(whole[name][12:], tail[name])
 
 
 def test_process_pool_is_bit_for_bit_serial():
     task = DummyTask(SPEC)
-    reference = run_rings(task, 30, chunk_rings=4)
+    reference = run_chunks(task, 30, chunk_size=4)
     backend = ProcessBackend(workers=2, in_flight_per_worker=1)
     try:
         calls = []
-        got = run_rings(task, 30, chunk_rings=7, backend=backend, progress=calls.append)
+        got = run_chunks(task, 30, chunk_size=7, backend=backend, progress=calls.append)
     finally:
         backend.close()
     _same(reference, got)
@@ -83,7 +85,7 @@ def test_process_pool_is_bit_for_bit_serial():
 def test_killing_a_local_worker_loses_no_ring_and_counts_none_twice():
     task = DummyTask(SPEC, sleep_s=0.1)
     rings, chunk = 30, 2
-    reference = run_rings(DummyTask(SPEC), rings, chunk_rings=chunk)
+    reference = run_chunks(DummyTask(SPEC), rings, chunk_size=chunk)
     backend = ProcessBackend(workers=2, in_flight_per_worker=1)
     finished = []
 
@@ -93,21 +95,21 @@ def test_killing_a_local_worker_loses_no_ring_and_counts_none_twice():
             os.kill(backend.worker_pids()[0], signal.SIGKILL)
 
     try:
-        got = run_rings(task, rings, chunk_rings=chunk, backend=backend, progress=kill_after_a_few)
+        got = run_chunks(task, rings, chunk_size=chunk, backend=backend, progress=kill_after_a_few)
     finally:
         backend.close()
     assert backend.restarts == 1
     assert sum(finished) == rings  # each chunk reported once
-    _same(reference, got)  # and stored once (run_rings checks the ring counts too)
+    _same(reference, got)  # and stored once (run_chunks checks the ring counts too)
 
 
 def test_dask_cluster_is_bit_for_bit_serial(cluster):
     local, _ = cluster
     task = DummyTask(SPEC)
-    reference = run_rings(task, 30, chunk_rings=4)
+    reference = run_chunks(task, 30, chunk_size=4)
     backend = DaskBackend(local.scheduler_address)
     try:
-        got = run_rings(task, 30, chunk_rings=5, backend=backend)
+        got = run_chunks(task, 30, chunk_size=5, backend=backend)
     finally:
         backend.close()
     _same(reference, got)
@@ -118,7 +120,7 @@ def test_killing_a_worker_loses_no_ring_and_counts_none_twice(cluster):
     _, client = cluster
     task = DummyTask(SPEC, sleep_s=0.15)
     rings, chunk = 40, 2
-    reference = run_rings(DummyTask(SPEC), rings, chunk_rings=chunk)
+    reference = run_chunks(DummyTask(SPEC), rings, chunk_size=chunk)
     pids = client.run(os.getpid)
     victim = sorted(pids.values())[0]
     finished = []
@@ -129,9 +131,9 @@ def test_killing_a_worker_loses_no_ring_and_counts_none_twice(cluster):
             os.kill(victim, signal.SIGKILL)
 
     backend = DaskBackend(client=client)
-    got = run_rings(task, rings, chunk_rings=chunk, backend=backend, progress=kill_after_a_few)
+    got = run_chunks(task, rings, chunk_size=chunk, backend=backend, progress=kill_after_a_few)
     assert sum(finished) == rings  # each chunk reported once
-    _same(reference, got)  # and stored once (run_rings checks the ring counts too)
+    _same(reference, got)  # and stored once (run_chunks checks the ring counts too)
     assert victim in set(got["pid"].tolist())  # the victim did some work before dying
     client.wait_for_workers(2, timeout=30)
 

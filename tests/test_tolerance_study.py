@@ -16,8 +16,8 @@ import typer
 import xarray as xr
 from typer.testing import CliRunner
 
-from cyclomesh.tolerance.commands import register
-from cyclomesh.tolerance.runner import run_allocation, run_tolerance
+from cyclomesh.cli import app
+from cyclomesh.studies.tolerance import run_allocation, run_tolerance
 
 EXAMPLE = Path(__file__).parents[1] / "examples" / "tolerance.toml"
 
@@ -63,18 +63,13 @@ def write_study(folder: Path, allowable: float = 1850.0, kinds: str = KINDS) -> 
 
 @pytest.fixture(scope="module")
 def cli() -> typer.Typer:
-    """The cyclomesh command, with tolerance and allocate registered by cyclomesh.cli."""
-    from cyclomesh.cli import app
-
-    if not any(c.name == "tolerance" for c in app.registered_commands):  # not wired yet
-        register(app)
+    """The cyclomesh command."""
     return app
 
 
-def test_register_adds_both_commands():
-    app = typer.Typer()
-    register(app)
-    assert [c.name for c in app.registered_commands] == ["tolerance", "allocate"]
+def test_cli_has_the_tolerance_commands():
+    names = [c.name or c.callback.__name__ for c in app.registered_commands]
+    assert {"run", "check", "tolerance", "allocate"} <= set(names)
 
 
 def invoke(app, *args):
@@ -94,7 +89,7 @@ def assert_identical_metrics(a: xr.Dataset, b: xr.Dataset) -> None:
 
 
 def test_example_file_is_a_valid_study_and_tolerance_section():
-    from cyclomesh.tolerance.runner import load_tolerance_study
+    from cyclomesh.studies.tolerance import load_tolerance_study
 
     study, spec = load_tolerance_study(EXAMPLE)
     assert spec.rings == 1000 and spec.allowable_contact_stress_mpa == 2000.0
@@ -115,9 +110,18 @@ def test_tolerance_command_writes_its_files(cli, tmp_path):
         "figures/tolerance_histograms.png",
         "figures/tolerance_exceedance.png",
         "figures/tolerance_ecdfs.png",
+        "tolerance_rings.parquet",
     ):
         assert (out / name).is_file(), name
     ds = rings_nc(out)
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(out / "tolerance_rings.parquet")
+    assert table.column_names == ["ring", *ds.data_vars]
+    for name in ds.data_vars:
+        np.testing.assert_array_equal(table.column(name).to_numpy(), ds[name].values)
+    units = table.schema.field("max_contact_stress_mpa").metadata[b"units"]
+    assert units == b"MPa"
     assert ds.sizes["ring"] == 12
     assert ds["max_contact_stress_mpa"].attrs["units"] == "MPa"
     summary = json.loads((out / "tolerance_summary.json").read_text())
@@ -140,7 +144,7 @@ def test_results_are_bit_for_bit_across_chunkings_and_engines(tmp_path, cluster)
         "2 processes, chunks of 1": dict(workers=2, chunk_rings=1),
     }
     results = {
-        name: run_tolerance(study, tmp_path / str(i), quiet=True, figures=False, **kw).rings
+        name: run_tolerance(study, tmp_path / str(i), figures=False, **kw).rings
         for i, (name, kw) in enumerate(runs.items())
     }
     results["Dask LocalCluster, chunks of 3"] = run_tolerance(
@@ -148,14 +152,13 @@ def test_results_are_bit_for_bit_across_chunkings_and_engines(tmp_path, cluster)
         tmp_path / "dask",
         scheduler=local.scheduler_address,
         chunk_rings=3,
-        quiet=True,
         figures=False,
     ).rings
     reference = results.pop("serial, one chunk")
     for name, ds in results.items():
         assert_identical_metrics(reference, ds), name
     # ring k does not depend on how many rings are drawn either
-    more = run_tolerance(study, tmp_path / "more", rings=40, workers=1, quiet=True, figures=False)
+    more = run_tolerance(study, tmp_path / "more", rings=40, workers=1, figures=False)
     assert_identical_metrics(reference, more.rings.isel(ring=slice(0, 12)))
 
 
@@ -163,7 +166,7 @@ def test_allocation_is_bit_for_bit_across_chunkings(tmp_path):
     study = write_study(tmp_path)
     runs = [dict(workers=1), dict(workers=1, chunk_rings=5), dict(workers=2, chunk_rings=3)]
     brackets = [
-        run_allocation(study, tmp_path / str(i), quiet=True, figures=False, **kw).rings
+        run_allocation(study, tmp_path / str(i), figures=False, **kw).rings
         for i, kw in enumerate(runs)
     ]
     for other in brackets[1:]:
@@ -196,14 +199,13 @@ def test_allocation_is_monotone_and_consistent(tmp_path):
             tmp_path / f"a{allowable:g}",
             target_probability=0.25,
             workers=1,
-            quiet=True,
             figures=allowable == 1850.0,
         )
         a = run.allocation
         assert np.all(np.diff(a.curve_probability) >= 0)
         factors[allowable] = a.factor
         if allowable == 1850.0:
-            tol = run_tolerance(study, tmp_path / "t", workers=1, quiet=True, figures=False)
+            tol = run_tolerance(study, tmp_path / "t", workers=1, figures=False)
             exceeded = np.count_nonzero(tol.rings["max_contact_stress_mpa"].values > allowable)
             # first passage: a ring that exceeds at the stated tolerances has f* ≤ 1
             assert a.probability_at_stated >= exceeded / 12
@@ -215,7 +217,7 @@ def test_allocation_is_monotone_and_consistent(tmp_path):
     assert factors[1700.0] < factors[2000.0]
     study = write_study(tmp_path, 1850.0)
     loose = run_allocation(
-        study, tmp_path / "b", target_probability=0.5, workers=1, quiet=True, figures=False
+        study, tmp_path / "b", target_probability=0.5, workers=1, figures=False
     ).allocation
     assert loose.factor >= factors[1850.0]
 
@@ -290,7 +292,7 @@ def test_importing_cyclomesh_does_not_import_distributed():
     import sys
 
     code = (
-        "import sys, cyclomesh, cyclomesh.tolerance.commands, cyclomesh.tolerance.runner;"
+        "import sys, cyclomesh, cyclomesh.cli, cyclomesh.studies.tolerance;"
         "print('distributed' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

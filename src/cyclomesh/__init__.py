@@ -3,32 +3,50 @@
 Implements the model of X. Li, L. Tang, H. He, L. Sun, "Design and Load Distribution
 Analysis of the Mismatched Cycloid-Pin Gear Pair in RV Speed Reducers", Machines 10
 (2022) 672, doi:10.3390/machines10080672.
+
+The names below are imported on first use, so ``import cyclomesh`` (and the
+``cyclomesh`` command's start) stays fast: ``import cyclomesh.ltca`` loads NumPy and
+SciPy only, and xarray comes with :func:`analyse`.
 """
 
-from cyclomesh.analysis import analyse, summarize, to_dataset
-from cyclomesh.design import STEEL, TABLE1, Material, Modification, PairDesign, PinErrors
-from cyclomesh.designmap import Constraints, design_map
-from cyclomesh.exceptions import ConvergenceError, CyclomeshError, DesignError, StudyError
-from cyclomesh.ltca import LTCA, solve_ltca
-from cyclomesh.modification import ProfileDeviation
+from __future__ import annotations
 
-__all__ = [
-    "analyse",
-    "summarize",
-    "to_dataset",
-    "solve_ltca",
-    "LTCA",
-    "PairDesign",
-    "Material",
-    "Modification",
-    "PinErrors",
-    "ProfileDeviation",
-    "design_map",
-    "Constraints",
-    "STEEL",
-    "TABLE1",
-    "CyclomeshError",
-    "DesignError",
-    "ConvergenceError",
-    "StudyError",
-]
+from importlib import import_module
+from typing import Any
+
+_EXPORTS = {
+    "analyse": "cyclomesh.analysis",
+    "summarize": "cyclomesh.analysis",
+    "to_dataset": "cyclomesh.analysis",
+    "solve_ltca": "cyclomesh.ltca",
+    "LTCA": "cyclomesh.ltca",
+    "PairDesign": "cyclomesh.design",
+    "Material": "cyclomesh.design",
+    "Modification": "cyclomesh.design",
+    "PinErrors": "cyclomesh.design",
+    "ProfileDeviation": "cyclomesh.modification",
+    "design_map": "cyclomesh.designmap",
+    "Constraints": "cyclomesh.designmap",
+    "STEEL": "cyclomesh.design",
+    "TABLE1": "cyclomesh.design",
+    "METRICS": "cyclomesh.metrics",
+    "CyclomeshError": "cyclomesh.exceptions",
+    "DesignError": "cyclomesh.exceptions",
+    "ConvergenceError": "cyclomesh.exceptions",
+    "StudyError": "cyclomesh.exceptions",
+}
+
+__all__ = list(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'cyclomesh' has no attribute {name!r}")
+    value = getattr(import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -3,21 +3,28 @@
 This is the notebook entry point. The numbers come from the SI core; here they are
 converted to the units a gear engineer reads (N, MPa, arcsec, degrees, mm), labelled
 with ``crank_angle`` (degrees) and ``pin`` (1 … n1), and the inputs recorded as
-attributes. :func:`summarize` reduces a result to the headline numbers of a study.
+attributes. :func:`summarize` reduces a result to the headline numbers of a study
+(:mod:`cyclomesh.metrics`); :func:`ltca_metrics` does the same straight from the core's
+result, without a Dataset (tolerance studies). xarray is imported only when a Dataset
+is built, so the variable tables below can be read by worker processes cheaply.
 """
 
 from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING
 
 import numpy as np
-import xarray as xr
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.ltca import LTCA, solve_ltca
+from cyclomesh.metrics import METRICS, summary_metrics
 
-__all__ = ["analyse", "to_dataset", "summarize", "ARCSEC"]
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = ["analyse", "to_dataset", "summarize", "ltca_metrics", "ARCSEC"]
 
 ARCSEC = np.pi / (180.0 * 3600.0)
 """One second of arc [rad]."""
@@ -59,6 +66,8 @@ def to_dataset(
     groove_deformation: bool,
 ) -> xr.Dataset:
     """Label an :class:`~cyclomesh.ltca.LTCA` result (SI) as a Dataset in engineering units."""
+    import xarray as xr
+
     ring_dims = ("ring",) if result.transmission_error.ndim == 2 else ()
     if result.transmission_error.ndim > 2:
         raise ValueError("to_dataset supports at most one ring axis")
@@ -168,45 +177,65 @@ def analyse(
 def summarize(ds: xr.Dataset) -> xr.Dataset:
     """Headline numbers of a result, reduced over crank angle and pin (ring kept).
 
-    Returns a Dataset with ``te_mean_arcsec``, ``te_pp_arcsec``, ``max_pin_load_n``,
-    ``max_groove_load_n``, ``max_contact_stress_mpa``, ``max_groove_stress_mpa``,
-    ``contacts_min``, ``contacts_max``, ``gear_ratio_ripple_pct`` (peak-to-peak of the
-    instantaneous ratio in % of n2, over the step ``gear_ratio_step_deg``),
-    ``max_overlap_arcsec`` and ``overlap`` (any interference with an unloaded flank).
+    Returns a Dataset with the metrics of :data:`cyclomesh.metrics.METRICS`
+    (``te_mean_arcsec``, ``te_pp_arcsec``, ``max_pin_load_n``, ``max_groove_load_n``,
+    ``max_contact_stress_mpa``, ``max_groove_stress_mpa``, ``contacts_min``,
+    ``contacts_max``, ``gear_ratio_ripple_pct`` (peak-to-peak of the instantaneous ratio
+    in % of n2, over the step ``gear_ratio_step_deg``), ``max_overlap_arcsec`` and
+    ``overlap``), each with its ``units`` and ``long_name``.
     """
-    both = ("crank_angle", "pin")
-    te = ds["transmission_error"]
-    ratio = ds["gear_ratio"]
-    teeth = ds.attrs["teeth"]
-    out = {
-        "te_mean_arcsec": te.mean("crank_angle"),
-        "te_pp_arcsec": te.max("crank_angle") - te.min("crank_angle"),
-        "max_pin_load_n": ds["pin_load"].max(both),
-        "max_groove_load_n": ds["groove_load"].max(both),
-        "max_contact_stress_mpa": ds["contact_stress"].max(both),
-        "max_groove_stress_mpa": ds["groove_stress"].max(both),
-        "contacts_min": ds["contacts"].min("crank_angle"),
-        "contacts_max": ds["contacts"].max("crank_angle"),
-        "gear_ratio_ripple_pct": (ratio.max("crank_angle") - ratio.min("crank_angle"))
-        / teeth
-        * 100.0,
-        "max_overlap_arcsec": ds["overlap"].max(both),
-    }
-    summary = xr.Dataset(out)
-    summary["overlap"] = summary["max_overlap_arcsec"] > 0
-    units = {
-        "te_mean_arcsec": "arcsec",
-        "te_pp_arcsec": "arcsec",
-        "max_pin_load_n": "N",
-        "max_groove_load_n": "N",
-        "max_contact_stress_mpa": "MPa",
-        "max_groove_stress_mpa": "MPa",
-        "contacts_min": "1",
-        "contacts_max": "1",
-        "gear_ratio_ripple_pct": "%",
-        "max_overlap_arcsec": "arcsec",
-    }
-    for name, unit in units.items():
-        summary[name].attrs = {"units": unit}
+    import xarray as xr
+
+    order = [d for d in ds["pin_load"].dims if d not in ("crank_angle", "pin")]
+    pin_dims = (*order, "crank_angle", "pin")
+    angle_dims = (*order, "crank_angle")
+    values = summary_metrics(
+        **{
+            name: ds[name].transpose(*angle_dims).values
+            for name in ("transmission_error", "gear_ratio", "contacts")
+        },
+        **{
+            name: ds[name].transpose(*pin_dims).values
+            for name in ("pin_load", "groove_load", "contact_stress", "groove_stress", "overlap")
+        },
+        teeth=ds.attrs["teeth"],
+    )
+    coords = {d: ds[d] for d in order if d in ds.coords}
+    summary = xr.Dataset(
+        {
+            name: (
+                tuple(order),
+                values[name],
+                {"units": METRICS[name].unit, "long_name": METRICS[name].long_name},
+            )
+            for name in METRICS
+        },
+        coords=coords,
+    )
     summary.attrs["gear_ratio_step_deg"] = ds.attrs.get("gear_ratio_step_deg", 0.0)
     return summary
+
+
+def ltca_metrics(result: LTCA, teeth: int) -> dict[str, NDArray]:
+    """The metrics of :data:`cyclomesh.metrics.METRICS` straight from a core result (SI).
+
+    The same numbers as ``summarize(to_dataset(result, ...))``, bit for bit (same unit
+    scales, same reductions), without building a Dataset; leading ring axes are kept.
+    """
+    scaled = {
+        name: getattr(result, name) * table[name][0]
+        for table in (_PER_PIN, _PER_ANGLE)
+        for name in table
+        if name
+        in (
+            "transmission_error",
+            "gear_ratio",
+            "contacts",
+            "pin_load",
+            "groove_load",
+            "contact_stress",
+            "groove_stress",
+            "overlap",
+        )
+    }
+    return summary_metrics(**scaled, teeth=teeth)

@@ -1,31 +1,44 @@
-"""The ``cyclomesh`` command.
+"""The ``cyclomesh`` command: a thin layer over the study pipeline, with progress.
 
-``cyclomesh run STUDY.toml --out DIR`` runs a study file (see ``docs/study-files.md``)
-and writes its results, figures and report. Every refused input comes out as
-``error: <one line>`` on stderr with exit status 2 and no traceback; commands get that
-behaviour from :func:`cli_errors`::
+``cyclomesh run STUDY.toml --out DIR`` runs the cases of a study file,
+``cyclomesh tolerance`` and ``cyclomesh allocate`` its ``[tolerance]`` section,
+``cyclomesh check`` validates every section without running anything (see
+``docs/study-files.md`` and ``docs/pipeline.md``). Every refused input comes out as
+``error: <one line>`` on stderr with exit status 2 and no traceback; a command gets
+that behaviour from :func:`cli_errors`::
 
     from cyclomesh.cli import app, cli_errors
 
     @app.command()
     @cli_errors()
-    def tolerance(...): ...
+    def stiffness(...): ...
+
+Progress bars and tables live here only; the studies report progress through
+callbacks. Heavy modules are imported inside the commands, so ``--help`` is fast.
 """
 
 from __future__ import annotations
 
-import tomllib
-from collections.abc import Iterator
+import math
+import sys
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
-from pydantic import ValidationError
 
 from cyclomesh.exceptions import CyclomeshError
 
-__all__ = ["app", "cli_errors", "fail", "stderr_console", "EXIT_INPUT_ERROR"]
+__all__ = [
+    "app",
+    "cli_errors",
+    "fail",
+    "stderr_console",
+    "progress_bar",
+    "output_options",
+    "EXIT_INPUT_ERROR",
+]
 
 EXIT_INPUT_ERROR = 2
 """Exit status for an input that cyclomesh refuses (as for a usage error)."""
@@ -47,6 +60,15 @@ def fail(message: str) -> typer.Exit:
     return typer.Exit(EXIT_INPUT_ERROR)
 
 
+def _pydantic_error(exc: BaseException) -> str | None:
+    pydantic = sys.modules.get("pydantic")  # not imported: cannot be a pydantic error
+    if pydantic is None or not isinstance(exc, pydantic.ValidationError):
+        return None
+    first = exc.errors(include_url=False)[0]
+    key = ".".join(str(part) for part in first["loc"])
+    return f"{key}: {first['msg']}" if key else first["msg"]
+
+
 @contextmanager
 def cli_errors() -> Iterator[None]:
     """Turn refused inputs into ``error: <one line>`` on stderr and exit status 2.
@@ -56,26 +78,66 @@ def cli_errors() -> Iterator[None]:
     errors, TOML syntax errors and operating-system errors (missing file, no
     permission). Use it as a context manager or as a decorator of a command.
     """
+    import tomllib
+
     try:
         yield
     except CyclomeshError as exc:
         raise fail(str(exc)) from None
-    except ValidationError as exc:
-        first = exc.errors(include_url=False)[0]
-        key = ".".join(str(part) for part in first["loc"])
-        raise fail(f"{key}: {first['msg']}" if key else first["msg"]) from None
     except tomllib.TOMLDecodeError as exc:
         raise fail(f"invalid TOML: {exc}") from None
     except OSError as exc:
         where = f"{exc.filename}: " if exc.filename else ""
         raise fail(f"{where}{exc.strerror or exc}") from None
+    except ValueError as exc:
+        message = _pydantic_error(exc)
+        if message is None:
+            raise
+        raise fail(message) from None
 
 
-def stderr_console(quiet: bool = False):
+def stderr_console(quiet: bool = False) -> Any:
     """A Rich console on stderr for progress (silent when ``quiet``)."""
     from rich.console import Console
 
-    return Console(stderr=True, quiet=quiet)
+    return Console(stderr=True, quiet=quiet, highlight=False)
+
+
+@contextmanager
+def progress_bar(
+    total: int, label: str, quiet: bool, unit: str = "rings"
+) -> Iterator[Callable[[int], None]]:
+    """A progress bar on stderr (none when quiet or not a terminal); yields ``advance(n)``."""
+    console = stderr_console(quiet)
+    if quiet or not console.is_terminal:
+        yield lambda done: None
+        return
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TaskProgressColumn,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn() if unit else TaskProgressColumn(),
+        TimeElapsedColumn(),
+        TextColumn("left"),
+        TimeRemainingColumn(),
+        console=console,
+    ) as bar:
+        task = bar.add_task(label, total=total)
+        yield lambda done: bar.advance(task, done)
+
+
+def _say(message: str, quiet: bool) -> None:
+    if not quiet:
+        stderr_console().print(message)
 
 
 def _version(value: bool) -> None:
@@ -103,6 +165,10 @@ def _overrides(crank_step_deg: float | None) -> dict:
 StudyArg = Annotated[
     Path, typer.Argument(help="Study file (TOML).", show_default=False, metavar="STUDY.toml")
 ]
+OutOption = Annotated[Path, typer.Option("--out", "-o", help="Output folder (created if needed).")]
+QuietOption = Annotated[
+    bool, typer.Option("--quiet", "-q", help="No progress and no summary table.")
+]
 StepOption = Annotated[
     float | None,
     typer.Option(
@@ -111,71 +177,119 @@ StepOption = Annotated[
         show_default=False,
     ),
 ]
+FiguresOption = Annotated[
+    str | None,
+    typer.Option(
+        "--figures",
+        help="Figure formats, comma-separated: png, svg, pdf; or none "
+        "(default: figures.formats of the study file, png).",
+        show_default=False,
+    ),
+]
+CsvOption = Annotated[
+    bool,
+    typer.Option(
+        "--csv",
+        help="Also write the full pin-level results.csv of every case (the same numbers "
+        "are in results.parquet and results.nc).",
+    ),
+]
+RingsOption = Annotated[
+    int | None,
+    typer.Option(
+        "--rings", min=1, help="Rings to draw (default: tolerance.rings).", show_default=False
+    ),
+]
+SchedulerOption = Annotated[
+    str | None,
+    typer.Option(
+        "--scheduler",
+        help="Dask scheduler address (tcp://HOST:PORT) of an existing cluster; "
+        "default: all local cores.",
+        show_default=False,
+    ),
+]
+WorkersOption = Annotated[
+    int | None,
+    typer.Option(
+        "--workers", min=1, help="Local worker processes (default: all cores).", show_default=False
+    ),
+]
+ChunkOption = Annotated[
+    int | None,
+    typer.Option(
+        "--chunk-rings",
+        min=1,
+        help="Rings per chunk of work (default: one core call, 16 rings at 1°).",
+        show_default=False,
+    ),
+]
+
+
+def output_options(study: Any, figures: str | None, csv: bool = False) -> Any:
+    """The pipeline's :class:`~cyclomesh.pipeline.OutputOptions` from the CLI options."""
+    from cyclomesh.pipeline import OutputOptions
+
+    return OutputOptions.from_study(study, figures, csv)
 
 
 @app.command()
 @cli_errors()
 def check(study: StudyArg, crank_step_deg: StepOption = None) -> None:
-    """Validate a study file without running it."""
+    """Validate a study file (every section) without running it."""
     from cyclomesh.study import load_study
 
     loaded = load_study(study, _overrides(crank_step_deg))
     names = ", ".join(case.name for case in loaded.cases)
-    typer.echo(f"{study}: {len(loaded.cases)} case(s) OK: {names}")
+    more = "; [tolerance] OK" if loaded.tolerance is not None else ""
+    typer.echo(f"{study}: {len(loaded.cases)} case(s) OK: {names}{more}")
 
 
 @app.command()
 @cli_errors()
 def run(
     study: StudyArg,
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder (created if needed).")],
-    quiet: Annotated[
-        bool, typer.Option("--quiet", "-q", help="No progress and no summary table.")
-    ] = False,
+    out: OutOption,
+    quiet: QuietOption = False,
     crank_step_deg: StepOption = None,
+    figures: FiguresOption = None,
+    csv: CsvOption = False,
 ) -> None:
     """Run every case of a study; write results, figures, summary.json and report.html."""
-    from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-
+    from cyclomesh.pipeline import publish
+    from cyclomesh.studies import run as kind
     from cyclomesh.study import load_study
-    from cyclomesh.study.runner import compute_study, study_figures, write_study
 
     loaded = load_study(study, _overrides(crank_step_deg))
-    console = stderr_console(quiet)
-    progress = Progress(
-        SpinnerColumn(),
-        TextColumn("{task.description}"),
-        BarColumn(),
-        TimeElapsedColumn(),
-        console=console,
-        disable=quiet or not console.is_terminal,
-    )
-    with progress:
-        tasks = {
-            case.name: progress.add_task(case.name, total=1, start=False) for case in loaded.cases
-        }
-        finish = progress.add_task("figures, files, report", total=1, start=False)
-        result = compute_study(
-            loaded,
-            on_start=lambda name: progress.start_task(tasks[name]),
-            on_done=lambda name: progress.update(tasks[name], completed=1),
+    options = output_options(loaded, figures, csv)
+    with _figure_pool(options) as pool:  # forked now: imports matplotlib while we solve
+        with progress_bar(len(loaded.cases), "cases", quiet) as advance:
+            result = kind.compute_run(loaded, on_done=lambda name: advance(1))
+        _say("writing results, figures and report", quiet)
+        files = kind.write_run(result, out, options)
+        jobs = kind.run_figures(result) if options.figures else []
+        publish(
+            out,
+            loaded.title,
+            kind.run_sections(result),
+            jobs,
+            files,
+            options,
+            kind.study_stamp(loaded),
+            pool=pool,
         )
-        progress.start_task(finish)
-        figs = study_figures(result) if loaded.figures.enabled else {}
-        write_study(result, out, figs)
-        progress.update(finish, completed=1)
     if not quiet:
         _print_summary(result.summaries, out)
 
 
 _SUMMARY_COLUMNS = (
-    ("te_pp_arcsec", "TE p-p [arcsec]"),
-    ("max_pin_load_n", "max pin load [N]"),
-    ("max_contact_stress_mpa", "max σH tooth [MPa]"),
-    ("max_groove_stress_mpa", "max σH groove [MPa]"),
-    ("contacts_min", "min pins in contact"),
-    ("contacts_max", "max pins in contact"),
-    ("gear_ratio_ripple_pct", "ratio ripple [%]"),
+    "te_pp_arcsec",
+    "max_pin_load_n",
+    "max_contact_stress_mpa",
+    "max_groove_stress_mpa",
+    "contacts_min",
+    "contacts_max",
+    "gear_ratio_ripple_pct",
 )
 
 
@@ -184,9 +298,15 @@ def _print_summary(summaries: dict, out: Path) -> None:
     from rich.markup import escape
     from rich.table import Table
 
-    table = Table("case", *(escape(label) for _, label in _SUMMARY_COLUMNS))
+    from cyclomesh.metrics import METRICS
+
+    labels = [
+        METRICS[k].label + ("" if METRICS[k].unit == "1" else f" [{METRICS[k].unit}]")
+        for k in _SUMMARY_COLUMNS
+    ]
+    table = Table("case", *(escape(label) for label in labels))
     for name, record in summaries.items():
-        cells = [record.get(key) for key, _ in _SUMMARY_COLUMNS]
+        cells = [record.get(key) for key in _SUMMARY_COLUMNS]
         table.add_row(escape(name), *("–" if v is None else f"{v:.4g}" for v in cells))
     console = Console()
     console.print(table)
@@ -197,13 +317,273 @@ def _print_summary(summaries: dict, out: Path) -> None:
     console.print(f"report: {out / 'report.html'}")
 
 
-def _add_layer_commands() -> None:
-    """Commands of the other layers: ``tolerance`` and ``allocate`` (cyclomesh.tolerance)."""
-    from cyclomesh.design_study import register as register_design
-    from cyclomesh.tolerance.commands import register
+def _figure_pool(options: Any) -> Any:
+    """Figure workers, started before any progress thread (none without figures)."""
+    from contextlib import nullcontext
 
-    register(app)
-    register_design(app)
+    if not options.figures:
+        return nullcontext(None)
+    import xarray  # noqa: F401  (needed here anyway: inherited by the forked workers)
+
+    from cyclomesh.figures.render import FigurePool
+
+    return FigurePool(options.figure_workers)
 
 
-_add_layer_commands()
+def _preload(figures: bool) -> Any:
+    """Import xarray (and matplotlib) in a thread while the workers compute.
+
+    Started after the worker processes are forked; joined before anything else forks,
+    so the figure workers inherit the imported modules.
+    """
+    import threading
+
+    def work() -> None:
+        import numpy as np
+        import xarray as xr
+
+        xr.DataArray(np.zeros(1))  # the first array makes xarray import its array backends
+        if figures:
+            from cyclomesh.figures.render import _warm
+
+            _warm()
+
+    thread = threading.Thread(target=work, name="cyclomesh-preload", daemon=True)
+    thread.start()
+    return thread
+
+
+def _backend(scheduler: str | None, workers: int | None) -> Any:
+    from cyclomesh.execution import make_backend
+
+    return make_backend(scheduler, workers)
+
+
+@app.command()
+@cli_errors()
+def tolerance(
+    study: Annotated[
+        Path,
+        typer.Argument(help="Study file (TOML) with a [tolerance] section.", metavar="STUDY.toml"),
+    ],
+    out: OutOption,
+    rings: RingsOption = None,
+    scheduler: SchedulerOption = None,
+    quiet: QuietOption = False,
+    workers: WorkersOption = None,
+    chunk_rings: ChunkOption = None,
+    figures: FiguresOption = None,
+) -> None:
+    """Monte Carlo tolerance study: per-ring metrics, statistics, worst ring, report."""
+    from cyclomesh.pipeline import publish
+    from cyclomesh.studies import tolerance as kind
+
+    loaded, spec = kind.load_tolerance_study(study)
+    options = output_options(loaded, figures)
+    n = spec.rings if rings is None else rings
+    backend = _backend(scheduler, workers)
+    try:
+        backend.start()
+        preload = _preload(bool(options.figures))
+        _say(
+            f"tolerance study: {n} rings, {len(spec.crank_angles_deg())} crank angles, "
+            f"{backend.workers} worker(s)",
+            quiet,
+        )
+        with progress_bar(n, "rings", quiet) as advance:
+            result = kind.compute_tolerance(
+                loaded, rings=rings, backend=backend, chunk_rings=chunk_rings, progress=advance
+            )
+    finally:
+        backend.close()
+    preload.join()
+    files = kind.write_tolerance(result, out)
+    jobs = kind.tolerance_figures(result) if options.figures else []
+    publish(
+        out,
+        f"{loaded.title}: tolerance study",
+        kind.tolerance_sections(result),
+        jobs,
+        files,
+        options,
+        {"SHA-256 of the study file": loaded.sha256},
+    )
+    if not quiet:
+        _print_tolerance(result.summary, out)
+
+
+@app.command()
+@cli_errors()
+def allocate(
+    study: Annotated[
+        Path,
+        typer.Argument(help="Study file (TOML) with a [tolerance] section.", metavar="STUDY.toml"),
+    ],
+    out: OutOption,
+    target_probability: Annotated[
+        float | None,
+        typer.Option(
+            "--target-probability",
+            help="Acceptable probability of exceeding the allowable contact stress "
+            "(default: tolerance.allocation.target_probability, 0.01).",
+            show_default=False,
+        ),
+    ] = None,
+    rings: RingsOption = None,
+    scheduler: SchedulerOption = None,
+    quiet: QuietOption = False,
+    workers: WorkersOption = None,
+    chunk_rings: ChunkOption = None,
+    figures: FiguresOption = None,
+) -> None:
+    """Largest scale factor on the tolerances that meets the target exceedance probability."""
+    from cyclomesh.pipeline import publish
+    from cyclomesh.studies import tolerance as kind
+
+    loaded, spec = kind.load_tolerance_study(study)
+    options = output_options(loaded, figures)
+    n = spec.rings if rings is None else rings
+    alloc = spec.allocation
+    backend = _backend(scheduler, workers)
+    try:
+        backend.start()
+        preload = _preload(bool(options.figures))
+        _say(
+            f"tolerance allocation: {n} rings, scale factors up to {alloc.factor_max:g} in "
+            f"{alloc.factor_steps} steps + {alloc.bisections} bisections, "
+            f"{backend.workers} worker(s)",
+            quiet,
+        )
+        with progress_bar(n, "rings", quiet) as advance:
+            result = kind.compute_allocation(
+                loaded,
+                target_probability=target_probability,
+                rings=rings,
+                backend=backend,
+                chunk_rings=chunk_rings,
+                progress=advance,
+            )
+    finally:
+        backend.close()
+    preload.join()
+    files = kind.write_allocation(result, out)
+    jobs = kind.allocation_figures(result) if options.figures else []
+    publish(
+        out,
+        f"{loaded.title}: tolerance allocation",
+        kind.allocation_sections(result),
+        jobs,
+        files,
+        options,
+        {"SHA-256 of the study file": loaded.sha256},
+        report_name="allocation_report.html",
+    )
+    if not quiet:
+        typer.echo(result.allocation.statement())
+        typer.echo(f"files: {out}")
+
+
+def _print_tolerance(stats: dict[str, Any], out: Path) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"{stats['rings']} rings (seed {stats['seed']})")
+    for col in ("metric", "unit", "mean", "std", "P5", "P50", "P95", "P99"):
+        table.add_column(col, justify="left" if col in ("metric", "unit") else "right")
+    for name, s in stats["metrics"].items():
+        table.add_row(
+            name,
+            s["unit"],
+            f"{s['mean']:.4g}",
+            f"{s['std']:.3g}",
+            *(f"{q['estimate']:.4g}" for q in s["percentiles"]),
+        )
+    console = Console(highlight=False)
+    console.print(table)
+    ex = stats["exceedance"]["max_contact_stress_mpa"]
+    conf = stats["confidence"]
+    console.print(
+        f"P(max_contact_stress_mpa > {stats['allowable_contact_stress_mpa']:g}) = "
+        f"{ex['probability']:.4g}, {conf:.0%} Clopper-Pearson [{ex['lower']:.4g}, "
+        f"{ex['upper']:.4g}] ({ex['count']} of {ex['rings']} rings)"
+    )
+    worst = stats["worst_ring"]
+    console.print(
+        f"worst ring {worst['ring']}: {worst['max_contact_stress_mpa']:.5g} MPa -> "
+        f"{out / 'worst_ring.toml'}"
+    )
+    console.print(
+        f"percentile intervals: {out / 'tolerance_summary.json'}; "
+        f"report: {out / 'report.html'} ({stats['rings_per_second']:.1f} rings/s)"
+    )
+
+
+@app.command()
+@cli_errors()
+def design(
+    study: Annotated[
+        Path,
+        typer.Argument(
+            help="Study file (TOML) with a [design_space] section.", metavar="STUDY.toml"
+        ),
+    ],
+    out: OutOption,
+    scheduler: SchedulerOption = None,
+    quiet: QuietOption = False,
+    workers: WorkersOption = None,
+    figures: FiguresOption = None,
+) -> None:
+    """Design map: sweep the modification, map the metrics, mark the optimum.
+
+    A nominal map runs in this process unless --workers or --scheduler is given; a
+    robust map (design_space.rings > 0) runs on all local cores by default.
+    """
+    from cyclomesh.pipeline import publish
+    from cyclomesh.studies import design as kind
+
+    loaded, space = kind.load_design_study(study)
+    options = output_options(loaded, figures)
+    n = math.prod(len(v) for v in space.axes().values())
+    parallel = scheduler is not None or workers not in (None, 1) or (space.rings and workers != 1)
+    backend = _backend(scheduler, workers) if parallel else None
+    try:
+        if backend is not None:
+            backend.start()
+        preload = _preload(bool(options.figures))
+        _say(
+            f"design map: {n} candidates"
+            + (f" x {space.rings} rings" if space.rings else "")
+            + f", {backend.workers if backend else 1} worker(s)",
+            quiet,
+        )
+        with progress_bar(n, "candidates", quiet) as advance:
+            result = kind.compute_design(
+                loaded, backend=backend, chunk=1 if backend else None, progress=advance
+            )
+    finally:
+        if backend is not None:
+            backend.close()
+    preload.join()
+    files = kind.write_design(result, out)
+    publish(
+        out,
+        f"{loaded.title}: design map",
+        kind.design_sections(result),
+        kind.design_figures(result) if options.figures else [],
+        files,
+        options,
+        {"SHA-256 of the study file": loaded.sha256},
+    )
+    if not quiet:
+        s = result.summary
+        typer.echo(
+            f"{s['candidates']} candidates, {s['feasible_candidates']} feasible, "
+            f"{s['failed_candidates']} failed ({result.seconds:.1f} s)"
+        )
+        if s["optimum"] is None:
+            typer.echo("no feasible candidate: relax the constraints or widen the ranges")
+        else:
+            where = ", ".join(f"{k} = {v:g}" for k, v in s["optimum"]["parameters"].items())
+            value = s["optimum"]["metrics"][s["objective_variable"]]
+            typer.echo(f"optimum: {where} ({s['objective_variable']} = {value:.6g})")
+        typer.echo(f"report: {out / 'report.html'}")

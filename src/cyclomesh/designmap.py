@@ -36,16 +36,18 @@ import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import xarray as xr
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.contact import unloaded_contact
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.exceptions import CyclomeshError, DesignError
 from cyclomesh.ltca import CONDITIONED_ARM, rest_position, solve_ltca
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 __all__ = [
     "PARAMETERS",
@@ -380,10 +382,12 @@ def evaluate_grid(
     """
     if backend is None:
         flat = dict(task(0, task.size))
+        if progress is not None:
+            progress(task.size)
     else:
-        from cyclomesh.tolerance.engine import run_rings
+        from cyclomesh.execution import run_chunks
 
-        flat = run_rings(task, task.size, backend=backend, chunk_rings=chunk, progress=progress)
+        flat = run_chunks(task, task.size, backend=backend, chunk_size=chunk, progress=progress)
     return {name: value.reshape(task.shape) for name, value in flat.items()}
 
 
@@ -476,6 +480,8 @@ def design_map(
         variable with ``units`` (NaN only where ``reason`` says the candidate failed);
         ``feasible`` and ``reason``; attributes give the optimum and the inputs.
     """
+    import xarray as xr
+
     if not axes:
         raise DesignError("design_space: sweep at least one parameter")
     for key in axes:

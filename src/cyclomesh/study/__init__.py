@@ -1,9 +1,10 @@
-"""Studies: TOML files describing cases, their runs and their output files.
+"""Study files: the TOML description of a study, validated by one schema.
 
-``config`` reads and validates a study file; ``measurements`` reads measured pin
-errors; ``results`` runs the cases and writes NetCDF, CSV and JSON.
+``schema`` reads and validates a study file (every section, ``[tolerance]`` included);
+``measurements`` reads measured pin errors. Running a study is
+:mod:`cyclomesh.studies`.
 """
 
-from cyclomesh.study.config import CaseInputs, CaseSpec, Study, load_study
+from cyclomesh.study.schema import CaseInputs, CaseSpec, Study, load_study
 
 __all__ = ["CaseInputs", "CaseSpec", "Study", "load_study"]

@@ -1,14 +1,13 @@
-"""Monte Carlo tolerance studies of the pin ring (issue 4).
+"""Monte Carlo tolerance numerics of the pin ring (issue 4).
 
-``spec`` validates the ``[tolerance]`` section of a study file; ``sampling`` draws
-reproducible per-ring errors; ``engine`` runs chunks of rings serially, on local cores
-or on a Dask cluster; ``tasks`` turns rings into metrics through the core;
-``statistics`` and ``allocation`` reduce them; ``output``, ``figures`` and ``runner``
-write the files; ``commands`` holds the ``cyclomesh tolerance`` and ``cyclomesh
-allocate`` commands. Nothing here imports ``distributed`` until a scheduler is used.
+``sampling`` draws reproducible per-ring errors; ``tasks`` turns rings into metrics
+through the core (chunk functions for :mod:`cyclomesh.execution`); ``statistics`` and
+``allocation`` reduce them. The ``[tolerance]`` section is part of the one study file
+schema (:class:`cyclomesh.study.schema.ToleranceSection`); the study itself (files,
+figures, report) is :mod:`cyclomesh.studies.tolerance`.
 """
 
+from cyclomesh.study.schema import ToleranceSection
 from cyclomesh.tolerance.sampling import RingErrors, draw_ring_errors
-from cyclomesh.tolerance.spec import ToleranceSpec, parse_tolerance
 
-__all__ = ["RingErrors", "ToleranceSpec", "draw_ring_errors", "parse_tolerance"]
+__all__ = ["RingErrors", "ToleranceSection", "draw_ring_errors"]

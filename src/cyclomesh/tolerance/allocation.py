@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import stats
+from scipy import special
 
 from cyclomesh.tolerance.statistics import exceedance_probability, lower_quantile_bound_rank
 
@@ -44,8 +44,8 @@ def clopper_pearson(
     k = np.asarray(count, dtype=float)
     alpha = 1.0 - confidence
     with np.errstate(invalid="ignore"):
-        lower = np.where(k > 0, stats.beta.ppf(alpha / 2, k, total - k + 1), 0.0)
-        upper = np.where(k < total, stats.beta.ppf(1 - alpha / 2, k + 1, total - k), 1.0)
+        lower = np.where(k > 0, special.betaincinv(k, total - k + 1, alpha / 2), 0.0)
+        upper = np.where(k < total, special.betaincinv(k + 1, total - k, 1 - alpha / 2), 1.0)
     return lower, upper
 
 

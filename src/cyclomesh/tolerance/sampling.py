@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.tolerance.spec import Normal, ToleranceSpec, Uniform
+from cyclomesh.study.schema import Normal, ToleranceSection, Uniform
 
 __all__ = ["RingErrors", "draw_ring_errors", "unit_disc"]
 
@@ -104,7 +104,7 @@ def _standard(dist: Uniform | Normal, rng: np.random.Generator, size: int) -> ND
 
 
 def draw_ring_errors(
-    spec: ToleranceSpec,
+    spec: ToleranceSection,
     pins: int,
     pin_circle_radius: float,
     rings: Sequence[int] | NDArray[np.integer],
@@ -113,7 +113,7 @@ def draw_ring_errors(
 
     Parameters
     ----------
-    spec : ToleranceSpec
+    spec : ToleranceSection
         Distributions and seed.
     pins : int
         Number of pins n1 [-].

@@ -11,7 +11,9 @@ Methods (stated in every output that uses them):
   (Hahn & Meeker, Statistical Intervals, 1991, §5.2). A bound that needs a rank
   outside 1..n is not available (NaN): too few rings for that percentile.
 - Exceedance probability: k/n with the exact Clopper–Pearson interval
-  (``scipy.stats.binomtest(...).proportion_ci(method="exact")``).
+  (the beta quantiles of ``scipy.stats.binomtest(...).proportion_ci(method="exact")``,
+  taken from ``scipy.special`` directly: ``scipy.stats`` takes longer to import than a
+  small study takes to run).
 - One-sided lower confidence bound on a p-quantile (used by the allocation): the
   order statistic x(r) with the largest r such that P(B ≥ r) ≥ confidence.
 """
@@ -23,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import stats
+from scipy import special
 
 __all__ = [
     "PERCENTILES",
@@ -61,6 +63,13 @@ class Proportion:
     confidence: float
 
 
+def binomial_cdf(k: ArrayLike, n: int, p: float) -> NDArray[np.float64]:
+    """P(B ≤ k) of B ~ Bin(n, p), for integer k (0 below 0, 1 from n on)."""
+    k = np.asarray(k)
+    inside = special.bdtr(np.clip(k, 0, n), n, p)
+    return np.where(k < 0, 0.0, np.where(k >= n, 1.0, inside))
+
+
 def order_statistic_ranks(n: int, p: float, confidence: float = 0.95) -> tuple[int, int]:
     """1-based ranks (l, u) of the order-statistic interval for the p-quantile.
 
@@ -68,7 +77,7 @@ def order_statistic_ranks(n: int, p: float, confidence: float = 0.95) -> tuple[i
     """
     alpha = 1.0 - confidence
     r = np.arange(0, n + 2)
-    cdf = stats.binom.cdf(r - 1, n, p)  # P(B ≤ r − 1)
+    cdf = binomial_cdf(r - 1, n, p)  # P(B ≤ r − 1)
     lower_ok = np.nonzero(cdf <= alpha / 2)[0]
     lower = int(r[lower_ok[-1]]) if lower_ok.size else 0
     upper_ok = np.nonzero(cdf >= 1.0 - alpha / 2)[0]
@@ -106,12 +115,11 @@ def exceedance_probability(count: int, total: int, confidence: float = 0.95) -> 
     """Probability estimate count/total with its exact Clopper–Pearson interval."""
     if total <= 0:
         return Proportion(count, total, float("nan"), 0.0, 1.0, confidence)
-    ci = stats.binomtest(int(count), int(total)).proportion_ci(
-        confidence_level=confidence, method="exact"
-    )
-    return Proportion(
-        int(count), int(total), count / total, float(ci.low), float(ci.high), confidence
-    )
+    alpha = 1.0 - confidence
+    k, n = int(count), int(total)
+    low = float(special.betaincinv(k, n - k + 1, alpha / 2)) if k > 0 else 0.0
+    high = float(special.betaincinv(k + 1, n - k, 1 - alpha / 2)) if k < n else 1.0
+    return Proportion(k, n, count / total, low, high, confidence)
 
 
 def lower_quantile_bound_rank(n: int, p: float, confidence: float = 0.95) -> int:
@@ -121,7 +129,7 @@ def lower_quantile_bound_rank(n: int, p: float, confidence: float = 0.95) -> int
     confidence, the fraction of the population below x(r) is at most p.
     """
     r = np.arange(1, n + 1)
-    ok = np.nonzero(stats.binom.sf(r - 1, n, p) >= confidence)[0]
+    ok = np.nonzero(special.bdtrc(r - 1, n, p) >= confidence)[0]  # P(B ≥ r), 1 ≤ r ≤ n
     return int(r[ok[-1]]) if ok.size else 0
 
 

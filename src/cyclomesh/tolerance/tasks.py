@@ -3,16 +3,20 @@
 A :class:`RingModel` holds what is fixed across rings (the study's base case as core
 objects, the crank angles, the sampling spec); :class:`ToleranceTask` and
 :class:`AllocationTask` are picklable callables ``(start, stop) -> {name: array}`` for
-:func:`cyclomesh.tolerance.engine.run_rings`.
+:func:`cyclomesh.execution.run_chunks`. They import the core and NumPy only (no
+xarray), so worker processes start quickly.
 
 The sampled errors are added to the base case's own per-pin errors (``[errors]`` of
 the study file) in study units, then converted to SI exactly as the study loader does,
 so that a ring written out as a study file has bit-for-bit the same errors.
 
-Batches: the core solves several rings in one call, and its result for a ring is bit
-for bit the same whichever rings share the call (the core sums pin contributions in a
-fixed order). A chunk is solved in batches of at most :data:`BLOCK_RINGS` rings only to
-bound the memory of one core call, so ring k's metrics depend on (seed, k) alone.
+Batches: the core solves several rings in one call (its ring axis), and its result for
+a ring is bit for bit the same whichever rings share the call (the core sums pin
+contributions in a fixed order). A chunk is solved in batches of about
+:data:`BLOCK_PIN_STEPS` pin-steps (:func:`block_rings`: 16 rings at 1°, 160 at 10°)
+only to bound the memory of one core call, so ring k's metrics depend on (seed, k)
+alone. The metrics come straight from the core's arrays
+(:func:`cyclomesh.analysis.ltca_metrics`), without building a Dataset per batch.
 """
 
 from __future__ import annotations
@@ -23,20 +27,31 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.analysis import ltca_metrics
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.exceptions import CyclomeshError
-from cyclomesh.study.config import pin_errors_si
+from cyclomesh.ltca import solve_ltca
+from cyclomesh.metrics import STRESS_METRIC
+from cyclomesh.study.schema import ToleranceSection, pin_errors_si
 from cyclomesh.tolerance.sampling import RingErrors, draw_ring_errors
-from cyclomesh.tolerance.spec import ToleranceSpec
 
-__all__ = ["BLOCK_RINGS", "RingModel", "ToleranceTask", "AllocationTask", "STRESS_METRIC"]
+__all__ = [
+    "BLOCK_PIN_STEPS",
+    "block_rings",
+    "RingModel",
+    "ToleranceTask",
+    "AllocationTask",
+    "STRESS_METRIC",
+]
 
-BLOCK_RINGS = 16
-"""Largest number of rings per core call (bounds the memory of one call)."""
+BLOCK_PIN_STEPS = 16 * 360 * 40
+"""Pin-steps (rings × crank angles × pins) per core call: bounds the memory of one call
+(about 100 MB of temporaries) while keeping the per-call overhead small."""
 
 
-STRESS_METRIC = "max_contact_stress_mpa"
-"""The per-ring metric compared with the allowable contact stress (tooth side)."""
+def block_rings(angles: int, pins: int, budget: int = BLOCK_PIN_STEPS) -> int:
+    """Rings per core call for ``angles`` crank angles and ``pins`` pins (at least 1)."""
+    return max(1, budget // max(1, angles * pins))
 
 
 @dataclass(frozen=True)
@@ -58,7 +73,7 @@ class RingModel:
         Crank angles φin [deg].
     groove_deformation : bool
         Pin-groove deformation on (the improved model of [1]).
-    spec : ToleranceSpec
+    spec : ToleranceSection
         Distributions and seed.
     """
 
@@ -69,7 +84,7 @@ class RingModel:
     torque_nm: float
     crank_angles_deg: NDArray[np.float64]
     groove_deformation: bool
-    spec: ToleranceSpec
+    spec: ToleranceSection
 
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
@@ -111,19 +126,21 @@ class RingModel:
             self._blame(drawn)
             raise
 
-    def _solve(self, block: RingErrors) -> dict[str, NDArray[Any]]:
-        from cyclomesh import analyse, summarize
+    @property
+    def block_rings(self) -> int:
+        """Rings per core call (see :func:`block_rings`)."""
+        return block_rings(len(self.crank_angles_deg), self.design.pins)
 
-        ds = analyse(
+    def _solve(self, block: RingErrors) -> dict[str, NDArray[Any]]:
+        result = solve_ltca(
             self.design,
             self.modification,
             self.pin_errors(block),
-            torque=self.torque_nm,
-            crank_angles=np.deg2rad(self.crank_angles_deg),
-            groove_deformation=self.groove_deformation,
+            self.torque_nm,
+            np.deg2rad(self.crank_angles_deg),
+            self.groove_deformation,
         )
-        summary = summarize(ds)
-        return {name: np.asarray(summary[name].values) for name in summary.data_vars}
+        return ltca_metrics(result, self.design.teeth)
 
     def _blame(self, block: RingErrors) -> None:
         """Re-solve ring by ring and raise the core's error naming the failing ring."""
@@ -134,14 +151,10 @@ class RingModel:
                 raise type(exc)(f"ring {k} (seed {self.spec.seed}): {exc}") from None
 
 
-def _by_blocks(
-    start: int, stop: int, solve: Any, block_rings: int = BLOCK_RINGS
-) -> dict[str, NDArray[Any]]:
-    """Run ``solve(first, last)`` on batches of at most ``block_rings`` rings covering
+def _by_blocks(start: int, stop: int, solve: Any, size: int) -> dict[str, NDArray[Any]]:
+    """Run ``solve(first, last)`` on batches of at most ``size`` rings covering
     [start, stop) and concatenate the results."""
-    parts = [
-        solve(first, min(stop, first + block_rings)) for first in range(start, stop, block_rings)
-    ]
+    parts = [solve(first, min(stop, first + size)) for first in range(start, stop, size)]
     return {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}
 
 
@@ -158,7 +171,7 @@ class ToleranceTask:
         return out
 
     def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
-        return _by_blocks(start, stop, self._block)
+        return _by_blocks(start, stop, self._block, self.model.block_rings)
 
 
 @dataclass(frozen=True)
@@ -211,4 +224,4 @@ class AllocationTask:
         return {"ring": drawn.rings, "critical_factor_lower": lower, "critical_factor_upper": upper}
 
     def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
-        return _by_blocks(start, stop, self._block)
+        return _by_blocks(start, stop, self._block, self.model.block_rings)

@@ -1,4 +1,4 @@
-"""Figures of a design map (:func:`cyclomesh.designmap.design_map`).
+"""Figures of a design map (:func:`cyclomesh.designmap.design_map`, ``cyclomesh design``).
 
 Every function takes the map's Dataset and returns a :class:`matplotlib.figure.Figure`
 on the Agg canvas without touching pyplot's global state. Infeasible candidates are
@@ -9,13 +9,16 @@ optional reference designs (e.g. the paper's Δρ = 8 µm) with labelled crosses
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
-import xarray as xr
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
 from cyclomesh.designmap import METRICS
+from cyclomesh.figures.render import new_figure
+
+if TYPE_CHECKING:
+    import xarray as xr
+    from matplotlib.figure import Figure
 
 __all__ = ["map_metrics", "plot_design_map", "plot_design_maps"]
 
@@ -23,9 +26,7 @@ Marks = Mapping[str, Mapping[str, float]]
 
 
 def _figure(width: float, height: float) -> Figure:
-    fig = Figure(figsize=(width, height), layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
+    return new_figure(width, height, layout="constrained")  # colour bars
 
 
 def map_metrics(ds: xr.Dataset) -> list[str]:

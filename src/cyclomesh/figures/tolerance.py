@@ -1,52 +1,54 @@
-"""Figures and report sections of tolerance studies.
+"""Figures of tolerance studies.
 
 Plot functions take results (the per-ring Dataset of
-:func:`cyclomesh.tolerance.runner.run_tolerance`, or an
+:func:`cyclomesh.studies.tolerance.compute_tolerance`, or an
 :class:`~cyclomesh.tolerance.allocation.Allocation`) and return a matplotlib
-:class:`~matplotlib.figure.Figure` on the Agg canvas, without pyplot's global state.
+:class:`~matplotlib.figure.Figure` on the Agg canvas, without pyplot's global state;
+they write no file (:mod:`cyclomesh.figures.render` does).
 """
 
 from __future__ import annotations
 
-import html
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import xarray as xr
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
-from cyclomesh.report import Section, table_html, write_report
-from cyclomesh.tolerance.allocation import Allocation, clopper_pearson
-from cyclomesh.tolerance.output import METRICS
-from cyclomesh.tolerance.tasks import STRESS_METRIC
+from cyclomesh.figures.render import new_figure
+from cyclomesh.metrics import METRICS, STRESS_METRIC, metric_label
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from cyclomesh.tolerance.allocation import Allocation
 
 __all__ = [
     "plot_metric_histograms",
     "plot_metric_ecdfs",
     "plot_stress_exceedance",
     "plot_allocation",
-    "tolerance_section",
-    "allocation_section",
-    "write_tolerance_figures",
-    "write_allocation_figures",
 ]
 
 
-def _figure(width: float, height: float) -> Figure:
-    fig = Figure(figsize=(width, height), layout="constrained")
-    FigureCanvasAgg(fig)
+def _figure(width: float, height: float, hspace: float = 0.55) -> Figure:
+    fig = new_figure(width, height)
+    fig.subplots_adjust(
+        left=0.75 / width,
+        right=1 - 0.2 / width,
+        bottom=0.6 / height,
+        top=1 - 0.5 / height,
+        wspace=0.35,
+        hspace=hspace,
+    )
     return fig
 
 
 def _metrics(ds: xr.Dataset) -> list[str]:
-    return [name for name in METRICS if name in ds]
+    return [name for name in METRICS if name in ds and name != "overlap"]
 
 
 def _label(name: str) -> str:
-    unit, text = METRICS[name]
-    return f"{text} [{unit}]" if unit != "1" else text
+    return metric_label(name)
 
 
 def plot_metric_histograms(ds: xr.Dataset, allowable_contact_stress_mpa: float | None = None):
@@ -106,6 +108,8 @@ def plot_stress_exceedance(
     The band is the pointwise Clopper–Pearson interval; log scale, probabilities below
     half a ring (0.5/n, including 0) drawn at that floor.
     """
+    from cyclomesh.tolerance.allocation import clopper_pearson
+
     stress = np.sort(np.asarray(ds[STRESS_METRIC].values, dtype=float))
     n = stress.size
     span = max(stress[-1] - stress[0], 1.0)
@@ -184,90 +188,3 @@ def plot_allocation(allocation: Allocation):
     ax.set_ylim(floor * 0.8, 1.05)
     ax.legend(fontsize="small", loc="lower right")
     return fig
-
-
-def _fmt(x: Any) -> str:
-    return "n/a" if x is None or (isinstance(x, float) and not np.isfinite(x)) else f"{x:.4g}"
-
-
-def tolerance_section(ds: xr.Dataset, stats: dict[str, Any], figures: list) -> Section:
-    """Report section of a tolerance study: statistics table, exceedance, worst ring."""
-    conf = stats["confidence"]
-    rows = []
-    for name, s in stats["metrics"].items():
-        pct = [
-            f"{_fmt(p['estimate'])} [{_fmt(p['lower'])}, {_fmt(p['upper'])}]"
-            for p in s["percentiles"]
-        ]
-        rows.append([name, s["unit"], _fmt(s["mean"]), _fmt(s["std"]), *pct])
-    header = ["metric", "unit", "mean", "std"] + [
-        f"P{p:g} [{conf:.0%} CI]" for p in stats["percentiles"]
-    ]
-    ex = stats["exceedance"][STRESS_METRIC]
-    worst = stats["worst_ring"]
-    text = (
-        f"<p>{stats['rings']} rings, seed {stats['seed']}. Probability that the peak tooth "
-        f"contact stress exceeds {stats['allowable_contact_stress_mpa']:g} MPa: "
-        f"<b>{ex['probability']:.4g}</b> ({ex['count']} of {ex['rings']} rings; {conf:.0%} "
-        f"Clopper–Pearson interval [{ex['lower']:.4g}, {ex['upper']:.4g}]). Worst ring: "
-        f"{worst['ring']} ({worst[STRESS_METRIC]:.5g} MPa), written to "
-        f"<code>{html.escape(worst['file'])}</code>.</p>"
-        + table_html(header, rows)
-        + "<p>Methods: "
-        + html.escape("; ".join(f"{k}: {v}" for k, v in stats["methods"].items()))
-        + ".</p>"
-    )
-    return Section("Tolerance study (Monte Carlo)", text, figures)
-
-
-def allocation_section(allocation: Allocation, figures: list) -> Section:
-    """Report section of a tolerance allocation."""
-    return Section("Tolerance allocation", f"<p>{html.escape(allocation.statement())}</p>", figures)
-
-
-def _save(fig: Figure, path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=130)
-    return path
-
-
-def write_tolerance_figures(ds: xr.Dataset, stats: dict[str, Any], out: Path) -> dict[str, Path]:
-    """Write the figures (PNG) and ``report.html`` of a tolerance study."""
-    allowable = stats["allowable_contact_stress_mpa"]
-    figs = {
-        "tolerance_histograms": (
-            plot_metric_histograms(ds, allowable),
-            "Histograms of the per-ring metrics",
-        ),
-        "tolerance_ecdfs": (plot_metric_ecdfs(ds, allowable), "Empirical distribution functions"),
-        "tolerance_exceedance": (
-            plot_stress_exceedance(ds, allowable, stats["confidence"]),
-            "Probability that the peak tooth contact stress exceeds a level",
-        ),
-    }
-    files = {name: _save(fig, out / "figures" / f"{name}.png") for name, (fig, _) in figs.items()}
-    section = tolerance_section(ds, stats, [(fig, caption) for fig, caption in figs.values()])
-    files["report"] = write_report(
-        out / "report.html",
-        f"{ds.attrs.get('study_title', 'study')}: tolerance study",
-        [section],
-        {"SHA-256 of the study file": str(ds.attrs.get("study_sha256", ""))},
-    )
-    return files
-
-
-def write_allocation_figures(
-    allocation: Allocation, record: dict[str, Any], out: Path
-) -> dict[str, Path]:
-    """Write the allocation figure (PNG) and ``allocation_report.html``."""
-    fig = plot_allocation(allocation)
-    files = {"allocation_exceedance": _save(fig, out / "figures" / "allocation_exceedance.png")}
-    section = allocation_section(
-        allocation, [(fig, "Exceedance probability vs. scale factor on the tolerances")]
-    )
-    files["report"] = write_report(
-        out / "allocation_report.html",
-        f"{record.get('study_title', 'study')}: tolerance allocation",
-        [section],
-    )
-    return files

@@ -1,20 +1,24 @@
-"""Execution of Monte Carlo rings in chunks: serially, on local cores, or on a Dask cluster.
+"""The one execution layer of every kind of study: chunks of items, here or on a cluster.
 
-The engine is generic: a *chunk function* ``task(start, stop) -> {name: array}`` returns
-per-ring results for rings ``start .. stop − 1`` (leading axis of every array = ring).
-The engine splits the rings into chunks, keeps a bounded number of chunks in flight
-(about two per worker), writes each finished chunk into preallocated per-ring arrays
-and forgets it, so memory does not grow with the number of chunks. Because ring k's
-result depends only on k (see :mod:`cyclomesh.tolerance.sampling`), results are
+A study hands over a picklable *chunk function* ``task(start, stop) -> {name: array}``
+that computes items ``start .. stop − 1`` (rings of a tolerance study, points of a
+design map, torques of a stiffness curve, ...; the leading axis of every array is the
+item). :func:`run_chunks` splits the items into chunks, runs them serially, on local
+processes (:class:`ProcessBackend`) or on a Dask ``distributed`` cluster
+(:class:`DaskBackend`), keeps a bounded number of chunks in flight (about two per
+worker), writes each finished chunk into preallocated per-item arrays and forgets it,
+so memory does not grow with the number of chunks. When item k's result depends only
+on k (as a tolerance ring's does, see :mod:`cyclomesh.tolerance.sampling`), results are
 bit-for-bit identical for every chunking and every backend.
 
-Every ring is stored exactly once: the engine counts the chunks that cover each ring
-and refuses to return if a ring is missing or was stored twice. On a Dask cluster a
-chunk whose worker dies is recomputed elsewhere by the scheduler; its future
-completes once, so it is stored once. On local cores a dead worker breaks the process
-pool: the pool is rebuilt and the chunks that never came back run again.
+Every item is stored exactly once: the engine counts the chunks that cover each item
+and refuses to return if one is missing or was stored twice. On a Dask cluster a chunk
+whose worker dies is recomputed elsewhere by the scheduler; its future completes once,
+so it is stored once. On local processes a dead worker breaks the process pool: the
+pool is rebuilt and the chunks that never came back run again.
 
-``distributed`` is imported only when a scheduler address is given.
+``distributed`` is imported only when a scheduler address is given. Nothing here
+prints: progress goes to the ``progress`` callback (the CLI draws the bar).
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from __future__ import annotations
 import math
 import multiprocessing
 import os
+import threading
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -42,9 +47,9 @@ __all__ = [
     "ProcessBackend",
     "DaskBackend",
     "make_backend",
-    "default_chunk_rings",
+    "default_chunk_size",
     "chunk_bounds",
-    "run_rings",
+    "run_chunks",
 ]
 
 ChunkResult = Mapping[str, NDArray[Any]]
@@ -60,18 +65,22 @@ class ClusterError(ExecutionError):
     """The Dask cluster cannot be used (``distributed`` missing, scheduler unreachable)."""
 
 
-def chunk_bounds(rings: int, chunk_rings: int, first: int = 0) -> list[Chunk]:
-    """Split rings ``first .. first + rings − 1`` into (start, stop) chunks of chunk_rings."""
-    if chunk_rings < 1:
-        raise ValueError("chunk_rings must be at least 1")
-    stop = first + rings
-    return [(s, min(s + chunk_rings, stop)) for s in range(first, stop, chunk_rings)]
+def chunk_bounds(items: int, chunk_size: int, first: int = 0) -> list[Chunk]:
+    """Split items ``first .. first + items − 1`` into (start, stop) chunks of chunk_size."""
+    if chunk_size < 1:
+        raise ValueError("chunk_size must be at least 1")
+    stop = first + items
+    return [(s, min(s + chunk_size, stop)) for s in range(first, stop, chunk_size)]
 
 
 class Backend(Protocol):
     """Runs chunks and yields ((start, stop), result) as they finish, any order."""
 
     workers: int
+
+    def start(self) -> None:
+        """Start the workers now (before a progress display starts its thread)."""
+        ...
 
     def run(self, task: ChunkFunction, chunks: Iterable[Chunk]) -> Iterator[tuple[Chunk, Any]]:
         """Run ``task`` on every chunk."""
@@ -88,6 +97,9 @@ class SerialBackend:
 
     workers: int = 1
 
+    def start(self) -> None:
+        pass
+
     def run(self, task: ChunkFunction, chunks: Iterable[Chunk]) -> Iterator[tuple[Chunk, Any]]:
         for chunk in chunks:
             yield chunk, task(*chunk)
@@ -97,7 +109,12 @@ class SerialBackend:
 
 
 class ProcessBackend:
-    """Runs chunks on local cores with a ``ProcessPoolExecutor`` (spawned processes).
+    """Runs chunks on local cores with a ``ProcessPoolExecutor``.
+
+    The worker processes are forked when this process has no other thread (they start
+    in milliseconds and inherit the imported modules), else spawned (a fork of a
+    process that runs, say, a progress-bar thread could inherit a held lock): call
+    :meth:`start` before starting such threads.
 
     Parameters
     ----------
@@ -118,11 +135,20 @@ class ProcessBackend:
 
     def _executor(self) -> ProcessPoolExecutor:
         if self._pool is None:
-            # "spawn": no fork of a process that runs a progress-bar thread
+            method = (
+                "fork"
+                if threading.active_count() == 1
+                and "fork" in multiprocessing.get_all_start_methods()
+                else "spawn"
+            )
             self._pool = ProcessPoolExecutor(
-                max_workers=self.workers, mp_context=multiprocessing.get_context("spawn")
+                max_workers=self.workers, mp_context=multiprocessing.get_context(method)
             )
         return self._pool
+
+    def start(self) -> None:
+        """Start the worker processes now (forked if no other thread runs yet)."""
+        self._executor().submit(_nothing).result()
 
     def worker_pids(self) -> list[int]:
         """Process ids of the live pool's workers (empty before the first chunk)."""
@@ -164,7 +190,7 @@ class ProcessBackend:
                     if self.restarts > self.max_restarts:
                         raise ExecutionError(
                             f"local worker processes died {self.restarts} times (out of "
-                            "memory?); try fewer --workers or a smaller --chunk-rings"
+                            "memory?); try fewer --workers or smaller chunks"
                         )
         finally:
             for future in pending:
@@ -226,6 +252,9 @@ class DaskBackend:
         self.workers = max(1, threads)
         self._per_worker = max(1, in_flight_per_worker)
 
+    def start(self) -> None:
+        pass
+
     def run(self, task: ChunkFunction, chunks: Iterable[Chunk]) -> Iterator[tuple[Chunk, Any]]:
         distributed = self._distributed
         client = self.client
@@ -235,7 +264,7 @@ class DaskBackend:
         keys: dict[str, Chunk] = {}
 
         def submit(chunk: Chunk) -> Any:
-            key = f"cyclomesh-rings-{token}-{chunk[0]}-{chunk[1]}"
+            key = f"cyclomesh-chunk-{token}-{chunk[0]}-{chunk[1]}"
             keys[key] = chunk
             return client.submit(_call, task, *chunk, key=key, pure=False)
 
@@ -262,6 +291,10 @@ class DaskBackend:
     def close(self) -> None:
         if self._own:
             self.client.close()
+
+
+def _nothing() -> None:
+    return None
 
 
 def _call(task: ChunkFunction, start: int, stop: int) -> Any:
@@ -315,55 +348,55 @@ def make_backend(scheduler: str | None = None, workers: int | None = None) -> Ba
     return ProcessBackend(workers)
 
 
-def default_chunk_rings(rings: int, workers: int, largest: int = 16) -> int:
-    """Chunk size: at least ~4 chunks per worker for balance, at most ``largest`` rings."""
-    return max(1, min(largest, math.ceil(rings / (4 * max(1, workers)))))
+def default_chunk_size(items: int, workers: int, largest: int = 16) -> int:
+    """Chunk size: at least ~4 chunks per worker for balance, at most ``largest`` items."""
+    return max(1, min(largest, math.ceil(items / (4 * max(1, workers)))))
 
 
-def run_rings(
+def run_chunks(
     task: ChunkFunction,
-    rings: int,
+    items: int,
     *,
     backend: Backend | None = None,
-    chunk_rings: int | None = None,
-    first_ring: int = 0,
+    chunk_size: int | None = None,
+    first: int = 0,
     progress: Callable[[int], None] | None = None,
 ) -> dict[str, NDArray[Any]]:
-    """Run ``task`` over rings ``first_ring .. first_ring + rings − 1`` and gather results.
+    """Run ``task`` over items ``first .. first + items − 1`` and gather the results.
 
     Parameters
     ----------
     task : callable (start, stop) -> {name: array}
         Picklable chunk function (a module-level function or a dataclass instance);
         every array has ``stop − start`` rows.
-    rings : int
-        Number of rings.
+    items : int
+        Number of items.
     backend : Backend, optional
-        Where to run (default: serial).
-    chunk_rings : int, optional
-        Rings per chunk (default: :func:`default_chunk_rings`).
-    first_ring : int
-        Index of the first ring.
+        Where to run (default: serial, in this process).
+    chunk_size : int, optional
+        Items per chunk (default: :func:`default_chunk_size`).
+    first : int
+        Index of the first item.
     progress : callable, optional
-        Called with the number of rings finished by each completed chunk.
+        Called with the number of items finished by each completed chunk.
 
     Returns
     -------
     dict of ndarray
-        Per-ring arrays, row i = ring first_ring + i.
+        Per-item arrays, row i = item first + i.
 
     Raises
     ------
     RuntimeError
-        If a ring was not stored exactly once (an engine bug, never expected).
+        If an item was not stored exactly once (an engine bug, never expected).
     """
     backend = backend or SerialBackend()
-    chunk_rings = chunk_rings or default_chunk_rings(rings, backend.workers)
-    chunks = chunk_bounds(rings, chunk_rings, first_ring)
+    chunk_size = chunk_size or default_chunk_size(items, backend.workers)
+    chunks = chunk_bounds(items, chunk_size, first)
     out: dict[str, NDArray[Any]] = {}
-    stored = np.zeros(rings, dtype=np.int32)
+    stored = np.zeros(items, dtype=np.int32)
     for (start, stop), result in backend.run(task, chunks):
-        rows = slice(start - first_ring, stop - first_ring)
+        rows = slice(start - first, stop - first)
         for name, value in result.items():
             arr = np.asarray(value)
             if arr.shape[:1] != (stop - start,):
@@ -372,12 +405,12 @@ def run_rings(
                     f"expected {stop - start}"
                 )
             if name not in out:
-                out[name] = np.zeros((rings, *arr.shape[1:]), dtype=arr.dtype)
+                out[name] = np.zeros((items, *arr.shape[1:]), dtype=arr.dtype)
             out[name][rows] = arr
         stored[rows] += 1
         if progress is not None:
             progress(stop - start)
     if not np.all(stored == 1):
-        bad = np.nonzero(stored != 1)[0][:5] + first_ring
-        raise RuntimeError(f"rings not stored exactly once (first: {bad.tolist()})")
+        bad = np.nonzero(stored != 1)[0][:5] + first
+        raise RuntimeError(f"items not stored exactly once (first: {bad.tolist()})")
     return out

@@ -1,11 +1,13 @@
-"""Figures of a loaded tooth contact analysis, after the figures of [1].
+"""Figures of a run study (loaded tooth contact analysis), after the figures of [1].
 
 Every function takes results (one Dataset of :func:`cyclomesh.analyse`, or a mapping
-``{case name: Dataset}`` to compare cases) or core design objects, and returns a
-:class:`matplotlib.figure.Figure` drawn on the Agg canvas, without touching pyplot's
-global state. Save it with ``fig.savefig(path)``. Tests check a figure's structure
-(axes, labels, lines), not its pixels. Datasets with a ``ring`` dimension must be
-reduced to one ring first (``ds.isel(ring=0)``).
+``{case name: Dataset}`` to compare cases; :class:`~cyclomesh.studies.run.ProfileCurves`
+for the profile) and returns a :class:`matplotlib.figure.Figure` drawn on the Agg
+canvas, without touching pyplot's global state; nothing is computed here but the
+drawing, and no file is written (:mod:`cyclomesh.figures.render` saves them). Lines
+with more points than pixels are min/max decimated (:func:`~cyclomesh.figures.render.decimate`).
+Tests check a figure's structure (axes, labels, lines), not its pixels. Datasets with
+a ``ring`` dimension must be reduced to one ring first (``ds.isel(ring=0)``).
 
 References
 ----------
@@ -17,16 +19,18 @@ References
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 import xarray as xr
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
-from matplotlib.patches import Circle
-from scipy.spatial import cKDTree
 
-from cyclomesh.design import Modification, PairDesign, PinErrors
-from cyclomesh.profile import modified_profile
+from cyclomesh.design import PinErrors
+from cyclomesh.figures.render import decimate, new_figure
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from cyclomesh.studies.run import ProfileCurves
 
 __all__ = [
     "plot_profile",
@@ -43,9 +47,19 @@ __all__ = [
 Results = xr.Dataset | Mapping[str, xr.Dataset]
 
 
-def _figure(width: float, height: float) -> Figure:
-    fig = Figure(figsize=(width, height), layout="constrained")
-    FigureCanvasAgg(fig)
+def _figure(width: float, height: float, **adjust: float) -> Figure:
+    """A figure with fixed subplot margins (a layout engine costs more than the plot)."""
+    fig = new_figure(width, height)
+    margins = {"left": 0.8, "right": 0.25, "bottom": 0.55, "top": 0.4}
+    margins.update({k: v for k, v in adjust.items() if k in margins})
+    fig.subplots_adjust(
+        left=margins["left"] / width,
+        right=1 - margins["right"] / width,
+        bottom=margins["bottom"] / height,
+        top=1 - margins["top"] / height,
+        wspace=adjust.get("wspace", 0.25),
+        hspace=adjust.get("hspace", 0.45),
+    )
     return fig
 
 
@@ -73,11 +87,7 @@ def _nearest_angle(ds: xr.Dataset, angle_deg: float) -> float:
     return float(crank[np.argmin(distance)])
 
 
-def plot_profile(
-    design: PairDesign,
-    modifications: Modification | Mapping[str, Modification] | None = None,
-    samples: int = 4001,
-) -> Figure:
+def plot_profile(curves: ProfileCurves) -> Figure:
     """One tooth of the disc with its modification (Eqs. 1-3 of [1]).
 
     Left: one tooth space of the standard profile (dashed) and of each modified
@@ -85,33 +95,18 @@ def plot_profile(
     normal distance from the standard to the modified profile [µm] (positive = material
     removed, clearance opened) over the generating angle φ1 within the tooth [deg]
     (0 = tooth-space bottom, ±180 = tips). The right axes has one line per case, then
-    the zero line.
+    the zero line. The curves come from :func:`cyclomesh.studies.run.profile_curves`.
     """
-    if modifications is None or isinstance(modifications, Modification):
-        modifications = {"modified": modifications or Modification()}
-    phi1 = np.linspace(-np.pi, np.pi, samples)
-    fig = _figure(10.0, 4.2)
+    fig = _figure(10.0, 4.2, left=0.7, wspace=0.3)
     ax_tooth, ax_mod = fig.subplots(1, 2, width_ratios=[1.0, 1.4])
-    # The standard profile, densely, to measure the modification along its normal.
-    dense = np.linspace(-1.1 * np.pi, 1.1 * np.pi, 40 * samples)
-    sx, sy = modified_profile(design, Modification(), dense)
-    tx, ty = np.gradient(sx), np.gradient(sy)
-    length = np.hypot(tx, ty)
-    normal = np.column_stack([ty / length, -tx / length])  # outward: towards the pins
-    tree = cKDTree(np.column_stack([sx, sy]))
-    x0, y0 = modified_profile(design, Modification(), phi1)
-    ax_tooth.plot(x0 * 1e3, y0 * 1e3, "k--", lw=1.0, label="standard")
-    for name, modification in modifications.items():
-        x, y = modified_profile(design, modification, phi1)
-        ax_tooth.plot(x * 1e3, y * 1e3, lw=1.2, label=name)
-        _, nearest = tree.query(np.column_stack([x, y]))
-        removed = np.einsum(
-            "ij,ij->i", np.column_stack([sx[nearest] - x, sy[nearest] - y]), normal[nearest]
-        )
-        ax_mod.plot(np.rad2deg(phi1), removed * 1e6, label=name)
-    seat = design.pin_circle_radius - design.eccentricity
+    ax_tooth.plot(curves.standard_x_mm, curves.standard_y_mm, "k--", lw=1.0, label="standard")
+    for name, (x, y, removed) in curves.modified.items():
+        ax_tooth.plot(x, y, lw=1.2, label=name)
+        ax_mod.plot(curves.phi1_deg, removed, label=name)
+    from matplotlib.patches import Circle
+
     ax_tooth.add_patch(
-        Circle((seat * 1e3, 0.0), design.pin_radius * 1e3, fill=False, color="0.5", lw=0.8)
+        Circle((curves.seat_mm, 0.0), curves.pin_radius_mm, fill=False, color="0.5", lw=0.8)
     )
     ax_tooth.set_aspect("equal")
     ax_tooth.set_xlabel("x [mm]")
@@ -134,7 +129,7 @@ def plot_pin_errors(errors: PinErrors | Mapping[str, PinErrors], pins: int) -> F
     """
     if isinstance(errors, PinErrors):
         errors = {"": errors}
-    fig = _figure(10.0, 7.0)
+    fig = _figure(10.0, 7.0, left=0.9, hspace=0.15)
     axes = fig.subplots(3, 1, sharex=True)
     numbers = np.arange(1, pins + 1)
     width = 0.8 / len(errors)
@@ -164,7 +159,7 @@ def plot_loads(results: Results, crank_angles_deg: Sequence[float] = (0, 60, 120
     Fc [N], right the groove load Fp [N]; one line per case in each axes.
     """
     cases = _cases(results)
-    fig = _figure(10.0, 2.4 * len(crank_angles_deg) + 0.6)
+    fig = _figure(10.0, 2.4 * len(crank_angles_deg) + 0.6, hspace=0.4)
     axes = np.atleast_2d(fig.subplots(len(crank_angles_deg), 2, sharex=True, squeeze=False))
     for row, angle in zip(axes, crank_angles_deg, strict=True):
         for name, ds in cases.items():
@@ -221,31 +216,59 @@ def plot_stress_maps(results: Results) -> Figure:
     """Contact stress of every pin over the crank angle, on the teeth and on the grooves.
 
     One row per case; left tooth contact stress, right groove stress [MPa], colour scale
-    shared by a column; blank where a pin carries no load. Drawn rasterized.
+    shared by a column; blank where a pin carries no load. Equally spaced crank angles
+    are drawn as an image (one pixel per angle and pin), others as a mesh.
     """
     cases = _cases(results)
-    fig = _figure(11.0, 2.6 * len(cases) + 0.8)
-    axes = fig.subplots(len(cases), 2, sharex=True, sharey=True, squeeze=False)
+    height = 2.6 * len(cases) + 0.8
+    fig = new_figure(11.0, height)
+    grid = fig.add_gridspec(
+        len(cases),
+        5,
+        width_ratios=[1.0, 0.03, 0.32, 1.0, 0.03],
+        left=0.7 / 11.0,
+        right=1 - 0.75 / 11.0,
+        bottom=0.55 / height,
+        top=1 - 0.4 / height,
+        hspace=0.45,
+        wspace=0.08,
+    )
+    axes = np.empty((len(cases), 2), dtype=object)
+    for row in range(len(cases)):
+        for column, slot in enumerate((0, 3)):
+            share = axes[0, 0] if row or column else None
+            axes[row, column] = fig.add_subplot(grid[row, slot], sharex=share, sharey=share)
     for column, (variable, label) in enumerate(
         (("contact_stress", "tooth contact stress [MPa]"), ("groove_stress", "groove stress [MPa]"))
     ):
         top = max(float(ds[variable].max()) for ds in cases.values()) or 1.0
         for ax, (name, ds) in zip(axes[:, column], cases.items(), strict=True):
-            values = ds[variable].transpose("pin", "crank_angle").values
-            mesh = ax.pcolormesh(
-                ds["crank_angle"].values,
-                ds["pin"].values,
-                np.ma.masked_less_equal(values, 0.0),
-                vmin=0.0,
-                vmax=top,
-                shading="nearest",
-                rasterized=True,
-            )
+            values = np.ma.masked_less_equal(ds[variable].transpose("pin", "crank_angle").values, 0)
+            crank, pins = ds["crank_angle"].values, ds["pin"].values
+            step = np.diff(crank)
+            if crank.size > 1 and np.allclose(step, step[0], rtol=1e-9, atol=0.0):
+                half = step[0] / 2
+                image = ax.imshow(
+                    values,
+                    extent=(crank[0] - half, crank[-1] + half, pins[0] - 0.5, pins[-1] + 0.5),
+                    origin="lower",
+                    aspect="auto",
+                    interpolation="nearest",
+                    vmin=0.0,
+                    vmax=top,
+                )
+            else:
+                image = ax.pcolormesh(
+                    crank, pins, values, vmin=0.0, vmax=top, shading="nearest", rasterized=True
+                )
             ax.set_ylabel("pin")
             ax.set_title(f"{name}: {label.split(' [')[0]}" if name else label, fontsize="medium")
-        fig.colorbar(mesh, ax=axes[:, column], label=label, fraction=0.05, aspect=40)
+        cax = fig.add_subplot(grid[:, 1 + 3 * column], label="<colorbar>")
+        fig.colorbar(image, cax=cax, label=label)
     for ax in axes[-1]:
         ax.set_xlabel("crank angle [deg]")
+    for ax in axes[:-1].ravel():
+        ax.tick_params(labelbottom=False)
     return fig
 
 
@@ -256,15 +279,15 @@ def plot_transmission_error(results: Results) -> Figure:
     One line per case in each axes; TE [arcsec], negative = the disc lags.
     """
     cases = _cases(results)
-    fig = _figure(11.0, 4.0)
+    fig = _figure(11.0, 4.0, left=0.9)
     ax_mesh, ax_all = fig.subplots(1, 2, width_ratios=[1.0, 2.0], sharey=True)
     for name, ds in cases.items():
         crank = ds["crank_angle"].values
         te = ds["transmission_error"].values
-        period = 360.0 / int(ds.sizes["pin"])
+        period = 360.0 / int(ds.attrs.get("pins") or ds.sizes["pin"])
         cycle = crank <= crank[0] + period + 1e-9
-        ax_mesh.plot(crank[cycle], te[cycle], label=name)
-        ax_all.plot(crank, te, label=name)
+        ax_mesh.plot(*decimate(crank[cycle], te[cycle]), label=name)
+        ax_all.plot(*decimate(crank, te), label=name)
     ax_mesh.set_title("one mesh cycle (360°/n1)", fontsize="medium")
     ax_all.set_title("all computed crank angles", fontsize="medium")
     ax_mesh.set_ylabel("loaded transmission error [arcsec]")
@@ -283,9 +306,9 @@ def plot_gear_ratio(results: Results) -> Figure:
     fig = _figure(9.0, 4.0)
     ax = fig.subplots()
     for name, ds in cases.items():
-        ax.plot(ds["crank_angle"], ds["gear_ratio"], label=name)
+        ax.plot(*decimate(ds["crank_angle"].values, ds["gear_ratio"].values), label=name)
     first = next(iter(cases.values()))
-    teeth = int(first.sizes["pin"]) - 1
+    teeth = int(first.attrs.get("teeth") or first.sizes["pin"] - 1)
     ax.axhline(teeth, color="k", ls=":", lw=1.0, label=f"ideal n2 = {teeth}")
     step = first.attrs.get("gear_ratio_step_deg")
     ax.set_title(
@@ -304,7 +327,7 @@ def plot_contacts(results: Results) -> Figure:
     fig = _figure(9.0, 3.6)
     ax = fig.subplots()
     for name, ds in cases.items():
-        ax.step(ds["crank_angle"], ds["contacts"], where="mid", label=name)
+        ax.step(*decimate(ds["crank_angle"].values, ds["contacts"].values), where="mid", label=name)
     ax.set_xlabel("crank angle [deg]")
     ax.set_ylabel("pins in contact [-]")
     ax.yaxis.get_major_locator().set_params(integer=True)

@@ -1,11 +1,19 @@
-"""Study files: a TOML description of one or more analysis cases.
+"""The study file schema: every section of a study file, validated by one set of models.
 
 A study file holds a base description (``[design]``, ``[modification]``, ``[material]``,
-``[load]``, ``[errors]``, ``[analysis]``) and a list of ``[[cases]]``; each case is the
-base deep-merged with the case's own keys. Every key a user types carries its unit
-(``_mm``, ``_um``, ``_urad``, ``_gpa``, ``_nm``, ``_deg``); :meth:`CaseSpec.to_core`
-converts a case to the SI objects of the core (:class:`~cyclomesh.design.PairDesign`,
-:class:`~cyclomesh.design.Modification`, :class:`~cyclomesh.design.PinErrors`).
+``[load]``, ``[errors]``, ``[analysis]``), a list of ``[[cases]]``, ``[figures]`` and
+the sections of the other kinds of study (``[tolerance]``, ...). All sections are strict
+pydantic models (unknown keys refused, ``"12"`` is not an integer, ``true`` is not a
+number) and every problem comes out through one formatter (:func:`one_line`) as one
+line naming the dotted key. ``cyclomesh check`` therefore refuses a bad key in any
+section before any work is done. To add the section of a new kind of study, see
+``docs/pipeline.md``.
+
+Each case is the base deep-merged with the case's own keys. Every key a user types
+carries its unit (``_mm``, ``_um``, ``_urad``, ``_gpa``, ``_nm``, ``_deg``);
+:meth:`CaseSpec.to_core` converts a case to the SI objects of the core
+(:class:`~cyclomesh.design.PairDesign`, :class:`~cyclomesh.design.Modification`,
+:class:`~cyclomesh.design.PinErrors`).
 
 Every problem (unknown key, wrong type, list of the wrong length, a design the core
 refuses) is raised as one :class:`~cyclomesh.exceptions.StudyError` whose one-line
@@ -66,13 +74,21 @@ __all__ = [
     "ErrorsSection",
     "AnalysisSection",
     "FiguresSection",
+    "Uniform",
+    "Normal",
+    "TruePosition",
+    "AllocationSection",
+    "ToleranceSection",
     "CaseSpec",
     "CaseInputs",
+    "StudyFile",
     "Study",
     "load_study",
     "crank_angles_deg",
     "deep_merge",
     "pin_errors_si",
+    "one_line",
+    "parse_section",
 ]
 
 MM = 1e-3
@@ -262,8 +278,175 @@ class FiguresSection(_Section):
     stress_over: Literal["profile_angle", "contact_radius"] = Field(
         "profile_angle", description="abscissa of the contact stress over the tooth profile"
     )
-    formats: list[Literal["png", "svg", "pdf"]] = Field(["png", "svg"], min_length=1)
+    formats: list[Literal["png", "svg", "pdf"]] = Field(
+        ["png"], min_length=1, description="file formats of the figures (--figures overrides)"
+    )
     dpi: int = Field(150, ge=50, le=600, description="resolution of PNG figures [dots/inch]")
+
+
+# --- [tolerance]: Monte Carlo tolerance studies (docs/tolerance.md) ----------------------
+
+
+class Uniform(_Section):
+    """Uniform error on [−half_range, +half_range], in the unit of the enclosing key."""
+
+    distribution: Literal["uniform"]
+    half_range: float = Field(ge=0.0, description="half range [unit of the key]")
+
+    def scale(self) -> float:
+        """Half range [unit of the key]."""
+        return self.half_range
+
+
+class Normal(_Section):
+    """Normal error with mean 0 and standard deviation sigma, in the unit of the key."""
+
+    distribution: Literal["normal"]
+    sigma: float = Field(ge=0.0, description="standard deviation [unit of the key]")
+
+    def scale(self) -> float:
+        """Standard deviation [unit of the key]."""
+        return self.sigma
+
+
+class TruePosition(_Section):
+    """True-position zone: the pin centre is uniform (in area) over a disc of this diameter.
+
+    Gives both the radial error εa,i and the angular error εψ,i = tangential / a.
+    """
+
+    distribution: Literal["true_position"]
+    zone_diameter_um: float = Field(ge=0.0, description="diameter of the zone [µm]")
+
+
+ErrorDistribution = Annotated[Uniform | Normal, Field(discriminator="distribution")]
+
+
+class AllocationSection(_Section):
+    """``[tolerance.allocation]``: settings of ``cyclomesh allocate``.
+
+    The search steps the scale factor on the stated tolerances over ``factor_steps``
+    equal steps of (0, factor_max], then bisects ``bisections`` times per ring
+    (resolution factor_max / factor_steps / 2**bisections).
+    """
+
+    target_probability: float = Field(
+        0.01, gt=0.0, lt=1.0, description="largest acceptable P(peak stress > allowable)"
+    )
+    confidence: float = Field(0.95, gt=0.0, lt=1.0, description="level of the stated bounds")
+    factor_max: float = Field(4.0, gt=0.0, description="largest scale factor searched [-]")
+    factor_steps: int = Field(8, ge=1, le=1000, description="coarse search steps")
+    bisections: int = Field(6, ge=0, le=40, description="bisections per ring")
+
+
+class ToleranceSection(_Section):
+    """``[tolerance]``: distributions of the pin-ring errors of a Monte Carlo study.
+
+    A kind of error left out has no error. Every pin draws independently; the
+    eccentricity error is one value per ring. The sampled errors add to the base's
+    ``[errors]``.
+    """
+
+    seed: int = Field(ge=0, description="ring k's errors depend only on (seed, k)")
+    rings: int = Field(1000, ge=1, description="how many rings to draw (--rings overrides)")
+    allowable_contact_stress_mpa: float = Field(
+        gt=0.0, description="allowable peak tooth contact stress [MPa]"
+    )
+    crank_start_deg: float = Field(0.0, description="first crank angle [deg]")
+    crank_stop_deg: float = Field(360.0, description="crank angle where to stop, excluded [deg]")
+    crank_step_deg: float = Field(1.0, gt=0.0, description="crank angle step [deg]")
+    radial_um: ErrorDistribution | None = None
+    angular_urad: ErrorDistribution | None = None
+    pin_radius_um: ErrorDistribution | None = None
+    eccentricity_um: ErrorDistribution | None = None
+    position: TruePosition | None = None
+    allocation: AllocationSection = AllocationSection()
+
+    @model_validator(mode="after")
+    def _consistent(self) -> ToleranceSection:
+        if self.position is not None and (
+            self.radial_um is not None or self.angular_urad is not None
+        ):
+            raise ValueError(
+                "position (true_position) replaces radial_um and angular_urad; "
+                "give one or the other"
+            )
+        if self.crank_stop_deg <= self.crank_start_deg:
+            raise ValueError("crank_stop_deg must be larger than crank_start_deg")
+        count = (self.crank_stop_deg - self.crank_start_deg) / self.crank_step_deg
+        if count > 1e6:
+            raise ValueError("more than a million crank angles; use a larger crank_step_deg")
+        if len(self.crank_angles_deg()) < 2:
+            raise ValueError("fewer than 2 crank angles; use a smaller crank_step_deg")
+        return self
+
+    def crank_angles_deg(self) -> NDArray:
+        """Crank angles start, start + step, ... below stop [deg] (as ``[analysis]``)."""
+        return crank_angles_deg(self.crank_start_deg, self.crank_stop_deg, self.crank_step_deg)
+
+
+# --- [design_space]: design maps (docs/design-map.md) ------------------------------------
+
+
+class RangeSection(_Section):
+    """``{ start = , stop = , points = }``: ``numpy.linspace(start, stop, points)``."""
+
+    start: float = Field(description="first value [unit of the key]")
+    stop: float = Field(description="last value, included [unit of the key]")
+    points: int = Field(ge=1, le=1001, description="number of values")
+
+    def values(self) -> NDArray:
+        """The grid values [unit of the key]."""
+        return np.linspace(self.start, self.stop, self.points)
+
+
+class DesignSpaceSection(_Section):
+    """``[design_space]``: swept modification parameters, constraints, objective, rings."""
+
+    pin_circle_radius_um: RangeSection | None = Field(None, description="Δa range [µm]")
+    pin_radius_um: RangeSection | None = Field(None, description="Δρ range [µm]")
+    rotation_urad: RangeSection | None = Field(None, description="rotation δ range [µrad]")
+    max_play_arcmin: float | None = Field(None, description="largest allowed play [arcmin]")
+    min_play_arcmin: float | None = Field(None, description="smallest allowed play [arcmin]")
+    allowable_contact_stress_mpa: float | None = Field(
+        None, gt=0, description="allowed max. contact stress [MPa]"
+    )
+    max_te_pp_arcsec: float | None = Field(
+        None, gt=0, description="allowed peak-to-peak TE [arcsec]"
+    )
+    min_contacts: int | None = Field(None, ge=0, description="fewest loaded pins allowed")
+    objective: Literal["max_contact_stress", "te_pp", "lost_motion", "play"] = Field(
+        "max_contact_stress", description="metric minimised"
+    )
+    rings: int = Field(0, ge=0, description="rings drawn from [tolerance] (0: nominal map)")
+    lost_motion: bool | None = Field(
+        None, description="compute the lost motion (default: if it is the objective)"
+    )
+
+    @model_validator(mode="after")
+    def _something_swept(self) -> DesignSpaceSection:
+        if not self.axes():
+            raise ValueError(
+                "sweep at least one of pin_circle_radius_um, pin_radius_um, rotation_urad "
+                "as { start = , stop = , points = }"
+            )
+        return self
+
+    def axes(self) -> dict[str, NDArray]:
+        """Swept parameters (study units), in the order Δa, Δρ, δ."""
+        keys = ("pin_circle_radius_um", "pin_radius_um", "rotation_urad")
+        return {k: getattr(self, k).values() for k in keys if getattr(self, k) is not None}
+
+    def constraints_dict(self) -> dict[str, Any]:
+        """The constraints that are set, in study units."""
+        keys = (
+            "max_play_arcmin",
+            "min_play_arcmin",
+            "allowable_contact_stress_mpa",
+            "max_te_pp_arcsec",
+            "min_contacts",
+        )
+        return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}
 
 
 @dataclass(frozen=True)
@@ -278,6 +461,9 @@ class CaseInputs:
     crank_angles: NDArray
     """Crank angles φin [rad]."""
     groove_deformation: bool
+    errors_um: dict[str, NDArray]
+    """Per-pin errors in study units (``radial_um``, ``angular_urad``, ``pin_radius_um``),
+    read once (lists + file + random draws)."""
 
     def kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`cyclomesh.analyse`."""
@@ -406,11 +592,16 @@ class CaseSpec(_Section):
             torque=self.load.torque_nm,
             crank_angles=np.deg2rad(self.analysis.crank_angles_deg()),
             groove_deformation=self.analysis.groove_deformation,
+            errors_um=per_pin,
         )
 
 
-class _StudyFile(_Section):
-    """Top level of a study file, before the cases are merged."""
+class StudyFile(_Section):
+    """Top level of a study file, before the cases are merged.
+
+    The section of every kind of study is a field here (``tolerance``; add yours next
+    to it, see ``docs/pipeline.md``) and is read as ``study.file.<section>``.
+    """
 
     title: str | None = None
     description: str = ""
@@ -422,8 +613,9 @@ class _StudyFile(_Section):
     analysis: AnalysisSection = AnalysisSection()
     figures: FiguresSection = FiguresSection()
     cases: list[dict[str, Any]] = []
-    tolerance: dict[str, Any] | None = None
-    design_space: dict[str, Any] | None = None
+    # --- sections of the kinds of study (one line each; None when absent)
+    tolerance: ToleranceSection | None = None
+    design_space: DesignSpaceSection | None = None
 
 
 @dataclass(frozen=True)
@@ -446,10 +638,10 @@ class Study:
         The cases; a file without ``[[cases]]`` has one case, the base, named after the
         title.
     figures : FiguresSection
-    tolerance : dict or None
-        The raw ``[tolerance]`` table, validated by :mod:`cyclomesh.tolerance`.
-    design_space : dict or None
-        The raw ``[design_space]`` table, validated by :mod:`cyclomesh.design_study`.
+    file : StudyFile
+        Every validated top-level section (``study.file.tolerance``, ...).
+    inputs : list of CaseInputs
+        The core inputs of every case, built (and checked by the core) once on loading.
     """
 
     title: str
@@ -460,20 +652,14 @@ class Study:
     base: CaseSpec
     cases: list[CaseSpec]
     figures: FiguresSection
-    tolerance: dict[str, Any] | None
+    file: StudyFile
     raw: dict[str, Any]
-    design_space: dict[str, Any] | None = None
+    inputs: list[CaseInputs]
 
-    def to_core(self) -> list[CaseInputs]:
-        """Core inputs of every case (checks them all; see :meth:`CaseSpec.to_core`)."""
-        inputs = [case.to_core() for case in self.cases]
-        min_pins = min(case.design.pins for case in self.cases)
-        if self.figures.stress_pin > min_pins:
-            raise StudyError(
-                f"figures.stress_pin: expected a pin number from 1 to {min_pins}, "
-                f"got {self.figures.stress_pin}"
-            )
-        return inputs
+    @property
+    def tolerance(self) -> ToleranceSection | None:
+        """The validated ``[tolerance]`` section, if any."""
+        return self.file.tolerance
 
 
 def deep_merge(base: Mapping[str, Any], override: Mapping[str, Any]) -> dict[str, Any]:
@@ -531,9 +717,9 @@ def load_study(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     overrides = dict(overrides or {})
     top = deep_merge(raw, {k: v for k, v in overrides.items() if k in CASE_SECTIONS})
     try:
-        study_file = _StudyFile.model_validate(top)
+        study_file = StudyFile.model_validate(top)
     except ValidationError as exc:
-        raise StudyError(_one_line(exc, _StudyFile)) from None
+        raise StudyError(one_line(exc, StudyFile)) from None
 
     base_raw = {key: top[key] for key in CASE_SECTIONS if key in top}
     base = _validate_case({"name": "base", **base_raw}, "base", path.parent)
@@ -557,7 +743,14 @@ def load_study(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
                 "(case names must differ in letters or digits)"
             )
         seen[folder] = case.name
-    study = Study(
+    inputs = [case.to_core() for case in cases]
+    min_pins = min(case.design.pins for case in cases)
+    if study_file.figures.stress_pin > min_pins:
+        raise StudyError(
+            f"figures.stress_pin: expected a pin number from 1 to {min_pins}, "
+            f"got {study_file.figures.stress_pin}"
+        )
+    return Study(
         title=title,
         description=study_file.description,
         path=path,
@@ -566,19 +759,17 @@ def load_study(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         base=base,
         cases=cases,
         figures=study_file.figures,
-        tolerance=study_file.tolerance,
+        file=study_file,
         raw=raw,
-        design_space=study_file.design_space,
+        inputs=inputs,
     )
-    study.to_core()
-    return study
 
 
 def _validate_case(raw: dict[str, Any], label: str, base_dir: Path) -> CaseSpec:
     try:
         case = CaseSpec.model_validate(raw)
     except ValidationError as exc:
-        message = _one_line(exc, CaseSpec)
+        message = one_line(exc, CaseSpec)
         raise StudyError(message if label == "base" else f"{label}: {message}") from None
     case._base_dir = base_dir
     return case
@@ -602,9 +793,15 @@ def _show(value: Any) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
+_TAGS = ("uniform", "normal", "true_position")
+"""Tags of discriminated unions, which pydantic puts in an error's location."""
+
+
 def _dotted(loc: tuple[int | str, ...]) -> str:
     text = ""
     for part in loc:
+        if part in _TAGS:
+            continue
         text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
     return text
 
@@ -646,13 +843,31 @@ _BOUNDS = {
 }
 
 
-def _one_line(exc: ValidationError, model: type[BaseModel]) -> str:
-    """The first error of ``exc`` as ``dotted.key: what is expected, got what``."""
+def one_line(exc: ValidationError, model: type[BaseModel], prefix: str = "") -> str:
+    """The first error of ``exc`` as ``dotted.key: what is expected, got what``.
+
+    The one message formatter of every section. An unknown (misspelt) key is reported
+    before the missing key that usually comes with it. ``prefix`` is the dotted name of
+    the table ``model`` validated (empty for the whole file).
+    """
     errors = exc.errors(include_url=False)
-    first = errors[0]
+    first = min(errors, key=lambda e: e["type"] != "extra_forbidden")
     loc = tuple(first["loc"])
     kind, value, ctx = first["type"], first.get("input"), first.get("ctx", {})
-    if kind == "missing":
+    if kind == "union_tag_invalid":
+        loc = (*loc, "distribution")
+        hint = (
+            " (a true-position zone goes under tolerance.position)"
+            if ctx.get("tag") == "true_position"
+            else ""
+        )
+        what = (
+            f"unknown distribution {ctx.get('tag')!r}, expected one of {ctx.get('expected_tags')}"
+        )
+        what += hint
+    elif kind == "union_tag_not_found":
+        what = "missing distribution (uniform or normal)"
+    elif kind == "missing":
         what = "required key missing"
     elif kind == "extra_forbidden":
         parent = _model_at(model, loc[:-1])
@@ -675,6 +890,23 @@ def _one_line(exc: ValidationError, model: type[BaseModel]) -> str:
         what = str(ctx.get("error", first["msg"]))
     else:
         what = first["msg"]
-    key = _dotted(loc)
+    key = _dotted(((prefix,) if prefix else ()) + loc)
     more = f" (and {len(errors) - 1} more problem{'s' if len(errors) > 2 else ''})"
     return f"{key}: {what}" + (more if len(errors) > 1 else "") if key else what
+
+
+def parse_section(model: type[_Section], raw: Any, prefix: str) -> Any:
+    """Validate one table of a study file on its own, e.g. ``parse_section(ToleranceSection,
+    {...}, "tolerance")``; errors as :func:`one_line` with the dotted ``prefix``.
+
+    Raises
+    ------
+    StudyError
+        Not a table, or the first problem of the table.
+    """
+    if not isinstance(raw, dict):
+        raise StudyError(f"{prefix}: expected a table, got {_show(raw)}")
+    try:
+        return model.model_validate(raw)
+    except ValidationError as exc:
+        raise StudyError(one_line(exc, model, prefix)) from None

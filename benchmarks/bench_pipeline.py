@@ -1,0 +1,165 @@
+"""Benchmark of the study pipeline end to end, with the breakdown by stage.
+
+Cases (Table 1 design of Li et al. 2022, Δρ = 8 µm, groove deformation on, 250 N·m):
+
+- ``run 3600``: ``cyclomesh run`` of one case at 0.1° over a revolution (3600 × 40);
+- ``run 36``: the same at 10° (36 steps), figures and report included;
+- ``tolerance``: ``cyclomesh tolerance`` of examples/tolerance.toml, 200 rings at 1°;
+- ``--help``: start of the command.
+
+Each is timed end to end as a subprocess (best of ``--repeat``), and in this process
+stage by stage (load, solve, result files, figures, report; "start-up" is Python plus
+the imports of a run), so that a regression shows where it is. Stage times of a second
+run in one process miss the imports that the first paid; the machine is shared, so
+take best-of-N. Targets (issue 7, on a 2-core machine): run 3600 < 1.5 s and less
+than 0.15 s above run 36; run 36 < 2 s; --help < 0.3 s; tolerance of 200 rings < 3 s.
+
+    python benchmarks/bench_pipeline.py --repeat 3
+    python benchmarks/bench_pipeline.py --rings 40000 --ring-step 10 --only tolerance
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+TOLERANCE = ROOT / "examples" / "tolerance.toml"
+CASE = """title = "bench"
+[design]
+pins = 40
+pin_circle_radius_mm = 82.0
+pin_radius_mm = 3.5
+groove_radius_mm = 3.505
+eccentricity_mm = 1.5
+width_mm = 12.0
+[modification]
+pin_radius_um = 8.0
+[load]
+torque_nm = 250.0
+[analysis]
+crank_step_deg = {step}
+groove_deformation = true
+"""
+
+
+def _command() -> list[str]:
+    exe = Path(sys.executable).with_name("cyclomesh")
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "cyclomesh"]
+
+
+def _wall(args: list[str], repeat: int) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        start = time.perf_counter()
+        subprocess.run(_command() + args, check=True, capture_output=True)
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def _startup(repeat: int) -> float:
+    """Seconds to start Python and import what ``cyclomesh run`` imports."""
+    code = (
+        "import cyclomesh.cli, cyclomesh.studies.run, cyclomesh.analysis, cyclomesh.output, "
+        "xarray, netCDF4, pyarrow.parquet, pyarrow.csv"
+    )
+    best = float("inf")
+    for _ in range(repeat):
+        start = time.perf_counter()
+        subprocess.run([sys.executable, "-c", code], check=True)
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def _stages_run(study_file: Path, out: Path) -> dict[str, float]:
+    """Seconds of each stage of ``cyclomesh run`` in this process, as the CLI runs them
+    (figure workers forked before the solve)."""
+    import xarray  # noqa: F401  (as the CLI does before forking the figure workers)
+
+    from cyclomesh.figures.render import FigurePool
+    from cyclomesh.pipeline import OutputOptions, publish
+    from cyclomesh.studies import run as kind
+    from cyclomesh.study import load_study
+
+    t = {}
+    start = time.perf_counter()
+    study = load_study(study_file)
+    t["load"] = time.perf_counter() - start
+    options = OutputOptions.from_study(study)
+    with FigurePool() as pool:
+        start = time.perf_counter()
+        result = kind.compute_run(study)
+        t["solve"] = time.perf_counter() - start
+        start = time.perf_counter()
+        files = kind.write_run(result, out, options)
+        t["result files"] = time.perf_counter() - start
+        published = publish(
+            out,
+            study.title,
+            kind.run_sections(result),
+            kind.run_figures(result),
+            files,
+            options,
+            pool=pool,
+        )
+    t.update(published.seconds)
+    return t
+
+
+def _line(label: str, wall: float, stages: dict[str, float] | None = None) -> None:
+    text = f"{label:>22}: {wall:6.3f} s end to end"
+    if stages:
+        text += " | " + ", ".join(f"{k} {v:.3f}" for k, v in stages.items())
+    print(text, flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3, help="best of N end-to-end runs")
+    parser.add_argument("--rings", type=int, default=200)
+    parser.add_argument("--ring-step", type=float, default=1.0, help="crank step of the rings")
+    parser.add_argument("--only", choices=("help", "run", "tolerance"), action="append")
+    args = parser.parse_args()
+    which = args.only or ["help", "run", "tolerance"]
+    print(f"cores: {len(os.sched_getaffinity(0))}; best of {args.repeat}", flush=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        if "help" in which:
+            _line("cyclomesh --help", _wall(["--help"], args.repeat))
+            _line("start-up of a run", _startup(args.repeat))
+        if "run" in which:
+            walls = {}
+            for step, label in (("0.1", "run 3600 steps"), ("10.0", "run 36 steps")):
+                study = tmp / f"case_{step}.toml"
+                study.write_text(CASE.format(step=step))
+                out = tmp / f"out_{step}"
+                walls[step] = _wall(["run", str(study), "--out", str(out), "-q"], args.repeat)
+                shutil.rmtree(out, ignore_errors=True)
+                _line(label, walls[step], _stages_run(study, out))
+            extra = walls["0.1"] - walls["10.0"]
+            rate = 3564 * 40 / extra if extra > 0 else float("inf")
+            print(f"{'3600 over 36':>22}: +{extra:.3f} s = {rate / 1e6:.2f} M pin-steps/s")
+        if "tolerance" in which:
+            study = tmp / "tolerance.toml"
+            study.write_text(
+                TOLERANCE.read_text().replace(
+                    "crank_step_deg = 1.0", f"crank_step_deg = {args.ring_step}"
+                )
+            )
+            out = tmp / "tol"
+            wall = _wall(
+                ["tolerance", str(study), "--out", str(out), "--rings", str(args.rings), "-q"],
+                args.repeat,
+            )
+            _line(f"tolerance {args.rings} rings", wall)
+            print(f"{'':>22}  {args.rings / wall:.0f} rings/s end to end")
+
+
+if __name__ == "__main__":
+    main()

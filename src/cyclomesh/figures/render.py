@@ -1,0 +1,263 @@
+"""Render figures to files: the one place where figures are saved.
+
+A kind of study describes its figures as :class:`FigureJob` items (a plot function
+that takes results and returns a :class:`~matplotlib.figure.Figure`, its arguments,
+a caption and the report section it belongs to). :func:`render_figures` draws them,
+saves each in the requested formats (PNG, SVG, PDF), keeps the PNG bytes for the
+report, and uses a pool of forked processes when there are enough figures to pay for
+it. Plot functions never write files.
+
+:func:`new_figure` gives a figure on the Agg canvas without pyplot's global state;
+:func:`decimate` thins a long line to the per-pixel minimum and maximum, so spikes
+(the real gear-ratio spikes) survive.
+"""
+
+from __future__ import annotations
+
+import io
+import multiprocessing
+import os
+import threading
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "FORMATS",
+    "FigureJob",
+    "RenderedFigure",
+    "new_figure",
+    "decimate",
+    "render_figures",
+    "FigurePool",
+    "MAX_POINTS",
+]
+
+FORMATS = ("png", "svg", "pdf")
+"""File formats a figure can be saved in."""
+
+MAX_POINTS = 1500
+"""Bins of :func:`decimate` along a line (a figure is at most ~1700 px wide at 150 dpi)."""
+
+PNG_COMPRESSION = 3
+"""zlib level of PNG files (matplotlib's default 6 takes about twice as long for files
+about 10 % smaller)."""
+
+POOL_MIN_FIGURES = 2
+"""Fewest figures for which a process pool pays for its start (measured: a fork costs
+~20 ms, a figure 70–600 ms of CPU; matplotlib is imported once before the fork)."""
+
+
+@dataclass(frozen=True)
+class FigureJob:
+    """One figure of a study, described before it is drawn.
+
+    Attributes
+    ----------
+    name : str
+        File stem (``figures/<name>.png``).
+    plot : callable
+        A module-level plot function ``plot(*args, **kwargs) -> Figure``.
+    args, kwargs
+        Its arguments (results, not files).
+    caption : str
+        Caption in the report.
+    section : str
+        Heading of the report section the figure goes in (created if no section has it).
+    """
+
+    name: str
+    plot: Callable[..., Any]
+    args: tuple[Any, ...] = ()
+    kwargs: Mapping[str, Any] = field(default_factory=dict)
+    caption: str = ""
+    section: str = ""
+
+
+@dataclass(frozen=True)
+class RenderedFigure:
+    """A drawn figure: its PNG bytes (for the report) and the files written."""
+
+    name: str
+    caption: str
+    section: str
+    png: bytes
+    files: tuple[Path, ...]
+
+
+def new_figure(width: float, height: float, layout: str | None = None) -> Any:
+    """A matplotlib Figure of ``width`` × ``height`` inches on the Agg canvas.
+
+    ``layout`` is passed to matplotlib (``None``: plain subplot parameters, the
+    fastest; ``"constrained"`` where colour bars or long labels need it).
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width, height), layout=layout)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def decimate(
+    x: ArrayLike, y: ArrayLike, bins: int = MAX_POINTS
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Min/max decimation of a line: in each of ``bins`` equal runs of points keep the
+    first point, the minimum and the maximum (in their order), and the last point.
+
+    A line with at most ``4 * bins`` points is returned unchanged. What is drawn at one
+    pixel column is then the same vertical extent as for the full line, so narrow
+    spikes are kept. NaN values (gaps) are kept as gaps.
+    """
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    n = y.size
+    if n <= 4 * bins:
+        return x, y
+    per = -(-n // bins)
+    rows = -(-n // per)
+    padded = np.full(rows * per, np.nan)
+    padded[:n] = y
+    padded = padded.reshape(rows, per)
+    nan = np.isnan(padded)
+    base = np.arange(rows) * per
+    lowest = base + np.argmin(np.where(nan, np.inf, padded), axis=1)
+    highest = base + np.argmax(np.where(nan, -np.inf, padded), axis=1)
+    last = np.minimum(base + per - 1, n - 1)
+    keep = np.concatenate([base, lowest, highest, last, np.flatnonzero(np.isnan(y))])
+    keep = np.unique(keep[keep < n])
+    return x[keep], y[keep]
+
+
+def _draw(job: FigureJob, folder: Path | None, formats: Sequence[str], dpi: int) -> RenderedFigure:
+    fig = job.plot(*job.args, **dict(job.kwargs))
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESSION})
+    png = buffer.getvalue()
+    files = []
+    if folder is not None:
+        for fmt in formats:
+            path = folder / f"{job.name}.{fmt}"
+            if fmt == "png":
+                path.write_bytes(png)
+            else:
+                fig.savefig(path, format=fmt, dpi=dpi)
+            files.append(path)
+    return RenderedFigure(job.name, job.caption, job.section, png, tuple(files))
+
+
+def _warm() -> None:
+    """Import matplotlib and the plot modules (in a worker, while the study computes)."""
+    import matplotlib.backends.backend_agg  # noqa: F401
+
+    import cyclomesh.figures.run  # noqa: F401
+
+
+def _nothing() -> None:
+    return None
+
+
+class FigurePool:
+    """Processes that draw figures, forked early so that they import matplotlib while
+    the study computes.
+
+    Create it before any other thread starts (a progress bar): the workers are forked
+    only when this process has a single thread and ``fork`` exists; otherwise (or
+    with ``workers`` ≤ 1) the pool is empty and figures are drawn in this process.
+    Use as a context manager; pass it to :func:`render_figures`.
+    """
+
+    def __init__(self, workers: int | None = None) -> None:
+        self.workers = _cpus() if workers is None else workers
+        self._pool: ProcessPoolExecutor | None = None
+        if (
+            self.workers > 1
+            and "fork" in multiprocessing.get_all_start_methods()
+            and threading.active_count() == 1
+        ):
+            self._pool = ProcessPoolExecutor(
+                max_workers=self.workers,
+                mp_context=multiprocessing.get_context("fork"),
+                initializer=_warm,
+            )
+            self._pool.submit(_nothing)  # fork all workers now
+
+    @property
+    def active(self) -> bool:
+        """Whether there are worker processes."""
+        return self._pool is not None
+
+    def map(
+        self, jobs: Sequence[FigureJob], folder: Path | None, formats: Sequence[str], dpi: int
+    ) -> list[RenderedFigure]:
+        """Draw ``jobs`` in the workers (in order of the jobs)."""
+        assert self._pool is not None
+        futures = [self._pool.submit(_draw, job, folder, tuple(formats), dpi) for job in jobs]
+        return [f.result() for f in futures]
+
+    def close(self) -> None:
+        """Stop the workers."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+    def __enter__(self) -> FigurePool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def render_figures(
+    jobs: Sequence[FigureJob],
+    folder: Path | None,
+    formats: Sequence[str] = ("png",),
+    dpi: int = 150,
+    workers: int | None = None,
+    pool: FigurePool | None = None,
+) -> list[RenderedFigure]:
+    """Draw every job, save it into ``folder`` in ``formats``, return them in order.
+
+    Parameters
+    ----------
+    jobs : sequence of FigureJob
+    folder : Path or None
+        Where to write ``<name>.<format>`` (created); None writes no file (the PNG
+        bytes are still returned, e.g. for the report).
+    formats : sequence of {"png", "svg", "pdf"}
+    dpi : int
+        Resolution of PNG files and of the report's images [dots/inch].
+    workers : int, optional
+        Without ``pool``: processes to draw in (default: the usable CPUs when there
+        are at least :data:`POOL_MIN_FIGURES` figures, else 1).
+    pool : FigurePool, optional
+        Workers started earlier (see :class:`FigurePool`).
+    """
+    unknown = [f for f in formats if f not in FORMATS]
+    if unknown:
+        raise ValueError(f"unknown figure format {unknown[0]!r}, expected one of {FORMATS}")
+    if folder is not None and jobs:
+        folder.mkdir(parents=True, exist_ok=True)
+    if pool is not None and pool.active and len(jobs) > 1:
+        return pool.map(jobs, folder, formats, dpi)
+    if workers is None:
+        workers = _cpus() if len(jobs) >= POOL_MIN_FIGURES else 1
+    workers = min(workers, len(jobs))
+    if workers > 1:
+        _warm()  # once here rather than in every forked worker
+        with FigurePool(workers) as own:
+            if own.active:
+                return own.map(jobs, folder, formats, dpi)
+    return [_draw(job, folder, formats, dpi) for job in jobs]
+
+
+def _cpus() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)

@@ -1,0 +1,14 @@
+"""Kinds of study, one module each, all on one pipeline (see ``docs/pipeline.md``).
+
+- :mod:`cyclomesh.studies.run`: the cases of a study file, each through a crank
+  revolution (``cyclomesh run``);
+- :mod:`cyclomesh.studies.tolerance`: Monte Carlo tolerance studies and tolerance
+  allocation (``cyclomesh tolerance``, ``cyclomesh allocate``).
+
+Every kind has the same parts: a section of the study file schema
+(:mod:`cyclomesh.study.schema`), a compute function that returns results in memory
+(parallel work through :mod:`cyclomesh.execution`), a writer of its result files
+(:mod:`cyclomesh.output`), figure jobs (:mod:`cyclomesh.figures`) and report
+sections (:mod:`cyclomesh.report`); :mod:`cyclomesh.pipeline` renders the figures and
+writes the report, and the CLI command is a thin layer with the progress display.
+"""

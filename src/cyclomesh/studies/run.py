@@ -1,0 +1,427 @@
+"""Run studies: every case of a study file through its crank angles (``cyclomesh run``).
+
+Stages (see ``docs/pipeline.md``):
+
+1. :func:`compute_run`: analyse every case (:func:`cyclomesh.analyse`) with the core
+   inputs built once when the study was loaded; nothing is written.
+2. :func:`write_run`: per case ``<case>/results.nc`` (NetCDF), ``<case>/results.parquet``
+   (pin-level, long format), ``<case>/angles.csv`` (per crank angle) and, with
+   ``csv=True``, ``<case>/results.csv`` (pin-level, long format); ``summary.json``.
+3. :func:`run_figures`: the figure jobs; :func:`run_sections`: the report sections.
+
+:func:`run_study` chains them with :func:`cyclomesh.pipeline.publish`.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from cyclomesh.design import Modification, PairDesign
+from cyclomesh.metrics import METRICS
+from cyclomesh.study.schema import CaseInputs, CaseSpec, Study, folder_name
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from cyclomesh.figures.render import FigureJob
+    from cyclomesh.pipeline import OutputOptions
+    from cyclomesh.report import Section
+
+__all__ = [
+    "RunResult",
+    "ProfileCurves",
+    "compute_run",
+    "profile_curves",
+    "annotate",
+    "summary_record",
+    "write_case",
+    "write_run",
+    "run_figures",
+    "run_sections",
+    "run_study",
+    "case_folder",
+]
+
+Hook = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class ProfileCurves:
+    """One tooth space of the disc, standard and modified (Eqs. 1–3 of [1]), for a figure.
+
+    Attributes
+    ----------
+    phi1_deg : ndarray
+        Generating angle φ1 within the tooth [deg] (0 = tooth-space bottom).
+    standard_x_mm, standard_y_mm : ndarray
+        The standard profile [mm].
+    modified : dict
+        Label → (x [mm], y [mm], modification normal to the standard profile [µm],
+        positive = material removed).
+    seat_mm, pin_radius_mm : float
+        Centre (on x) and radius of the pin seated at the tooth-space bottom [mm].
+    """
+
+    phi1_deg: np.ndarray
+    standard_x_mm: np.ndarray
+    standard_y_mm: np.ndarray
+    modified: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
+    seat_mm: float
+    pin_radius_mm: float
+
+
+def profile_curves(
+    design: PairDesign, modifications: dict[str, Modification], samples: int = 2001
+) -> ProfileCurves:
+    """The standard and modified profiles of one tooth space and the modification:
+    the offset of each modified point from the standard point of the same generating
+    angle, projected on the standard profile's outward normal (Eqs. 1–3 of [1]).
+
+    Exact for the equidistant modification Δρ (a pure normal offset) and at the
+    tooth-space bottom; elsewhere the error is of second order in the tangential offset
+    (µm² over a curvature radius of millimetres: below 0.02 µm here).
+    """
+    from cyclomesh.profile import modified_profile
+
+    phi1 = np.linspace(-np.pi, np.pi, samples)
+    x0, y0 = modified_profile(design, Modification(), phi1)
+    tx, ty = np.gradient(x0, phi1), np.gradient(y0, phi1)
+    length = np.hypot(tx, ty)
+    nx, ny = ty / length, -tx / length  # outward: towards the pins
+    modified = {}
+    for name, modification in modifications.items():
+        x, y = modified_profile(design, modification, phi1)
+        removed = (x0 - x) * nx + (y0 - y) * ny
+        modified[name] = (x * 1e3, y * 1e3, removed * 1e6)
+    return ProfileCurves(
+        phi1_deg=np.rad2deg(phi1),
+        standard_x_mm=x0 * 1e3,
+        standard_y_mm=y0 * 1e3,
+        modified=modified,
+        seat_mm=(design.pin_circle_radius - design.eccentricity) * 1e3,
+        pin_radius_mm=design.pin_radius * 1e3,
+    )
+
+
+@dataclass
+class RunResult:
+    """The computed results of a run study, in memory."""
+
+    study: Study
+    results: dict[str, xr.Dataset] = field(default_factory=dict)
+    """Case name → annotated Dataset of :func:`cyclomesh.analyse`."""
+    summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """Case name → metrics of :data:`cyclomesh.metrics.METRICS` (plain JSON numbers)."""
+
+    @property
+    def inputs(self) -> list[CaseInputs]:
+        """Core inputs of the cases (built once when the study was loaded)."""
+        return self.study.inputs
+
+
+def annotate(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs, study: Study) -> xr.Dataset:
+    """Add the case's per-pin errors [µm, µrad] and its inputs (attributes) to ``ds``."""
+    errors = inputs.errors_um
+    out = ds.assign(
+        pin_radial_error=("pin", errors["radial_um"], {"units": "um", "long_name": "εa,i"}),
+        pin_angular_error=("pin", errors["angular_urad"], {"units": "urad", "long_name": "εψ,i"}),
+        pin_radius_error=("pin", errors["pin_radius_um"], {"units": "um", "long_name": "ερ,i"}),
+    )
+    out.attrs.update(
+        case_name=case.name,
+        case_description=case.description,
+        case_inputs_json=json.dumps(case.model_dump(mode="json"), ensure_ascii=False),
+        study_title=study.title,
+        study_file=study.path.name,
+        study_sha256=study.sha256,
+    )
+    return out
+
+
+def summary_record(summary: xr.Dataset) -> dict[str, float | int | bool | None]:
+    """The metrics of :func:`cyclomesh.summarize` as plain JSON values (non-finite → None)."""
+    from cyclomesh.output import jsonable
+
+    record: dict[str, Any] = {}
+    for name in METRICS:
+        if name in summary:
+            value = jsonable(summary[name].values[()])
+            if name.startswith("contacts_") and isinstance(value, float):
+                value = int(round(value))
+            record[name] = value
+    if "gear_ratio_step_deg" in summary.attrs:  # the step the ratio ripple was taken over
+        record["gear_ratio_step_deg"] = jsonable(summary.attrs["gear_ratio_step_deg"])
+    return record
+
+
+def compute_run(
+    study: Study, on_start: Hook | None = None, on_done: Hook | None = None
+) -> RunResult:
+    """Analyse every case of ``study`` (nothing is written).
+
+    ``on_start(name)`` and ``on_done(name)`` are called around each case (progress).
+    """
+    from cyclomesh.analysis import analyse, summarize
+
+    run = RunResult(study=study)
+    for case, inputs in zip(study.cases, study.inputs, strict=True):
+        if on_start:
+            on_start(case.name)
+        kwargs = inputs.kwargs()
+        kwargs.pop("crank_angles")
+        ds = analyse(**kwargs, crank_angles_deg=case.analysis.crank_angles_deg())
+        ds = annotate(ds, case, inputs, study)
+        run.results[case.name] = ds
+        run.summaries[case.name] = summary_record(summarize(ds))
+        if on_done:
+            on_done(case.name)
+    return run
+
+
+def case_folder(name: str) -> str:
+    """Folder of a case's files inside the output folder."""
+    return folder_name(name)
+
+
+def write_case(ds: xr.Dataset, folder: Path, csv: bool = False) -> dict[str, Path]:
+    """Write one case: ``results.nc``, ``results.parquet``, ``angles.csv`` and, with
+    ``csv``, ``results.csv`` (see :mod:`cyclomesh.output`)."""
+    from cyclomesh import output
+
+    folder.mkdir(parents=True, exist_ok=True)
+    files = {
+        "netcdf": output.write_netcdf(ds, folder / "results.nc"),
+        "parquet": output.write_parquet(ds, folder / "results.parquet"),
+        "angles_csv": output.write_angle_csv(ds, folder / "angles.csv"),
+    }
+    if csv:
+        files["csv"] = output.write_pin_csv(ds, folder / "results.csv")
+    return files
+
+
+def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
+    """Write every case's result files and ``summary.json`` into ``out``."""
+    from cyclomesh.output import write_json
+    from cyclomesh.report import cyclomesh_version
+
+    study = run.study
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    records = []
+    for case in study.cases:
+        folder = case_folder(case.name)
+        written += write_case(run.results[case.name], out / folder, options.csv).values()
+        records.append(
+            {"name": case.name, "results": f"{folder}/results.nc", **run.summaries[case.name]}
+        )
+    document = {
+        "title": study.title,
+        "study_file": study.path.name,
+        "study_sha256": study.sha256,
+        "cyclomesh_version": cyclomesh_version(),
+        "units": {name: m.unit for name, m in METRICS.items()},
+        "cases": records,
+    }
+    written.append(write_json(out / "summary.json", document))
+    return written
+
+
+_HEADINGS = {
+    "profile": "Tooth profile and modification",
+    "pin_errors": "Pin errors",
+    "loads": "Loads on pins and grooves",
+    "profile_stress": "Contact stress over the tooth profile",
+    "stress_maps": "Contact stress of all pins",
+    "transmission_error": "Loaded transmission error",
+    "gear_ratio": "Instantaneous gear ratio",
+    "contacts": "Pins in contact",
+    "backlash": "Backlash",
+}
+
+
+def run_figures(run: RunResult) -> list[FigureJob]:
+    """The figures of a run study as jobs for :func:`cyclomesh.figures.render.render_figures`."""
+    from cyclomesh.figures import run as plots
+    from cyclomesh.figures.render import FigureJob
+
+    settings = run.study.figures
+    results = run.results
+    cases = list(zip(run.study.cases, run.study.inputs, strict=True))
+    first = cases[0][1]
+    modifications: dict[str, Modification] = {}
+    for case, inputs in cases:
+        same = [k for k, m in modifications.items() if m == inputs.modification]
+        if same:
+            modifications[f"{same[0]}, {case.name}"] = modifications.pop(same[0])
+        else:
+            modifications[case.name] = inputs.modification
+
+    def job(name: str, plot: Callable[..., Any], *args: Any, caption: str) -> FigureJob:
+        return FigureJob(name, plot, args, caption=caption, section=_HEADINGS[name])
+
+    def only(*names: str) -> dict[str, xr.Dataset]:
+        """The variables a figure draws (figures may be drawn in other processes)."""
+        return {case: ds[list(names)] for case, ds in results.items()}
+
+    jobs = [
+        job(
+            "profile",
+            plots.plot_profile,
+            profile_curves(first.design, modifications),
+            caption="Tooth profile with its modification (Eqs. 1-3 of Li et al. 2022): one "
+            "tooth space and the normal modification over the profile.",
+        )
+    ]
+    with_errors = {
+        case.name: inputs.errors
+        for case, inputs in cases
+        if any(np.any(getattr(inputs.errors, f)) for f in ("radial", "angular", "pin_radius"))
+    }
+    if with_errors:
+        jobs.append(
+            job(
+                "pin_errors",
+                plots.plot_pin_errors,
+                with_errors,
+                first.design.pins,
+                caption="Pin errors per pin (Eq. 5), cases with errors only.",
+            )
+        )
+    angles = settings.crank_angles_deg
+    pin = settings.stress_pin
+    jobs += [
+        job(
+            "loads",
+            plots.plot_loads,
+            only("pin_load", "groove_load"),
+            angles,
+            caption="Load on every pin (tooth side) and on every groove at the chosen crank "
+            "angles.",
+        ),
+        job(
+            "profile_stress",
+            plots.plot_profile_stress,
+            only("pin_load", "contact_stress", settings.stress_over),
+            pin,
+            settings.stress_over,
+            caption=f"Contact stress over the tooth profile, pin {pin}, through its mesh cycle.",
+        ),
+        job(
+            "stress_maps",
+            plots.plot_stress_maps,
+            only("contact_stress", "groove_stress"),
+            caption="Contact stress of every pin over the crank angle, on teeth and on grooves.",
+        ),
+        job(
+            "transmission_error",
+            plots.plot_transmission_error,
+            only("transmission_error"),
+            caption="Loaded transmission error (Eq. 25) over one mesh cycle and over all angles.",
+        ),
+        job(
+            "gear_ratio",
+            plots.plot_gear_ratio,
+            only("gear_ratio"),
+            caption="Instantaneous gear ratio (Eq. 26); the dotted line is the ideal ratio n2. "
+            "The spikes where a pin enters or leaves contact are real.",
+        ),
+        job(
+            "contacts", plots.plot_contacts, only("contacts"), caption="Number of pins in contact."
+        ),
+        job(
+            "backlash",
+            plots.plot_backlash,
+            only("backlash"),
+            angles,
+            caption="Unloaded backlash of every pin (Eq. 11); unreachable pins are left out.",
+        ),
+    ]
+    return jobs
+
+
+def _flat(prefix: str, value: Any) -> dict[str, Any]:
+    if isinstance(value, dict):
+        out: dict[str, Any] = {}
+        for key, item in value.items():
+            out.update(_flat(f"{prefix}.{key}" if prefix else key, item))
+        return out
+    if isinstance(value, list):
+        values = np.asarray(value, dtype=float)
+        text = f"{len(values)} values, {values.min():.4g} … {values.max():.4g}"
+        return {prefix: text}
+    return {prefix: value}
+
+
+def _cell(value: Any) -> Any:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return value
+
+
+def run_sections(run: RunResult) -> list[Section]:
+    """Report sections of a run study: study, inputs, summary (figures come after)."""
+    from cyclomesh.report import Section, table_html
+
+    study = run.study
+    names = [case.name for case in study.cases]
+    intro = f"<p>{html.escape(study.description)}</p>" if study.description else ""
+    intro += table_html(
+        ["case", "description", "results"],
+        [(c.name, c.description, f"{case_folder(c.name)}/results.nc") for c in study.cases],
+    )
+    flats = [
+        _flat("", case.model_dump(mode="json", exclude={"name", "description"}))
+        for case in study.cases
+    ]
+    for flat, case, inputs in zip(flats, study.cases, study.inputs, strict=True):
+        if case.errors.file is not None or case.errors.random is not None:
+            for key, values in inputs.errors_um.items():
+                flat[f"errors: total {key}"] = _flat("", list(values))[""]
+    keys = list(dict.fromkeys(k for flat in flats for k in flat))
+    rows = [[k, *(_cell(f.get(k)) for f in flats)] for k in keys]
+    inputs_html = table_html(
+        ["key", *names], [r for r in rows if any(v is not None for v in r[1:])]
+    )
+    inputs_html += (
+        "<p>Per-pin errors are the sum of the lists, the file and the random draws. "
+        "In the CSV and Parquet files an infinite backlash (pin unreachable by the loaded "
+        "flank) is a missing value.</p>"
+        f"<details><summary>study file {html.escape(study.path.name)}</summary>"
+        f"<pre>{html.escape(study.text)}</pre></details>"
+    )
+    columns = list(next(iter(run.summaries.values())))
+    header = [
+        f"{c} [{METRICS[c].unit}]" if c in METRICS and METRICS[c].unit != "1" else c
+        for c in columns
+    ]
+    summary = table_html(
+        ["case", *header], [[n, *(run.summaries[n].get(c) for c in columns)] for n in names]
+    )
+    return [Section("Study", intro), Section("Inputs", inputs_html), Section("Summary", summary)]
+
+
+def run_study(study: Study, out: str | Path, options: OutputOptions | None = None) -> list[Path]:
+    """Compute every case of ``study``, then write its files, figures and report into
+    ``out``. Returns the paths written. Nothing is written if a case fails."""
+    from cyclomesh.pipeline import OutputOptions, publish
+
+    options = options or OutputOptions.from_study(study)
+    run = compute_run(study)
+    out = Path(out)
+    files = write_run(run, out, options)
+    jobs = run_figures(run) if options.figures else []
+    return publish(
+        out, study.title, run_sections(run), jobs, files, options, study_stamp(study)
+    ).files
+
+
+def study_stamp(study: Study) -> dict[str, str]:
+    """Stamp lines of a report on ``study``."""
+    return {"study file": study.path.name, "SHA-256 of the study file": study.sha256}

@@ -1,0 +1,723 @@
+"""Tolerance studies: Monte Carlo rings (``cyclomesh tolerance``) and tolerance allocation
+(``cyclomesh allocate``), on the one pipeline.
+
+The study runs the base description of the study file (its top-level sections;
+``[[cases]]`` are not used) with the errors of ``[tolerance]`` added to the base's
+``[errors]``. Stages (see ``docs/pipeline.md``):
+
+1. :func:`compute_tolerance` draws the rings and computes their metrics
+   (:data:`cyclomesh.metrics.METRICS`) in chunks through :mod:`cyclomesh.execution`
+   (local processes or a Dask cluster, bit-for-bit the same), then the statistics;
+2. :func:`write_tolerance` writes ``tolerance_rings.nc`` and ``tolerance_rings.parquet``
+   (per-ring metrics, units in attributes / field metadata), ``tolerance_summary.json``
+   (statistics) and ``worst_ring.toml`` (the ring with the highest peak tooth contact
+   stress as an ordinary study file: ``cyclomesh run worst_ring.toml`` reproduces it);
+3. :func:`tolerance_figures` and :func:`tolerance_sections` give the figures and the
+   report (``report.html``).
+
+The allocation has the same stages (:func:`compute_allocation`,
+:func:`write_allocation`: ``allocation_rings.nc``, ``allocation.json``,
+``allocation_report.html``). Nothing here prints; progress goes to a callback.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import math
+import time
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from cyclomesh.exceptions import StudyError
+from cyclomesh.metrics import METRICS, STRESS_METRIC
+from cyclomesh.study.schema import Study, ToleranceSection, load_study
+from cyclomesh.tolerance.allocation import Allocation
+from cyclomesh.tolerance.tasks import RingModel
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from cyclomesh.execution import Backend
+    from cyclomesh.figures.render import FigureJob
+    from cyclomesh.pipeline import OutputOptions
+    from cyclomesh.report import Section
+
+__all__ = [
+    "ToleranceResult",
+    "AllocationResult",
+    "load_tolerance_study",
+    "ring_model",
+    "compute_tolerance",
+    "write_tolerance",
+    "tolerance_figures",
+    "tolerance_sections",
+    "compute_allocation",
+    "write_allocation",
+    "allocation_figures",
+    "allocation_sections",
+    "metrics_dataset",
+    "ring_statistics",
+    "worst_ring",
+    "worst_ring_study",
+    "run_tolerance",
+    "run_allocation",
+]
+
+Progress = Callable[[int], None]
+
+
+def load_tolerance_study(path: str | Path) -> tuple[Study, ToleranceSection]:
+    """Load a study file that must have a ``[tolerance]`` section.
+
+    Raises
+    ------
+    StudyError
+        A bad study file, or no ``[tolerance]`` section.
+    """
+    study = load_study(path)
+    if study.tolerance is None:
+        raise StudyError(f"{Path(path).name}: no [tolerance] section (see examples/tolerance.toml)")
+    return study, study.tolerance
+
+
+def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
+    """The fixed part of the tolerance study: the study's base case as core objects."""
+    base = study.base
+    core = base.to_core()
+    return RingModel(
+        design=core.design,
+        modification=core.modification,
+        base_errors_um=core.errors_um,
+        base_eccentricity_um=float(base.errors.eccentricity_um),
+        torque_nm=float(core.torque),
+        crank_angles_deg=spec.crank_angles_deg(),
+        groove_deformation=bool(core.groove_deformation),
+        spec=spec,
+    )
+
+
+def _rings(spec: ToleranceSection, rings: int | None) -> int:
+    n = spec.rings if rings is None else int(rings)
+    if n < 1:
+        raise StudyError(f"--rings must be at least 1, got {n}")
+    return n
+
+
+def _run(
+    task: Any,
+    n: int,
+    model: RingModel,
+    backend: Backend | None,
+    chunk: int | None,
+    progress: Progress | None,
+) -> dict[str, np.ndarray]:
+    from cyclomesh.execution import SerialBackend, run_chunks
+
+    backend = backend or SerialBackend()
+    size = chunk or _default_chunk(n, model, backend.workers)
+    return run_chunks(task, n, backend=backend, chunk_size=size, progress=progress)
+
+
+def _default_chunk(n: int, model: RingModel, workers: int) -> int:
+    """One core call per chunk, but at least ~4 chunks per worker for balance."""
+    per_worker = math.ceil(n / (4 * max(1, workers)))
+    return max(1, min(model.block_rings, per_worker))
+
+
+# --- results of a tolerance study --------------------------------------------------------
+
+
+def metrics_dataset(
+    per_ring: Mapping[str, np.ndarray],
+    spec: ToleranceSection,
+    attrs: Mapping[str, Any] | None = None,
+) -> xr.Dataset:
+    """Per-ring metrics as an xarray Dataset with dimension ``ring``, units and long
+    names from :data:`cyclomesh.metrics.METRICS`."""
+    import xarray as xr
+
+    ring = np.asarray(per_ring["ring"], dtype=np.int64)
+    data = {}
+    for name, values in per_ring.items():
+        if name == "ring":
+            continue
+        arr = np.asarray(values)
+        if arr.dtype == np.bool_:
+            arr = arr.astype(np.int8)  # NetCDF has no boolean
+        metric = METRICS.get(name)
+        attrs_ = (
+            {"units": metric.unit, "long_name": metric.long_name}
+            if metric
+            else {"units": "1", "long_name": name.replace("_", " ")}
+        )
+        data[name] = xr.DataArray(arr, dims=("ring",), attrs=attrs_)
+    ds = xr.Dataset(data, coords={"ring": ("ring", ring, {"units": "1"})})
+    ds.attrs.update(
+        {
+            "seed": spec.seed,
+            "allowable_contact_stress_mpa": spec.allowable_contact_stress_mpa,
+            "tolerance": json.dumps(spec.model_dump(exclude_none=True)),
+            "sampling": "ring k uses numpy PCG64(SeedSequence([seed, k, kind])) per error kind",
+        }
+    )
+    ds.attrs.update(dict(attrs or {}))
+    return ds
+
+
+def worst_ring(ds: xr.Dataset, metric: str = STRESS_METRIC) -> int:
+    """Index k of the ring with the largest ``metric`` (the first one if tied)."""
+    return int(ds["ring"].values[int(np.argmax(ds[metric].values))])
+
+
+def ring_statistics(
+    ds: xr.Dataset, spec: ToleranceSection, confidence: float = 0.95
+) -> dict[str, Any]:
+    """Statistics over the rings (JSON-ready): mean, std, percentiles with intervals,
+    exceedance probability of the allowable contact stress, worst ring."""
+    from cyclomesh.tolerance.statistics import PERCENTILES, describe, exceedance_probability
+
+    n = ds.sizes["ring"]
+    stats = {}
+    for name, metric in METRICS.items():
+        if name in ds and name != "overlap":
+            stats[name] = {
+                "unit": metric.unit,
+                "description": metric.long_name,
+                **describe(ds[name].values),
+            }
+    allowable = spec.allowable_contact_stress_mpa
+    exceed = {}
+    for name in ("max_contact_stress_mpa", "max_groove_stress_mpa"):
+        if name in ds:
+            count = int(np.count_nonzero(ds[name].values > allowable))
+            p = exceedance_probability(count, n, confidence)
+            exceed[name] = {
+                "count": p.count,
+                "rings": p.total,
+                "probability": p.estimate,
+                "lower": p.lower,
+                "upper": p.upper,
+            }
+    k = worst_ring(ds)
+    return {
+        "rings": n,
+        "seed": spec.seed,
+        "confidence": confidence,
+        "allowable_contact_stress_mpa": allowable,
+        "metrics": stats,
+        "exceedance": exceed,
+        "worst_ring": {
+            "ring": k,
+            STRESS_METRIC: float(ds[STRESS_METRIC].sel(ring=k)),
+            "file": "worst_ring.toml",
+        },
+        "overlap_rings": int(np.count_nonzero(ds["overlap"].values)) if "overlap" in ds else None,
+        "methods": {
+            "percentile": "linear interpolation between order statistics (numpy, type 7)",
+            "percentile_interval": (
+                f"distribution-free order-statistic interval, {confidence:.0%} two-sided "
+                "(binomial ranks; NaN where there are too few rings)"
+            ),
+            "exceedance_interval": f"Clopper-Pearson exact, {confidence:.0%} two-sided",
+            "std": "sample standard deviation (ddof = 1)",
+        },
+        "percentiles": list(PERCENTILES),
+    }
+
+
+def worst_ring_study(
+    model: RingModel, base: Mapping[str, Any], ring: int, title: str, note: str = ""
+) -> str:
+    """The study file (TOML text) that ``cyclomesh run`` needs to reproduce one ring.
+
+    Parameters
+    ----------
+    model : RingModel
+        The tolerance study's fixed part.
+    base : mapping
+        The base case's sections in study units (``design``, ``modification``,
+        ``material``, ``load``, ``analysis``), e.g. ``CaseSpec.model_dump()``; the
+        ``errors`` and crank angles are replaced by the ring's own.
+    ring : int
+        Ring index k.
+    title : str
+        Title of the new study.
+    note : str
+        Comment lines put at the top.
+    """
+    from cyclomesh.output import toml_dumps
+
+    total = model.total_errors_um(model.draw([ring]))
+    spec = model.spec
+    sections: dict[str, Any] = {"title": title}
+    for name in ("design", "modification", "material", "load"):
+        table = _drop_none(base.get(name) or {})
+        if table:
+            sections[name] = table
+    analysis = dict(_drop_none(base.get("analysis", {})))
+    analysis.update(
+        crank_start_deg=float(spec.crank_start_deg),
+        crank_stop_deg=float(spec.crank_stop_deg),
+        crank_step_deg=float(spec.crank_step_deg),
+        groove_deformation=bool(model.groove_deformation),
+    )
+    sections["analysis"] = analysis
+    sections["errors"] = {
+        "eccentricity_um": float(total["eccentricity_um"][0]),
+        "radial_um": [float(v) for v in total["radial_um"][0]],
+        "angular_urad": [float(v) for v in total["angular_urad"][0]],
+        "pin_radius_um": [float(v) for v in total["pin_radius_um"][0]],
+    }
+    header = "".join(f"# {line}\n" for line in note.splitlines())
+    return header + toml_dumps(sections) + "\n"
+
+
+def _drop_none(table: Mapping[str, Any]) -> dict[str, Any]:
+    out = {}
+    for key, value in table.items():
+        if value is None:
+            continue
+        out[key] = _drop_none(value) if isinstance(value, Mapping) else value
+    return {k: v for k, v in out.items() if not (isinstance(v, dict) and not v)}
+
+
+@dataclass(frozen=True)
+class ToleranceResult:
+    """Outcome of :func:`compute_tolerance`."""
+
+    study: Study
+    spec: ToleranceSection
+    model: RingModel
+    rings: xr.Dataset
+    summary: dict[str, Any]
+    seconds: float
+
+
+def compute_tolerance(
+    study: Study,
+    *,
+    rings: int | None = None,
+    backend: Backend | None = None,
+    chunk_rings: int | None = None,
+    progress: Progress | None = None,
+) -> ToleranceResult:
+    """Draw the rings of ``study``'s ``[tolerance]`` section and compute their metrics.
+
+    Parameters
+    ----------
+    study : Study
+        With a ``[tolerance]`` section.
+    rings : int, optional
+        Number of rings (default: ``tolerance.rings``).
+    backend : Backend, optional
+        Where to run (:func:`cyclomesh.execution.make_backend`; default: serial).
+    chunk_rings : int, optional
+        Rings per chunk (default: one core call's worth, see
+        :func:`cyclomesh.tolerance.tasks.block_rings`, at least ~4 chunks per worker).
+    progress : callable, optional
+        Called with the number of rings of every finished chunk.
+    """
+    from cyclomesh.tolerance.tasks import ToleranceTask
+
+    if study.tolerance is None:
+        raise StudyError(f"{study.path.name}: no [tolerance] section (see examples/tolerance.toml)")
+    start = time.perf_counter()
+    spec = study.tolerance
+    n = _rings(spec, rings)
+    model = ring_model(study, spec)
+    per_ring = _run(ToleranceTask(model), n, model, backend, chunk_rings, progress)
+    seconds = time.perf_counter() - start
+    ds = metrics_dataset(
+        per_ring,
+        spec,
+        {
+            "study_title": study.title,
+            "study_sha256": study.sha256,
+            "crank_step_deg": spec.crank_step_deg,
+            "torque_nm": model.torque_nm,
+            "groove_deformation": int(model.groove_deformation),
+        },
+    )
+    stats = ring_statistics(ds, spec, spec.allocation.confidence)
+    stats["seconds"] = seconds
+    stats["rings_per_second"] = n / seconds if seconds > 0 else math.nan
+    return ToleranceResult(study, spec, model, ds, stats, seconds)
+
+
+def write_tolerance(result: ToleranceResult, out: Path) -> list[Path]:
+    """Write ``tolerance_rings.nc``, ``tolerance_rings.parquet``, ``tolerance_summary.json``
+    and ``worst_ring.toml`` into ``out``."""
+    from cyclomesh.output import write_json, write_netcdf, write_parquet
+
+    out.mkdir(parents=True, exist_ok=True)
+    ds, study, spec = result.rings, result.study, result.spec
+    files = [
+        write_netcdf(ds, out / "tolerance_rings.nc"),
+        write_parquet(ds, out / "tolerance_rings.parquet"),
+        write_json(out / "tolerance_summary.json", result.summary),
+    ]
+    k = worst_ring(ds)
+    note = (
+        f"Worst ring of the tolerance study {study.title!r} ({study.path.name}): ring {k} of "
+        f"seed {spec.seed},\npeak tooth contact stress "
+        f"{float(ds[STRESS_METRIC].sel(ring=k)):.6g} MPa. "
+        "Reproduce with: cyclomesh run worst_ring.toml --out DIR"
+    )
+    path = out / "worst_ring.toml"
+    path.write_text(
+        worst_ring_study(
+            result.model, study.base.model_dump(), k, f"{study.title}: worst ring {k}", note
+        ),
+        encoding="utf-8",
+    )
+    files.append(path)
+    return files
+
+
+def tolerance_figures(result: ToleranceResult) -> list[FigureJob]:
+    """Histograms, distribution functions and the exceedance curve, as figure jobs."""
+    from cyclomesh.figures import tolerance as plots
+    from cyclomesh.figures.render import FigureJob
+
+    ds, stats = result.rings, result.summary
+    allowable = stats["allowable_contact_stress_mpa"]
+    section = "Tolerance study (Monte Carlo)"
+    return [
+        FigureJob(
+            "tolerance_histograms",
+            plots.plot_metric_histograms,
+            (ds, allowable),
+            caption="Histograms of the per-ring metrics",
+            section=section,
+        ),
+        FigureJob(
+            "tolerance_ecdfs",
+            plots.plot_metric_ecdfs,
+            (ds, allowable),
+            caption="Empirical distribution functions",
+            section=section,
+        ),
+        FigureJob(
+            "tolerance_exceedance",
+            plots.plot_stress_exceedance,
+            (ds, allowable, stats["confidence"]),
+            caption="Probability that the peak tooth contact stress exceeds a level",
+            section=section,
+        ),
+    ]
+
+
+def _fmt(x: Any) -> str:
+    return "n/a" if x is None or (isinstance(x, float) and not np.isfinite(x)) else f"{x:.4g}"
+
+
+def tolerance_sections(result: ToleranceResult) -> list[Section]:
+    """Report section of a tolerance study: statistics table, exceedance, worst ring."""
+    from cyclomesh.report import Section, table_html
+
+    stats = result.summary
+    conf = stats["confidence"]
+    rows = []
+    for name, s in stats["metrics"].items():
+        pct = [
+            f"{_fmt(p['estimate'])} [{_fmt(p['lower'])}, {_fmt(p['upper'])}]"
+            for p in s["percentiles"]
+        ]
+        rows.append([name, s["unit"], _fmt(s["mean"]), _fmt(s["std"]), *pct])
+    header = ["metric", "unit", "mean", "std"] + [
+        f"P{p:g} [{conf:.0%} CI]" for p in stats["percentiles"]
+    ]
+    ex = stats["exceedance"][STRESS_METRIC]
+    worst = stats["worst_ring"]
+    text = (
+        f"<p>{stats['rings']} rings, seed {stats['seed']}. Probability that the peak tooth "
+        f"contact stress exceeds {stats['allowable_contact_stress_mpa']:g} MPa: "
+        f"<b>{ex['probability']:.4g}</b> ({ex['count']} of {ex['rings']} rings; {conf:.0%} "
+        f"Clopper–Pearson interval [{ex['lower']:.4g}, {ex['upper']:.4g}]). Worst ring: "
+        f"{worst['ring']} ({worst[STRESS_METRIC]:.5g} MPa), written to "
+        f"<code>{html.escape(worst['file'])}</code>.</p>"
+        + table_html(header, rows)
+        + "<p>Methods: "
+        + html.escape("; ".join(f"{k}: {v}" for k, v in stats["methods"].items()))
+        + ".</p>"
+    )
+    return [Section("Tolerance study (Monte Carlo)", text)]
+
+
+# --- tolerance allocation ----------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class AllocationResult:
+    """Outcome of :func:`compute_allocation`."""
+
+    study: Study
+    allocation: Allocation
+    rings: xr.Dataset
+    record: dict[str, Any]
+    seconds: float
+
+
+def _nominal_stress(model: RingModel) -> float:
+    from cyclomesh.tolerance.sampling import RingErrors
+
+    pins = model.design.pins
+    zero = RingErrors(
+        np.zeros(1, dtype=np.int64),
+        np.zeros((1, pins)),
+        np.zeros((1, pins)),
+        np.zeros((1, pins)),
+        np.zeros(1),
+    )
+    return float(model.metrics(zero)[STRESS_METRIC][0])
+
+
+def compute_allocation(
+    study: Study,
+    *,
+    target_probability: float | None = None,
+    rings: int | None = None,
+    backend: Backend | None = None,
+    chunk_rings: int | None = None,
+    progress: Progress | None = None,
+) -> AllocationResult:
+    """Largest scale factor on the stated tolerances that meets the target probability.
+
+    Parameters are those of :func:`compute_tolerance`, and ``target_probability``
+    (default: ``tolerance.allocation.target_probability``).
+    """
+    import xarray as xr
+
+    from cyclomesh.tolerance.allocation import allocate_factor
+    from cyclomesh.tolerance.tasks import AllocationTask
+
+    if study.tolerance is None:
+        raise StudyError(f"{study.path.name}: no [tolerance] section (see examples/tolerance.toml)")
+    start = time.perf_counter()
+    spec = study.tolerance
+    alloc = spec.allocation
+    target = alloc.target_probability if target_probability is None else target_probability
+    if not 0.0 < target < 1.0:
+        raise StudyError(f"--target-probability must lie in (0, 1), got {target:g}")
+    n = _rings(spec, rings)
+    model = ring_model(study, spec)
+    allowable = spec.allowable_contact_stress_mpa
+    nominal = _nominal_stress(model)
+    if nominal > allowable:
+        raise StudyError(
+            f"the nominal ring (no sampled errors) already exceeds the allowable contact "
+            f"stress: {nominal:.1f} MPa > {allowable:g} MPa; no tolerance can meet it"
+        )
+    factors = tuple(
+        alloc.factor_max * (i + 1) / alloc.factor_steps for i in range(alloc.factor_steps)
+    )
+    task = AllocationTask(model, factors, alloc.bisections, allowable)
+    per_ring = _run(task, n, model, backend, chunk_rings, progress)
+    seconds = time.perf_counter() - start
+    result = allocate_factor(
+        per_ring["critical_factor_lower"],
+        per_ring["critical_factor_upper"],
+        target,
+        alloc.confidence,
+        alloc.factor_max,
+    )
+    ds = xr.Dataset(
+        {
+            name: xr.DataArray(per_ring[name], dims=("ring",), attrs={"units": "1"})
+            for name in ("critical_factor_lower", "critical_factor_upper")
+        },
+        coords={"ring": ("ring", per_ring["ring"])},
+        attrs={
+            "seed": spec.seed,
+            "allowable_contact_stress_mpa": allowable,
+            "nominal_contact_stress_mpa": nominal,
+            "study_title": study.title,
+            "study_sha256": study.sha256,
+            "tolerance": json.dumps(spec.model_dump(exclude_none=True)),
+            "method": result.as_dict()["method"],
+        },
+    )
+    record = result.as_dict()
+    record.update(
+        nominal_contact_stress_mpa=nominal,
+        allowable_contact_stress_mpa=allowable,
+        seconds=seconds,
+        study_title=study.title,
+    )
+    return AllocationResult(study, result, ds, record, seconds)
+
+
+def write_allocation(result: AllocationResult, out: Path) -> list[Path]:
+    """Write ``allocation_rings.nc`` and ``allocation.json`` into ``out``."""
+    from cyclomesh.output import write_json, write_netcdf
+
+    out.mkdir(parents=True, exist_ok=True)
+    return [
+        write_netcdf(result.rings, out / "allocation_rings.nc"),
+        write_json(out / "allocation.json", result.record),
+    ]
+
+
+def allocation_figures(result: AllocationResult) -> list[FigureJob]:
+    """The exceedance probability against the scale factor, as a figure job."""
+    from cyclomesh.figures import tolerance as plots
+    from cyclomesh.figures.render import FigureJob
+
+    return [
+        FigureJob(
+            "allocation_exceedance",
+            plots.plot_allocation,
+            (result.allocation,),
+            caption="Exceedance probability vs. scale factor on the tolerances",
+            section="Tolerance allocation",
+        )
+    ]
+
+
+def allocation_sections(result: AllocationResult) -> list[Section]:
+    """Report section of a tolerance allocation."""
+    from cyclomesh.report import Section
+
+    statement = html.escape(result.allocation.statement())
+    return [Section("Tolerance allocation", f"<p>{statement}</p>")]
+
+
+# --- whole studies (compute, write, figures, report) ------------------------------------
+
+
+@dataclass(frozen=True)
+class StudyFiles:
+    """What :func:`run_tolerance` and :func:`run_allocation` return."""
+
+    result: Any
+    files: list[Path]
+
+    @property
+    def summary(self) -> dict[str, Any]:
+        """Statistics (tolerance) or the allocation record."""
+        return getattr(self.result, "summary", None) or self.result.record
+
+    @property
+    def rings(self) -> xr.Dataset:
+        """Per-ring results."""
+        return self.result.rings
+
+    @property
+    def allocation(self) -> Allocation:
+        """The allocation (of :func:`run_allocation`)."""
+        return self.result.allocation
+
+
+@contextmanager
+def _backend(
+    backend: Backend | None, scheduler: str | None, workers: int | None
+) -> Iterator[Backend | None]:
+    if backend is not None or (scheduler is None and workers is None):
+        yield backend
+        return
+    from cyclomesh.execution import make_backend
+
+    own = make_backend(scheduler, workers)
+    try:
+        yield own
+    finally:
+        own.close()
+
+
+def _options(study: Study, figures: bool, options: OutputOptions | None) -> OutputOptions:
+    from cyclomesh.pipeline import OutputOptions
+
+    if options is not None:
+        return options
+    return OutputOptions.from_study(study, None if figures else "none")
+
+
+def run_tolerance(
+    study_path: str | Path,
+    out_dir: str | Path,
+    *,
+    rings: int | None = None,
+    backend: Backend | None = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    chunk_rings: int | None = None,
+    figures: bool = True,
+    options: OutputOptions | None = None,
+    progress: Progress | None = None,
+) -> StudyFiles:
+    """A whole tolerance study: compute, write the files, the figures and ``report.html``.
+
+    Runs on ``backend``, else on a Dask cluster at ``scheduler`` or on ``workers``
+    local processes (closed at the end), else in this process.
+    """
+    from cyclomesh.pipeline import publish
+
+    study, _ = load_tolerance_study(study_path)
+    with _backend(backend, scheduler, workers) as where:
+        result = compute_tolerance(
+            study, rings=rings, backend=where, chunk_rings=chunk_rings, progress=progress
+        )
+    out = Path(out_dir)
+    files = write_tolerance(result, out)
+    opts = _options(study, figures, options)
+    published = publish(
+        out,
+        f"{study.title}: tolerance study",
+        tolerance_sections(result),
+        tolerance_figures(result) if opts.figures else [],
+        files,
+        opts,
+        {"SHA-256 of the study file": study.sha256},
+    )
+    return StudyFiles(result, published.files)
+
+
+def run_allocation(
+    study_path: str | Path,
+    out_dir: str | Path,
+    *,
+    target_probability: float | None = None,
+    rings: int | None = None,
+    backend: Backend | None = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    chunk_rings: int | None = None,
+    figures: bool = True,
+    options: OutputOptions | None = None,
+    progress: Progress | None = None,
+) -> StudyFiles:
+    """A whole tolerance allocation: compute, write the files, the figure and
+    ``allocation_report.html`` (``backend``, ``scheduler``, ``workers`` as for
+    :func:`run_tolerance`)."""
+    from cyclomesh.pipeline import publish
+
+    study, _ = load_tolerance_study(study_path)
+    with _backend(backend, scheduler, workers) as where:
+        result = compute_allocation(
+            study,
+            target_probability=target_probability,
+            rings=rings,
+            backend=where,
+            chunk_rings=chunk_rings,
+            progress=progress,
+        )
+    out = Path(out_dir)
+    files = write_allocation(result, out)
+    opts = _options(study, figures, options)
+    published = publish(
+        out,
+        f"{study.title}: tolerance allocation",
+        allocation_sections(result),
+        allocation_figures(result) if opts.figures else [],
+        files,
+        opts,
+        {"SHA-256 of the study file": study.sha256},
+        report_name="allocation_report.html",
+    )
+    return StudyFiles(result, published.files)

@@ -1,0 +1,34 @@
+"""Import hygiene: the core and the command start without the heavy result libraries."""
+
+import subprocess
+import sys
+
+import pytest
+
+HEAVY = ("xarray", "pandas", "matplotlib", "pyarrow", "netCDF4", "distributed")
+
+
+@pytest.mark.parametrize(
+    "modules, absent",
+    [
+        ("cyclomesh.ltca", HEAVY),  # the core: NumPy and SciPy only
+        ("cyclomesh, cyclomesh.cli", (*HEAVY, "scipy", "pydantic")),  # --help
+        ("cyclomesh.tolerance.tasks", HEAVY),  # what tolerance workers run
+        ("cyclomesh.studies.run, cyclomesh.studies.tolerance, cyclomesh.pipeline", HEAVY),
+        # plot modules: matplotlib only when a figure is drawn (in the figure workers)
+        ("cyclomesh.figures.run, cyclomesh.figures.tolerance", ("matplotlib", "scipy.stats")),
+    ],
+)
+def test_modules_import_without_heavy_libraries(modules, absent):
+    code = f"import sys, {modules}; print(sorted(m for m in {absent!r} if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", f"{modules} imports {out.stdout.strip()}"
+
+
+def test_lazy_names_of_the_package():
+    import cyclomesh
+
+    assert cyclomesh.TABLE1.pins == 40
+    assert callable(cyclomesh.analyse) and "analyse" in dir(cyclomesh)
+    with pytest.raises(AttributeError, match="no attribute 'nonsense'"):
+        cyclomesh.nonsense  # noqa: B018
