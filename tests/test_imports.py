@@ -17,6 +17,9 @@ HEAVY = ("xarray", "pandas", "matplotlib", "pyarrow", "netCDF4", "distributed")
         ("cyclomesh.studies.run, cyclomesh.studies.tolerance, cyclomesh.pipeline", HEAVY),
         # plot modules: matplotlib only when a figure is drawn (in the figure workers)
         ("cyclomesh.figures.run, cyclomesh.figures.tolerance", ("matplotlib", "scipy.stats")),
+        # design maps: the chunk function and the kind of study, and its plots
+        ("cyclomesh.designmap, cyclomesh.studies.design", HEAVY),
+        ("cyclomesh.figures.design", ("matplotlib", "xarray")),
     ],
 )
 def test_modules_import_without_heavy_libraries(modules, absent):

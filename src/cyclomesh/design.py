@@ -180,10 +180,11 @@ class Modification:
             value = getattr(self, name)
             if not math.isfinite(value):
                 raise DesignError(f"modification {name} must be finite, got {value!r}")
-        from cyclomesh.modification import ProfileDeviation
+        if self.profile is not None:
+            from cyclomesh.modification import ProfileDeviation  # SciPy only when used
 
-        if self.profile is not None and not isinstance(self.profile, ProfileDeviation):
-            raise DesignError("modification profile must be a ProfileDeviation or None")
+            if not isinstance(self.profile, ProfileDeviation):
+                raise DesignError("modification profile must be a ProfileDeviation or None")
 
     def mirrored(self) -> Modification:
         """The modification of the disc mirrored about its x-axis (reverse flank forward)."""
