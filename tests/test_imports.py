@@ -22,6 +22,9 @@ HEAVY = ("xarray", "pandas", "matplotlib", "pyarrow", "netCDF4", "distributed")
             "cyclomesh.figures.run, cyclomesh.figures.tolerance, cyclomesh.figures.drive",
             ("matplotlib", "scipy.stats"),
         ),
+        # design maps: the chunk function and the kind of study, and its plots
+        ("cyclomesh.designmap, cyclomesh.studies.design", HEAVY),
+        ("cyclomesh.figures.design", ("matplotlib", "xarray")),
     ],
 )
 def test_modules_import_without_heavy_libraries(modules, absent):

@@ -20,6 +20,7 @@ callbacks. Heavy modules are imported inside the commands, so ``--help`` is fast
 
 from __future__ import annotations
 
+import math
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -595,3 +596,74 @@ def _print_tolerance(stats: dict[str, Any], out: Path) -> None:
         f"percentile intervals: {out / 'tolerance_summary.json'}; "
         f"report: {out / 'report.html'} ({stats['rings_per_second']:.1f} rings/s)"
     )
+
+
+@app.command()
+@cli_errors()
+def design(
+    study: Annotated[
+        Path,
+        typer.Argument(
+            help="Study file (TOML) with a [design_space] section.", metavar="STUDY.toml"
+        ),
+    ],
+    out: OutOption,
+    scheduler: SchedulerOption = None,
+    quiet: QuietOption = False,
+    workers: WorkersOption = None,
+    figures: FiguresOption = None,
+) -> None:
+    """Design map: sweep the modification, map the metrics, mark the optimum.
+
+    A nominal map runs in this process unless --workers or --scheduler is given; a
+    robust map (design_space.rings > 0) runs on all local cores by default.
+    """
+    from cyclomesh.pipeline import publish
+    from cyclomesh.studies import design as kind
+
+    loaded, space = kind.load_design_study(study)
+    options = output_options(loaded, figures)
+    n = math.prod(len(v) for v in space.axes().values())
+    parallel = scheduler is not None or workers not in (None, 1) or (space.rings and workers != 1)
+    backend = _backend(scheduler, workers) if parallel else None
+    try:
+        if backend is not None:
+            backend.start()
+        preload = _preload(bool(options.figures))
+        _say(
+            f"design map: {n} candidates"
+            + (f" x {space.rings} rings" if space.rings else "")
+            + f", {backend.workers if backend else 1} worker(s)",
+            quiet,
+        )
+        with progress_bar(n, "candidates", quiet) as advance:
+            result = kind.compute_design(
+                loaded, backend=backend, chunk=1 if backend else None, progress=advance
+            )
+    finally:
+        if backend is not None:
+            backend.close()
+    preload.join()
+    files = kind.write_design(result, out)
+    publish(
+        out,
+        f"{loaded.title}: design map",
+        kind.design_sections(result),
+        kind.design_figures(result) if options.figures else [],
+        files,
+        options,
+        {"SHA-256 of the study file": loaded.sha256},
+    )
+    if not quiet:
+        s = result.summary
+        typer.echo(
+            f"{s['candidates']} candidates, {s['feasible_candidates']} feasible, "
+            f"{s['failed_candidates']} failed ({result.seconds:.1f} s)"
+        )
+        if s["optimum"] is None:
+            typer.echo("no feasible candidate: relax the constraints or widen the ranges")
+        else:
+            where = ", ".join(f"{k} = {v:g}" for k, v in s["optimum"]["parameters"].items())
+            value = s["optimum"]["metrics"][s["objective_variable"]]
+            typer.echo(f"optimum: {where} ({s['objective_variable']} = {value:.6g})")
+        typer.echo(f"report: {out / 'report.html'}")

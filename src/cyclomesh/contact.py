@@ -43,7 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.exceptions import ConvergenceError, DesignError
-from cyclomesh.profile import curvature_radius, generating_radii
+from cyclomesh.profile import curvature_radius, deviated_geometry, generating_radii
 
 __all__ = ["UnloadedContact", "unloaded_contact", "contact_phase"]
 
@@ -52,6 +52,7 @@ FloatArray = NDArray[np.float64]
 CONTACT_TOLERANCE = 1e-13
 """Required residual of the contact condition, as a distance [m] (1e-10 mm)."""
 _MAX_ITERATIONS = 40
+_MAX_BRACKETED_ITERATIONS = 120
 
 
 @dataclass(frozen=True)
@@ -199,6 +200,10 @@ def unloaded_contact(
     u_nominal = n2 * index * design.pitch + phi
     t_root = 2.0 * np.pi * np.round(u_nominal / (2.0 * np.pi)) / n2
 
+    if modification.profile is not None:
+        return _deviated_contact(
+            design, modification, w2, wx, wy, r_pin, phi, phi_t, t_root, pin_angle
+        )
     jammed = np.sqrt(w2) < a - e + s - CONTACT_TOLERANCE
     if np.any(jammed):
         where = np.unravel_index(np.argmax(jammed), jammed.shape)
@@ -245,6 +250,133 @@ def unloaded_contact(
         pin_radius=np.broadcast_to(r_pin, w2.shape),
         residual=residual,
     )
+
+
+def _flank_phase(
+    design: PairDesign,
+    modification: Modification,
+    w2: FloatArray,
+    r_pin: FloatArray,
+    space: NDArray[np.int64],
+    sign: float,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Tooth phase u of contact on one flank with a tabulated deviation (Eq. 10 of [1]).
+
+    Solves |Q(u)| = |w| for c = cos u, u = sign·arccos c, by Newton's method safeguarded
+    by bisection: |Q| decreases monotonically from the tip (c = −1) to the tooth-space
+    bottom (c = 1). Returns (u, residual [m], reachable, jammed, c).
+    """
+    a, rho_gen = generating_radii(design, modification)
+    e, n1 = design.eccentricity, design.pins
+    w = np.sqrt(w2)
+
+    def q2(cos_u: FloatArray) -> tuple[FloatArray, FloatArray]:
+        u = sign * np.arccos(cos_u)
+        geo = deviated_geometry(u, design, modification, r_pin, space)
+        h = geo.qx * geo.qx + geo.qy * geo.qy - w2
+        dh_du = 2.0 * (geo.qx * geo.dq_du_x + geo.qy * geo.dq_du_y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dh_dc = dh_du / (-np.sin(u))
+        return h, dh_dc
+
+    ones = np.ones_like(w2)
+    h_tip, _ = q2(-ones)
+    h_root, _ = q2(ones)
+    reachable = h_tip >= 0.0
+    jammed = h_root > 2.0 * w * CONTACT_TOLERANCE
+    # start: the constant-offset solution with the deviation at its phase
+    s = r_pin - rho_gen
+    c, _, _ = contact_phase(w2, a, e, n1, s)
+    d0 = modification.profile.evaluate(sign * np.arccos(c), space)
+    c, _, _ = contact_phase(w2, a, e, n1, s - d0)
+    lo, hi = -ones, ones.copy()
+    for _ in range(_MAX_BRACKETED_ITERATIONS):
+        h, dh = q2(c)
+        residual = np.where(reachable & ~jammed, np.abs(h) / (2.0 * w), 0.0)
+        if np.all(residual <= CONTACT_TOLERANCE):
+            break
+        lo = np.where(h > 0, c, lo)
+        hi = np.where(h > 0, hi, c)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = c - h / dh
+        ok = np.isfinite(step) & (step > lo) & (step < hi)
+        c = np.where(residual <= CONTACT_TOLERANCE, c, np.where(ok, step, 0.5 * (lo + hi)))
+    return sign * np.arccos(c), residual, reachable, jammed, c
+
+
+def _deviated_contact(
+    design: PairDesign,
+    modification: Modification,
+    w2: FloatArray,
+    wx: FloatArray,
+    wy: FloatArray,
+    r_pin: FloatArray,
+    phi: FloatArray,
+    phi_t: FloatArray,
+    t_root: FloatArray,
+    pin_angle: FloatArray,
+) -> UnloadedContact:
+    """:func:`unloaded_contact` with a tabulated profile deviation: each flank solved."""
+    n2 = design.teeth
+    r_pin = np.broadcast_to(r_pin, w2.shape)
+    space = np.broadcast_to(np.round(t_root * n2 / (2.0 * np.pi)).astype(np.int64) % n2, w2.shape)
+    u, residual, reach, jammed, _ = _flank_phase(design, modification, w2, r_pin, space, -1.0)
+    if np.any(jammed):
+        where = np.unravel_index(np.argmax(jammed), jammed.shape)
+        raise DesignError(
+            f"pin {where[-1] + 1} overlaps the disc at its tooth-space bottom at crank angle "
+            f"{np.degrees(phi[where[-2], 0]):.6g}° whatever the disc rotation: its radius, "
+            "a negative radial error or the profile deviation exceeds the clearance"
+        )
+    if not np.all(residual <= CONTACT_TOLERANCE):
+        flat = np.unravel_index(np.argmax(residual), residual.shape)
+        raise ConvergenceError(
+            f"unloaded contact did not converge at crank angle "
+            f"{np.degrees(phi[flat[-2], 0]):.6g}°, pin {flat[-1] + 1}: residual "
+            f"{residual[flat] * 1e3:.3g} mm (limit {CONTACT_TOLERANCE * 1e3:.0e} mm)"
+        )
+    geo = deviated_geometry(u, design, modification, r_pin, space)
+    arg_w = np.arctan2(wy, wx)
+    t = t_root + u / n2
+    rotation = _wrap(arg_w - t - np.arctan2(geo.qy, geo.qx) - phi_t)
+    lateral = phi_t + rotation + t + np.arctan2(geo.ny, geo.nx) - pin_angle
+    rotation = rotation + modification.rotation
+    if modification.profile.symmetric:
+        u_rev, rev_reach = -u, reach
+    else:
+        u_rev, res_rev, rev_reach, _, _ = _flank_phase(design, modification, w2, r_pin, space, 1.0)
+        if not np.all(res_rev <= CONTACT_TOLERANCE):
+            flat = np.unravel_index(np.argmax(res_rev), res_rev.shape)
+            raise ConvergenceError(
+                f"unloaded contact (unloaded flank) did not converge at crank angle "
+                f"{np.degrees(phi[flat[-2], 0]):.6g}°, pin {flat[-1] + 1}"
+            )
+    rev = deviated_geometry(u_rev, design, modification, r_pin, space)
+    reverse = (
+        _wrap(arg_w - (t_root + u_rev / n2) - np.arctan2(rev.qy, rev.qx) - phi_t)
+        - modification.rotation
+    )
+    # moment arm of the line of action (through Q along N) about the disc centre
+    moment_arm = geo.qx * geo.ny - geo.qy * geo.nx
+    return UnloadedContact(
+        rotation=np.where(reach, rotation, np.inf),
+        reverse_rotation=np.where(rev_reach, reverse, -np.inf),
+        moment_arm=np.where(reach, moment_arm, 0.0),
+        cos_beta=np.where(reach, np.abs(np.cos(lateral)), 1.0),
+        profile_angle=np.where(reach, u, -np.pi),
+        contact_radius=np.where(
+            reach, np.hypot(geo.x, geo.y), _tip_radius(design, modification, space)
+        ),
+        curvature_radius=np.where(reach, geo.curvature_radius, np.inf),
+        pin_radius=r_pin,
+        residual=residual,
+    )
+
+
+def _tip_radius(design: PairDesign, modification: Modification, space: FloatArray) -> FloatArray:
+    """Radius of the tip of the deviated profile (where unreachable pins are reported) [m]."""
+    a, rho_gen = generating_radii(design, modification)
+    return a + design.eccentricity - rho_gen - modification.profile.evaluate(-np.pi, space)
 
 
 def _wrap(angle: FloatArray) -> FloatArray:

@@ -14,11 +14,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.exceptions import DesignError
+
+if TYPE_CHECKING:
+    from cyclomesh.modification import ProfileDeviation
 
 __all__ = ["Material", "STEEL", "PairDesign", "Modification", "PinErrors", "TABLE1"]
 
@@ -161,17 +165,34 @@ class Modification:
         δ, rotation-angle modification [rad] (Lin, Shih, Lee, Mech. Mach. Theory 2014):
         the loaded flanks are turned back by δ, which opens a uniform angular clearance.
         Positive opens clearance.
+    profile : ProfileDeviation, optional
+        Tabulated normal deviation d(φ1) of the profile (measured or designed), added to
+        Δa, Δρ and δ (see :mod:`cyclomesh.modification`).
     """
 
     pin_circle_radius: float = 0.0
     pin_radius: float = 0.0
     rotation: float = 0.0
+    profile: ProfileDeviation | None = None
 
     def __post_init__(self) -> None:
         for name in ("pin_circle_radius", "pin_radius", "rotation"):
             value = getattr(self, name)
             if not math.isfinite(value):
                 raise DesignError(f"modification {name} must be finite, got {value!r}")
+        if self.profile is not None:
+            from cyclomesh.modification import ProfileDeviation  # SciPy only when used
+
+            if not isinstance(self.profile, ProfileDeviation):
+                raise DesignError("modification profile must be a ProfileDeviation or None")
+
+    def mirrored(self) -> Modification:
+        """The modification of the disc mirrored about its x-axis (reverse flank forward)."""
+        if self.profile is None:
+            return self
+        return Modification(
+            self.pin_circle_radius, self.pin_radius, self.rotation, self.profile.mirrored()
+        )
 
 
 def _as_errors(name: str, value: ArrayLike) -> NDArray[np.float64]:

@@ -20,6 +20,8 @@ References
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -32,6 +34,8 @@ __all__ = [
     "modified_profile",
     "curvature_radius",
     "check_profile",
+    "OffsetGeometry",
+    "deviated_geometry",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -103,8 +107,12 @@ def modified_profile(
     phi1 = np.asarray(phi1, dtype=float)
     x, y, dx, dy, _, _ = locus(phi1 / design.teeth, a, design.eccentricity, design.pins)
     speed = np.hypot(dx, dy)
-    px = x - rho * dy / speed
-    py = y + rho * dx / speed
+    offset = rho
+    if modification.profile is not None:
+        space = np.round(phi1 / (2.0 * np.pi))
+        offset = rho + modification.profile.evaluate(phi1 - 2.0 * np.pi * space, space)
+    px = x - offset * dy / speed
+    py = y + offset * dx / speed
     if modification.rotation:
         phase = np.angle(np.exp(1j * phi1))
         turn = np.where(phase < 0.0, -modification.rotation, modification.rotation)
@@ -172,3 +180,122 @@ def check_profile(design: PairDesign, modification: Modification | None = None) 
             "the pin does not fit the concave tooth-space bottom (|ρc| ≤ ρp): "
             "reduce modification.pin_radius's negative amount or the pin radius"
         )
+    if modification.profile is not None:
+        _check_deviation(design, modification)
+
+
+def _check_deviation(design: PairDesign, modification: Modification) -> None:
+    """Refuse a tabulated deviation that makes the profile (or the pin's path) loop."""
+    dev = modification.profile
+    if dev.per_tooth and dev.teeth != design.teeth:
+        raise DesignError(
+            f"profile deviation: {dev.teeth} teeth tabulated; the disc has {design.teeth} "
+            "(give every tooth 1..n2, or leave out the tooth column)"
+        )
+    u = np.linspace(-np.pi, np.pi, 4001)[None, :]
+    space = np.arange(dev.teeth)[:, None]
+    geo = deviated_geometry(u, design, modification, design.pin_radius, space)
+    looped = geo.tangent_scale <= 0
+    concave = (geo.curvature_radius < 0) & (-geo.curvature_radius <= design.pin_radius)
+    for bad, what in (
+        (looped, "makes the profile loop (undercut)"),
+        (concave, "makes a concave part of the profile tighter than the pin (|ρc| ≤ ρp)"),
+    ):
+        if np.any(bad):
+            j, k = np.unravel_index(np.argmax(bad), bad.shape)
+            where = dev.row_near(int(j), float(u[0, k]))
+            raise DesignError(
+                f"profile deviation: {where}: the deviation near profile_angle_deg "
+                f"{np.degrees(u[0, k]):.4g} {what}; smooth or reduce it"
+            )
+
+
+class OffsetGeometry(NamedTuple):
+    """Disc profile with a varying normal deviation at tooth phase u, and the pin centre.
+
+    Vectors are in the frame turned by the locus parameter t = (2πj + u)/n2 of the tooth
+    space j (the frame in which the locus point is P = (a' − e·cos u, −e·sin u)); lengths
+    [m]. See :func:`deviated_geometry`.
+    """
+
+    x: FloatArray  # profile point X, x component
+    y: FloatArray
+    nx: FloatArray  # outward unit normal N of the profile X
+    ny: FloatArray
+    qx: FloatArray  # pin centre Q = X + r·N
+    qy: FloatArray
+    dq_du_x: FloatArray  # dQ/du of the fixed-frame Q, expressed in the turned frame
+    dq_du_y: FloatArray
+    curvature_radius: FloatArray  # signed ρc of X (convex > 0)
+    tangent_scale: FloatArray  # A = |P'| − (ρ' + d)·θ' [m/rad]; ≤ 0 where X loops
+
+
+def deviated_geometry(
+    u: ArrayLike,
+    design: PairDesign,
+    modification: Modification,
+    pin_radius: ArrayLike,
+    space: ArrayLike = 0,
+) -> OffsetGeometry:
+    """Profile X = P − (ρ' + d)·n with a tabulated deviation d(φ1), and its pin centre.
+
+    Derivation (docs/modification.md): with T = P'/|P'|, n = T turned by −90°, and θ' the
+    turning rate of the locus tangent (T' = −θ'·n, n' = θ'·T), all derivatives along t,
+
+        X'  = A·T − d'·n,                         A = |P'| − (ρ' + d)·θ'
+        X'' = (A' − d'θ')·T − (A·θ' + d'')·n
+        ρc  = |X'|³ / (X' × X'') = (A² + d'²)^{3/2} / (θ'(A² + d'²) + A·d'' − A'·d')
+        N   = (A·n + d'·T)/|X'|,     Q = X + r·N,     Q' = (1 + r/ρc)·X'
+
+    With d constant this is Eq. 4 of [1] with ρ' → ρ' + d. |P'| = D and θ' = G/D², with
+    D² = a'² + e²n1² − 2a'e·n1·cos u and G = e²n1³ + a'² − e·n1(1 + n1)a'·cos u (Eq. 4).
+
+    Parameters
+    ----------
+    u : array_like
+        Tooth phase φ1 within the tooth space, in [−π, π] [rad].
+    design, modification
+        a', ρ', e, n1, n2 and ``modification.profile`` (required).
+    pin_radius : array_like
+        Radius r of the pin [m] (Q is its centre).
+    space : array_like of int
+        Tooth-space index j (per-tooth tables).
+    """
+    a, rho = generating_radii(design, modification)
+    e, n1, n2 = design.eccentricity, design.pins, design.teeth
+    u = np.asarray(u, dtype=float)
+    c, s_u = np.cos(u), np.sin(u)
+    dev = modification.profile
+    d = dev.evaluate(u, space, 0)
+    dt = n2 * dev.evaluate(u, space, 1)  # derivatives along t = φ1/n2
+    dtt = n2 * n2 * dev.evaluate(u, space, 2)
+    big_d = np.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
+    g = e * e * n1**3 + a * a - e * n1 * (1 + n1) * a * c
+    theta = g / (big_d * big_d)
+    d_big_d = a * e * n1 * n2 * s_u / big_d
+    d_g = e * n1 * (1 + n1) * a * n2 * s_u
+    d_theta = d_g / big_d**2 - 2.0 * g * d_big_d / big_d**3
+    nx, ny = (a - e * n1 * c) / big_d, -e * n1 * s_u / big_d
+    tx, ty = -ny, nx
+    offset = rho + d
+    amp = big_d - offset * theta
+    d_amp = d_big_d - dt * theta - offset * d_theta
+    length2 = amp * amp + dt * dt
+    length = np.sqrt(length2)
+    cross = theta * length2 + amp * dtt - d_amp * dt
+    x, y = a - e * c - offset * nx, -e * s_u - offset * ny
+    big_nx, big_ny = (amp * nx + dt * tx) / length, (amp * ny + dt * ty) / length
+    r = np.asarray(pin_radius, dtype=float)
+    stretch = (1.0 + r * cross / length**3) / n2  # (1 + r/ρc)/n2: dQ/du = stretch·X'
+    return OffsetGeometry(
+        x=x,
+        y=y,
+        nx=big_nx,
+        ny=big_ny,
+        qx=x + r * big_nx,
+        qy=y + r * big_ny,
+        dq_du_x=stretch * (amp * tx - dt * nx),
+        dq_du_y=stretch * (amp * ty - dt * ny),
+        curvature_radius=length**3 / cross,
+        tangent_scale=amp,
+    )

@@ -3,7 +3,9 @@
 - :mod:`cyclomesh.studies.run`: the cases of a study file, each through a crank
   revolution (``cyclomesh run``);
 - :mod:`cyclomesh.studies.tolerance`: Monte Carlo tolerance studies and tolerance
-  allocation (``cyclomesh tolerance``, ``cyclomesh allocate``).
+  allocation (``cyclomesh tolerance``, ``cyclomesh allocate``);
+- :mod:`cyclomesh.studies.design`: design maps over the modification space, nominal or
+  robust over rings (``cyclomesh design``).
 
 Every kind has the same parts: a section of the study file schema
 (:mod:`cyclomesh.study.schema`), a compute function that returns results in memory

@@ -59,8 +59,10 @@ from pydantic import (
 
 from cyclomesh.design import Material, Modification, PairDesign, PinErrors
 from cyclomesh.exceptions import DesignError, StudyError
+from cyclomesh.modification import ProfileDeviation
 from cyclomesh.profile import check_profile
 from cyclomesh.study.measurements import PIN_ERROR_COLUMNS, read_pin_errors_csv
+from cyclomesh.study.profile_csv import read_profile_csv
 
 __all__ = [
     "DesignSection",
@@ -159,6 +161,9 @@ class ModificationSection(_Section):
     pin_circle_radius_um: float = Field(0.0, description="Δa [µm], negative opens clearance")
     pin_radius_um: float = Field(0.0, description="Δρ [µm], positive opens clearance")
     rotation_urad: float = Field(0.0, description="rotation-angle modification δ [µrad]")
+    profile_file: str | None = Field(
+        None, description="CSV of a tabulated normal profile deviation (docs/modification.md)"
+    )
 
 
 class MaterialProperties(_Section):
@@ -431,6 +436,70 @@ class ToleranceSection(_Section):
         return crank_angles_deg(self.crank_start_deg, self.crank_stop_deg, self.crank_step_deg)
 
 
+# --- [design_space]: design maps (docs/design-map.md) ------------------------------------
+
+
+class RangeSection(_Section):
+    """``{ start = , stop = , points = }``: ``numpy.linspace(start, stop, points)``."""
+
+    start: float = Field(description="first value [unit of the key]")
+    stop: float = Field(description="last value, included [unit of the key]")
+    points: int = Field(ge=1, le=1001, description="number of values")
+
+    def values(self) -> NDArray:
+        """The grid values [unit of the key]."""
+        return np.linspace(self.start, self.stop, self.points)
+
+
+class DesignSpaceSection(_Section):
+    """``[design_space]``: swept modification parameters, constraints, objective, rings."""
+
+    pin_circle_radius_um: RangeSection | None = Field(None, description="Δa range [µm]")
+    pin_radius_um: RangeSection | None = Field(None, description="Δρ range [µm]")
+    rotation_urad: RangeSection | None = Field(None, description="rotation δ range [µrad]")
+    max_play_arcmin: float | None = Field(None, description="largest allowed play [arcmin]")
+    min_play_arcmin: float | None = Field(None, description="smallest allowed play [arcmin]")
+    allowable_contact_stress_mpa: float | None = Field(
+        None, gt=0, description="allowed max. contact stress [MPa]"
+    )
+    max_te_pp_arcsec: float | None = Field(
+        None, gt=0, description="allowed peak-to-peak TE [arcsec]"
+    )
+    min_contacts: int | None = Field(None, ge=0, description="fewest loaded pins allowed")
+    objective: Literal["max_contact_stress", "te_pp", "lost_motion", "play"] = Field(
+        "max_contact_stress", description="metric minimised"
+    )
+    rings: int = Field(0, ge=0, description="rings drawn from [tolerance] (0: nominal map)")
+    lost_motion: bool | None = Field(
+        None, description="compute the lost motion (default: if it is the objective)"
+    )
+
+    @model_validator(mode="after")
+    def _something_swept(self) -> DesignSpaceSection:
+        if not self.axes():
+            raise ValueError(
+                "sweep at least one of pin_circle_radius_um, pin_radius_um, rotation_urad "
+                "as { start = , stop = , points = }"
+            )
+        return self
+
+    def axes(self) -> dict[str, NDArray]:
+        """Swept parameters (study units), in the order Δa, Δρ, δ."""
+        keys = ("pin_circle_radius_um", "pin_radius_um", "rotation_urad")
+        return {k: getattr(self, k).values() for k in keys if getattr(self, k) is not None}
+
+    def constraints_dict(self) -> dict[str, Any]:
+        """The constraints that are set, in study units."""
+        keys = (
+            "max_play_arcmin",
+            "min_play_arcmin",
+            "allowable_contact_stress_mpa",
+            "max_te_pp_arcsec",
+            "min_contacts",
+        )
+        return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}
+
+
 @dataclass(frozen=True)
 class CaseInputs:
     """The core objects of one case, in SI units, ready for :func:`cyclomesh.analyse`."""
@@ -515,6 +584,23 @@ class CaseSpec(_Section):
                 total[name] += drawn[name]
         return total
 
+    def profile_deviation(self) -> ProfileDeviation | None:
+        """The table of ``modification.profile_file`` (SI), or None.
+
+        Raises
+        ------
+        StudyError
+            A bad file or table, naming the case, the file and the line.
+        """
+        if self.modification.profile_file is None:
+            return None
+        try:
+            return read_profile_csv(
+                self._base_dir / self.modification.profile_file, self.design.pins - 1
+            )
+        except StudyError as exc:
+            raise StudyError(f"{self.label}: {exc}") from None
+
     def to_core(self) -> CaseInputs:
         """Convert to the core's SI objects, checked by the core.
 
@@ -542,6 +628,7 @@ class CaseSpec(_Section):
                 pin_circle_radius=m.pin_circle_radius_um * UM,
                 pin_radius=m.pin_radius_um * UM,
                 rotation=m.rotation_urad * URAD,
+                profile=self.profile_deviation(),
             )
             errors = pin_errors_si(
                 per_pin["radial_um"],
@@ -589,6 +676,7 @@ class StudyFile(_Section):
     # --- sections of the kinds of study (one line each; None when absent)
     tolerance: ToleranceSection | None = None
     stiffness: StiffnessSection | None = None  # also per case: cases may override it
+    design_space: DesignSpaceSection | None = None
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,133 @@
+"""Tabulated profile deviation read from the CSV file named by ``[modification] profile_file``.
+
+Columns (see ``docs/modification.md``):
+
+* ``profile_angle_deg`` — generating angle φ1 within the tooth space [deg], 0 at the
+  tooth-space bottom, −180/+180 at the tips; −180 … 0 (same on both flanks) or
+  −180 … 180 (both flanks);
+* ``normal_deviation_um`` — material removed along the profile normal [µm]
+  (positive = relief);
+* ``tooth`` (optional) — tooth space 1 … n2, every one with its own table (the same
+  number of points each).
+
+Lines starting with ``#`` are comments. Errors name the file and the line.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from cyclomesh.exceptions import DesignError, StudyError
+from cyclomesh.modification import ProfileDeviation
+
+__all__ = ["PROFILE_COLUMNS", "read_profile_csv"]
+
+PROFILE_COLUMNS = ("profile_angle_deg", "normal_deviation_um")
+"""Required columns of a profile-deviation CSV (``tooth`` is optional)."""
+
+
+def read_profile_csv(
+    path: Path, teeth: int, key: str = "modification.profile_file"
+) -> ProfileDeviation:
+    """Read a profile deviation table and convert it to SI.
+
+    Parameters
+    ----------
+    path : Path
+        The CSV file.
+    teeth : int
+        Number of disc teeth n2 (a ``tooth`` column must give each of 1 … n2).
+    key : str
+        Dotted study key named in error messages.
+
+    Returns
+    -------
+    ProfileDeviation
+        Angles [rad], deviations [m], with the file's line numbers as ``rows``.
+
+    Raises
+    ------
+    StudyError
+        Missing file or columns, a value that is not a finite number, a bad tooth number,
+        or a table the core refuses (not monotone, too coarse, not spanning the flank),
+        naming the line.
+    """
+    where = f"{key}: {path.name}"
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise StudyError(f"{key}: file not found: {path}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise StudyError(f"{key}: cannot read {path}: {exc}") from None
+    numbered = [
+        (number, line)
+        for number, line in enumerate(text.splitlines(), start=1)
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
+    if not numbered:
+        raise StudyError(f"{where}: the file is empty")
+    reader = csv.DictReader(line for _, line in numbered)
+    header = [name.strip() for name in reader.fieldnames or []]
+    reader.fieldnames = header
+    allowed = (*PROFILE_COLUMNS, "tooth")
+    missing = [name for name in PROFILE_COLUMNS if name not in header]
+    unknown = [name for name in header if name not in allowed]
+    if missing or unknown:
+        what = f"missing column {missing[0]!r}" if missing else f"unknown column {unknown[0]!r}"
+        raise StudyError(f"{where}: {what} (columns: {', '.join(allowed)}; tooth optional)")
+    per_tooth = "tooth" in header
+    tables: dict[int, list[tuple[float, float, int]]] = {}
+    for (line, _), row in zip(numbered[1:], reader, strict=False):
+        if None in row or any(row[name] is None for name in header):
+            raise StudyError(f"{where} line {line}: expected {len(header)} values")
+        tooth = 1
+        if per_tooth:
+            cell = row["tooth"].strip()
+            try:
+                tooth = int(cell)
+            except ValueError:
+                raise StudyError(f"{where} line {line}: tooth {cell!r} is not an integer") from None
+            if not 1 <= tooth <= teeth:
+                raise StudyError(f"{where} line {line}: tooth {tooth} is not in 1..{teeth}")
+        values = []
+        for name in PROFILE_COLUMNS:
+            cell = row[name].strip()
+            try:
+                value = float(cell)
+            except ValueError:
+                value = math.nan
+            if not math.isfinite(value):
+                raise StudyError(f"{where} line {line}: {name} {cell!r} is not a finite number")
+            values.append(value)
+        tables.setdefault(tooth, []).append((values[0], values[1], line))
+    if not tables:
+        raise StudyError(f"{where}: no data rows")
+    if per_tooth and len(tables) != teeth:
+        absent = [str(t) for t in range(1, teeth + 1) if t not in tables]
+        raise StudyError(
+            f"{where}: every tooth 1..{teeth} needs a table; missing tooth {', '.join(absent[:5])}"
+        )
+    order = sorted(tables)
+    counts = {len(tables[t]) for t in order}
+    if len(counts) > 1:
+        raise StudyError(
+            f"{where}: every tooth needs the same number of points "
+            f"(tooth {order[0]} has {len(tables[order[0]])})"
+        )
+    data = np.array([tables[t] for t in order])  # (teeth, m, 3)
+    squeeze = not per_tooth
+    angle = np.deg2rad(data[..., 0])
+    deviation = data[..., 1] * 1e-6
+    rows = data[..., 2].astype(int)
+    try:
+        return ProfileDeviation(
+            angle[0] if squeeze else angle,
+            deviation[0] if squeeze else deviation,
+            rows[0] if squeeze else rows,
+        )
+    except DesignError as exc:
+        raise StudyError(f"{where}: {str(exc).replace('profile deviation: ', '')}") from None
