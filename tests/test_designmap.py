@@ -11,9 +11,8 @@ from cyclomesh.designmap import (
     candidate_metrics,
     design_map,
     evaluate_grid,
-    play,
-    reverse_transmission_error,
 )
+from cyclomesh.drive import play, solve_drive
 from cyclomesh.execution import ProcessBackend, SerialBackend
 from cyclomesh.figures.design import map_metrics, plot_design_map, plot_design_maps
 from cyclomesh.ltca import solve_ltca
@@ -136,7 +135,7 @@ def test_reverse_te_at_vanishing_load_is_the_reverse_rest_position():
     """The mirrored solve agrees with the unloaded-flank geometry of the forward solver."""
     errors = rings(1, seed=8)
     mod = Modification(-2e-6, 6e-6, 5e-6)
-    reverse = reverse_transmission_error(TABLE1, mod, errors, 1e-6, PHI)
+    reverse = solve_drive(TABLE1, mod, errors, -1e-6, PHI).transmission_error[..., 0, :]
     forward = solve_ltca(TABLE1, mod, errors, 1e-6, PHI).transmission_error
     np.testing.assert_allclose(reverse - forward, play(TABLE1, mod, errors, PHI), atol=1e-10)
 

@@ -6,15 +6,25 @@ import pytest
 from cyclomesh import TABLE1, DesignError, Modification, PinErrors
 from cyclomesh.drive import (
     mirror_errors,
+    play,
     solve_drive,
     torsion_curve,
     torsion_torques,
 )
 from cyclomesh.ltca import solve_ltca
+from cyclomesh.modification import ProfileDeviation
 
 TPM = Modification(pin_radius=8e-6)
 REV = np.deg2rad(np.arange(0.0, 360.0, 2.0))
 ARCMIN = np.pi / (180 * 60)
+
+
+def asymmetric_table():
+    """A tabulated deviation over both flanks that differs per tooth space (not symmetric)."""
+    angle = np.deg2rad(np.linspace(-180.0, 180.0, 73))
+    space = np.arange(TABLE1.teeth)[:, None]
+    deviation = 6e-6 + 2e-6 * np.sin(angle + 0.3 * space) + 1e-6 * np.cos(3 * angle)
+    return ProfileDeviation(np.broadcast_to(angle, deviation.shape).copy(), deviation)
 
 
 def ring_errors(seed, rings=()):
@@ -77,7 +87,12 @@ def test_reverse_of_error_free_pair_mirrors_forward(groove):
 
 @pytest.mark.parametrize(
     "mod",
-    [TPM, Modification(pin_radius=8e-6, rotation=3e-5), Modification(-8e-6, 4e-6, 2e-5)],
+    [
+        TPM,
+        Modification(pin_radius=8e-6, rotation=3e-5),
+        Modification(-8e-6, 4e-6, 2e-5),
+        Modification(pin_radius=2e-6, profile=asymmetric_table()),
+    ],
 )
 def test_reverse_rest_from_mirror_agrees_with_unloaded_flank_contact(mod):
     # the play from the mirrored problem against the reverse contact rotations of the
@@ -90,6 +105,8 @@ def test_reverse_rest_from_mirror_agrees_with_unloaded_flank_contact(mod):
     te_rest = -both.rest_rotation
     np.testing.assert_allclose(te_rest[..., 1, :] - te_rest[..., 0, :], both.play, atol=1e-14)
     assert np.all(both.play > 0)
+    # the unloaded play alone is the same number
+    np.testing.assert_array_equal(play(TABLE1, mod, errors, REV), both.play)
     # with errors, the reverse is not the mirror of the forward
     te = both.transmission_error
     assert np.max(np.abs(te[..., 1, :] + te[..., 0, :])) > 1e-7

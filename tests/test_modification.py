@@ -6,7 +6,7 @@ from scipy.optimize import minimize_scalar
 
 from cyclomesh import TABLE1, DesignError, Modification, PinErrors
 from cyclomesh.contact import CONTACT_TOLERANCE, unloaded_contact
-from cyclomesh.designmap import play
+from cyclomesh.drive import mirror_errors, play
 from cyclomesh.ltca import CONDITIONED_ARM, solve_ltca
 from cyclomesh.modification import MAX_ANGLE_STEP, ProfileDeviation
 from cyclomesh.profile import check_profile, deviated_geometry, modified_profile
@@ -222,12 +222,10 @@ def test_mirrored_table_swaps_flanks_and_teeth():
 
 def test_mirrored_modification_gives_the_mirrored_contact():
     """Reverse flank of the system = forward flank of its mirror image (x-axis)."""
-    from cyclomesh.designmap import mirrored_errors
-
     mod = Modification(pin_radius=3e-6, profile=per_tooth_table())
     errors = ring_errors(9)
     geo = unloaded_contact(TABLE1, mod, errors, MESH)
-    mirror = unloaded_contact(TABLE1, mod.mirrored(), mirrored_errors(errors, N1), -MESH)
+    mirror = unloaded_contact(TABLE1, mod.mirrored(), mirror_errors(errors, N1), -MESH)
     order = (-np.arange(N1)) % N1
     np.testing.assert_allclose(-mirror.rotation[:, order], geo.reverse_rotation, atol=1e-13)
 

@@ -20,7 +20,8 @@ Metrics (per candidate, SI inside, engineering units in the Dataset):
 * ``lost_motion`` (optional, it costs two more solves a candidate) — largest
   TE(−0.03·T) − TE(+0.03·T) over the crank angles [rad]; the reverse flank is solved
   as the forward flank of the system mirrored about the x-axis
-  (:func:`reverse_transmission_error`).
+  (:func:`cyclomesh.drive.solve_drive` with a negative torque); the play is
+  :func:`cyclomesh.drive.play`.
 
 A candidate whose profile is undercut, whose pins interfere with the disc, or whose
 solve fails is infeasible with the reason recorded, never dropped.
@@ -41,10 +42,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.contact import unloaded_contact
 from cyclomesh.design import Modification, PairDesign, PinErrors
+from cyclomesh.drive import LOST_MOTION_FRACTION, play, solve_drive
 from cyclomesh.exceptions import CyclomeshError, DesignError
-from cyclomesh.ltca import CONDITIONED_ARM, rest_position, solve_ltca
+from cyclomesh.ltca import solve_ltca
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -54,9 +55,6 @@ __all__ = [
     "METRICS",
     "OBJECTIVES",
     "Constraints",
-    "play",
-    "mirrored_errors",
-    "reverse_transmission_error",
     "candidate_metrics",
     "DesignTask",
     "evaluate_grid",
@@ -109,9 +107,6 @@ OBJECTIVES: dict[str, str] = {
 }
 """Objective names of a study (minimised) → metric."""
 
-LOST_MOTION_LOAD = 0.03
-"""Fraction of the rated torque at which lost motion is measured (±3 %)."""
-
 ROBUST_PERCENTILE = 95.0
 
 
@@ -152,93 +147,6 @@ class Constraints:
         return out
 
 
-def _reverse_rest(reverse_rotation: FloatArray, moment_arm: FloatArray) -> FloatArray:
-    """Rest position on the reverse flank: the largest conditioned reverse rotation [rad]."""
-    conditioned = np.where(moment_arm >= CONDITIONED_ARM, reverse_rotation, -np.inf)
-    rest = np.max(conditioned, axis=-1)
-    return np.where(np.isfinite(rest), rest, np.max(reverse_rotation, axis=-1))
-
-
-def play(
-    design: PairDesign,
-    modification: Modification | None,
-    errors: PinErrors | None,
-    crank_angles: ArrayLike,
-) -> FloatArray:
-    """Unloaded play at each crank angle (Eq. 11 of [1] on both flanks) [rad].
-
-    play = TE(reverse-flank rest) − TE(forward-flank rest) = φc,fwd − φc,rev, with the
-    forward rest the smallest conditioned contact rotation
-    (:func:`cyclomesh.ltca.rest_position`) and the reverse rest the largest conditioned
-    reverse-flank contact rotation. Error-free, for Δa and Δρ it is
-    2[Δρ − Δa·√(1 − K1²)]/(e·n2) to first order; a rotation δ adds exactly 2δ.
-
-    Returns
-    -------
-    ndarray
-        Shape ``(..., n_angles)`` [rad]; negative where the disc interferes with the pins.
-    """
-    geo = unloaded_contact(design, modification, errors, np.atleast_1d(crank_angles))
-    forward = rest_position(geo.rotation, geo.moment_arm)
-    return forward - _reverse_rest(geo.reverse_rotation, geo.moment_arm)
-
-
-def mirrored_errors(errors: PinErrors | None, pins: int) -> PinErrors:
-    """Pin errors of the ring mirrored about the x-axis: pin i → pin −i mod n1, εψ → −εψ."""
-    errors = errors or PinErrors()
-    shape = (*errors.ring_shape(pins), pins)
-    order = (-np.arange(pins)) % pins
-
-    def take(x: Any, sign: float = 1.0) -> FloatArray:
-        return sign * np.broadcast_to(np.asarray(x, float), shape)[..., order]
-
-    return PinErrors(
-        radial=take(errors.radial),
-        angular=take(errors.angular, -1.0),
-        pin_radius=take(errors.pin_radius),
-        eccentricity=errors.eccentricity,
-    )
-
-
-def reverse_transmission_error(
-    design: PairDesign,
-    modification: Modification | None,
-    errors: PinErrors | None,
-    torque: float,
-    crank_angles: ArrayLike,
-    groove_deformation: bool = True,
-) -> FloatArray:
-    """Loaded TE with the torque reversed (−T on the disc) [rad], by mirror symmetry.
-
-    Mirrored about the x-axis the reverse flank is the forward flank: the reverse TE at
-    crank angle φ with errors E is minus the forward TE (Eq. 25 of [1]) at −φ with the
-    mirrored errors (:func:`mirrored_errors`) and mirrored modification.
-
-    Parameters
-    ----------
-    torque : float
-        Magnitude of the reversed torque [N·m], > 0.
-    crank_angles : array_like
-        Increasing crank angles [rad].
-
-    Returns
-    -------
-    ndarray
-        Shape ``(..., n_angles)`` [rad]; positive when the disc leads.
-    """
-    modification = modification or Modification()
-    phi = np.atleast_1d(np.asarray(crank_angles, float))
-    res = solve_ltca(
-        design,
-        modification.mirrored(),
-        mirrored_errors(errors, design.pins),
-        torque,
-        -phi[::-1],
-        groove_deformation,
-    )
-    return -res.transmission_error[..., ::-1]
-
-
 def candidate_metrics(
     design: PairDesign,
     modification: Modification,
@@ -268,12 +176,10 @@ def candidate_metrics(
         "min_play": gap.min(axis=-1),
     }
     if lost_motion:
-        light = LOST_MOTION_LOAD * torque
-        forward = solve_ltca(design, modification, errors, light, phi, groove_deformation)
-        reverse = reverse_transmission_error(
-            design, modification, errors, light, phi, groove_deformation
-        )
-        out["lost_motion"] = np.max(reverse - forward.transmission_error, axis=-1)
+        light = LOST_MOTION_FRACTION * torque
+        both = solve_drive(design, modification, errors, [-light, light], phi, groove_deformation)
+        te = both.transmission_error  # (..., torque, angle)
+        out["lost_motion"] = np.max(te[..., 0, :] - te[..., 1, :], axis=-1)
     return out
 
 

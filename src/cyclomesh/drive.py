@@ -84,6 +84,7 @@ __all__ = [
     "mirror_errors",
     "mirror_index",
     "mirror_problem",
+    "play",
     "solve_drive",
     "check_torques",
     "torsion_torques",
@@ -279,6 +280,80 @@ def _stack(arr: FloatArray, discs: int, n_angles: int) -> FloatArray:
     return np.moveaxis(shaped, -3, -2)
 
 
+def _stacked_contact(
+    design: PairDesign,
+    modification: Modification,
+    errors: PinErrors,
+    phi: FloatArray,
+    discs: int,
+) -> UnloadedContact:
+    """Unloaded contact of every disc of a stack, arrays (..., A, N, n1) (Eqs. 5–11)."""
+    raw = unloaded_contact(design, modification, errors, _disc_angles(phi, discs))
+    return UnloadedContact(
+        **{
+            name: _stack(getattr(raw, name), discs, phi.size)
+            for name in UnloadedContact.__dataclass_fields__
+        }
+    )
+
+
+def _rests(geo: UnloadedContact, pins: int, discs: int) -> tuple[FloatArray, FloatArray]:
+    """Rest positions of a stack on the forward and on the opposite flanks [rad], (..., A).
+
+    Forward: the smallest conditioned contact rotation (:func:`~cyclomesh.ltca.rest_position`,
+    Eq. 11); opposite: the largest conditioned reverse-flank contact rotation.
+    """
+    flat = (*geo.rotation.shape[:-2], discs * pins)
+    arm = geo.moment_arm.reshape(flat)
+    rest = rest_position(geo.rotation.reshape(flat), arm)
+    reverse_rest = -rest_position(-geo.reverse_rotation.reshape(flat), arm)
+    return rest, reverse_rest
+
+
+def play(
+    design: PairDesign,
+    modification: Modification | None = None,
+    errors: PinErrors | None = None,
+    crank_angles: ArrayLike = (0.0,),
+    discs: int = 1,
+) -> FloatArray:
+    """Unloaded play of a stack at each crank angle (Eq. 11 of [1] on both flanks) [rad].
+
+    play = TE(reverse-flank rest) − TE(forward-flank rest) = φc,fwd − φc,rev, the same
+    number :func:`solve_drive` reports, without solving any load. Error-free, for Δa and
+    Δρ it is 2[Δρ − Δa·√(1 − K1²)]/(e·n2) to first order; a rotation δ adds exactly 2δ.
+
+    Parameters
+    ----------
+    crank_angles : array_like
+        Crank angles φin [rad] of disc 1, one-dimensional and increasing.
+    discs : int
+        Number N of discs sharing the ring.
+
+    Returns
+    -------
+    ndarray
+        Shape ``(..., A)`` (ring axes of the errors first) [rad]; negative where the disc
+        interferes with the pins.
+    """
+    modification = modification or Modification()
+    errors = errors or PinErrors()
+    phi = check_crank_angles(crank_angles)
+    discs = _check_discs(discs)
+    check_pair(design, modification, errors)
+    rest, reverse_rest = _rests(
+        _stacked_contact(design, modification, errors, phi, discs), design.pins, discs
+    )
+    return rest - reverse_rest
+
+
+def _check_discs(discs: int) -> int:
+    """The number of discs of a stack as an int ≥ 1, else a one-line DesignError."""
+    if isinstance(discs, bool) or not isinstance(discs, int | np.integer) or discs < 1:
+        raise DesignError(f"discs must be a whole number of at least 1, got {discs!r}")
+    return int(discs)
+
+
 def _mesh(
     design: PairDesign,
     modification: Modification,
@@ -289,17 +364,9 @@ def _mesh(
 ) -> _Mesh:
     """Unloaded contact, rest positions and compliance of a stack (forward flanks)."""
     ring_shape = errors.ring_shape(design.pins)
-    raw = unloaded_contact(design, modification, errors, _disc_angles(phi, discs))
-    geo = UnloadedContact(
-        **{
-            name: _stack(getattr(raw, name), discs, phi.size)
-            for name in UnloadedContact.__dataclass_fields__
-        }
-    )
+    geo = _stacked_contact(design, modification, errors, phi, discs)
     flat = (*geo.rotation.shape[:-2], discs * design.pins)
-    arm = geo.moment_arm.reshape(flat)
-    rest = rest_position(geo.rotation.reshape(flat), arm)
-    reverse_rest = -rest_position(-geo.reverse_rotation.reshape(flat), arm)
+    rest, reverse_rest = _rests(geo, design.pins, discs)
     alpha, gamma = pin_compliance(geo, design, groove_deformation)
     nx, ny = _normals(design, modification, errors, phi, discs, geo)
     return _Mesh(
@@ -468,8 +535,7 @@ def solve_drive(
     modification = modification or Modification()
     errors = errors or PinErrors()
     torques = check_torques(torque)
-    if isinstance(discs, bool) or not isinstance(discs, int | np.integer) or discs < 1:
-        raise DesignError(f"discs must be a whole number of at least 1, got {discs!r}")
+    discs = _check_discs(discs)
     phi = check_crank_angles(crank_angles)
     check_pair(design, modification, errors)
     fwd, rev = _directions(
@@ -477,7 +543,7 @@ def solve_drive(
         modification,
         errors,
         phi,
-        int(discs),
+        discs,
         groove_deformation,
         bool(np.any(torques > 0)),
         bool(np.any(torques < 0)),
@@ -733,8 +799,7 @@ def torsion_curve(
     modification = modification or Modification()
     errors = errors or PinErrors()
     torques = torsion_torques(rated_torque, points)
-    if isinstance(discs, bool) or not isinstance(discs, int | np.integer) or discs < 1:
-        raise DesignError(f"discs must be a whole number of at least 1, got {discs!r}")
+    discs = _check_discs(discs)
     if series_stiffness is not None and not (
         isinstance(series_stiffness, int | float)
         and math.isfinite(series_stiffness)
@@ -743,9 +808,7 @@ def torsion_curve(
         raise DesignError(f"series_stiffness must be a positive number, got {series_stiffness!r}")
     phi = check_crank_angles(crank_angles)
     check_pair(design, modification, errors)
-    fwd, rev = _directions(
-        design, modification, errors, phi, int(discs), groove_deformation, True, True
-    )
+    fwd, rev = _directions(design, modification, errors, phi, discs, groove_deformation, True, True)
     rotation, contacts, stress, share = [], [], [], []
     for value in torques:
         fields = _load(fwd if value > 0 else rev, abs(float(value)))
