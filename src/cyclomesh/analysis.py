@@ -116,6 +116,7 @@ def analyse(
     groove_deformation: bool = True,
     *,
     crank_angles_deg: ArrayLike | None = None,
+    contact_law: str = "paper",
 ) -> xr.Dataset:
     """Loaded tooth contact analysis of a cycloid-pin pair as a labelled Dataset.
 
@@ -136,6 +137,9 @@ def analyse(
     crank_angles_deg : array_like, optional
         Crank angles [deg], instead of ``crank_angles``; they become the ``crank_angle``
         coordinate exactly as given, so ``ds.sel(crank_angle=60.0)`` finds them.
+    contact_law : {"paper", "half_plane"}
+        Tooth term of the contact law (see :mod:`cyclomesh.hertz`); recorded in the
+        ``contact_law`` attribute.
 
     Returns
     -------
@@ -158,8 +162,11 @@ def analyse(
         crank_angles = np.deg2rad(degrees)
     else:
         degrees = None
-    result = solve_ltca(design, modification, errors, torque, crank_angles, groove_deformation)
+    result = solve_ltca(
+        design, modification, errors, torque, crank_angles, groove_deformation, contact_law
+    )
     ds = to_dataset(result, design, modification, torque, groove_deformation)
+    ds.attrs["contact_law"] = contact_law
     if degrees is not None:
         ds = ds.assign_coords(crank_angle=("crank_angle", degrees, {"units": "deg"}))
     return ds

@@ -23,6 +23,7 @@ from cyclomesh.contact import unloaded_contact
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.exceptions import ConvergenceError, DesignError
 from cyclomesh.hertz import (
+    CONTACT_LAWS,
     compliance_coefficients,
     effective_modulus,
     max_pressure,
@@ -125,6 +126,7 @@ def solve_ltca(
     torque: float = 250.0,
     crank_angles: ArrayLike = (0.0,),
     groove_deformation: bool = True,
+    contact_law: str = "paper",
 ) -> LTCA:
     """Loaded tooth contact analysis of a cycloid-pin pair (Eqs. 1–26 of [1]).
 
@@ -143,6 +145,10 @@ def solve_ltca(
     groove_deformation : bool
         True for the "improved model" (pin–groove deformation, Eq. 19), False for the
         "current model".
+    contact_law : {"paper", "half_plane"}
+        The tooth's term of the contact law: Eq. 20 of [1] as published (default), or
+        the approach of a half-plane to the disc centre (Johnson, eq. 5.41), finite at
+        the profile's inflection points; see :mod:`cyclomesh.hertz`.
 
     Returns
     -------
@@ -164,6 +170,10 @@ def solve_ltca(
         raise DesignError("crank angles must be a non-empty one-dimensional list of numbers")
     if phi.size > 1 and not np.all(np.diff(phi) > 0):
         raise DesignError("crank angles must increase")
+    if contact_law not in CONTACT_LAWS:
+        raise DesignError(
+            f"contact_law must be one of {', '.join(CONTACT_LAWS)}, got {contact_law!r}"
+        )
     check_profile(design, modification)
     ring_shape = errors.ring_shape(design.pins)
     pin_radii = design.pin_radius + np.broadcast_to(errors.pin_radius, (*ring_shape, design.pins))
@@ -192,6 +202,9 @@ def solve_ltca(
             disc_c,
             ring_c,
             groove_deformation,
+            contact_law,
+            geo.contact_radius,
+            design.disc_material.poisson_ratio,
         )
     try:
         loaded, force = share_load(backlash, geo.moment_arm, alpha, gamma, torque)

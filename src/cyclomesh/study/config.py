@@ -225,6 +225,13 @@ class AnalysisSection(_Section):
     crank_stop_deg: float = Field(360.0, description="crank angle where to stop, excluded [deg]")
     crank_step_deg: float = Field(0.1, gt=0, description="crank angle step [deg]")
     groove_deformation: bool = Field(True, description="the improved model of [1] (Eq. 19)")
+    contact_law: Literal["paper", "half_plane"] = Field(
+        "paper",
+        description=(
+            "tooth term of the contact law: Eq. 20 of [1] as published, or the approach of a "
+            "half-plane to the disc centre (Johnson eq. 5.41), finite at inflection points"
+        ),
+    )
 
     @model_validator(mode="after")
     def _at_least_two_angles(self) -> AnalysisSection:
@@ -273,6 +280,7 @@ class CaseInputs:
     crank_angles: NDArray
     """Crank angles φin [rad]."""
     groove_deformation: bool
+    contact_law: str = "paper"
 
     def kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`cyclomesh.analyse`."""
@@ -283,6 +291,7 @@ class CaseInputs:
             "torque": self.torque,
             "crank_angles": self.crank_angles,
             "groove_deformation": self.groove_deformation,
+            "contact_law": self.contact_law,
         }
 
 
@@ -383,6 +392,7 @@ class CaseSpec(_Section):
             torque=self.load.torque_nm,
             crank_angles=np.deg2rad(self.analysis.crank_angles_deg()),
             groove_deformation=self.analysis.groove_deformation,
+            contact_law=self.analysis.contact_law,
         )
 
 
