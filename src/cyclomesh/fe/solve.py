@@ -312,7 +312,7 @@ def solve_contact(
         )
         if not act.any():
             act[np.argmin(g_const + g_mat @ u)] = True
-        for it in range(max_active_set):
+        for _ in range(max_active_set):
             total_iter += 1
             u, lam_a, mu = _kkt(k_mat, f, c_mat, rhs_c, g_mat, g_const, act)
             lam = np.zeros(act.size)
@@ -326,7 +326,9 @@ def solve_contact(
             if not act.any():
                 raise ConvergenceError("FE contact: every contact opened (load pulls apart)")
         else:
-            raise ConvergenceError(f"FE contact: active set did not settle in {it + 1} steps")
+            raise ConvergenceError(
+                f"FE contact: active set did not settle in {max_active_set} steps"
+            )
         split = np.cumsum(counts)[:-1]
         new_active = np.split(act, split)
         settled = all(
@@ -359,13 +361,15 @@ def _nodal(u: FloatArray, offsets: NDArray, i: int, body: Body) -> FloatArray:
 def _kkt(k_mat, f, c_mat, rhs_c, g_mat, g_const, act):
     """Solve K u = f + Gaᵀλ + Cᵀμ, C u = rhs_c, Ga u = −g0a; return (u, λ, μ)."""
     ga = g_mat[act]
-    n_u, n_c, n_a = k_mat.shape[0], c_mat.shape[0], ga.shape[0]
+    n_u, n_c = k_mat.shape[0], c_mat.shape[0]
     kkt = sp.bmat([[k_mat, -c_mat.T, -ga.T], [-c_mat, None, None], [-ga, None, None]], format="csc")
     rhs = np.concatenate([f, -rhs_c, g_const[act]])
     try:
         x = splu(kkt, permc_spec="COLAMD").solve(rhs)
     except RuntimeError as exc:  # singular: a rigid-body mode left free
-        raise ConvergenceError(f"FE contact: singular system ({exc}); a body is unsupported")
+        raise ConvergenceError(
+            f"FE contact: singular system ({exc}); a body is unsupported"
+        ) from None
     if not np.all(np.isfinite(x)):
         raise ConvergenceError("FE contact: singular system; a body is unsupported")
     return x[:n_u], x[n_u + n_c :], x[n_u : n_u + n_c]
