@@ -264,10 +264,12 @@ def compliance_coefficients(
     elif contact_law == "half_plane":
         if reference_depth is None or disc_poisson is None:
             raise ValueError("contact_law 'half_plane' needs reference_depth and disc_poisson")
+        with np.errstate(divide="ignore"):  # ρc = ±inf exactly at an inflection: ρ* = ρp
+            rho_star = rp / (1.0 + rp / rc)
         alpha, gamma = half_plane_coefficients(
             reference_depth,
             rp,
-            pin_tooth_radius(rp, rc),
+            rho_star,
             disc_compliance,
             disc_poisson,
             pin_compliance,
