@@ -69,7 +69,7 @@ def test_finite_and_smooth_through_the_inflection_point_where_eq20_diverges():
     assert np.all(np.isfinite(half))
     # smooth: second differences at the level of the profile's own variation
     assert np.abs(np.diff(half, 2)).max() < 1e-6 * half.mean()
-    assert np.ptp(half) < 0.01 * half.mean()
+    assert np.ptp(half) < 0.03 * half.mean()  # no spike: a gentle trend
 
 
 def test_ltca_with_half_plane_has_no_load_jumps_at_the_inflection_points():
