@@ -206,6 +206,7 @@ def solve_contact(
     forces: list[tuple[int, NDArray, float]] = (),
     n_extra: int = 0,
     extra_forces: FloatArray | None = None,
+    extra_stiffness: FloatArray | None = None,
     max_active_set: int = 100,
     max_projection: int = 10,
 ) -> Solution:
@@ -225,6 +226,8 @@ def solve_contact(
         Number of extra unknowns (no stiffness of their own).
     extra_forces : ndarray, optional
         Generalised forces on the extra unknowns (e.g. a torque per unit thickness [N]).
+    extra_stiffness : ndarray, optional
+        Stiffness of each extra unknown to ground (e.g. a support spring) [N/m²].
 
     Raises
     ------
@@ -236,7 +239,8 @@ def solve_contact(
     n_u = int(offsets[-1]) + n_extra
     blocks = [b.stiffness() for b in bodies]
     if n_extra:
-        blocks.append(sp.csr_matrix((n_extra, n_extra)))
+        diag = np.zeros(n_extra) if extra_stiffness is None else np.asarray(extra_stiffness)
+        blocks.append(sp.diags(diag, format="csr"))
     k_mat = sp.block_diag(blocks, format="csr")
     f = np.zeros(n_u)
     for body, dof, value in forces:
