@@ -11,7 +11,9 @@ body), giving one linearised gap per slave node
 
 λ_i the contact force on the slave node [N/m]. Equalities (supports, symmetry, ties to
 a rigid centre) are Lagrange multipliers too. The complementarity problem is solved
-exactly by the primal–dual active-set method (a semismooth Newton method): the KKT
+exactly by the primal–dual active-set method, started from the active set of the problem
+condensed on the contact forces (a non-negative least-squares problem, see
+``_schur_start``) (a semismooth Newton method): the KKT
 system of the current active set is solved, nodes with a tensile multiplier leave the
 set and nodes with a negative gap join it, until the set no longer changes; it then
 satisfies every condition to round-off. The projection is recomputed in the deformed
@@ -27,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
+from scipy.optimize import nnls
 from scipy.sparse.linalg import splu
 from skfem import Basis, ElementTriP1, ElementVector, MeshTri, asm
 from skfem.models.elasticity import lame_parameters, linear_elasticity
@@ -309,13 +312,10 @@ def solve_contact(
         g_mat = sp.vstack(g_rows, format="csr")
         g_const = np.concatenate(g0)
         counts = [p.slave_nodes.size for p in pairs]
-        act = (
-            np.concatenate(active)
-            if all(a is not None for a in active)
-            else (g_const + g_mat @ u) <= 1e-12 * max(1.0, np.abs(g_const).max())
-        )
-        if not act.any():
-            act[np.argmin(g_const + g_mat @ u)] = True
+        if all(a is not None for a in active):
+            act = np.concatenate(active)
+        else:
+            act = _schur_start(k_mat, f, c_mat, rhs_c, g_mat, g_const)
         for _ in range(max_active_set):
             total_iter += 1
             u, lam_a, mu = _kkt(k_mat, f, c_mat, rhs_c, g_mat, g_const, act)
@@ -360,6 +360,45 @@ def solve_contact(
 def _nodal(u: FloatArray, offsets: NDArray, i: int, body: Body) -> FloatArray:
     ub = u[offsets[i] : offsets[i + 1]]
     return np.stack([ub[body.basis.nodal_dofs[0]], ub[body.basis.nodal_dofs[1]]])
+
+
+def _schur_start(k_mat, f, c_mat, rhs_c, g_mat, g_const) -> NDArray:
+    """Starting active set from the contact problem condensed on the contact forces.
+
+    With the stiffness regularised by 1e-9 of its diagonal (so floating bodies and free
+    rigid centres are held), the contact problem is the convex quadratic programme
+    min ½λᵀWλ + qᵀλ, λ ≥ 0, W = G A⁻¹ Gᵀ, solved by non-negative least squares
+    (Lawson–Hanson: finite, no cycling). The exact active-set method then starts from its
+    active set and only corrects the effect of the regularisation.
+    """
+    diag = k_mat.diagonal()
+    scale = diag.max()
+    reg = np.where(diag > 0, 1e-9 * diag, 1e-9 * scale)
+    k_reg = (k_mat + sp.diags(reg)).tocsc()
+    n_u, n_c = k_mat.shape[0], c_mat.shape[0]
+    a_mat = sp.bmat([[k_reg, -c_mat.T], [-c_mat, None]], format="csc")
+    lu = splu(a_mat, permc_spec="COLAMD")
+    u0 = lu.solve(np.concatenate([f, -rhs_c]))[:n_u]
+    gt = g_mat.T.tocsc()
+    n_s = g_mat.shape[0]
+    w = np.empty((n_s, n_s))
+    for start in range(0, n_s, 64):
+        cols = gt[:, start : start + 64].toarray()
+        rhs = np.vstack([cols, np.zeros((n_c, cols.shape[1]))])
+        w[:, start : start + cols.shape[1]] = g_mat @ lu.solve(rhs)[:n_u]
+    w = 0.5 * (w + w.T)
+    q = g_const + g_mat @ u0
+    unit = np.mean(np.diag(w))
+    eig, vec = np.linalg.eigh(w / unit)
+    keep = eig > 1e-12 * eig.max()  # W is positive semi-definite up to round-off
+    root = np.sqrt(eig[keep])
+    lam, _ = nnls(
+        root[:, None] * vec[:, keep].T, -(vec[:, keep].T @ (q / unit)) / root, maxiter=50 * n_s
+    )
+    act = lam > 0
+    if not act.any():
+        act[np.argmin(q)] = True
+    return act
 
 
 def _kkt(k_mat, f, c_mat, rhs_c, g_mat, g_const, act):
