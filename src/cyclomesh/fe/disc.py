@@ -33,8 +33,8 @@ from cyclomesh.design import Modification, PairDesign
 from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.fe.mesh import Refinement, mesh_disk, mesh_profile_disc
 from cyclomesh.fe.solve import Body, ContactPair, boundary_chain, solve_contact, summarize_contact
-from cyclomesh.fe.tooth import disc_outline
-from cyclomesh.hertz import effective_modulus, half_width, pin_groove_radius, pin_tooth_radius
+from cyclomesh.fe.tooth import _rho_star, disc_outline
+from cyclomesh.hertz import effective_modulus, half_width, pin_groove_radius
 from cyclomesh.ltca import rest_position, solve_ltca
 from cyclomesh.profile import modified_profile
 
@@ -144,7 +144,7 @@ def solve_disc_fe(
     e_pc = effective_modulus(pin_m.compliance, disc_m.compliance)
     e_pg = effective_modulus(pin_m.compliance, ring_m.compliance)
     nominal = np.where(load_ltca > 0, load_ltca, 0.2 * load_ltca.max()) / width  # N/m
-    b_pc = half_width(nominal, pin_tooth_radius(rp, geo.curvature_radius[0]), e_pc, 1.0)
+    b_pc = half_width(nominal, _rho_star(rp, geo.curvature_radius[0]), e_pc, 1.0)
     rho_pg = pin_groove_radius(rp, design.groove_radius)
     b_pg = half_width(nominal, rho_pg, e_pg, 1.0)
 
