@@ -197,6 +197,36 @@ def _print_summary(summaries: dict, out: Path) -> None:
     console.print(f"report: {out / 'report.html'}")
 
 
+@app.command()
+@cli_errors()
+def fe(
+    study: Annotated[Path, typer.Argument(help="study file (TOML)")],
+    out: Annotated[Path, typer.Option("--out", help="output folder")] = Path("fe-results"),
+    crank_angles: Annotated[
+        str | None, typer.Option("--crank-angles", help="comma-separated crank angles [deg]")
+    ] = None,
+    convergence: Annotated[
+        bool, typer.Option(help="also solve the first angle at half the contact mesh density")
+    ] = True,
+) -> None:
+    """Whole-disc finite-element model beside the LTCA (needs the fe extra)."""
+    try:
+        from cyclomesh.fe.study import run_fe_study
+    except ImportError as exc:
+        raise fail(f"cyclomesh fe needs the fe extra: pip install 'cyclomesh[fe]' ({exc})")
+    angles = None
+    if crank_angles:
+        try:
+            angles = [float(a) for a in crank_angles.split(",")]
+        except ValueError:
+            raise fail(
+                f"--crank-angles: expected numbers separated by commas, got {crank_angles!r}"
+            ) from None
+    console = stderr_console()
+    for path in run_fe_study(study, out, angles, convergence, progress=console.print):
+        console.print(f"written: {path}")
+
+
 def _add_layer_commands() -> None:
     """Commands of the other layers: ``tolerance`` and ``allocate`` (cyclomesh.tolerance)."""
     from cyclomesh.tolerance.commands import register

@@ -410,6 +410,7 @@ class _StudyFile(_Section):
     figures: FiguresSection = FiguresSection()
     cases: list[dict[str, Any]] = []
     tolerance: dict[str, Any] | None = None
+    fe: dict[str, Any] | None = None  # validated by cyclomesh.fe.study (optional extra)
 
 
 @dataclass(frozen=True)
