@@ -213,7 +213,9 @@ def fe(
     try:
         from cyclomesh.fe.study import run_fe_study
     except ImportError as exc:
-        raise fail(f"cyclomesh fe needs the fe extra: pip install 'cyclomesh[fe]' ({exc})")
+        raise fail(
+            f"cyclomesh fe needs the fe extra: pip install 'cyclomesh[fe]' ({exc})"
+        ) from None
     angles = None
     if crank_angles:
         try:
