@@ -34,7 +34,7 @@ from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.fe.mesh import Refinement, mesh_disk, mesh_profile_disc
 from cyclomesh.fe.solve import Body, ContactPair, boundary_chain, solve_contact, summarize_contact
 from cyclomesh.fe.tooth import _rho_star, disc_outline
-from cyclomesh.hertz import effective_modulus, half_width, pin_groove_radius
+from cyclomesh.hertz import CONTACT_LAWS, effective_modulus, half_width, pin_groove_radius
 from cyclomesh.ltca import rest_position, solve_ltca
 from cyclomesh.profile import modified_profile
 
@@ -75,6 +75,9 @@ class DiscFE:
     modelled: NDArray
     nodes: int
     groove_iterations: int
+    ltca_by_law: dict[str, tuple[FloatArray, FloatArray, float]]
+    """Per contact law of :data:`cyclomesh.hertz.CONTACT_LAWS`: (pin load [N], contact
+    stress [Pa], loaded rotation [rad]) of the LTCA."""
 
 
 def solve_disc_fe(
@@ -115,7 +118,12 @@ def solve_disc_fe(
     """
     modification = modification or Modification()
     phi = np.atleast_1d(float(crank_angle))
-    ltca = solve_ltca(design, modification, None, torque, phi, True, contact_law)
+    by_law = {}
+    for law in CONTACT_LAWS:
+        r = solve_ltca(design, modification, None, torque, phi, True, law)
+        by_law[law] = (r.pin_load[0], r.contact_stress[0], float(r.loaded_rotation[0]))
+        if law == contact_law:
+            ltca = r
     geo = unloaded_contact(design, modification, None, phi)
     rest = float(rest_position(geo.rotation, geo.moment_arm)[0])
     n1, n2, rp = design.pins, design.teeth, design.pin_radius
@@ -218,6 +226,7 @@ def solve_disc_fe(
     loads = nominal[pins].copy()
     extra_forces = np.zeros(1 + n_pins)
     extra_forces[0] = torque / width
+    active = None
     iteration = 0
     for iteration in range(1, 21):  # noqa: B007
         # secant stiffness of the ring's term of Eq. 21: δ = (2F/π)·c_g·(ln(4ρg/b) − ½)
@@ -231,7 +240,9 @@ def solve_disc_fe(
             n_extra=1 + n_pins,
             extra_forces=extra_forces,
             extra_stiffness=np.concatenate([[0.0], k_groove]),
+            initial_active=active,
         )
+        active = sol.active
         new = np.array([lam.sum() for lam in sol.contact_force])
         change = np.max(np.abs(new - loads)) / max(new.max(), 1e-300)
         loads = new
@@ -258,4 +269,5 @@ def solve_disc_fe(
         modelled=modelled,
         nodes=int(sum(b.n_nodes for b in bodies)),
         groove_iterations=iteration,
+        ltca_by_law=by_law,
     )

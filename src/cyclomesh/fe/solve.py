@@ -36,6 +36,8 @@ from skfem.models.elasticity import lame_parameters, linear_elasticity
 
 from cyclomesh.exceptions import ConvergenceError
 
+_debug = False
+
 __all__ = ["Body", "ContactPair", "Solution", "solve_contact", "boundary_chain"]
 
 FloatArray = NDArray[np.float64]
@@ -172,6 +174,8 @@ class Solution:
         Lagrange multipliers of the equality constraints.
     iterations : int
         Active-set iterations in total.
+    active : list of ndarray
+        Per pair, the final active set (bool per slave node).
     """
 
     displacements: list[FloatArray]
@@ -182,6 +186,7 @@ class Solution:
     master_point: list[tuple[NDArray, FloatArray]]
     reactions: FloatArray
     iterations: int
+    active: list[NDArray]
 
 
 def _project(xs: FloatArray, xm: FloatArray) -> tuple[NDArray, FloatArray, FloatArray, FloatArray]:
@@ -212,6 +217,7 @@ def solve_contact(
     extra_stiffness: FloatArray | None = None,
     max_active_set: int = 100,
     max_projection: int = 10,
+    initial_active: list[NDArray] | None = None,
 ) -> Solution:
     """Solve frictionless contact of plane-strain elastic bodies (see the module docstring).
 
@@ -231,6 +237,9 @@ def solve_contact(
         Generalised forces on the extra unknowns (e.g. a torque per unit thickness [N]).
     extra_stiffness : ndarray, optional
         Stiffness of each extra unknown to ground (e.g. a support spring) [N/m²].
+    initial_active : list of ndarray, optional
+        Starting active set per pair (e.g. ``Solution.active`` of a similar problem);
+        otherwise from the condensed problem.
 
     Raises
     ------
@@ -267,8 +276,9 @@ def solve_contact(
     rhs_c = np.asarray(rhs_c, float)
 
     u = np.zeros(n_u)
-    active = [None] * len(pairs)
+    active = list(initial_active) if initial_active is not None else [None] * len(pairs)
     total_iter = 0
+    warm = initial_active is not None
     for _ in range(max_projection):
         g_rows, g0 = [], []
         geom = []
@@ -316,16 +326,37 @@ def solve_contact(
             act = np.concatenate(active)
         else:
             act = _schur_start(k_mat, f, c_mat, rhs_c, g_mat, g_const)
+        seen: list[NDArray] = []
         for _ in range(max_active_set):
             total_iter += 1
             u, lam_a, mu = _kkt(k_mat, f, c_mat, rhs_c, g_mat, g_const, act)
             lam = np.zeros(act.size)
             lam[act] = lam_a
             gap_now = g_const + g_mat @ u
-            scale = max(np.abs(lam).max(), 1e-300)
-            new = np.where(act, lam > 1e-14 * scale, gap_now < -1e-14 * np.abs(g_const).max())
+            # round-off levels of force and gap (the closure scale is |G u|)
+            lam_tol = 1e-10 * max(np.abs(lam).max(), 1e-300)
+            gap_tol = 1e-10 * max(np.abs(g_mat @ u).max(), 1e-300)
+            new = np.where(act, lam > -lam_tol, gap_now < -gap_tol)
+            if _debug:
+                print(
+                    "active",
+                    act.sum(),
+                    "->",
+                    new.sum(),
+                    "min lam",
+                    lam[act].min() / lam_tol * 1e-10,
+                    "min gap",
+                    gap_now[~act].min() / gap_tol * 1e-10 if (~act).any() else 0,
+                )
             if np.array_equal(new, act):
                 break
+            if any(np.array_equal(new, old) for old in seen):  # cycling between sets that
+                # differ only by nodes at round-off: accept if no condition is violated
+                if lam[act].min() > -1e3 * lam_tol and (
+                    act.all() or gap_now[~act].min() > -1e3 * gap_tol
+                ):
+                    break
+            seen.append(act)
             act = new
             if not act.any():
                 raise ConvergenceError("FE contact: every contact opened (load pulls apart)")
@@ -335,9 +366,10 @@ def solve_contact(
             )
         split = np.cumsum(counts)[:-1]
         new_active = np.split(act, split)
-        settled = all(
+        settled = not warm and all(
             a is not None and np.array_equal(a, b) for a, b in zip(active, new_active, strict=True)
         )
+        warm = False
         active = new_active
         if settled:
             break
@@ -354,6 +386,7 @@ def solve_contact(
         master_point=[(g[0], g[1]) for g in geom],
         reactions=mu,
         iterations=total_iter,
+        active=active,
     )
 
 

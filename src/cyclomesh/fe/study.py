@@ -7,7 +7,8 @@ solves the disc with its pins by FE and the LTCA beside it, and writes to
 * ``fe.nc``: dimensions ``crank_angle`` [deg] and ``pin``; ``pin_load_fe``,
   ``pin_load_ltca`` [N], ``contact_stress_fe``, ``contact_stress_ltca`` [MPa],
   ``rotation_fe``, ``rotation_ltca`` [arcsec]: the disc's loaded position in the TE
-  convention, −(φc − φt + Δφc) (Eq. 25);
+  convention, −(φc − φt + Δφc) (Eq. 25); the ``*_ltca`` variables use the case's
+  ``[analysis] contact_law``, and ``*_ltca_paper`` / ``*_ltca_half_plane`` give both laws;
 * ``fe.png``: pin loads and contact stresses, FE against LTCA;
 * ``convergence.csv``: the first crank angle at half and at the full contact mesh
   density (pin loads, rotation), the mesh-convergence table.
@@ -31,6 +32,7 @@ import xarray as xr
 from pydantic import BaseModel, ConfigDict, Field
 
 from cyclomesh.exceptions import StudyError
+from cyclomesh.hertz import CONTACT_LAWS
 
 __all__ = ["FeSection", "run_fe_study"]
 
@@ -83,6 +85,10 @@ def run_fe_study(
         n1 = design.pins
         rows = {k: np.zeros((angles.size, n1)) for k in ("lf", "ll", "sf", "sl")}
         rot = np.zeros((2, angles.size))
+        laws = {
+            law: (np.zeros((angles.size, n1)), np.zeros((angles.size, n1)), np.zeros(angles.size))
+            for law in CONTACT_LAWS
+        }
         kw = dict(
             bore_radius=section.bore_radius_mm * 1e-3,
             far_size=section.far_size_mm * 1e-3,
@@ -103,6 +109,9 @@ def run_fe_study(
             rows["sf"][j], rows["sl"][j] = r.contact_stress_fe, r.contact_stress_ltca
             rot[0, j] = -(r.rest_rotation + r.rotation_fe) * ARCSEC
             rot[1, j] = -(r.rest_rotation + r.rotation_ltca) * ARCSEC
+            for law, (load, stress, rotation) in r.ltca_by_law.items():
+                laws[law][0][j], laws[law][1][j] = load, stress / 1e6
+                laws[law][2][j] = -(r.rest_rotation + rotation) * ARCSEC
             if convergence and j == 0:
                 coarse = solve_disc_fe(
                     design,
@@ -113,8 +122,18 @@ def run_fe_study(
                     **kw,
                 )
                 _write_convergence(folder / "convergence.csv", section, coarse, r)
+        per_law = {}
+        for law, (load, stress, rotation) in laws.items():
+            per_law[f"pin_load_ltca_{law}"] = (("crank_angle", "pin"), load, {"units": "N"})
+            per_law[f"contact_stress_ltca_{law}"] = (
+                ("crank_angle", "pin"),
+                stress,
+                {"units": "MPa"},
+            )
+            per_law[f"rotation_ltca_{law}"] = ("crank_angle", rotation, {"units": "arcsec"})
         ds = xr.Dataset(
             {
+                **per_law,
                 "pin_load_fe": (("crank_angle", "pin"), rows["lf"], {"units": "N"}),
                 "pin_load_ltca": (("crank_angle", "pin"), rows["ll"], {"units": "N"}),
                 "contact_stress_fe": (("crank_angle", "pin"), rows["sf"] / 1e6, {"units": "MPa"}),
