@@ -1,8 +1,10 @@
 """Summarise ``cyclomesh fe`` results: FE against the LTCA with both contact laws.
 
-Run: ``cyclomesh fe examples/fe_table1.toml --out fe-table1 && python benchmarks/fe_compare.py fe-table1``
+Run: ``cyclomesh fe examples/fe_table1.toml --out fe-table1``, then
+``python benchmarks/fe_compare.py fe-table1``.
 Prints, per case and crank angle, the largest pin load and contact stress and the disc's
-loaded rotation (Δφc = TE difference from the unloaded rest), FE and LTCA, and the RMS
+loaded position in the TE convention −(φc − φt + Δφc) (the same rest position in all
+three), FE and LTCA, and the RMS
 difference of the pin loads from FE in % of the FE peak load.
 """
 
@@ -17,7 +19,8 @@ def main() -> None:
     root = Path(sys.argv[1])
     print(
         "| case | crank [deg] | loaded pins FE/paper/half | max load FE / paper / half_plane [N] "
-        "| max stress FE / paper / half_plane [MPa] | disc position, TE convention, FE / paper / half_plane [arcsec] "
+        "| max stress FE / paper / half_plane [MPa] "
+        "| TE-convention position FE / paper / half_plane [arcsec] "
         "| RMS load error paper / half_plane [% of peak] |"
     )
     print("|---|---|---|---|---|---|---|")
