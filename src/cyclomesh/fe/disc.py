@@ -187,8 +187,8 @@ def solve_disc_fe(
         )
         bodies.append(pin)
         body = k + 1
-        slave = boundary_chain(pin, tuple(p_i), 4.0 * float(b_pc[i]))
-        master = boundary_chain(disc, tuple(p_i), 6.0 * float(b_pc[i]))
+        slave = boundary_chain(pin, tuple(p_i), 2.5 * float(b_pc[i]))
+        master = boundary_chain(disc, tuple(p_i), 4.0 * float(b_pc[i]))
         pairs.append(ContactPair(body, 0, slave, master))
         # groove side: Hertzian weights over the nodes within b_pg of g_i
         side = boundary_chain(pin, tuple(g_i), max(float(b_pg[i]), 2.5 * rp / 6))
