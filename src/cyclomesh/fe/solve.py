@@ -36,8 +36,6 @@ from skfem.models.elasticity import lame_parameters, linear_elasticity
 
 from cyclomesh.exceptions import ConvergenceError
 
-_debug = False
-
 __all__ = ["Body", "ContactPair", "Solution", "solve_contact", "boundary_chain"]
 
 FloatArray = NDArray[np.float64]
@@ -343,17 +341,6 @@ def solve_contact(
             lam_tol = 1e-10 * max(np.abs(lam).max(), 1e-300)
             gap_tol = 1e-10 * max(np.abs(g_mat @ u).max(), 1e-300)
             new = np.where(act, lam > -lam_tol, gap_now < -gap_tol)
-            if _debug:
-                print(
-                    "active",
-                    act.sum(),
-                    "->",
-                    new.sum(),
-                    "min lam",
-                    lam[act].min() / lam_tol * 1e-10,
-                    "min gap",
-                    gap_now[~act].min() / gap_tol * 1e-10 if (~act).any() else 0,
-                )
             if np.array_equal(new, act):
                 break
             if any(np.array_equal(new, old) for old in seen):  # cycling between sets that
