@@ -26,13 +26,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=7)
     parser.add_argument("--profile", action="store_true", help="print where the time goes")
+    parser.add_argument("--contact-law", default="paper", help='"paper" or "half_plane"')
     args = parser.parse_args()
 
     phi = np.deg2rad(np.arange(3600) * 0.1)
     mod = Modification(pin_radius=8e-6)
 
     def run():
-        return solve_ltca(TABLE1, mod, None, 250.0, phi, True)
+        return solve_ltca(TABLE1, mod, None, 250.0, phi, True, args.contact_law)
 
     run()  # warm-up
     times = []

@@ -225,6 +225,7 @@ def analyse(
     *,
     crank_angles_deg: ArrayLike | None = None,
     discs: int = 1,
+    contact_law: str = "paper",
 ) -> xr.Dataset:
     """Loaded tooth contact analysis of a cycloid-pin pair as a labelled Dataset.
 
@@ -250,6 +251,9 @@ def analyse(
     discs : int
         Number N of identical discs on the ring, disc k's eccentric at φ + (k − 1)·360°/N;
         they share one rotation and split the torque by their stiffness.
+    contact_law : {"paper", "half_plane"}
+        Tooth term of the contact law (see :mod:`cyclomesh.hertz`); recorded in the
+        ``contact_law`` attribute.
 
     Returns
     -------
@@ -279,9 +283,10 @@ def analyse(
     torque_dim = np.ndim(torque) > 0
     torques = check_torques(torque)
     result = solve_drive(
-        design, modification, errors, torques, crank_angles, groove_deformation, discs
+        design, modification, errors, torques, crank_angles, groove_deformation, discs, contact_law
     )
     ds = drive_to_dataset(result, design, modification, groove_deformation, torque_dim)
+    ds.attrs["contact_law"] = contact_law
     if degrees is not None:
         ds = ds.assign_coords(crank_angle=("crank_angle", degrees, {"units": "deg"}))
     return ds

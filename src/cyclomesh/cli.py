@@ -29,7 +29,7 @@ from typing import Annotated, Any
 
 import typer
 
-from cyclomesh.exceptions import CyclomeshError
+from cyclomesh.exceptions import CyclomeshError, StudyError
 
 __all__ = [
     "app",
@@ -667,3 +667,39 @@ def design(
             value = s["optimum"]["metrics"][s["objective_variable"]]
             typer.echo(f"optimum: {where} ({s['objective_variable']} = {value:.6g})")
         typer.echo(f"report: {out / 'report.html'}")
+
+
+@app.command()
+@cli_errors()
+def fe(
+    study: StudyArg,
+    out: OutOption,
+    crank_angles: Annotated[
+        str | None,
+        typer.Option(
+            "--crank-angles",
+            help="Comma-separated crank angles [deg] (default: [fe] crank_angles_deg).",
+        ),
+    ] = None,
+    convergence: Annotated[
+        bool, typer.Option(help="Also solve the first angle at half the contact mesh density.")
+    ] = True,
+    quiet: QuietOption = False,
+) -> None:
+    """Whole-disc finite-element model beside the LTCA, per case (needs the fe extra)."""
+    try:
+        from cyclomesh.fe.study import run_fe_study
+    except ImportError as exc:
+        raise StudyError(
+            f"cyclomesh fe needs the fe extra: pip install -e '.[fe]' ({exc.name} is missing)"
+        ) from None
+    angles = None
+    if crank_angles:
+        try:
+            angles = [float(a) for a in crank_angles.split(",")]
+        except ValueError:
+            raise StudyError(
+                f"--crank-angles: expected numbers separated by commas, got {crank_angles!r}"
+            ) from None
+    for path in run_fe_study(study, out, angles, convergence, progress=lambda m: _say(m, quiet)):
+        _say(f"written: {path}", quiet)

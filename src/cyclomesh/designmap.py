@@ -45,7 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.drive import LOST_MOTION_FRACTION, play, solve_drive
 from cyclomesh.exceptions import CyclomeshError, DesignError
-from cyclomesh.ltca import solve_ltca
+from cyclomesh.ltca import check_contact_law, solve_ltca
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -155,8 +155,11 @@ def candidate_metrics(
     crank_angles: ArrayLike,
     groove_deformation: bool = True,
     lost_motion: bool = False,
+    contact_law: str = "paper",
 ) -> dict[str, FloatArray]:
     """Metrics of one candidate modification (see module doc), per ring, SI units.
+
+    ``contact_law`` is the tooth term of the contact law (:func:`cyclomesh.ltca.solve_ltca`).
 
     Returns
     -------
@@ -165,7 +168,7 @@ def candidate_metrics(
         ring shape.
     """
     phi = np.atleast_1d(np.asarray(crank_angles, float))
-    res = solve_ltca(design, modification, errors, torque, phi, groove_deformation)
+    res = solve_ltca(design, modification, errors, torque, phi, groove_deformation, contact_law)
     gap = play(design, modification, errors, phi)
     te = res.transmission_error
     out = {
@@ -177,7 +180,15 @@ def candidate_metrics(
     }
     if lost_motion:
         light = LOST_MOTION_FRACTION * torque
-        both = solve_drive(design, modification, errors, [-light, light], phi, groove_deformation)
+        both = solve_drive(
+            design,
+            modification,
+            errors,
+            [-light, light],
+            phi,
+            groove_deformation,
+            contact_law=contact_law,
+        )
         te = both.transmission_error  # (..., torque, angle)
         out["lost_motion"] = np.max(te[..., 0, :] - te[..., 1, :], axis=-1)
     return out
@@ -219,6 +230,7 @@ class DesignTask:
     groove_deformation : bool
     lost_motion : bool
         Also compute the lost motion.
+    contact_law : {"paper", "half_plane"}
     """
 
     design: PairDesign
@@ -229,6 +241,7 @@ class DesignTask:
     crank_angles: tuple[float, ...]
     groove_deformation: bool = True
     lost_motion: bool = False
+    contact_law: str = "paper"
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -265,6 +278,7 @@ class DesignTask:
                     np.asarray(self.crank_angles),
                     self.groove_deformation,
                     self.lost_motion,
+                    self.contact_law,
                 )
             except CyclomeshError as exc:  # undercut, interfering pin, failed solve
                 reason[row] = str(exc)[:_REASON_LENGTH]
@@ -350,6 +364,7 @@ def design_map(
     backend: Any = None,
     chunk: int | None = None,
     progress: Any = None,
+    contact_law: str = "paper",
 ) -> xr.Dataset:
     """Design map over a grid of modifications, as a labelled Dataset.
 
@@ -378,6 +393,8 @@ def design_map(
         Compute the lost motion (default: when it is the objective).
     backend, chunk, progress
         Execution (see :func:`evaluate_grid`).
+    contact_law : {"paper", "half_plane"}
+        Tooth term of the contact law (:func:`cyclomesh.ltca.solve_ltca`).
 
     Returns
     -------
@@ -397,6 +414,7 @@ def design_map(
             )
     if objective not in OBJECTIVES:
         raise DesignError(f"objective {objective!r}: choose one of {', '.join(OBJECTIVES)}")
+    check_contact_law(contact_law)
     base = base or Modification()
     constraints = constraints or Constraints()
     if lost_motion is None:
@@ -414,6 +432,7 @@ def design_map(
         crank_angles=tuple(np.deg2rad(np.atleast_1d(np.asarray(crank_angles_deg, float)))),
         groove_deformation=groove_deformation,
         lost_motion=lost_motion,
+        contact_law=contact_law,
     )
     metrics = evaluate_grid(task, backend, chunk, progress)
     feasible, reason = feasibility(metrics, constraints)
@@ -444,6 +463,7 @@ def design_map(
             "robust": int(bool(ring_shape)),
             "robust_percentile": ROBUST_PERCENTILE,
             "groove_deformation": int(bool(groove_deformation)),
+            "contact_law": contact_law,
             "crank_angles": len(task.crank_angles),
             "feasible_candidates": int(feasible.sum()),
             "candidates": int(task.size),

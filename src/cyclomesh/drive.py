@@ -68,6 +68,7 @@ from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.exceptions import ConvergenceError, DesignError
 from cyclomesh.loadsharing import share_load
 from cyclomesh.ltca import (
+    check_contact_law,
     check_crank_angles,
     check_pair,
     contact_stresses,
@@ -361,13 +362,14 @@ def _mesh(
     phi: FloatArray,
     discs: int,
     groove_deformation: bool,
+    contact_law: str = "paper",
 ) -> _Mesh:
     """Unloaded contact, rest positions and compliance of a stack (forward flanks)."""
     ring_shape = errors.ring_shape(design.pins)
     geo = _stacked_contact(design, modification, errors, phi, discs)
     flat = (*geo.rotation.shape[:-2], discs * design.pins)
     rest, reverse_rest = _rests(geo, design.pins, discs)
-    alpha, gamma = pin_compliance(geo, design, groove_deformation)
+    alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
     nx, ny = _normals(design, modification, errors, phi, discs, geo)
     return _Mesh(
         design=design,
@@ -461,14 +463,16 @@ def _directions(
     groove_deformation: bool,
     forward: bool,
     reverse: bool,
+    contact_law: str = "paper",
 ) -> tuple[_Mesh | None, _Mesh | None]:
     """Meshes of the forward flanks and of the mirrored (reverse) problem, as needed."""
-    fwd = _mesh(design, modification, errors, phi, discs, groove_deformation) if forward else None
-    rev = None
+    fwd = rev = None
+    if forward:
+        fwd = _mesh(design, modification, errors, phi, discs, groove_deformation, contact_law)
     if reverse:
         mod_m, errors_m = mirror_problem(modification, errors, design.pins)
         # the mirror of crank angle φ is −φ; solve increasing angles and flip back below
-        rev = _mesh(design, mod_m, errors_m, -phi[::-1], discs, groove_deformation)
+        rev = _mesh(design, mod_m, errors_m, -phi[::-1], discs, groove_deformation, contact_law)
     return fwd, rev
 
 
@@ -495,6 +499,7 @@ def solve_drive(
     crank_angles: ArrayLike = (0.0,),
     groove_deformation: bool = True,
     discs: int = 1,
+    contact_law: str = "paper",
 ) -> Drive:
     """Loaded contact of a stack of discs on both flanks over a list of torques.
 
@@ -519,6 +524,8 @@ def solve_drive(
         The "improved model" (Eq. 19) or the "current model".
     discs : int
         Number N of discs; disc k's eccentric is at φin + (k − 1)·2π/N.
+    contact_law : {"paper", "half_plane"}
+        Tooth term of the contact law (:func:`~cyclomesh.ltca.solve_ltca`).
 
     Returns
     -------
@@ -537,6 +544,7 @@ def solve_drive(
     torques = check_torques(torque)
     discs = _check_discs(discs)
     phi = check_crank_angles(crank_angles)
+    check_contact_law(contact_law)
     check_pair(design, modification, errors)
     fwd, rev = _directions(
         design,
@@ -547,6 +555,7 @@ def solve_drive(
         groove_deformation,
         bool(np.any(torques > 0)),
         bool(np.any(torques < 0)),
+        contact_law,
     )
     if fwd is not None:
         play = fwd.rest - fwd.reverse_rest
@@ -767,6 +776,7 @@ def torsion_curve(
     discs: int = 1,
     points: int = 41,
     series_stiffness: float | None = None,
+    contact_law: str = "paper",
 ) -> TorsionCurve:
     """Torsion curve of the cycloid-pin mesh: rotation against torque, both directions.
 
@@ -791,6 +801,8 @@ def torsion_curve(
         Evenly spaced torques from −T_r to +T_r (see :func:`torsion_torques`).
     series_stiffness : float, optional
         k_series [N·m/rad], > 0.
+    contact_law : {"paper", "half_plane"}
+        Tooth term of the contact law (:func:`~cyclomesh.ltca.solve_ltca`).
 
     Returns
     -------
@@ -807,8 +819,11 @@ def torsion_curve(
     ):
         raise DesignError(f"series_stiffness must be a positive number, got {series_stiffness!r}")
     phi = check_crank_angles(crank_angles)
+    check_contact_law(contact_law)
     check_pair(design, modification, errors)
-    fwd, rev = _directions(design, modification, errors, phi, discs, groove_deformation, True, True)
+    fwd, rev = _directions(
+        design, modification, errors, phi, discs, groove_deformation, True, True, contact_law
+    )
     rotation, contacts, stress, share = [], [], [], []
     for value in torques:
         fields = _load(fwd if value > 0 else rev, abs(float(value)))

@@ -14,6 +14,24 @@ pair, and their sum along the line of action (Eq. 19, δ = δc + δp·cos β), t
 which :func:`compliance_coefficients` returns and :func:`force_from_approach` inverts
 exactly through the Lambert W function.
 
+Contact laws
+------------
+``contact_law="paper"`` (the default) is Eq. 20 as published: the disc's term is the
+approach of the centre of curvature of the tooth, c·(ln(4|ρc|/b) − ½). At the
+inflection points of a modified profile |ρc| → ∞, so that term, and the tooth's
+compliance, diverge although the tooth there is nearly flat.
+
+``contact_law="half_plane"`` refers the disc's approach to a point at a finite depth d
+inside the disc, as for a 2-D half-plane under Hertzian pressure (Johnson [2], eq. 5.41):
+
+    δdisc = 2F/(πB) · c·(ln(2d/b) − ν/(2(1 − ν)))
+
+with d the distance from the contact point to the disc centre (where the disc carries
+its torque). The pin's and the groove's terms stay those of Eqs. 20, 21 (their radii are
+physical). The law has the same form δ = F·(α − γ·ln F) with the same γ, so the exact
+inverse below carries over; it is finite and smooth through the inflection points
+(ρ*pc → ρp there). See ``docs/contact-law.md``.
+
 References
 ----------
 [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672, doi:10.3390/machines10080672.
@@ -37,8 +55,13 @@ __all__ = [
     "compliance_coefficients",
     "force_from_approach",
     "force_from_approach_w",
+    "half_plane_coefficients",
     "max_pressure",
+    "CONTACT_LAWS",
 ]
+
+CONTACT_LAWS = ("paper", "half_plane")
+"""Names of the contact laws :func:`compliance_coefficients` accepts."""
 
 FloatArray = NDArray[np.float64]
 
@@ -134,6 +157,54 @@ def _pair_coefficients(r1, r2, c1, c2, rho_star, width):
     return alpha, gamma
 
 
+def half_plane_coefficients(
+    depth: ArrayLike,
+    pin_radius: ArrayLike,
+    rho_star: ArrayLike,
+    disc_compliance: float,
+    disc_poisson: float,
+    pin_compliance: float,
+    width: float,
+) -> tuple[FloatArray, FloatArray]:
+    """(α, γ) of the pin–tooth pair with the disc as a half-plane to depth d [m/N].
+
+    δ = 2F/(πB)·[c_d·(ln(2d/b) − ν_d/(2(1 − ν_d))) + c_p·(ln(4ρp/b) − ½)], the disc's
+    term from Johnson's approach of a point at depth d (eq. 5.41 of [2]), the pin's from
+    Eq. 20 of [1]; b = κ·sqrt(F) with κ = sqrt(4ρ*/(πBE*)) (Eq. 22).
+
+    Parameters
+    ----------
+    depth : array_like
+        Reference depth d in the disc [m], > 0.
+    pin_radius : array_like
+        ρp [m].
+    rho_star : array_like
+        ρ*pc of the pair (Eq. 22) [m].
+    disc_compliance, pin_compliance : float
+        (1 − ν²)/E of disc and pin [1/Pa].
+    disc_poisson : float
+        ν of the disc [-].
+    width : float
+        Face width B [m].
+    """
+    c1, c2 = disc_compliance, pin_compliance
+    kappa = np.sqrt(4.0 * np.asarray(rho_star, float) / (np.pi * width * effective_modulus(c1, c2)))
+    alpha = (
+        2.0
+        / (np.pi * width)
+        * (
+            c1
+            * (
+                np.log(2.0 * np.asarray(depth, float) / kappa)
+                - 0.5 * disc_poisson / (1.0 - disc_poisson)
+            )
+            + c2 * (np.log(4.0 * np.asarray(pin_radius, float) / kappa) - 0.5)
+        )
+    )
+    gamma = (c1 + c2) / (np.pi * width)
+    return alpha, np.broadcast_to(gamma, np.shape(alpha))
+
+
 def compliance_coefficients(
     pin_radius: ArrayLike,
     profile_radius: ArrayLike,
@@ -144,6 +215,9 @@ def compliance_coefficients(
     disc_compliance: float,
     ring_compliance: float,
     groove_deformation: bool = True,
+    contact_law: str = "paper",
+    reference_depth: ArrayLike | None = None,
+    disc_poisson: float | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Coefficients (α, γ) of the total approach δ = F·(α − γ·ln F) along the line of action.
 
@@ -166,6 +240,13 @@ def compliance_coefficients(
         (1 − ν²)/E of pin, disc and ring [1/Pa].
     groove_deformation : bool
         Include the pin–groove deformation (the "improved model").
+    contact_law : {"paper", "half_plane"}
+        The disc's term: Eq. 20 of [1] as published, or the approach of a half-plane to
+        ``reference_depth`` (Johnson [2], eq. 5.41; see the module docstring).
+    reference_depth : array_like, optional
+        Depth d of the reference point in the disc [m]; required by ``"half_plane"``.
+    disc_poisson : float, optional
+        Poisson's ratio of the disc; required by ``"half_plane"``.
 
     Returns
     -------
@@ -176,9 +257,26 @@ def compliance_coefficients(
     """
     rp = np.asarray(pin_radius, float)
     rc = np.asarray(profile_radius, float)
-    alpha, gamma = _pair_coefficients(
-        rc, rp, disc_compliance, pin_compliance, pin_tooth_radius(rp, rc), width
-    )
+    if contact_law == "paper":
+        alpha, gamma = _pair_coefficients(
+            rc, rp, disc_compliance, pin_compliance, pin_tooth_radius(rp, rc), width
+        )
+    elif contact_law == "half_plane":
+        if reference_depth is None or disc_poisson is None:
+            raise ValueError("contact_law 'half_plane' needs reference_depth and disc_poisson")
+        with np.errstate(divide="ignore"):  # ρc = ±inf exactly at an inflection: ρ* = ρp
+            rho_star = rp / (1.0 + rp / rc)
+        alpha, gamma = half_plane_coefficients(
+            reference_depth,
+            rp,
+            rho_star,
+            disc_compliance,
+            disc_poisson,
+            pin_compliance,
+            width,
+        )
+    else:
+        raise ValueError(f"contact_law must be one of {CONTACT_LAWS}, got {contact_law!r}")
     if groove_deformation:
         cb = np.asarray(cos_beta, float)
         a_p, g_p = _pair_coefficients(

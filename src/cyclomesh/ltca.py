@@ -23,6 +23,7 @@ from cyclomesh.contact import UnloadedContact, unloaded_contact
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.exceptions import ConvergenceError, DesignError
 from cyclomesh.hertz import (
+    CONTACT_LAWS,
     compliance_coefficients,
     effective_modulus,
     max_pressure,
@@ -125,6 +126,7 @@ def solve_ltca(
     torque: float = 250.0,
     crank_angles: ArrayLike = (0.0,),
     groove_deformation: bool = True,
+    contact_law: str = "paper",
 ) -> LTCA:
     """Loaded tooth contact analysis of a cycloid-pin pair (Eqs. 1–26 of [1]).
 
@@ -143,6 +145,10 @@ def solve_ltca(
     groove_deformation : bool
         True for the "improved model" (pin–groove deformation, Eq. 19), False for the
         "current model".
+    contact_law : {"paper", "half_plane"}
+        The tooth's term of the contact law: Eq. 20 of [1] as published (default), or
+        the approach of a half-plane to the disc centre (Johnson, eq. 5.41), finite at
+        the profile's inflection points; see :mod:`cyclomesh.hertz`.
 
     Returns
     -------
@@ -160,12 +166,13 @@ def solve_ltca(
     if not (isinstance(torque, int | float) and math.isfinite(torque) and torque > 0):
         raise DesignError(f"torque must be a positive number of N·m, got {torque!r}")
     phi = check_crank_angles(crank_angles)
+    check_contact_law(contact_law)
     ring_shape = check_pair(design, modification, errors)
 
     geo = unloaded_contact(design, modification, errors, phi)
     rest = rest_position(geo.rotation, geo.moment_arm)
     backlash = geo.rotation - rest[..., None]
-    alpha, gamma = pin_compliance(geo, design, groove_deformation)
+    alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
     try:
         loaded, force = share_load(backlash, geo.moment_arm, alpha, gamma, torque)
     except ConvergenceError as exc:
@@ -226,10 +233,27 @@ def check_pair(design: PairDesign, modification: Modification, errors: PinErrors
     return ring_shape
 
 
+def check_contact_law(contact_law: str) -> str:
+    """``contact_law`` if it is one of :data:`~cyclomesh.hertz.CONTACT_LAWS`, else a
+    one-line :class:`DesignError` naming the choices."""
+    if contact_law not in CONTACT_LAWS:
+        raise DesignError(
+            f"contact_law must be one of {', '.join(CONTACT_LAWS)}, got {contact_law!r}"
+        )
+    return contact_law
+
+
 def pin_compliance(
-    geo: UnloadedContact, design: PairDesign, groove_deformation: bool
+    geo: UnloadedContact,
+    design: PairDesign,
+    groove_deformation: bool,
+    contact_law: str = "paper",
 ) -> tuple[FloatArray, FloatArray]:
-    """Coefficients (α, γ) of δ = F(α − γ ln F) of every pin contact (Eqs. 19–23 of [1]) [m/N]."""
+    """Coefficients (α, γ) of δ = F(α − γ ln F) of every pin contact [m/N].
+
+    Eqs. 19–23 of [1] with the tooth term of ``contact_law`` (Eq. 20, or the half-plane
+    law of :mod:`cyclomesh.hertz`, Johnson eq. 5.41).
+    """
     with np.errstate(divide="ignore", invalid="ignore"):  # unreachable pins: never loaded
         return compliance_coefficients(
             geo.pin_radius,
@@ -241,6 +265,9 @@ def pin_compliance(
             design.disc_material.compliance,
             design.ring_material.compliance,
             groove_deformation,
+            contact_law,
+            geo.contact_radius,
+            design.disc_material.poisson_ratio,
         )
 
 

@@ -50,6 +50,7 @@ def stiffness(
     crank_angles_deg: ArrayLike | None = None,
     discs: int = 1,
     series_stiffness_nm_per_arcmin: float | None = None,
+    contact_law: str = "paper",
 ) -> xr.Dataset:
     """Torsion curve, play, lost motion and torsional rigidity of the mesh (Eqs. 5–26 of [1]).
 
@@ -75,6 +76,8 @@ def stiffness(
         Torsional stiffness of the rest of the drive in series with the mesh
         [N·m/arcmin]; adds ``drive_rotation``, ``drive_lost_motion`` and
         ``drive_torsional_rigidity``.
+    contact_law : {"paper", "half_plane"}
+        Tooth term of the contact law (:func:`cyclomesh.ltca.solve_ltca`).
 
     Returns
     -------
@@ -108,7 +111,16 @@ def stiffness(
             )
         series = float(k) / ARCMIN
     curve = torsion_curve(
-        design, modification, errors, rated_torque, phi, groove_deformation, discs, points, series
+        design,
+        modification,
+        errors,
+        rated_torque,
+        phi,
+        groove_deformation,
+        discs,
+        points,
+        series,
+        contact_law,
     )
     lead = curve.play.ndim - 1
     if lead > 1:
@@ -185,6 +197,7 @@ def stiffness(
     if ring:
         coords["ring"] = ("ring", np.arange(curve.play.shape[0]))
     attrs = _attrs(phi, design, modification, None, groove_deformation)
+    attrs["contact_law"] = contact_law
     attrs.update(
         title="cyclomesh torsion curve of the cycloid-pin mesh",
         discs=int(n_discs),

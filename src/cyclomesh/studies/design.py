@@ -150,6 +150,7 @@ def compute_design(
             torque=base.torque,
             crank_angles_deg=study.base.analysis.crank_angles_deg(),
             groove_deformation=base.groove_deformation,
+            contact_law=base.contact_law,
             constraints=constraints(space),
             objective=space.objective,
             lost_motion=space.lost_motion,

@@ -115,6 +115,7 @@ def compute_stiffness(
             crank_angles_deg=case.analysis.crank_angles_deg(),
             discs=inputs.discs,
             series_stiffness_nm_per_arcmin=section.series_stiffness_nm_per_arcmin,
+            contact_law=inputs.contact_law,
         )
         ds.attrs.update(
             case_name=case.name,

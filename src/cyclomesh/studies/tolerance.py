@@ -104,6 +104,7 @@ def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
         crank_angles_deg=spec.crank_angles_deg(),
         groove_deformation=bool(core.groove_deformation),
         spec=spec,
+        contact_law=core.contact_law,
     )
 
 
@@ -271,6 +272,7 @@ def worst_ring_study(
         crank_stop_deg=float(spec.crank_stop_deg),
         crank_step_deg=float(spec.crank_step_deg),
         groove_deformation=bool(model.groove_deformation),
+        contact_law=model.contact_law,
     )
     sections["analysis"] = analysis
     sections["errors"] = {
@@ -347,6 +349,7 @@ def compute_tolerance(
             "crank_step_deg": spec.crank_step_deg,
             "torque_nm": model.torque_nm,
             "groove_deformation": int(model.groove_deformation),
+            "contact_law": model.contact_law,
         },
     )
     stats = ring_statistics(ds, spec, spec.allocation.confidence)

@@ -74,6 +74,7 @@ __all__ = [
     "ErrorsSection",
     "AnalysisSection",
     "StiffnessSection",
+    "FeSection",
     "FiguresSection",
     "Uniform",
     "Normal",
@@ -297,6 +298,13 @@ class AnalysisSection(_Section):
     crank_stop_deg: float = Field(360.0, description="crank angle where to stop, excluded [deg]")
     crank_step_deg: float = Field(0.1, gt=0, description="crank angle step [deg]")
     groove_deformation: bool = Field(True, description="the improved model of [1] (Eq. 19)")
+    contact_law: Literal["paper", "half_plane"] = Field(
+        "paper",
+        description=(
+            "tooth term of the contact law: Eq. 20 of [1] as published, or the approach of a "
+            "half-plane to the disc centre (Johnson eq. 5.41), finite at inflection points"
+        ),
+    )
 
     @model_validator(mode="after")
     def _at_least_two_angles(self) -> AnalysisSection:
@@ -451,6 +459,23 @@ class RangeSection(_Section):
         return np.linspace(self.start, self.stop, self.points)
 
 
+class FeSection(_Section):
+    """``[fe]``: the whole-disc finite-element model of ``cyclomesh fe`` (docs/contact-law.md).
+
+    Validated here with every other section (``cyclomesh check``); the FE model itself
+    needs the optional ``fe`` extra (scikit-fem, gmsh).
+    """
+
+    bore_radius_mm: float = Field(30.0, gt=0, description="bore tied to the rigid centre [mm]")
+    crank_angles_deg: list[float] = Field(
+        [0.0, 3.0, 6.0], min_length=1, max_length=24, description="crank angles solved [deg]"
+    )
+    elements_per_half_width: float = Field(
+        8.0, ge=2, le=40, description="contact mesh size: the Hertz half-width b over this"
+    )
+    far_size_mm: float = Field(1.5, gt=0, le=5, description="mesh size away from contacts [mm]")
+
+
 class DesignSpaceSection(_Section):
     """``[design_space]``: swept modification parameters, constraints, objective, rings."""
 
@@ -517,6 +542,7 @@ class CaseInputs:
     read once (lists + file + random draws)."""
     discs: int = 1
     """Number of discs on the pin ring."""
+    contact_law: str = "paper"
 
     def kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`cyclomesh.analyse`."""
@@ -528,6 +554,7 @@ class CaseInputs:
             "crank_angles": self.crank_angles,
             "groove_deformation": self.groove_deformation,
             "discs": self.discs,
+            "contact_law": self.contact_law,
         }
 
 
@@ -653,6 +680,7 @@ class CaseSpec(_Section):
             groove_deformation=self.analysis.groove_deformation,
             errors_um=per_pin,
             discs=d.discs,
+            contact_law=self.analysis.contact_law,
         )
 
 
@@ -677,6 +705,7 @@ class StudyFile(_Section):
     tolerance: ToleranceSection | None = None
     stiffness: StiffnessSection | None = None  # also per case: cases may override it
     design_space: DesignSpaceSection | None = None
+    fe: FeSection | None = None  # cyclomesh fe (the FE model needs the fe extra)
 
 
 @dataclass(frozen=True)

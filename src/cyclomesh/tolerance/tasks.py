@@ -75,6 +75,8 @@ class RingModel:
         Pin-groove deformation on (the improved model of [1]).
     spec : ToleranceSection
         Distributions and seed.
+    contact_law : {"paper", "half_plane"}
+        Tooth term of the contact law (:func:`cyclomesh.ltca.solve_ltca`).
     """
 
     design: PairDesign
@@ -85,6 +87,7 @@ class RingModel:
     crank_angles_deg: NDArray[np.float64]
     groove_deformation: bool
     spec: ToleranceSection
+    contact_law: str = "paper"
 
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
@@ -139,6 +142,7 @@ class RingModel:
             self.torque_nm,
             np.deg2rad(self.crank_angles_deg),
             self.groove_deformation,
+            self.contact_law,
         )
         return ltca_metrics(result, self.design.teeth)
 

@@ -1,0 +1,47 @@
+"""Summarise ``cyclomesh fe`` results: FE against the LTCA with both contact laws.
+
+Run: ``cyclomesh fe examples/fe_table1.toml --out fe-table1``, then
+``python benchmarks/fe_compare.py fe-table1``.
+Prints, per case and crank angle, the largest pin load and contact stress and the disc's
+loaded position in the TE convention −(φc − φt + Δφc) (the same rest position in all
+three), FE and LTCA, and the RMS
+difference of the pin loads from FE in % of the FE peak load.
+"""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+
+def main() -> None:
+    root = Path(sys.argv[1])
+    print(
+        "| case | crank [deg] | loaded pins FE/paper/half | max load FE / paper / half_plane [N] "
+        "| max stress FE / paper / half_plane [MPa] "
+        "| TE-convention position FE / paper / half_plane [arcsec] "
+        "| RMS load error paper / half_plane [% of peak] |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for path in sorted(root.glob("*/fe.nc")):
+        ds = xr.load_dataset(path)
+        for phi in ds.crank_angle.values:
+            d = ds.sel(crank_angle=phi)
+            fe = d.pin_load_fe.values
+            paper, half = d.pin_load_ltca_paper.values, d.pin_load_ltca_half_plane.values
+            print(
+                f"| {ds.attrs['case']} | {phi:g} | {(fe > 0).sum()}/{(paper > 0).sum()}/"
+                f"{(half > 0).sum()} | {fe.max():.0f} / {paper.max():.0f} / {half.max():.0f} | "
+                f"{d.contact_stress_fe.values.max():.0f} / "
+                f"{d.contact_stress_ltca_paper.values.max():.0f} / "
+                f"{d.contact_stress_ltca_half_plane.values.max():.0f} | "
+                f"{float(d.rotation_fe):.2f} / {float(d.rotation_ltca_paper):.2f} / "
+                f"{float(d.rotation_ltca_half_plane):.2f} | "
+                f"{100 * np.sqrt(np.mean((paper - fe) ** 2)) / fe.max():.1f} / "
+                f"{100 * np.sqrt(np.mean((half - fe) ** 2)) / fe.max():.1f} |"
+            )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,273 @@
+"""Whole cycloid disc and its pins by FE at one crank angle, beside the LTCA.
+
+Model (2-D, plane strain, linear elastic, small deformation, frictionless), built in
+the disc frame at the disc's unloaded rest position (Eq. 11), so the pins' gaps are
+their exact backlashes:
+
+* the disc: its whole modified profile (splines through the exact profile, broken at
+  every potential contact so the contact point is a node) with a bore of radius
+  ``bore_radius`` whose nodes are tied to a rigid centre that may rotate by θ (its
+  translation is held by the crank bearing) and carries the torque T/B;
+* each pin that the LTCA loads, or whose gap is within reach of the loaded approach:
+  an elastic disk, contact with the disc unilateral (:func:`solve_contact`);
+* each pin's groove: the ring's term of the Hertz law of Eq. 21 as a spring between the
+  ground and the mean normal displacement of the pin's groove side (weighted by the
+  Hertzian pressure of half-width b_pg over the nodes it covers), acting along the
+  line of action through the pin centre (frictionless: the groove's reaction passes
+  through the centres). The pin's own deformation is the FE's. The spring's secant
+  stiffness depends on the load through b_pg; it is updated until the loads settle.
+
+The mesh is refined at each contact to ``elements_per_half_width`` elements on the Hertz
+half-width of the LTCA load.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cyclomesh.contact import unloaded_contact
+from cyclomesh.design import Modification, PairDesign
+from cyclomesh.exceptions import ConvergenceError
+from cyclomesh.fe.mesh import Refinement, mesh_disk, mesh_profile_disc
+from cyclomesh.fe.solve import Body, ContactPair, boundary_chain, solve_contact, summarize_contact
+from cyclomesh.fe.tooth import _rho_star, disc_outline
+from cyclomesh.hertz import CONTACT_LAWS, effective_modulus, half_width, pin_groove_radius
+from cyclomesh.ltca import rest_position, solve_ltca
+from cyclomesh.profile import modified_profile
+
+__all__ = ["DiscFE", "solve_disc_fe"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class DiscFE:
+    """FE and LTCA results at one crank angle (SI; per pin arrays of length n1).
+
+    Attributes
+    ----------
+    pin_load_fe, pin_load_ltca : ndarray
+        Pin–tooth force [N] (on the face width B).
+    contact_stress_fe, contact_stress_ltca : ndarray
+        Peak pin–tooth contact pressure [Pa].
+    rotation_fe, rotation_ltca : float
+        Loaded rotation Δφc of the disc [rad].
+    rest_rotation : float
+        φc − φt of the unloaded disc [rad].
+    modelled : ndarray
+        Pins in the FE model (bool).
+    nodes : int
+        Nodes of the FE model.
+    groove_iterations : int
+        Updates of the groove springs.
+    """
+
+    pin_load_fe: FloatArray
+    pin_load_ltca: FloatArray
+    contact_stress_fe: FloatArray
+    contact_stress_ltca: FloatArray
+    rotation_fe: float
+    rotation_ltca: float
+    rest_rotation: float
+    modelled: NDArray
+    nodes: int
+    groove_iterations: int
+    ltca_by_law: dict[str, tuple[FloatArray, FloatArray, float]]
+    """Per contact law of :data:`cyclomesh.hertz.CONTACT_LAWS`: (pin load [N], contact
+    stress [Pa], loaded rotation [rad]) of the LTCA."""
+
+
+def solve_disc_fe(
+    design: PairDesign,
+    modification: Modification | None,
+    torque: float,
+    crank_angle: float,
+    bore_radius: float = 30e-3,
+    elements_per_half_width: float = 8.0,
+    far_size: float = 1.5e-3,
+    contact_law: str = "paper",
+    reach: float = 2.0,
+    groove_tolerance: float = 1e-3,
+) -> DiscFE:
+    """Solve the whole disc with its pins by FE at one crank angle [rad]; LTCA beside it.
+
+    Parameters
+    ----------
+    design, modification
+        The pair.
+    torque : float
+        T [N·m].
+    crank_angle : float
+        φin [rad].
+    bore_radius : float
+        Radius of the bore tied to the rigid centre [m].
+    elements_per_half_width : float
+        Mesh size at each contact: b/this, b the Hertz half-width at the LTCA load.
+    far_size : float
+        Mesh size far from the contacts [m].
+    contact_law : str
+        Contact law of the LTCA beside it.
+    reach : float
+        Pins whose unloaded gap is below ``reach`` times the largest LTCA approach are
+        modelled (the others cannot be reached).
+    groove_tolerance : float
+        Relative change of the loads at which the groove-spring update stops.
+    """
+    modification = modification or Modification()
+    phi = np.atleast_1d(float(crank_angle))
+    by_law = {}
+    for law in CONTACT_LAWS:
+        r = solve_ltca(design, modification, None, torque, phi, True, law)
+        by_law[law] = (r.pin_load[0], r.contact_stress[0], float(r.loaded_rotation[0]))
+        if law == contact_law:
+            ltca = r
+    geo = unloaded_contact(design, modification, None, phi)
+    rest = float(rest_position(geo.rotation, geo.moment_arm)[0])
+    n1, n2, rp = design.pins, design.teeth, design.pin_radius
+    pin_m, disc_m, ring_m = design.pin_material, design.disc_material, design.ring_material
+    load_ltca = ltca.pin_load[0]
+    gap = (geo.rotation[0] - rest) * geo.moment_arm[0]
+    approach = float(
+        np.max(np.where(load_ltca > 0, ltca.loaded_rotation[0] * geo.moment_arm[0], 0))
+    )
+    modelled = (load_ltca > 0) | (
+        np.isfinite(gap) & (gap < reach * approach) & (geo.moment_arm[0] > 0)
+    )
+    pins = np.flatnonzero(modelled)
+
+    # the disc frame at rest: pin centres q_i = R(−φc)·(C_i − O2)
+    phi_c = -phi[0] / n2 + rest
+    ang = np.arange(n1) * design.pitch
+    wx = design.pin_circle_radius * np.cos(ang) - design.eccentricity * np.cos(phi[0])
+    wy = design.pin_circle_radius * np.sin(ang) - design.eccentricity * np.sin(phi[0])
+    c, s = np.cos(-phi_c), np.sin(-phi_c)
+    q = np.stack([c * wx - s * wy, s * wx + c * wy])
+    u_nom = n2 * ang + phi[0]
+    phi1 = 2.0 * np.pi * np.round(u_nom / (2.0 * np.pi)) + geo.profile_angle[0]
+
+    width = design.width
+    e_pc = effective_modulus(pin_m.compliance, disc_m.compliance)
+    e_pg = effective_modulus(pin_m.compliance, ring_m.compliance)
+    nominal = np.where(load_ltca > 0, load_ltca, 0.2 * load_ltca.max()) / width  # N/m
+    b_pc = half_width(nominal, _rho_star(rp, geo.curvature_radius[0]), e_pc, 1.0)
+    rho_pg = pin_groove_radius(rp, design.groove_radius)
+    b_pg = half_width(nominal, rho_pg, e_pg, 1.0)
+
+    outline, breaks = disc_outline(design, modification, phi1[pins])
+    px, py = modified_profile(design, modification, phi1[pins])
+    points = np.stack([px, py])
+    h_fine = float(np.min(b_pc[pins])) / elements_per_half_width
+    refine = Refinement(
+        [tuple(p) for p in points.T], h_fine, 1.5 * float(np.max(b_pc[pins])), far_size, 4e-3
+    )
+    disc = Body(
+        *mesh_profile_disc(outline, bore_radius, refine, breaks),
+        disc_m.youngs_modulus,
+        disc_m.poisson_ratio,
+    )
+    bodies = [disc]
+    pairs, eq, weights, normals = [], [], [], []
+    n_pins = pins.size
+    for k, i in enumerate(pins):
+        p_i = points[:, k]
+        n_i = (q[:, i] - p_i) / np.hypot(*(q[:, i] - p_i))
+        t_i = np.array([-n_i[1], n_i[0]])
+        g_i = q[:, i] + rp * n_i
+        h_i = float(b_pc[i]) / elements_per_half_width
+        pin_refine = Refinement(
+            [tuple(p_i)], h_i, 1.5 * float(b_pc[i]), min(far_size, rp / 6), 3e-3
+        )
+        pin = Body(
+            *mesh_disk(tuple(q[:, i]), rp, pin_refine, embed=[tuple(q[:, i])]),
+            pin_m.youngs_modulus,
+            pin_m.poisson_ratio,
+        )
+        bodies.append(pin)
+        body = k + 1
+        slave = boundary_chain(pin, tuple(p_i), 2.5 * float(b_pc[i]))
+        master = boundary_chain(disc, tuple(p_i), 4.0 * float(b_pc[i]))
+        pairs.append(ContactPair(body, 0, slave, master))
+        # groove side: Hertzian weights over the nodes within b_pg of g_i
+        side = boundary_chain(pin, tuple(g_i), max(float(b_pg[i]), 2.5 * rp / 6))
+        xy = pin.mesh.p[:, side]
+        dist = np.hypot(*(xy - g_i[:, None]))
+        bw = max(float(b_pg[i]), 1.01 * float(np.sort(dist)[1]))
+        w = np.sqrt(np.clip(1.0 - (dist / bw) ** 2, 0.0, None))
+        w = w / w.sum()
+        weights.append((side, w))
+        normals.append(n_i)
+        # w_k (extra unknown 1 + k) = Σ ω n·u ;  Σ ω t·u = 0 ; t·u(centre) = 0
+        eq.append(
+            (
+                [
+                    (body, pin.dof(side, 0), w * n_i[0]),
+                    (body, pin.dof(side, 1), w * n_i[1]),
+                    (-1, 1 + k, -1.0),
+                ],
+                0.0,
+            )
+        )
+        eq.append(
+            ([(body, pin.dof(side, 0), w * t_i[0]), (body, pin.dof(side, 1), w * t_i[1])], 0.0)
+        )
+        centre = pin.nearest_node(tuple(q[:, i]))
+        eq.append(([(body, pin.dof(centre, 0), t_i[0]), (body, pin.dof(centre, 1), t_i[1])], 0.0))
+    # bore tied to the rigid centre (extra unknown 0 = θ): u = θ × x
+    bore = np.flatnonzero(np.abs(np.hypot(*disc.mesh.p) - bore_radius) < 1e-6 * bore_radius)
+    for node in bore:
+        x, y = disc.mesh.p[:, node]
+        eq.append(([(0, disc.dof(node, 0), 1.0), (-1, 0, y)], 0.0))
+        eq.append(([(0, disc.dof(node, 1), 1.0), (-1, 0, -x)], 0.0))
+
+    ring_c = ring_m.compliance
+    loads = nominal[pins].copy()
+    extra_forces = np.zeros(1 + n_pins)
+    extra_forces[0] = torque / width
+    active = None
+    iteration = 0
+    for iteration in range(1, 21):  # noqa: B007
+        # secant stiffness of the ring's term of Eq. 21: δ = (2F/π)·c_g·(ln(4ρg/b) − ½)
+        f = np.maximum(loads, 1e-6 * nominal.max())
+        b = half_width(f, rho_pg, e_pg, 1.0)
+        k_groove = 1.0 / (2.0 / np.pi * ring_c * (np.log(4.0 * design.groove_radius / b) - 0.5))
+        sol = solve_contact(
+            bodies,
+            pairs,
+            equalities=eq,
+            n_extra=1 + n_pins,
+            extra_forces=extra_forces,
+            extra_stiffness=np.concatenate([[0.0], k_groove]),
+            initial_active=active,
+        )
+        active = sol.active
+        new = np.array([lam.sum() for lam in sol.contact_force])
+        change = np.max(np.abs(new - loads)) / max(new.max(), 1e-300)
+        loads = new
+        if change < groove_tolerance:
+            break
+    else:
+        raise ConvergenceError("FE: groove springs did not settle")
+    load_fe = np.zeros(n1)
+    stress_fe = np.zeros(n1)
+    for k, i in enumerate(pins):
+        summary = summarize_contact(
+            bodies[k + 1].mesh.p[:, pairs[k].slave_nodes], sol.contact_force[k]
+        )
+        load_fe[i] = summary.load * width
+        stress_fe[i] = summary.peak_pressure
+    return DiscFE(
+        pin_load_fe=load_fe,
+        pin_load_ltca=load_ltca,
+        contact_stress_fe=stress_fe,
+        contact_stress_ltca=ltca.contact_stress[0],
+        rotation_fe=float(sol.extra[0]),
+        rotation_ltca=float(ltca.loaded_rotation[0]),
+        rest_rotation=rest,
+        modelled=modelled,
+        nodes=int(sum(b.n_nodes for b in bodies)),
+        groove_iterations=iteration,
+        ltca_by_law=by_law,
+    )
