@@ -689,9 +689,9 @@ def fe(
     """Whole-disc finite-element model beside the LTCA, per case (needs the fe extra)."""
     try:
         from cyclomesh.fe.study import run_fe_study
-    except ImportError as exc:
+    except (ImportError, OSError) as exc:  # gmsh's wheel also needs X11/OpenGL libraries
         raise StudyError(
-            f"cyclomesh fe needs the fe extra: pip install -e '.[fe]' ({exc.name} is missing)"
+            f"cyclomesh fe needs the fe extra: pip install -e '.[fe]' ({exc})".replace("\n", " ")
         ) from None
     angles = None
     if crank_angles:
