@@ -26,12 +26,13 @@ def main() -> None:
     print("|---|---|---|---|---|---|---|")
     for path in sorted(root.glob("*/fe.nc")):
         ds = xr.load_dataset(path)
+        case = ds.attrs.get("case_name", ds.attrs.get("case"))
         for phi in ds.crank_angle.values:
             d = ds.sel(crank_angle=phi)
             fe = d.pin_load_fe.values
             paper, half = d.pin_load_ltca_paper.values, d.pin_load_ltca_half_plane.values
             print(
-                f"| {ds.attrs['case']} | {phi:g} | {(fe > 0).sum()}/{(paper > 0).sum()}/"
+                f"| {case} | {phi:g} | {(fe > 0).sum()}/{(paper > 0).sum()}/"
                 f"{(half > 0).sum()} | {fe.max():.0f} / {paper.max():.0f} / {half.max():.0f} | "
                 f"{d.contact_stress_fe.values.max():.0f} / "
                 f"{d.contact_stress_ltca_paper.values.max():.0f} / "

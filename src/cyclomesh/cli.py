@@ -685,14 +685,24 @@ def fe(
         bool, typer.Option(help="Also solve the first angle at half the contact mesh density.")
     ] = True,
     quiet: QuietOption = False,
+    figures: FiguresOption = None,
 ) -> None:
-    """Whole-disc finite-element model beside the LTCA, per case (needs the fe extra)."""
+    """Whole-disc finite-element model beside the LTCA, per case (needs the fe extra).
+
+    Writes <case>/fe.nc, <case>/convergence.csv, summary.json, the figures and
+    report.html (docs/contact-law.md).
+    """
     try:
-        from cyclomesh.fe.study import run_fe_study
+        import gmsh  # noqa: F401
+        import skfem  # noqa: F401
     except (ImportError, OSError) as exc:  # gmsh's wheel also needs X11/OpenGL libraries
         raise StudyError(
             f"cyclomesh fe needs the fe extra: pip install -e '.[fe]' ({exc})".replace("\n", " ")
         ) from None
+    from cyclomesh.pipeline import publish
+    from cyclomesh.studies import fe as kind
+    from cyclomesh.study import load_study
+
     angles = None
     if crank_angles:
         try:
@@ -701,5 +711,38 @@ def fe(
             raise StudyError(
                 f"--crank-angles: expected numbers separated by commas, got {crank_angles!r}"
             ) from None
-    for path in run_fe_study(study, out, angles, convergence, progress=lambda m: _say(m, quiet)):
-        _say(f"written: {path}", quiet)
+    loaded = load_study(study)
+    kind.check_fe(loaded)
+    options = output_options(loaded, figures)
+    console = stderr_console(quiet)
+    result = kind.compute_fe(
+        loaded, crank_angles_deg=angles, convergence=convergence, progress=console.print
+    )
+    files = kind.write_fe(result, out)
+    publish(
+        out,
+        f"{loaded.title}: FE check",
+        kind.fe_sections(result),
+        kind.fe_figures(result) if options.figures else [],
+        files,
+        options,
+        {"study file": loaded.path.name, "SHA-256 of the study file": loaded.sha256},
+    )
+    if not quiet:
+        _print_fe(result.summaries, out)
+
+
+def _print_fe(summaries: dict, out: Path) -> None:
+    from rich.console import Console
+    from rich.markup import escape
+    from rich.table import Table
+
+    from cyclomesh.metrics import FE_METRICS
+
+    table = Table("metric", "unit", *(escape(name) for name in summaries))
+    for key, m in FE_METRICS.items():
+        cells = [record.get(key) for record in summaries.values()]
+        table.add_row(m.long_name, m.unit, *("–" if v is None else f"{v:.4g}" for v in cells))
+    console = Console()
+    console.print(table)
+    console.print(f"report: {out / 'report.html'}")

@@ -23,6 +23,7 @@ __all__ = [
     "METRICS",
     "DRIVE_METRICS",
     "STIFFNESS_METRICS",
+    "FE_METRICS",
     "STRESS_METRIC",
     "summary_metrics",
     "metric_label",
@@ -145,13 +146,54 @@ STIFFNESS_METRICS: dict[str, Metric] = {
 }
 """Headline numbers of a torsion curve (``cyclomesh stiffness``; docs/drive.md)."""
 
+
+def _fe_metrics() -> dict[str, Metric]:
+    out = [
+        Metric("fe_max_pin_load_n", "N", "largest pin load, FE", "FE max pin load"),
+        Metric(
+            "fe_max_contact_stress_mpa", "MPa", "peak contact stress, pin-tooth, FE", "FE max σH"
+        ),
+        Metric(
+            "fe_rotation_arcsec_mean",
+            "arcsec",
+            "mean loaded disc position, FE (TE convention, Eq. 25)",
+            "FE rotation",
+        ),
+    ]
+    for law in ("paper", "half_plane"):
+        out += [
+            Metric(f"ltca_{law}_max_pin_load_n", "N", f"largest pin load, LTCA ({law} law)", law),
+            Metric(
+                f"ltca_{law}_pin_load_rms_pct",
+                "%",
+                f"RMS of LTCA ({law} law) minus FE pin loads, % of the FE peak",
+                f"{law} RMS dev.",
+            ),
+            Metric(
+                f"ltca_{law}_rotation_arcsec_mean",
+                "arcsec",
+                f"mean loaded disc position, LTCA ({law} law)",
+                f"{law} rotation",
+            ),
+        ]
+    return {m.name: m for m in out}
+
+
+FE_METRICS: dict[str, Metric] = _fe_metrics()
+"""Headline numbers of an FE check (``cyclomesh fe``; docs/contact-law.md)."""
+
 STRESS_METRIC = "max_contact_stress_mpa"
 """The metric compared with the allowable contact stress (tolerance studies)."""
 
 
 def metric_label(name: str) -> str:
     """``long name [unit]`` for axes and tables (no unit for dimensionless metrics)."""
-    m = METRICS.get(name) or DRIVE_METRICS.get(name) or STIFFNESS_METRICS[name]
+    m = (
+        METRICS.get(name)
+        or DRIVE_METRICS.get(name)
+        or STIFFNESS_METRICS.get(name)
+        or FE_METRICS[name]
+    )
     return m.long_name if m.unit == "1" else f"{m.long_name} [{m.unit}]"
 
 
