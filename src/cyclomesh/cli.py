@@ -245,6 +245,10 @@ def check(study: StudyArg, crank_step_deg: StepOption = None) -> None:
     more = "; [tolerance] OK" if loaded.tolerance is not None else ""
     if any(case.stiffness is not None for case in loaded.cases):
         more += "; [stiffness] OK"
+    if loaded.file.design_space is not None:
+        more += "; [design_space] OK"
+    if loaded.file.fe is not None:
+        more += "; [fe] OK"
     typer.echo(f"{study}: {len(loaded.cases)} case(s) OK: {names}{more}")
 
 
