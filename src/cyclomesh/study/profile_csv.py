@@ -15,14 +15,13 @@ Lines starting with ``#`` are comments. Errors name the file and the line.
 
 from __future__ import annotations
 
-import csv
-import math
 from pathlib import Path
 
 import numpy as np
 
 from cyclomesh.exceptions import DesignError, StudyError
 from cyclomesh.modification import ProfileDeviation
+from cyclomesh.study.measurements import integer_cell, number_cell, read_csv_table
 
 __all__ = ["PROFILE_COLUMNS", "read_profile_csv"]
 
@@ -56,23 +55,7 @@ def read_profile_csv(
         or a table the core refuses (not monotone, too coarse, not spanning the flank),
         naming the line.
     """
-    where = f"{key}: {path.name}"
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise StudyError(f"{key}: file not found: {path}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise StudyError(f"{key}: cannot read {path}: {exc}") from None
-    numbered = [
-        (number, line)
-        for number, line in enumerate(text.splitlines(), start=1)
-        if line.strip() and not line.lstrip().startswith("#")
-    ]
-    if not numbered:
-        raise StudyError(f"{where}: the file is empty")
-    reader = csv.DictReader(line for _, line in numbered)
-    header = [name.strip() for name in reader.fieldnames or []]
-    reader.fieldnames = header
+    where, header, table = read_csv_table(path, key)
     allowed = (*PROFILE_COLUMNS, "tooth")
     missing = [name for name in PROFILE_COLUMNS if name not in header]
     unknown = [name for name in header if name not in allowed]
@@ -81,28 +64,9 @@ def read_profile_csv(
         raise StudyError(f"{where}: {what} (columns: {', '.join(allowed)}; tooth optional)")
     per_tooth = "tooth" in header
     tables: dict[int, list[tuple[float, float, int]]] = {}
-    for (line, _), row in zip(numbered[1:], reader, strict=False):
-        if None in row or any(row[name] is None for name in header):
-            raise StudyError(f"{where} line {line}: expected {len(header)} values")
-        tooth = 1
-        if per_tooth:
-            cell = row["tooth"].strip()
-            try:
-                tooth = int(cell)
-            except ValueError:
-                raise StudyError(f"{where} line {line}: tooth {cell!r} is not an integer") from None
-            if not 1 <= tooth <= teeth:
-                raise StudyError(f"{where} line {line}: tooth {tooth} is not in 1..{teeth}")
-        values = []
-        for name in PROFILE_COLUMNS:
-            cell = row[name].strip()
-            try:
-                value = float(cell)
-            except ValueError:
-                value = math.nan
-            if not math.isfinite(value):
-                raise StudyError(f"{where} line {line}: {name} {cell!r} is not a finite number")
-            values.append(value)
+    for line, row in table:
+        tooth = integer_cell(where, line, "tooth", row["tooth"], teeth) if per_tooth else 1
+        values = [number_cell(where, line, name, row[name]) for name in PROFILE_COLUMNS]
         tables.setdefault(tooth, []).append((values[0], values[1], line))
     if not tables:
         raise StudyError(f"{where}: no data rows")
