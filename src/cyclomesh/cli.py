@@ -159,6 +159,45 @@ def main(
     """Loaded tooth contact analysis of cycloid-pin gear pairs (Li et al., Machines 2022)."""
 
 
+@contextmanager
+def _dask_hidden(hide: bool = True) -> Iterator[None]:
+    """Hide an installed dask from this process while a command runs.
+
+    xarray checks every new array and index for dask arrays, and imports ``dask`` and
+    ``dask.array`` to do so when they are installed (the ``cluster`` extra): 0.5 s,
+    more than the solve of a run. A command without ``--scheduler`` never gives xarray
+    a dask array, so ``sys.modules["dask"] = None`` makes xarray (and the forked
+    figure workers) see dask as absent. Undone on exit, with xarray's cached answer,
+    so that the rest of a process (tests) sees dask again.
+    """
+    if not hide or "dask" in sys.modules:
+        yield
+        return
+    sys.modules["dask"] = None  # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        if "dask" in sys.modules and sys.modules["dask"] is None:
+            del sys.modules["dask"]
+        pycompat = sys.modules.get("xarray.namedarray.pycompat")
+        cached = getattr(pycompat, "_cached_duck_array_modules", None)
+        if isinstance(cached, dict) and not getattr(cached.get("dask"), "available", True):
+            del cached["dask"]
+
+
+def _without_dask(command: Callable[..., Any]) -> Callable[..., Any]:
+    """Run ``command`` with dask hidden (:func:`_dask_hidden`) unless it was given
+    a Dask ``scheduler``."""
+    import functools
+
+    @functools.wraps(command)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        with _dask_hidden(kwargs.get("scheduler") is None):
+            return command(*args, **kwargs)
+
+    return wrapper
+
+
 def _overrides(crank_step_deg: float | None) -> dict:
     return {} if crank_step_deg is None else {"analysis": {"crank_step_deg": crank_step_deg}}
 
@@ -250,6 +289,7 @@ def check(study: StudyArg, crank_step_deg: StepOption = None) -> None:
 
 @app.command()
 @cli_errors()
+@_without_dask
 def run(
     study: StudyArg,
     out: OutOption,
@@ -266,11 +306,16 @@ def run(
     loaded = load_study(study, _overrides(crank_step_deg))
     options = output_options(loaded, figures, csv)
     with _figure_pool(options) as pool:  # forked now: imports matplotlib while we solve
+        early = kind.input_figures(loaded) if options.figures else []
+        if pool is not None:  # the profile is drawn while the cases are solved
+            pool.submit(early, options.figures, options.dpi)
         with progress_bar(len(loaded.cases), "cases", quiet) as advance:
             result = kind.compute_run(loaded, on_done=lambda name: advance(1))
+        jobs = kind.run_figures(result, early) if options.figures else []
+        if pool is not None:  # drawn while the result files are written
+            pool.submit(jobs, options.figures, options.dpi)
         _say("writing results, figures and report", quiet)
         files = kind.write_run(result, out, options)
-        jobs = kind.run_figures(result) if options.figures else []
         publish(
             out,
             loaded.title,
@@ -330,6 +375,7 @@ def _print_summary(summaries: dict, out: Path) -> None:
 
 @app.command()
 @cli_errors()
+@_without_dask
 def stiffness(
     study: StudyArg,
     out: OutOption,
@@ -422,7 +468,7 @@ def _preload(figures: bool) -> Any:
         import numpy as np
         import xarray as xr
 
-        xr.DataArray(np.zeros(1))  # the first array makes xarray import its array backends
+        xr.DataArray(np.zeros(1))  # the first array sets up xarray's array backends
         if figures:
             from cyclomesh.figures.render import _warm
 
@@ -441,6 +487,7 @@ def _backend(scheduler: str | None, workers: int | None) -> Any:
 
 @app.command()
 @cli_errors()
+@_without_dask
 def tolerance(
     study: Annotated[
         Path,
@@ -494,6 +541,7 @@ def tolerance(
 
 @app.command()
 @cli_errors()
+@_without_dask
 def allocate(
     study: Annotated[
         Path,
@@ -600,6 +648,7 @@ def _print_tolerance(stats: dict[str, Any], out: Path) -> None:
 
 @app.command()
 @cli_errors()
+@_without_dask
 def design(
     study: Annotated[
         Path,
