@@ -161,16 +161,16 @@ def main(
 
 @contextmanager
 def _dask_hidden(hide: bool = True) -> Iterator[None]:
-    """Hide an installed dask from this process while a command runs.
+    """Hide an installed dask from xarray while a command runs.
 
     xarray checks every new array and index for dask arrays, and imports ``dask`` and
     ``dask.array`` to do so when they are installed (the ``cluster`` extra): 0.5 s,
     more than the solve of a run. A command without ``--scheduler`` never gives xarray
-    a dask array, so ``sys.modules["dask"] = None`` makes xarray (and the forked
-    figure workers) see dask as absent. Undone on exit, with xarray's cached answer,
-    so that the rest of a process (tests) sees dask again.
+    a dask array, so if neither is imported yet, ``sys.modules["dask"] = None`` makes
+    xarray (and the forked figure workers) see dask as absent. Undone on exit, with
+    xarray's cached answers, so that the rest of a process (tests) sees dask again.
     """
-    if not hide or "dask" in sys.modules:
+    if not hide or "dask" in sys.modules or "xarray" in sys.modules:
         yield
         return
     sys.modules["dask"] = None  # type: ignore[assignment]
@@ -179,10 +179,22 @@ def _dask_hidden(hide: bool = True) -> Iterator[None]:
     finally:
         if "dask" in sys.modules and sys.modules["dask"] is None:
             del sys.modules["dask"]
-        pycompat = sys.modules.get("xarray.namedarray.pycompat")
-        cached = getattr(pycompat, "_cached_duck_array_modules", None)
-        if isinstance(cached, dict) and not getattr(cached.get("dask"), "available", True):
-            del cached["dask"]
+        _forget_no_dask()
+
+
+def _forget_no_dask() -> None:
+    """Drop xarray's cached "dask is not installed" (see :func:`_dask_hidden`)."""
+    utils = sys.modules.get("xarray.namedarray.utils")
+    clear = getattr(getattr(utils, "module_available", None), "cache_clear", None)
+    if clear is not None:
+        clear()
+    pycompat = sys.modules.get("xarray.namedarray.pycompat")
+    cached = getattr(pycompat, "_cached_duck_array_modules", None)
+    if isinstance(cached, dict) and not getattr(cached.get("dask"), "available", True):
+        del cached["dask"]
+    ops = sys.modules.get("xarray.core.duck_array_ops")
+    if getattr(ops, "dask_available", None) is False:
+        ops.dask_available = utils.module_available("dask")  # type: ignore[union-attr]
 
 
 def _without_dask(command: Callable[..., Any]) -> Callable[..., Any]:
