@@ -484,7 +484,7 @@ def _preload(figures: bool) -> Any:
         if figures:
             from cyclomesh.figures.render import _warm
 
-            _warm()
+            _warm(draw=True)  # the figure workers forked later inherit it
 
     thread = threading.Thread(target=work, name="cyclomesh-preload", daemon=True)
     thread.start()

@@ -166,22 +166,24 @@ def _draw(job: FigureJob, folder: Path | None, formats: Sequence[str], dpi: int)
     return _save(job, _render(job, formats, dpi), folder, formats)
 
 
-def _warm() -> None:
-    """Import matplotlib and the plot modules (in a worker, while the study computes)."""
+_WARM = False
+"""Whether this process has drawn :func:`_warm`'s throw-away figure."""
+
+
+def _warm(draw: bool = False) -> None:
+    """Import matplotlib and the plot modules (in a worker, while the study computes).
+
+    With ``draw``, also draw one small figure and throw it away (once per process):
+    fonts, text layout, markers and the PNG writer are set up on first use, 0.2–0.4 s
+    that the first real figure would pay; processes forked afterwards inherit them.
+    """
+    global _WARM
     import matplotlib.backends.backend_agg  # noqa: F401
 
     import cyclomesh.figures.run  # noqa: F401
 
-
-def _warm_worker() -> None:
-    """Start of a figure worker: imports, then one small figure drawn and thrown away
-    (fonts, text layout, markers and the PNG writer are set up on first use: 0.2–0.4 s
-    that the first real figure would pay), then :func:`gc.freeze`: the objects of the
-    imports are never scanned again (a tenth of a figure's time went to full
-    collections over them)."""
-    import gc
-
-    _warm()
+    if not draw or _WARM:
+        return
     fig = new_figure(2.0, 1.5)
     ax = fig.subplots()
     ax.plot([0.0, 1.0], [0.0, 1.0], ".-", label="φ1 µm °")
@@ -191,6 +193,16 @@ def _warm_worker() -> None:
     ax.set_xlabel("crank angle [deg]")
     ax.legend(fontsize="small")
     fig.savefig(io.BytesIO(), format="png", dpi=20, pil_kwargs={"compress_level": PNG_COMPRESSION})
+    _WARM = True
+
+
+def _warm_worker() -> None:
+    """Start of a figure worker: :func:`_warm` with its figure (unless the parent drew
+    it), then :func:`gc.freeze`: the objects of the imports are never scanned again (a
+    tenth of a figure's time went to full collections over them)."""
+    import gc
+
+    _warm(draw=True)
     gc.freeze()
 
 
@@ -308,7 +320,7 @@ def render_figures(
         workers = _cpus() if len(jobs) >= POOL_MIN_FIGURES else 1
     workers = min(workers, len(jobs))
     if workers > 1:
-        _warm()  # once here rather than in every forked worker
+        _warm(draw=True)  # once here rather than in every forked worker
         with FigurePool(workers) as own:
             if own.active:
                 return own.map(jobs, folder, formats, dpi)
