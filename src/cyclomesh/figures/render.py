@@ -141,10 +141,8 @@ def _render(job: FigureJob, formats: Sequence[str], dpi: int) -> dict[str, bytes
     contents = {}
     for fmt in ("png", *(f for f in formats if f != "png")):
         buffer = io.BytesIO()
-        if fmt == "png":
-            fig.savefig(buffer, format="png", dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESSION})
-        else:
-            fig.savefig(buffer, format=fmt, dpi=dpi)
+        png = {"pil_kwargs": {"compress_level": PNG_COMPRESSION}} if fmt == "png" else {}
+        fig.savefig(buffer, format=fmt, dpi=dpi, **png)
         contents[fmt] = buffer.getvalue()
     return contents
 
