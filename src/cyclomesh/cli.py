@@ -461,10 +461,13 @@ def _figure_pool(options: Any) -> Any:
 
     if not options.figures:
         return nullcontext(None)
+    import gc
+
     import xarray  # noqa: F401  (needed here anyway: inherited by the forked workers)
 
     from cyclomesh.figures.render import FigurePool
 
+    gc.freeze()  # the workers' collections then leave the inherited objects (and pages) alone
     return FigurePool(options.figure_workers)
 
 
@@ -485,6 +488,9 @@ def _preload(figures: bool) -> Any:
             from cyclomesh.figures.render import _warm
 
             _warm(draw=True)  # the figure workers forked later inherit it
+        import gc
+
+        gc.freeze()  # nor do their collections scan what they inherit
 
     thread = threading.Thread(target=work, name="cyclomesh-preload", daemon=True)
     thread.start()
