@@ -225,6 +225,48 @@ def test_renderer_saves_every_format_the_same_in_a_pool_or_not(tmp_path, cases):
         render_figures(jobs, tmp_path, ("gif",))
 
 
+def test_pool_draws_submitted_figures_once_and_writes_only_when_collected(tmp_path, cases):
+    from cyclomesh.figures.render import FigureJob, FigurePool, render_figures
+
+    jobs = [
+        FigureJob("contacts", figures.plot_contacts, (cases,), caption="c", section="A"),
+        FigureJob("ratio", figures.plot_gear_ratio, (cases,), caption="r", section="B"),
+    ]
+    serial = render_figures(jobs, tmp_path / "one", ("png", "svg"), 60, workers=1)
+    folder = tmp_path / "two"
+    with FigurePool(2) as pool:
+        pool.submit(jobs[:1], ("png", "svg"), 60)  # e.g. before the solve
+        pool.submit(jobs, ("png", "svg"), 60)  # the first one is not drawn twice
+        assert not folder.exists()  # workers draw; files come when collected
+        pooled = render_figures(jobs, folder, ("png", "svg"), 60, pool=pool)
+    assert [f.name for f in pooled] == ["contacts", "ratio"]
+    for one, two in zip(serial, pooled, strict=True):
+        assert one.png == two.png
+        assert [p.name for p in two.files] == [f"{two.name}.png", f"{two.name}.svg"]
+        assert (folder / f"{two.name}.svg").read_bytes().startswith(b"<?xml")
+
+
+def test_commands_hide_dask_from_xarray_and_restore_it():
+    """Without --scheduler a command's xarray never imports dask (0.5 s); afterwards
+    the process sees dask again."""
+    import subprocess
+    import sys
+
+    pytest.importorskip("dask")
+    code = (
+        "import sys, numpy as np\n"
+        "from cyclomesh.cli import _dask_hidden\n"
+        "with _dask_hidden():\n"
+        "    import xarray as xr\n"
+        "    xr.Dataset({'a': ('x', np.zeros(3))}, coords={'x': np.arange(3)}).sel(x=1)\n"
+        "    assert 'dask.array' not in sys.modules, 'dask imported'\n"
+        "assert 'dask' not in sys.modules\n"
+        "import dask.array as da\n"
+        "assert xr.DataArray(da.zeros(3)).chunks is not None\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
 def test_figure_formats_option():
     from cyclomesh.exceptions import StudyError
     from cyclomesh.pipeline import parse_figure_formats

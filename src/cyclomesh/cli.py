@@ -159,6 +159,57 @@ def main(
     """Loaded tooth contact analysis of cycloid-pin gear pairs (Li et al., Machines 2022)."""
 
 
+@contextmanager
+def _dask_hidden(hide: bool = True) -> Iterator[None]:
+    """Hide an installed dask from xarray while a command runs.
+
+    xarray checks every new array and index for dask arrays, and imports ``dask`` and
+    ``dask.array`` to do so when they are installed (the ``cluster`` extra): 0.5 s,
+    more than the solve of a run. A command without ``--scheduler`` never gives xarray
+    a dask array, so if neither is imported yet, ``sys.modules["dask"] = None`` makes
+    xarray (and the forked figure workers) see dask as absent. Undone on exit, with
+    xarray's cached answers, so that the rest of a process (tests) sees dask again.
+    """
+    if not hide or "dask" in sys.modules or "xarray" in sys.modules:
+        yield
+        return
+    sys.modules["dask"] = None  # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        if "dask" in sys.modules and sys.modules["dask"] is None:
+            del sys.modules["dask"]
+        _forget_no_dask()
+
+
+def _forget_no_dask() -> None:
+    """Drop xarray's cached "dask is not installed" (see :func:`_dask_hidden`)."""
+    utils = sys.modules.get("xarray.namedarray.utils")
+    clear = getattr(getattr(utils, "module_available", None), "cache_clear", None)
+    if clear is not None:
+        clear()
+    pycompat = sys.modules.get("xarray.namedarray.pycompat")
+    cached = getattr(pycompat, "_cached_duck_array_modules", None)
+    if isinstance(cached, dict) and not getattr(cached.get("dask"), "available", True):
+        del cached["dask"]
+    ops = sys.modules.get("xarray.core.duck_array_ops")
+    if getattr(ops, "dask_available", None) is False:
+        ops.dask_available = utils.module_available("dask")  # type: ignore[union-attr]
+
+
+def _without_dask(command: Callable[..., Any]) -> Callable[..., Any]:
+    """Run ``command`` with dask hidden (:func:`_dask_hidden`) unless it was given
+    a Dask ``scheduler``."""
+    import functools
+
+    @functools.wraps(command)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        with _dask_hidden(kwargs.get("scheduler") is None):
+            return command(*args, **kwargs)
+
+    return wrapper
+
+
 def _overrides(crank_step_deg: float | None) -> dict:
     return {} if crank_step_deg is None else {"analysis": {"crank_step_deg": crank_step_deg}}
 
@@ -254,6 +305,7 @@ def check(study: StudyArg, crank_step_deg: StepOption = None) -> None:
 
 @app.command()
 @cli_errors()
+@_without_dask
 def run(
     study: StudyArg,
     out: OutOption,
@@ -270,11 +322,16 @@ def run(
     loaded = load_study(study, _overrides(crank_step_deg))
     options = output_options(loaded, figures, csv)
     with _figure_pool(options) as pool:  # forked now: imports matplotlib while we solve
+        early = kind.input_figures(loaded) if options.figures else []
+        if pool is not None:  # the profile is drawn while the cases are solved
+            pool.submit(early, options.figures, options.dpi)
         with progress_bar(len(loaded.cases), "cases", quiet) as advance:
             result = kind.compute_run(loaded, on_done=lambda name: advance(1))
+        jobs = kind.run_figures(result, early) if options.figures else []
+        if pool is not None:  # drawn while the result files are written
+            pool.submit(jobs, options.figures, options.dpi)
         _say("writing results, figures and report", quiet)
         files = kind.write_run(result, out, options)
-        jobs = kind.run_figures(result) if options.figures else []
         publish(
             out,
             loaded.title,
@@ -334,6 +391,7 @@ def _print_summary(summaries: dict, out: Path) -> None:
 
 @app.command()
 @cli_errors()
+@_without_dask
 def stiffness(
     study: StudyArg,
     out: OutOption,
@@ -407,10 +465,13 @@ def _figure_pool(options: Any) -> Any:
 
     if not options.figures:
         return nullcontext(None)
+    import gc
+
     import xarray  # noqa: F401  (needed here anyway: inherited by the forked workers)
 
     from cyclomesh.figures.render import FigurePool
 
+    gc.freeze()  # the workers' collections then leave the inherited objects (and pages) alone
     return FigurePool(options.figure_workers)
 
 
@@ -426,11 +487,14 @@ def _preload(figures: bool) -> Any:
         import numpy as np
         import xarray as xr
 
-        xr.DataArray(np.zeros(1))  # the first array makes xarray import its array backends
+        xr.DataArray(np.zeros(1))  # the first array sets up xarray's array backends
         if figures:
             from cyclomesh.figures.render import _warm
 
-            _warm()
+            _warm(draw=True)  # the figure workers forked later inherit it
+        import gc
+
+        gc.freeze()  # nor do their collections scan what they inherit
 
     thread = threading.Thread(target=work, name="cyclomesh-preload", daemon=True)
     thread.start()
@@ -445,6 +509,7 @@ def _backend(scheduler: str | None, workers: int | None) -> Any:
 
 @app.command()
 @cli_errors()
+@_without_dask
 def tolerance(
     study: Annotated[
         Path,
@@ -498,6 +563,7 @@ def tolerance(
 
 @app.command()
 @cli_errors()
+@_without_dask
 def allocate(
     study: Annotated[
         Path,
@@ -604,6 +670,7 @@ def _print_tolerance(stats: dict[str, Any], out: Path) -> None:
 
 @app.command()
 @cli_errors()
+@_without_dask
 def design(
     study: Annotated[
         Path,

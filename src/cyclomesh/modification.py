@@ -39,12 +39,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import CubicSpline, PPoly
 
 from cyclomesh.exceptions import DesignError
+
+if TYPE_CHECKING:  # scipy.interpolate is imported when a table is read (0.3 s)
+    from scipy.interpolate import CubicSpline, PPoly
 
 __all__ = ["ProfileDeviation", "MAX_ANGLE_STEP"]
 
@@ -156,6 +159,8 @@ class ProfileDeviation:
         return end
 
     def _row_spline(self, j: int) -> CubicSpline:
+        from scipy.interpolate import CubicSpline
+
         phi, dev = self.angle[j], self.deviation[j]
         if self._symmetric:  # mirror about the tooth-space bottom φ1 = 0
             phi = np.concatenate([phi, -phi[-2::-1]])
@@ -165,6 +170,8 @@ class ProfileDeviation:
         return CubicSpline(phi, dev, bc_type=((1, 0.0), (1, 0.0)))
 
     def _build_spline(self) -> PPoly:
+        from scipy.interpolate import PPoly
+
         xs, cs = [], []
         for j in range(self.angle.shape[0]):
             sp = self._row_spline(j)

@@ -134,28 +134,74 @@ def decimate(
     return x[keep], y[keep]
 
 
-def _draw(job: FigureJob, folder: Path | None, formats: Sequence[str], dpi: int) -> RenderedFigure:
+def _render(job: FigureJob, formats: Sequence[str], dpi: int) -> dict[str, bytes]:
+    """Draw ``job`` and return its file contents: PNG (always, for the report) and
+    every other format of ``formats``."""
     fig = job.plot(*job.args, **dict(job.kwargs))
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESSION})
-    png = buffer.getvalue()
+    contents = {}
+    for fmt in ("png", *(f for f in formats if f != "png")):
+        buffer = io.BytesIO()
+        png = {"pil_kwargs": {"compress_level": PNG_COMPRESSION}} if fmt == "png" else {}
+        fig.savefig(buffer, format=fmt, dpi=dpi, **png)
+        contents[fmt] = buffer.getvalue()
+    return contents
+
+
+def _save(
+    job: FigureJob, contents: Mapping[str, bytes], folder: Path | None, formats: Sequence[str]
+) -> RenderedFigure:
+    """Write the drawn ``contents`` of ``job`` into ``folder`` (in this process)."""
     files = []
     if folder is not None:
         for fmt in formats:
             path = folder / f"{job.name}.{fmt}"
-            if fmt == "png":
-                path.write_bytes(png)
-            else:
-                fig.savefig(path, format=fmt, dpi=dpi)
+            path.write_bytes(contents[fmt])
             files.append(path)
-    return RenderedFigure(job.name, job.caption, job.section, png, tuple(files))
+    return RenderedFigure(job.name, job.caption, job.section, contents["png"], tuple(files))
 
 
-def _warm() -> None:
-    """Import matplotlib and the plot modules (in a worker, while the study computes)."""
+def _draw(job: FigureJob, folder: Path | None, formats: Sequence[str], dpi: int) -> RenderedFigure:
+    return _save(job, _render(job, formats, dpi), folder, formats)
+
+
+_WARM = False
+"""Whether this process has drawn :func:`_warm`'s throw-away figure."""
+
+
+def _warm(draw: bool = False) -> None:
+    """Import matplotlib and the plot modules (in a worker, while the study computes).
+
+    With ``draw``, also draw one small figure and throw it away (once per process):
+    fonts, text layout, markers and the PNG writer are set up on first use, 0.2–0.4 s
+    that the first real figure would pay; processes forked afterwards inherit them.
+    """
+    global _WARM
     import matplotlib.backends.backend_agg  # noqa: F401
 
     import cyclomesh.figures.run  # noqa: F401
+
+    if not draw or _WARM:
+        return
+    fig = new_figure(2.0, 1.5)
+    ax = fig.subplots()
+    ax.plot([0.0, 1.0], [0.0, 1.0], ".-", label="φ1 µm °")
+    ax.imshow(np.ma.masked_less_equal([[0.0, 1.0], [2.0, 3.0]], 0.0), aspect="auto")
+    fig.colorbar(ax.images[0], ax=ax, label="[MPa]")
+    ax.set_title("warm-up", fontsize="medium")
+    ax.set_xlabel("crank angle [deg]")
+    ax.legend(fontsize="small")
+    fig.savefig(io.BytesIO(), format="png", dpi=20, pil_kwargs={"compress_level": PNG_COMPRESSION})
+    _WARM = True
+
+
+def _warm_worker() -> None:
+    """Start of a figure worker: :func:`_warm` with its figure (unless the parent drew
+    it), then :func:`gc.freeze`: the objects of the imports are never scanned again (a
+    tenth of a figure's time went to full collections over them)."""
+    import gc
+
+    _warm(draw=True)
+    gc.freeze()
 
 
 def _nothing() -> None:
@@ -170,11 +216,17 @@ class FigurePool:
     only when this process has a single thread and ``fork`` exists; otherwise (or
     with ``workers`` ≤ 1) the pool is empty and figures are drawn in this process.
     Use as a context manager; pass it to :func:`render_figures`.
+
+    :meth:`submit` starts jobs as soon as their inputs exist (the profile before the
+    solve, the result figures before the result files are written); the workers only
+    draw, this process writes the files when :meth:`map` (:func:`render_figures`)
+    collects them, so nothing is written for a study that fails.
     """
 
     def __init__(self, workers: int | None = None) -> None:
         self.workers = _cpus() if workers is None else workers
         self._pool: ProcessPoolExecutor | None = None
+        self._pending: dict[tuple[int, tuple[str, ...], int], tuple[FigureJob, Any]] = {}
         if (
             self.workers > 1
             and "fork" in multiprocessing.get_all_start_methods()
@@ -183,7 +235,7 @@ class FigurePool:
             self._pool = ProcessPoolExecutor(
                 max_workers=self.workers,
                 mp_context=multiprocessing.get_context("fork"),
-                initializer=_warm,
+                initializer=_warm_worker,
             )
             self._pool.submit(_nothing)  # fork all workers now
 
@@ -192,19 +244,36 @@ class FigurePool:
         """Whether there are worker processes."""
         return self._pool is not None
 
+    def submit(self, jobs: Sequence[FigureJob], formats: Sequence[str], dpi: int) -> None:
+        """Start drawing ``jobs`` now (no file is written until :meth:`map`); jobs
+        already submitted are not drawn twice. Does nothing without workers."""
+        if self._pool is None:
+            return
+        for job in jobs:
+            key = (id(job), tuple(formats), dpi)
+            if key not in self._pending:
+                future = self._pool.submit(_render, job, tuple(formats), dpi)
+                self._pending[key] = (job, future)  # the job is kept: its id stays unique
+
     def map(
         self, jobs: Sequence[FigureJob], folder: Path | None, formats: Sequence[str], dpi: int
     ) -> list[RenderedFigure]:
-        """Draw ``jobs`` in the workers (in order of the jobs)."""
+        """Draw ``jobs`` in the workers (those not yet submitted), write their files into
+        ``folder`` and return them in order of the jobs."""
         assert self._pool is not None
-        futures = [self._pool.submit(_draw, job, folder, tuple(formats), dpi) for job in jobs]
-        return [f.result() for f in futures]
+        self.submit(jobs, formats, dpi)
+        futures = [self._pending.pop((id(job), tuple(formats), dpi))[1] for job in jobs]
+        return [
+            _save(job, future.result(), folder, formats)
+            for job, future in zip(jobs, futures, strict=True)
+        ]
 
     def close(self) -> None:
         """Stop the workers."""
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
+        self._pending.clear()
 
     def __enter__(self) -> FigurePool:
         return self
@@ -243,13 +312,13 @@ def render_figures(
         raise ValueError(f"unknown figure format {unknown[0]!r}, expected one of {FORMATS}")
     if folder is not None and jobs:
         folder.mkdir(parents=True, exist_ok=True)
-    if pool is not None and pool.active and len(jobs) > 1:
+    if pool is not None and pool.active and jobs:  # its workers are warm already
         return pool.map(jobs, folder, formats, dpi)
     if workers is None:
         workers = _cpus() if len(jobs) >= POOL_MIN_FIGURES else 1
     workers = min(workers, len(jobs))
     if workers > 1:
-        _warm()  # once here rather than in every forked worker
+        _warm(draw=True)  # once here rather than in every forked worker
         with FigurePool(workers) as own:
             if own.active:
                 return own.map(jobs, folder, formats, dpi)

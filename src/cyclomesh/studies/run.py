@@ -43,6 +43,7 @@ __all__ = [
     "summary_record",
     "write_case",
     "write_run",
+    "input_figures",
     "run_figures",
     "run_sections",
     "run_study",
@@ -282,15 +283,18 @@ def figure_cases(results: dict[str, xr.Dataset]) -> dict[str, xr.Dataset]:
     return out
 
 
-def run_figures(run: RunResult) -> list[FigureJob]:
-    """The figures of a run study as jobs for :func:`cyclomesh.figures.render.render_figures`."""
-    from cyclomesh.figures import drive as drive_plots
-    from cyclomesh.figures import run as plots
+def _job(name: str, plot: Callable[..., Any], *args: Any, caption: str) -> FigureJob:
     from cyclomesh.figures.render import FigureJob
 
-    settings = run.study.figures
-    results = figure_cases(run.results)
-    cases = list(zip(run.study.cases, run.study.inputs, strict=True))
+    return FigureJob(name, plot, args, caption=caption, section=_HEADINGS[name])
+
+
+def input_figures(study: Study) -> list[FigureJob]:
+    """The figures of a run study that need its inputs only (profile, pin errors): they
+    can be drawn while the cases are solved."""
+    from cyclomesh.figures import run as plots
+
+    cases = list(zip(study.cases, study.inputs, strict=True))
     first = cases[0][1]
     modifications: dict[str, Modification] = {}
     for case, inputs in cases:
@@ -299,16 +303,8 @@ def run_figures(run: RunResult) -> list[FigureJob]:
             modifications[f"{same[0]}, {case.name}"] = modifications.pop(same[0])
         else:
             modifications[case.name] = inputs.modification
-
-    def job(name: str, plot: Callable[..., Any], *args: Any, caption: str) -> FigureJob:
-        return FigureJob(name, plot, args, caption=caption, section=_HEADINGS[name])
-
-    def only(*names: str) -> dict[str, xr.Dataset]:
-        """The variables a figure draws (figures may be drawn in other processes)."""
-        return {case: ds[list(names)] for case, ds in results.items()}
-
     jobs = [
-        job(
+        _job(
             "profile",
             plots.plot_profile,
             profile_curves(first.design, modifications),
@@ -323,7 +319,7 @@ def run_figures(run: RunResult) -> list[FigureJob]:
     }
     if with_errors:
         jobs.append(
-            job(
+            _job(
                 "pin_errors",
                 plots.plot_pin_errors,
                 with_errors,
@@ -331,6 +327,27 @@ def run_figures(run: RunResult) -> list[FigureJob]:
                 caption="Pin errors per pin (Eq. 5), cases with errors only.",
             )
         )
+    return jobs
+
+
+def run_figures(run: RunResult, inputs: list[FigureJob] | None = None) -> list[FigureJob]:
+    """The figures of a run study as jobs for :func:`cyclomesh.figures.render.render_figures`.
+
+    ``inputs``: the jobs of :func:`input_figures` if they were made already (e.g.
+    submitted to a :class:`~cyclomesh.figures.render.FigurePool` before the solve).
+    """
+    from cyclomesh.figures import drive as drive_plots
+    from cyclomesh.figures import run as plots
+
+    settings = run.study.figures
+    results = figure_cases(run.results)
+    job = _job
+
+    def only(*names: str) -> dict[str, xr.Dataset]:
+        """The variables a figure draws (figures may be drawn in other processes)."""
+        return {case: ds[list(names)] for case, ds in results.items()}
+
+    jobs = list(input_figures(run.study) if inputs is None else inputs)
     angles = settings.crank_angles_deg
     pin = settings.stress_pin
     jobs += [
