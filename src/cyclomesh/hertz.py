@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.special import lambertw
 
 from cyclomesh.exceptions import ConvergenceError
 
@@ -365,6 +364,8 @@ def force_from_approach_w(approach: ArrayLike, alpha: ArrayLike, gamma: ArrayLik
 
     F = exp(α/γ + W₋₁(−(δ/γ)·e^(−α/γ))); the reference for :func:`force_from_approach`.
     """
+    from scipy.special import lambertw  # the reference only: kept off the solver's imports
+
     d, a, g = np.broadcast_arrays(*(np.asarray(x, float) for x in (approach, alpha, gamma)))
     _check_branch(d, a, g)
     log_mz = np.log(d / g) - a / g  # log of −z, kept in logs against underflow
