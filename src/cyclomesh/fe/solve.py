@@ -399,7 +399,8 @@ def solve_contact(
     modes_d = modes[dofs]
 
     u = u0.copy()
-    lam = None
+    lam = lam_relaxed = res_prev = None
+    omega = 1.0
     k_now = k_extra[springs - n_b]
     amp = np.zeros(modes.shape[1])
     total_iter = 0
@@ -437,11 +438,24 @@ def solve_contact(
                 float(np.abs(new_lam - lam).max()) / scale,
                 float(np.abs(g_mat @ (u_new - u)).max()) / closure,
             )
-        lam, u = new_lam, u_new
+        # the next configuration, relaxed (Aitken's Δ²: the iteration oscillates where a
+        # conforming contact, near an inflection point, is sensitive to its normal)
+        res = u_new[dofs] - u[dofs]
+        if res_prev is not None:
+            d_res = res - res_prev
+            den = float(d_res @ d_res)
+            if den > 0:
+                omega = float(np.clip(-omega * float(res_prev @ d_res) / den, 0.05, 1.0))
+        res_prev = res
+        lam_relaxed = new_lam if lam is None else lam_relaxed + omega * (new_lam - lam_relaxed)
+        lam = new_lam
+        u = u.copy()
+        u[dofs] += omega * res
         k_prev = k_now
         if stiffness_update is not None and springs.size:
             counts = np.cumsum([p.slave_nodes.size for p in pairs])[:-1]
-            k_now = np.asarray(stiffness_update(np.split(lam, counts)), float)[springs - n_b]
+            k_now = np.asarray(stiffness_update(np.split(lam_relaxed, counts)), float)
+            k_now = k_now[springs - n_b]
             change = max(change, float(np.abs(k_now / k_prev - 1).max()))
         if change <= projection_tolerance:
             k_now = k_prev  # the solution is that of the stiffness it was solved with
