@@ -33,7 +33,7 @@ def main() -> None:
             print(
                 f"| {ds.attrs['case']} | {phi:g} | {(fe > 0).sum()}/{(paper > 0).sum()}/"
                 f"{(half > 0).sum()} | {fe.max():.0f} / {paper.max():.0f} / {half.max():.0f} | "
-                f"{d.contact_stress_fe.values.max():.0f} / "
+                f"{np.nanmax(d.contact_stress_fe.values):.0f} / "
                 f"{d.contact_stress_ltca_paper.values.max():.0f} / "
                 f"{d.contact_stress_ltca_half_plane.values.max():.0f} | "
                 f"{float(d.rotation_fe):.2f} / {float(d.rotation_ltca_paper):.2f} / "

@@ -709,7 +709,9 @@ class ContactSummary:
         Hertzian distribution, whose ∫s²p ds / ∫p ds is b²/4).
     peak_pressure : float
         Peak of a least-squares parabola through the nodal pressures within b/2 of the
-        centre [Pa]: a local recovery that averages out the node-to-segment oscillation.
+        centre [Pa]: a local recovery that averages out the node-to-segment oscillation;
+        NaN when fewer than three nodes are closed (a light touch the mesh cannot
+        resolve).
     pressure : ndarray
         Nodal pressures λ_i / (tributary length) [Pa].
     arc : ndarray
@@ -747,7 +749,9 @@ def summarize_contact(points: FloatArray, force: FloatArray) -> ContactSummary:
     b = float(2.0 * np.sqrt(np.sum(arc**2 * force) / load))
     p = force / trib
     near = np.abs(arc) <= 0.5 * b
-    if near.sum() >= 3:
+    if (force > 0).sum() < 3:  # one or two closed nodes: the mesh does not resolve it
+        peak = np.nan
+    elif near.sum() >= 3:
         c2, c1, c0 = np.polyfit(arc[near], p[near], 2)
         peak = float(c0 - c1**2 / (4 * c2)) if c2 < 0 else float(p[near].max())
     else:
