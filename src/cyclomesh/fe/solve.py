@@ -587,17 +587,6 @@ def _grounding_dofs(modes: FloatArray) -> NDArray:
     return np.sort(piv[: modes.shape[1]])
 
 
-def _delassus(g_mat, solve, n_u: int) -> FloatArray:
-    """W = G A⁻¹ Gᵀ: gap at every slave node per unit contact force at each [m²/N]."""
-    gt = g_mat.T.tocsc()
-    n_s = g_mat.shape[0]
-    w = np.empty((n_s, n_s))
-    for start in range(0, n_s, 64):
-        cols = gt[:, start : start + 64].toarray()
-        w[:, start : start + cols.shape[1]] = g_mat @ solve(cols)[:n_u]
-    return 0.5 * (w + w.T)
-
-
 def _least_squares_factor(m: FloatArray):
     """F with FᵀF = m and the map p ↦ d with Fᵀd = −p (so ½λᵀmλ + pᵀλ = ½‖Fλ − d‖² + c)."""
     try:
@@ -624,7 +613,8 @@ def _contact_qp(w, q, h, c, amp0, max_iter: int = 200):
     n, r = q.size, h.shape[1]
     s = float(np.mean(np.diag(w)))
     ws, qs, hs, cs = w / s, q / s, h / s, np.asarray(c, float) / s
-    rho = 1e3 / max(np.linalg.norm(hs, 2) ** 2, 1e-300) if r else 0.0
+    h_norm = float(np.linalg.norm(hs, 2)) if r else 0.0
+    rho = 1e3 / h_norm**2 if h_norm > 0 else 0.0  # ρ‖H‖² ≫ diag W: fast multipliers
     f_mat, rhs = _least_squares_factor(ws + rho * (hs @ hs.T))
     a = np.asarray(amp0, float).copy()
     lam = np.zeros(n)
