@@ -57,6 +57,7 @@ def test_fe_writes_the_comparison_with_units_and_report(tmp_path):
         assert ds[name].attrs["units"] == units
         assert np.all(np.isfinite(ds[name].values))
     assert ds.crank_angle.attrs["units"] == "deg"
+    assert set(np.unique(ds["contact_stress_fe_resolved"].values)) <= {0, 1}
     fe, ltca = ds["pin_load_fe"].values, ds["pin_load_ltca_paper"].values
     assert np.all(fe >= 0)
     # the same torque through the same pins: the FE and LTCA peaks agree to a few 10 %

@@ -17,6 +17,7 @@ from typer.testing import CliRunner  # noqa: E402
 
 from cyclomesh import TABLE1, Modification  # noqa: E402
 from cyclomesh.cli import app  # noqa: E402
+from cyclomesh.fe.disc import solve_disc_fe  # noqa: E402
 from cyclomesh.fe.tooth import tooth_compliance  # noqa: E402
 
 EXAMPLE = Path(__file__).parent.parent / "examples" / "fe_table1.toml"
@@ -47,3 +48,20 @@ def test_fe_command_refuses_a_bad_fe_table_in_one_line(tmp_path):
     result = CliRunner().invoke(app, ["fe", str(EXAMPLE), "--out", out, "--crank-angles", "0,x"])
     assert result.exit_code == 2
     assert "--crank-angles" in result.output
+
+
+@pytest.mark.parametrize("tpm", [True, False], ids=["TPM", "no TPM"])
+def test_whole_disc_converges_at_a_nonzero_crank_angle(tpm):
+    # a coarse mesh (b/2 at the contacts, 4 mm far); the crank angle at which the
+    # primal-dual active-set method used to cycle (docs/contact-law.md, Evidence 3)
+    mod = Modification(pin_radius=8e-6) if tpm else Modification()
+    r = solve_disc_fe(
+        TABLE1, mod, 250.0, np.deg2rad(3.0), elements_per_half_width=2.0, far_size=4e-3
+    )
+    assert r.torque_fe == pytest.approx(250.0, rel=1e-6)  # torque balance of the pin loads
+    assert 0.0 <= r.penetration <= 1e-8  # no open node penetrates
+    assert np.all(r.pin_load_fe >= 0.0)
+    loaded = r.pin_load_fe > 0
+    assert loaded.sum() >= (r.pin_load_ltca > 0).sum() - 1
+    # the FE disc turns more than the LTCA's (web torsion, tooth compliance) but not 3x
+    assert r.rotation_ltca < r.rotation_fe < 3.0 * r.rotation_ltca

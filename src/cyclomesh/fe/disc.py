@@ -34,7 +34,13 @@ from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.fe.mesh import Refinement, mesh_disk, mesh_profile_disc
 from cyclomesh.fe.solve import Body, ContactPair, boundary_chain, solve_contact, summarize_contact
 from cyclomesh.fe.tooth import _rho_star, disc_outline
-from cyclomesh.hertz import CONTACT_LAWS, effective_modulus, half_width, pin_groove_radius
+from cyclomesh.hertz import (
+    CONTACT_LAWS,
+    effective_modulus,
+    half_width,
+    max_pressure,
+    pin_groove_radius,
+)
 from cyclomesh.ltca import rest_position, solve_ltca
 from cyclomesh.profile import modified_profile
 
@@ -52,7 +58,12 @@ class DiscFE:
     pin_load_fe, pin_load_ltca : ndarray
         Pin–tooth force [N] (on the face width B).
     contact_stress_fe, contact_stress_ltca : ndarray
-        Peak pin–tooth contact pressure [Pa].
+        Peak pin–tooth contact pressure [Pa]. FE: recovered from the nodal pressures
+        where the contact is resolved (``stress_resolved``), else the Hertz pressure of
+        the FE load (Eq. 24 with the FE force).
+    stress_resolved : ndarray
+        Pins whose FE peak pressure is recovered from at least three closed nodes
+        within b/2 (bool); a pin without load counts as resolved (0 Pa).
     rotation_fe, rotation_ltca : float
         Loaded rotation Δφc of the disc [rad].
     rest_rotation : float
@@ -62,7 +73,7 @@ class DiscFE:
     nodes : int
         Nodes of the FE model.
     groove_iterations : int
-        Updates of the groove springs.
+        Updates of the projections and the groove springs together.
     """
 
     pin_load_fe: FloatArray
@@ -78,6 +89,13 @@ class DiscFE:
     ltca_by_law: dict[str, tuple[FloatArray, FloatArray, float]]
     """Per contact law of :data:`cyclomesh.hertz.CONTACT_LAWS`: (pin load [N], contact
     stress [Pa], loaded rotation [rad]) of the LTCA."""
+    stress_resolved: NDArray
+    torque_fe: float = np.nan
+    """Moment of the FE contact forces on the disc about its centre [N·m] (the torque
+    they balance)."""
+    penetration: float = np.nan
+    """Largest penetration of an open contact node, relative to the largest pin
+    displacement (≤ 1e-8, else the solve raises)."""
 
 
 def solve_disc_fe(
@@ -90,7 +108,7 @@ def solve_disc_fe(
     far_size: float = 1.5e-3,
     contact_law: str = "paper",
     reach: float = 2.0,
-    groove_tolerance: float = 1e-3,
+    groove_tolerance: float = 1e-7,
 ) -> DiscFE:
     """Solve the whole disc with its pins by FE at one crank angle [rad]; LTCA beside it.
 
@@ -114,7 +132,16 @@ def solve_disc_fe(
         Pins whose unloaded gap is below ``reach`` times the largest LTCA approach are
         modelled (the others cannot be reached).
     groove_tolerance : float
-        Relative change of the loads at which the groove-spring update stops.
+        The projections of the gaps and the groove stiffness are updated together
+        until no contact force changes by more than this fraction of the largest, no gap
+        by more than this fraction of the closure and no groove stiffness by more than
+        this fraction of itself.
+
+    Raises
+    ------
+    ConvergenceError
+        If the contact or the groove update does not converge, or the solution fails its
+        checks (penetration, tensile contact force, torque balance).
     """
     modification = modification or Modification()
     phi = np.atleast_1d(float(crank_angle))
@@ -129,7 +156,8 @@ def solve_disc_fe(
     n1, n2, rp = design.pins, design.teeth, design.pin_radius
     pin_m, disc_m, ring_m = design.pin_material, design.disc_material, design.ring_material
     load_ltca = ltca.pin_load[0]
-    gap = (geo.rotation[0] - rest) * geo.moment_arm[0]
+    with np.errstate(invalid="ignore"):  # pins without contact: nan rotation, arm 0
+        gap = (geo.rotation[0] - rest) * geo.moment_arm[0]
     approach = float(
         np.max(np.where(load_ltca > 0, ltca.loaded_rotation[0] * geo.moment_arm[0], 0))
     )
@@ -159,9 +187,14 @@ def solve_disc_fe(
     outline, breaks = disc_outline(design, modification, phi1[pins])
     px, py = modified_profile(design, modification, phi1[pins])
     points = np.stack([px, py])
-    h_fine = float(np.min(b_pc[pins])) / elements_per_half_width
+    # each contact refined to its own half-width (they differ by 10x and more without
+    # TPM, where pins near the inflection points have a large ρc and a wide contact)
     refine = Refinement(
-        [tuple(p) for p in points.T], h_fine, 1.5 * float(np.max(b_pc[pins])), far_size, 4e-3
+        [tuple(p) for p in points.T],
+        list(b_pc[pins] / elements_per_half_width),
+        list(1.5 * b_pc[pins]),
+        far_size,
+        4e-3,
     )
     disc = Body(
         *mesh_profile_disc(outline, bore_radius, refine, breaks),
@@ -223,41 +256,44 @@ def solve_disc_fe(
         eq.append(([(0, disc.dof(node, 1), 1.0), (-1, 0, -x)], 0.0))
 
     ring_c = ring_m.compliance
-    loads = nominal[pins].copy()
     extra_forces = np.zeros(1 + n_pins)
     extra_forces[0] = torque / width
-    active = None
-    iteration = 0
-    for iteration in range(1, 21):  # noqa: B007
+    floor = 1e-6 * nominal.max()
+
+    def groove_stiffness(loads: FloatArray) -> FloatArray:
         # secant stiffness of the ring's term of Eq. 21: δ = (2F/π)·c_g·(ln(4ρg/b) − ½)
-        f = np.maximum(loads, 1e-6 * nominal.max())
-        b = half_width(f, rho_pg, e_pg, 1.0)
-        k_groove = 1.0 / (2.0 / np.pi * ring_c * (np.log(4.0 * design.groove_radius / b) - 0.5))
-        sol = solve_contact(
-            bodies,
-            pairs,
-            equalities=eq,
-            n_extra=1 + n_pins,
-            extra_forces=extra_forces,
-            extra_stiffness=np.concatenate([[0.0], k_groove]),
-            initial_active=active,
-        )
-        active = sol.active
-        new = np.array([lam.sum() for lam in sol.contact_force])
-        change = np.max(np.abs(new - loads)) / max(new.max(), 1e-300)
-        loads = new
-        if change < groove_tolerance:
-            break
-    else:
-        raise ConvergenceError("FE: groove springs did not settle")
+        b = half_width(np.maximum(loads, floor), rho_pg, e_pg, 1.0)
+        k = 1.0 / (2.0 / np.pi * ring_c * (np.log(4.0 * design.groove_radius / b) - 0.5))
+        return np.concatenate([[0.0], k])
+
+    # the groove stiffness is updated with the projections until both settle
+    sol = solve_contact(
+        bodies,
+        pairs,
+        equalities=eq,
+        n_extra=1 + n_pins,
+        extra_forces=extra_forces,
+        extra_stiffness=groove_stiffness(nominal[pins]),
+        stiffness_update=lambda lam: groove_stiffness(np.array([x.sum() for x in lam])),
+        projection_tolerance=groove_tolerance,
+    )
+    iteration = sol.projections
+    moment, penetration = _check_disc(sol, pairs, bodies, pins, torque / width)
     load_fe = np.zeros(n1)
     stress_fe = np.zeros(n1)
+    resolved = np.ones(n1, bool)
     for k, i in enumerate(pins):
         summary = summarize_contact(
             bodies[k + 1].mesh.p[:, pairs[k].slave_nodes], sol.contact_force[k]
         )
         load_fe[i] = summary.load * width
-        stress_fe[i] = summary.peak_pressure
+        if summary.load > 0 and not np.isfinite(summary.peak_pressure):
+            # too light for the contact mesh: the Hertz pressure of the FE load (Eq. 24)
+            resolved[i] = False
+            rho = _rho_star(rp, geo.curvature_radius[0, i])
+            stress_fe[i] = max_pressure(load_fe[i], rho, e_pc, width)
+        else:
+            stress_fe[i] = summary.peak_pressure
     return DiscFE(
         pin_load_fe=load_fe,
         pin_load_ltca=load_ltca,
@@ -270,4 +306,41 @@ def solve_disc_fe(
         nodes=int(sum(b.n_nodes for b in bodies)),
         groove_iterations=iteration,
         ltca_by_law=by_law,
+        stress_resolved=resolved,
+        torque_fe=-moment * width,
+        penetration=penetration,
     )
+
+
+def _check_disc(sol, pairs, bodies, pins, torque_per_width) -> tuple[float, float]:
+    """The disc's torque balance from the pin loads, and no penetration at any contact.
+
+    Each contact force acts on the pin along the disc's normal at the node's foot on
+    the disc; the moment of the forces on the disc about the rigid centre (in the
+    undeformed configuration, that of the small-deformation equilibrium) must balance
+    the torque to 1e-6. Returns (moment [N], largest penetration / largest pin
+    displacement).
+    """
+    moment = 0.0
+    closure = 0.0
+    worst = 0.0
+    for k, _ in enumerate(pins):
+        lam, normal = sol.contact_force[k], sol.normal[k]
+        seg, t = sol.master_point[k]
+        master = bodies[0].mesh.p[:, pairs[k].master_nodes]
+        xy = (1 - t) * master[:, seg] + t * master[:, seg + 1]
+        # force on the disc: −λ·n at the contact point
+        moment += float(np.sum(-lam * (xy[0] * normal[1] - xy[1] * normal[0])))
+        worst = min(worst, float(sol.gap[k].min()))
+        closure = max(closure, float(np.abs(sol.displacements[k + 1]).max()))
+    if (
+        not np.isfinite(moment)
+        or abs(moment + torque_per_width) > 1e-6 * abs(torque_per_width)
+        or any(lam.min() < 0 for lam in sol.contact_force)
+        or worst < -1e-8 * closure
+    ):
+        raise ConvergenceError(
+            f"FE: solution fails its checks (moment {moment:.6g} against torque "
+            f"{torque_per_width:.6g} N; largest penetration {-worst:.2g} m)"
+        )
+    return moment, -worst / closure

@@ -32,10 +32,10 @@ class Refinement:
     ----------
     points : sequence of (x, y)
         Centres of refinement [m].
-    h_fine : float
-        Element size near the points [m].
-    fine_radius : float
-        Radius of the uniformly fine zone [m].
+    h_fine : float or sequence of float
+        Element size near the points (one for all or one per point) [m].
+    fine_radius : float or sequence of float
+        Radius of the uniformly fine zone (one for all or one per point) [m].
     h_far : float
         Element size far from the points [m].
     grow_radius : float
@@ -43,8 +43,8 @@ class Refinement:
     """
 
     points: Sequence[tuple[float, float]]
-    h_fine: float
-    fine_radius: float
+    h_fine: float | Sequence[float]
+    fine_radius: float | Sequence[float]
     h_far: float
     grow_radius: float
 
@@ -71,7 +71,10 @@ def _mesh(build: Callable[[], int], refine: Refinement) -> tuple[FloatArray, NDA
         surface = build()
         occ = gmsh.model.occ
         fields = []
-        for x, y in refine.points:
+        n_pts = len(refine.points)
+        h_fine = np.broadcast_to(np.asarray(refine.h_fine, float), (n_pts,))
+        fine_radius = np.broadcast_to(np.asarray(refine.fine_radius, float), (n_pts,))
+        for (x, y), h_i, r_i in zip(refine.points, h_fine, fine_radius, strict=True):
             occ.synchronize()
             tag = occ.addPoint(x / MM, y / MM, 0.0)
             occ.synchronize()
@@ -79,9 +82,9 @@ def _mesh(build: Callable[[], int], refine: Refinement) -> tuple[FloatArray, NDA
             gmsh.model.mesh.field.setNumbers(dist, "PointsList", [tag])
             thr = gmsh.model.mesh.field.add("Threshold")
             gmsh.model.mesh.field.setNumber(thr, "InField", dist)
-            gmsh.model.mesh.field.setNumber(thr, "SizeMin", refine.h_fine / MM)
+            gmsh.model.mesh.field.setNumber(thr, "SizeMin", float(h_i) / MM)
             gmsh.model.mesh.field.setNumber(thr, "SizeMax", refine.h_far / MM)
-            gmsh.model.mesh.field.setNumber(thr, "DistMin", refine.fine_radius / MM)
+            gmsh.model.mesh.field.setNumber(thr, "DistMin", float(r_i) / MM)
             gmsh.model.mesh.field.setNumber(thr, "DistMax", refine.grow_radius / MM)
             fields.append(thr)
         occ.synchronize()

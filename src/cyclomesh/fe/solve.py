@@ -10,15 +10,26 @@ body), giving one linearised gap per slave node
     g_i(u) = g0_i + n_i·(u_s − (1 − t_i)·u_m1 − t_i·u_m2) ≥ 0,   λ_i ≥ 0,   λ_i·g_i = 0,
 
 λ_i the contact force on the slave node [N/m]. Equalities (supports, symmetry, ties to
-a rigid centre) are Lagrange multipliers too. The complementarity problem is solved
-exactly by the primal–dual active-set method, started from the active set of the problem
-condensed on the contact forces (a non-negative least-squares problem, see
-``_schur_start``) (a semismooth Newton method): the KKT
-system of the current active set is solved, nodes with a tensile multiplier leave the
-set and nodes with a negative gap join it, until the set no longer changes; it then
-satisfies every condition to round-off. The projection is recomputed in the deformed
-configuration and the problem solved again until the active set and the projections
-settle (a geometrically consistent small-sliding contact).
+a rigid centre) are Lagrange multipliers too.
+
+The problem is condensed on the contact forces. The zero-energy modes R that the
+equalities leave (a floating body pressed by a load, a rigid centre free to rotate under
+a torque) are found from the bodies' rigid motions (``_free_modes``) and grounded at one
+dof each; with A the grounded system, u = A⁻¹(f + Gᵀλ) + R·a and the gaps are
+
+    g = q + Wλ + Ha,   W = G A⁻¹ Gᵀ (symmetric positive definite),   H = G R,
+
+with the modes' equilibrium Hᵀλ = −Rᵀf (for a rigid centre: the torque balance). The
+contact conditions are then the KKT conditions of the convex quadratic programme
+min ½λᵀWλ + qᵀλ subject to λ ≥ 0, Hᵀλ = −Rᵀf, solved by the method of multipliers on a
+with every subproblem solved exactly and finitely by non-negative least squares
+(Lawson–Hanson on a Cholesky factor of W + ρHHᵀ: no cycling), and the KKT system of
+its active set solved exactly and accepted when it satisfies every condition to
+round-off (``_contact_qp``). The projection is then recomputed in the deformed
+configuration and the programme solved again until no force and no gap changes by more
+than a tolerance (a geometrically consistent small-sliding contact). The final solution
+is checked: no penetration and closed gaps closed to 1e-8 of the closure, compressive
+forces, the modes in equilibrium to 1e-8; otherwise :class:`ConvergenceError`.
 """
 
 from __future__ import annotations
@@ -29,7 +40,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
+from scipy.linalg import LinAlgError, cholesky, qr, solve_triangular
 from scipy.optimize import nnls
+from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
 from skfem import Basis, ElementTriP1, ElementVector, MeshTri, asm
 from skfem.models.elasticity import lame_parameters, linear_elasticity
@@ -63,6 +76,7 @@ class Body:
     poisson_ratio: float
     mesh: MeshTri = field(init=False, repr=False)
     basis: Basis = field(init=False, repr=False)
+    _stiffness: sp.csr_matrix | None = field(init=False, repr=False, default=None)
 
     def __post_init__(self) -> None:
         self.mesh = MeshTri(np.asarray(self.points, float), np.asarray(self.triangles))
@@ -74,8 +88,10 @@ class Body:
 
     def stiffness(self) -> sp.csr_matrix:
         """Plane-strain stiffness per unit thickness [N/m²]; dofs interleaved (x0, y0, x1, ...)."""
-        lam, mu = lame_parameters(self.youngs_modulus, self.poisson_ratio)
-        return asm(linear_elasticity(lam, mu), self.basis).tocsr()
+        if self._stiffness is None:
+            lam, mu = lame_parameters(self.youngs_modulus, self.poisson_ratio)
+            self._stiffness = asm(linear_elasticity(lam, mu), self.basis).tocsr()
+        return self._stiffness
 
     def dof(self, node: ArrayLike2, component: int) -> NDArray:
         """Global-in-body dof index of ``component`` (0 = x, 1 = y) of nodes."""
@@ -171,13 +187,11 @@ class Solution:
     reactions : ndarray
         Lagrange multipliers of the equality constraints.
     iterations : int
-        Active-set iterations in total.
+        Non-negative least-squares subproblems solved, in total.
     active : list of ndarray
-        Per pair, the final active set (bool per slave node).
-    regularised : int
-        Times the exact active-set method cycled and the regularised condensed solution
-        was taken instead (accepted if no open node penetrates by more than 1e-3 of the
-        largest closure).
+        Per pair, the closed nodes (bool per slave node).
+    projections : int
+        Projections of the gaps (the last one unchanged within the tolerance).
     """
 
     displacements: list[FloatArray]
@@ -189,20 +203,32 @@ class Solution:
     reactions: FloatArray
     iterations: int
     active: list[NDArray]
-    regularised: int = 0
+    projections: int = 1
 
 
-def _project(xs: FloatArray, xm: FloatArray) -> tuple[NDArray, FloatArray, FloatArray, FloatArray]:
-    """Closest segment of the master polyline xm (2, K) to every slave point xs (2, n)."""
+def _project(
+    xs: FloatArray, xm: FloatArray, previous: NDArray | None = None, hold: float = 1e-3
+) -> tuple[NDArray, FloatArray, FloatArray, FloatArray]:
+    """Closest segment of the master polyline xm (2, K) to every slave point xs (2, n).
+
+    With ``previous`` segments, a node keeps its segment while its foot stays within
+    ``hold`` (of the segment length) of it: a node facing a master node would otherwise
+    switch between the two segments there on round-off, and with them the normal.
+    """
     a = xm[:, :-1]
     d = xm[:, 1:] - a
     ll = np.sum(d * d, axis=0)
     rel = xs[:, :, None] - a[:, None, :]
-    t = np.clip(np.einsum("inj,ij->nj", rel, d) / ll, 0.0, 1.0)
+    t_free = np.einsum("inj,ij->nj", rel, d) / ll
+    t = np.clip(t_free, 0.0, 1.0)
     foot = a[:, None, :] + t[None] * d[:, None, :]
     dist = np.hypot(*(xs[:, :, None] - foot))
     seg = np.argmin(dist, axis=1)
     n_idx = np.arange(xs.shape[1])
+    if previous is not None:
+        tp = t_free[n_idx, previous]
+        keep = (tp >= -hold) & (tp <= 1.0 + hold)
+        seg = np.where(keep, previous, seg)
     tt = t[n_idx, seg]
     dd = d[:, seg]
     normal = np.stack([dd[1], -dd[0]]) / np.sqrt(ll[seg])  # tangent turned clockwise
@@ -218,9 +244,9 @@ def solve_contact(
     n_extra: int = 0,
     extra_forces: FloatArray | None = None,
     extra_stiffness: FloatArray | None = None,
-    max_active_set: int = 30,
-    max_projection: int = 10,
-    initial_active: list[NDArray] | None = None,
+    stiffness_update: Callable[[list[FloatArray]], FloatArray] | None = None,
+    max_projection: int = 50,
+    projection_tolerance: float = 1e-7,
 ) -> Solution:
     """Solve frictionless contact of plane-strain elastic bodies (see the module docstring).
 
@@ -235,36 +261,46 @@ def solve_contact(
     forces : list of (body, dof, value)
         Nodal forces [N/m] on body dofs.
     n_extra : int
-        Number of extra unknowns (no stiffness of their own).
+        Number of extra unknowns.
     extra_forces : ndarray, optional
         Generalised forces on the extra unknowns (e.g. a torque per unit thickness [N]).
     extra_stiffness : ndarray, optional
-        Stiffness of each extra unknown to ground (e.g. a support spring) [N/m²].
-    initial_active : list of ndarray, optional
-        Starting active set per pair (e.g. ``Solution.active`` of a similar problem);
-        otherwise from the condensed problem.
+        Stiffness of each extra unknown to ground (e.g. a support spring) [N/m²]; an extra
+        unknown without stiffness is free (held by the constraints or the contacts).
+    stiffness_update : callable, optional
+        ``stiffness_update(contact_force) -> extra_stiffness``: new stiffness of the
+        extra unknowns from the contact forces of each pair (e.g. a secant stiffness
+        that depends on the load), updated with the projections until both settle; only
+        the extra unknowns with a stiffness > 0 in ``extra_stiffness`` may change.
+    max_projection : int
+        Re-projections of the node-to-segment gaps (and stiffness updates) at most.
+    projection_tolerance : float
+        The re-projection stops when no contact force changes by more than this
+        fraction of the largest, and no gap by more than this fraction of the closure.
 
     Raises
     ------
     ConvergenceError
-        If the active set or the projections do not settle.
+        If the contact problem has no solution (a load pulls a floating body away), the
+        condensed programme does not converge, or the projections do not settle.
     """
     sizes = [2 * b.n_nodes for b in bodies]
     offsets = np.concatenate([[0], np.cumsum(sizes)])
-    n_u = int(offsets[-1]) + n_extra
+    n_b = int(offsets[-1])
+    n_u = n_b + n_extra
     blocks = [b.stiffness() for b in bodies]
+    k_extra = np.zeros(n_extra) if extra_stiffness is None else np.asarray(extra_stiffness, float)
     if n_extra:
-        diag = np.zeros(n_extra) if extra_stiffness is None else np.asarray(extra_stiffness)
-        blocks.append(sp.diags(diag, format="csr"))
+        blocks.append(sp.diags(k_extra, format="csr"))
     k_mat = sp.block_diag(blocks, format="csr")
     f = np.zeros(n_u)
     for body, dof, value in forces:
         f[offsets[body] + np.asarray(dof)] += value
     if extra_forces is not None:
-        f[offsets[-1] :] += extra_forces
+        f[n_b:] += extra_forces
 
     def gdof(body: int, dof: NDArray | int) -> NDArray:
-        return (offsets[-1] if body == -1 else offsets[body]) + np.asarray(dof)
+        return (n_b if body == -1 else offsets[body]) + np.asarray(dof)
 
     rows, cols, vals, rhs_c = [], [], [], []
     for r, (terms, value) in enumerate(equalities):
@@ -278,120 +314,180 @@ def solve_contact(
     c_mat = sp.csr_matrix((vals, (rows, cols)), shape=(n_c, n_u))
     rhs_c = np.asarray(rhs_c, float)
 
-    u = np.zeros(n_u)
-    active = list(initial_active) if initial_active is not None else [None] * len(pairs)
-    total_iter = 0
-    warm = initial_active is not None
-    fallbacks = 0
-    for _ in range(max_projection):
-        g_rows, g0 = [], []
-        geom = []
-        for p in pairs:
-            sb, mb = bodies[p.slave_body], bodies[p.master_body]
-            us = _nodal(u, offsets, p.slave_body, sb)
-            um = _nodal(u, offsets, p.master_body, mb)
-            xs = sb.mesh.p[:, p.slave_nodes] + us[:, p.slave_nodes]
-            xm = mb.mesh.p[:, p.master_nodes] + um[:, p.master_nodes]
-            seg, t, normal, gap = _project(xs, xm)
-            # linearised about the current configuration: g = gap + n·(Δu_s − Δu_m)
-            n = p.slave_nodes.size
-            r = np.repeat(np.arange(n), 6)
-            m1, m2 = p.master_nodes[seg], p.master_nodes[seg + 1]
-            cc = np.stack(
-                [
-                    gdof(p.slave_body, sb.dof(p.slave_nodes, 0)),
-                    gdof(p.slave_body, sb.dof(p.slave_nodes, 1)),
-                    gdof(p.master_body, mb.dof(m1, 0)),
-                    gdof(p.master_body, mb.dof(m1, 1)),
-                    gdof(p.master_body, mb.dof(m2, 0)),
-                    gdof(p.master_body, mb.dof(m2, 1)),
-                ],
-                axis=1,
-            ).ravel()
-            vv = np.stack(
-                [
-                    normal[0],
-                    normal[1],
-                    -(1 - t) * normal[0],
-                    -(1 - t) * normal[1],
-                    -t * normal[0],
-                    -t * normal[1],
-                ],
-                axis=1,
-            ).ravel()
-            g_pair = sp.csr_matrix((vv, (r, cc)), shape=(n, n_u))
-            g_rows.append(g_pair)
-            g0.append(gap - g_pair @ u)  # so that g(u) = g0 + G u
-            geom.append((seg, t, normal))
-        g_mat = sp.vstack(g_rows, format="csr")
-        g_const = np.concatenate(g0)
-        counts = [p.slave_nodes.size for p in pairs]
-        if all(a is not None for a in active):
-            act = np.concatenate(active)
-        else:
-            act = _schur_start(k_mat, f, c_mat, rhs_c, g_mat, g_const)
-        seen: list[NDArray] = []
-        for _ in range(max_active_set):
-            total_iter += 1
-            u, lam_a, mu = _kkt(k_mat, f, c_mat, rhs_c, g_mat, g_const, act)
-            lam = np.zeros(act.size)
-            lam[act] = lam_a
-            gap_now = g_const + g_mat @ u
-            # round-off levels of force and gap (the closure scale is |G u|)
-            lam_tol = 1e-10 * max(np.abs(lam).max(), 1e-300)
-            gap_tol = 1e-10 * max(np.abs(g_mat @ u).max(), 1e-300)
-            new = np.where(act, lam > -lam_tol, gap_now < -gap_tol)
-            if np.array_equal(new, act):
-                break
-            if any(np.array_equal(new, old) for old in seen):  # cycling between sets that
-                # differ only by nodes at round-off: accept if no condition is violated
-                if lam[act].min() > -1e3 * lam_tol and (
-                    act.all() or gap_now[~act].min() > -1e3 * gap_tol
-                ):
-                    break
-            seen.append(act)
-            act = new
-            if not act.any():
-                raise ConvergenceError("FE contact: every contact opened (load pulls apart)")
-        else:
-            # the exact method cycles between sets that differ at round-off level on
-            # ill-conditioned models: take the solution of the condensed, regularised
-            # (1e-9 of the diagonal) problem, exact for that problem, and check it
-            act, lam, u = _schur_start(k_mat, f, c_mat, rhs_c, g_mat, g_const, True)
-            gap_now = g_const + g_mat @ u
-            closure = max(np.abs(g_mat @ u).max(), 1e-300)
-            worst = -gap_now[~act].min() / closure if (~act).any() else 0.0
-            if worst > 1e-3:
-                raise ConvergenceError(
-                    f"FE contact: active set did not settle in {max_active_set} steps "
-                    f"(regularised solution penetrates by {worst:.2g} of the closure)"
+    # zero-energy modes left by the constraints (floating bodies, free rigid centres):
+    # grounded at a few dofs for the factorisation, their amplitudes solved for exactly
+    modes = _free_modes(bodies, offsets, c_mat, k_extra)
+    grounded = _grounding_dofs(modes)
+    e_mat = sp.csr_matrix(
+        (np.ones(grounded.size), (np.arange(grounded.size), grounded)), shape=(grounded.size, n_u)
+    )
+    # constraint rows scaled to the stiffness (else the saddle-point system is badly
+    # scaled, E against 1, and its solution loses digits); multipliers scaled back below
+    diag = np.abs(k_mat.diagonal())
+    alpha = float(diag[diag > 0].mean()) if (diag > 0).any() else 1.0
+    a_mat = sp.bmat(
+        [
+            [k_mat, -alpha * c_mat.T, -alpha * e_mat.T],
+            [-alpha * c_mat, None, None],
+            [-alpha * e_mat, None, None],
+        ],
+        format="csc",
+    )
+    # the grounded system falls apart into independent blocks (bodies that touch only
+    # through the contacts): factorised and solved block by block
+    n_blocks, label = connected_components(a_mat, directed=False)
+    parts = []
+    for i in range(n_blocks):
+        idx = np.flatnonzero(label == i)
+        try:
+            parts.append((idx, splu(a_mat[idx][:, idx].tocsc(), permc_spec="COLAMD")))
+        except RuntimeError as exc:
+            raise ConvergenceError(f"FE contact: singular system ({exc})") from None
+
+    def solve(rhs_u: FloatArray, rhs_cons: FloatArray | None = None) -> FloatArray:
+        rhs = np.zeros((a_mat.shape[0],) + rhs_u.shape[1:])
+        rhs[:n_u] = rhs_u
+        if rhs_cons is not None:
+            rhs[n_u : n_u + n_c] = alpha * rhs_cons
+        x = np.zeros_like(rhs)
+        for idx, lu in parts:
+            r = rhs[idx]
+            if r.ndim == 2:  # only the columns loaded in this block
+                cols = np.flatnonzero(np.any(r != 0, axis=0))
+                if cols.size:
+                    x[np.ix_(idx, cols)] = lu.solve(np.asfortranarray(r[:, cols]))
+            elif np.any(r != 0):
+                x[idx] = lu.solve(r)
+        if not np.all(np.isfinite(x)):
+            raise ConvergenceError("FE contact: singular system; a body is unsupported")
+        return x
+
+    x0 = solve(f, -rhs_c)
+    u0 = x0[:n_u]
+    modal_force = modes.T @ f  # the contact forces must balance it: Hᵀλ = −Rᵀf
+
+    # compliance of the grounded system on the contact dofs D and the spring dofs S
+    # (whose stiffness the update may change: a low-rank, Woodbury, correction)
+    contact_dofs = np.unique(
+        np.concatenate(
+            [
+                np.concatenate(
+                    [
+                        gdof(p.slave_body, bodies[p.slave_body].dof(p.slave_nodes, c)),
+                        gdof(p.master_body, bodies[p.master_body].dof(p.master_nodes, c)),
+                    ]
                 )
-            mu = np.zeros(c_mat.shape[0])
-            fallbacks += 1
-        split = np.cumsum(counts)[:-1]
-        new_active = np.split(act, split)
-        settled = not warm and all(
-            a is not None and np.array_equal(a, b) for a, b in zip(active, new_active, strict=True)
+                for p in pairs
+                for c in (0, 1)
+            ]
         )
-        warm = False
-        active = new_active
-        if settled:
+    )
+    springs = n_b + np.flatnonzero(k_extra > 0) if stiffness_update else np.zeros(0, int)
+    dofs = np.concatenate([contact_dofs, springs])
+    n_d = contact_dofs.size
+    phi = np.empty((dofs.size, dofs.size))
+    spring_cols = np.empty((n_u, springs.size))
+    for start in range(0, dofs.size, 128):
+        block = dofs[start : start + 128]
+        rhs = np.zeros((n_u, block.size))
+        rhs[block, np.arange(block.size)] = 1.0
+        x = solve(rhs)[:n_u]
+        phi[:, start : start + block.size] = x[dofs]
+        inside = (start + np.arange(block.size)) >= n_d
+        spring_cols[:, start + np.flatnonzero(inside) - n_d] = x[:, inside]
+    phi = 0.5 * (phi + phi.T)
+    modes_d = modes[dofs]
+
+    u = u0.copy()
+    lam = lam_relaxed = res_prev = None
+    omega = 1.0
+    k_now = k_extra[springs - n_b]
+    amp = np.zeros(modes.shape[1])
+    total_iter = 0
+    projection = 0
+    geom = None
+    change = np.inf
+    while projection < max_projection:
+        projection += 1
+        # the compliance and the load response with the current spring stiffness
+        delta = k_now - k_extra[springs - n_b]
+        if springs.size and np.any(delta != 0):
+            corr = np.linalg.solve(
+                np.eye(springs.size) + phi[n_d:, n_d:] * delta[None, :],
+                np.concatenate([phi[n_d:, :], u0[springs][:, None]], axis=1),
+            )
+            comp = phi - (phi[:, n_d:] * delta[None, :]) @ corr[:, :-1]
+            load_resp = u0[dofs] - (phi[:, n_d:] * delta[None, :]) @ corr[:, -1]
+        else:
+            comp, load_resp, corr = phi, u0[dofs], None
+        g_mat, g_const, geom = _linearised_gaps(bodies, pairs, offsets, gdof, u, n_u, geom)
+        g_d = g_mat[:, contact_dofs].toarray()
+        gc = g_d @ comp[:n_d]  # (n_s, |dofs|): response at the dofs to unit contact force
+        w = 0.5 * ((gc[:, :n_d] @ g_d.T) + (gc[:, :n_d] @ g_d.T).T)
+        q = g_const + g_d @ load_resp[:n_d]
+        h = g_d @ modes[contact_dofs]
+        new_lam, amp, iters = _contact_qp(w, q, h, -modal_force, amp)
+        total_iter += iters
+        u_new = u.copy()
+        u_new[dofs] = load_resp + gc.T @ new_lam + modes_d @ amp
+        gap_now = g_const + g_mat @ u_new
+        closure = max(float(np.abs(g_mat @ u_new).max()), 1e-300)
+        scale = max(float(new_lam.max()), 1e-300)
+        if lam is not None:
+            change = max(
+                float(np.abs(new_lam - lam).max()) / scale,
+                float(np.abs(g_mat @ (u_new - u)).max()) / closure,
+            )
+        # the next configuration, relaxed (Aitken's Δ²: the iteration oscillates where a
+        # conforming contact, near an inflection point, is sensitive to its normal)
+        res = u_new[dofs] - u[dofs]
+        if res_prev is not None:
+            d_res = res - res_prev
+            den = float(d_res @ d_res)
+            if den > 0:
+                omega = float(np.clip(-omega * float(res_prev @ d_res) / den, 0.05, 1.0))
+        res_prev = res
+        lam_relaxed = new_lam if lam is None else lam_relaxed + omega * (new_lam - lam_relaxed)
+        lam = new_lam
+        u = u.copy()
+        u[dofs] += omega * res
+        k_prev = k_now
+        if stiffness_update is not None and springs.size:
+            counts = np.cumsum([p.slave_nodes.size for p in pairs])[:-1]
+            k_now = np.asarray(stiffness_update(np.split(lam_relaxed, counts)), float)
+            k_now = k_now[springs - n_b]
+            change = max(change, float(np.abs(k_now / k_prev - 1).max()))
+        if change <= projection_tolerance:
+            k_now = k_prev  # the solution is that of the stiffness it was solved with
             break
-    else:
-        raise ConvergenceError("FE contact: projections did not settle")
-    lam_full = lam
-    gaps = np.where(act, 0.0, gap_now)
+    if change > projection_tolerance:
+        raise ConvergenceError(
+            f"FE contact: projections did not settle in {max_projection} steps "
+            f"(last change {change:.2g})"
+        )
+    _check(lam, gap_now, closure, h, modal_force)
+    # the whole displacement field, with the stiffness of the last solution
+    x = solve(f + g_mat.T @ lam, -rhs_c)
+    if corr is not None:
+        delta = k_now - k_extra[springs - n_b]
+        m_mat = np.eye(springs.size) + phi[n_d:, n_d:] * delta[None, :]
+        x[:n_u] -= spring_cols @ (delta * np.linalg.solve(m_mat, x[springs]))
+    x[:n_u] += modes @ amp
+    u = x[:n_u]
+    act = lam > 0
+    counts = [p.slave_nodes.size for p in pairs]
+    split = np.cumsum(counts)[:-1]
     return Solution(
         displacements=[_nodal(u, offsets, i, b) for i, b in enumerate(bodies)],
-        extra=u[offsets[-1] :].copy(),
-        contact_force=np.split(lam_full, np.cumsum(counts)[:-1]),
-        gap=np.split(gaps, np.cumsum(counts)[:-1]),
+        extra=u[n_b:].copy(),
+        contact_force=np.split(lam, split),
+        gap=np.split(np.where(act, 0.0, gap_now), split),
         normal=[g[2] for g in geom],
         master_point=[(g[0], g[1]) for g in geom],
-        reactions=mu,
+        reactions=alpha * x[n_u : n_u + n_c],
         iterations=total_iter,
-        active=active,
-        regularised=fallbacks,
+        active=np.split(act, split),
+        projections=projection,
     )
 
 
@@ -400,63 +496,192 @@ def _nodal(u: FloatArray, offsets: NDArray, i: int, body: Body) -> FloatArray:
     return np.stack([ub[body.basis.nodal_dofs[0]], ub[body.basis.nodal_dofs[1]]])
 
 
-def _schur_start(k_mat, f, c_mat, rhs_c, g_mat, g_const, return_solution=False):
-    """Starting active set from the contact problem condensed on the contact forces.
+def _linearised_gaps(bodies, pairs, offsets, gdof, u, n_u, previous=None):
+    """Node-to-segment gaps projected in the configuration ``u``, linearised about it.
 
-    With the stiffness regularised by 1e-9 of its diagonal (so floating bodies and free
-    rigid centres are held), the contact problem is the convex quadratic programme
-    min ½λᵀWλ + qᵀλ, λ ≥ 0, W = G A⁻¹ Gᵀ, solved by non-negative least squares
-    (Lawson–Hanson: finite, no cycling). The exact active-set method then starts from its
-    active set and only corrects the effect of the regularisation.
+    Returns (G, g0, geometry) with g(u') = g0 + G u' and geometry the (segment, t,
+    normal) of each pair.
     """
-    diag = k_mat.diagonal()
-    scale = diag.max()
-    reg = np.where(diag > 0, 1e-9 * diag, 1e-9 * scale)
-    k_reg = (k_mat + sp.diags(reg)).tocsc()
-    n_u, n_c = k_mat.shape[0], c_mat.shape[0]
-    a_mat = sp.bmat([[k_reg, -c_mat.T], [-c_mat, None]], format="csc")
-    lu = splu(a_mat, permc_spec="COLAMD")
-    u0 = lu.solve(np.concatenate([f, -rhs_c]))[:n_u]
-    gt = g_mat.T.tocsc()
-    n_s = g_mat.shape[0]
-    w = np.empty((n_s, n_s))
-    for start in range(0, n_s, 64):
-        cols = gt[:, start : start + 64].toarray()
-        rhs = np.vstack([cols, np.zeros((n_c, cols.shape[1]))])
-        w[:, start : start + cols.shape[1]] = g_mat @ lu.solve(rhs)[:n_u]
-    w = 0.5 * (w + w.T)
-    q = g_const + g_mat @ u0
-    unit = np.mean(np.diag(w))
-    eig, vec = np.linalg.eigh(w / unit)
-    keep = eig > 1e-12 * eig.max()  # W is positive semi-definite up to round-off
-    root = np.sqrt(eig[keep])
-    lam, _ = nnls(
-        root[:, None] * vec[:, keep].T, -(vec[:, keep].T @ (q / unit)) / root, maxiter=50 * n_s
-    )
-    act = lam > 0
-    if not act.any():
-        act[np.argmin(q)] = True
-    if not return_solution:
-        return act
-    u = lu.solve(np.concatenate([f + gt @ (lam * unit), -rhs_c]))[:n_u]
-    return act, lam * unit, u
+    g_rows, g0, geom = [], [], []
+    for k, p in enumerate(pairs):
+        sb, mb = bodies[p.slave_body], bodies[p.master_body]
+        us = _nodal(u, offsets, p.slave_body, sb)
+        um = _nodal(u, offsets, p.master_body, mb)
+        xs = sb.mesh.p[:, p.slave_nodes] + us[:, p.slave_nodes]
+        xm = mb.mesh.p[:, p.master_nodes] + um[:, p.master_nodes]
+        seg, t, normal, gap = _project(xs, xm, None if previous is None else previous[k][0])
+        n = p.slave_nodes.size
+        r = np.repeat(np.arange(n), 6)
+        m1, m2 = p.master_nodes[seg], p.master_nodes[seg + 1]
+        cc = np.stack(
+            [
+                gdof(p.slave_body, sb.dof(p.slave_nodes, 0)),
+                gdof(p.slave_body, sb.dof(p.slave_nodes, 1)),
+                gdof(p.master_body, mb.dof(m1, 0)),
+                gdof(p.master_body, mb.dof(m1, 1)),
+                gdof(p.master_body, mb.dof(m2, 0)),
+                gdof(p.master_body, mb.dof(m2, 1)),
+            ],
+            axis=1,
+        ).ravel()
+        vv = np.stack(
+            [
+                normal[0],
+                normal[1],
+                -(1 - t) * normal[0],
+                -(1 - t) * normal[1],
+                -t * normal[0],
+                -t * normal[1],
+            ],
+            axis=1,
+        ).ravel()
+        g_pair = sp.csr_matrix((vv, (r, cc)), shape=(n, n_u))
+        g_rows.append(g_pair)
+        g0.append(gap - g_pair @ u)  # so that g(u') = g0 + G u'
+        geom.append((seg, t, normal))
+    return sp.vstack(g_rows, format="csr"), np.concatenate(g0), geom
 
 
-def _kkt(k_mat, f, c_mat, rhs_c, g_mat, g_const, act):
-    """Solve K u = f + Gaᵀλ + Cᵀμ, C u = rhs_c, Ga u = −g0a; return (u, λ, μ)."""
-    ga = g_mat[act]
-    n_u, n_c = k_mat.shape[0], c_mat.shape[0]
-    kkt = sp.bmat([[k_mat, -c_mat.T, -ga.T], [-c_mat, None, None], [-ga, None, None]], format="csc")
-    rhs = np.concatenate([f, -rhs_c, g_const[act]])
+def _free_modes(bodies, offsets, c_mat, k_extra) -> FloatArray:
+    """Zero-energy modes of the constrained structure (n_u, r), columns of unit max.
+
+    They lie in the span of the bodies' rigid motions (two translations and the
+    infinitesimal rotation of each) and the extra unknowns without stiffness; the modes
+    are the combinations of these that satisfy the homogeneous equalities.
+    """
+    n_b = int(offsets[-1])
+    n_u = n_b + k_extra.size
+    cols = []
+    for i, b in enumerate(bodies):
+        x, y = b.mesh.p
+        xc, yc = x.mean(), y.mean()
+        dx = offsets[i] + b.basis.nodal_dofs[0]
+        dy = offsets[i] + b.basis.nodal_dofs[1]
+        for vx, vy in ((np.ones_like(x), 0 * x), (0 * x, np.ones_like(x)), (-(y - yc), x - xc)):
+            z = np.zeros(n_u)
+            z[dx], z[dy] = vx, vy
+            cols.append(z / np.abs(z).max())
+    for j in np.flatnonzero(k_extra == 0):
+        z = np.zeros(n_u)
+        z[n_b + j] = 1.0
+        cols.append(z)
+    z_mat = np.stack(cols, axis=1)
+    if c_mat.shape[0] == 0:
+        null = np.eye(z_mat.shape[1])
+    else:
+        cz = np.asarray(c_mat @ z_mat)
+        _, sv, vt = np.linalg.svd(cz)
+        sv = np.concatenate([sv, np.zeros(vt.shape[0] - sv.size)])
+        null = vt[sv <= 1e-9 * max(sv.max(), 1e-300)].T
+    modes = z_mat @ null
+    if modes.shape[1]:
+        modes /= np.abs(modes).max(axis=0)
+    return modes
+
+
+def _grounding_dofs(modes: FloatArray) -> NDArray:
+    """Dofs at which the modes are independent (pivoted QR), one per mode."""
+    if modes.shape[1] == 0:
+        return np.zeros(0, int)
+    _, piv = qr(modes.T, mode="r", pivoting=True)
+    return np.sort(piv[: modes.shape[1]])
+
+
+def _least_squares_factor(m: FloatArray):
+    """F with FᵀF = m and the map p ↦ d with Fᵀd = −p (so ½λᵀmλ + pᵀλ = ½‖Fλ − d‖² + c)."""
     try:
-        x = splu(kkt, permc_spec="COLAMD").solve(rhs)
-    except RuntimeError as exc:  # singular: a rigid-body mode left free
+        low = cholesky(m, lower=True)
+        return low.T, lambda p: -solve_triangular(low, p, lower=True)
+    except LinAlgError:  # semi-definite up to round-off: drop the null directions
+        eig, vec = np.linalg.eigh(m)
+        keep = eig > 1e-13 * eig.max()
+        root = np.sqrt(eig[keep])
+        return root[:, None] * vec[:, keep].T, lambda p: -(vec[:, keep].T @ p) / root
+
+
+def _contact_qp(w, q, h, c, amp0, max_iter: int = 200):
+    """Solve min ½λᵀWλ + qᵀλ subject to λ ≥ 0, Hᵀλ = c (W symmetric positive definite).
+
+    The KKT conditions are the contact conditions g = Wλ + q + Ha ≥ 0, λ ≥ 0, λ·g = 0
+    with the amplitudes a of the free modes and their equilibrium Hᵀλ = c. The
+    multipliers a are found by the augmented-Lagrangian (method of multipliers) update,
+    each subproblem min over λ ≥ 0 a strictly convex QP solved exactly and finitely by
+    non-negative least squares (Lawson–Hanson, no cycling); after each, the KKT system of
+    its active set is solved exactly and accepted when it satisfies every condition to
+    round-off. Returns (λ, a, subproblems).
+    """
+    n, r = q.size, h.shape[1]
+    s = float(np.mean(np.diag(w)))
+    ws, qs, hs, cs = w / s, q / s, h / s, np.asarray(c, float) / s
+    h_norm = float(np.linalg.norm(hs, 2)) if r else 0.0
+    rho = 1e3 / h_norm**2 if h_norm > 0 else 0.0  # ρ‖H‖² ≫ diag W: fast multipliers
+    f_mat, rhs = _least_squares_factor(ws + rho * (hs @ hs.T))
+    a = np.asarray(amp0, float).copy()
+    lam = np.zeros(n)
+    for k in range(1, max_iter + 1):
+        lam, _ = nnls(f_mat, rhs(qs + hs @ a - rho * (hs @ cs)), maxiter=50 * n)
+        ok, lam_p, a_p = _polish(ws, qs, hs, cs, lam > 0)
+        if ok:
+            return lam_p, a_p, k
+        if r == 0:
+            break
+        a = a + rho * (hs.T @ lam - cs)
+    if r == 0:  # NNLS is exact for this problem; its solution stands if it satisfies KKT
+        g = ws @ lam + qs
+        tol = 1e-7 * max(float(np.abs(ws @ lam).max()), 1e-300)
+        if g.min() >= -tol and np.abs(g[lam > 0]).max(initial=0.0) <= tol:
+            return lam, a, 1
+    raise ConvergenceError(
+        "FE contact: the condensed contact problem did not converge (no equilibrium with "
+        "compressive contact forces: a load pulls a body away?)"
+    )
+
+
+def _polish(ws, qs, hs, c, act):
+    """Solve the KKT system of the active set exactly; (ok, λ, a)."""
+    idx = np.flatnonzero(act)
+    n_a, r = idx.size, hs.shape[1]
+    if n_a == 0:
+        return False, None, None
+    kkt = np.zeros((n_a + r, n_a + r))
+    kkt[:n_a, :n_a] = ws[np.ix_(idx, idx)]
+    kkt[:n_a, n_a:] = hs[idx]
+    kkt[n_a:, :n_a] = hs[idx].T
+    try:
+        x = np.linalg.solve(kkt, np.concatenate([-qs[idx], c]))
+    except LinAlgError:
+        return False, None, None
+    lam = np.zeros(qs.size)
+    lam[idx] = x[:n_a]
+    a = x[n_a:]
+    closure = np.abs(ws @ lam)
+    if r:
+        closure = np.maximum(closure, np.abs(hs @ a))
+    g = ws @ lam + qs + hs @ a
+    lam_tol = 1e-9 * max(float(np.abs(lam).max()), 1e-300)
+    gap_tol = 1e-9 * max(float(closure.max()), 1e-300)
+    ok = lam[idx].min() >= -lam_tol and (act.all() or g[~act].min() >= -gap_tol)
+    return ok, np.maximum(lam, 0.0), a
+
+
+def _check(lam, gap, closure, h, modal_force) -> None:
+    """Verify the final solution: no penetration, compression only, modal equilibrium."""
+    act = lam > 0
+    tol = 1e-8 * closure
+    if lam.min() < 0 or (~act).any() and gap[~act].min() < -tol:
         raise ConvergenceError(
-            f"FE contact: singular system ({exc}); a body is unsupported"
-        ) from None
-    if not np.all(np.isfinite(x)):
-        raise ConvergenceError("FE contact: singular system; a body is unsupported")
-    return x[:n_u], x[n_u + n_c :], x[n_u : n_u + n_c]
+            f"FE contact: the solution penetrates by {-gap[~act].min() / closure:.2g} "
+            "of the closure"
+        )
+    if act.any() and np.abs(gap[act]).max() > tol:
+        raise ConvergenceError("FE contact: closed gaps are not closed (ill-conditioned)")
+    if h.shape[1]:
+        resid = np.abs(h.T @ lam + modal_force)
+        ref = np.abs(h).T @ lam + np.abs(modal_force)
+        if np.any(resid > 1e-8 * ref):
+            raise ConvergenceError(
+                f"FE contact: free modes not in equilibrium ({(resid / ref).max():.2g})"
+            )
 
 
 @dataclass(frozen=True)
@@ -474,7 +699,10 @@ class ContactSummary:
         Hertzian distribution, whose ∫s²p ds / ∫p ds is b²/4).
     peak_pressure : float
         Peak of a least-squares parabola through the nodal pressures within b/2 of the
-        centre [Pa]: a local recovery that averages out the node-to-segment oscillation.
+        centre [Pa]: a local recovery that averages out the node-to-segment oscillation;
+        NaN when fewer than three closed nodes lie within b/2 (a light touch the mesh
+        cannot resolve; :func:`cyclomesh.fe.disc.solve_disc_fe` then reports the Hertz
+        pressure of the FE load instead, and says so).
     pressure : ndarray
         Nodal pressures λ_i / (tributary length) [Pa].
     arc : ndarray
@@ -512,11 +740,11 @@ def summarize_contact(points: FloatArray, force: FloatArray) -> ContactSummary:
     b = float(2.0 * np.sqrt(np.sum(arc**2 * force) / load))
     p = force / trib
     near = np.abs(arc) <= 0.5 * b
-    if near.sum() >= 3:
+    if (force > 0).sum() < 3 or (near & (force > 0)).sum() < 3:
+        peak = np.nan  # a light touch on one or two elements: the mesh does not resolve it
+    else:
         c2, c1, c0 = np.polyfit(arc[near], p[near], 2)
         peak = float(c0 - c1**2 / (4 * c2)) if c2 < 0 else float(p[near].max())
-    else:
-        peak = float(p.max())
     k = int(np.searchsorted(s, s_c).clip(1, s.size - 1))
     w = (s_c - s[k - 1]) / (s[k] - s[k - 1])
     centre = (1 - w) * points[:, k - 1] + w * points[:, k]

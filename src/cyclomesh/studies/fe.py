@@ -178,6 +178,16 @@ def _dataset(solved: list[Any], angles: np.ndarray, pins: int) -> xr.Dataset:
             rows(lambda r: r.contact_stress_ltca, 1e-6),
             {"units": "MPa"},
         ),
+        "contact_stress_fe_resolved": (
+            per_pin,
+            rows(lambda r: r.stress_resolved).astype(np.int8),
+            {
+                "units": "1",
+                "long_name": "1: FE peak pressure recovered from the nodal pressures; 0: the "
+                "contact is too light for the mesh and contact_stress_fe is the Hertz "
+                "pressure (Eq. 24) of the FE load",
+            },
+        ),
         "rotation_fe": ("crank_angle", position(lambda r: r.rotation_fe), {"units": "arcsec"}),
         "rotation_ltca": ("crank_angle", position(lambda r: r.rotation_ltca), {"units": "arcsec"}),
     }
