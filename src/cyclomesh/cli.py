@@ -501,10 +501,24 @@ def _preload(figures: bool) -> Any:
     return thread
 
 
-def _backend(scheduler: str | None, workers: int | None) -> Any:
+@contextmanager
+def _workers(
+    scheduler: str | None, workers: int | None, figures: bool, parallel: bool = True
+) -> Iterator[Any]:
+    """The execution backend (local processes or Dask; None unless ``parallel``), started,
+    with the import preload thread; closed on exit, the preload joined after success."""
     from cyclomesh.execution import make_backend
 
-    return make_backend(scheduler, workers)
+    backend = make_backend(scheduler, workers) if parallel else None
+    try:
+        if backend is not None:
+            backend.start()
+        preload = _preload(figures)
+        yield backend
+    finally:
+        if backend is not None:
+            backend.close()
+    preload.join()
 
 
 @app.command()
@@ -530,10 +544,7 @@ def tolerance(
     loaded, spec = kind.load_tolerance_study(study)
     options = output_options(loaded, figures)
     n = spec.rings if rings is None else rings
-    backend = _backend(scheduler, workers)
-    try:
-        backend.start()
-        preload = _preload(bool(options.figures))
+    with _workers(scheduler, workers, bool(options.figures)) as backend:
         _say(
             f"tolerance study: {n} rings, {len(spec.crank_angles_deg())} crank angles, "
             f"{backend.workers} worker(s)",
@@ -543,9 +554,6 @@ def tolerance(
             result = kind.compute_tolerance(
                 loaded, rings=rings, backend=backend, chunk_rings=chunk_rings, progress=advance
             )
-    finally:
-        backend.close()
-    preload.join()
     files = kind.write_tolerance(result, out)
     jobs = kind.tolerance_figures(result) if options.figures else []
     publish(
@@ -594,10 +602,7 @@ def allocate(
     options = output_options(loaded, figures)
     n = spec.rings if rings is None else rings
     alloc = spec.allocation
-    backend = _backend(scheduler, workers)
-    try:
-        backend.start()
-        preload = _preload(bool(options.figures))
+    with _workers(scheduler, workers, bool(options.figures)) as backend:
         _say(
             f"tolerance allocation: {n} rings, scale factors up to {alloc.factor_max:g} in "
             f"{alloc.factor_steps} steps + {alloc.bisections} bisections, "
@@ -613,9 +618,6 @@ def allocate(
                 chunk_rings=chunk_rings,
                 progress=advance,
             )
-    finally:
-        backend.close()
-    preload.join()
     files = kind.write_allocation(result, out)
     jobs = kind.allocation_figures(result) if options.figures else []
     publish(
@@ -696,11 +698,7 @@ def design(
     options = output_options(loaded, figures)
     n = math.prod(len(v) for v in space.axes().values())
     parallel = scheduler is not None or workers not in (None, 1) or (space.rings and workers != 1)
-    backend = _backend(scheduler, workers) if parallel else None
-    try:
-        if backend is not None:
-            backend.start()
-        preload = _preload(bool(options.figures))
+    with _workers(scheduler, workers, bool(options.figures), parallel) as backend:
         _say(
             f"design map: {n} candidates"
             + (f" x {space.rings} rings" if space.rings else "")
@@ -711,10 +709,6 @@ def design(
             result = kind.compute_design(
                 loaded, backend=backend, chunk=1 if backend else None, progress=advance
             )
-    finally:
-        if backend is not None:
-            backend.close()
-    preload.join()
     files = kind.write_design(result, out)
     publish(
         out,
