@@ -170,3 +170,37 @@ def publish(
     written.append(write_report(report, title, page, stamp))
     seconds["report"] = time.perf_counter() - start
     return Published(written, rendered, seconds)
+
+
+def case_attrs(study: Study, case: Any) -> dict[str, str]:
+    """Attributes every result Dataset of a case carries: the case and the study file it
+    came from (name, description, inputs as JSON, title, file name, SHA-256)."""
+    import json
+
+    return {
+        "case_name": case.name,
+        "case_description": case.description,
+        "case_inputs_json": json.dumps(case.model_dump(mode="json"), ensure_ascii=False),
+        "study_title": study.title,
+        "study_file": study.path.name,
+        "study_sha256": study.sha256,
+    }
+
+
+def summary_document(
+    study: Study, units: dict[str, str], cases: list[dict[str, Any]], **extra: Any
+) -> dict[str, Any]:
+    """The ``summary.json`` of a kind of study: the study's stamp (title, file, SHA-256,
+    cyclomesh version), ``extra`` keys, the ``units`` of the metrics and one record per
+    case."""
+    from cyclomesh.report import cyclomesh_version
+
+    return {
+        "title": study.title,
+        "study_file": study.path.name,
+        "study_sha256": study.sha256,
+        "cyclomesh_version": cyclomesh_version(),
+        **extra,
+        "units": units,
+        "cases": cases,
+    }

@@ -34,6 +34,7 @@ import numpy as np
 
 from cyclomesh.exceptions import StudyError
 from cyclomesh.metrics import FE_METRICS
+from cyclomesh.pipeline import case_attrs, summary_document
 from cyclomesh.study.schema import FeSection, Study, folder_name
 
 if TYPE_CHECKING:
@@ -136,17 +137,13 @@ def compute_fe(
             solved.append(_solve(inputs, section, float(phi), section.elements_per_half_width))
         ds = _dataset(solved, angles, inputs.design.pins)
         ds.attrs.update(
-            case_name=case.name,
-            case_description=case.description,
+            case_attrs(study, case),
             contact_law=inputs.contact_law,
             torque_nm=float(inputs.torque),
             bore_radius_mm=section.bore_radius_mm,
             elements_per_half_width=section.elements_per_half_width,
             far_size_mm=section.far_size_mm,
             rotation_convention="TE convention of Eq. 25: -(rest + loaded rotation)",
-            study_title=study.title,
-            study_file=study.path.name,
-            study_sha256=study.sha256,
         )
         result.cases[case.name] = ds
         result.summaries[case.name] = _summary(ds)
@@ -256,7 +253,6 @@ def write_fe(result: FeResult, out: Path) -> list[Path]:
     import csv
 
     from cyclomesh.output import write_json, write_netcdf
-    from cyclomesh.report import cyclomesh_version
 
     study = result.study
     out = Path(out)
@@ -280,16 +276,13 @@ def write_fe(result: FeResult, out: Path) -> list[Path]:
                 **result.summaries[case.name],
             }
         )
-    document = {
-        "title": study.title,
-        "study_file": study.path.name,
-        "study_sha256": study.sha256,
-        "cyclomesh_version": cyclomesh_version(),
-        "fe": result.section.model_dump(),
-        "seconds": result.seconds,
-        "units": {name: m.unit for name, m in FE_METRICS.items()},
-        "cases": records,
-    }
+    document = summary_document(
+        study,
+        {name: m.unit for name, m in FE_METRICS.items()},
+        records,
+        fe=result.section.model_dump(),
+        seconds=result.seconds,
+    )
     written.append(write_json(out / "summary.json", document))
     return written
 

@@ -15,7 +15,6 @@ Stages (see ``docs/pipeline.md``):
 from __future__ import annotations
 
 import html
-import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +24,7 @@ import numpy as np
 
 from cyclomesh.design import Modification, PairDesign
 from cyclomesh.metrics import DRIVE_METRICS, METRICS
+from cyclomesh.pipeline import case_attrs, summary_document
 from cyclomesh.study.schema import CaseInputs, CaseSpec, Study, folder_name
 
 if TYPE_CHECKING:
@@ -135,14 +135,7 @@ def annotate(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs, study: Study) -
         pin_angular_error=("pin", errors["angular_urad"], {"units": "urad", "long_name": "εψ,i"}),
         pin_radius_error=("pin", errors["pin_radius_um"], {"units": "um", "long_name": "ερ,i"}),
     )
-    out.attrs.update(
-        case_name=case.name,
-        case_description=case.description,
-        case_inputs_json=json.dumps(case.model_dump(mode="json"), ensure_ascii=False),
-        study_title=study.title,
-        study_file=study.path.name,
-        study_sha256=study.sha256,
-    )
+    out.attrs.update(case_attrs(study, case))
     return out
 
 
@@ -222,7 +215,6 @@ def write_case(ds: xr.Dataset, folder: Path, csv: bool = False) -> dict[str, Pat
 def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
     """Write every case's result files and ``summary.json`` into ``out``."""
     from cyclomesh.output import write_json
-    from cyclomesh.report import cyclomesh_version
 
     study = run.study
     out.mkdir(parents=True, exist_ok=True)
@@ -234,14 +226,8 @@ def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
         records.append(
             {"name": case.name, "results": f"{folder}/results.nc", **run.summaries[case.name]}
         )
-    document = {
-        "title": study.title,
-        "study_file": study.path.name,
-        "study_sha256": study.sha256,
-        "cyclomesh_version": cyclomesh_version(),
-        "units": {name: m.unit for name, m in (METRICS | DRIVE_METRICS).items()},
-        "cases": records,
-    }
+    units = {name: m.unit for name, m in (METRICS | DRIVE_METRICS).items()}
+    document = summary_document(study, units, records)
     written.append(write_json(out / "summary.json", document))
     return written
 

@@ -20,7 +20,6 @@ series stiffness) is reported beside it, never instead of it. See ``docs/drive.m
 from __future__ import annotations
 
 import html
-import json
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -29,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 from cyclomesh.exceptions import StudyError
 from cyclomesh.metrics import STIFFNESS_METRICS
+from cyclomesh.pipeline import case_attrs, summary_document
 from cyclomesh.study.schema import CaseSpec, StiffnessSection, Study, folder_name
 
 if TYPE_CHECKING:
@@ -117,14 +117,7 @@ def compute_stiffness(
             series_stiffness_nm_per_arcmin=section.series_stiffness_nm_per_arcmin,
             contact_law=inputs.contact_law,
         )
-        ds.attrs.update(
-            case_name=case.name,
-            case_description=case.description,
-            case_inputs_json=json.dumps(case.model_dump(mode="json"), ensure_ascii=False),
-            study_title=study.title,
-            study_file=study.path.name,
-            study_sha256=study.sha256,
-        )
+        ds.attrs.update(case_attrs(study, case))
         result.curves[case.name] = ds
         summary = summarize_stiffness(ds)
         record: dict[str, Any] = {"rated_torque_nm": section.rated_torque_nm}
@@ -146,7 +139,6 @@ def compute_stiffness(
 def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
     """Write ``<case>/stiffness.nc`` of every case and ``summary.json`` into ``out``."""
     from cyclomesh.output import write_json, write_netcdf
-    from cyclomesh.report import cyclomesh_version
 
     study = result.study
     out = Path(out)
@@ -164,15 +156,12 @@ def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
                 **result.summaries[case.name],
             }
         )
-    document = {
-        "title": study.title,
-        "study_file": study.path.name,
-        "study_sha256": study.sha256,
-        "cyclomesh_version": cyclomesh_version(),
-        "scope": "cycloid-pin mesh only; drive_* numbers add the series stiffness",
-        "units": {name: m.unit for name, m in STIFFNESS_METRICS.items()},
-        "cases": records,
-    }
+    document = summary_document(
+        study,
+        {name: m.unit for name, m in STIFFNESS_METRICS.items()},
+        records,
+        scope="cycloid-pin mesh only; drive_* numbers add the series stiffness",
+    )
     written.append(write_json(out / "summary.json", document))
     return written
 
