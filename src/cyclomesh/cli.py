@@ -315,7 +315,7 @@ def run(
     csv: CsvOption = False,
 ) -> None:
     """Run every case of a study; write results, figures, summary.json and report.html."""
-    from cyclomesh.pipeline import publish
+    from cyclomesh.pipeline import publish, study_stamp
     from cyclomesh.studies import run as kind
     from cyclomesh.study import load_study
 
@@ -339,7 +339,7 @@ def run(
             jobs,
             files,
             options,
-            kind.study_stamp(loaded),
+            study_stamp(loaded),
             pool=pool,
         )
     if not quiet:
@@ -404,7 +404,7 @@ def stiffness(
     Writes <case>/stiffness.nc, summary.json, the figures and report.html. The numbers
     are those of the cycloid-pin mesh alone (see docs/drive.md).
     """
-    from cyclomesh.pipeline import publish
+    from cyclomesh.pipeline import publish, study_stamp
     from cyclomesh.studies import stiffness as kind
     from cyclomesh.study import load_study
 
@@ -423,7 +423,7 @@ def stiffness(
             jobs,
             files,
             options,
-            {"study file": loaded.path.name, "SHA-256 of the study file": loaded.sha256},
+            study_stamp(loaded),
             pool=pool,
         )
     if not quiet:
@@ -538,7 +538,6 @@ def tolerance(
     figures: FiguresOption = None,
 ) -> None:
     """Monte Carlo tolerance study: per-ring metrics, statistics, worst ring, report."""
-    from cyclomesh.pipeline import publish
     from cyclomesh.studies import tolerance as kind
 
     loaded, spec = kind.load_tolerance_study(study)
@@ -554,17 +553,7 @@ def tolerance(
             result = kind.compute_tolerance(
                 loaded, rings=rings, backend=backend, chunk_rings=chunk_rings, progress=advance
             )
-    files = kind.write_tolerance(result, out)
-    jobs = kind.tolerance_figures(result) if options.figures else []
-    publish(
-        out,
-        f"{loaded.title}: tolerance study",
-        kind.tolerance_sections(result),
-        jobs,
-        files,
-        options,
-        {"SHA-256 of the study file": loaded.sha256},
-    )
+    kind.publish_tolerance(result, out, options)
     if not quiet:
         _print_tolerance(result.summary, out)
 
@@ -595,7 +584,6 @@ def allocate(
     figures: FiguresOption = None,
 ) -> None:
     """Largest scale factor on the tolerances that meets the target exceedance probability."""
-    from cyclomesh.pipeline import publish
     from cyclomesh.studies import tolerance as kind
 
     loaded, spec = kind.load_tolerance_study(study)
@@ -618,18 +606,7 @@ def allocate(
                 chunk_rings=chunk_rings,
                 progress=advance,
             )
-    files = kind.write_allocation(result, out)
-    jobs = kind.allocation_figures(result) if options.figures else []
-    publish(
-        out,
-        f"{loaded.title}: tolerance allocation",
-        kind.allocation_sections(result),
-        jobs,
-        files,
-        options,
-        {"SHA-256 of the study file": loaded.sha256},
-        report_name="allocation_report.html",
-    )
+    kind.publish_allocation(result, out, options)
     if not quiet:
         typer.echo(result.allocation.statement())
         typer.echo(f"files: {out}")
@@ -764,7 +741,7 @@ def fe(
         raise StudyError(
             f"cyclomesh fe needs the fe extra: pip install -e '.[fe]' ({exc})".replace("\n", " ")
         ) from None
-    from cyclomesh.pipeline import publish
+    from cyclomesh.pipeline import publish, study_stamp
     from cyclomesh.studies import fe as kind
     from cyclomesh.study import load_study
 
@@ -791,7 +768,7 @@ def fe(
         kind.fe_figures(result) if options.figures else [],
         files,
         options,
-        {"study file": loaded.path.name, "SHA-256 of the study file": loaded.sha256},
+        study_stamp(loaded),
     )
     if not quiet:
         _print_fe(result.summaries, out)

@@ -172,6 +172,11 @@ def publish(
     return Published(written, rendered, seconds)
 
 
+def study_stamp(study: Study) -> dict[str, str]:
+    """Stamp lines of a report on ``study``: the study file and its SHA-256."""
+    return {"study file": study.path.name, "SHA-256 of the study file": study.sha256}
+
+
 def case_attrs(study: Study, case: Any) -> dict[str, str]:
     """Attributes every result Dataset of a case carries: the case and the study file it
     came from (name, description, inputs as JSON, title, file name, SHA-256)."""

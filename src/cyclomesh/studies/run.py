@@ -24,7 +24,7 @@ import numpy as np
 
 from cyclomesh.design import Modification, PairDesign
 from cyclomesh.metrics import DRIVE_METRICS, METRICS
-from cyclomesh.pipeline import case_attrs, summary_document
+from cyclomesh.pipeline import case_attrs, study_stamp, summary_document
 from cyclomesh.study.schema import CaseInputs, CaseSpec, Study, folder_name
 
 if TYPE_CHECKING:
@@ -481,8 +481,3 @@ def run_study(study: Study, out: str | Path, options: OutputOptions | None = Non
     return publish(
         out, study.title, run_sections(run), jobs, files, options, study_stamp(study)
     ).files
-
-
-def study_stamp(study: Study) -> dict[str, str]:
-    """Stamp lines of a report on ``study``."""
-    return {"study file": study.path.name, "SHA-256 of the study file": study.sha256}

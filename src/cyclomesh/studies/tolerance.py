@@ -67,6 +67,8 @@ __all__ = [
     "worst_ring_study",
     "run_tolerance",
     "run_allocation",
+    "publish_tolerance",
+    "publish_allocation",
 ]
 
 Progress = Callable[[int], None]
@@ -646,6 +648,43 @@ def _options(study: Study, figures: bool, options: OutputOptions | None) -> Outp
     return OutputOptions.from_study(study, None if figures else "none")
 
 
+def publish_tolerance(result: ToleranceResult, out: str | Path, options: OutputOptions) -> Any:
+    """Write the files of a tolerance study into ``out``, then its figures and
+    ``report.html``; returns :class:`cyclomesh.pipeline.Published`."""
+    from cyclomesh.pipeline import publish
+
+    out = Path(out)
+    files = write_tolerance(result, out)
+    return publish(
+        out,
+        f"{result.study.title}: tolerance study",
+        tolerance_sections(result),
+        tolerance_figures(result) if options.figures else [],
+        files,
+        options,
+        {"SHA-256 of the study file": result.study.sha256},
+    )
+
+
+def publish_allocation(result: AllocationResult, out: str | Path, options: OutputOptions) -> Any:
+    """Write the files of a tolerance allocation into ``out``, then its figure and
+    ``allocation_report.html``; returns :class:`cyclomesh.pipeline.Published`."""
+    from cyclomesh.pipeline import publish
+
+    out = Path(out)
+    files = write_allocation(result, out)
+    return publish(
+        out,
+        f"{result.study.title}: tolerance allocation",
+        allocation_sections(result),
+        allocation_figures(result) if options.figures else [],
+        files,
+        options,
+        {"SHA-256 of the study file": result.study.sha256},
+        report_name="allocation_report.html",
+    )
+
+
 def run_tolerance(
     study_path: str | Path,
     out_dir: str | Path,
@@ -664,25 +703,12 @@ def run_tolerance(
     Runs on ``backend``, else on a Dask cluster at ``scheduler`` or on ``workers``
     local processes (closed at the end), else in this process.
     """
-    from cyclomesh.pipeline import publish
-
     study, _ = load_tolerance_study(study_path)
     with _backend(backend, scheduler, workers) as where:
         result = compute_tolerance(
             study, rings=rings, backend=where, chunk_rings=chunk_rings, progress=progress
         )
-    out = Path(out_dir)
-    files = write_tolerance(result, out)
-    opts = _options(study, figures, options)
-    published = publish(
-        out,
-        f"{study.title}: tolerance study",
-        tolerance_sections(result),
-        tolerance_figures(result) if opts.figures else [],
-        files,
-        opts,
-        {"SHA-256 of the study file": study.sha256},
-    )
+    published = publish_tolerance(result, out_dir, _options(study, figures, options))
     return StudyFiles(result, published.files)
 
 
@@ -703,8 +729,6 @@ def run_allocation(
     """A whole tolerance allocation: compute, write the files, the figure and
     ``allocation_report.html`` (``backend``, ``scheduler``, ``workers`` as for
     :func:`run_tolerance`)."""
-    from cyclomesh.pipeline import publish
-
     study, _ = load_tolerance_study(study_path)
     with _backend(backend, scheduler, workers) as where:
         result = compute_allocation(
@@ -715,17 +739,5 @@ def run_allocation(
             chunk_rings=chunk_rings,
             progress=progress,
         )
-    out = Path(out_dir)
-    files = write_allocation(result, out)
-    opts = _options(study, figures, options)
-    published = publish(
-        out,
-        f"{study.title}: tolerance allocation",
-        allocation_sections(result),
-        allocation_figures(result) if opts.figures else [],
-        files,
-        opts,
-        {"SHA-256 of the study file": study.sha256},
-        report_name="allocation_report.html",
-    )
+    published = publish_allocation(result, out_dir, _options(study, figures, options))
     return StudyFiles(result, published.files)
