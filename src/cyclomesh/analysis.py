@@ -215,6 +215,23 @@ def drive_to_dataset(
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
+def resolve_crank_angles(
+    crank_angles: ArrayLike | None, crank_angles_deg: ArrayLike | None
+) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+    """The crank angles of an API call given in [rad] or in [deg] (not both; neither: a
+    revolution at 1°): (φin [rad], the degrees as given, kept exactly as the
+    ``crank_angle`` coordinate, or None when they were given in radians)."""
+    if crank_angles_deg is not None:
+        if crank_angles is not None:
+            raise TypeError("give crank_angles [rad] or crank_angles_deg, not both")
+        degrees = np.atleast_1d(np.asarray(crank_angles_deg, float))
+    elif crank_angles is None:
+        degrees = np.arange(360.0)
+    else:
+        return np.atleast_1d(np.asarray(crank_angles, float)), None
+    return np.deg2rad(degrees), degrees
+
+
 def analyse(
     design: PairDesign,
     modification: Modification | None = None,
@@ -270,16 +287,7 @@ def analyse(
     [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672.
     """
     modification = modification or Modification()
-    if crank_angles_deg is not None:
-        if crank_angles is not None:
-            raise TypeError("give crank_angles [rad] or crank_angles_deg, not both")
-        degrees = np.atleast_1d(np.asarray(crank_angles_deg, float))
-        crank_angles = np.deg2rad(degrees)
-    elif crank_angles is None:
-        degrees = np.arange(360.0)
-        crank_angles = np.deg2rad(degrees)
-    else:
-        degrees = None
+    crank_angles, degrees = resolve_crank_angles(crank_angles, crank_angles_deg)
     torque_dim = np.ndim(torque) > 0
     torques = check_torques(torque)
     result = solve_drive(

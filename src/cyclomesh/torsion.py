@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from cyclomesh.analysis import _attrs
+from cyclomesh.analysis import _attrs, resolve_crank_angles
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.drive import torsion_curve
 from cyclomesh.exceptions import DesignError
@@ -93,15 +93,9 @@ def stiffness(
     [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672.
     """
     modification = modification or Modification()
-    if crank_angles_deg is not None:
-        if crank_angles is not None:
-            raise TypeError("give crank_angles [rad] or crank_angles_deg, not both")
-        degrees = np.atleast_1d(np.asarray(crank_angles_deg, float))
-    elif crank_angles is None:
-        degrees = np.arange(360.0)
-    else:
-        degrees = np.degrees(np.atleast_1d(np.asarray(crank_angles, float)))
-    phi = np.deg2rad(degrees) if crank_angles is None else np.asarray(crank_angles, float)
+    phi, degrees = resolve_crank_angles(crank_angles, crank_angles_deg)
+    if degrees is None:
+        degrees = np.degrees(phi)
     series = None
     if series_stiffness_nm_per_arcmin is not None:
         k = series_stiffness_nm_per_arcmin
