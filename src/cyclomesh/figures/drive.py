@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 import xarray as xr
 
 from cyclomesh.figures.render import new_figure
+from cyclomesh.figures.run import _cases, _legend
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -47,26 +48,6 @@ def _fixed(width: float, height: float, left: float = 0.9) -> Figure:
         hspace=0.08,
     )
     return fig
-
-
-def _cases(results: Results, needs: str) -> dict[str, xr.Dataset]:
-    if isinstance(results, xr.Dataset):
-        results = {str(results.attrs.get("case_name", "")): results}
-    cases = dict(results)
-    if not cases:
-        raise ValueError("no results to plot")
-    for name, ds in cases.items():
-        if "ring" in ds.dims:
-            raise ValueError(f"{name}: select one ring first (ds.isel(ring=0))")
-        if needs not in ds:
-            raise ValueError(f"{name}: the results have no {needs!r} variable")
-    return cases
-
-
-def _legend(ax, cases: Mapping[str, object], outside: bool = False) -> None:
-    if len(cases) > 1 or any(cases):
-        where = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)} if outside else {}
-        ax.legend(fontsize="small", **where)
 
 
 def plot_torsion_curve(results: Results) -> Figure:

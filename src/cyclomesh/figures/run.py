@@ -63,7 +63,9 @@ def _figure(width: float, height: float, **adjust: float) -> Figure:
     return fig
 
 
-def _cases(results: Results) -> dict[str, xr.Dataset]:
+def _cases(results: Results, needs: str | None = None) -> dict[str, xr.Dataset]:
+    """``{case name: Dataset}`` of one ring each (also for the drive figures); with
+    ``needs``, each must have that variable."""
     if isinstance(results, xr.Dataset):
         results = {str(results.attrs.get("case_name", "")): results}
     cases = dict(results)
@@ -72,12 +74,15 @@ def _cases(results: Results) -> dict[str, xr.Dataset]:
     for name, ds in cases.items():
         if "ring" in ds.dims:
             raise ValueError(f"{name}: select one ring first (ds.isel(ring=0))")
+        if needs is not None and needs not in ds:
+            raise ValueError(f"{name}: the results have no {needs!r} variable")
     return cases
 
 
-def _legend(ax, cases: Mapping[str, object]) -> None:
+def _legend(ax, cases: Mapping[str, object], outside: bool = False) -> None:
     if len(cases) > 1 or any(cases):
-        ax.legend(fontsize="small")
+        where = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)} if outside else {}
+        ax.legend(fontsize="small", **where)
 
 
 def _nearest_angle(ds: xr.Dataset, angle_deg: float) -> float:
