@@ -25,6 +25,7 @@ _EXPORTS = {
     "LTCA": "cyclomesh.ltca",
     "PairDesign": "cyclomesh.design",
     "Material": "cyclomesh.design",
+    "CrankHoles": "cyclomesh.design",
     "Modification": "cyclomesh.design",
     "PinErrors": "cyclomesh.design",
     "ProfileDeviation": "cyclomesh.modification",

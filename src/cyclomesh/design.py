@@ -24,7 +24,15 @@ from cyclomesh.exceptions import DesignError
 if TYPE_CHECKING:
     from cyclomesh.modification import ProfileDeviation
 
-__all__ = ["Material", "STEEL", "PairDesign", "Modification", "PinErrors", "TABLE1"]
+__all__ = [
+    "Material",
+    "STEEL",
+    "PairDesign",
+    "CrankHoles",
+    "Modification",
+    "PinErrors",
+    "TABLE1",
+]
 
 
 @dataclass(frozen=True)
@@ -136,6 +144,81 @@ class PairDesign:
     def short_amplitude_coefficient(self) -> float:
         """K1 = e·n1/a [-]."""
         return self.eccentricity * self.pins / self.pin_circle_radius
+
+
+@dataclass(frozen=True)
+class CrankHoles:
+    """The crank holes of the disc: where it is held, and where the crankshafts run.
+
+    One set of holes serves both the compliant disc (the disc body is held at the hole
+    centres) and the RV stage (each hole carries one crankshaft's crank bearing). Hole k
+    (k = 0 … N − 1) is centred at radius ``circle_radius`` and polar angle 2πk/N in the
+    disc's own frame (the frame in which Eq. 1 of [1] writes the profile).
+
+    Parameters
+    ----------
+    count : int
+        Number N of crank holes (crankshafts) [-], 2 or more.
+    circle_radius : float
+        Radius of the circle through the hole centres, r_c [m].
+    radius : float
+        Radius of each hole (the outer raceway of its crank bearing) [m].
+
+    Raises
+    ------
+    DesignError
+        For N < 2, non-positive sizes, or holes that overlap each other or the disc
+        centre. :meth:`check_fits` also checks them against the tooth root.
+    """
+
+    count: int
+    circle_radius: float
+    radius: float
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.count, int | np.integer) or not 2 <= self.count <= 12:
+            raise DesignError(
+                f"design.disc.crank_holes: expected 2 to 12 holes, got {self.count!r}"
+            )
+        _positive("design.disc.crank_hole_circle_radius", self.circle_radius)
+        _positive("design.disc.crank_hole_radius", self.radius)
+        if self.radius >= self.circle_radius:
+            raise DesignError(
+                f"design.disc.crank_hole_radius_mm {self.radius * 1e3:.4g} must be below "
+                f"crank_hole_circle_radius_mm {self.circle_radius * 1e3:.4g} "
+                "(the holes would cut the disc centre)"
+            )
+        half_chord = self.circle_radius * math.sin(math.pi / self.count)
+        if self.radius >= half_chord:
+            raise DesignError(
+                f"design.disc.crank_hole_radius_mm {self.radius * 1e3:.4g}: neighbouring "
+                f"crank holes overlap; it must be below r_c·sin(π/N) = {half_chord * 1e3:.4g}"
+            )
+
+    @property
+    def angles(self) -> NDArray[np.float64]:
+        """Polar angles 2πk/N of the hole centres in the disc frame [rad], shape (N,)."""
+        return 2.0 * np.pi * np.arange(self.count) / self.count
+
+    @property
+    def centres(self) -> NDArray[np.float64]:
+        """Hole centres (x, y) in the disc frame [m], shape (N, 2)."""
+        a = self.angles
+        return self.circle_radius * np.stack([np.cos(a), np.sin(a)], axis=-1)
+
+    def check_fits(self, design: PairDesign, margin: float = 0.0) -> None:
+        """Raise :class:`DesignError` unless the holes stay inside the tooth root.
+
+        The root radius of the unmodified disc is a − e − ρp [m]; the holes' outer edge
+        r_c + r must stay at least ``margin`` [m] below it.
+        """
+        root = design.pin_circle_radius - design.eccentricity - design.pin_radius
+        if self.circle_radius + self.radius + margin >= root:
+            raise DesignError(
+                "design.disc: the crank holes reach the tooth root: crank_hole_circle_radius"
+                f"_mm + crank_hole_radius_mm = {(self.circle_radius + self.radius) * 1e3:.4g}"
+                f" must be below a − e − ρp = {root * 1e3:.4g} mm"
+            )
 
 
 TABLE1 = PairDesign(

@@ -57,7 +57,7 @@ from pydantic import (
     model_validator,
 )
 
-from cyclomesh.design import Material, Modification, PairDesign, PinErrors
+from cyclomesh.design import CrankHoles, Material, Modification, PairDesign, PinErrors
 from cyclomesh.exceptions import DesignError, StudyError
 from cyclomesh.modification import ProfileDeviation
 from cyclomesh.profile import check_profile
@@ -140,6 +140,51 @@ def _per_pin(value: Any) -> float | list[float]:
 PerPin = Annotated[float | list[float], BeforeValidator(_per_pin)]
 
 
+class DiscSection(_Section):
+    """``[design.disc]``: the disc's crank holes (supports of the disc, seats of the cranks).
+
+    One set of keys for the compliant disc (held at the hole centres) and the RV stage
+    (one crankshaft and crank bearing per hole). ``crank_holes = 0`` (the default): no
+    holes, the disc is held at its bore.
+    """
+
+    crank_holes: int = Field(
+        0, ge=0, le=12, description="number of crank holes = crankshafts N (0: none)"
+    )
+    crank_hole_circle_radius_mm: float | None = Field(
+        None, gt=0, description="radius of the circle through the hole centres r_c [mm]"
+    )
+    crank_hole_radius_mm: float | None = Field(
+        None, gt=0, description="radius of each crank hole [mm]"
+    )
+
+    @model_validator(mode="after")
+    def _complete(self) -> DiscSection:
+        given = [
+            self.crank_hole_circle_radius_mm is not None,
+            self.crank_hole_radius_mm is not None,
+        ]
+        if self.crank_holes == 1:
+            raise ValueError("crank_holes: expected 0 (no holes) or 2 to 12 holes, got 1")
+        if self.crank_holes and not all(given):
+            raise ValueError(
+                "crank_holes > 0 needs crank_hole_circle_radius_mm and crank_hole_radius_mm"
+            )
+        if not self.crank_holes and any(given):
+            raise ValueError("crank hole sizes given but crank_holes = 0: set crank_holes")
+        return self
+
+    def to_core(self) -> CrankHoles | None:
+        """The :class:`~cyclomesh.design.CrankHoles` in SI units, or None."""
+        if not self.crank_holes:
+            return None
+        return CrankHoles(
+            count=self.crank_holes,
+            circle_radius=self.crank_hole_circle_radius_mm * MM,
+            radius=self.crank_hole_radius_mm * MM,
+        )
+
+
 class DesignSection(_Section):
     """``[design]``: the nominal gear pair (Table 1 of [1]); every key is required."""
 
@@ -154,6 +199,7 @@ class DesignSection(_Section):
         ge=1,
         description="identical discs on the pin ring, disc k's eccentric at φ + (k - 1)·360°/N",
     )
+    disc: DiscSection = DiscSection()
 
 
 class ModificationSection(_Section):
@@ -543,6 +589,8 @@ class CaseInputs:
     discs: int = 1
     """Number of discs on the pin ring."""
     contact_law: str = "paper"
+    crank_holes: CrankHoles | None = None
+    """The disc's crank holes (``[design.disc]``), or None: held at the bore."""
 
     def kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`cyclomesh.analyse`."""
@@ -665,6 +713,9 @@ class CaseSpec(_Section):
             )
             errors.ring_shape(design.pins)
             check_profile(design, modification)
+            crank_holes = d.disc.to_core()
+            if crank_holes is not None:
+                crank_holes.check_fits(design)
         except DesignError as exc:
             raise StudyError(f"{self.label}: {exc}") from None
         return CaseInputs(
@@ -681,6 +732,7 @@ class CaseSpec(_Section):
             errors_um=per_pin,
             discs=d.discs,
             contact_law=self.analysis.contact_law,
+            crank_holes=crank_holes,
         )
 
 
