@@ -29,6 +29,8 @@ _EXPORTS = {
     "Modification": "cyclomesh.design",
     "PinErrors": "cyclomesh.design",
     "ProfileDeviation": "cyclomesh.modification",
+    "export_profile": "cyclomesh.export",
+    "disc_outline": "cyclomesh.outline",
     "design_map": "cyclomesh.designmap",
     "Constraints": "cyclomesh.designmap",
     "STEEL": "cyclomesh.design",
