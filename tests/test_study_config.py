@@ -369,3 +369,30 @@ def test_bad_csv_names_errors_file(tmp_path, csv, expected):
     message = str(info.value)
     assert message.startswith('case "measured": errors.file: ')
     assert expected in message and "\n" not in message
+
+
+def test_named_materials_and_explicit_values(tmp_path):
+    from cyclomesh.materials import MATERIALS
+
+    base = (EXAMPLES / "table2.toml").read_text().split("[material]")[0]
+    path = tmp_path / "m.toml"
+    path.write_text(
+        base
+        + '[material]\nname = "gcr15"\n[material.ring]\nname = "nodular_iron"\n'
+        + "poisson_ratio = 0.28\n"
+    )
+    study = load_study(path)
+    design = study.inputs[0].design
+    assert design.disc_material.youngs_modulus == MATERIALS["gcr15"].youngs_modulus
+    assert design.ring_material.youngs_modulus == 176e9  # EN 1563
+    assert design.ring_material.poisson_ratio == 0.28  # explicit value wins over the name
+    material = study.cases[0].material
+    assert material.allowable_mpa("disc") == 1500.0 and material.allowable_mpa("ring") == 600.0
+    assert material.names() == {"pin": "GCr15", "disc": "GCr15", "ring": "EN-GJS-700-2"}
+    assert all(grade.source and grade.allowable_contact_stress > 0 for grade in MATERIALS.values())
+    path.write_text(base + '[material]\nname = "unobtainium"\n')
+    with pytest.raises(StudyError, match=r"^material\.name: unknown material 'unobtainium'"):
+        load_study(path)
+    # without a name or value, no allowable (steel's E and ν as before)
+    path.write_text(base)
+    assert load_study(path).cases[0].material.allowable_mpa("disc") is None

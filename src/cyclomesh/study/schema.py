@@ -54,6 +54,7 @@ from pydantic import (
     Field,
     PrivateAttr,
     ValidationError,
+    field_validator,
     model_validator,
 )
 
@@ -214,10 +215,44 @@ class ModificationSection(_Section):
 
 
 class MaterialProperties(_Section):
-    """Elastic constants; a key left out falls back to ``[material]``, then to steel."""
+    """Material of a part: a named grade (:data:`cyclomesh.materials.MATERIALS`) and/or
+    explicit values; a key left out falls back to the name, then to ``[material]``, then
+    to steel (Table 1 of [1])."""
 
+    name: str | None = Field(
+        None, description='named material, e.g. "GCr15" (docs/study-files.md lists them)'
+    )
     youngs_modulus_gpa: float | None = Field(None, gt=0, description="E [GPa]")
     poisson_ratio: float | None = Field(None, gt=-1.0, lt=0.5, description="ν [-]")
+    allowable_contact_stress_mpa: float | None = Field(
+        None, gt=0, description="allowable contact stress σH,lim [MPa]"
+    )
+
+    @field_validator("name")
+    @classmethod
+    def _known_name(cls, name: str | None) -> str | None:
+        if name is not None:
+            from cyclomesh.materials import material_grade
+
+            try:
+                material_grade(name)
+            except KeyError as exc:
+                raise ValueError(exc.args[0]) from None
+        return name
+
+    def value(self, key: str) -> float | None:
+        """The explicit value of ``key`` (study units), else the named grade's, else None."""
+        own = getattr(self, key)
+        if own is not None or self.name is None:
+            return own
+        from cyclomesh.materials import material_grade
+
+        grade = material_grade(self.name)
+        return {
+            "youngs_modulus_gpa": grade.youngs_modulus / GPA,
+            "poisson_ratio": grade.poisson_ratio,
+            "allowable_contact_stress_mpa": grade.allowable_contact_stress / 1e6,
+        }[key]
 
 
 class MaterialSection(MaterialProperties):
@@ -227,12 +262,33 @@ class MaterialSection(MaterialProperties):
     disc: MaterialProperties = MaterialProperties()
     ring: MaterialProperties = MaterialProperties()
 
+    def _lookup(self, part: str, key: str) -> float | None:
+        own = getattr(self, part).value(key)
+        return own if own is not None else self.value(key)
+
     def resolve(self, part: Literal["pin", "disc", "ring"]) -> Material:
         """Core :class:`Material` of one part (E in Pa); steel of Table 1 of [1] by default."""
-        own: MaterialProperties = getattr(self, part)
-        modulus = own.youngs_modulus_gpa or self.youngs_modulus_gpa or 206.0
-        ratio = own.poisson_ratio if own.poisson_ratio is not None else self.poisson_ratio
-        return Material(youngs_modulus=modulus * GPA, poisson_ratio=0.3 if ratio is None else ratio)
+        modulus = self._lookup(part, "youngs_modulus_gpa")
+        ratio = self._lookup(part, "poisson_ratio")
+        return Material(
+            youngs_modulus=(206.0 if modulus is None else modulus) * GPA,
+            poisson_ratio=0.3 if ratio is None else ratio,
+        )
+
+    def allowable_mpa(self, part: Literal["pin", "disc", "ring"]) -> float | None:
+        """Allowable contact stress of one part [MPa], or None if no name or value gives it."""
+        return self._lookup(part, "allowable_contact_stress_mpa")
+
+    def names(self) -> dict[str, str]:
+        """Part → name of its material grade, for the parts that have one."""
+        out = {}
+        for part in ("pin", "disc", "ring"):
+            name = getattr(self, part).name or self.name
+            if name is not None:
+                from cyclomesh.materials import material_grade
+
+                out[part] = material_grade(name).name
+        return out
 
 
 def _torques(value: Any) -> float | list[float]:
