@@ -343,96 +343,32 @@ def run(
             pool=pool,
         )
     if not quiet:
-        _print_summary(result.summaries, out)
+        _print_summary(result.summaries, out, result.checks)
 
 
-_SUMMARY_COLUMNS = (
-    "te_pp_arcsec",
-    "max_pin_load_n",
-    "max_contact_stress_mpa",
-    "max_groove_stress_mpa",
-    "contacts_min",
-    "contacts_max",
-    "gear_ratio_ripple_pct",
-)
-
-
-def _print_summary(summaries: dict, out: Path) -> None:
+def _print_summary(summaries: dict, out: Path, checks: dict | None = None) -> None:
     from rich.console import Console
-    from rich.markup import escape
-    from rich.table import Table
 
-    from cyclomesh.metrics import METRICS
+    from cyclomesh.cli_tables import RUN_ROWS, print_checks, print_metrics
 
-    labels = [
-        METRICS[k].label + ("" if METRICS[k].unit == "1" else f" [{METRICS[k].unit}]")
-        for k in _SUMMARY_COLUMNS
-    ]
-
-    def text(value: Any) -> str:
-        if isinstance(value, list):  # one value per torque of a torque list
-            return " / ".join(text(v) for v in value)
-        return "–" if value is None else f"{value:.4g}"
-
-    table = Table("case", *(escape(label) for label in labels))
-    for name, record in summaries.items():
-        if "torque_nm" in record:
-            name = f"{name} ({text(record['torque_nm'])} N·m)"
-        table.add_row(escape(name), *(text(record.get(key)) for key in _SUMMARY_COLUMNS))
-    console = Console()
-    console.print(table)
+    console = Console(highlight=False)
+    records = {
+        (
+            f"{name} ({'/'.join(f'{t:g}' for t in r['torque_nm'])} N·m)"
+            if isinstance(r.get("torque_nm"), list)
+            else name
+        ): r
+        for name, r in summaries.items()
+    }
+    print_metrics(console, records, RUN_ROWS)
+    if checks:
+        print_checks(console, checks)
     overlap = [record.get("overlap") for record in summaries.values()]
     if any(any(v) if isinstance(v, list) else v for v in overlap):
         console.print(
             "warning: the disc interferes with unloaded-side pins (see max_overlap_arcsec)"
         )
     console.print(f"report: {out / 'report.html'}")
-
-
-@app.command()
-@cli_errors()
-def export(
-    study: StudyArg,
-    out: OutOption,
-    format: Annotated[
-        str,
-        typer.Option("--format", help="Comma-separated: dxf, svg, csv."),
-    ] = "dxf,svg,csv",
-    chord_tolerance_um: Annotated[
-        float,
-        typer.Option(
-            "--chord-tolerance-um",
-            help="Largest distance between the exported polyline and the exact profile [µm].",
-        ),
-    ] = 0.1,
-    quiet: QuietOption = False,
-) -> None:
-    """Export the whole modified disc profile (every tooth) and the pins: DXF, SVG, CSV.
-
-    Writes <case>/profile.dxf (polyline and splines, mm), profile.svg, profile.csv (points
-    with outward unit normals) and export.json. Datum: disc centre, tooth space 1 on +x.
-    """
-    from cyclomesh.export import export_study, parse_formats
-    from cyclomesh.study import load_study
-
-    formats = parse_formats(format)
-    if not (math.isfinite(chord_tolerance_um) and chord_tolerance_um >= 0.001):
-        raise StudyError(
-            f"--chord-tolerance-um: expected a number of at least 0.001, got {chord_tolerance_um}"
-        )
-    loaded = load_study(study)
-    written = export_study(loaded, out, formats, chord_tolerance_um * 1e-6)
-    if not quiet:
-        for name, files in written.items():
-            import json
-
-            meta = json.loads(files["json"].read_text())
-            typer.echo(
-                f"{name}: {meta['vertices']} points, tip radius {meta['tip_radius_mm']:.4f} mm, "
-                f"root radius {meta['root_radius_mm']:.4f} mm, chord tolerance "
-                f"{chord_tolerance_um:g} µm"
-            )
-            typer.echo("  " + ", ".join(str(p) for p in files.values()))
 
 
 @app.command()
@@ -473,32 +409,30 @@ def stiffness(
             pool=pool,
         )
     if not quiet:
-        _print_stiffness(result.summaries, out)
+        _print_stiffness(result.summaries, out, result.checks)
 
 
-_STIFFNESS_COLUMNS = (
-    "play_arcmin_mean",
-    "lost_motion_arcmin_mean",
-    "torsional_rigidity_nm_per_arcmin_mean",
-    "drive_lost_motion_arcmin_mean",
-    "drive_torsional_rigidity_nm_per_arcmin_mean",
+_STIFFNESS_ROWS = (
+    ("rated_torque_nm", "rated torque [N·m]", 1.0),
+    ("play_arcmin_max", "max play [arcmin]", 1.0),
+    ("lost_motion_arcmin_mean", "lost motion [arcmin]", 1.0),
+    ("lost_motion_arcmin_max", "max lost motion [arcmin]", 1.0),
+    ("torsional_rigidity_nm_per_arcmin_mean", "rigidity [N·m/arcmin]", 1.0),
+    ("torsional_rigidity_nm_per_arcmin_min", "min rigidity [N·m/arcmin]", 1.0),
+    ("drive_lost_motion_arcmin_max", "drive lost motion [arcmin]", 1.0),
+    ("drive_torsional_rigidity_nm_per_arcmin_min", "drive rigidity [N·m/arcmin]", 1.0),
 )
 
 
-def _print_stiffness(summaries: dict, out: Path) -> None:
+def _print_stiffness(summaries: dict, out: Path, checks: dict | None = None) -> None:
     from rich.console import Console
-    from rich.markup import escape
-    from rich.table import Table
 
-    from cyclomesh.metrics import STIFFNESS_METRICS
+    from cyclomesh.cli_tables import print_checks, print_metrics
 
-    metrics = [STIFFNESS_METRICS[k] for k in _STIFFNESS_COLUMNS]
-    table = Table("case", *(escape(f"{m.label} [{m.unit}]") for m in metrics))
-    for name, record in summaries.items():
-        cells = [record.get(key) for key in _STIFFNESS_COLUMNS]
-        table.add_row(escape(name), *("–" if v is None else f"{v:.4g}" for v in cells))
-    console = Console()
-    console.print(table)
+    console = Console(highlight=False)
+    print_metrics(console, summaries, _STIFFNESS_ROWS)
+    if checks:
+        print_checks(console, checks)
     console.print(
         "the mesh alone: crank bearings, crankshafts and the first stage are not included"
     )

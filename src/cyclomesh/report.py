@@ -40,6 +40,8 @@ figure { margin: 1em 0; } figure img, figure svg { max-width: 100%; height: auto
 figcaption { font-size: 0.9em; color: #444; }
 pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 0.85em; }
 .stamp { color: #555; font-size: 0.9em; }
+tr.fail td { background: #fbe3e3; } tr.warn td { background: #fff4d6; }
+td.note { text-align: left; font-size: 0.9em; color: #444; }
 """
 
 

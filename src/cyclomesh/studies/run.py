@@ -120,6 +120,8 @@ class RunResult:
     """Case name → annotated Dataset of :func:`cyclomesh.analyse`."""
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → metrics of :data:`cyclomesh.metrics.METRICS` (plain JSON numbers)."""
+    checks: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """Case name → requirement checks and design warnings (:mod:`cyclomesh.studies.checks`)."""
 
     @property
     def inputs(self) -> list[CaseInputs]:
@@ -175,6 +177,7 @@ def compute_run(
     ``on_start(name)`` and ``on_done(name)`` are called around each case (progress).
     """
     from cyclomesh.analysis import analyse, summarize
+    from cyclomesh.studies.checks import case_checks
 
     run = RunResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
@@ -186,6 +189,7 @@ def compute_run(
         ds = annotate(ds, case, inputs, study)
         run.results[case.name] = ds
         run.summaries[case.name] = summary_record(summarize(ds))
+        run.checks[case.name] = case_checks(study, case, inputs, run.summaries[case.name], ds)
         if on_done:
             on_done(case.name)
     return run
@@ -224,7 +228,12 @@ def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
         folder = case_folder(case.name)
         written += write_case(run.results[case.name], out / folder, options.csv).values()
         records.append(
-            {"name": case.name, "results": f"{folder}/results.nc", **run.summaries[case.name]}
+            {
+                "name": case.name,
+                "results": f"{folder}/results.nc",
+                **run.summaries[case.name],
+                "checks": run.checks[case.name],
+            }
         )
     units = {name: m.unit for name, m in (METRICS | DRIVE_METRICS).items()}
     document = summary_document(study, units, records)
@@ -465,7 +474,14 @@ def run_sections(run: RunResult) -> list[Section]:
         ["case", *header],
         [[n, *(_cell(run.summaries[n].get(c)) for c in columns)] for n in names],
     )
-    return [Section("Study", intro), Section("Inputs", inputs_html), Section("Summary", summary)]
+    from cyclomesh.studies.checks import checks_section
+
+    return [
+        Section("Study", intro),
+        checks_section(run.checks),
+        Section("Summary", summary),
+        Section("Inputs", inputs_html),
+    ]
 
 
 def run_study(study: Study, out: str | Path, options: OutputOptions | None = None) -> list[Path]:

@@ -71,6 +71,8 @@ class StiffnessResult:
     """Case name → Dataset of :func:`cyclomesh.torsion.stiffness`, with the case inputs."""
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → rated torque, discs and :data:`STIFFNESS_METRICS` (JSON numbers)."""
+    checks: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """Case name → requirement checks and design warnings (:mod:`cyclomesh.studies.checks`)."""
     seconds: float = 0.0
 
 
@@ -98,6 +100,7 @@ def compute_stiffness(
     torque (0.4 s for 42 torques × 360 crank angles × 40 pins), so the cases run here.
     """
     from cyclomesh.output import jsonable
+    from cyclomesh.studies.checks import case_checks
     from cyclomesh.torsion import stiffness, summarize_stiffness
 
     check_stiffness(study)
@@ -130,6 +133,7 @@ def compute_stiffness(
             }
         )
         result.summaries[case.name] = record
+        result.checks[case.name] = case_checks(study, case, inputs, record)
         if progress:
             progress(1)
     result.seconds = time.perf_counter() - start
@@ -154,6 +158,7 @@ def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
                 "name": case.name,
                 "results": f"{folder_name(case.name)}/stiffness.nc",
                 **result.summaries[case.name],
+                "checks": result.checks[case.name],
             }
         )
     document = summary_document(
@@ -285,4 +290,6 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
     summary = table_html(
         ["case", *header], [[n, *(result.summaries[n].get(c) for c in columns)] for n in names]
     )
-    return [Section("Study", intro), Section("Summary", summary)]
+    from cyclomesh.studies.checks import checks_section
+
+    return [Section("Study", intro), checks_section(result.checks), Section("Summary", summary)]

@@ -77,6 +77,7 @@ __all__ = [
     "StiffnessSection",
     "FeSection",
     "FiguresSection",
+    "RequirementsSection",
     "Uniform",
     "Normal",
     "TruePosition",
@@ -627,6 +628,64 @@ class DesignSpaceSection(_Section):
         return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}
 
 
+class RequirementsSection(_Section):
+    """``[requirements]``: limits every kind of study checks where it computes the quantity.
+
+    ``max_contact_stress_mpa`` defaults to the allowable contact stress of the pin and
+    disc materials (the smaller), ``max_groove_stress_mpa`` to that of pin and ring, when
+    ``[material]`` gives them (a named material does). See ``docs/requirements.md``.
+    """
+
+    max_contact_stress_mpa: float | None = Field(
+        None, gt=0, description="peak pin-tooth contact stress [MPa] (default: allowable)"
+    )
+    max_groove_stress_mpa: float | None = Field(
+        None, gt=0, description="peak pin-groove contact stress [MPa] (default: allowable)"
+    )
+    max_te_pp_arcsec: float | None = Field(None, gt=0, description="TE peak-to-peak [arcsec]")
+    min_contacts: int | None = Field(None, ge=1, description="fewest pins in contact")
+    max_gear_ratio_ripple_pct: float | None = Field(
+        None, gt=0, description="gear-ratio ripple [% of n2]"
+    )
+    max_play_arcmin: float | None = Field(None, ge=0, description="largest play [arcmin]")
+    max_lost_motion_arcmin: float | None = Field(
+        None, gt=0, description="largest lost motion [arcmin] (cyclomesh stiffness)"
+    )
+    min_torsional_rigidity_nm_per_arcmin: float | None = Field(
+        None, gt=0, description="smallest torsional rigidity [N·m/arcmin] (cyclomesh stiffness)"
+    )
+    max_mesh_force_n: float | None = Field(None, gt=0, description="largest mesh force [N]")
+    tolerance_percentile: float = Field(
+        95.0,
+        gt=0,
+        lt=100,
+        description="percentile of the rings a tolerance study checks the limits at [%]",
+    )
+
+    def limits(self, material: MaterialSection) -> tuple[dict[str, float], dict[str, str]]:
+        """The limits of one case (study units) and a note for each defaulted one."""
+        limits = {
+            k: v
+            for k, v in self.model_dump().items()
+            if v is not None and k != "tolerance_percentile"
+        }
+        notes = {}
+        for key, parts in (
+            ("max_contact_stress_mpa", ("pin", "disc")),
+            ("max_groove_stress_mpa", ("pin", "ring")),
+        ):
+            if key in limits:
+                continue
+            allowables = [(material.allowable_mpa(p), p) for p in parts]
+            known = [(v, p) for v, p in allowables if v is not None]
+            if len(known) == len(parts):
+                value, part = min(known)
+                limits[key] = value
+                name = material.names().get(part)
+                notes[key] = f"allowable of the {part} material" + (f" ({name})" if name else "")
+        return limits, notes
+
+
 @dataclass(frozen=True)
 class CaseInputs:
     """The core objects of one case, in SI units, ready for :func:`cyclomesh.analyse`."""
@@ -814,6 +873,7 @@ class StudyFile(_Section):
     stiffness: StiffnessSection | None = None  # also per case: cases may override it
     design_space: DesignSpaceSection | None = None
     fe: FeSection | None = None  # cyclomesh fe (the FE model needs the fe extra)
+    requirements: RequirementsSection = RequirementsSection()  # checked by every kind
 
 
 @dataclass(frozen=True)

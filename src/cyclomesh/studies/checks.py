@@ -1,0 +1,135 @@
+"""The verdict table of every kind of study: requirements and design warnings per case.
+
+:func:`case_checks` holds one case's metrics against ``[requirements]`` (limits
+defaulted from the materials' allowable contact stress) and adds the design warnings
+(:mod:`cyclomesh.requirements`); :func:`checks_section` is its report section and
+:func:`checks_rows` the rows of a CLI table. The result is a JSON-ready dict stored as
+``"checks"`` in each case record of ``summary.json``.
+"""
+
+from __future__ import annotations
+
+import html
+from typing import TYPE_CHECKING, Any
+
+from cyclomesh.requirements import (
+    check_requirements,
+    design_warnings,
+    peak_stress_warning,
+    short_label,
+    verdict_counts,
+)
+
+if TYPE_CHECKING:
+    from cyclomesh.report import Section
+    from cyclomesh.study.schema import CaseInputs, CaseSpec, Study
+
+__all__ = ["case_checks", "checks_section", "checks_rows", "VERDICT_MARK"]
+
+VERDICT_MARK = {"pass": "PASS", "fail": "FAIL", "warning": "WARN", "ok": "ok"}
+
+
+def case_checks(
+    study: Study,
+    case: CaseSpec,
+    inputs: CaseInputs,
+    summary: dict[str, Any],
+    ds: Any = None,
+    where: str = "",
+) -> dict[str, Any]:
+    """Requirement checks and design warnings of one case (JSON-ready).
+
+    Parameters
+    ----------
+    summary : dict
+        The case's metrics (summary record of the kind of study).
+    ds : xarray.Dataset, optional
+        The case's :func:`cyclomesh.analyse` results, for the warning on the contact
+        curvature at the peak stress.
+    where : str
+        How the values were taken (e.g. ``"P95 of 1000 rings"``), shown with the table.
+    """
+    limits, notes = study.file.requirements.limits(case.material)
+    rows, unchecked = check_requirements(limits, summary, notes)
+    rows += design_warnings(inputs.design, inputs.modification)
+    if ds is not None and "contact_stress" in ds:
+        row = peak_stress_warning(ds, inputs.design.pin_radius * 1e3)
+        if row is not None:
+            rows.append(row)
+    return {
+        "rows": rows,
+        "not_checked": unchecked,
+        "counts": verdict_counts(rows),
+        "values": where,
+    }
+
+
+def _number(value: Any) -> str:
+    if value is None:
+        return "–"
+    if isinstance(value, int) or (
+        isinstance(value, float) and value.is_integer() and abs(value) < 1e6
+    ):
+        return f"{value:.0f}" if abs(value) >= 1 or value == 0 else f"{value:.4g}"
+    return f"{value:.4g}"
+
+
+def checks_rows(checks: dict[str, Any]) -> list[list[str]]:
+    """Rows (check, limit, value, margin, verdict) of a table, as text."""
+    out = []
+    for row in checks["rows"]:
+        margin = row["margin"]
+        pct = row.get("margin_pct")
+        margin_text = "–" if margin is None else f"{margin:+.3g}"
+        if pct is not None and margin is not None:
+            margin_text += f" ({pct:+.0f}%)"
+        out.append(
+            [
+                short_label(row),
+                _number(row["limit"]),
+                _number(row["value"]),
+                margin_text,
+                VERDICT_MARK.get(row["verdict"], row["verdict"]),
+            ]
+        )
+    return out
+
+
+def checks_section(checks: dict[str, dict[str, Any]], heading: str = "Verdict") -> Section:
+    """Report section: one verdict table per case, then what was not checked."""
+    from cyclomesh.report import Section
+
+    parts = [
+        "<p>Requirements of <code>[requirements]</code> (the contact-stress limits default "
+        "to the materials' allowable, no safety factor) and design warnings. Margin: "
+        "limit − value for an upper limit, value − limit for a lower one; negative fails.</p>"
+    ]
+    for name, case in checks.items():
+        counts = case["counts"]
+        summary = ", ".join(f"{v} {k}" for k, v in counts.items())
+        parts.append(
+            f"<h3>{html.escape(name)}</h3><p>{html.escape(summary)}"
+            + (f"; values: {html.escape(case['values'])}" if case.get("values") else "")
+            + "</p>"
+        )
+        head = "".join(
+            f"<th>{h}</th>" for h in ("check", "limit", "value", "margin", "verdict", "note")
+        )
+        body = []
+        for row, text in zip(case["rows"], checks_rows(case), strict=True):
+            cls = {"fail": "fail", "warning": "warn"}.get(row["verdict"], "")
+            cells = "".join(f"<td>{html.escape(t)}</td>" for t in text)
+            body.append(
+                f'<tr class="{cls}">{cells}<td class="note">{html.escape(row["note"])}</td></tr>'
+            )
+        parts.append(
+            f'<table class="verdict"><thead><tr>{head}</tr></thead>'
+            f"<tbody>{''.join(body)}</tbody></table>"
+        )
+        if case["not_checked"]:
+            parts.append(
+                "<p>Not computed by this kind of study, not checked: "
+                + ", ".join(f"<code>{html.escape(k)}</code>" for k in case["not_checked"])
+                + "</p>"
+            )
+    return Section(heading, "".join(parts))
