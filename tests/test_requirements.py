@@ -137,3 +137,24 @@ def test_bad_requirement_key_is_one_line(tmp_path):
     result = CliRunner().invoke(app, ["check", str(path)])
     assert result.exit_code == 2
     assert "requirements.max_play_arcsec: unknown key" in result.output
+
+
+def test_tolerance_study_checks_at_the_stated_percentile(tmp_path):
+    from cyclomesh.studies.tolerance import compute_tolerance
+    from cyclomesh.study import load_study
+
+    path = tmp_path / "tol.toml"
+    path.write_text(
+        (EXAMPLES / "tolerance.toml").read_text()
+        + "\n[requirements]\nmax_te_pp_arcsec = 12.0\nmin_contacts = 4\n"
+        + "tolerance_percentile = 90.0\n"
+    )
+    result = compute_tolerance(load_study(path), rings=12)
+    checks = result.summary["checks"]
+    rows = {r["check"]: r for r in checks["rows"]}
+    te = result.rings["te_pp_arcsec"].values
+    contacts = result.rings["contacts_min"].values
+    assert rows["max_te_pp_arcsec"]["value"] == pytest.approx(np.percentile(te, 90))
+    assert rows["min_contacts"]["value"] == pytest.approx(np.percentile(contacts, 10))
+    assert "P90 of 12 rings" in checks["values"]
+    assert "max_lost_motion_arcmin" not in checks["not_checked"]  # not required

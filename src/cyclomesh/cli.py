@@ -594,21 +594,29 @@ def allocate(
 
 def _print_tolerance(stats: dict[str, Any], out: Path) -> None:
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
+    from cyclomesh.metrics import METRICS
+
     table = Table(title=f"{stats['rings']} rings (seed {stats['seed']})")
-    for col in ("metric", "unit", "mean", "std", "P5", "P50", "P95", "P99"):
-        table.add_column(col, justify="left" if col in ("metric", "unit") else "right")
+    for col in ("metric", "mean", "std", "P5", "P50", "P95", "P99"):
+        table.add_column(col, justify="left" if col == "metric" else "right")
     for name, s in stats["metrics"].items():
+        m = METRICS.get(name)
+        label = name if m is None else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
         table.add_row(
-            name,
-            s["unit"],
+            escape(label),
             f"{s['mean']:.4g}",
             f"{s['std']:.3g}",
             *(f"{q['estimate']:.4g}" for q in s["percentiles"]),
         )
     console = Console(highlight=False)
     console.print(table)
+    if stats.get("checks"):
+        from cyclomesh.cli_tables import print_checks
+
+        print_checks(console, {"tolerance": stats["checks"]})
     ex = stats["exceedance"]["max_contact_stress_mpa"]
     conf = stats["confidence"]
     console.print(

@@ -24,7 +24,13 @@ if TYPE_CHECKING:
     from cyclomesh.report import Section
     from cyclomesh.study.schema import CaseInputs, CaseSpec, Study
 
-__all__ = ["case_checks", "checks_section", "checks_rows", "VERDICT_MARK"]
+__all__ = [
+    "case_checks",
+    "checks_section",
+    "checks_rows",
+    "percentile_summary",
+    "VERDICT_MARK",
+]
 
 VERDICT_MARK = {"pass": "PASS", "fail": "FAIL", "warning": "WARN", "ok": "ok"}
 
@@ -62,6 +68,26 @@ def case_checks(
         "counts": verdict_counts(rows),
         "values": where,
     }
+
+
+def percentile_summary(per_ring: Any, percentile: float) -> dict[str, float]:
+    """Metrics of many rings (a Dataset with a ``ring`` dimension) as the values that
+    ``percentile`` % of the rings meet: the ``percentile``-th percentile for an upper
+    limit, the (100 − ``percentile``)-th for a lower limit (method "linear")."""
+    import numpy as np
+
+    from cyclomesh.requirements import REQUIREMENTS
+
+    out: dict[str, float] = {}
+    for req in REQUIREMENTS.values():
+        q = percentile if req.kind == "max" else 100.0 - percentile
+        for source, _ in req.sources:
+            if source in per_ring:
+                values = np.asarray(per_ring[source].values, dtype=float)
+                values = values[np.isfinite(values)]
+                if len(values):
+                    out[source] = float(np.percentile(values, q))
+    return out
 
 
 def _number(value: Any) -> str:

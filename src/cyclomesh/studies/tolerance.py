@@ -332,6 +332,7 @@ def compute_tolerance(
     progress : callable, optional
         Called with the number of rings of every finished chunk.
     """
+    from cyclomesh.studies.checks import case_checks, percentile_summary
     from cyclomesh.tolerance.tasks import ToleranceTask
 
     if study.tolerance is None:
@@ -355,6 +356,14 @@ def compute_tolerance(
         },
     )
     stats = ring_statistics(ds, spec, spec.allocation.confidence)
+    p = study.file.requirements.tolerance_percentile
+    stats["checks"] = case_checks(
+        study,
+        study.base,
+        study.base.to_core(),
+        percentile_summary(ds, p),
+        where=f"P{p:g} of {n} rings (P{100 - p:g} for lower limits)",
+    )
     stats["seconds"] = seconds
     stats["rings_per_second"] = n / seconds if seconds > 0 else math.nan
     return ToleranceResult(study, spec, model, ds, stats, seconds)
@@ -457,7 +466,12 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
         + html.escape("; ".join(f"{k}: {v}" for k, v in stats["methods"].items()))
         + ".</p>"
     )
-    return [Section("Tolerance study (Monte Carlo)", text)]
+    from cyclomesh.studies.checks import checks_section
+
+    return [
+        checks_section({result.study.title: stats["checks"]}),
+        Section("Tolerance study (Monte Carlo)", text),
+    ]
 
 
 # --- tolerance allocation ----------------------------------------------------------------
