@@ -103,6 +103,14 @@ CASE_SECTIONS = ("design", "modification", "material", "load", "errors", "analys
 """Sections that a case may override."""
 
 
+def tangential_urad(tangential_um: Any, pin_circle_radius_mm: float) -> NDArray:
+    """Angular pin position error εψ,i [µrad] of a tangential one [µm]: t / a.
+
+    µm over mm is 1e-3 rad, i.e. 1e3 µrad.
+    """
+    return np.asarray(tangential_um, dtype=float) / pin_circle_radius_mm * 1e3
+
+
 def pin_errors_si(
     radial_um: Any, angular_urad: Any, pin_radius_um: Any, eccentricity_um: Any
 ) -> PinErrors:
@@ -187,13 +195,23 @@ class DiscSection(_Section):
         )
 
 
+GROOVE_CLEARANCE_MM = 0.005
+"""Default ρg − ρp [mm]: 3.505 − 3.5 mm of Table 1 of [1]."""
+
+
 class DesignSection(_Section):
-    """``[design]``: the nominal gear pair (Table 1 of [1]); every key is required."""
+    """``[design]``: the nominal gear pair (Table 1 of [1]); every key but
+    ``groove_radius_mm`` (default ρp + :data:`GROOVE_CLEARANCE_MM`) is required."""
 
     pins: int = Field(ge=3, description="number of ring pins n1; the disc has n1 - 1 teeth")
     pin_circle_radius_mm: float = Field(gt=0, description="pin-centre circle radius a [mm]")
     pin_radius_mm: float = Field(gt=0, description="pin radius ρp [mm]")
-    groove_radius_mm: float = Field(gt=0, description="pin-groove radius ρg [mm]")
+    groove_radius_mm: float | None = Field(
+        None,
+        gt=0,
+        description="pin-groove radius ρg [mm]; default ρp + 0.005 mm (the clearance of "
+        "Table 1 of [1])",
+    )
     eccentricity_mm: float = Field(gt=0, description="eccentricity e [mm]")
     width_mm: float = Field(gt=0, description="disc face width B [mm]")
     discs: int = Field(
@@ -355,11 +373,23 @@ class RandomErrorsSection(_Section):
     radial_um: float = Field(0.0, ge=0, description="half-range of εa,i [µm]")
     angular_urad: float = Field(0.0, ge=0, description="half-range of εψ,i [µrad]")
     pin_radius_um: float = Field(0.0, ge=0, description="half-range of ερ,i [µm]")
+    tangential_um: float = Field(
+        0.0, ge=0, description="half-range of the tangential position error a·εψ,i [µm]"
+    )
 
-    def draw(self, pins: int) -> dict[str, NDArray]:
-        """Per-pin errors in study units (µm, µrad, µm), shape ``(pins,)`` each."""
+    @model_validator(mode="after")
+    def _one_angular(self) -> RandomErrorsSection:
+        if self.tangential_um and self.angular_urad:
+            raise ValueError("give angular_urad or tangential_um, not both")
+        return self
+
+    def draw(self, pins: int, pin_circle_radius_mm: float | None = None) -> dict[str, NDArray]:
+        """Per-pin errors in study units (µm, µrad, µm), shape ``(pins,)`` each.
+
+        A tangential half-range is drawn after the three others (their draws do not
+        change) and turned into the angular error εψ,i = tangential / a [µrad]."""
         rng = np.random.default_rng(self.seed)
-        return {
+        out = {
             name: rng.uniform(-half, half, pins)
             for name, half in (
                 ("radial_um", self.radial_um),
@@ -367,6 +397,12 @@ class RandomErrorsSection(_Section):
                 ("pin_radius_um", self.pin_radius_um),
             )
         }
+        if self.tangential_um:
+            tangential = rng.uniform(-self.tangential_um, self.tangential_um, pins)
+            out["angular_urad"] = out["angular_urad"] + tangential_urad(
+                tangential, pin_circle_radius_mm
+            )
+        return out
 
 
 class ErrorsSection(_Section):
@@ -379,6 +415,9 @@ class ErrorsSection(_Section):
     eccentricity_um: float = Field(0.0, description="eccentricity error εe [µm]")
     radial_um: PerPin = Field(0.0, description="radial position error εa,i [µm]")
     angular_urad: PerPin = Field(0.0, description="angular position error εψ,i [µrad]")
+    tangential_um: PerPin = Field(
+        0.0, description="tangential position error a·εψ,i [µm], added to angular_urad"
+    )
     pin_radius_um: PerPin = Field(0.0, description="pin radius error ερ,i [µm]")
     file: str | None = Field(None, description="CSV of measured pins, relative to the study")
     random: RandomErrorsSection | None = None
@@ -519,6 +558,9 @@ class ToleranceSection(_Section):
     crank_step_deg: float = Field(1.0, gt=0.0, description="crank angle step [deg]")
     radial_um: ErrorDistribution | None = None
     angular_urad: ErrorDistribution | None = None
+    tangential_um: ErrorDistribution | None = Field(
+        None, description="tangential position error a·εψ,i [µm] (instead of angular_urad)"
+    )
     pin_radius_um: ErrorDistribution | None = None
     eccentricity_um: ErrorDistribution | None = None
     position: TruePosition | None = None
@@ -527,12 +569,16 @@ class ToleranceSection(_Section):
     @model_validator(mode="after")
     def _consistent(self) -> ToleranceSection:
         if self.position is not None and (
-            self.radial_um is not None or self.angular_urad is not None
+            self.radial_um is not None
+            or self.angular_urad is not None
+            or self.tangential_um is not None
         ):
             raise ValueError(
-                "position (true_position) replaces radial_um and angular_urad; "
+                "position (true_position) replaces radial_um, angular_urad and tangential_um; "
                 "give one or the other"
             )
+        if self.angular_urad is not None and self.tangential_um is not None:
+            raise ValueError("give angular_urad or tangential_um, not both")
         if self.crank_stop_deg <= self.crank_start_deg:
             raise ValueError("crank_stop_deg must be larger than crank_start_deg")
         count = (self.crank_stop_deg - self.crank_start_deg) / self.crank_step_deg
@@ -761,6 +807,16 @@ class CaseSpec(_Section):
                     f"got {len(value)}"
                 )
             total[name] = np.broadcast_to(np.asarray(value, dtype=float), (pins,)).copy()
+        tangential = self.errors.tangential_um
+        if isinstance(tangential, list) and len(tangential) != pins:
+            raise StudyError(
+                f"{self.label}: errors.tangential_um: expected {pins} values (one per pin), "
+                f"got {len(tangential)}"
+            )
+        total["angular_urad"] += tangential_urad(
+            np.broadcast_to(np.asarray(tangential, dtype=float), (pins,)),
+            self.design.pin_circle_radius_mm,
+        )
         if self.errors.file is not None:
             try:
                 measured = read_pin_errors_csv(self._base_dir / self.errors.file, pins)
@@ -769,7 +825,7 @@ class CaseSpec(_Section):
             for name in PIN_ERROR_COLUMNS:
                 total[name] += measured[name]
         if self.errors.random is not None:
-            drawn = self.errors.random.draw(pins)
+            drawn = self.errors.random.draw(pins, self.design.pin_circle_radius_mm)
             for name in PIN_ERROR_COLUMNS:
                 total[name] += drawn[name]
         return total
@@ -807,7 +863,12 @@ class CaseSpec(_Section):
                 pins=d.pins,
                 pin_circle_radius=d.pin_circle_radius_mm * MM,
                 pin_radius=d.pin_radius_mm * MM,
-                groove_radius=d.groove_radius_mm * MM,
+                groove_radius=(
+                    d.groove_radius_mm
+                    if d.groove_radius_mm is not None
+                    else d.pin_radius_mm + GROOVE_CLEARANCE_MM
+                )
+                * MM,
                 eccentricity=d.eccentricity_mm * MM,
                 width=d.width_mm * MM,
                 pin_material=self.material.resolve("pin"),
