@@ -204,9 +204,6 @@ def _robust(name: str, values: FloatArray) -> float:
     return float(np.percentile(values.reshape(-1), 100.0 - ROBUST_PERCENTILE, method="lower"))
 
 
-_REASON_LENGTH = 160
-
-
 @dataclass(frozen=True)
 class DesignTask:
     """Picklable chunk function: candidates ``start .. stop − 1`` of a grid (C order).
@@ -264,7 +261,7 @@ class DesignTask:
         names = self.metric_names()
         n = stop - start
         out: dict[str, NDArray[Any]] = {m: np.full(n, np.nan) for m in names}
-        reason = np.full(n, "", dtype=f"<U{_REASON_LENGTH}")
+        reason = [""] * n
         for row, index in enumerate(range(start, stop)):
             try:
                 values = candidate_metrics(
@@ -278,11 +275,11 @@ class DesignTask:
                     self.contact_law,
                 )
             except CyclomeshError as exc:  # undercut, interfering pin, failed solve
-                reason[row] = str(exc)[:_REASON_LENGTH]
+                reason[row] = str(exc)  # in full: design.nc keeps every character
                 continue
             for m in names:
                 out[m][row] = _robust(m, values[m])
-        out["reason"] = reason
+        out["reason"] = np.asarray(reason, dtype=str)
         return out
 
 
@@ -316,9 +313,12 @@ def feasibility(
     A candidate with a failure reason in ``metrics["reason"]`` is infeasible for it;
     otherwise every constraint must hold.
     """
-    reason = np.asarray(metrics["reason"]).astype(f"<U{_REASON_LENGTH}").copy()
+    checks = constraints.checks()
+    width = max([np.asarray(metrics["reason"]).dtype.itemsize // 4, 1])
+    width = max([width, *(len(f"{name} violated") for *_, name in checks)])
+    reason = np.asarray(metrics["reason"]).astype(f"<U{width}")
     ok = reason == ""
-    for metric, op, limit, name in constraints.checks():
+    for metric, op, limit, name in checks:
         value = metrics.get(metric)
         if value is None:
             raise DesignError(f"constraint {name} needs metric {metric}, which was not computed")
