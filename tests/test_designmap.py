@@ -175,6 +175,10 @@ def test_design_map_figures_show_feasible_region_and_optimum():
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert labels == ["optimum", "paper"]
     assert "Δρ" in ax.get_xlabel() and "Δa" in ax.get_ylabel()
+    assert ax.get_xlabel().endswith("[µm]") and "um]" not in ax.get_ylabel()
+    assert ax.get_title() == ds["max_contact_stress_mpa"].attrs["long_name"]
+    star = next(line for line in ax.lines if line.get_label() == "optimum")
+    assert not star.get_clip_on()  # drawn whole on the edge of the range
     fig = plot_design_maps(ds)
     assert len([a for a in fig.axes if a.get_visible() and a.get_title()]) == len(map_metrics(ds))
     with pytest.raises(ValueError, match="not in the map"):

@@ -121,6 +121,54 @@ def checks_rows(checks: dict[str, Any]) -> list[list[str]]:
     return out
 
 
+def _counts_html(case: dict[str, Any]) -> str:
+    summary = ", ".join(f"{v} {k}" for k, v in case["counts"].items())
+    values = f"; values: {html.escape(case['values'])}" if case.get("values") else ""
+    return f"<p>{html.escape(summary)}{values}</p>"
+
+
+def _matrix_html(checks: dict[str, dict[str, Any]]) -> str:
+    """Several cases: one row per check, a "value VERDICT (margin)" cell per case, the
+    notes of failures and warnings below."""
+    names = list(checks)
+    order: dict[str, list[str]] = {}
+    cells: dict[str, dict[str, str]] = {}
+    notes = []
+    for name in names:
+        case = checks[name]
+        for row, text in zip(case["rows"], checks_rows(case), strict=True):
+            label, limit = order.setdefault(row["check"], [text[0], text[1]])
+            if limit != text[1]:
+                order[row["check"]][1] = "per case"
+            cls = {"fail": "fail", "warning": "warn"}.get(row["verdict"], "")
+            pct = "" if row.get("margin_pct") is None else f" ({row['margin_pct']:+.0f}%)"
+            cells.setdefault(row["check"], {})[name] = (
+                f'<td class="{cls}" title="{html.escape(row["note"])}">'
+                f"{html.escape(text[2])} {VERDICT_MARK.get(row['verdict'], '')}{pct}</td>"
+            )
+            if cls:
+                notes.append(
+                    f"{html.escape(name)}, {html.escape(text[0])}: {html.escape(row['note'])}"
+                )
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in ("check", "limit", *names))
+    body = "".join(
+        f"<tr><td>{html.escape(label)}</td><td>{html.escape(limit)}</td>"
+        + "".join(cells[key].get(n, "<td>–</td>") for n in names)
+        + "</tr>"
+        for key, (label, limit) in order.items()
+    )
+    counts = "; ".join(
+        f"{html.escape(n)}: " + ", ".join(f"{v} {k}" for k, v in checks[n]["counts"].items())
+        for n in names
+    )
+    out = f"<p>{counts}</p>" + (
+        f'<table class="verdict"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+    )
+    if notes:
+        out += "<ul>" + "".join(f"<li>{n}</li>" for n in notes) + "</ul>"
+    return out
+
+
 def checks_section(checks: dict[str, dict[str, Any]], heading: str = "Verdict") -> Section:
     """Report section: one verdict table per case, then what was not checked."""
     from cyclomesh.report import Section
@@ -130,17 +178,13 @@ def checks_section(checks: dict[str, dict[str, Any]], heading: str = "Verdict") 
         "to the materials' allowable, no safety factor) and design warnings. Margin: "
         "limit − value for an upper limit, value − limit for a lower one; negative fails.</p>"
     ]
-    for name, case in checks.items():
-        counts = case["counts"]
-        summary = ", ".join(f"{v} {k}" for k, v in counts.items())
-        parts.append(
-            f"<h3>{html.escape(name)}</h3><p>{html.escape(summary)}"
-            + (f"; values: {html.escape(case['values'])}" if case.get("values") else "")
-            + "</p>"
-        )
+    checks = {name: case for name, case in checks.items() if case["rows"]}
+    if len(checks) == 1:
+        name, case = next(iter(checks.items()))
+        parts.append(_counts_html(case))
         head = "".join(
-            f"<th>{h}</th>" for h in ("check", "limit", "value", "margin", "verdict", "note")
-        )
+            f"<th>{h}</th>" for h in ("check", "limit", "value", "margin", "verdict")
+        ) + ('<th class="t">note</th>')
         body = []
         for row, text in zip(case["rows"], checks_rows(case), strict=True):
             cls = {"fail": "fail", "warning": "warn"}.get(row["verdict"], "")
@@ -152,10 +196,13 @@ def checks_section(checks: dict[str, dict[str, Any]], heading: str = "Verdict") 
             f'<table class="verdict"><thead><tr>{head}</tr></thead>'
             f"<tbody>{''.join(body)}</tbody></table>"
         )
-        if case["not_checked"]:
-            parts.append(
-                "<p>Not computed by this kind of study, not checked: "
-                + ", ".join(f"<code>{html.escape(k)}</code>" for k in case["not_checked"])
-                + "</p>"
-            )
+    elif checks:
+        parts.append(_matrix_html(checks))
+    unchecked = sorted({k for case in checks.values() for k in case["not_checked"]})
+    if unchecked:
+        parts.append(
+            "<p>Not computed by this kind of study, not checked: "
+            + ", ".join(f"<code>{html.escape(k)}</code>" for k in unchecked)
+            + "</p>"
+        )
     return Section(heading, "".join(parts))

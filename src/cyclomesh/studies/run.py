@@ -434,6 +434,43 @@ def _cell(value: Any) -> Any:
     return value
 
 
+_OTHER_LABELS = {
+    "torque_nm": "torque [N·m]",
+    "rated_torque_nm": "rated torque [N·m]",
+    "discs": "discs",
+    "gear_ratio_step_deg": "ratio taken over [deg]",
+}
+
+
+def metrics_table(records: dict[str, dict[str, Any]], metrics: dict[str, Any]) -> str:
+    """HTML table of summary records: one row per metric (short label with its unit,
+    long name on hover), one column per case, so that it fits a laptop screen."""
+    from cyclomesh.report import table_html
+
+    names = list(records)
+    keys = list(dict.fromkeys(k for record in records.values() for k in record))
+    rows = []
+    for key in keys:
+        m = metrics.get(key)
+        label = (
+            _OTHER_LABELS.get(key, key)
+            if m is None
+            else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
+        )
+        rows.append([label, *(_cell(records[n].get(key)) for n in names)])
+    table = table_html(["metric", *names], rows)
+    for key in keys:  # the long name as a tooltip on its label
+        m = metrics.get(key)
+        if m is not None:
+            label = html.escape(m.label + ("" if m.unit == "1" else f" [{m.unit}]"))
+            table = table.replace(
+                f'<td class="t">{label}</td>',
+                f'<td class="t" title="{html.escape(m.long_name)} ({key})">{label}</td>',
+                1,
+            )
+    return table
+
+
 def run_sections(run: RunResult) -> list[Section]:
     """Report sections of a run study: study, inputs, summary (figures come after)."""
     from cyclomesh.report import Section, table_html
@@ -465,15 +502,7 @@ def run_sections(run: RunResult) -> list[Section]:
         f"<details><summary>study file {html.escape(study.path.name)}</summary>"
         f"<pre>{html.escape(study.text)}</pre></details>"
     )
-    columns = list(next(iter(run.summaries.values())))
-    every = METRICS | DRIVE_METRICS
-    header = [
-        f"{c} [{every[c].unit}]" if c in every and every[c].unit != "1" else c for c in columns
-    ]
-    summary = table_html(
-        ["case", *header],
-        [[n, *(_cell(run.summaries[n].get(c)) for c in columns)] for n in names],
-    )
+    summary = metrics_table(run.summaries, METRICS | DRIVE_METRICS)
     from cyclomesh.studies.checks import checks_section
 
     return [

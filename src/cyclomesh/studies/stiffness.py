@@ -284,12 +284,9 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
         f"<details><summary>study file {html.escape(study.path.name)}</summary>"
         f"<pre>{html.escape(study.text)}</pre></details>"
     )
-    names = [case.name for case in study.cases]
-    columns = [c for c in STIFFNESS_METRICS if any(c in result.summaries[n] for n in names)]
-    header = [f"{STIFFNESS_METRICS[c].label} [{STIFFNESS_METRICS[c].unit}]" for c in columns]
-    summary = table_html(
-        ["case", *header], [[n, *(result.summaries[n].get(c) for c in columns)] for n in names]
-    )
+    from cyclomesh.studies.run import metrics_table
+
+    summary = metrics_table(result.summaries, STIFFNESS_METRICS)
     from cyclomesh.studies.checks import checks_section
 
     return [Section("Study", intro), checks_section(result.checks), Section("Summary", summary)]
