@@ -162,8 +162,8 @@ def test_robust_map_is_bit_for_bit_the_same_on_local_processes():
 
 
 def test_bad_design_space_is_refused():
-    with pytest.raises(DesignError, match="eccentricity_mm"):
-        design_map(TABLE1, {"eccentricity_mm": [1.0]})
+    with pytest.raises(DesignError, match="groove_radius_mm"):
+        design_map(TABLE1, {"groove_radius_mm": [4.0]})
     with pytest.raises(DesignError, match="objective"):
         design_map(TABLE1, {"pin_radius_um": [8.0]}, objective="cost")
 
@@ -183,3 +183,48 @@ def test_design_map_figures_show_feasible_region_and_optimum():
     assert len([a for a in fig.axes if a.get_visible() and a.get_title()]) == len(map_metrics(ds))
     with pytest.raises(ValueError, match="not in the map"):
         plot_design_map(ds, "lost_motion_arcmin")
+
+
+def test_geometry_sweep_checks_every_candidate_and_keeps_full_reasons():
+    base = Modification(pin_radius=8e-6)
+    ds = design_map(
+        TABLE1,
+        {"eccentricity_mm": [1.5, 2.0], "pin_radius_mm": [3.5, 6.5], "width_mm": [12.0, 16.0]},
+        base=base,
+        torque=250.0,
+        crank_angles_deg=ANGLES,
+    )
+    assert ds["eccentricity_mm"].attrs["units"] == "mm"
+    # the base geometry in the grid reproduces the analysis of the base design exactly
+    res = solve_ltca(TABLE1, base, None, 250.0, PHI)
+    same = ds.sel(eccentricity_mm=1.5, pin_radius_mm=3.5, width_mm=12.0)
+    assert float(same["max_contact_stress_mpa"]) == pytest.approx(
+        res.contact_stress.max() * 1e-6, rel=1e-12
+    )
+    # a wider disc carries the same torque at a lower stress
+    wide = ds.sel(eccentricity_mm=1.5, pin_radius_mm=3.5, width_mm=16.0)
+    assert float(wide["max_contact_stress_mpa"]) < float(same["max_contact_stress_mpa"])
+    # e = 2 mm (K1 = 0.976) undercuts the profile; ρp = 6.5 mm makes neighbouring pins
+    # overlap: infeasible, with the core's whole message as the reason
+    undercut = str(ds["reason"].sel(eccentricity_mm=2.0, pin_radius_mm=3.5, width_mm=12.0).values)
+    assert undercut.startswith("undercut profile") and undercut.endswith("pin_circle_radius")
+    assert len(undercut) > 160  # was cut at 160 characters
+    overlap = str(ds["reason"].sel(eccentricity_mm=1.5, pin_radius_mm=6.5, width_mm=12.0).values)
+    assert "neighbouring pins interfere" in overlap
+    assert int(ds["feasible"].sum()) == 2  # e = 1.5, ρp = 3.5, both widths
+    assert ds.attrs["optimum_width_mm"] == 16.0
+
+
+def test_swept_pin_radius_keeps_the_groove_clearance():
+    task = DesignTask(
+        TABLE1,
+        Modification(),
+        (("design.pin_radius", (4.0e-3,)), ("pin_radius", (5e-6,))),
+        None,
+        250.0,
+        (0.0,),
+    )
+    design, modification = task.candidate(0)
+    assert design.pin_radius == 4.0e-3 and modification.pin_radius == 5e-6
+    assert design.groove_radius - design.pin_radius == pytest.approx(5e-6, abs=1e-15)
+    assert task.modification(0) == modification

@@ -30,7 +30,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from cyclomesh.designmap import ARCMIN, ARCSEC, METRICS, PARAMETERS, Constraints
+from cyclomesh.designmap import (
+    ARCMIN,
+    ARCSEC,
+    GEOMETRY,
+    METRICS,
+    Constraints,
+    parameter_value,
+)
 from cyclomesh.exceptions import DesignError, StudyError
 from cyclomesh.study.schema import DesignSpaceSection, Study, load_study
 
@@ -162,10 +169,10 @@ def compute_design(
         raise StudyError(f"design_space: {exc}") from None
     ds.attrs["study_title"] = study.title
     ds.attrs["study_sha256"] = study.sha256
+    label = "study's design" if set(space.axes()) & set(GEOMETRY) else "study's modification"
     marks = {
-        "study's modification": {
-            key: float(getattr(base.modification, PARAMETERS[key][0])) / PARAMETERS[key][1]
-            for key in space.axes()
+        label: {
+            key: parameter_value(base.design, base.modification, key) for key in space.axes()
         }
     }
     summary = _summary(ds, space, study.title)
@@ -214,8 +221,16 @@ def best_study(study: Study, ds: xr.Dataset) -> str:
         if table:
             sections[name] = table
     modification = sections.setdefault("modification", {})
+    design = sections["design"]
     for d in ds["feasible"].dims:
-        modification[d] = float(ds.attrs[f"optimum_{d}"])
+        value = float(ds.attrs[f"optimum_{d}"])
+        if d in GEOMETRY:
+            if d == "pin_radius_mm" and design.get("groove_radius_mm") is not None:
+                # the groove moved with the pin in the map: the same clearance
+                design["groove_radius_mm"] += value - design["pin_radius_mm"]
+            design[d] = value
+        else:
+            modification[d] = value
     folder = study.path.parent.resolve()
     if modification.get("profile_file"):
         modification["profile_file"] = str(folder / modification["profile_file"])

@@ -631,6 +631,10 @@ class DesignSpaceSection(_Section):
     pin_circle_radius_um: RangeSection | None = Field(None, description="Δa range [µm]")
     pin_radius_um: RangeSection | None = Field(None, description="Δρ range [µm]")
     rotation_urad: RangeSection | None = Field(None, description="rotation δ range [µrad]")
+    pin_circle_radius_mm: RangeSection | None = Field(None, description="a range [mm]")
+    pin_radius_mm: RangeSection | None = Field(None, description="ρp range [mm]")
+    eccentricity_mm: RangeSection | None = Field(None, description="e range [mm]")
+    width_mm: RangeSection | None = Field(None, description="face width B range [mm]")
     max_play_arcmin: float | None = Field(None, description="largest allowed play [arcmin]")
     min_play_arcmin: float | None = Field(None, description="smallest allowed play [arcmin]")
     allowable_contact_stress_mpa: float | None = Field(
@@ -652,15 +656,26 @@ class DesignSpaceSection(_Section):
     def _something_swept(self) -> DesignSpaceSection:
         if not self.axes():
             raise ValueError(
-                "sweep at least one of pin_circle_radius_um, pin_radius_um, rotation_urad "
-                "as { start = , stop = , points = }"
+                "sweep at least one of " + ", ".join(self.SWEEPABLE) + " as "
+                "{ start = , stop = , points = }"
             )
         return self
 
+    SWEEPABLE: typing.ClassVar[tuple[str, ...]] = (
+        "pin_circle_radius_um",
+        "pin_radius_um",
+        "rotation_urad",
+        "pin_circle_radius_mm",
+        "pin_radius_mm",
+        "eccentricity_mm",
+        "width_mm",
+    )
+
     def axes(self) -> dict[str, NDArray]:
-        """Swept parameters (study units), in the order Δa, Δρ, δ."""
-        keys = ("pin_circle_radius_um", "pin_radius_um", "rotation_urad")
-        return {k: getattr(self, k).values() for k in keys if getattr(self, k) is not None}
+        """Swept parameters (study units), in the order Δa, Δρ, δ, a, ρp, e, B."""
+        return {
+            k: getattr(self, k).values() for k in self.SWEEPABLE if getattr(self, k) is not None
+        }
 
     def constraints_dict(self) -> dict[str, Any]:
         """The constraints that are set, in study units."""
