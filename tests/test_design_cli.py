@@ -151,6 +151,7 @@ def test_geometry_design_map_end_to_end(tmp_path):
         "pin_radius_mm = { start = 3.5, stop = 4.5, points = 3 }\n"
         "eccentricity_mm = { start = 1.5, stop = 2.0, points = 2 }\n"
         "max_play_arcmin = 2.0\n"
+        "[requirements]\nmax_contact_stress_mpa = 900.0\n"
     )
     out = tmp_path / "out"
     result = invoke("design", write(tmp_path, study), "--out", out)
@@ -168,5 +169,13 @@ def test_geometry_design_map_end_to_end(tmp_path):
     assert best["design"]["eccentricity_mm"] == optimum["eccentricity_mm"]
     assert best["design"]["groove_radius_mm"] == pytest.approx(optimum["pin_radius_mm"] + 0.005)
     assert "pin_radius_mm" not in best["modification"]
+    summary = json.loads((out / "summary.json").read_text())
+    rows = {r["check"]: r for r in summary["checks"]["rows"]}
+    stress = summary["optimum"]["metrics"]["max_contact_stress_mpa"]
+    assert rows["max_contact_stress_mpa"]["value"] == stress
+    assert rows["max_contact_stress_mpa"]["verdict"] == ("pass" if stress <= 900 else "fail")
+    e = optimum["eccentricity_mm"]
+    assert rows["k1"]["value"] == pytest.approx(e * 40 / 82.0)  # the optimum's geometry
+    assert "verdict" in result.output
     rerun = invoke("run", out / "best.toml", "--out", tmp_path / "best", "--figures", "none", "-q")
     assert rerun.exit_code == 0, rerun.output

@@ -696,6 +696,12 @@ def design(
             where = ", ".join(f"{k} = {v:g}" for k, v in s["optimum"]["parameters"].items())
             value = s["optimum"]["metrics"][s["objective_variable"]]
             typer.echo(f"optimum: {where} ({s['objective_variable']} = {value:.6g})")
+            if s.get("checks"):
+                from rich.console import Console
+
+                from cyclomesh.cli_tables import print_checks
+
+                print_checks(Console(highlight=False), {"optimum": s["checks"]})
         typer.echo(f"report: {out / 'report.html'}")
 
 

@@ -171,13 +171,56 @@ def compute_design(
     ds.attrs["study_sha256"] = study.sha256
     label = "study's design" if set(space.axes()) & set(GEOMETRY) else "study's modification"
     marks = {
-        label: {
-            key: parameter_value(base.design, base.modification, key) for key in space.axes()
-        }
+        label: {key: parameter_value(base.design, base.modification, key) for key in space.axes()}
     }
     summary = _summary(ds, space, study.title)
+    if summary["optimum"] is not None:
+        summary["checks"] = _optimum_checks(study, base, summary["optimum"], ds)
     best = best_study(study, ds) if summary["optimum"] is not None else None
     return DesignResult(study, space, ds, summary, best, time.perf_counter() - start, marks)
+
+
+_AS_SUMMARY = {  # design-map variable -> the summary metric the requirements read
+    "max_contact_stress_mpa": "max_contact_stress_mpa",
+    "te_pp_arcsec": "te_pp_arcsec",
+    "min_contacts": "contacts_min",
+    "play_arcmin": "play_arcmin_max",
+    "lost_motion_arcmin": "lost_motion_arcmin_max",
+}
+
+
+def _optimum_checks(
+    study: Study, base: Any, optimum: dict[str, Any], ds: xr.Dataset
+) -> dict[str, Any]:
+    """The verdict table of the optimum: its map values against ``[requirements]``, and
+    the design warnings of its geometry."""
+    from dataclasses import replace
+
+    from cyclomesh.designmap import parameter
+    from cyclomesh.studies.checks import case_checks
+
+    design, modification = base.design, base.modification
+    geometry, changes = {}, {}
+    for key, value in optimum["parameters"].items():
+        field, scale, _, _ = parameter(key)
+        if field.startswith("design."):
+            geometry[field[len("design.") :]] = value * scale
+        else:
+            changes[field] = value * scale
+    if "pin_radius" in geometry:
+        geometry["groove_radius"] = (
+            geometry["pin_radius"] + design.groove_radius - design.pin_radius
+        )
+    inputs = replace(
+        base, design=replace(design, **geometry), modification=replace(modification, **changes)
+    )
+    values = {_AS_SUMMARY[k]: v for k, v in optimum["metrics"].items() if k in _AS_SUMMARY}
+    where = (
+        f"P{ds.attrs['robust_percentile']:g} over {ds.attrs['rings']} rings"
+        if ds.attrs["robust"]
+        else ""
+    )
+    return case_checks(study, study.base, inputs, values, where=where)
 
 
 def _summary(ds: xr.Dataset, space: DesignSpaceSection, title: str) -> dict[str, Any]:
@@ -339,4 +382,9 @@ def design_sections(result: DesignResult) -> list[Section]:
         + f" ({html.escape('docs/design-map.md')}). <code>best.toml</code> is the optimum "
         "as a study file.</p>"
     )
-    return [Section(SECTION, text + table_html(["", "value"], rows))]
+    sections = [Section(SECTION, text + table_html(["", "value"], rows))]
+    if s.get("checks"):
+        from cyclomesh.studies.checks import checks_section
+
+        sections.insert(0, checks_section({"optimum": s["checks"]}))
+    return sections
