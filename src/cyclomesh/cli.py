@@ -373,6 +373,52 @@ def _print_summary(summaries: dict, out: Path, checks: dict | None = None) -> No
 
 @app.command()
 @cli_errors()
+def export(
+    study: StudyArg,
+    out: OutOption,
+    format: Annotated[
+        str,
+        typer.Option("--format", help="Comma-separated: dxf, svg, csv."),
+    ] = "dxf,svg,csv",
+    chord_tolerance_um: Annotated[
+        float,
+        typer.Option(
+            "--chord-tolerance-um",
+            help="Largest distance between the exported polyline and the exact profile [µm].",
+        ),
+    ] = 0.1,
+    quiet: QuietOption = False,
+) -> None:
+    """Export the whole modified disc profile (every tooth) and the pins: DXF, SVG, CSV.
+
+    Writes <case>/profile.dxf (polyline and splines, mm), profile.svg, profile.csv (points
+    with outward unit normals) and export.json. Datum: disc centre, tooth space 1 on +x.
+    """
+    from cyclomesh.export import export_study, parse_formats
+    from cyclomesh.study import load_study
+
+    formats = parse_formats(format)
+    if not (math.isfinite(chord_tolerance_um) and chord_tolerance_um >= 0.001):
+        raise StudyError(
+            f"--chord-tolerance-um: expected a number of at least 0.001, got {chord_tolerance_um}"
+        )
+    loaded = load_study(study)
+    written = export_study(loaded, out, formats, chord_tolerance_um * 1e-6)
+    if not quiet:
+        for name, files in written.items():
+            import json
+
+            meta = json.loads(files["json"].read_text())
+            typer.echo(
+                f"{name}: {meta['vertices']} points, tip radius {meta['tip_radius_mm']:.4f} mm, "
+                f"root radius {meta['root_radius_mm']:.4f} mm, chord tolerance "
+                f"{chord_tolerance_um:g} µm"
+            )
+            typer.echo("  " + ", ".join(str(p) for p in files.values()))
+
+
+@app.command()
+@cli_errors()
 @_without_dask
 def stiffness(
     study: StudyArg,
