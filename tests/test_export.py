@@ -14,11 +14,11 @@ from typer.testing import CliRunner
 
 from cyclomesh import export_profile
 from cyclomesh.cli import app
-from cyclomesh.design import TABLE1, Modification
+from cyclomesh.core.deviation import ProfileDeviation
+from cyclomesh.core.outline import disc_outline, profile_frame
+from cyclomesh.core.pair import TABLE1, Modification
+from cyclomesh.core.profile import modified_profile
 from cyclomesh.exceptions import DesignError
-from cyclomesh.modification import ProfileDeviation
-from cyclomesh.outline import disc_outline, profile_frame
-from cyclomesh.profile import modified_profile
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 TPM = Modification(pin_circle_radius=-5e-6, pin_radius=8e-6)

@@ -11,8 +11,8 @@ import xarray as xr
 from typer.testing import CliRunner
 
 from cyclomesh.cli import app
-from cyclomesh.design import TABLE1, Modification, PairDesign
-from cyclomesh.requirements import (
+from cyclomesh.core.pair import TABLE1, Modification, PairDesign
+from cyclomesh.results.requirements import (
     check_requirements,
     design_warnings,
     peak_stress_warning,
@@ -141,7 +141,7 @@ def test_bad_requirement_key_is_one_line(tmp_path):
 
 def test_tolerance_study_checks_at_the_stated_percentile(tmp_path):
     from cyclomesh.studies.tolerance import compute_tolerance
-    from cyclomesh.study import load_study
+    from cyclomesh.studyfile import load_study
 
     path = tmp_path / "tol.toml"
     path.write_text(

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from cyclomesh.exceptions import StudyError
-from cyclomesh.study import load_study
-from cyclomesh.study.measurements import read_pin_errors_csv
-from cyclomesh.study.schema import crank_angles_deg, deep_merge
+from cyclomesh.studyfile import load_study
+from cyclomesh.studyfile.measurements import read_pin_errors_csv
+from cyclomesh.studyfile.schema import crank_angles_deg, deep_merge
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -372,7 +372,7 @@ def test_bad_csv_names_errors_file(tmp_path, csv, expected):
 
 
 def test_named_materials_and_explicit_values(tmp_path):
-    from cyclomesh.materials import MATERIALS
+    from cyclomesh.core.materials import MATERIALS
 
     base = (EXAMPLES / "table2.toml").read_text().split("[material]")[0]
     path = tmp_path / "m.toml"
@@ -453,7 +453,7 @@ def test_random_tangential_errors_keep_the_other_draws(tmp_path):
 
 
 def test_tolerance_tangential_draws():
-    from cyclomesh.study.schema import ToleranceSection
+    from cyclomesh.studyfile.schema import ToleranceSection
     from cyclomesh.tolerance.sampling import draw_ring_errors
 
     spec = ToleranceSection.model_validate(

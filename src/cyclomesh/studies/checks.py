@@ -2,7 +2,7 @@
 
 :func:`case_checks` holds one case's metrics against ``[requirements]`` (limits
 defaulted from the materials' allowable contact stress) and adds the design warnings
-(:mod:`cyclomesh.requirements`); :func:`checks_section` is its report section and
+(:mod:`cyclomesh.results.requirements`); :func:`checks_section` is its report section and
 :func:`checks_rows` the rows of a CLI table. The result is a JSON-ready dict stored as
 ``"checks"`` in each case record of ``summary.json``.
 """
@@ -12,27 +12,20 @@ from __future__ import annotations
 import html
 from typing import TYPE_CHECKING, Any
 
-from cyclomesh.requirements import (
+from cyclomesh.results.requirements import (
+    VERDICT_MARK,
     check_requirements,
+    checks_rows,
     design_warnings,
     peak_stress_warning,
-    short_label,
     verdict_counts,
 )
 
 if TYPE_CHECKING:
-    from cyclomesh.report import Section
-    from cyclomesh.study.schema import CaseInputs, CaseSpec, Study
+    from cyclomesh.publish.report import Section
+    from cyclomesh.studyfile.schema import CaseInputs, CaseSpec, Study
 
-__all__ = [
-    "case_checks",
-    "checks_section",
-    "checks_rows",
-    "percentile_summary",
-    "VERDICT_MARK",
-]
-
-VERDICT_MARK = {"pass": "PASS", "fail": "FAIL", "warning": "WARN", "ok": "ok"}
+__all__ = ["case_checks", "checks_section", "percentile_summary"]
 
 
 def case_checks(
@@ -76,7 +69,7 @@ def percentile_summary(per_ring: Any, percentile: float) -> dict[str, float]:
     limit, the (100 − ``percentile``)-th for a lower limit (method "linear")."""
     import numpy as np
 
-    from cyclomesh.requirements import REQUIREMENTS
+    from cyclomesh.results.requirements import REQUIREMENTS
 
     out: dict[str, float] = {}
     for req in REQUIREMENTS.values():
@@ -87,37 +80,6 @@ def percentile_summary(per_ring: Any, percentile: float) -> dict[str, float]:
                 values = values[np.isfinite(values)]
                 if len(values):
                     out[source] = float(np.percentile(values, q))
-    return out
-
-
-def _number(value: Any) -> str:
-    if value is None:
-        return "–"
-    if isinstance(value, int) or (
-        isinstance(value, float) and value.is_integer() and abs(value) < 1e6
-    ):
-        return f"{value:.0f}" if abs(value) >= 1 or value == 0 else f"{value:.4g}"
-    return f"{value:.4g}"
-
-
-def checks_rows(checks: dict[str, Any]) -> list[list[str]]:
-    """Rows (check, limit, value, margin, verdict) of a table, as text."""
-    out = []
-    for row in checks["rows"]:
-        margin = row["margin"]
-        pct = row.get("margin_pct")
-        margin_text = "–" if margin is None else f"{margin:+.3g}"
-        if pct is not None and margin is not None:
-            margin_text += f" ({pct:+.0f}%)"
-        out.append(
-            [
-                short_label(row),
-                _number(row["limit"]),
-                _number(row["value"]),
-                margin_text,
-                VERDICT_MARK.get(row["verdict"], row["verdict"]),
-            ]
-        )
     return out
 
 
@@ -171,7 +133,7 @@ def _matrix_html(checks: dict[str, dict[str, Any]]) -> str:
 
 def checks_section(checks: dict[str, dict[str, Any]], heading: str = "Verdict") -> Section:
     """Report section: one verdict table per case, then what was not checked."""
-    from cyclomesh.report import Section
+    from cyclomesh.publish.report import Section
 
     parts = [
         "<p>Requirements of <code>[requirements]</code> (the contact-stress limits default "
