@@ -370,8 +370,8 @@ def design_sections(result: DesignResult) -> list[Section]:
         rows += [(f"optimum {k}", v) for k, v in s["optimum"]["parameters"].items()]
         rows += [(f"at the optimum: {k}", v) for k, v in s["optimum"]["metrics"].items()]
     text = (
-        "<p>Every candidate modification analysed with the full model at the study's "
-        "torque over its crank angles"
+        "<p>Every candidate (modification and geometry) analysed with the full model at "
+        "the study's torque over its crank angles"
         + (", each metric its robust value over the rings" if s["robust"] else "")
         + f" ({html.escape('docs/design-map.md')}). <code>best.toml</code> is the optimum "
         "as a study file.</p>"

@@ -448,10 +448,10 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
             f"{_fmt(p['estimate'])} [{_fmt(p['lower'])}, {_fmt(p['upper'])}]"
             for p in s["percentiles"]
         ]
-        rows.append([name, s["unit"], _fmt(s["mean"]), _fmt(s["std"]), *pct])
-    header = ["metric", "unit", "mean", "std"] + [
-        f"P{p:g} [{conf:.0%} CI]" for p in stats["percentiles"]
-    ]
+        m = METRICS.get(name)
+        label = name if m is None else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
+        rows.append([label, _fmt(s["mean"]), _fmt(s["std"]), *pct])
+    header = ["metric", "mean", "std"] + [f"P{p:g} [{conf:.0%} CI]" for p in stats["percentiles"]]
     ex = stats["exceedance"][STRESS_METRIC]
     worst = stats["worst_ring"]
     text = (
