@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 from pathlib import Path
 
 import ezdxf
@@ -15,7 +16,7 @@ from typer.testing import CliRunner
 from cyclomesh import export_profile
 from cyclomesh.cli import app
 from cyclomesh.core.deviation import ProfileDeviation
-from cyclomesh.core.outline import disc_outline, profile_frame
+from cyclomesh.core.outline import disc_outline, polar_radius, profile_frame
 from cyclomesh.core.pair import TABLE1, Modification
 from cyclomesh.core.profile import modified_profile
 from cyclomesh.exceptions import DesignError
@@ -152,11 +153,62 @@ def test_tolerance_drives_the_sampling():
     assert 6 < len(fine.x) / len(coarse.x) < 12
 
 
-def test_rotation_modification_and_bad_tolerance_are_refused():
-    with pytest.raises(DesignError, match="rotation_urad"):
-        disc_outline(TABLE1, Modification(rotation=50e-6))
+def test_bad_tolerance_and_huge_rotation_are_refused():
     with pytest.raises(DesignError, match="chord tolerance"):
         disc_outline(TABLE1, TPM, 0.0)
+    with pytest.raises(DesignError, match="rotation_urad"):
+        disc_outline(TABLE1, Modification(rotation=0.01))
+    with pytest.raises(DesignError, match="negative rotation"):
+        disc_outline(TABLE1, Modification(rotation=-50e-6))
+
+
+@pytest.mark.parametrize("delta", [500e-6, 30e-6])
+def test_rotation_modification_is_the_intersection_of_the_turned_discs(tmp_path, delta):
+    """δ turns the flanks φ1 < 0 by −δ and the others by +δ (modified_profile): the disc
+    is the intersection of the disc turned both ways, r(θ) = min(R(θ + δ), R(θ − δ))."""
+    base = Modification(pin_radius=5e-6)
+    tol = 0.1e-6
+    files = export_profile(
+        TABLE1, replace(base, rotation=delta), tmp_path, "dxf,csv", chord_tolerance=tol
+    )
+    points, splines, _ = _read_dxf(files["dxf"])
+    theta = np.arctan2(points[:, 1], points[:, 0])
+    radius = np.hypot(points[:, 0], points[:, 1])
+
+    def expected(t):
+        return np.minimum(
+            polar_radius(TABLE1, base, t + delta), polar_radius(TABLE1, base, t - delta)
+        )
+
+    assert np.max(np.abs(radius - expected(theta))) < 1e-11
+    # away from the crossings every vertex is the turned point of its own flank
+    table = np.genfromtxt(files["csv"], delimiter=",", names=True)
+    phase, space = np.radians(table["profile_angle_deg"]), table["tooth"].astype(int)
+    flank = np.abs(phase) > 0.05
+    x, y = modified_profile(TABLE1, replace(base, rotation=delta), phase + 2 * np.pi * (space - 1))
+    assert np.max(np.hypot(points[flank, 0] - x[flank], points[flank, 1] - y[flank])) < 1e-11
+    # the exact curve within the tolerance of the polyline, every segment sampled
+    n = len(points)
+    nxt = (np.arange(n) + 1) % n
+    step = np.angle(np.exp(1j * (theta[nxt] - theta)))
+    assert np.all(step > 0)  # closed, counter-clockwise, one turn
+    s = np.linspace(0.0, 1.0, 14)[1:-1]
+    t = theta[:, None] + step[:, None] * s
+    r = expected(t)
+    px, py = r * np.cos(t), r * np.sin(t)
+    a, d = points, points[nxt] - points
+    dist = (
+        np.abs(d[:, :1] * (py - a[:, 1:]) - d[:, 1:] * (px - a[:, :1]))
+        / np.hypot(d[:, 0], d[:, 1])[:, None]
+    )
+    assert dist.max() <= tol
+    # radial extremes: the root is kept, the tips are cut where the turned flanks meet
+    a_, rho = TABLE1.pin_circle_radius, TABLE1.pin_radius + 5e-6
+    assert radius.min() == pytest.approx(a_ - TABLE1.eccentricity - rho, abs=1e-12)
+    tip = polar_radius(TABLE1, base, np.array([np.pi / TABLE1.teeth - abs(delta)]))[0]
+    assert radius.max() == pytest.approx(tip, abs=1e-11)
+    assert radius.max() < a_ + TABLE1.eccentricity - rho  # cut, by 0.6 nm at 30 µrad
+    assert len(splines) == TABLE1.teeth
 
 
 def test_svg_has_the_profile_and_the_pins(tmp_path):

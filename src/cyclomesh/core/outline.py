@@ -5,6 +5,13 @@ space if given, see :mod:`cyclomesh.core.deviation`) is sampled adaptively so th
 polyline through the samples stays within a stated chord tolerance of the exact curve,
 and the outward unit normal is given at every sample.
 
+A rotation modification δ > 0 turns the flanks φ1 < 0 of every tooth space by −δ and
+the others by +δ (:func:`cyclomesh.core.profile.modified_profile`): the disc is then the
+intersection of the disc turned both ways, r(θ) = min(R(θ + δ), R(θ − δ)); the turned
+flanks are cut where they meet near the tips, and the tooth-space bottoms are closed by
+the turned copies up to where they cross (a ridge of about (rδ)²/(2|ρc|), 0.01 µm at
+100 µrad on the Table 1 pair).
+
 Datum: the disc centre at the origin, the disc frame of Eq. 1 (the frame in which the
 profile is written): tooth space 1 (the ``tooth = 1`` row of a per-tooth deviation table)
 has its bottom on the +x axis, tooth space k at the polar angle 2π(k − 1)/n2,
@@ -34,7 +41,7 @@ from cyclomesh.core.pair import Modification, PairDesign
 from cyclomesh.core.profile import check_profile, curvature_radius, deviated_geometry, locus
 from cyclomesh.exceptions import DesignError
 
-__all__ = ["Outline", "PinLayout", "profile_frame", "disc_outline", "pin_layout"]
+__all__ = ["Outline", "PinLayout", "profile_frame", "polar_radius", "disc_outline", "pin_layout"]
 
 FloatArray = NDArray[np.float64]
 
@@ -87,13 +94,79 @@ class PinLayout(NamedTuple):
 
 
 def _check(design: PairDesign, modification: Modification) -> None:
-    if modification.rotation:
+    if modification.rotation < 0:
         raise DesignError(
-            "modification.rotation_urad: the rotation modification δ makes the profile "
-            "discontinuous at the tooth-space bottom and the tips and cannot be exported "
-            "as one closed curve; give the same clearance as Δa/Δρ or as a profile_file"
+            "modification.rotation_urad: a negative rotation modification (closing the "
+            "clearance: the turned flanks overlap at the tooth-space bottoms and leave gaps "
+            "at the tips) cannot be exported; give it as Δa/Δρ or as a profile_file"
+        )
+    if modification.rotation * design.teeth >= 0.1 * math.pi:
+        raise DesignError(
+            "modification.rotation_urad: the rotation modification is too large to export "
+            "(it must stay well below a tenth of the tooth pitch)"
         )
     check_profile(design, modification)
+
+
+def _polar(x: FloatArray, y: FloatArray, centre: float) -> FloatArray:
+    """Polar angle of (x, y) relative to the ray at ``centre``, in (−π, π] [rad]."""
+    return np.angle((x + 1j * y) * np.exp(-1j * centre))
+
+
+def _phase_at(
+    design: PairDesign, base: Modification, space: ArrayLike, angle: ArrayLike
+) -> FloatArray:
+    """φ1 of the points of tooth spaces ``space`` (unturned) at polar angles ``angle``
+    measured from each space's bottom ray (|angle| ≤ π/n2), by bisection [rad].
+
+    The polar angle of the profile grows with φ1 within a tooth space (the profile is a
+    function r(θ) of the polar angle).
+    """
+    space, angle = np.broadcast_arrays(np.asarray(space), np.asarray(angle, dtype=float))
+    centre = 2.0 * np.pi * space / design.teeth
+    lo = np.full(angle.shape, -np.pi)
+    hi = np.full(angle.shape, np.pi)
+    for _ in range(64):
+        mid = 0.5 * (lo + hi)
+        x, y, *_ = profile_frame(design, base, mid, space)
+        below = _polar(x, y, centre) < angle
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+    return 0.5 * (lo + hi)
+
+
+def polar_radius(design: PairDesign, base: Modification, theta: ArrayLike) -> FloatArray:
+    """Radius r(θ) of the profile at polar angles ``theta`` (disc frame) [m], with Δa, Δρ
+    and a tabulated deviation of ``base`` but no rotation modification (Eqs. 1–3 of [1]).
+
+    The point of each tooth space at the polar angle is found by bisection on φ1 (the
+    polar angle of the profile grows with φ1 within a tooth space)."""
+    n2 = design.teeth
+    theta = np.asarray(theta, dtype=float)
+    space = np.round(theta * n2 / (2.0 * np.pi)).astype(int)
+    u = _phase_at(design, base, space % n2, theta - 2.0 * np.pi * space / n2)
+    x, y, *_ = profile_frame(design, base, u, space % n2)
+    return np.hypot(x, y)
+
+
+def _crossings(
+    design: PairDesign, base: Modification, centres: FloatArray, delta: float, tip: bool
+) -> FloatArray:
+    """Polar angles where the profile turned by −δ meets the one turned by +δ, near the
+    tooth-space bottoms (``tip`` False) or the tips at ``centres`` [rad].
+
+    The disc turned both ways (δ > 0) is the intersection of the two turned discs: its
+    radius is min(R(θ + δ), R(θ − δ)), R the unturned profile; the two meet once within
+    ±δ of a bottom (where R is least) or a tip (where it is largest).
+    """
+    lo, hi = centres - abs(delta), centres + abs(delta)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lower = polar_radius(design, base, mid + delta) < polar_radius(design, base, mid - delta)
+        # before the crossing the copy turned by −δ is the lower one at a bottom, the
+        # higher one at a tip (δ > 0; the other way round for δ < 0)
+        before = (lower != tip) == (delta > 0)
+        lo, hi = np.where(before, mid, lo), np.where(before, hi, mid)
+    return 0.5 * (lo + hi)
 
 
 def profile_frame(
@@ -104,8 +177,8 @@ def profile_frame(
     Parameters
     ----------
     design, modification
-        Δa, Δρ and a tabulated deviation enter; the rotation modification δ is refused
-        by :func:`disc_outline` (not applied here).
+        Δa, Δρ and a tabulated deviation enter; the rotation modification δ is not
+        applied here (:func:`disc_outline` turns the flanks).
     phase : array_like
         φ1 within the tooth space, in [−π, π] [rad].
     space : array_like of int
@@ -212,7 +285,7 @@ def disc_outline(
     ------
     DesignError
         An undercut or otherwise invalid profile (:func:`cyclomesh.core.profile.check_profile`),
-        a rotation modification δ (not a closed curve), or a tolerance below 1 nm.
+        a negative (or huge) rotation modification δ, or a tolerance below 1 nm.
     """
     modification = modification or Modification()
     if not (math.isfinite(chord_tolerance) and chord_tolerance >= 1e-9):
@@ -220,6 +293,8 @@ def disc_outline(
             f"chord tolerance {chord_tolerance!r} m: expected at least 1e-9 m (0.001 µm)"
         )
     _check(design, modification)
+    if modification.rotation:
+        return _turned_outline(design, modification, chord_tolerance, samples_per_tooth)
     n2 = design.teeth
     u = np.linspace(-np.pi, np.pi, samples_per_tooth + 1)
     parts: list[tuple[FloatArray, ...]] = []
@@ -247,6 +322,61 @@ def disc_outline(
         columns.append(np.concatenate(pieces))
     x, y, nx, ny, phase, space = columns
     return Outline(x, y, nx, ny, phase, space.astype(np.int64), float(chord_tolerance))
+
+
+def _turned_outline(
+    design: PairDesign, modification: Modification, tolerance: float, samples: int
+) -> Outline:
+    """The outline with a rotation modification δ: the intersection of the disc turned by
+    −δ and by +δ (the loaded flanks φ1 < 0 turned back by δ, the others forward, as in
+    :func:`cyclomesh.core.profile.modified_profile`), closed at the tips where the two
+    flanks meet and at the tooth-space bottoms where the turned copies cross."""
+    from dataclasses import replace
+
+    base = replace(modification, rotation=0.0)
+    delta = modification.rotation
+    n2 = design.teeth
+    half_pitch = np.pi / n2
+    parts: list[tuple[FloatArray, ...]] = []
+    centres = 2.0 * np.pi * np.arange(n2) / n2
+    bottoms = _crossings(design, base, centres, delta, tip=False) - centres
+    tips = _crossings(design, base, centres + half_pitch, delta, tip=True) - centres
+    for j in range(n2):
+        left, bottom, right = tips[j - 1] - 2.0 * half_pitch, bottoms[j], tips[j]
+        # polar angle θ of the turned copy comes from θ ∓ δ of the unturned profile
+        for turn, start, stop in ((-delta, left, bottom), (delta, bottom, right)):
+            u0, u1 = _phase_at(design, base, j, np.array([start - turn, stop - turn]))
+            count = max(int(samples * (u1 - u0) / (2.0 * np.pi)), 16)
+            u = np.linspace(u0, u1, count + 1)
+            cut = [0, count]
+            if u0 < 0.0 < u1:  # the tooth-space bottom φ1 = 0 is a vertex (the root radius)
+                k = int(np.argmin(np.abs(u)))
+                u[k] = 0.0
+                cut = [0, k, count]
+            x, y, nx, ny, rho_c = profile_frame(design, base, u, j)
+            keep = np.unique(
+                np.concatenate(
+                    [
+                        a + _choose(x[a : b + 1], y[a : b + 1], rho_c[a : b + 1], tolerance)
+                        for a, b in zip(cut[:-1], cut[1:], strict=True)
+                    ]
+                )
+            )
+            c, s = math.cos(turn), math.sin(turn)
+            parts.append(
+                (
+                    c * x[keep] - s * y[keep],
+                    s * x[keep] + c * y[keep],
+                    c * nx[keep] - s * ny[keep],
+                    s * nx[keep] + c * ny[keep],
+                    u[keep],
+                    np.full(len(keep), j + 1),
+                )
+            )
+    # consecutive pieces share their end points (the crossings): keep one of each
+    columns = [np.concatenate([part[k][:-1] for part in parts]) for k in range(6)]
+    x, y, nx, ny, phase, space = columns
+    return Outline(x, y, nx, ny, phase, space.astype(np.int64), float(tolerance))
 
 
 def pin_layout(design: PairDesign) -> PinLayout:

@@ -65,17 +65,23 @@ def parse_formats(text: str | Sequence[str]) -> tuple[str, ...]:
     return formats
 
 
-def _spaces(outline: Outline) -> Iterable[tuple[np.ndarray, np.ndarray]]:
-    """Per tooth space the vertex indices from tip to tip, with the tangents at both ends."""
+def _spaces(outline: Outline) -> Iterable[tuple[np.ndarray, np.ndarray | None]]:
+    """Per tooth space the vertex indices from its first vertex to the next space's first
+    (the point they share), with the exact tangents at both ends where the profile is
+    smooth there (a tip), None at a corner (a rotation modification's crossings)."""
     n = len(outline.x)
-    starts = np.flatnonzero(np.isclose(outline.phase, -np.pi))
+    starts = np.flatnonzero(np.diff(outline.space, prepend=outline.space[-1]) != 0)
+    if not len(starts):
+        starts = np.array([0])
     for k, start in enumerate(starts):
-        stop = starts[k + 1] if k + 1 < len(starts) else n
-        if np.isclose(outline.phase[stop - 1], np.pi):  # a per-tooth step at this tip
-            idx = np.arange(start, stop)
-        else:  # up to the next space's first vertex, the tip they share
+        stop = starts[k + 1] if k + 1 < len(starts) else starts[0] + n
+        if np.isclose(outline.phase[(stop - 1) % n], np.pi):  # a per-tooth step at this tip
+            idx = np.arange(start, stop) % n
+        else:  # up to the next space's first vertex, the point they share
             idx = np.arange(start, stop + 1) % n
-        tangents = np.stack([-outline.ny[idx[[0, -1]]], outline.nx[idx[[0, -1]]]], axis=-1)
+        ends = idx[[0, -1]]
+        smooth = np.all(np.isclose(np.abs(outline.phase[ends]), np.pi))
+        tangents = np.stack([-outline.ny[ends], outline.nx[ends]], axis=-1) if smooth else None
         yield idx, tangents
 
 
@@ -92,7 +98,9 @@ def write_dxf(outline: Outline, pins: PinLayout, path: Path) -> Path:
     msp.add_lwpolyline(points.tolist(), format="xy", close=True, dxfattribs={"layer": "PROFILE"})
     for idx, tangents in _spaces(outline):
         msp.add_cad_spline_control_frame(
-            points[idx].tolist(), tangents=tangents.tolist(), dxfattribs={"layer": "PROFILE_SPLINE"}
+            points[idx].tolist(),
+            tangents=None if tangents is None else tangents.tolist(),
+            dxfattribs={"layer": "PROFILE_SPLINE"},
         )
     cx, cy = pins.circle_centre
     msp.add_circle((cx * MM, cy * MM), pins.circle_radius * MM, dxfattribs={"layer": "PINS"})
