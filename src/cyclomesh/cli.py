@@ -814,20 +814,21 @@ def fe(
         study_stamp(loaded),
     )
     if not quiet:
-        _print_fe(result.summaries, out)
+        _print_fe(result.summaries, out, result.checks)
 
 
-def _print_fe(summaries: dict, out: Path) -> None:
+def _print_fe(summaries: dict, out: Path, checks: dict | None = None) -> None:
     from rich.console import Console
-    from rich.markup import escape
-    from rich.table import Table
 
+    from cyclomesh.publish.console import print_checks, print_metrics
     from cyclomesh.results.metrics import FE_METRICS
 
-    table = Table("metric", "unit", *(escape(name) for name in summaries))
-    for key, m in FE_METRICS.items():
-        cells = [record.get(key) for record in summaries.values()]
-        table.add_row(m.long_name, m.unit, *("–" if v is None else f"{v:.4g}" for v in cells))
-    console = Console()
-    console.print(table)
+    rows = [
+        (key, m.label + ("" if m.unit == "1" else f" [{m.unit}]"), 1.0)
+        for key, m in FE_METRICS.items()
+    ]
+    console = Console(highlight=False)
+    print_metrics(console, summaries, rows)
+    if checks:
+        print_checks(console, checks)
     console.print(f"report: {out / 'report.html'}")

@@ -79,7 +79,7 @@ REQUIREMENTS: dict[str, Requirement] = {
             "max",
             "MPa",
             "peak contact stress, pin-tooth",
-            (("max_contact_stress_mpa", 1.0),),
+            (("max_contact_stress_mpa", 1.0), ("fe_max_contact_stress_mpa", 1.0)),
         ),
         Requirement(
             "max_groove_stress_mpa",
@@ -189,6 +189,8 @@ def check_requirements(
                 value = worst * factor
                 if source.startswith("drive_"):
                     note = (note + "; " if note else "") + "whole drive (mesh + series stiffness)"
+                elif source.startswith("fe_"):
+                    note = (note + "; " if note else "") + "FE model, at its crank angles"
                 break
         if value is None or not math.isfinite(value):
             unchecked.append(key)
