@@ -88,14 +88,20 @@ def case_legend(ax, cases: Mapping[str, object], outside: bool = False) -> None:
 _DASHES = ("-", "--", "-.", ":")
 
 
-def _style(index: int, count: int, marker: str | None = None) -> dict[str, object]:
+def case_width(index: int, count: int) -> float:
+    """Line width of case ``index`` of ``count``: each later case thinner, so that a case
+    drawn exactly over an earlier one leaves the earlier one showing around it."""
+    return max(2.8 - 0.6 * index, 1.0) if count > 1 else 1.5
+
+
+def case_style(index: int, count: int, marker: str | None = None) -> dict[str, object]:
     """Line style of case ``index`` of ``count``: with several cases each later case is
     thinner and dashed differently, so a case drawn exactly over another still shows
     (the earlier, wider line shows around the later one)."""
     style: dict[str, object] = {} if marker is None else {"marker": marker}
     if count > 1:
         style["ls"] = _DASHES[index % len(_DASHES)]
-        style["lw"] = max(2.8 - 0.6 * index, 1.0)
+        style["lw"] = case_width(index, count)
         if marker is not None:
             style["ms"] = max(7.0 - 1.2 * index, 3.0)
     return style
@@ -185,7 +191,7 @@ def plot_loads(results: Results, crank_angles_deg: Sequence[float] = (0, 60, 120
         for i, (name, ds) in enumerate(cases.items()):
             at = _nearest_angle(ds, angle)
             one = ds.sel(crank_angle=at)
-            style = _style(i, len(cases), ".")
+            style = case_style(i, len(cases), ".")
             row[0].plot(one["pin"], one["pin_load"], label=name, **style)
             row[1].plot(one["pin"], one["groove_load"], label=name, **style)
         row[0].set_title(f"pin-tooth load, crank angle {at:g}°", fontsize="medium")
@@ -222,7 +228,7 @@ def plot_profile_stress(results: Results, pin: int = 20, x: str = "profile_angle
         abscissa = np.where(loaded, one[x].values, np.nan)
         stress = np.where(loaded, one["contact_stress"].values, np.nan)
         order = np.argsort(np.where(loaded, abscissa, np.inf), kind="stable")
-        ax.plot(abscissa[order], stress[order], label=name, **_style(i, len(cases)))
+        ax.plot(abscissa[order], stress[order], label=name, **case_style(i, len(cases)))
     if x == "profile_angle":
         ax.set_xlabel("generating angle φ1 of the contact [deg] (0 = tooth-space bottom)")
     else:
@@ -309,7 +315,7 @@ def plot_transmission_error(results: Results) -> Figure:
         period = 360.0 / int(ds.attrs.get("pins") or ds.sizes["pin"])
         cycle = crank <= crank[0] + period + 1e-9
         mean = float(np.mean(te))
-        style = _style(i, len(cases))
+        style = case_style(i, len(cases))
         ax_mesh.plot(*decimate(crank[cycle], te[cycle] - mean), **style)
         label = f"{name} (mean {mean:.4g}″)" if name else f"mean {mean:.4g}″"
         ax_all.plot(*decimate(crank, te), label=label, **style)
@@ -335,7 +341,7 @@ def plot_gear_ratio(results: Results) -> Figure:
         ax.plot(
             *decimate(ds["crank_angle"].values, ds["gear_ratio"].values),
             label=name,
-            **_style(i, len(cases)),
+            **case_style(i, len(cases)),
         )
     first = next(iter(cases.values()))
     teeth = int(first.attrs.get("teeth") or first.sizes["pin"] - 1)
@@ -361,7 +367,7 @@ def plot_contacts(results: Results) -> Figure:
             *decimate(ds["crank_angle"].values, ds["contacts"].values),
             where="mid",
             label=name,
-            **_style(i, len(cases)),
+            **case_style(i, len(cases)),
         )
     ax.set_xlabel("crank angle [deg]")
     ax.set_ylabel("pins in contact [-]")
@@ -395,7 +401,7 @@ def plot_backlash(results: Results, crank_angles_deg: Sequence[float] = (0.0,)) 
             at = _nearest_angle(ds, angle)
             one = ds["backlash"].sel(crank_angle=at)
             values = np.where(np.isfinite(one.values), one.values, np.nan)
-            line = ax.plot(one["pin"], values, label=name, **_style(i, len(cases), "."))[0]
+            line = ax.plot(one["pin"], values, label=name, **case_style(i, len(cases), "."))[0]
             high = values > top
             above = max(above, int(np.sum(high)))
             ax.plot(
