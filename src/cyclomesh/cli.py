@@ -303,6 +303,8 @@ def check(study: StudyArg, crank_step_deg: StepOption = None) -> None:
         more += "; [design_space] OK"
     if loaded.file.fe is not None:
         more += "; [fe] OK"
+    if loaded.file.requirements != type(loaded.file.requirements)():
+        more += "; [requirements] OK"
     typer.echo(f"{study}: {len(loaded.cases)} case(s) OK: {names}{more}")
 
 
