@@ -81,13 +81,17 @@ from cyclomesh.transmission import gear_ratio, transmission_error
 
 __all__ = [
     "Drive",
+    "StackMesh",
     "TorsionCurve",
     "mirror_errors",
     "mirror_index",
     "mirror_problem",
     "play",
     "solve_drive",
+    "stack_meshes",
+    "unmirror",
     "check_torques",
+    "check_discs",
     "torsion_torques",
     "torsion_curve",
     "torsion_metrics",
@@ -253,8 +257,31 @@ class Drive:
 
 
 @dataclass(frozen=True)
-class _Mesh:
-    """Unloaded state of a stack on its forward flanks, in the (possibly mirrored) frame."""
+class StackMesh:
+    """Unloaded state of a stack on its forward flanks, in the (possibly mirrored) frame.
+
+    The steps of :func:`solve_drive` before the load sharing, public for the solvers built
+    on it (the RV stage, :mod:`cyclomesh.stage`). ``...`` ring axes, A crank angles, N discs.
+
+    Attributes
+    ----------
+    design : PairDesign
+    geo : UnloadedContact
+        Unloaded contact of every pin of every disc, arrays (..., A, N, n1) (Eqs. 5–11).
+    rest, reverse_rest : ndarray
+        Rest rotation of the stack on the loaded and on the opposite flanks [rad], (..., A).
+    backlash : ndarray
+        φbl of every pin from the stack's rest [rad], (..., A, N·n1).
+    alpha, gamma : ndarray
+        Compliance coefficients of δ = F(α − γ ln F) [m/N], (..., A, N·n1).
+    normal_x, normal_y : ndarray
+        Outward flank normal at every contact, fixed frame, (..., A, N, n1); the force of
+        pin i on its disc is −F_i·n and a counter-clockwise disc rotation θ closes the
+        gap by l_i·θ, a disc translation u by n·u.
+    ring_shape : tuple
+    phi : ndarray
+        Crank angles of disc 1 in this frame [rad], (A,).
+    """
 
     design: PairDesign
     geo: UnloadedContact  # arrays (..., A, N, n1)
@@ -340,7 +367,7 @@ def play(
     modification = modification or Modification()
     errors = errors or PinErrors()
     phi = check_crank_angles(crank_angles)
-    discs = _check_discs(discs)
+    discs = check_discs(discs)
     check_pair(design, modification, errors)
     rest, reverse_rest = _rests(
         _stacked_contact(design, modification, errors, phi, discs), design.pins, discs
@@ -348,7 +375,7 @@ def play(
     return rest - reverse_rest
 
 
-def _check_discs(discs: int) -> int:
+def check_discs(discs: int) -> int:
     """The number of discs of a stack as an int ≥ 1, else a one-line DesignError."""
     if isinstance(discs, bool) or not isinstance(discs, int | np.integer) or discs < 1:
         raise DesignError(f"discs must be a whole number of at least 1, got {discs!r}")
@@ -363,7 +390,7 @@ def _mesh(
     discs: int,
     groove_deformation: bool,
     contact_law: str = "paper",
-) -> _Mesh:
+) -> StackMesh:
     """Unloaded contact, rest positions and compliance of a stack (forward flanks)."""
     ring_shape = errors.ring_shape(design.pins)
     geo = _stacked_contact(design, modification, errors, phi, discs)
@@ -371,7 +398,7 @@ def _mesh(
     rest, reverse_rest = _rests(geo, design.pins, discs)
     alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
     nx, ny = _normals(design, modification, errors, phi, discs, geo)
-    return _Mesh(
+    return StackMesh(
         design=design,
         geo=geo,
         rest=rest,
@@ -423,7 +450,7 @@ def _normals(
     return np.cos(angle), np.sin(angle)
 
 
-def _load(mesh: _Mesh, torque: float) -> dict[str, FloatArray]:
+def _load(mesh: StackMesh, torque: float) -> dict[str, FloatArray]:
     """Loaded state of a stack under a positive torque, in the mesh's frame."""
     design, geo = mesh.design, mesh.geo
     flat_arm = mesh.backlash.shape
@@ -454,7 +481,7 @@ def _load(mesh: _Mesh, torque: float) -> dict[str, FloatArray]:
     }
 
 
-def _directions(
+def stack_meshes(
     design: PairDesign,
     modification: Modification,
     errors: PinErrors,
@@ -464,8 +491,12 @@ def _directions(
     forward: bool,
     reverse: bool,
     contact_law: str = "paper",
-) -> tuple[_Mesh | None, _Mesh | None]:
-    """Meshes of the forward flanks and of the mirrored (reverse) problem, as needed."""
+) -> tuple[StackMesh | None, StackMesh | None]:
+    """Meshes of the forward flanks and of the mirrored (reverse) problem, as needed.
+
+    The mirrored mesh is solved on the crank angles −φ reversed; :func:`unmirror` maps
+    its arrays back onto the reverse flanks.
+    """
     fwd = rev = None
     if forward:
         fwd = _mesh(design, modification, errors, phi, discs, groove_deformation, contact_law)
@@ -476,7 +507,7 @@ def _directions(
     return fwd, rev
 
 
-def _unmirror(arr: FloatArray, angle_axis: int, disc_axis: int | None, pins: bool) -> FloatArray:
+def unmirror(arr: FloatArray, angle_axis: int, disc_axis: int | None, pins: bool) -> FloatArray:
     """Map an array of the mirrored problem back onto the reverse flanks.
 
     Crank angle −φ → φ (the mirrored problem is solved on the reversed angles), disc k at
@@ -542,11 +573,11 @@ def solve_drive(
     modification = modification or Modification()
     errors = errors or PinErrors()
     torques = check_torques(torque)
-    discs = _check_discs(discs)
+    discs = check_discs(discs)
     phi = check_crank_angles(crank_angles)
     check_contact_law(contact_law)
     check_pair(design, modification, errors)
-    fwd, rev = _directions(
+    fwd, rev = stack_meshes(
         design,
         modification,
         errors,
@@ -560,7 +591,7 @@ def solve_drive(
     if fwd is not None:
         play = fwd.rest - fwd.reverse_rest
     else:
-        play = _unmirror(rev.rest - rev.reverse_rest, -1, None, False)
+        play = unmirror(rev.rest - rev.reverse_rest, -1, None, False)
 
     per_torque = []
     for value in torques:
@@ -635,11 +666,11 @@ def _reverse(fields: dict[str, FloatArray]) -> dict[str, FloatArray]:
     out = {}
     for name, value in fields.items():
         if _PIN.get(name, False):
-            arr = _unmirror(value, -3, -2, True)
+            arr = unmirror(value, -3, -2, True)
         elif name in _PER_DISC:
-            arr = _unmirror(value, -2, -1, False)
+            arr = unmirror(value, -2, -1, False)
         else:
-            arr = _unmirror(value, -1, None, False)
+            arr = unmirror(value, -1, None, False)
         if name in _ODD:
             arr = -arr
         out[name] = arr
@@ -811,7 +842,7 @@ def torsion_curve(
     modification = modification or Modification()
     errors = errors or PinErrors()
     torques = torsion_torques(rated_torque, points)
-    discs = _check_discs(discs)
+    discs = check_discs(discs)
     if series_stiffness is not None and not (
         isinstance(series_stiffness, int | float)
         and math.isfinite(series_stiffness)
@@ -821,7 +852,7 @@ def torsion_curve(
     phi = check_crank_angles(crank_angles)
     check_contact_law(contact_law)
     check_pair(design, modification, errors)
-    fwd, rev = _directions(
+    fwd, rev = stack_meshes(
         design, modification, errors, phi, discs, groove_deformation, True, True, contact_law
     )
     rotation, contacts, stress, share = [], [], [], []
