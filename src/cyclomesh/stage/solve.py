@@ -30,7 +30,7 @@ bearing forces = T) is the stationarity of the convex potential
 
 solved at every crank angle by Newton's method on the 1 + 3D unknowns with a
 backtracking line search on Π, vectorised over the crank angles, to a force residual of
-1e-11·T/r_c (round-off). With rigid bearings without clearance (``bearing=None``) the
+1e-12·T/r_c (round-off). With rigid bearings without clearance (``bearing=None``) the
 discs cannot move against the carrier (u_d = 0, θ_d = c): the pins are then the mesh
 problem of :func:`~cyclomesh.drive.solve_drive` (reproduced to round-off, tested), and
 the statically indeterminate bearing loads are those of the stiff limit of identical
@@ -93,7 +93,7 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-FORCE_TOLERANCE = 1e-11
+FORCE_TOLERANCE = 1e-12
 """Accepted residual of every equilibrium equation, relative to T/r_c (moments /r_c)."""
 _MAX_ITERATIONS = 200
 _MAX_HALVINGS = 60
@@ -403,7 +403,13 @@ def _newton(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: Float
         if rigid:
             g = g @ reduce
             H = np.einsum("im,nij,jk->nmk", reduce, H, reduce)
-        done = np.max(np.abs(g), axis=-1) <= tol
+        # converged: every residual below tol, or at the round-off of the unknowns
+        # themselves (stiff bearings: a residual of H·ulp(x) cannot be resolved)
+        xs = np.abs(_scale(xa, 1.0 / p.scale, discs))
+        if rigid:
+            xs = xs @ reduce
+        noise = 16.0 * np.finfo(float).eps * np.einsum("nij,nj->ni", np.abs(H), xs)
+        done = np.all(np.abs(g) <= np.maximum(tol, noise), axis=-1)
         keep = ~done
         active = active[keep]
         if active.size == 0:
