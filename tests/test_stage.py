@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from cyclomesh.design import CrankHoles, Modification, PairDesign, PinErrors
-from cyclomesh.drive import solve_drive, torsion_curve
+from cyclomesh.core.pair import CrankHoles, Modification, PairDesign, PinErrors
+from cyclomesh.drive.solve import solve_drive, torsion_curve
 from cyclomesh.exceptions import DesignError
 from cyclomesh.stage import RollerSet, StageDesign, bearing_life, solve_stage, stage_torsion_curve
 

@@ -5,7 +5,7 @@ Model
 D identical discs (disc d's eccentric at φ + d·2π/D, d = 0 … D − 1) share one pin ring and
 N crankshafts. Crankshaft k runs through crank hole k of every disc, centred at
 h_k = r_c·(cos(2πk/N + φt), sin(2πk/N + φt)) from the disc centre (φt = −φ/n2, the
-disc's theoretical rotation; the holes are :class:`~cyclomesh.design.CrankHoles`). The
+disc's theoretical rotation; the holes are :class:`~cyclomesh.core.pair.CrankHoles`). The
 crankshafts sit in the carrier (the output), which carries the torque T. The input (and
 with it the crank angle φ) is held, as in a torsional-rigidity test of a reducer.
 
@@ -15,7 +15,7 @@ Small displacements (µm against mm) are superposed on the nominal position:
 
 * pin i of disc d closes by δ_i = l_i·(θ_d − φbl,i) + n_i·u_d (moment arm l_i, unloaded
   backlash φbl,i, outward flank normal n_i, all from the mesh core,
-  :class:`~cyclomesh.drive.StackMesh`) and carries F_i = F(δ_i⁺) (Eqs. 15–23 of [1]);
+  :class:`~cyclomesh.drive.solve.StackMesh`) and carries F_i = F(δ_i⁺) (Eqs. 15–23 of [1]);
 * hole k of disc d moves against its crank pin by
   d_dk = u_d + (θ_d − c)·ẑ×h_k + ε_dk (ε_dk the position error of the hole), and its
   roller set (:mod:`cyclomesh.stage.bearing`, Harris & Kotzalas [2]) pushes the crank
@@ -32,12 +32,12 @@ solved at every crank angle by Newton's method on the 1 + 3D unknowns with a
 backtracking line search on Π, vectorised over the crank angles, to a force residual of
 1e-12·T/r_c (round-off). With rigid bearings without clearance (``bearing=None``) the
 discs cannot move against the carrier (u_d = 0, θ_d = c): the pins are then the mesh
-problem of :func:`~cyclomesh.drive.solve_drive` (reproduced to round-off, tested), and
+problem of :func:`~cyclomesh.drive.solve.solve_drive` (reproduced to round-off, tested), and
 the statically indeterminate bearing loads are those of the stiff limit of identical
 roller sets without clearance (their homogeneous law Q ∝ δ^(10/9) fixes the split).
 
 The reverse flanks (negative torque) are solved through the exact mirror of
-:mod:`cyclomesh.drive` (crank hole k ↔ (N − k) mod N, the tangential hole error and
+:mod:`cyclomesh.drive.solve` (crank hole k ↔ (N − k) mod N, the tangential hole error and
 y-components negated).
 
 References
@@ -54,8 +54,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.design import CrankHoles, Modification, PairDesign, PinErrors
-from cyclomesh.drive import (
+from cyclomesh.core.pair import CrankHoles, Modification, PairDesign, PinErrors
+from cyclomesh.drive.solve import (
     StackMesh,
     check_discs,
     check_torques,
@@ -66,8 +66,8 @@ from cyclomesh.drive import (
     unmirror,
 )
 from cyclomesh.exceptions import ConvergenceError, DesignError
-from cyclomesh.hertz import force_from_approach
-from cyclomesh.ltca import check_contact_law, check_crank_angles, check_pair, contact_stresses
+from cyclomesh.core.hertz import force_from_approach
+from cyclomesh.core.ltca import check_contact_law, check_crank_angles, check_pair, contact_stresses
 from cyclomesh.stage.bearing import (
     LOAD_EXPONENT,
     RollerSet,
@@ -79,7 +79,7 @@ from cyclomesh.stage.bearing import (
     rating_life,
     roller_loads,
 )
-from cyclomesh.transmission import transmission_error
+from cyclomesh.core.transmission import transmission_error
 
 __all__ = [
     "StageDesign",
@@ -709,7 +709,7 @@ def solve_stage(
     Parameters
     ----------
     design, modification, errors, groove_deformation, discs, contact_law
-        As in :func:`~cyclomesh.drive.solve_drive` (errors of one ring).
+        As in :func:`~cyclomesh.drive.solve.solve_drive` (errors of one ring).
     stage : StageDesign
     torque : float or array_like
         Output torque on the carrier [N·m], not 0; negative loads the reverse flanks.
@@ -723,7 +723,7 @@ def solve_stage(
     Raises
     ------
     DesignError
-        For bad input (as :func:`~cyclomesh.drive.solve_drive`), ring axes on the errors.
+        For bad input (as :func:`~cyclomesh.drive.solve.solve_drive`), ring axes on the errors.
     ConvergenceError
         If the equilibrium cannot be solved to round-off; names the crank angle.
     """
@@ -843,7 +843,7 @@ def stage_torsion_curve(
     """Torsion curve of the whole stage (mesh, crank bearings, springs in one solve).
 
     Torques and the definitions of lost motion (±3 %) and rigidity (secant 50–100 %) as
-    :func:`~cyclomesh.drive.torsion_curve`; the output rotation is the carrier's TE from
+    :func:`~cyclomesh.drive.solve.torsion_curve`; the output rotation is the carrier's TE from
     :func:`solve_stage`, beside the mesh alone (rigid bearings) at the same torques.
     """
     torques = torsion_torques(rated_torque, points)
