@@ -29,7 +29,16 @@ if TYPE_CHECKING:
 
     from cyclomesh.studyfile.schema import CaseInputs
 
-__all__ = ["STAGE_METRICS", "SHEET_ANGLES", "stage_dataset", "data_sheet", "sheet_angles"]
+__all__ = [
+    "STAGE_METRICS",
+    "STAGE_STIFFNESS_METRICS",
+    "SHEET_ANGLES",
+    "stage_dataset",
+    "data_sheet",
+    "sheet_angles",
+    "solve_case",
+    "stage_torsion_variables",
+]
 
 ARCSEC = math.pi / (180.0 * 3600.0)
 ARCMIN = 60.0 * ARCSEC
@@ -247,3 +256,91 @@ def solve_case(inputs: CaseInputs) -> Stage:
         inputs.discs,
         inputs.contact_law,
     )
+
+
+def stage_torsion_variables(
+    inputs: CaseInputs, rated_torque: float, points: int, crank_angles: np.ndarray
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The stage's torsion curve for a stiffness study: Dataset variables and summary keys.
+
+    Variables (same ``torque`` and ``crank_angle`` as ``stiffness.nc``): ``stage_rotation``
+    [arcsec], ``stage_lost_motion`` [arcmin], ``stage_torsional_rigidity`` [N m/arcmin],
+    ``crank_bearing_load`` [N] (torque, crank_angle, disc, crank). Summary:
+    ``stage_lost_motion_arcmin_mean``/``_max``, ``stage_torsional_rigidity_nm_per_arcmin_
+    mean``/``_min`` and, with a bearing, ``stage_l10_h_min`` at +T_r.
+    """
+    curve = stage_torsion_curve(
+        inputs.design,
+        inputs.stage,
+        inputs.modification,
+        inputs.errors,
+        rated_torque,
+        crank_angles,
+        inputs.groove_deformation,
+        inputs.discs,
+        points=points,
+        contact_law=inputs.contact_law,
+    )
+    data: dict[str, Any] = {
+        "stage_rotation": (
+            ("torque", "crank_angle"),
+            curve.rotation / ARCSEC,
+            {"units": "arcsec", "long_name": "output rotation of the RV stage (TE sign)"},
+        ),
+        "stage_lost_motion": (
+            ("crank_angle",),
+            curve.lost_motion / ARCMIN,
+            {"units": "arcmin", "long_name": "lost motion of the RV stage"},
+        ),
+        "stage_torsional_rigidity": (
+            ("crank_angle",),
+            curve.torsional_rigidity * ARCMIN,
+            {"units": "N m/arcmin", "long_name": "torsional rigidity of the RV stage"},
+        ),
+        "crank_bearing_load": (
+            ("torque", "crank_angle", "stage_disc", "crank"),
+            curve.stage.bearing_load,
+            {"units": "N", "long_name": "crank bearing load"},
+        ),
+    }
+    summary = {
+        "stage_lost_motion_arcmin_mean": float(np.mean(curve.lost_motion) / ARCMIN),
+        "stage_lost_motion_arcmin_max": float(np.max(curve.lost_motion) / ARCMIN),
+        "stage_torsional_rigidity_nm_per_arcmin_mean": float(
+            np.mean(curve.torsional_rigidity) * ARCMIN
+        ),
+        "stage_torsional_rigidity_nm_per_arcmin_min": float(
+            np.min(curve.torsional_rigidity) * ARCMIN
+        ),
+    }
+    if inputs.stage.bearing is not None:
+        at = int(np.flatnonzero(curve.torque == rated_torque)[0])
+        _, _, hours = bearing_life(curve.stage, inputs.stage, inputs.design.pins)
+        summary["stage_l10_h_min"] = float(np.min(hours[at]))
+    return data, summary
+
+
+STAGE_STIFFNESS_METRICS: dict[str, Metric] = {
+    m.name: m
+    for m in (
+        Metric(
+            "stage_lost_motion_arcmin_mean", "arcmin", "mean lost motion of the stage", "stage LM"
+        ),
+        Metric(
+            "stage_lost_motion_arcmin_max", "arcmin", "largest lost motion of the stage", "max"
+        ),
+        Metric(
+            "stage_torsional_rigidity_nm_per_arcmin_mean",
+            "N·m/arcmin",
+            "mean torsional rigidity of the stage",
+            "stage rigidity",
+        ),
+        Metric(
+            "stage_torsional_rigidity_nm_per_arcmin_min",
+            "N·m/arcmin",
+            "smallest torsional rigidity of the stage",
+            "min",
+        ),
+        Metric("stage_l10_h_min", "h", "L10h of the weakest crank bearing at +T_r", "L10h"),
+    )
+}
