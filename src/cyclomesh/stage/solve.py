@@ -565,8 +565,10 @@ def _solve_direction(
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         ok = np.isfinite(prob.bl) & (prob.arm > 0)
         f1 = np.where(ok, torque / np.where(ok, prob.arm, 1.0), 1.0)
-        d1 = f1 * (prob.alpha - prob.gamma * np.log(f1))
-        ok &= d1 < prob.dmax
+        log1 = np.log(f1)
+        # on the stiffening branch of the law only (as cyclomesh.core.loadsharing)
+        ok &= (prob.gamma == 0) | (log1 < prob.alpha / prob.gamma - 1.0)
+        d1 = f1 * (prob.alpha - prob.gamma * log1)
         single = np.where(ok, prob.bl + d1 / np.where(ok, prob.arm, 1.0), np.inf)
     x[:, 0] = np.min(single.reshape(A, -1), axis=-1)
     if not np.all(np.isfinite(x[:, 0])):
