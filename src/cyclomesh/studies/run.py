@@ -202,6 +202,10 @@ def _with_stage(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs) -> tuple[xr.
     stage = stage_dataset(solve_case(inputs), inputs.stage, inputs.design.pins)
     if "disc" not in ds.dims:  # one disc: no disc dimension, as the mesh variables
         stage = stage.isel(disc=0, drop=True)
+    # the same angles (and torques) as the mesh's, bit for bit: no alignment
+    stage = stage.assign_coords(crank_angle=ds["crank_angle"])
+    if "torque" in stage.dims:
+        stage = stage.assign_coords(torque=ds["torque"])
     rated = case.stage.rated_torque_nm
     if rated is None:
         torques = np.atleast_1d(np.asarray(inputs.torque, float))

@@ -1,0 +1,100 @@
+"""End-to-end: ``[stage]`` in ``cyclomesh run`` and ``cyclomesh stiffness`` (the RV stage)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+from cyclomesh.cli import app
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "rv_stage.toml"
+
+
+def invoke(*args: str):
+    return CliRunner().invoke(app, list(args))
+
+
+@pytest.fixture(scope="module")
+def run_out(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("rv") / "out"
+    result = invoke(
+        "run", str(EXAMPLE), "--out", str(out), "--crank-step-deg", "10", "--figures", "none"
+    )
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_run_writes_bearing_loads_life_and_data_sheet(run_out):
+    summary = json.loads((run_out / "summary.json").read_text())
+    cases = {case["name"]: case for case in summary["cases"]}
+    assert list(cases) == ["three crankshafts", "two crankshafts"]
+    for case in cases.values():
+        assert case["stage_rated_torque_nm"] == 412.0
+        assert case["stage_torsional_rigidity_nm_per_arcmin"] < case[
+            "mesh_torsional_rigidity_nm_per_arcmin"
+        ]
+        assert case["stage_lost_motion_arcmin"] > case["mesh_lost_motion_arcmin"]
+        ds = xr.open_dataset(run_out / case["results"])
+        load = ds["crank_bearing_load"]
+        assert load.dims == ("crank_angle", "disc", "crank") and load.attrs["units"] == "N"
+        assert ds.sizes["crank"] == (3 if case["name"] == "three crankshafts" else 2)
+        assert ds["crank_bearing_l10"].attrs["units"] == "h"
+        assert ds["disc_translation_x"].attrs["units"] == "um"
+        # the run's torque is the rated torque: the sheet's weakest bearing is in the file
+        assert case["stage_l10_h_min"] == pytest.approx(float(ds["crank_bearing_l10"].min()))
+        assert np.all(np.isfinite(load.values))
+    # three crankshafts share the load better than two
+    assert cases["three crankshafts"]["stage_l10_h_min"] > cases["two crankshafts"][
+        "stage_l10_h_min"
+    ]
+    report = (run_out / "report.html").read_text()
+    assert "Data sheet (RV stage)" in report
+
+
+def test_stiffness_reports_the_stage_beside_the_mesh(tmp_path):
+    out = tmp_path / "stiff"
+    result = invoke(
+        "stiffness", str(EXAMPLE), "--out", str(out), "--crank-step-deg", "30", "--figures", "none"
+    )
+    assert result.exit_code == 0, result.output
+    case = json.loads((out / "summary.json").read_text())["cases"][0]
+    assert case["stage_torsional_rigidity_nm_per_arcmin_mean"] < case[
+        "torsional_rigidity_nm_per_arcmin_mean"
+    ]
+    assert case["stage_lost_motion_arcmin_mean"] > case["lost_motion_arcmin_mean"]
+    ds = xr.open_dataset(out / case["results"])
+    assert ds["stage_rotation"].dims == ("torque", "crank_angle")
+    assert ds["crank_bearing_load"].dims == ("torque", "crank_angle", "stage_disc", "crank")
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        ("[stage]\ncrankshafts = 3\n", "give [design.disc] crank_holes"),
+        ("[stage]\ncrank_circle_radius_mm = 36.0\n", "crank_hole_circle_radius_mm"),
+    ],
+)
+def test_one_set_of_keys_for_the_crankshafts(tmp_path, extra, message):
+    text = EXAMPLE.read_text().replace("[stage]\n", extra, 1)
+    study = tmp_path / "s.toml"
+    study.write_text(text)
+    result = invoke("run", str(study), "--out", str(tmp_path / "o"))
+    assert result.exit_code == 2
+    assert message in result.output and "Traceback" not in result.output
+
+
+def test_stage_needs_the_crank_holes(tmp_path):
+    text = EXAMPLE.read_text()
+    start = text.index("[design.disc]")
+    text = text[:start] + text[text.index("[modification]") :]
+    text = text.replace('design.disc.crank_holes = 2\n', "")
+    study = tmp_path / "s.toml"
+    study.write_text(text)
+    result = invoke("run", str(study), "--out", str(tmp_path / "o"))
+    assert result.exit_code == 2
+    assert "set [design.disc] crank_holes" in result.output
