@@ -56,7 +56,9 @@ def main() -> None:
     phi = np.deg2rad(np.arange(360.0))
     mod = Modification(pin_radius=3e-6)
 
-    best, median = timed(lambda: solve_stage(RV40, STAGE, mod, None, 412.0, phi, discs=2), args.repeat)
+    best, median = timed(
+        lambda: solve_stage(RV40, STAGE, mod, None, 412.0, phi, discs=2), args.repeat
+    )
     print(
         f"stage: 360 crank angles x 2 discs x 3 crankshafts, one torque: best {best:.3f} s, "
         f"median {median:.3f} s over {args.repeat} runs "

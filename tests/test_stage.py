@@ -32,7 +32,9 @@ def test_rigid_bearings_reproduce_the_mesh():
             RV40, StageDesign(HOLES), MOD, errors, [-300.0, 300.0], PHI, discs=discs
         )
         drive = solve_drive(RV40, MOD, errors, [-300.0, 300.0], PHI, discs=discs)
-        np.testing.assert_allclose(stage.pin_load, drive.pin_load, rtol=0, atol=1e-11 * drive.pin_load.max())
+        np.testing.assert_allclose(
+            stage.pin_load, drive.pin_load, rtol=0, atol=1e-11 * drive.pin_load.max()
+        )
         np.testing.assert_allclose(
             stage.transmission_error, drive.transmission_error, rtol=0, atol=1e-15
         )
@@ -122,7 +124,9 @@ def test_stiff_bearings_tend_to_the_rigid_stage():
         res = solve_stage(
             RV40, StageDesign(HOLES, _bearing(0.0, length)), MOD, None, 412.0, PHI, discs=2
         )
-        gaps.append(np.max(np.abs(res.bearing_load - rigid.bearing_load)) / rigid.bearing_load.max())
+        gaps.append(
+            np.max(np.abs(res.bearing_load - rigid.bearing_load)) / rigid.bearing_load.max()
+        )
     assert gaps[0] > gaps[1] > gaps[2]
     assert gaps[2] < 1e-4
 
@@ -159,7 +163,9 @@ def test_life_and_reverse_mirror():
     # the reverse direction of an error-free stage is the mirror: same load statistics
     np.testing.assert_allclose(np.sort(p[0].ravel()), np.sort(p[1].ravel()), rtol=0.05)
     np.testing.assert_allclose(
-        np.abs(res.transmission_error[0]).mean(), np.abs(res.transmission_error[1]).mean(), rtol=0.02
+        np.abs(res.transmission_error[0]).mean(),
+        np.abs(res.transmission_error[1]).mean(),
+        rtol=0.02,
     )
 
 

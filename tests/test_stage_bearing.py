@@ -1,4 +1,4 @@
-"""The crank bearing's roller set against Harris & Kotzalas and ISO 281 (cyclomesh.stage.bearing)."""
+"""The crank bearing's roller set against Harris & Kotzalas and ISO 281."""
 
 import numpy as np
 import pytest

@@ -35,9 +35,10 @@ def test_run_writes_bearing_loads_life_and_data_sheet(run_out):
     assert list(cases) == ["three crankshafts", "two crankshafts"]
     for case in cases.values():
         assert case["stage_rated_torque_nm"] == 412.0
-        assert case["stage_torsional_rigidity_nm_per_arcmin"] < case[
-            "mesh_torsional_rigidity_nm_per_arcmin"
-        ]
+        assert (
+            case["stage_torsional_rigidity_nm_per_arcmin"]
+            < case["mesh_torsional_rigidity_nm_per_arcmin"]
+        )
         assert case["stage_lost_motion_arcmin"] > case["mesh_lost_motion_arcmin"]
         ds = xr.open_dataset(run_out / case["results"])
         load = ds["crank_bearing_load"]
@@ -49,9 +50,9 @@ def test_run_writes_bearing_loads_life_and_data_sheet(run_out):
         assert case["stage_l10_h_min"] == pytest.approx(float(ds["crank_bearing_l10"].min()))
         assert np.all(np.isfinite(load.values))
     # three crankshafts share the load better than two
-    assert cases["three crankshafts"]["stage_l10_h_min"] > cases["two crankshafts"][
-        "stage_l10_h_min"
-    ]
+    assert (
+        cases["three crankshafts"]["stage_l10_h_min"] > cases["two crankshafts"]["stage_l10_h_min"]
+    )
     report = (run_out / "report.html").read_text()
     assert "Data sheet (RV stage)" in report
 
@@ -63,9 +64,10 @@ def test_stiffness_reports_the_stage_beside_the_mesh(tmp_path):
     )
     assert result.exit_code == 0, result.output
     case = json.loads((out / "summary.json").read_text())["cases"][0]
-    assert case["stage_torsional_rigidity_nm_per_arcmin_mean"] < case[
-        "torsional_rigidity_nm_per_arcmin_mean"
-    ]
+    assert (
+        case["stage_torsional_rigidity_nm_per_arcmin_mean"]
+        < case["torsional_rigidity_nm_per_arcmin_mean"]
+    )
     assert case["stage_lost_motion_arcmin_mean"] > case["lost_motion_arcmin_mean"]
     ds = xr.open_dataset(out / case["results"])
     assert ds["stage_rotation"].dims == ("torque", "crank_angle")
@@ -92,7 +94,7 @@ def test_stage_needs_the_crank_holes(tmp_path):
     text = EXAMPLE.read_text()
     start = text.index("[design.disc]")
     text = text[:start] + text[text.index("[modification]") :]
-    text = text.replace('design.disc.crank_holes = 2\n', "")
+    text = text.replace("design.disc.crank_holes = 2\n", "")
     study = tmp_path / "s.toml"
     study.write_text(text)
     result = invoke("run", str(study), "--out", str(tmp_path / "o"))

@@ -51,9 +51,7 @@ STAGE_METRICS: dict[str, Metric] = {
     for m in (
         Metric("stage_rated_torque_nm", "N·m", "rated torque of the data sheet", "rated torque"),
         Metric("stage_output_speed_rpm", "rpm", "output speed of the rated life", "speed"),
-        Metric(
-            "stage_l10_h_min", "h", "L10h of the weakest crank bearing (ISO 281)", "L10h min"
-        ),
+        Metric("stage_l10_h_min", "h", "L10h of the weakest crank bearing (ISO 281)", "L10h min"),
         Metric(
             "stage_equivalent_load_n_max",
             "N",
@@ -84,9 +82,7 @@ STAGE_METRICS: dict[str, Metric] = {
             "lost motion of the stage, TE(-3 %) - TE(+3 %)",
             "lost motion",
         ),
-        Metric(
-            "mesh_lost_motion_arcmin", "arcmin", "lost motion of the mesh alone", "mesh LM"
-        ),
+        Metric("mesh_lost_motion_arcmin", "arcmin", "lost motion of the mesh alone", "mesh LM"),
         Metric(
             "stage_max_contact_stress_mpa",
             "MPa",
@@ -129,10 +125,14 @@ def stage_dataset(result: Stage, stage: StageDesign, pins: int) -> xr.Dataset:
 
     def var(values: np.ndarray, dims: tuple[str, ...], units: str, long_name: str):
         values = values[0] if squeeze else values
-        return (dims if squeeze else ("torque", *dims)), values, {
-            "units": units,
-            "long_name": long_name,
-        }
+        return (
+            (dims if squeeze else ("torque", *dims)),
+            values,
+            {
+                "units": units,
+                "long_name": long_name,
+            },
+        )
 
     data = {
         "crank_bearing_load": var(
@@ -221,9 +221,7 @@ def data_sheet(inputs: CaseInputs, rated_torque: float) -> dict[str, Any]:
     sheet: dict[str, Any] = {
         "stage_rated_torque_nm": float(rated_torque),
         "stage_output_speed_rpm": float(stage.output_speed),
-        "stage_torsional_rigidity_nm_per_arcmin": float(
-            np.mean(curve.torsional_rigidity) * ARCMIN
-        ),
+        "stage_torsional_rigidity_nm_per_arcmin": float(np.mean(curve.torsional_rigidity) * ARCMIN),
         "mesh_torsional_rigidity_nm_per_arcmin": float(
             np.mean(curve.mesh_torsional_rigidity) * ARCMIN
         ),
@@ -326,9 +324,7 @@ STAGE_STIFFNESS_METRICS: dict[str, Metric] = {
         Metric(
             "stage_lost_motion_arcmin_mean", "arcmin", "mean lost motion of the stage", "stage LM"
         ),
-        Metric(
-            "stage_lost_motion_arcmin_max", "arcmin", "largest lost motion of the stage", "max"
-        ),
+        Metric("stage_lost_motion_arcmin_max", "arcmin", "largest lost motion of the stage", "max"),
         Metric(
             "stage_torsional_rigidity_nm_per_arcmin_mean",
             "N·m/arcmin",

@@ -46,7 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.exceptions import DesignError
+from cyclomesh.exceptions import ConvergenceError, DesignError
 
 __all__ = [
     "RollerSet",
@@ -128,9 +128,13 @@ class RollerSet:
 
     def __post_init__(self) -> None:
         if isinstance(self.rollers, bool) or not isinstance(self.rollers, int | np.integer):
-            raise DesignError(f"stage.crank_bearing.rollers must be a whole number, got {self.rollers!r}")
+            raise DesignError(
+                f"stage.crank_bearing.rollers must be a whole number, got {self.rollers!r}"
+            )
         if self.rollers < 3:
-            raise DesignError(f"stage.crank_bearing.rollers: at least 3 rollers, got {self.rollers}")
+            raise DesignError(
+                f"stage.crank_bearing.rollers: at least 3 rollers, got {self.rollers}"
+            )
         for name, value in (
             ("roller_diameter", self.diameter),
             ("roller_length", self.length),
@@ -228,10 +232,10 @@ def deflection_for_force(rs: RollerSet, force: ArrayLike) -> FloatArray:
     for _ in range(100):
         resid = radial_force(rs, s) - force
         if np.all(np.abs(resid) <= 1e-13 * np.maximum(force, 1e-300)):
-            break
+            return s
         k = radial_stiffness(rs, s)
         s = np.where(force > 0, s - resid / np.where(k > 0, k, np.inf), 0.5 * rs.clearance)
-    return s
+    raise ConvergenceError("deflection_for_force: Newton's method did not reach round-off")
 
 
 def dynamic_load_rating(

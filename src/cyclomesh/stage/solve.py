@@ -54,7 +54,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.core.hertz import force_from_approach
+from cyclomesh.core.ltca import check_contact_law, check_crank_angles, check_pair, contact_stresses
 from cyclomesh.core.pair import CrankHoles, Modification, PairDesign, PinErrors
+from cyclomesh.core.transmission import transmission_error
 from cyclomesh.drive.solve import (
     StackMesh,
     check_discs,
@@ -66,8 +69,6 @@ from cyclomesh.drive.solve import (
     unmirror,
 )
 from cyclomesh.exceptions import ConvergenceError, DesignError
-from cyclomesh.core.hertz import force_from_approach
-from cyclomesh.core.ltca import check_contact_law, check_crank_angles, check_pair, contact_stresses
 from cyclomesh.stage.bearing import (
     LOAD_EXPONENT,
     RollerSet,
@@ -79,7 +80,6 @@ from cyclomesh.stage.bearing import (
     rating_life,
     roller_loads,
 )
-from cyclomesh.core.transmission import transmission_error
 
 __all__ = [
     "StageDesign",
@@ -250,10 +250,10 @@ class _Law:
         for _ in range(100):
             f = radial_force(self.rs, sb)
             resid = sb + f / self.k - s
-            if np.all(np.abs(resid) <= 1e-15 * np.maximum(s, 1e-300)):
-                break
+            if np.all(np.abs(resid) <= 1e-14 * np.maximum(s, 1e-300)):
+                return sb
             sb = sb - resid / (1.0 + radial_stiffness(self.rs, sb) / self.k)
-        return sb
+        raise ConvergenceError("stage: the crank bearing and crankshaft spring split failed")
 
     def evaluate(self, s: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """(B, dB/ds, U, s_b) at the displacements s [m]."""
@@ -298,7 +298,11 @@ class _Problem:
 
     def take(self, idx: NDArray[np.int64]) -> _Problem:
         kw = {
-            name: (getattr(self, name)[idx] if isinstance(getattr(self, name), np.ndarray) else getattr(self, name))
+            name: (
+                getattr(self, name)[idx]
+                if isinstance(getattr(self, name), np.ndarray)
+                else getattr(self, name)
+            )
             for name in self.__dataclass_fields__
         }
         return _Problem(**kw)
@@ -322,7 +326,9 @@ def _pins(p: _Problem, theta: FloatArray, ux: FloatArray, uy: FloatArray):
         logf = np.log(np.where(force > 0, force, 1.0))
         dd = p.alpha - p.gamma * (1.0 + logf)
         stiff = np.where(force > 0, 1.0 / dd, 0.0)
-        energy = np.where(force > 0, 0.5 * force * force * (p.alpha - 0.5 * p.gamma - p.gamma * logf), 0.0)
+        energy = np.where(
+            force > 0, 0.5 * force * force * (p.alpha - 0.5 * p.gamma - p.gamma * logf), 0.0
+        )
     return force, stiff, energy, bad
 
 
@@ -378,19 +384,23 @@ def _evaluate(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, hessian:
     kxy = (kb - secant) * cx * cy
     for d in range(discs):
         idx = [0, 1 + 3 * d, 2 + 3 * d, 3 + 3 * d]
-        vec = [(np.broadcast_to(a, s.shape)[:, d], np.broadcast_to(b, s.shape)[:, d]) for a, b in gc]
-        for ia, (ax, ay) in zip(idx, vec):
+        vec = [
+            (np.broadcast_to(a, s.shape)[:, d], np.broadcast_to(b, s.shape)[:, d]) for a, b in gc
+        ]
+        for ia, (ax, ay) in zip(idx, vec, strict=True):
             g[:, ia] += np.sum(fx[:, d] * ax + fy[:, d] * ay, axis=-1)
             if hessian:
                 kax = kxx[:, d] * ax + kxy[:, d] * ay
                 kay = kxy[:, d] * ax + kyy[:, d] * ay
-                for ib, (bx, by) in zip(idx, vec):
+                for ib, (bx, by) in zip(idx, vec, strict=True):
                     H[:, ia, ib] += np.sum(kax * bx + kay * by, axis=-1)
     state.update(bearing_fx=fx, bearing_fy=fy, deflection=s, bearing_part=sb)
     return energy, g, H, state
 
 
-def _newton(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray) -> FloatArray:
+def _newton(
+    p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray
+) -> FloatArray:
     """Newton's method with a backtracking line search on the potential, per crank angle."""
     tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
     reduce = np.zeros((1 + 3 * discs, 1))
@@ -432,9 +442,7 @@ def _newton(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: Float
             full = _expand(step[todo] * t[todo, None], reduce if rigid else None)
             trial = xa[todo] + _scale(full, p.scale, discs)
             e_t, _g, _H, st = _evaluate(sub.take(todo), law, trial, discs, rigid, hessian=False)
-            ok = ~st["bad"] & (
-                (e_t <= energy[todo] + 1e-4 * t[todo] * slope[todo]) | tiny[todo]
-            )
+            ok = ~st["bad"] & ((e_t <= energy[todo] + 1e-4 * t[todo] * slope[todo]) | tiny[todo])
             new[todo[ok]] = trial[ok]
             todo = todo[~ok]
             if todo.size == 0:
@@ -613,7 +621,9 @@ def _solve_direction(
     else:
         deflection = np.zeros_like(bfx)
         sb = deflection
-        residual = np.max(np.abs(_evaluate(prob, None, x, D, True, hessian=False)[1] @ _reducer(D)), -1)
+        residual = np.max(
+            np.abs(_evaluate(prob, None, x, D, True, hessian=False)[1] @ _reducer(D)), -1
+        )
     c, theta, ux, uy = _unpack(x, D)
     groove, stress, _ = contact_stresses(mesh.geo, mesh.design, F)
     mfx = -np.sum(F * prob.nx, axis=-1)
@@ -676,7 +686,15 @@ _PER_DISC = {
     "disc_translation_y",
     "disc_te",
 }
-_ODD = {"mesh_fy", "bearing_fy", "disc_translation_y", "disc_te", "carrier_te", "mesh_te", "torque_share"}
+_ODD = {
+    "mesh_fy",
+    "bearing_fy",
+    "disc_translation_y",
+    "disc_te",
+    "carrier_te",
+    "mesh_te",
+    "torque_share",
+}
 
 
 def _reverse(fields: dict[str, FloatArray]) -> dict[str, FloatArray]:

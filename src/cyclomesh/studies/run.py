@@ -210,9 +210,9 @@ def _with_stage(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs) -> tuple[xr.
     if rated is None:
         torques = np.atleast_1d(np.asarray(inputs.torque, float))
         rated = float(np.max(np.abs(torques)))
-    merged = ds.assign(
-        {name: stage[name] for name in stage.data_vars}
-    ).assign_coords(crank=stage["crank"])
+    merged = ds.assign({name: stage[name] for name in stage.data_vars}).assign_coords(
+        crank=stage["crank"]
+    )
     merged.attrs.update(stage.attrs)
     return merged, data_sheet(inputs, rated)
 
@@ -497,7 +497,11 @@ def run_sections(run: RunResult) -> list[Section]:
         ["case", *header],
         [[n, *(_cell(run.summaries[n].get(c)) for c in columns)] for n in names],
     )
-    sections = [Section("Study", intro), Section("Inputs", inputs_html), Section("Summary", summary)]
+    sections = [
+        Section("Study", intro),
+        Section("Inputs", inputs_html),
+        Section("Summary", summary),
+    ]
     staged = [n for n in names if any(k in STAGE_METRICS for k in run.summaries[n])]
     if staged:
         keys = [k for k in STAGE_METRICS if any(k in run.summaries[n] for n in staged)]
