@@ -272,6 +272,7 @@ _HEADINGS = {
     "backlash": "Backlash",
     "mesh_force": "Mesh force (crank bearing load)",
     "torque_share": "Torque split between the discs",
+    "crank_bearing_loads": "Crank bearing loads (RV stage)",
 }
 
 
@@ -418,6 +419,19 @@ def run_figures(run: RunResult, inputs: list[FigureJob] | None = None) -> list[F
             "the disc, the load its crank bearing carries (docs/drive.md).",
         ),
     ]
+    staged = {k: v[["crank_bearing_load"]] for k, v in results.items() if "crank_bearing_load" in v}
+    if staged:
+        from cyclomesh.figures import stage as stage_plots
+
+        jobs.append(
+            job(
+                "crank_bearing_loads",
+                stage_plots.plot_crank_bearing_loads,
+                staged,
+                caption="Load of every crank bearing of the RV stage over the crank angle "
+                "(colour: crankshaft, line style: disc; docs/stage.md).",
+            )
+        )
     stacks = {k: v[["torque_share"]] for k, v in run.results.items() if "torque_share" in v}
     if stacks:
         jobs.append(
