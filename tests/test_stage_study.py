@@ -100,3 +100,41 @@ def test_stage_needs_the_crank_holes(tmp_path):
     result = invoke("run", str(study), "--out", str(tmp_path / "o"))
     assert result.exit_code == 2
     assert "set [design.disc] crank_holes" in result.output
+
+
+@pytest.mark.parametrize(
+    "command, section",
+    [
+        (
+            "tolerance",
+            "[tolerance]\nseed = 1\nrings = 4\nallowable_contact_stress_mpa = 2000.0\n"
+            'radial_um = { distribution = "uniform", half_range = 4.0 }\n',
+        ),
+        ("design", "[design_space]\npin_radius_um = { start = 1.0, stop = 4.0, points = 3 }\n"),
+    ],
+)
+def test_other_studies_refuse_stage_rather_than_ignore_it(tmp_path, command, section):
+    study = tmp_path / "s.toml"
+    text = EXAMPLE.read_text()
+    study.write_text(text[: text.index("[[cases]]")] + section)
+    result = invoke(command, str(study), "--out", str(tmp_path / "o"))
+    assert result.exit_code == 2, result.output
+    assert "[stage] is not taken by cyclomesh" in result.output
+
+
+def test_one_disc_stage_and_its_figure(tmp_path):
+    from cyclomesh.figures.stage import plot_crank_bearing_loads
+
+    text = EXAMPLE.read_text().replace("discs = 2 ", "discs = 1 ")
+    study = tmp_path / "s.toml"
+    study.write_text(text[: text.index("[[cases]]")])
+    out = tmp_path / "o"
+    result = invoke("run", str(study), "--out", str(out), "--crank-step-deg", "30")
+    assert result.exit_code == 0, result.output
+    case = json.loads((out / "summary.json").read_text())["cases"][0]
+    ds = xr.open_dataset(out / case["results"])
+    assert ds["crank_bearing_load"].dims == ("crank_angle", "crank")
+    assert "disc" not in ds.dims
+    assert (out / "figures" / "crank_bearing_loads.png").exists()
+    fig = plot_crank_bearing_loads({"one disc": ds})
+    assert len(fig.axes) == 1 and len(fig.axes[0].lines) == 3

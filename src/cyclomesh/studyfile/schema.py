@@ -407,6 +407,18 @@ class StageSection(_Section):
         return stage
 
 
+def refuse_stage(study: Study, command: str) -> None:
+    """One-line :class:`StudyError` if a case has ``[stage]``, which ``command`` does not
+    take yet (the RV stage runs in ``cyclomesh run`` and ``cyclomesh stiffness``)."""
+    for case in study.cases:
+        if case.stage is not None:
+            raise StudyError(
+                f"{case.label}: [stage] is not taken by cyclomesh {command} yet; use "
+                "cyclomesh run or cyclomesh stiffness for the RV stage, or remove [stage] "
+                "(docs/stage.md)"
+            )
+
+
 class RandomErrorsSection(_Section):
     """``[errors.random]``: one independent uniform draw per pin within ± the half-range.
 
