@@ -23,11 +23,10 @@ from cyclomesh.stage.solve import (
     solve_stage,
     stage_torsion_curve,
 )
+from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
     import xarray as xr
-
-    from cyclomesh.studyfile.schema import CaseInputs
 
 __all__ = [
     "STAGE_METRICS",
@@ -40,8 +39,8 @@ __all__ = [
     "stage_torsion_variables",
 ]
 
-ARCSEC = math.pi / (180.0 * 3600.0)
-ARCMIN = 60.0 * ARCSEC
+ARCSEC = RAD_PER_ARCSEC
+ARCMIN = RAD_PER_ARCMIN
 
 SHEET_ANGLES = 360
 """At most this many crank angles (evenly subsampled from the case's) for the data sheet."""
@@ -193,8 +192,11 @@ def stage_dataset(result: Stage, stage: StageDesign, pins: int) -> xr.Dataset:
     return ds
 
 
-def data_sheet(inputs: CaseInputs, rated_torque: float) -> dict[str, Any]:
+def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
     """Catalogue-style numbers of a case's stage at ``rated_torque`` [N·m] (JSON values).
+
+    ``inputs``: the case's core inputs (a study's ``CaseInputs``: design, stage,
+    modification, errors, crank_angles, groove_deformation, discs, contact_law).
 
     One :func:`~cyclomesh.stage.solve.stage_torsion_curve` (±3 %, ±50 %, ±100 % of the
     rated torque) on at most :data:`SHEET_ANGLES` of the case's crank angles gives the
@@ -241,7 +243,7 @@ def data_sheet(inputs: CaseInputs, rated_torque: float) -> dict[str, Any]:
     return {name: sheet[name] for name in STAGE_METRICS if name in sheet}
 
 
-def solve_case(inputs: CaseInputs) -> Stage:
+def solve_case(inputs: Any) -> Stage:
     """The stage of a run case at its torque(s) and crank angles."""
     return solve_stage(
         inputs.design,
@@ -257,7 +259,7 @@ def solve_case(inputs: CaseInputs) -> Stage:
 
 
 def stage_torsion_variables(
-    inputs: CaseInputs, rated_torque: float, points: int, crank_angles: np.ndarray
+    inputs: Any, rated_torque: float, points: int, crank_angles: np.ndarray
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """The stage's torsion curve for a stiffness study: Dataset variables and summary keys.
 

@@ -65,6 +65,7 @@ from cyclomesh.stage.bearing import RollerSet
 from cyclomesh.stage.solve import StageDesign
 from cyclomesh.studyfile.measurements import PIN_ERROR_COLUMNS, read_pin_errors_csv
 from cyclomesh.studyfile.profile_csv import read_profile_csv
+from cyclomesh.units import RAD_PER_ARCMIN
 
 __all__ = [
     "DesignSection",
@@ -385,7 +386,6 @@ class StageSection(_Section):
                 ),
                 rating_factor=b.rating_factor,
             )
-        arcmin = math.pi / (180.0 * 60.0)
         stage = StageDesign(
             holes=holes,
             bearing=bearing,
@@ -397,7 +397,7 @@ class StageSection(_Section):
             carrier_stiffness=(
                 None
                 if self.carrier_stiffness_nm_per_arcmin is None
-                else self.carrier_stiffness_nm_per_arcmin / arcmin
+                else self.carrier_stiffness_nm_per_arcmin / RAD_PER_ARCMIN
             ),
             hole_error_radial=np.asarray(self.hole_error_radial_um, float) * UM,
             hole_error_tangential=np.asarray(self.hole_error_tangential_um, float) * UM,
