@@ -42,14 +42,19 @@ def test_rigid_bearings_reproduce_the_mesh():
         np.testing.assert_allclose(stage.mesh_force, drive.mesh_force, rtol=1e-10)
 
 
-def _balance(design, stage_design, result, discs):
+def _balance(design, stage_design, result, discs, mod=MOD):
     """Largest relative imbalance of forces and moments on every disc and on the carrier."""
-    drive = solve_drive(design, MOD, None, result.torque, result.crank_angle, discs=discs)
-    fa = drive.force_angle  # pins on disc, geometry only
-    px = np.sum(result.pin_load * np.cos(fa), -1)
-    py = np.sum(result.pin_load * np.sin(fa), -1)
-    # the pins drive the disc against the load: their moment is −T's sign times Σ F·l
-    pm = -np.sign(result.torque)[:, None, None] * np.sum(result.pin_load * drive.moment_arm, -1)
+    drive = solve_drive(design, mod, None, result.torque, result.crank_angle, discs=discs)
+    # the opposite flanks: the loaded flanks of the other direction (geometry only)
+    other = solve_drive(design, mod, None, -result.torque, result.crank_angle, discs=discs)
+    fa, fo = drive.force_angle, other.force_angle  # pins on disc
+    load, opposite = result.pin_load, result.opposite_pin_load
+    px = np.sum(load * np.cos(fa), -1) + np.sum(opposite * np.cos(fo), -1)
+    py = np.sum(load * np.sin(fa), -1) + np.sum(opposite * np.sin(fo), -1)
+    # the pins drive the disc against the load: their moment is −T's sign times Σ F·l;
+    # the opposite flanks push the other way
+    sign = np.sign(result.torque)[:, None, None]
+    pm = -sign * (np.sum(load * drive.moment_arm, -1) - np.sum(opposite * other.moment_arm, -1))
     holes = stage_design.holes
     ang = holes.angles[None, :] - result.crank_angle[:, None] / design.teeth  # (A, N)
     hx, hy = holes.circle_radius * np.cos(ang), holes.circle_radius * np.sin(ang)
@@ -73,6 +78,19 @@ def test_every_disc_balances_to_round_off(clearance):
     # the rigid stiff-limit split balances too
     rigid = StageDesign(HOLES)
     assert max(_balance(RV40, rigid, solve_stage(RV40, rigid, MOD, None, 412.0, PHI), 1)) < 1e-10
+
+
+def test_translation_closes_the_opposite_flanks_without_play():
+    # no modification: no play, so the disc's translation within the bearing clearance
+    # presses pins on the opposite flanks of their tooth spaces too
+    mod = Modification()
+    sd = StageDesign(HOLES, _bearing(10e-6))
+    result = solve_stage(RV40, sd, mod, None, [-412.0, 412.0], PHI, discs=2)
+    assert np.all(result.opposite_pin_load.max(axis=(2, 3)) > 0)
+    assert max(_balance(RV40, sd, result, 2, mod)) < 1e-10
+    # with the play of Δρ = 3 µm they stay open (the mesh-alone results hold)
+    open_ = solve_stage(RV40, sd, Modification(pin_radius=3e-6), None, 412.0, PHI, discs=2)
+    assert np.all(open_.opposite_pin_load == 0)
 
 
 def test_identical_cranks_share_by_symmetry():

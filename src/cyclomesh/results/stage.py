@@ -158,6 +158,12 @@ def stage_dataset(result: Stage, stage: StageDesign, pins: int) -> xr.Dataset:
         "stage_pin_load": var(
             result.pin_load, ("crank_angle", "disc", "pin"), "N", "pin load in the stage"
         ),
+        "stage_opposite_pin_load": var(
+            result.opposite_pin_load,
+            ("crank_angle", "disc", "pin"),
+            "N",
+            "pin load on the opposite flank (closed by the disc's translation)",
+        ),
         "stage_transmission_error": var(
             result.transmission_error / ARCSEC,
             ("crank_angle",),

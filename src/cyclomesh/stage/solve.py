@@ -187,7 +187,11 @@ class Stage:
     torque : ndarray
         Output torque on the carrier [N·m], (Q,); negative: reverse flanks.
     pin_load, contact_stress : ndarray
-        Pin–tooth force [N] and Hertzian pressure [Pa], (Q, A, D, n1).
+        Pin–tooth force on the loaded flank [N] and its Hertzian pressure [Pa],
+        (Q, A, D, n1).
+    opposite_pin_load : ndarray
+        Force of each pin on the opposite flank of its tooth space [N] (0 unless a
+        translation of the disc closes it), (Q, A, D, n1).
     contacts : ndarray
         Loaded pins per disc, (Q, A, D).
     torque_share : ndarray
@@ -216,6 +220,7 @@ class Stage:
     crank_angle: FloatArray
     torque: FloatArray
     pin_load: FloatArray
+    opposite_pin_load: FloatArray
     contact_stress: FloatArray
     contacts: NDArray[np.int64]
     torque_share: FloatArray
@@ -523,10 +528,29 @@ def _distribution(p: _Problem, mesh_fx: FloatArray, mesh_fy: FloatArray, moment:
     raise ConvergenceError("stage: the stiff-limit bearing load split did not converge")
 
 
+def _mirrored(arr: FloatArray) -> FloatArray:
+    """(A, D, n1) of the mirror problem → this problem's frame (angles, discs, pins)."""
+    out = np.flip(arr, axis=0)
+    out = np.take(out, mirror_index(out.shape[1]), axis=1)
+    return out[..., mirror_index(out.shape[-1])]
+
+
 def _problem(
-    mesh: StackMesh, holes: CrankHoles, errs: tuple[FloatArray, FloatArray], torque: float
+    mesh: StackMesh,
+    other: StackMesh,
+    holes: CrankHoles,
+    errs: tuple[FloatArray, FloatArray],
+    torque: float,
 ) -> _Problem:
-    """The arrays of one direction: pins (A, D, n1), holes (A, N), hole errors (A, D, N)."""
+    """The arrays of one direction: pins (A, D, 2·n1), holes (A, N), hole errors (A, D, N).
+
+    Pins 0 … n1 − 1 are the loaded flanks (arm l > 0, backlash φbl from the stack's rest);
+    pins n1 … 2n1 − 1 the opposite flanks of the same tooth spaces, which a translation of
+    the disc may close: their geometry and compliance are those of the forward flanks of
+    the mirror problem ``other`` (pin (n1 − i) mod n1 at −φ, y reflected), their contact
+    rotation the unloaded opposite-flank rotation of this mesh, and a counter-clockwise
+    rotation opens them (signed arm −l').
+    """
     design, geo = mesh.design, mesh.geo
     if geo.rotation.ndim != 3:
         raise DesignError("stage: pin errors with ring axes (many rings) are not supported")
@@ -540,13 +564,29 @@ def _problem(
     ey = errs[0][None] * sr + errs[1][None] * cr
     alpha = mesh.alpha.reshape(A, D, n1)
     gamma = mesh.gamma.reshape(A, D, n1)
+    # the opposite flanks
+    arm_o = _mirrored(other.geo.moment_arm)
+    alpha_o = _mirrored(other.alpha.reshape(A, D, n1))
+    gamma_o = _mirrored(other.gamma.reshape(A, D, n1))
+    with np.errstate(invalid="ignore"):
+        bl_o = geo.reverse_rotation - mesh.rest[:, None, None]
+    usable_o = (
+        np.isfinite(bl_o)
+        & np.isfinite(arm_o)
+        & (arm_o >= 0)
+        & np.isfinite(alpha_o)
+        & np.isfinite(gamma_o)
+    )
+    bl = np.concatenate([mesh.backlash.reshape(A, D, n1), np.where(usable_o, bl_o, np.inf)], -1)
+    alpha = np.concatenate([alpha, np.where(usable_o, alpha_o, 1.0)], -1)
+    gamma = np.concatenate([gamma, np.where(usable_o, gamma_o, 0.0)], -1)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         dmax = np.where(gamma > 0, gamma * np.exp(alpha / gamma - 1.0), np.inf)
     return _Problem(
-        bl=mesh.backlash.reshape(A, D, n1),
-        arm=geo.moment_arm,
-        nx=mesh.normal_x,
-        ny=mesh.normal_y,
+        bl=bl,
+        arm=np.concatenate([geo.moment_arm, -np.where(usable_o, arm_o, 0.0)], -1),
+        nx=np.concatenate([mesh.normal_x, np.where(usable_o, _mirrored(other.normal_x), 0)], -1),
+        ny=np.concatenate([mesh.normal_y, np.where(usable_o, -_mirrored(other.normal_y), 0)], -1),
         alpha=alpha,
         gamma=gamma,
         dmax=np.where(np.isfinite(dmax), dmax * (1.0 - 1e-9), np.inf),
@@ -560,11 +600,15 @@ def _problem(
 
 
 def _solve_direction(
-    mesh: StackMesh, stage: StageDesign, errs: tuple[FloatArray, FloatArray], torque: float
+    mesh: StackMesh,
+    other: StackMesh,
+    stage: StageDesign,
+    errs: tuple[FloatArray, FloatArray],
+    torque: float,
 ) -> dict[str, FloatArray]:
-    """Stage under a positive torque in the mesh's frame."""
-    D = mesh.geo.rotation.shape[-2]
-    prob = _problem(mesh, stage.holes, errs, torque)
+    """Stage under a positive torque in the mesh's frame (``other``: the mirror problem)."""
+    D, n1 = mesh.geo.rotation.shape[-2:]
+    prob = _problem(mesh, other, stage.holes, errs, torque)
     A = prob.bl.shape[0]
     m = 1 + 3 * D
     # rigid stage (θ_d = c, u = 0) from the rotation at which the stiffest pin alone
@@ -606,11 +650,18 @@ def _solve_direction(
         L = prob.scale
         jx, jy = -prob.hy[:, None, :], prob.hx[:, None, :]
         omega = np.sum(dx * jx + dy * jy, -1) / (N * L * L)  # (A, D)
-        c = x[:, 1::3] - omega
-        x[:, 0] = c.mean(-1)
+        ux, uy = dx.mean(-1), dy.mean(-1)
+        # turn each disc so that its pins keep (in the least-squares sense, weighted by
+        # their stiffness) the approach of the rigid solution despite the translation
+        _, k_pin, _, _ = _pins(prob, x[:, 1::3], np.zeros_like(ux), np.zeros_like(uy))
+        shift = prob.nx * ux[..., None] + prob.ny * uy[..., None]
+        weight = np.sum(k_pin * prob.arm * prob.arm, -1)
+        turn = -np.sum(k_pin * prob.arm * shift, -1) / np.where(weight > 0, weight, np.inf)
+        theta = x[:, 1::3] + turn
+        x[:, 0] = np.mean(theta - omega, -1)
         x[:, 1::3] = x[:, [0]] + omega
-        x[:, 2::3] = dx.mean(-1)
-        x[:, 3::3] = dy.mean(-1)
+        x[:, 2::3] = ux
+        x[:, 3::3] = uy
         x = _newton(prob, law, x, D, False, mesh.phi)
         energy, g, _, st = _evaluate(prob, law, x, D, False, hessian=False)
         F = st["pin_force"]
@@ -625,7 +676,7 @@ def _solve_direction(
             np.abs(_evaluate(prob, None, x, D, True, hessian=False)[1] @ _reducer(D)), -1
         )
     c, theta, ux, uy = _unpack(x, D)
-    groove, stress, _ = contact_stresses(mesh.geo, mesh.design, F)
+    groove, stress, _ = contact_stresses(mesh.geo, mesh.design, F[..., :n1])
     mfx = -np.sum(F * prob.nx, axis=-1)
     mfy = -np.sum(F * prob.ny, axis=-1)
     rollers = (
@@ -634,9 +685,10 @@ def _solve_direction(
         else np.full(deflection.shape, np.nan)
     )
     return {
-        "pin_load": F,
+        "pin_load": F[..., :n1],
+        "opposite_pin_load": F[..., n1:],
         "contact_stress": stress,
-        "contacts": np.sum(F > 0, axis=-1),
+        "contacts": np.sum(F[..., :n1] > 0, axis=-1),
         "torque_share": np.sum(F * prob.arm, axis=-1),
         "mesh_fx": mfx,
         "mesh_fy": mfy,
@@ -675,7 +727,7 @@ def _deflection(law: _Law, force: FloatArray) -> FloatArray:
 
 
 # fields: (angle axis, disc axis, crank/pin axis) for the mirror
-_PER_PIN = {"pin_load", "contact_stress"}
+_PER_PIN = {"pin_load", "opposite_pin_load", "contact_stress"}
 _PER_CRANK = {"bearing_fx", "bearing_fy", "bearing_deflection", "max_roller_load"}
 _PER_DISC = {
     "contacts",
@@ -763,8 +815,8 @@ def solve_stage(
         phi,
         discs,
         groove_deformation,
-        bool(np.any(torques > 0)),
-        bool(np.any(torques < 0)),
+        True,  # both: the opposite flanks of one direction are the mirror's loaded flanks
+        True,
         contact_law,
     )
     N = stage.holes.count
@@ -776,9 +828,9 @@ def solve_stage(
     for value in torques:
         try:
             if value > 0:
-                fields = _solve_direction(fwd, stage, (rad, tan), float(value))
+                fields = _solve_direction(fwd, rev, stage, (rad, tan), float(value))
             else:
-                fields = _reverse(_solve_direction(rev, stage, mirror_errs, float(-value)))
+                fields = _reverse(_solve_direction(rev, fwd, stage, mirror_errs, float(-value)))
         except ConvergenceError as exc:
             raise ConvergenceError(f"torque {value:g} N·m: {exc}") from None
         results.append(fields)
@@ -792,6 +844,7 @@ def solve_stage(
         crank_angle=phi,
         torque=torques,
         pin_load=out["pin_load"],
+        opposite_pin_load=out["opposite_pin_load"],
         contact_stress=out["contact_stress"],
         contacts=out["contacts"],
         torque_share=out["torque_share"],
