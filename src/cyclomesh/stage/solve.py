@@ -16,6 +16,10 @@ Small displacements (µm against mm) are superposed on the nominal position:
 * pin i of disc d closes by δ_i = l_i·(θ_d − φbl,i) + n_i·u_d (moment arm l_i, unloaded
   backlash φbl,i, outward flank normal n_i, all from the mesh core,
   :class:`~cyclomesh.drive.solve.StackMesh`) and carries F_i = F(δ_i⁺) (Eqs. 15–23 of [1]);
+* the opposite flank of every tooth space is a second contact of its pin, closing by
+  −l'_i·(θ_d − φ'bl,i) + n'_i·u_d (geometry and compliance of the loaded flank of the
+  mirror problem, φ'bl,i its unloaded contact rotation from the rest): a translation
+  may close it;
 * hole k of disc d moves against its crank pin by
   d_dk = u_d + (θ_d − c)·ẑ×h_k + ε_dk (ε_dk the position error of the hole), and its
   roller set (:mod:`cyclomesh.stage.bearing`, Harris & Kotzalas [2]) pushes the crank
@@ -32,7 +36,8 @@ solved at every crank angle by Newton's method on the 1 + 3D unknowns with a
 backtracking line search on Π, vectorised over the crank angles, to a force residual of
 1e-12·T/r_c (round-off). With rigid bearings without clearance (``bearing=None``) the
 discs cannot move against the carrier (u_d = 0, θ_d = c): the pins are then the mesh
-problem of :func:`~cyclomesh.drive.solve.solve_drive` (reproduced to round-off, tested), and
+problem of :func:`~cyclomesh.drive.solve.solve_drive` (reproduced to round-off while the
+opposite flanks stay open, which the mesh alone does not model; tested), and
 the statically indeterminate bearing loads are those of the stiff limit of identical
 roller sets without clearance (their homogeneous law Q ∝ δ^(10/9) fixes the split).
 
