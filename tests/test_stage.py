@@ -202,3 +202,20 @@ def test_stage_input_errors():
             PHI,
             discs=2,
         )
+
+
+def test_rings_are_solved_one_by_one_with_the_same_result():
+    rng = np.random.default_rng(3)
+    radial = rng.uniform(-3e-6, 3e-6, (2, 40))
+    sd = StageDesign(HOLES, _bearing(4e-6))
+    phi = PHI[:6]
+    both = solve_stage(RV40, sd, MOD, PinErrors(radial=radial), [-412.0, 412.0], phi, discs=2)
+    assert both.bearing_load.shape == (2, 2, 6, 2, 3)
+    for ring in range(2):
+        one = solve_stage(
+            RV40, sd, MOD, PinErrors(radial=radial[ring]), [-412.0, 412.0], phi, discs=2
+        )
+        np.testing.assert_array_equal(both.bearing_load[ring], one.bearing_load)
+        np.testing.assert_array_equal(both.transmission_error[ring], one.transmission_error)
+    _, _, hours = bearing_life(both, sd, RV40.pins)
+    assert hours.shape == (2, 2, 2, 3)

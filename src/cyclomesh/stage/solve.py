@@ -557,8 +557,6 @@ def _problem(
     rotation opens them (signed arm −l').
     """
     design, geo = mesh.design, mesh.geo
-    if geo.rotation.ndim != 3:
-        raise DesignError("stage: pin errors with ring axes (many rings) are not supported")
     A, D, n1 = geo.rotation.shape
     phi_t = -mesh.phi / design.teeth
     ang = holes.angles[None, :] + phi_t[:, None]  # (A, N)
@@ -710,6 +708,19 @@ def _solve_direction(
     }
 
 
+def _ring_mesh(mesh: StackMesh, ring: tuple[int, ...]) -> StackMesh:
+    """The unloaded mesh of one ring of a many-ring :class:`StackMesh`."""
+    if not ring:
+        return mesh
+    geo = type(mesh.geo)(
+        **{name: getattr(mesh.geo, name)[ring] for name in mesh.geo.__dataclass_fields__}
+    )
+    fields = {name: getattr(mesh, name) for name in mesh.__dataclass_fields__}
+    for name in ("rest", "reverse_rest", "backlash", "alpha", "gamma", "normal_x", "normal_y"):
+        fields[name] = fields[name][ring]
+    return StackMesh(**{**fields, "geo": geo, "ring_shape": ()})
+
+
 def _reducer(D: int) -> FloatArray:
     reduce = np.zeros((1 + 3 * D, 1))
     reduce[[0, *range(1, 1 + 3 * D, 3)], 0] = 1.0
@@ -786,7 +797,8 @@ def solve_stage(
     Parameters
     ----------
     design, modification, errors, groove_deformation, discs, contact_law
-        As in :func:`~cyclomesh.drive.solve.solve_drive` (errors of one ring).
+        As in :func:`~cyclomesh.drive.solve.solve_drive`; errors with ring axes give
+        results with the same leading axes (the rings are solved one after the other).
     stage : StageDesign
     torque : float or array_like
         Output torque on the carrier [N·m], not 0; negative loads the reverse flanks.
@@ -800,7 +812,7 @@ def solve_stage(
     Raises
     ------
     DesignError
-        For bad input (as :func:`~cyclomesh.drive.solve.solve_drive`), ring axes on the errors.
+        For bad input (as :func:`~cyclomesh.drive.solve.solve_drive`).
     ConvergenceError
         If the equilibrium cannot be solved to round-off; names the crank angle.
     """
@@ -810,8 +822,7 @@ def solve_stage(
     discs = check_discs(discs)
     phi = check_crank_angles(crank_angles)
     check_contact_law(contact_law)
-    if check_pair(design, modification, errors):
-        raise DesignError("stage: pin errors with ring axes (many rings) are not supported")
+    ring_shape = check_pair(design, modification, errors)
     rad, tan = stage.hole_errors(discs)
     fwd, rev = stack_meshes(
         design,
@@ -829,17 +840,27 @@ def solve_stage(
         rad[mirror_index(discs)][:, mirror_index(N)],
         -tan[mirror_index(discs)][:, mirror_index(N)],
     )
-    results = []
-    for value in torques:
-        try:
-            if value > 0:
-                fields = _solve_direction(fwd, rev, stage, (rad, tan), float(value))
-            else:
-                fields = _reverse(_solve_direction(rev, fwd, stage, mirror_errs, float(-value)))
-        except ConvergenceError as exc:
-            raise ConvergenceError(f"torque {value:g} N·m: {exc}") from None
-        results.append(fields)
-    out = {name: np.stack([r[name] for r in results]) for name in results[0]}
+    per_ring = []
+    for ring in np.ndindex(ring_shape):  # rings one after the other (one ring: ())
+        results = []
+        f_ring, r_ring = _ring_mesh(fwd, ring), _ring_mesh(rev, ring)
+        where = f"ring {np.ravel_multi_index(ring, ring_shape)}, " if ring_shape else ""
+        for value in torques:
+            try:
+                if value > 0:
+                    fields = _solve_direction(f_ring, r_ring, stage, (rad, tan), float(value))
+                else:
+                    fields = _reverse(
+                        _solve_direction(r_ring, f_ring, stage, mirror_errs, float(-value))
+                    )
+            except ConvergenceError as exc:
+                raise ConvergenceError(f"{where}torque {value:g} N·m: {exc}") from None
+            results.append(fields)
+        per_ring.append({name: np.stack([r[name] for r in results]) for name in results[0]})
+    out = {
+        name: np.stack([r[name] for r in per_ring]).reshape(*ring_shape, *per_ring[0][name].shape)
+        for name in per_ring[0]
+    }
     te = out.pop("carrier_te")
     if stage.carrier_stiffness is not None:
         te = te - torques[:, None] / stage.carrier_stiffness
@@ -882,11 +903,11 @@ def bearing_life(
     Returns
     -------
     equivalent, l10, hours : ndarray
-        Shape (Q, D, N).
+        Shape (..., Q, D, N) (ring axes first).
     """
     if stage.bearing is None:
         raise DesignError("stage: the life needs a crank bearing ([stage.crank_bearing])")
-    p = equivalent_load(stage_result.bearing_load, axis=1)
+    p = equivalent_load(stage_result.bearing_load, axis=-3)
     life = rating_life(stage.bearing.rating(), p)
     return p, life, life_hours(life, pins * stage.output_speed)
 
