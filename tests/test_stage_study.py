@@ -72,6 +72,10 @@ def test_stiffness_reports_the_stage_beside_the_mesh(tmp_path):
     ds = xr.open_dataset(out / case["results"])
     assert ds["stage_rotation"].dims == ("torque", "crank_angle")
     assert ds["crank_bearing_load"].dims == ("torque", "crank_angle", "stage_disc", "crank")
+    from cyclomesh.figures.stage import plot_stage_torsion_curve
+
+    fig = plot_stage_torsion_curve({"three": ds})
+    assert len(fig.axes) == 1 and len(fig.axes[0].lines) == 4  # mesh, stage, two axes lines
 
 
 @pytest.mark.parametrize(

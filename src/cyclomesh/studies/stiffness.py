@@ -182,6 +182,7 @@ _HEADINGS = {
     "torsional_rigidity": "Torsional rigidity",
     "play": "Play and lost motion",
     "torque_share": "Torque split between the discs",
+    "stage_torsion_curve": "Torsion curve of the RV stage",
 }
 
 
@@ -235,6 +236,28 @@ def stiffness_figures(result: StiffnessResult) -> list[FigureJob]:
             caption="Play at zero load and lost motion (±3 % of rated) over the crank angle.",
         ),
     ]
+    names = (
+        "rotation",
+        "stage_rotation",
+        "lost_motion",
+        "stage_lost_motion",
+        "torsional_rigidity",
+        "stage_torsional_rigidity",
+    )
+    staged = {k: v for k, v in _curves(result, names).items() if "stage_rotation" in v}
+    if staged:
+        from cyclomesh.figures import stage as stage_plots
+
+        jobs.append(
+            job(
+                "stage_torsion_curve",
+                stage_plots.plot_stage_torsion_curve,
+                staged,
+                caption="Torsion curve of the RV stage (mesh, crank bearings and springs in "
+                "one solve) beside the mesh alone: rotation of the output, mean over the "
+                "crank angles, against torque in % of rated (docs/stage.md).",
+            )
+        )
     stacks = {k: v for k, v in _curves(result, ("torque_share",)).items() if "torque_share" in v}
     if stacks:
         jobs.append(
