@@ -81,17 +81,17 @@ from cyclomesh.exceptions import ConvergenceError, DesignError
 
 __all__ = [
     "Drive",
-    "StackMesh",
     "TorsionCurve",
     "mirror_errors",
     "mirror_index",
     "mirror_problem",
     "play",
     "solve_drive",
+    "StackMesh",
     "stack_meshes",
     "unmirror",
-    "check_torques",
     "check_discs",
+    "check_torques",
     "torsion_torques",
     "torsion_curve",
     "torsion_metrics",
@@ -257,31 +257,8 @@ class Drive:
 
 
 @dataclass(frozen=True)
-class StackMesh:
-    """Unloaded state of a stack on its forward flanks, in the (possibly mirrored) frame.
-
-    The steps of :func:`solve_drive` before the load sharing, public for the solvers built
-    on it (the RV stage, :mod:`cyclomesh.stage`). ``...`` ring axes, A crank angles, N discs.
-
-    Attributes
-    ----------
-    design : PairDesign
-    geo : UnloadedContact
-        Unloaded contact of every pin of every disc, arrays (..., A, N, n1) (Eqs. 5–11).
-    rest, reverse_rest : ndarray
-        Rest rotation of the stack on the loaded and on the opposite flanks [rad], (..., A).
-    backlash : ndarray
-        φbl of every pin from the stack's rest [rad], (..., A, N·n1).
-    alpha, gamma : ndarray
-        Compliance coefficients of δ = F(α − γ ln F) [m/N], (..., A, N·n1).
-    normal_x, normal_y : ndarray
-        Outward flank normal at every contact, fixed frame, (..., A, N, n1); the force of
-        pin i on its disc is −F_i·n and a counter-clockwise disc rotation θ closes the
-        gap by l_i·θ, a disc translation u by n·u.
-    ring_shape : tuple
-    phi : ndarray
-        Crank angles of disc 1 in this frame [rad], (A,).
-    """
+class _Mesh:
+    """Unloaded state of a stack on its forward flanks, in the (possibly mirrored) frame."""
 
     design: PairDesign
     geo: UnloadedContact  # arrays (..., A, N, n1)
@@ -367,7 +344,7 @@ def play(
     modification = modification or Modification()
     errors = errors or PinErrors()
     phi = check_crank_angles(crank_angles)
-    discs = check_discs(discs)
+    discs = _check_discs(discs)
     check_pair(design, modification, errors)
     rest, reverse_rest = _rests(
         _stacked_contact(design, modification, errors, phi, discs), design.pins, discs
@@ -375,7 +352,7 @@ def play(
     return rest - reverse_rest
 
 
-def check_discs(discs: int) -> int:
+def _check_discs(discs: int) -> int:
     """The number of discs of a stack as an int ≥ 1, else a one-line DesignError."""
     if isinstance(discs, bool) or not isinstance(discs, int | np.integer) or discs < 1:
         raise DesignError(f"discs must be a whole number of at least 1, got {discs!r}")
@@ -390,7 +367,7 @@ def _mesh(
     discs: int,
     groove_deformation: bool,
     contact_law: str = "paper",
-) -> StackMesh:
+) -> _Mesh:
     """Unloaded contact, rest positions and compliance of a stack (forward flanks)."""
     ring_shape = errors.ring_shape(design.pins)
     geo = _stacked_contact(design, modification, errors, phi, discs)
@@ -398,7 +375,7 @@ def _mesh(
     rest, reverse_rest = _rests(geo, design.pins, discs)
     alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
     nx, ny = _normals(design, modification, errors, phi, discs, geo)
-    return StackMesh(
+    return _Mesh(
         design=design,
         geo=geo,
         rest=rest,
@@ -450,7 +427,7 @@ def _normals(
     return np.cos(angle), np.sin(angle)
 
 
-def _load(mesh: StackMesh, torque: float) -> dict[str, FloatArray]:
+def _load(mesh: _Mesh, torque: float) -> dict[str, FloatArray]:
     """Loaded state of a stack under a positive torque, in the mesh's frame."""
     design, geo = mesh.design, mesh.geo
     flat_arm = mesh.backlash.shape
@@ -481,7 +458,7 @@ def _load(mesh: StackMesh, torque: float) -> dict[str, FloatArray]:
     }
 
 
-def stack_meshes(
+def _directions(
     design: PairDesign,
     modification: Modification,
     errors: PinErrors,
@@ -491,12 +468,8 @@ def stack_meshes(
     forward: bool,
     reverse: bool,
     contact_law: str = "paper",
-) -> tuple[StackMesh | None, StackMesh | None]:
-    """Meshes of the forward flanks and of the mirrored (reverse) problem, as needed.
-
-    The mirrored mesh is solved on the crank angles −φ reversed; :func:`unmirror` maps
-    its arrays back onto the reverse flanks.
-    """
+) -> tuple[_Mesh | None, _Mesh | None]:
+    """Meshes of the forward flanks and of the mirrored (reverse) problem, as needed."""
     fwd = rev = None
     if forward:
         fwd = _mesh(design, modification, errors, phi, discs, groove_deformation, contact_law)
@@ -507,7 +480,7 @@ def stack_meshes(
     return fwd, rev
 
 
-def unmirror(arr: FloatArray, angle_axis: int, disc_axis: int | None, pins: bool) -> FloatArray:
+def _unmirror(arr: FloatArray, angle_axis: int, disc_axis: int | None, pins: bool) -> FloatArray:
     """Map an array of the mirrored problem back onto the reverse flanks.
 
     Crank angle −φ → φ (the mirrored problem is solved on the reversed angles), disc k at
@@ -573,11 +546,11 @@ def solve_drive(
     modification = modification or Modification()
     errors = errors or PinErrors()
     torques = check_torques(torque)
-    discs = check_discs(discs)
+    discs = _check_discs(discs)
     phi = check_crank_angles(crank_angles)
     check_contact_law(contact_law)
     check_pair(design, modification, errors)
-    fwd, rev = stack_meshes(
+    fwd, rev = _directions(
         design,
         modification,
         errors,
@@ -591,7 +564,7 @@ def solve_drive(
     if fwd is not None:
         play = fwd.rest - fwd.reverse_rest
     else:
-        play = unmirror(rev.rest - rev.reverse_rest, -1, None, False)
+        play = _unmirror(rev.rest - rev.reverse_rest, -1, None, False)
 
     per_torque = []
     for value in torques:
@@ -666,11 +639,11 @@ def _reverse(fields: dict[str, FloatArray]) -> dict[str, FloatArray]:
     out = {}
     for name, value in fields.items():
         if _PIN.get(name, False):
-            arr = unmirror(value, -3, -2, True)
+            arr = _unmirror(value, -3, -2, True)
         elif name in _PER_DISC:
-            arr = unmirror(value, -2, -1, False)
+            arr = _unmirror(value, -2, -1, False)
         else:
-            arr = unmirror(value, -1, None, False)
+            arr = _unmirror(value, -1, None, False)
         if name in _ODD:
             arr = -arr
         out[name] = arr
@@ -842,7 +815,7 @@ def torsion_curve(
     modification = modification or Modification()
     errors = errors or PinErrors()
     torques = torsion_torques(rated_torque, points)
-    discs = check_discs(discs)
+    discs = _check_discs(discs)
     if series_stiffness is not None and not (
         isinstance(series_stiffness, int | float)
         and math.isfinite(series_stiffness)
@@ -852,7 +825,7 @@ def torsion_curve(
     phi = check_crank_angles(crank_angles)
     check_contact_law(contact_law)
     check_pair(design, modification, errors)
-    fwd, rev = stack_meshes(
+    fwd, rev = _directions(
         design, modification, errors, phi, discs, groove_deformation, True, True, contact_law
     )
     rotation, contacts, stress, share = [], [], [], []
@@ -892,3 +865,55 @@ def torsion_curve(
             drive_torsional_rigidity=drive_rigidity,
         )
     return TorsionCurve(**result)
+
+
+# --- public steps, for the solvers built on this module (the RV stage, cyclomesh.stage) ---
+
+StackMesh = _Mesh
+"""Unloaded state of a stack on its forward flanks, in the (possibly mirrored) frame: the
+steps of :func:`solve_drive` before the load sharing. Fields: ``design``; ``geo``
+(:class:`~cyclomesh.core.contact.UnloadedContact`, arrays (..., A, N, n1)); ``rest`` and
+``reverse_rest`` (rest rotation on the loaded and the opposite flanks [rad], (..., A));
+``backlash`` (φbl from the stack's rest [rad], (..., A, N·n1)); ``alpha``, ``gamma``
+(compliance of δ = F(α − γ ln F) [m/N], (..., A, N·n1)); ``normal_x``, ``normal_y``
+(outward flank normal, fixed frame, (..., A, N, n1): the force of pin i on its disc is
+−F_i·n, a counter-clockwise disc rotation θ closes the gap by l_i·θ, a translation u by
+n·u); ``ring_shape``; ``phi`` (crank angles of disc 1 in this frame [rad])."""
+
+
+def stack_meshes(
+    design: PairDesign,
+    modification: Modification,
+    errors: PinErrors,
+    phi: FloatArray,
+    discs: int,
+    groove_deformation: bool,
+    forward: bool,
+    reverse: bool,
+    contact_law: str = "paper",
+) -> tuple[StackMesh | None, StackMesh | None]:
+    """The unloaded meshes of the forward flanks and of the mirror problem (reverse flanks),
+    as needed; the mirror problem is solved on the crank angles −φ reversed, and
+    :func:`unmirror` maps its arrays back (Eqs. 5–23 of [1])."""
+    return _directions(
+        design,
+        modification,
+        errors,
+        phi,
+        discs,
+        groove_deformation,
+        forward,
+        reverse,
+        contact_law,
+    )
+
+
+def unmirror(arr: FloatArray, angle_axis: int, disc_axis: int | None, pins: bool) -> FloatArray:
+    """An array of the mirror problem mapped back onto the reverse flanks: crank angle −φ →
+    φ, disc k → (1 − k) mod N + 1, pin i → (n1 − i) mod n1 (values are not negated)."""
+    return _unmirror(arr, angle_axis, disc_axis, pins)
+
+
+def check_discs(discs: int) -> int:
+    """The number of discs of a stack as an int ≥ 1, else a one-line DesignError."""
+    return _check_discs(discs)
