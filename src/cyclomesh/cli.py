@@ -472,6 +472,9 @@ _STIFFNESS_ROWS = (
     ("torsional_rigidity_nm_per_arcmin_min", "min rigidity [N·m/arcmin]", 1.0),
     ("drive_lost_motion_arcmin_max", "drive lost motion [arcmin]", 1.0),
     ("drive_torsional_rigidity_nm_per_arcmin_min", "drive rigidity [N·m/arcmin]", 1.0),
+    ("stage_lost_motion_arcmin_max", "stage lost motion [arcmin]", 1.0),
+    ("stage_torsional_rigidity_nm_per_arcmin_min", "stage rigidity [N·m/arcmin]", 1.0),
+    ("stage_l10_h_min", "bearing L10h [h]", 1.0),
 )
 
 
@@ -487,6 +490,8 @@ def _print_stiffness(summaries: dict, out: Path, checks: dict | None = None) -> 
     console.print(
         "the mesh alone: crank bearings, crankshafts and the first stage are not included"
     )
+    if any("stage_lost_motion_arcmin_max" in record for record in summaries.values()):
+        console.print("stage: the RV stage of [stage] (mesh + crank bearings), beside the mesh")
     console.print(f"report: {out / 'report.html'}")
 
 

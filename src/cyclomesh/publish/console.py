@@ -27,6 +27,10 @@ RUN_ROWS: tuple[tuple[str, str, float], ...] = (
     ("gear_ratio_ripple_pct", "ratio ripple [%]", 1.0),
     ("play_arcsec_max", "max play [arcmin]", 1.0 / 60.0),
     ("max_mesh_force_n", "max mesh force [N]", 1.0),
+    ("stage_lost_motion_arcmin", "stage lost motion [arcmin]", 1.0),
+    ("stage_torsional_rigidity_nm_per_arcmin", "stage rigidity [N·m/arcmin]", 1.0),
+    ("stage_max_crank_bearing_load_n", "max bearing load [N]", 1.0),
+    ("stage_l10_h_min", "bearing L10h [h]", 1.0),
 )
 """Rows of the run summary: metric key, short label with unit, factor to that unit."""
 

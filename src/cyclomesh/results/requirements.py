@@ -111,7 +111,12 @@ REQUIREMENTS: dict[str, Requirement] = {
             "max",
             "arcmin",
             "largest lost motion",
-            (("drive_lost_motion_arcmin_max", 1.0), ("lost_motion_arcmin_max", 1.0)),
+            (
+                ("drive_lost_motion_arcmin_max", 1.0),
+                ("stage_lost_motion_arcmin_max", 1.0),
+                ("stage_lost_motion_arcmin", 1.0),
+                ("lost_motion_arcmin_max", 1.0),
+            ),
         ),
         Requirement(
             "min_torsional_rigidity_nm_per_arcmin",
@@ -120,11 +125,20 @@ REQUIREMENTS: dict[str, Requirement] = {
             "smallest torsional rigidity",
             (
                 ("drive_torsional_rigidity_nm_per_arcmin_min", 1.0),
+                ("stage_torsional_rigidity_nm_per_arcmin_min", 1.0),
+                ("stage_torsional_rigidity_nm_per_arcmin", 1.0),
                 ("torsional_rigidity_nm_per_arcmin_min", 1.0),
             ),
         ),
         Requirement(
             "max_mesh_force_n", "max", "N", "largest mesh force", (("max_mesh_force_n", 1.0),)
+        ),
+        Requirement(
+            "min_bearing_life_h",
+            "min",
+            "h",
+            "L10h of the weakest crank bearing (ISO 281)",
+            (("stage_l10_h_min", 1.0),),
         ),
     )
 }
@@ -189,6 +203,8 @@ def check_requirements(
                 value = worst * factor
                 if source.startswith("drive_"):
                     note = (note + "; " if note else "") + "whole drive (mesh + series stiffness)"
+                elif source.startswith("stage_"):
+                    note = (note + "; " if note else "") + "RV stage (mesh, crank bearings)"
                 elif source.startswith("fe_"):
                     note = (note + "; " if note else "") + "FE model, at its crank angles"
                 break
@@ -287,6 +303,7 @@ SHORT = {
     "max_lost_motion_arcmin": "lost motion [arcmin]",
     "min_torsional_rigidity_nm_per_arcmin": "rigidity [N·m/arcmin]",
     "max_mesh_force_n": "mesh force [N]",
+    "min_bearing_life_h": "bearing L10h [h]",
     "k1": "K1 = e·n1/a",
     "undercut_margin": "undercut margin",
     "peak_stress_curvature": "ρc at peak σH [mm]",
@@ -299,6 +316,8 @@ def short_label(row: dict[str, Any]) -> str:
     name = SHORT.get(row["check"], row["check"])
     if "whole drive" in row.get("note", ""):
         name = "drive " + name
+    elif "RV stage" in row.get("note", ""):
+        name = "stage " + name
     return name
 
 

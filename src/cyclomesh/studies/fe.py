@@ -122,6 +122,9 @@ def compute_fe(
     progress : callable, optional
         Called with a line of text before each FE solve.
     """
+    from cyclomesh.studyfile.schema import refuse_stage
+
+    refuse_stage(study, "fe")
     check_fe(study)
     section = study.file.fe or FeSection()
     angles = np.asarray(

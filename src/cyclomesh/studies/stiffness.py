@@ -121,6 +121,14 @@ def compute_stiffness(
             contact_law=inputs.contact_law,
         )
         ds.attrs.update(case_attrs(study, case))
+        stage_summary: dict[str, Any] = {}
+        if inputs.stage is not None:  # the RV stage in one solve, beside the mesh alone
+            from cyclomesh.results.stage import stage_torsion_variables
+
+            data, stage_summary = stage_torsion_variables(
+                inputs, section.rated_torque_nm, section.points, inputs.crank_angles
+            )
+            ds = ds.assign(data)
         result.curves[case.name] = ds
         summary = summarize_stiffness(ds)
         record: dict[str, Any] = {"rated_torque_nm": section.rated_torque_nm}
@@ -132,6 +140,7 @@ def compute_stiffness(
                 if name in summary
             }
         )
+        record.update(stage_summary)
         result.summaries[case.name] = record
         result.checks[case.name] = case_checks(study, case, inputs, record)
         if progress:
@@ -161,9 +170,11 @@ def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
                 "checks": result.checks[case.name],
             }
         )
+    from cyclomesh.results.stage import STAGE_STIFFNESS_METRICS
+
     document = summary_document(
         study,
-        {name: m.unit for name, m in STIFFNESS_METRICS.items()},
+        {name: m.unit for name, m in (STIFFNESS_METRICS | STAGE_STIFFNESS_METRICS).items()},
         records,
         scope="cycloid-pin mesh only; drive_* numbers add the series stiffness",
     )
@@ -176,6 +187,7 @@ _HEADINGS = {
     "torsional_rigidity": "Torsional rigidity",
     "play": "Play and lost motion",
     "torque_share": "Torque split between the discs",
+    "stage_torsion_curve": "Torsion curve of the RV stage",
 }
 
 
@@ -229,6 +241,28 @@ def stiffness_figures(result: StiffnessResult) -> list[FigureJob]:
             caption="Play at zero load and lost motion (±3 % of rated) over the crank angle.",
         ),
     ]
+    names = (
+        "rotation",
+        "stage_rotation",
+        "lost_motion",
+        "stage_lost_motion",
+        "torsional_rigidity",
+        "stage_torsional_rigidity",
+    )
+    staged = {k: v for k, v in _curves(result, names).items() if "stage_rotation" in v}
+    if staged:
+        from cyclomesh.figures import stage as stage_plots
+
+        jobs.append(
+            job(
+                "stage_torsion_curve",
+                stage_plots.plot_stage_torsion_curve,
+                staged,
+                caption="Torsion curve of the RV stage (mesh, crank bearings and springs in "
+                "one solve) beside the mesh alone: rotation of the output, mean over the "
+                "crank angles, against torque in % of rated (docs/stage.md).",
+            )
+        )
     stacks = {k: v for k, v in _curves(result, ("torque_share",)).items() if "torque_share" in v}
     if stacks:
         jobs.append(
@@ -284,9 +318,9 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
         f"<details><summary>study file {html.escape(study.path.name)}</summary>"
         f"<pre>{html.escape(study.text)}</pre></details>"
     )
+    from cyclomesh.results.stage import STAGE_STIFFNESS_METRICS
+    from cyclomesh.studies.checks import checks_section
     from cyclomesh.studies.run import metrics_table
 
-    summary = metrics_table(result.summaries, STIFFNESS_METRICS)
-    from cyclomesh.studies.checks import checks_section
-
+    summary = metrics_table(result.summaries, STIFFNESS_METRICS | STAGE_STIFFNESS_METRICS)
     return [Section("Study", intro), checks_section(result.checks), Section("Summary", summary)]

@@ -333,6 +333,9 @@ def compute_tolerance(
         Called with the number of rings of every finished chunk.
     """
     from cyclomesh.studies.checks import case_checks, percentile_summary
+    from cyclomesh.studyfile.schema import refuse_stage
+
+    refuse_stage(study, "tolerance")
     from cyclomesh.tolerance.tasks import ToleranceTask
 
     if study.tolerance is None:
@@ -516,6 +519,9 @@ def compute_allocation(
     Parameters are those of :func:`compute_tolerance`, and ``target_probability``
     (default: ``tolerance.allocation.target_probability``).
     """
+    from cyclomesh.studyfile.schema import refuse_stage
+
+    refuse_stage(study, "allocate")
     import xarray as xr
 
     from cyclomesh.tolerance.allocation import allocate_factor
