@@ -158,3 +158,23 @@ def test_tolerance_study_checks_at_the_stated_percentile(tmp_path):
     assert rows["min_contacts"]["value"] == pytest.approx(np.percentile(contacts, 10))
     assert "P90 of 12 rings" in checks["values"]
     assert "max_lost_motion_arcmin" not in checks["not_checked"]  # not required
+
+
+def test_stage_results_are_checked_before_the_mesh_alone():
+    summary = {
+        "lost_motion_arcmin_max": 0.4,  # the mesh alone
+        "stage_lost_motion_arcmin_max": 0.9,  # the RV stage: mesh + crank bearings
+        "stage_torsional_rigidity_nm_per_arcmin_min": 150.0,
+        "torsional_rigidity_nm_per_arcmin_min": 2000.0,
+        "stage_l10_h_min": 4000.0,
+    }
+    limits = {
+        "max_lost_motion_arcmin": 1.0,
+        "min_torsional_rigidity_nm_per_arcmin": 200.0,
+        "min_bearing_life_h": 6000.0,
+    }
+    rows = {r["check"]: r for r in check_requirements(limits, summary)[0]}
+    assert rows["max_lost_motion_arcmin"]["value"] == 0.9
+    assert "RV stage" in rows["max_lost_motion_arcmin"]["note"]
+    assert rows["min_torsional_rigidity_nm_per_arcmin"]["verdict"] == "fail"
+    assert rows["min_bearing_life_h"]["margin"] == -2000.0
