@@ -228,3 +228,22 @@ def test_swept_pin_radius_keeps_the_groove_clearance():
     assert design.pin_radius == 4.0e-3 and modification.pin_radius == 5e-6
     assert design.groove_radius - design.pin_radius == pytest.approx(5e-6, abs=1e-15)
     assert task.modification(0) == modification
+
+
+def test_robust_geometry_map_uses_the_same_rings_for_every_width():
+    from dataclasses import replace
+
+    errors = rings(8)
+    ds = design_map(
+        TABLE1,
+        {"width_mm": [10.0, 14.0]},
+        base=Modification(pin_radius=8e-6),
+        errors=errors,
+        crank_angles_deg=ANGLES,
+    )
+    assert ds.attrs["robust"] == 1 and ds.attrs["rings"] == 8
+    wide = replace(TABLE1, width=14e-3)
+    per_ring = candidate_metrics(wide, Modification(pin_radius=8e-6), errors, 250.0, PHI)
+    assert float(ds["max_contact_stress_mpa"].sel(width_mm=14.0)) == pytest.approx(
+        np.percentile(per_ring["max_contact_stress"], 95, method="higher") * 1e-6, rel=1e-14
+    )
