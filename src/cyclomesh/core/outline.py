@@ -63,7 +63,8 @@ class Outline(NamedTuple):
         pins) [-].
     phase : ndarray
         Generating angle φ1 of each vertex within its tooth space, in [−π, π] [rad]
-        (0 = tooth-space bottom, ±π = tips).
+        (0 = tooth-space bottom, ±π = tips); with a rotation modification, φ1 of the
+        unturned point (the vertex is that point turned by −δ or +δ).
     space : ndarray of int
         Tooth space of each vertex, 1 … n2.
     chord_tolerance : float
