@@ -162,7 +162,8 @@ def _crossings(
     lo, hi = centres - abs(delta), centres + abs(delta)
     for _ in range(60):
         mid = 0.5 * (lo + hi)
-        lower = polar_radius(design, base, mid + delta) < polar_radius(design, base, mid - delta)
+        both = polar_radius(design, base, np.concatenate([mid + delta, mid - delta]))
+        lower = both[: len(mid)] < both[len(mid) :]
         # before the crossing the copy turned by −δ is the lower one at a bottom, the
         # higher one at a tip (δ > 0; the other way round for δ < 0)
         before = (lower != tip) == (delta > 0)
