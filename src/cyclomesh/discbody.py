@@ -248,7 +248,10 @@ def share_load_coupled(
         single = np.where(usable, torque / np.where(usable, arm, 1.0), 0.0)
         log_single = np.log(np.where(usable, single, 1.0))
         hertz = single * (alpha - gamma * log_single)
-        alone = np.where(usable, bl + (hertz + diag * single) / np.where(usable, arm, 1.0), np.inf)
+        # as in share_load: a force past the stiffest point of the law bounds nothing
+        valid = usable & ((gamma == 0) | (log_single < alpha / gamma - 1.0))
+        alone = bl + (hertz + diag * single) / np.where(valid, arm, 1.0)
+        alone = np.where(valid & (alone > bl), alone, np.inf)
     bound = np.min(alone, axis=-1)
     candidate = usable & (bl < 2.0 * bound[:, None])
     width = int(np.max(np.sum(candidate, axis=-1)))
