@@ -147,13 +147,14 @@ class DiscBody:
         k = np.asarray(tooth, np.int64)
         nodes, w = self._weights(np.asarray(angle, float))
         n2, p = self.teeth, self.period
+        m = self.profile_angles.size
         ki, kj = k[..., :, None], k[..., None, :]
-        load_class = np.mod(kj, p)[..., None, None]
-        offset = np.mod(ki - kj, n2)[..., None, None]
-        a = nodes[..., None, :, :, None]  # load j's nodes
+        # flat index into the table: ((k0·n2 + d)·m + a)·m + b
+        block = (np.mod(kj, p) * n2 + np.mod(ki - kj, n2)) * (m * m)
+        a = (nodes * m)[..., None, :, :, None]  # load j's nodes
         b = nodes[..., :, None, None, :]  # response i's nodes
-        vals = self.table[load_class, offset, a, b]  # (..., n, n, 4, 4)
-        out = np.einsum("...ijab,...ja,...ib->...ij", vals, w, w)
+        vals = np.take(self.table.ravel(), block[..., None, None] + a + b)  # (..., n, n, 4, 4)
+        out = np.einsum("...ijab,...ja,...ib->...ij", vals, w, w, optimize=True)
         own = np.einsum("...ia,...ia->...i", self.diagonal[np.mod(k, p)[..., None], nodes], w)
         n = k.shape[-1]
         out[..., np.arange(n), np.arange(n)] = own
@@ -258,7 +259,7 @@ def share_load_coupled(
     order = np.argsort(~candidate, axis=-1, kind="stable")[:, :width]
     take = np.take_along_axis
     ok = take(candidate, order, -1)
-    c_bl = np.where(ok, take(bl, order, -1), np.inf)
+    c_bl = np.where(ok, take(bl, order, -1), 0.0)  # padding: no arm, no approach
     c_arm = np.where(ok, take(arm, order, -1), 0.0)
     c_alpha, c_gamma = take(alpha, order, -1), take(gamma, order, -1)
     c_alpha = np.where(ok, c_alpha, 1.0)
