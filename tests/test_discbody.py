@@ -131,3 +131,42 @@ def test_share_load_coupled_with_zero_matrix_matches_share_load():
                                 np.full((5, 8), -1.0))
     np.testing.assert_allclose(x1, x0, rtol=1e-13)
     np.testing.assert_allclose(f1, f0, rtol=1e-12, atol=1e-9)
+
+
+STUDY = """
+[design]
+pins = 40
+pin_circle_radius_mm = 82.0
+pin_radius_mm = 3.5
+groove_radius_mm = 3.505
+eccentricity_mm = 1.5
+width_mm = 12.0
+[load]
+torque_nm = 250.0
+[analysis]
+crank_stop_deg = 2.0
+crank_step_deg = 1.0
+contact_law = "{law}"
+disc_body = "fe"
+[[cases]]
+name = "TPM"
+modification.pin_radius_um = 8.0
+"""
+
+
+def test_check_refuses_fe_without_the_extra(tmp_path, monkeypatch, capsys):
+    from typer.testing import CliRunner
+
+    import cyclomesh.analysis
+    from cyclomesh.cli import app
+
+    path = tmp_path / "s.toml"
+    path.write_text(STUDY.format(law="half_plane"))
+    monkeypatch.setattr(cyclomesh.analysis, "fe_extra_available", lambda: False)
+    out = CliRunner().invoke(app, ["check", str(path)])
+    assert out.exit_code == 2
+    lines = [line for line in out.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and "fe extra" in lines[0] and "cyclomesh[fe]" in lines[0]
+    path.write_text(STUDY.format(law="paper"))
+    out = CliRunner().invoke(app, ["check", str(path)])
+    assert out.exit_code == 2 and "half_plane" in out.output

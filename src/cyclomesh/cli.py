@@ -292,6 +292,11 @@ def check(study: StudyArg, crank_step_deg: StepOption = None) -> None:
     from cyclomesh.study import load_study
 
     loaded = load_study(study, _overrides(crank_step_deg))
+    if any(case.analysis.disc_body == "fe" for case in loaded.cases):
+        from cyclomesh.analysis import FE_EXTRA_MESSAGE, fe_extra_available
+
+        if not fe_extra_available():
+            raise StudyError(f"{study}: [analysis] {FE_EXTRA_MESSAGE}")
     names = ", ".join(case.name for case in loaded.cases)
     more = "; [tolerance] OK" if loaded.tolerance is not None else ""
     if any(case.stiffness is not None for case in loaded.cases):

@@ -18,12 +18,12 @@ Dataset then carries the whole-drive curve beside the mesh curve.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from cyclomesh.analysis import _attrs, resolve_crank_angles
+from cyclomesh.analysis import _attrs, resolve_crank_angles, resolve_disc_body
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.drive import torsion_curve
 from cyclomesh.exceptions import DesignError
@@ -51,6 +51,9 @@ def stiffness(
     discs: int = 1,
     series_stiffness_nm_per_arcmin: float | None = None,
     contact_law: str = "paper",
+    disc_body: Any = "rigid",
+    crank_holes: Any = None,
+    cache_dir: Any = None,
 ) -> xr.Dataset:
     """Torsion curve, play, lost motion and torsional rigidity of the mesh (Eqs. 5–26 of [1]).
 
@@ -115,6 +118,7 @@ def stiffness(
         points,
         series,
         contact_law,
+        resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir),
     )
     lead = curve.play.ndim - 1
     if lead > 1:
@@ -192,6 +196,7 @@ def stiffness(
         coords["ring"] = ("ring", np.arange(curve.play.shape[0]))
     attrs = _attrs(phi, design, modification, None, groove_deformation)
     attrs["contact_law"] = contact_law
+    attrs["disc_body"] = disc_body if isinstance(disc_body, str) else "fe"
     attrs.update(
         title="cyclomesh torsion curve of the cycloid-pin mesh",
         discs=int(n_discs),
