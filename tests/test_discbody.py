@@ -84,14 +84,15 @@ def test_both_flanks_and_stacks_with_a_body():
     d = solve_drive(TABLE1, MOD, None, [-250.0, 250.0], PHI, True, 1, "half_plane", body)
     assert np.array_equal(d.pin_load[1, :, 0], one.pin_load)
     # the mirror image: the reverse flank at −φ equals the forward flank at φ
-    sym = solve_drive(TABLE1, MOD, None, [-250.0, 250.0], np.deg2rad([-3.0, 3.0]), True, 1,
-                      "half_plane", body)
-    np.testing.assert_allclose(sym.transmission_error[0, 0], -sym.transmission_error[1, 1],
-                               rtol=1e-10)
+    sym = solve_drive(
+        TABLE1, MOD, None, [-250.0, 250.0], np.deg2rad([-3.0, 3.0]), True, 1, "half_plane", body
+    )
+    np.testing.assert_allclose(
+        sym.transmission_error[0, 0], -sym.transmission_error[1, 1], rtol=1e-10
+    )
     stack = solve_drive(TABLE1, MOD, None, [250.0], PHI[:8], True, 2, "half_plane", body)
     np.testing.assert_allclose(stack.torque_share.sum(axis=-1), 250.0, rtol=1e-12)
-    curve = torsion_curve(TABLE1, MOD, None, 250.0, PHI[:4], True, 1, 11, None, "half_plane",
-                          body)
+    curve = torsion_curve(TABLE1, MOD, None, 250.0, PHI[:4], True, 1, 11, None, "half_plane", body)
     rigid = torsion_curve(TABLE1, MOD, None, 250.0, PHI[:4], True, 1, 11, None, "half_plane")
     assert np.all(curve.torsional_rigidity < rigid.torsional_rigidity)
 
@@ -127,8 +128,9 @@ def test_share_load_coupled_with_zero_matrix_matches_share_load():
     gamma = np.full((5, 8), 1e-10)
     x0, f0 = share_load(bl, arm, alpha, gamma, 200.0)
     body = DiscBody(np.linspace(-np.pi, 0, 5), np.zeros((1, 39, 5, 5)), 39)
-    x1, f1 = share_load_coupled(bl, arm, alpha, gamma, 200.0, body, np.zeros((5, 8), int),
-                                np.full((5, 8), -1.0))
+    x1, f1 = share_load_coupled(
+        bl, arm, alpha, gamma, 200.0, body, np.zeros((5, 8), int), np.full((5, 8), -1.0)
+    )
     np.testing.assert_allclose(x1, x0, rtol=1e-13)
     np.testing.assert_allclose(f1, f0, rtol=1e-12, atol=1e-9)
 

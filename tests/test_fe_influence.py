@@ -89,8 +89,9 @@ def test_results_independent_of_the_cache(coarse, tmp_path):
     fresh = compute_influence(TABLE1, MOD, **COARSE)  # computed again
     assert again.key == fresh.key == body.key
     phi = np.deg2rad(np.arange(0.0, 6.0, 0.5))
-    runs = [solve_ltca(TABLE1, MOD, None, 250.0, phi, True, "half_plane", b)
-            for b in (again, fresh)]
+    runs = [
+        solve_ltca(TABLE1, MOD, None, 250.0, phi, True, "half_plane", b) for b in (again, fresh)
+    ]
     assert np.array_equal(runs[0].pin_load, runs[1].pin_load)
     assert np.array_equal(runs[0].loaded_rotation, runs[1].loaded_rotation)
     # another design is another file

@@ -39,7 +39,13 @@ from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.hertz import force_from_approach
 from cyclomesh.loadsharing import TORQUE_TOLERANCE, share_load
 
-__all__ = ["DiscBody", "DISC_BODIES", "share_load_coupled", "tooth_index", "COMPATIBILITY_TOLERANCE"]
+__all__ = [
+    "DiscBody",
+    "DISC_BODIES",
+    "share_load_coupled",
+    "tooth_index",
+    "COMPATIBILITY_TOLERANCE",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -164,7 +170,9 @@ class DiscBody:
         """The own coefficient C_ii of contacts at (tooth, profile angle) [m/N]."""
         k = np.asarray(tooth, np.int64)
         nodes, w = self._weights(np.asarray(angle, float))
-        return np.einsum("...a,...a->...", self.diagonal[np.mod(k, self.period)[..., None], nodes], w)
+        return np.einsum(
+            "...a,...a->...", self.diagonal[np.mod(k, self.period)[..., None], nodes], w
+        )
 
 
 def tooth_index(pins: int, pitch: float, crank_angle: ArrayLike) -> NDArray[np.int64]:
@@ -267,7 +275,9 @@ def share_load_coupled(
     cmat = body.matrix(take(tooth, order, -1), take(angle, order, -1))
     per_disc = n // groups
     disc = order // per_disc
-    cmat = np.where(ok[:, :, None] & ok[:, None, :] & (disc[:, :, None] == disc[:, None, :]), cmat, 0.0)
+    cmat = np.where(
+        ok[:, :, None] & ok[:, None, :] & (disc[:, :, None] == disc[:, None, :]), cmat, 0.0
+    )
     cmat = 0.5 * (cmat + np.swapaxes(cmat, -1, -2))  # reciprocity (the FE's round-off)
 
     x = x0.copy()

@@ -70,8 +70,8 @@ from cyclomesh.exceptions import ConvergenceError, DesignError
 from cyclomesh.loadsharing import share_load
 from cyclomesh.ltca import (
     check_contact_law,
-    check_disc_body,
     check_crank_angles,
+    check_disc_body,
     check_pair,
     contact_stresses,
     locate_failure,

@@ -269,7 +269,7 @@ def check_disc_body(
         if contact_law != "half_plane":
             raise DesignError(
                 "disc_body: the FE disc body leaves the near field to the half-plane law; "
-                f"set contact_law = \"half_plane\" (got {contact_law!r})"
+                f'set contact_law = "half_plane" (got {contact_law!r})'
             )
         if disc_body.teeth != design.teeth:
             raise DesignError(
@@ -278,10 +278,10 @@ def check_disc_body(
         return disc_body
     if disc_body == "fe":
         raise DesignError(
-            "disc_body = \"fe\" is resolved by cyclomesh.analyse (or pass the DiscBody of "
+            'disc_body = "fe" is resolved by cyclomesh.analyse (or pass the DiscBody of '
             "cyclomesh.fe.influence.influence)"
         )
-    raise DesignError(f"disc_body must be \"rigid\" or \"fe\", got {disc_body!r}")
+    raise DesignError(f'disc_body must be "rigid" or "fe", got {disc_body!r}')
 
 
 def pin_compliance(

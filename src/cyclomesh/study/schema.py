@@ -356,7 +356,7 @@ class AnalysisSection(_Section):
         description=(
             "the disc body: rigid apart from the contact law (as in [1]), or compliant with "
             "influence coefficients condensed from the FE model (needs the fe extra and "
-            "contact_law = \"half_plane\"; computed once per design and cached)"
+            'contact_law = "half_plane"; computed once per design and cached)'
         ),
     )
 
