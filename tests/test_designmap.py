@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from cyclomesh import TABLE1, DesignError, Modification, PinErrors
-from cyclomesh.designmap import (
+from cyclomesh.core.ltca import solve_ltca
+from cyclomesh.designspace.sweep import (
     ARCMIN,
     Constraints,
     DesignTask,
@@ -12,10 +13,9 @@ from cyclomesh.designmap import (
     design_map,
     evaluate_grid,
 )
-from cyclomesh.drive import play, solve_drive
-from cyclomesh.execution import ProcessBackend, SerialBackend
-from cyclomesh.figures.design import map_metrics, plot_design_map, plot_design_maps
-from cyclomesh.ltca import solve_ltca
+from cyclomesh.drive.solve import play, solve_drive
+from cyclomesh.execution.backends import ProcessBackend, SerialBackend
+from cyclomesh.figures.designmap import map_metrics, plot_design_map, plot_design_maps
 
 ANGLES = np.arange(0.0, 9.0, 0.5)
 PHI = np.deg2rad(ANGLES)

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from cyclomesh import TABLE1, Modification
-from cyclomesh.discbody import DiscBody, share_load_coupled, tooth_index
-from cyclomesh.drive import solve_drive, torsion_curve
+from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
+from cyclomesh.core.loadsharing import share_load
+from cyclomesh.core.ltca import solve_ltca
+from cyclomesh.drive.solve import solve_drive, torsion_curve
 from cyclomesh.exceptions import DesignError
-from cyclomesh.loadsharing import share_load
-from cyclomesh.ltca import solve_ltca
 
 MOD = Modification(pin_radius=8e-6)
 PHI = np.deg2rad(np.arange(0.0, 12.0, 0.25))
@@ -57,9 +57,9 @@ def test_coupled_solution_balances_and_is_compatible():
     moment = np.sum(r.pin_load * r.moment_arm, axis=-1)
     np.testing.assert_allclose(moment, 250.0, rtol=1e-12)
     # compatibility: l(Δφ − φbl) − Σ C F = δ(F) on the loaded pins, ≤ 0 gap elsewhere
-    from cyclomesh.contact import unloaded_contact
-    from cyclomesh.hertz import force_from_approach
-    from cyclomesh.ltca import pin_compliance
+    from cyclomesh.core.contact import unloaded_contact
+    from cyclomesh.core.hertz import force_from_approach
+    from cyclomesh.core.ltca import pin_compliance
 
     geo = unloaded_contact(TABLE1, MOD, None, PHI)
     alpha, gamma = pin_compliance(geo, TABLE1, True, "half_plane")
@@ -159,12 +159,12 @@ modification.pin_radius_um = 8.0
 def test_check_refuses_fe_without_the_extra(tmp_path, monkeypatch, capsys):
     from typer.testing import CliRunner
 
-    import cyclomesh.analysis
+    import cyclomesh.results.dataset
     from cyclomesh.cli import app
 
     path = tmp_path / "s.toml"
     path.write_text(STUDY.format(law="half_plane"))
-    monkeypatch.setattr(cyclomesh.analysis, "fe_extra_available", lambda: False)
+    monkeypatch.setattr(cyclomesh.results.dataset, "fe_extra_available", lambda: False)
     out = CliRunner().invoke(app, ["check", str(path)])
     assert out.exit_code == 2
     lines = [line for line in out.output.splitlines() if line.strip()]

@@ -10,9 +10,9 @@ except (ImportError, OSError) as exc:  # pragma: no cover
     pytest.skip(f"fe extra not usable here: {exc}", allow_module_level=True)
 
 from cyclomesh import TABLE1, Modification
-from cyclomesh.design import CrankHoles
+from cyclomesh.core.ltca import solve_ltca
+from cyclomesh.core.pair import CrankHoles
 from cyclomesh.fe.influence import compute_influence, influence
-from cyclomesh.ltca import solve_ltca
 
 MOD = Modification(pin_radius=8e-6)
 COARSE = dict(
@@ -48,9 +48,9 @@ def test_positive_definite(coarse):
         assert np.linalg.eigvalsh(0.5 * (m + m.T)).min() > 0
     # with the near field subtracted, the body term plus the contact law's tangent is
     # still positive definite at a light load (10 N a pin)
-    from cyclomesh.contact import unloaded_contact
-    from cyclomesh.discbody import tooth_index
-    from cyclomesh.ltca import pin_compliance
+    from cyclomesh.core.contact import unloaded_contact
+    from cyclomesh.core.discbody import tooth_index
+    from cyclomesh.core.ltca import pin_compliance
 
     phi = np.deg2rad([0.0, 3.0])
     geo = unloaded_contact(TABLE1, MOD, None, phi)

@@ -28,21 +28,21 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from cyclomesh.contact import unloaded_contact
-from cyclomesh.design import Modification, PairDesign
-from cyclomesh.exceptions import ConvergenceError
-from cyclomesh.fe.mesh import Refinement, mesh_disk, mesh_profile_disc
-from cyclomesh.fe.solve import Body, ContactPair, boundary_chain, solve_contact, summarize_contact
-from cyclomesh.fe.tooth import _rho_star, disc_outline
-from cyclomesh.hertz import (
+from cyclomesh.core.contact import unloaded_contact
+from cyclomesh.core.hertz import (
     CONTACT_LAWS,
     effective_modulus,
     half_width,
     max_pressure,
     pin_groove_radius,
 )
-from cyclomesh.ltca import rest_position, solve_ltca
-from cyclomesh.profile import modified_profile
+from cyclomesh.core.ltca import rest_position, solve_ltca
+from cyclomesh.core.pair import Modification, PairDesign
+from cyclomesh.core.profile import modified_profile
+from cyclomesh.exceptions import ConvergenceError
+from cyclomesh.fe.mesh import Refinement, mesh_disk, mesh_profile_disc
+from cyclomesh.fe.solve import Body, ContactPair, boundary_chain, solve_contact, summarize_contact
+from cyclomesh.fe.tooth import _rho_star, disc_outline
 
 __all__ = ["DiscFE", "solve_disc_fe"]
 
@@ -87,7 +87,7 @@ class DiscFE:
     nodes: int
     groove_iterations: int
     ltca_by_law: dict[str, tuple[FloatArray, FloatArray, float]]
-    """Per contact law of :data:`cyclomesh.hertz.CONTACT_LAWS`: (pin load [N], contact
+    """Per contact law of :data:`cyclomesh.core.hertz.CONTACT_LAWS`: (pin load [N], contact
     stress [Pa], loaded rotation [rad]) of the LTCA."""
     stress_resolved: NDArray
     torque_fe: float = np.nan

@@ -6,7 +6,7 @@ held as in the real part:
 * ``support="bore"``: the bore of radius ``bore_radius`` tied to a rigid centre that is
   held (its translation by the crank bearing, its rotation is the disc rotation Δφc of
   the LTCA, which the coefficients are measured from): every bore node fixed;
-* ``support="crank_holes"``: N crank holes (:class:`~cyclomesh.design.CrankHoles`),
+* ``support="crank_holes"``: N crank holes (:class:`~cyclomesh.core.pair.CrankHoles`),
   the edge of each tied rigidly to its centre, the centre held and free to turn (the
   crank bearing rolls): u = θ_h × (x − c_h) on the hole's nodes, θ_h one unknown per hole,
   eliminated by a transformation of the stiffness matrix.
@@ -26,7 +26,7 @@ what is left is the body's compliance beyond a half-plane: the web's torsion, th
 tooth's bending and shear, and the coupling between contacts. Divided by the face width
 B the coefficients are in m/N.
 
-The result, a :class:`~cyclomesh.discbody.DiscBody`, is cached in a file keyed by a hash
+The result, a :class:`~cyclomesh.core.discbody.DiscBody`, is cached in a file keyed by a hash
 of every input (:func:`influence`): the first call computes it (tens of seconds), later
 calls, in any process, load it in milliseconds.
 """
@@ -47,8 +47,8 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.linalg import splu
 
-from cyclomesh.design import CrankHoles, Modification, PairDesign
-from cyclomesh.discbody import DiscBody
+from cyclomesh.core.discbody import DiscBody
+from cyclomesh.core.pair import CrankHoles, Modification, PairDesign
 from cyclomesh.fe.mesh import Refinement, mesh_profile_disc
 from cyclomesh.fe.solve import Body, boundary_chain
 from cyclomesh.fe.tooth import disc_outline, profile_point

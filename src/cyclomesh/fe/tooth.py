@@ -9,7 +9,7 @@ a frictionless circle). The whole disc is meshed, its bore of radius r_b is fixe
 The tooth's approach is the displacement of the disc's surface at the centre of the
 contact, along the inward normal, relative to the fixed bore: δdisc = −n·u_disc. Its
 compliance per unit length δdisc/F [m²/N] is compared with the disc's term of the
-contact laws of :mod:`cyclomesh.hertz` per unit length:
+contact laws of :mod:`cyclomesh.core.hertz` per unit length:
 
 * ``paper`` (Eq. 20 of [1]):       (2/π)·c·(ln(4|ρc|/b) − ½)
 * ``half_plane`` (Johnson 5.41):  (2/π)·c·(ln(2d/b) − ν/(2(1 − ν))), d = |r_contact|
@@ -25,11 +25,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from cyclomesh.design import Modification, PairDesign
+from cyclomesh.core.hertz import effective_modulus, half_width
+from cyclomesh.core.pair import Modification, PairDesign
+from cyclomesh.core.profile import curvature_radius, generating_radii, locus, modified_profile
 from cyclomesh.fe.mesh import Refinement, mesh_disk, mesh_profile_disc
 from cyclomesh.fe.solve import Body, ContactPair, boundary_chain, solve_contact, summarize_contact
-from cyclomesh.hertz import effective_modulus, half_width
-from cyclomesh.profile import curvature_radius, generating_radii, locus, modified_profile
 
 __all__ = ["ToothCompliance", "tooth_compliance", "disc_outline", "profile_point"]
 

@@ -1,6 +1,6 @@
 """Figures of the drive characteristics: torsion curve, rigidity, play, torque split, mesh force.
 
-Every function takes results (a Dataset of :func:`cyclomesh.torsion.stiffness` or
+Every function takes results (a Dataset of :func:`cyclomesh.results.torsion.stiffness` or
 :func:`cyclomesh.analyse`, or a mapping ``{case name: Dataset}``) and returns a
 :class:`matplotlib.figure.Figure` on the Agg canvas, without pyplot's global state and
 without writing files. Datasets with a ``ring`` dimension must be reduced to one ring

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import xarray as xr
 
-from cyclomesh.design import PinErrors
+from cyclomesh.core.pair import PinErrors
 from cyclomesh.figures.render import decimate, new_figure
 
 if TYPE_CHECKING:

@@ -15,7 +15,7 @@ import numpy as np
 import xarray as xr
 
 from cyclomesh.figures.render import new_figure
-from cyclomesh.metrics import METRICS, STRESS_METRIC, metric_label
+from cyclomesh.results.metrics import METRICS, STRESS_METRIC, metric_label
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

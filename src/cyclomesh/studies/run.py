@@ -9,7 +9,7 @@ Stages (see ``docs/pipeline.md``):
    ``csv=True``, ``<case>/results.csv`` (pin-level, long format); ``summary.json``.
 3. :func:`run_figures`: the figure jobs; :func:`run_sections`: the report sections.
 
-:func:`run_study` chains them with :func:`cyclomesh.pipeline.publish`.
+:func:`run_study` chains them with :func:`cyclomesh.publish.pipeline.publish`.
 """
 
 from __future__ import annotations
@@ -22,17 +22,17 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from cyclomesh.design import Modification, PairDesign
-from cyclomesh.metrics import DRIVE_METRICS, METRICS
-from cyclomesh.pipeline import case_attrs, study_stamp, summary_document
-from cyclomesh.study.schema import CaseInputs, CaseSpec, Study, folder_name
+from cyclomesh.core.pair import Modification, PairDesign
+from cyclomesh.publish.pipeline import case_attrs, study_stamp, summary_document
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
+from cyclomesh.studyfile.schema import CaseInputs, CaseSpec, Study, folder_name
 
 if TYPE_CHECKING:
     import xarray as xr
 
     from cyclomesh.figures.render import FigureJob
-    from cyclomesh.pipeline import OutputOptions
-    from cyclomesh.report import Section
+    from cyclomesh.publish.pipeline import OutputOptions
+    from cyclomesh.publish.report import Section
 
 __all__ = [
     "RunResult",
@@ -89,7 +89,7 @@ def profile_curves(
     tooth-space bottom; elsewhere the error is of second order in the tangential offset
     (µm² over a curvature radius of millimetres: below 0.02 µm here).
     """
-    from cyclomesh.profile import modified_profile
+    from cyclomesh.core.profile import modified_profile
 
     phi1 = np.linspace(-np.pi, np.pi, samples)
     x0, y0 = modified_profile(design, Modification(), phi1)
@@ -119,7 +119,7 @@ class RunResult:
     results: dict[str, xr.Dataset] = field(default_factory=dict)
     """Case name → annotated Dataset of :func:`cyclomesh.analyse`."""
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
-    """Case name → metrics of :data:`cyclomesh.metrics.METRICS` (plain JSON numbers)."""
+    """Case name → metrics of :data:`cyclomesh.results.metrics.METRICS` (plain JSON numbers)."""
 
     @property
     def inputs(self) -> list[CaseInputs]:
@@ -145,7 +145,7 @@ def summary_record(summary: xr.Dataset) -> dict[str, Any]:
     A summary with a ``torque`` dimension (a list of torques) gives ``torque_nm`` and,
     for every metric that depends on the torque, a list with one value per torque.
     """
-    from cyclomesh.output import jsonable
+    from cyclomesh.output.writers import jsonable
 
     record: dict[str, Any] = {}
     if "torque" in summary.dims:
@@ -174,7 +174,7 @@ def compute_run(
 
     ``on_start(name)`` and ``on_done(name)`` are called around each case (progress).
     """
-    from cyclomesh.analysis import analyse, summarize
+    from cyclomesh.results.dataset import analyse, summarize
 
     run = RunResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
@@ -198,8 +198,8 @@ def case_folder(name: str) -> str:
 
 def write_case(ds: xr.Dataset, folder: Path, csv: bool = False) -> dict[str, Path]:
     """Write one case: ``results.nc``, ``results.parquet``, ``angles.csv`` and, with
-    ``csv``, ``results.csv`` (see :mod:`cyclomesh.output`)."""
-    from cyclomesh import output
+    ``csv``, ``results.csv`` (see :mod:`cyclomesh.output.writers`)."""
+    from cyclomesh.output import writers as output
 
     folder.mkdir(parents=True, exist_ok=True)
     files = {
@@ -214,7 +214,7 @@ def write_case(ds: xr.Dataset, folder: Path, csv: bool = False) -> dict[str, Pat
 
 def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
     """Write every case's result files and ``summary.json`` into ``out``."""
-    from cyclomesh.output import write_json
+    from cyclomesh.output.writers import write_json
 
     study = run.study
     out.mkdir(parents=True, exist_ok=True)
@@ -427,7 +427,7 @@ def _cell(value: Any) -> Any:
 
 def run_sections(run: RunResult) -> list[Section]:
     """Report sections of a run study: study, inputs, summary (figures come after)."""
-    from cyclomesh.report import Section, table_html
+    from cyclomesh.publish.report import Section, table_html
 
     study = run.study
     names = [case.name for case in study.cases]
@@ -471,7 +471,7 @@ def run_sections(run: RunResult) -> list[Section]:
 def run_study(study: Study, out: str | Path, options: OutputOptions | None = None) -> list[Path]:
     """Compute every case of ``study``, then write its files, figures and report into
     ``out``. Returns the paths written. Nothing is written if a case fails."""
-    from cyclomesh.pipeline import OutputOptions, publish
+    from cyclomesh.publish.pipeline import OutputOptions, publish
 
     options = options or OutputOptions.from_study(study)
     run = compute_run(study)

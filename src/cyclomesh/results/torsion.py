@@ -1,6 +1,6 @@
 """Torsion curve of a cycloid stage as a labelled Dataset: the catalogue characteristics.
 
-:func:`stiffness` runs :func:`cyclomesh.drive.torsion_curve` (the rotation of the disc, or
+:func:`stiffness` runs :func:`cyclomesh.drive.solve.torsion_curve` (the rotation of the disc, or
 the stack of discs, against the torque, both directions, at every crank angle) and labels
 it in the units of an RV catalogue: rotation in arcsec, play and lost motion in arcmin,
 torsional rigidity in N·m/arcmin. :func:`summarize_stiffness` reduces it to the headline
@@ -23,10 +23,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from cyclomesh.analysis import _attrs, resolve_crank_angles, resolve_disc_body
-from cyclomesh.design import Modification, PairDesign, PinErrors
-from cyclomesh.drive import torsion_curve
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.drive.solve import torsion_curve
 from cyclomesh.exceptions import DesignError
+from cyclomesh.results.dataset import _attrs, resolve_crank_angles, resolve_disc_body
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -66,7 +66,7 @@ def stiffness(
         Rated torque T_r of the disc stack [N·m], > 0.
     points : int
         Evenly spaced torques from −T_r to +T_r (0 left out; ±3 %, ±50 %, ±100 % of T_r
-        always added), see :func:`cyclomesh.drive.torsion_torques`.
+        always added), see :func:`cyclomesh.drive.solve.torsion_torques`.
     crank_angles : array_like, optional
         Crank angles [rad]; default a revolution at 1°.
     groove_deformation : bool
@@ -74,13 +74,13 @@ def stiffness(
     crank_angles_deg : array_like, optional
         Crank angles [deg] instead of ``crank_angles``, kept exactly as the coordinate.
     discs : int
-        Number of discs of the stack (see :func:`cyclomesh.drive.solve_drive`).
+        Number of discs of the stack (see :func:`cyclomesh.drive.solve.solve_drive`).
     series_stiffness_nm_per_arcmin : float, optional
         Torsional stiffness of the rest of the drive in series with the mesh
         [N·m/arcmin]; adds ``drive_rotation``, ``drive_lost_motion`` and
         ``drive_torsional_rigidity``.
     contact_law : {"paper", "half_plane"}
-        Tooth term of the contact law (:func:`cyclomesh.ltca.solve_ltca`).
+        Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
 
     Returns
     -------

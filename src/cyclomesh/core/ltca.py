@@ -19,11 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.contact import UnloadedContact, unloaded_contact
-from cyclomesh.design import Modification, PairDesign, PinErrors
-from cyclomesh.discbody import DiscBody, share_load_coupled, tooth_index
-from cyclomesh.exceptions import ConvergenceError, DesignError
-from cyclomesh.hertz import (
+from cyclomesh.core.contact import UnloadedContact, unloaded_contact
+from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
+from cyclomesh.core.hertz import (
     CONTACT_LAWS,
     compliance_coefficients,
     effective_modulus,
@@ -31,9 +29,11 @@ from cyclomesh.hertz import (
     pin_groove_radius,
     pin_tooth_radius,
 )
-from cyclomesh.loadsharing import share_load
-from cyclomesh.profile import check_profile
-from cyclomesh.transmission import gear_ratio, transmission_error
+from cyclomesh.core.loadsharing import share_load
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.core.profile import check_profile
+from cyclomesh.core.transmission import gear_ratio, transmission_error
+from cyclomesh.exceptions import ConvergenceError, DesignError
 
 __all__ = ["LTCA", "solve_ltca", "rest_position", "check_disc_body"]
 
@@ -150,11 +150,11 @@ def solve_ltca(
     contact_law : {"paper", "half_plane"}
         The tooth's term of the contact law: Eq. 20 of [1] as published (default), or
         the approach of a half-plane to the disc centre (Johnson, eq. 5.41), finite at
-        the profile's inflection points; see :mod:`cyclomesh.hertz`.
+        the profile's inflection points; see :mod:`cyclomesh.core.hertz`.
     disc_body : "rigid" or DiscBody
         The disc body: rigid apart from the contact law ([1], the default, solved by
-        :func:`~cyclomesh.loadsharing.share_load` exactly as before), or elastic with
-        the influence coefficients of a :class:`~cyclomesh.discbody.DiscBody`
+        :func:`~cyclomesh.core.loadsharing.share_load` exactly as before), or elastic with
+        the influence coefficients of a :class:`~cyclomesh.core.discbody.DiscBody`
         (:func:`cyclomesh.fe.influence.influence`; needs ``contact_law="half_plane"``,
         whose near field the coefficients leave out).
 
@@ -249,7 +249,7 @@ def check_pair(design: PairDesign, modification: Modification, errors: PinErrors
 
 
 def check_contact_law(contact_law: str) -> str:
-    """``contact_law`` if it is one of :data:`~cyclomesh.hertz.CONTACT_LAWS`, else a
+    """``contact_law`` if it is one of :data:`~cyclomesh.core.hertz.CONTACT_LAWS`, else a
     one-line :class:`DesignError` naming the choices."""
     if contact_law not in CONTACT_LAWS:
         raise DesignError(
@@ -293,7 +293,7 @@ def pin_compliance(
     """Coefficients (α, γ) of δ = F(α − γ ln F) of every pin contact [m/N].
 
     Eqs. 19–23 of [1] with the tooth term of ``contact_law`` (Eq. 20, or the half-plane
-    law of :mod:`cyclomesh.hertz`, Johnson eq. 5.41).
+    law of :mod:`cyclomesh.core.hertz`, Johnson eq. 5.41).
     """
     with np.errstate(divide="ignore", invalid="ignore"):  # unreachable pins: never loaded
         return compliance_coefficients(

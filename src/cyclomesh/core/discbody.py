@@ -35,9 +35,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.core.hertz import force_from_approach
+from cyclomesh.core.loadsharing import TORQUE_TOLERANCE, share_load
 from cyclomesh.exceptions import ConvergenceError
-from cyclomesh.hertz import force_from_approach
-from cyclomesh.loadsharing import TORQUE_TOLERANCE, share_load
 
 __all__ = [
     "DiscBody",
@@ -205,7 +205,7 @@ def share_load_coupled(
         l_i·(Δφc − φbl,i) − w_i = δ_i(F_i) (F_i > 0),   w = C·F,   Σ l_i·F_i = T,
 
     with F_i = F(δ⁺) the exact inverse of the contact law
-    (:func:`~cyclomesh.hertz.force_from_approach`). The unknowns are Δφc and the body
+    (:func:`~cyclomesh.core.hertz.force_from_approach`). The unknowns are Δφc and the body
     displacements w; F is a C¹ function of them (dF/dδ = 0 at δ = 0), so Newton's
     method (dense, on the pins that can engage) solves the system without an active
     set. It starts from the rigid-disc solution and stops when the torque residual is
@@ -215,7 +215,7 @@ def share_load_coupled(
     Parameters
     ----------
     backlash, moment_arm, alpha, gamma, torque
-        As in :func:`cyclomesh.loadsharing.share_load` (shape (..., n) [rad, m, m/N,
+        As in :func:`cyclomesh.core.loadsharing.share_load` (shape (..., n) [rad, m, m/N,
         m/N]; T [N·m]).
     body : DiscBody
         Influence coefficients.

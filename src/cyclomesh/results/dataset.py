@@ -1,10 +1,10 @@
-"""Labelled results: run :func:`cyclomesh.ltca.solve_ltca` and return an xarray Dataset.
+"""Labelled results: run :func:`cyclomesh.core.ltca.solve_ltca` and return an xarray Dataset.
 
 This is the notebook entry point. The numbers come from the SI core; here they are
 converted to the units a gear engineer reads (N, MPa, arcsec, degrees, mm), labelled
 with ``crank_angle`` (degrees) and ``pin`` (1 … n1), and the inputs recorded as
 attributes. :func:`summarize` reduces a result to the headline numbers of a study
-(:mod:`cyclomesh.metrics`); :func:`ltca_metrics` does the same straight from the core's
+(:mod:`cyclomesh.results.metrics`); :func:`ltca_metrics` does the same straight from the core's
 result, without a Dataset (tolerance studies). xarray is imported only when a Dataset
 is built, so the variable tables below can be read by worker processes cheaply.
 """
@@ -17,11 +17,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.design import Modification, PairDesign, PinErrors
-from cyclomesh.drive import Drive, check_torques, solve_drive
+from cyclomesh.core.ltca import LTCA
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.drive.solve import Drive, check_torques, solve_drive
 from cyclomesh.exceptions import DesignError
-from cyclomesh.ltca import LTCA
-from cyclomesh.metrics import DRIVE_METRICS, METRICS, summary_metrics
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, summary_metrics
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -51,7 +51,7 @@ _PER_ANGLE = {
     "loaded_rotation": (1.0 / ARCSEC, "arcsec", "disc rotation under load Δφc"),
     "rest_rotation": (1.0 / ARCSEC, "arcsec", "unloaded rest position φc − φt"),
 }
-# drive-level results (cyclomesh.drive): per pin, per disc, per crank angle only
+# drive-level results (cyclomesh.drive.solve): per pin, per disc, per crank angle only
 _DRIVE_PER_PIN = {
     "force_angle": (180.0 / np.pi, "deg", "direction of the pin force on the disc, from x"),
 }
@@ -77,7 +77,7 @@ def to_dataset(
     torque: float,
     groove_deformation: bool,
 ) -> xr.Dataset:
-    """Label an :class:`~cyclomesh.ltca.LTCA` result (SI) as a Dataset in engineering units."""
+    """Label an :class:`~cyclomesh.core.ltca.LTCA` result (SI) as a Dataset in engineering units."""
     import xarray as xr
 
     ring_dims = ("ring",) if result.transmission_error.ndim == 2 else ()
@@ -148,7 +148,7 @@ def drive_to_dataset(
     groove_deformation: bool,
     torque_dim: bool,
 ) -> xr.Dataset:
-    """Label a :class:`~cyclomesh.drive.Drive` result (SI) as a Dataset in engineering units.
+    """Label a :class:`~cyclomesh.drive.solve.Drive` result (SI) as a Dataset in engineering units.
 
     Dimensions ``ring`` (one ring axis at most), ``torque`` [N·m] (if ``torque_dim``, else
     the one torque is the attribute ``torque_nm``), ``crank_angle`` [deg], ``disc`` (1 … N,
@@ -273,13 +273,13 @@ def analyse(
         Number N of identical discs on the ring, disc k's eccentric at φ + (k − 1)·360°/N;
         they share one rotation and split the torque by their stiffness.
     contact_law : {"paper", "half_plane"}
-        Tooth term of the contact law (see :mod:`cyclomesh.hertz`); recorded in the
+        Tooth term of the contact law (see :mod:`cyclomesh.core.hertz`); recorded in the
         ``contact_law`` attribute.
     disc_body : "rigid", "fe" or DiscBody
-        The disc body (:func:`cyclomesh.ltca.solve_ltca`): ``"fe"`` takes the influence
+        The disc body (:func:`cyclomesh.core.ltca.solve_ltca`): ``"fe"`` takes the influence
         coefficients of :func:`cyclomesh.fe.influence.influence` (the fe extra; computed
         once per design, then loaded from ``cache_dir``, default the per-user cache), the
-        disc held at its ``crank_holes`` (a :class:`~cyclomesh.design.CrankHoles`) or,
+        disc held at its ``crank_holes`` (a :class:`~cyclomesh.core.pair.CrankHoles`) or,
         without them, at the bore. Recorded in the ``disc_body`` attribute.
 
     Returns
@@ -287,7 +287,7 @@ def analyse(
     xarray.Dataset
         Dimensions ``crank_angle`` [deg] and ``pin`` (1 … n1), plus ``ring`` for several
         rings, ``torque`` [N·m] for a list of torques and ``disc`` (1 … N) for N > 1;
-        variables carry a ``units`` attribute (see :mod:`cyclomesh.analysis` and
+        variables carry a ``units`` attribute (see :mod:`cyclomesh.results.dataset` and
         ``docs/drive.md``). Besides the loaded contact: ``play`` [arcsec] per crank angle,
         ``mesh_force`` [N] and ``mesh_force_angle`` [deg] per disc, ``force_angle`` [deg]
         per pin, ``torque_share`` [N·m] per disc of a stack.
@@ -325,13 +325,13 @@ def analyse(
 def summarize(ds: xr.Dataset) -> xr.Dataset:
     """Headline numbers of a result, reduced over crank angle and pin (ring kept).
 
-    Returns a Dataset with the metrics of :data:`cyclomesh.metrics.METRICS`
+    Returns a Dataset with the metrics of :data:`cyclomesh.results.metrics.METRICS`
     (``te_mean_arcsec``, ``te_pp_arcsec``, ``max_pin_load_n``, ``max_groove_load_n``,
     ``max_contact_stress_mpa``, ``max_groove_stress_mpa``, ``contacts_min``,
     ``contacts_max``, ``gear_ratio_ripple_pct`` (peak-to-peak of the instantaneous ratio
     in % of n2, over the step ``gear_ratio_step_deg``), ``max_overlap_arcsec`` and
     ``overlap``), each with its ``units`` and ``long_name``, and those of
-    :data:`cyclomesh.metrics.DRIVE_METRICS` the result has (``play_arcsec_mean``,
+    :data:`cyclomesh.results.metrics.DRIVE_METRICS` the result has (``play_arcsec_mean``,
     ``play_arcsec_max``, ``max_mesh_force_n``). A ``torque`` dimension (a list of
     torques) is kept; a ``disc`` dimension (a stack) is reduced with the pins (per-disc
     contacts with the crank angles).
@@ -374,7 +374,7 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
 
 
 def ltca_metrics(result: LTCA, teeth: int) -> dict[str, NDArray]:
-    """The metrics of :data:`cyclomesh.metrics.METRICS` straight from a core result (SI).
+    """The metrics of :data:`cyclomesh.results.metrics.METRICS` straight from a core result (SI).
 
     The same numbers as ``summarize(to_dataset(result, ...))``, bit for bit (same unit
     scales, same reductions), without building a Dataset; leading ring axes are kept.
@@ -420,7 +420,7 @@ def resolve_disc_body(
     crank_holes: Any = None,
     cache_dir: Any = None,
 ) -> Any:
-    """``"rigid"``, or the :class:`~cyclomesh.discbody.DiscBody` of ``disc_body="fe"``
+    """``"rigid"``, or the :class:`~cyclomesh.core.discbody.DiscBody` of ``disc_body="fe"``
     (from the cache, computed on a miss), or a DiscBody passed through.
 
     Raises

@@ -1,8 +1,8 @@
 """Design map: the modification space swept, with the pin-ring tolerances in the loop.
 
 Every candidate modification (a grid over any of Δa, Δρ, δ) is analysed by the full
-model of [1] (:func:`cyclomesh.drive.solve_drive`, one disc: bit for bit
-:func:`cyclomesh.ltca.solve_ltca`) at the study's torque over its crank
+model of [1] (:func:`cyclomesh.drive.solve.solve_drive`, one disc: bit for bit
+:func:`cyclomesh.core.ltca.solve_ltca`) at the study's torque over its crank
 angles, with the given pin errors. With a ring axis on the errors (K rings drawn once:
 the same rings for every candidate, i.e. common random numbers), each metric is reduced
 over the rings to a robust value: the 95th percentile of a metric where larger is worse,
@@ -22,8 +22,8 @@ Metrics (per candidate, SI inside, engineering units in the Dataset):
   unloaded contact) — largest
   TE(−0.03·T) − TE(+0.03·T) over the crank angles [rad]; the reverse flank is solved
   as the forward flank of the system mirrored about the x-axis
-  (:func:`cyclomesh.drive.solve_drive` with a negative torque); the play is
-  :func:`cyclomesh.drive.play`.
+  (:func:`cyclomesh.drive.solve.solve_drive` with a negative torque); the play is
+  :func:`cyclomesh.drive.solve.play`.
 
 A candidate whose profile is undercut, whose pins interfere with the disc, or whose
 solve fails is infeasible with the reason recorded, never dropped.
@@ -44,10 +44,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.design import Modification, PairDesign, PinErrors
-from cyclomesh.drive import LOST_MOTION_FRACTION, solve_drive
+from cyclomesh.core.ltca import check_contact_law
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.drive.solve import LOST_MOTION_FRACTION, solve_drive
 from cyclomesh.exceptions import CyclomeshError, DesignError
-from cyclomesh.ltca import check_contact_law
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -161,7 +161,7 @@ def candidate_metrics(
 ) -> dict[str, FloatArray]:
     """Metrics of one candidate modification (see module doc), per ring, SI units.
 
-    ``contact_law`` is the tooth term of the contact law (:func:`cyclomesh.ltca.solve_ltca`).
+    ``contact_law`` is the tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
 
     Returns
     -------
@@ -302,7 +302,7 @@ def evaluate_grid(
         if progress is not None:
             progress(task.size)
     else:
-        from cyclomesh.execution import run_chunks
+        from cyclomesh.execution.backends import run_chunks
 
         flat = run_chunks(task, task.size, backend=backend, chunk_size=chunk, progress=progress)
     return {name: value.reshape(task.shape) for name, value in flat.items()}
@@ -391,7 +391,7 @@ def design_map(
     backend, chunk, progress
         Execution (see :func:`evaluate_grid`).
     contact_law : {"paper", "half_plane"}
-        Tooth term of the contact law (:func:`cyclomesh.ltca.solve_ltca`).
+        Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
 
     Returns
     -------
