@@ -21,6 +21,7 @@ callbacks. Heavy modules are imported inside the commands, so ``--help`` is fast
 from __future__ import annotations
 
 import math
+import os
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -229,6 +230,23 @@ StepOption = Annotated[
         show_default=False,
     ),
 ]
+CacheDirOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--cache-dir",
+        help='Cache of the FE coefficients of [analysis] disc_body = "fe" (default: '
+        "$XDG_CACHE_HOME/cyclomesh or ~/.cache/cyclomesh).",
+        show_default=False,
+    ),
+]
+
+
+def _cache_dir(path: Path | None) -> None:
+    """Point the disc body's cache at ``path`` for this process and its workers."""
+    if path is not None:
+        os.environ["CYCLOMESH_CACHE_DIR"] = str(path)
+
+
 FiguresOption = Annotated[
     str | None,
     typer.Option(
@@ -318,8 +336,10 @@ def run(
     crank_step_deg: StepOption = None,
     figures: FiguresOption = None,
     csv: CsvOption = False,
+    cache_dir: CacheDirOption = None,
 ) -> None:
     """Run every case of a study; write results, figures, summary.json and report.html."""
+    _cache_dir(cache_dir)
     from cyclomesh.publish.pipeline import publish, study_stamp
     from cyclomesh.studies import run as kind
     from cyclomesh.studyfile import load_study
@@ -403,12 +423,14 @@ def stiffness(
     quiet: QuietOption = False,
     crank_step_deg: StepOption = None,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
 ) -> None:
     """Torsion curve of every case ([stiffness] section): play, lost motion, rigidity.
 
     Writes <case>/stiffness.nc, summary.json, the figures and report.html. The numbers
     are those of the cycloid-pin mesh alone (see docs/drive.md).
     """
+    _cache_dir(cache_dir)
     from cyclomesh.publish.pipeline import publish, study_stamp
     from cyclomesh.studies import stiffness as kind
     from cyclomesh.studyfile import load_study
@@ -733,12 +755,15 @@ def fe(
     ] = True,
     quiet: QuietOption = False,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
 ) -> None:
     """Whole-disc finite-element model beside the LTCA, per case (needs the fe extra).
 
     Writes <case>/fe.nc, <case>/convergence.csv, summary.json, the figures and
-    report.html (docs/contact-law.md).
+    report.html (docs/contact-law.md). The LTCA runs under the study's [analysis]
+    settings (contact_law, disc_body).
     """
+    _cache_dir(cache_dir)
     try:
         import gmsh  # noqa: F401
         import skfem  # noqa: F401

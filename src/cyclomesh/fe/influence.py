@@ -80,7 +80,10 @@ MESH_DEFAULTS = {
 
 
 def default_cache_dir() -> Path:
-    """The per-user cache folder: ``$XDG_CACHE_HOME/cyclomesh`` or ``~/.cache/cyclomesh``."""
+    """The cache folder: ``$CYCLOMESH_CACHE_DIR`` (set by the CLI's ``--cache-dir``), else
+    the per-user ``$XDG_CACHE_HOME/cyclomesh`` or ``~/.cache/cyclomesh``."""
+    if os.environ.get("CYCLOMESH_CACHE_DIR"):
+        return Path(os.environ["CYCLOMESH_CACHE_DIR"])
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     return Path(base) / "cyclomesh"
 
