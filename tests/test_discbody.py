@@ -172,3 +172,56 @@ def test_check_refuses_fe_without_the_extra(tmp_path, monkeypatch, capsys):
     path.write_text(STUDY.format(law="paper"))
     out = CliRunner().invoke(app, ["check", str(path)])
     assert out.exit_code == 2 and "half_plane" in out.output
+
+
+def test_tolerance_and_design_map_take_a_body():
+    from cyclomesh.designspace.sweep import design_map
+    from cyclomesh.tolerance.tasks import RingModel
+
+    body = synthetic_body()
+    fields = RingModel.__dataclass_fields__
+    assert "disc_body" in fields
+    ds = design_map(
+        TABLE1,
+        {"pin_radius_um": [6.0, 8.0]},
+        torque=250.0,
+        crank_angles_deg=[0.0, 1.0],
+        contact_law="half_plane",
+        disc_body=body,
+    )
+    rigid = design_map(
+        TABLE1,
+        {"pin_radius_um": [6.0, 8.0]},
+        torque=250.0,
+        crank_angles_deg=[0.0, 1.0],
+        contact_law="half_plane",
+    )
+    assert ds.attrs["disc_body"] == "fe" and rigid.attrs["disc_body"] == "rigid"
+    name = next(v for v in ds.data_vars if "stress" in v)
+    assert not np.allclose(ds[name].values, rigid[name].values)
+
+
+def test_pins_beyond_the_first_set_are_added_exactly(monkeypatch):
+    # the first candidate set made too small on purpose (the last loaded pin of the
+    # solution dropped): the check after the solve must find the pin that would
+    # penetrate, add it and solve again, to the same solution as all pins
+    import cyclomesh.core.discbody as cdb
+
+    body = synthetic_body()
+    full = solve_ltca(TABLE1, MOD, None, 250.0, PHI, True, "half_plane", body)
+    calls = []
+    real = cdb._solve_set
+
+    def shrunk(candidate, arrays, *rest):
+        if not calls:
+            bl = np.where(full.pin_load > 0, arrays[0], -np.inf)
+            drop = np.argmax(bl, axis=-1)[:, None]
+            np.put_along_axis(candidate, drop, False, -1)  # in place: the caller's set
+        calls.append(1)
+        return real(candidate, arrays, *rest)
+
+    monkeypatch.setattr(cdb, "_solve_set", shrunk)
+    r = solve_ltca(TABLE1, MOD, None, 250.0, PHI, True, "half_plane", body)
+    assert len(calls) > 1
+    np.testing.assert_allclose(r.pin_load, full.pin_load, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(r.loaded_rotation, full.loaded_rotation, rtol=1e-12)

@@ -97,3 +97,15 @@ def test_results_independent_of_the_cache(coarse, tmp_path):
     # another design is another file
     other = influence(TABLE1, Modification(pin_radius=9e-6), cache_dir=tmp_path, **COARSE)
     assert other.key != body.key
+
+
+def test_disc_fe_compares_with_the_compliant_ltca(coarse):
+    from cyclomesh.fe.disc import solve_disc_fe
+
+    body, _ = coarse
+    args = (TABLE1, MOD, 250.0, 0.0, 30e-3, 2.0, 5e-3, "half_plane")
+    soft = solve_disc_fe(*args, disc_body=body)
+    rigid_ltca = soft.ltca_by_law["half_plane"]
+    # the FE disc is softer than the rigid-disc LTCA; the compliant LTCA closes most of it
+    assert soft.rotation_fe > soft.rotation_ltca > rigid_ltca[2]
+    assert abs(soft.rotation_ltca - soft.rotation_fe) < 0.5 * (soft.rotation_fe - rigid_ltca[2])

@@ -156,11 +156,13 @@ class DiscBody:
         m = self.profile_angles.size
         ki, kj = k[..., :, None], k[..., None, :]
         # flat index into the table: ((k0·n2 + d)·m + a)·m + b
-        block = (np.mod(kj, p) * n2 + np.mod(ki - kj, n2)) * (m * m)
-        a = (nodes * m)[..., None, :, :, None]  # load j's nodes
-        b = nodes[..., :, None, None, :]  # response i's nodes
+        small = np.int32 if self.table.size < 2**31 else np.int64
+        block = ((np.mod(kj, p) * n2 + np.mod(ki - kj, n2)) * (m * m)).astype(small)
+        a = (nodes * m).astype(small)[..., None, :, :, None]  # load j's nodes
+        b = nodes.astype(small)[..., :, None, None, :]  # response i's nodes
         vals = np.take(self.table.ravel(), block[..., None, None] + a + b)  # (..., n, n, 4, 4)
-        out = np.einsum("...ijab,...ja,...ib->...ij", vals, w, w, optimize=True)
+        half = np.einsum("...ijab,...ja->...ijb", vals, w)
+        out = np.einsum("...ijb,...ib->...ij", half, w)
         own = np.einsum("...ia,...ia->...i", self.diagonal[np.mod(k, p)[..., None], nodes], w)
         n = k.shape[-1]
         out[..., np.arange(n), np.arange(n)] = own
@@ -251,7 +253,7 @@ def share_load_coupled(
     x0, f0 = share_load(bl, arm, alpha, gamma, torque)  # the rigid disc: the start
 
     usable = np.isfinite(bl) & (arm > 0)
-    # single-pin bound with the body's own compliance; pins beyond twice it stay free
+    # single-pin bound with the body's own compliance (as share_load's start)
     diag = body.self_compliance(tooth, angle)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         single = np.where(usable, torque / np.where(usable, arm, 1.0), 0.0)
@@ -262,7 +264,56 @@ def share_load_coupled(
         alone = bl + (hertz + diag * single) / np.where(valid, arm, 1.0)
         alone = np.where(valid & (alone > bl), alone, np.inf)
     bound = np.min(alone, axis=-1)
-    candidate = usable & (bl < 2.0 * bound[:, None])
+    # the pins that can engage below the single-pin bound; the solution is then checked
+    # for every other pin that could touch (its body displacement may be negative by at
+    # most the table's most negative coefficient times the total load), and re-solved
+    # with the pins that would penetrate, so the result is that of all pins
+    candidate = usable & (bl < bound[:, None])
+    arrays = (bl, arm, alpha, gamma, tooth, angle)
+    x, full = _solve_set(candidate, arrays, x0, f0, torque, body, n // groups)
+    lowest = max(0.0, -float(np.min(body.table)), -float(np.min(body.diagonal)))
+    for _ in range(n):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            reach = x[:, None] + lowest * np.sum(full, axis=-1)[:, None] / arm
+        risky = usable & ~candidate & (bl < reach)
+        cases = np.flatnonzero(np.any(risky, axis=-1))
+        if cases.size == 0:
+            break
+        pins = candidate[cases] | risky[cases]
+        width = int(np.max(np.sum(pins, axis=-1)))
+        order = np.argsort(~pins, axis=-1, kind="stable")[:, :width]
+        take = np.take_along_axis
+        ok = take(pins, order, -1)
+        cmat = body.matrix(take(tooth[cases], order, -1), take(angle[cases], order, -1))
+        disc = order // (n // groups)
+        cmat = np.where(ok[:, None, :] & (disc[:, :, None] == disc[:, None, :]), cmat, 0.0)
+        w = np.einsum("bij,bj->bi", cmat, take(full[cases], order, -1))
+        gap = take(arm[cases], order, -1) * (x[cases, None] - take(bl[cases], order, -1)) - w
+        scale = np.max(np.where(ok, gap, 0.0), axis=-1, keepdims=True)
+        bad = ok & take(risky[cases], order, -1) & (gap > COMPATIBILITY_TOLERANCE * scale)
+        if not np.any(bad):
+            break
+        grow = np.zeros_like(pins)
+        np.put_along_axis(grow, order, bad, -1)
+        candidate[cases] |= grow
+        sub = tuple(a[cases] for a in arrays)
+        x[cases], full[cases] = _solve_set(
+            candidate[cases], sub, x0[cases], f0[cases], torque, body, n // groups
+        )
+    return x.reshape(lead), full.reshape(*lead, n)
+
+
+def _solve_set(
+    candidate: NDArray,
+    arrays: tuple,
+    x0: FloatArray,
+    f0: FloatArray,
+    torque: float,
+    body: DiscBody,
+    per_disc: int,
+) -> tuple[FloatArray, FloatArray]:
+    """Newton's method of :func:`share_load_coupled` on the ``candidate`` pins, (B, n)."""
+    bl, arm, alpha, gamma, tooth, angle = arrays
     width = int(np.max(np.sum(candidate, axis=-1)))
     order = np.argsort(~candidate, axis=-1, kind="stable")[:, :width]
     take = np.take_along_axis
@@ -273,7 +324,6 @@ def share_load_coupled(
     c_alpha = np.where(ok, c_alpha, 1.0)
     c_gamma = np.where(ok, c_gamma, 0.0)
     cmat = body.matrix(take(tooth, order, -1), take(angle, order, -1))
-    per_disc = n // groups
     disc = order // per_disc
     cmat = np.where(
         ok[:, :, None] & ok[:, None, :] & (disc[:, :, None] == disc[:, None, :]), cmat, 0.0
@@ -343,4 +393,4 @@ def share_load_coupled(
         raise err
     full = np.zeros_like(bl)
     np.put_along_axis(full, order, np.where(ok, f, 0.0), -1)
-    return x.reshape(lead), full.reshape(*lead, n)
+    return x, full
