@@ -252,6 +252,11 @@ def _summary(ds: xr.Dataset) -> dict[str, Any]:
         rms = math.sqrt(float(np.mean((load - fe_load) ** 2)))
         out[f"ltca_{law}_pin_load_rms_pct"] = 100.0 * rms / peak if peak > 0 else None
         out[f"ltca_{law}_rotation_arcsec_mean"] = float(ds[f"rotation_ltca_{law}"].mean())
+    load = ds["pin_load_ltca"].values
+    out["ltca_max_pin_load_n"] = float(load.max())
+    rms = math.sqrt(float(np.mean((load - fe_load) ** 2)))
+    out["ltca_pin_load_rms_pct"] = 100.0 * rms / peak if peak > 0 else None
+    out["ltca_rotation_arcsec_mean"] = float(ds["rotation_ltca"].mean())
     return out
 
 
