@@ -28,7 +28,7 @@ ANGLES = np.round(np.arange(90) * 0.1, 10)
 
 def nominal(repeat: int) -> None:
     from cyclomesh import TABLE1, Constraints, design_map
-    from cyclomesh.designspace.sweep import ARCMIN
+    from cyclomesh.units import RAD_PER_ARCMIN as ARCMIN
 
     axes = {
         "pin_circle_radius_um": np.linspace(-10.0, 0.0, 21),

@@ -6,7 +6,6 @@ import pytest
 from cyclomesh import TABLE1, DesignError, Modification, PinErrors
 from cyclomesh.core.ltca import solve_ltca
 from cyclomesh.designspace.sweep import (
-    ARCMIN,
     Constraints,
     DesignTask,
     candidate_metrics,
@@ -16,6 +15,7 @@ from cyclomesh.designspace.sweep import (
 from cyclomesh.drive.solve import play, solve_drive
 from cyclomesh.execution.backends import ProcessBackend, SerialBackend
 from cyclomesh.figures.designmap import map_metrics, plot_design_map, plot_design_maps
+from cyclomesh.units import RAD_PER_ARCMIN as ARCMIN
 
 ANGLES = np.arange(0.0, 9.0, 0.5)
 PHI = np.deg2rad(ANGLES)

@@ -271,7 +271,7 @@ def test_per_tooth_table_needs_every_tooth():
 
 def test_profile_figure_shows_the_rotation_and_a_table():
     from cyclomesh.figures import plot_profile
-    from cyclomesh.studies.run import profile_curves
+    from cyclomesh.results.profile import profile_curves
 
     delta = 20e-6
     phi1 = flank(5.0)

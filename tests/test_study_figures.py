@@ -15,7 +15,8 @@ from cyclomesh import TABLE1, Modification, PinErrors, analyse, figures
 from cyclomesh.figures.render import decimate
 from cyclomesh.output.writers import csv_column, write_pin_csv
 from cyclomesh.publish.report import Section, figure_html, render_report, table_html
-from cyclomesh.studies.run import profile_curves, summary_record
+from cyclomesh.results.profile import profile_curves
+from cyclomesh.studies.run import summary_record
 
 ANGLES = np.deg2rad(np.arange(0.0, 360.0, 10.0))
 TPM = Modification(pin_radius=8e-6)

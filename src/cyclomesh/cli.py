@@ -158,6 +158,9 @@ def main(
     ] = False,
 ) -> None:
     """Loaded tooth contact analysis of cycloid-pin gear pairs (Li et al., Machines 2022)."""
+    from cyclomesh.execution.runtime import tune_allocator
+
+    tune_allocator()
 
 
 @contextmanager
@@ -516,9 +519,9 @@ def _preload(figures: bool) -> Any:
 
         xr.DataArray(np.zeros(1))  # the first array sets up xarray's array backends
         if figures:
-            from cyclomesh.figures.render import _warm
+            from cyclomesh.figures.render import warm_up
 
-            _warm(draw=True)  # the figure workers forked later inherit it
+            warm_up(draw=True)  # the figure workers forked later inherit it
         import gc
 
         gc.freeze()  # nor do their collections scan what they inherit

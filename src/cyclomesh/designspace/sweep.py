@@ -48,6 +48,8 @@ from cyclomesh.core.ltca import check_contact_law
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.solve import LOST_MOTION_FRACTION, solve_drive
 from cyclomesh.exceptions import CyclomeshError, DesignError
+from cyclomesh.execution.runtime import tune_allocator
+from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -67,8 +69,6 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-ARCSEC = math.pi / (180.0 * 3600.0)
-ARCMIN = 60.0 * ARCSEC
 
 PARAMETERS: dict[str, tuple[str, float, str, str]] = {
     # study key: (Modification field, SI per study unit, units, long name)
@@ -87,13 +87,13 @@ METRICS: dict[str, tuple[str, float, str, str, bool]] = {
         "max. pin-tooth Hertzian pressure",
         True,
     ),
-    "te_pp": ("te_pp_arcsec", ARCSEC, "arcsec", "peak-to-peak loaded TE", True),
+    "te_pp": ("te_pp_arcsec", RAD_PER_ARCSEC, "arcsec", "peak-to-peak loaded TE", True),
     "min_contacts": ("min_contacts", 1.0, "1", "fewest loaded pins", False),
-    "max_play": ("play_arcmin", ARCMIN, "arcmin", "largest unloaded play", True),
-    "min_play": ("min_play_arcmin", ARCMIN, "arcmin", "smallest unloaded play", False),
+    "max_play": ("play_arcmin", RAD_PER_ARCMIN, "arcmin", "largest unloaded play", True),
+    "min_play": ("min_play_arcmin", RAD_PER_ARCMIN, "arcmin", "smallest unloaded play", False),
     "lost_motion": (
         "lost_motion_arcmin",
-        ARCMIN,
+        RAD_PER_ARCMIN,
         "arcmin",
         "lost motion TE(-3 % T) - TE(+3 % T)",
         True,
@@ -416,6 +416,7 @@ def design_map(
         variable with ``units`` (NaN only where ``reason`` says the candidate failed);
         ``feasible`` and ``reason``; attributes give the optimum and the inputs.
     """
+    tune_allocator()  # once per process: the solver's temporaries stay on the heap
     import xarray as xr
 
     if not axes:
@@ -495,13 +496,13 @@ def design_map(
 def _constraint_attrs(constraints: Constraints) -> dict[str, float]:
     out = {}
     if constraints.max_play is not None:
-        out["max_play_arcmin"] = constraints.max_play / ARCMIN
+        out["max_play_arcmin"] = constraints.max_play / RAD_PER_ARCMIN
     if constraints.min_play is not None:
-        out["min_play_arcmin"] = constraints.min_play / ARCMIN
+        out["min_play_arcmin"] = constraints.min_play / RAD_PER_ARCMIN
     if constraints.allowable_contact_stress is not None:
         out["allowable_contact_stress_mpa"] = constraints.allowable_contact_stress * 1e-6
     if constraints.max_te_pp is not None:
-        out["max_te_pp_arcsec"] = constraints.max_te_pp / ARCSEC
+        out["max_te_pp_arcsec"] = constraints.max_te_pp / RAD_PER_ARCSEC
     if constraints.min_contacts is not None:
         out["min_contacts"] = int(constraints.min_contacts)
     return out

@@ -35,6 +35,7 @@ from cyclomesh.core.hertz import (
     half_width,
     max_pressure,
     pin_groove_radius,
+    pin_tooth_radius,
 )
 from cyclomesh.core.ltca import rest_position, solve_ltca
 from cyclomesh.core.pair import Modification, PairDesign
@@ -42,7 +43,7 @@ from cyclomesh.core.profile import modified_profile
 from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.fe.mesh import Refinement, mesh_disk, mesh_profile_disc
 from cyclomesh.fe.solve import Body, ContactPair, boundary_chain, solve_contact, summarize_contact
-from cyclomesh.fe.tooth import _rho_star, disc_outline
+from cyclomesh.fe.tooth import disc_outline
 
 __all__ = ["DiscFE", "solve_disc_fe"]
 
@@ -186,7 +187,7 @@ def solve_disc_fe(
     e_pc = effective_modulus(pin_m.compliance, disc_m.compliance)
     e_pg = effective_modulus(pin_m.compliance, ring_m.compliance)
     nominal = np.where(load_ltca > 0, load_ltca, 0.2 * load_ltca.max()) / width  # N/m
-    b_pc = half_width(nominal, _rho_star(rp, geo.curvature_radius[0]), e_pc, 1.0)
+    b_pc = half_width(nominal, pin_tooth_radius(rp, geo.curvature_radius[0]), e_pc, 1.0)
     rho_pg = pin_groove_radius(rp, design.groove_radius)
     b_pg = half_width(nominal, rho_pg, e_pg, 1.0)
 
@@ -296,7 +297,7 @@ def solve_disc_fe(
         if summary.load > 0 and not np.isfinite(summary.peak_pressure):
             # too light for the contact mesh: the Hertz pressure of the FE load (Eq. 24)
             resolved[i] = False
-            rho = _rho_star(rp, geo.curvature_radius[0, i])
+            rho = pin_tooth_radius(rp, geo.curvature_radius[0, i])
             stress_fe[i] = max_pressure(load_fe[i], rho, e_pc, width)
         else:
             stress_fe[i] = summary.peak_pressure

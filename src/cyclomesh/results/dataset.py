@@ -21,14 +21,15 @@ from cyclomesh.core.ltca import LTCA
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.solve import Drive, check_torques, solve_drive
 from cyclomesh.exceptions import DesignError
+from cyclomesh.execution.runtime import tune_allocator
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, summary_metrics
+from cyclomesh.units import ARCSEC_PER_RAD
 
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["analyse", "to_dataset", "drive_to_dataset", "summarize", "ltca_metrics", "ARCSEC"]
+__all__ = ["analyse", "to_dataset", "drive_to_dataset", "summarize", "ltca_metrics"]
 
-ARCSEC = np.pi / (180.0 * 3600.0)
 """One second of arc [rad]."""
 
 # name (an LTCA field): (scale from SI, units, long name)
@@ -37,19 +38,19 @@ _PER_PIN = {
     "groove_load": (1.0, "N", "pin-groove contact force Fp"),
     "contact_stress": (1e-6, "MPa", "max. Hertzian pressure, pin-tooth"),
     "groove_stress": (1e-6, "MPa", "max. Hertzian pressure, pin-groove"),
-    "backlash": (1.0 / ARCSEC, "arcsec", "unloaded backlash φbl (inf: unreachable)"),
-    "overlap": (1.0 / ARCSEC, "arcsec", "interference with the unloaded flank"),
+    "backlash": (ARCSEC_PER_RAD, "arcsec", "unloaded backlash φbl (inf: unreachable)"),
+    "overlap": (ARCSEC_PER_RAD, "arcsec", "interference with the unloaded flank"),
     "profile_angle": (180.0 / np.pi, "deg", "generating angle φ1 of contact"),
     "contact_radius": (1e3, "mm", "radius of the contact point on the disc"),
     "moment_arm": (1e3, "mm", "moment arm of the line of action"),
     "curvature_radius": (1e3, "mm", "signed profile curvature radius ρc"),
 }
 _PER_ANGLE = {
-    "transmission_error": (1.0 / ARCSEC, "arcsec", "loaded TE"),
+    "transmission_error": (ARCSEC_PER_RAD, "arcsec", "loaded TE"),
     "gear_ratio": (1.0, "1", "instantaneous gear ratio"),
     "contacts": (1, "1", "number of pins in contact"),
-    "loaded_rotation": (1.0 / ARCSEC, "arcsec", "disc rotation under load Δφc"),
-    "rest_rotation": (1.0 / ARCSEC, "arcsec", "unloaded rest position φc − φt"),
+    "loaded_rotation": (ARCSEC_PER_RAD, "arcsec", "disc rotation under load Δφc"),
+    "rest_rotation": (ARCSEC_PER_RAD, "arcsec", "unloaded rest position φc − φt"),
 }
 # drive-level results (cyclomesh.drive.solve): per pin, per disc, per crank angle only
 _DRIVE_PER_PIN = {
@@ -60,7 +61,7 @@ _PER_DISC = {
     "mesh_force_angle": (180.0 / np.pi, "deg", "direction of the mesh force, from x"),
     "torque_share": (1.0, "N m", "torque carried by the disc"),
 }
-_PLAY = ("play", 1.0 / ARCSEC, "arcsec", "angular play between the flanks at zero load")
+_PLAY = ("play", ARCSEC_PER_RAD, "arcsec", "angular play between the flanks at zero load")
 
 
 def _version() -> str:
@@ -96,11 +97,11 @@ def to_dataset(
     }
     if ring_dims:
         coords["ring"] = ("ring", np.arange(result.transmission_error.shape[0]))
-    attrs = _attrs(result.crank_angle, design, modification, torque, groove_deformation)
+    attrs = result_attrs(result.crank_angle, design, modification, torque, groove_deformation)
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
-def _attrs(
+def result_attrs(
     phi: np.ndarray,
     design: PairDesign,
     modification: Modification,
@@ -211,7 +212,7 @@ def drive_to_dataset(
     import xarray as xr
 
     single = None if torque_dim else float(result.torque[0])
-    attrs = _attrs(result.crank_angle, design, modification, single, groove_deformation)
+    attrs = result_attrs(result.crank_angle, design, modification, single, groove_deformation)
     attrs["discs"] = int(discs)
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
@@ -296,6 +297,7 @@ def analyse(
     ----------
     [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672.
     """
+    tune_allocator()  # once per process: the solver's temporaries stay on the heap
     modification = modification or Modification()
     crank_angles, degrees = resolve_crank_angles(crank_angles, crank_angles_deg)
     torque_dim = np.ndim(torque) > 0

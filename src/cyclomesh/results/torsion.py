@@ -26,16 +26,16 @@ from numpy.typing import ArrayLike
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.solve import torsion_curve
 from cyclomesh.exceptions import DesignError
-from cyclomesh.results.dataset import _attrs, resolve_crank_angles, resolve_disc_body
+from cyclomesh.execution.runtime import tune_allocator
+from cyclomesh.results.dataset import resolve_crank_angles, resolve_disc_body, result_attrs
+from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["stiffness", "summarize_stiffness", "ARCMIN"]
+__all__ = ["stiffness", "summarize_stiffness"]
 
-ARCMIN = np.pi / (180.0 * 60.0)
 """One minute of arc [rad]."""
-_ARCSEC = ARCMIN / 60.0
 
 
 def stiffness(
@@ -95,6 +95,7 @@ def stiffness(
     ----------
     [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672.
     """
+    tune_allocator()  # once per process: the solver's temporaries stay on the heap
     modification = modification or Modification()
     phi, degrees = resolve_crank_angles(crank_angles, crank_angles_deg)
     if degrees is None:
@@ -106,7 +107,7 @@ def stiffness(
             raise DesignError(
                 f"series_stiffness_nm_per_arcmin must be a positive number, got {k!r}"
             )
-        series = float(k) / ARCMIN
+        series = float(k) / RAD_PER_ARCMIN
     curve = torsion_curve(
         design,
         modification,
@@ -135,7 +136,7 @@ def stiffness(
     data = {
         "rotation": (
             curve_dims,
-            curve.rotation / _ARCSEC,
+            curve.rotation / RAD_PER_ARCSEC,
             {"units": "arcsec", "long_name": "disc rotation from theoretical (TE sign)"},
         ),
         "contacts": (
@@ -150,17 +151,17 @@ def stiffness(
         ),
         "play": (
             angle_dims,
-            curve.play / ARCMIN,
+            curve.play / RAD_PER_ARCMIN,
             {"units": "arcmin", "long_name": "angular play between the flanks at zero load"},
         ),
         "lost_motion": (
             angle_dims,
-            curve.lost_motion / ARCMIN,
+            curve.lost_motion / RAD_PER_ARCMIN,
             {"units": "arcmin", "long_name": "lost motion TE(-3 %) - TE(+3 %) of rated"},
         ),
         "torsional_rigidity": (
             angle_dims,
-            curve.torsional_rigidity * ARCMIN,
+            curve.torsional_rigidity * RAD_PER_ARCMIN,
             {"units": "N m/arcmin", "long_name": "torsional rigidity, 50-100 % of rated"},
         ),
     }
@@ -173,17 +174,17 @@ def stiffness(
     if series is not None:
         data["drive_rotation"] = (
             curve_dims,
-            curve.drive_rotation / _ARCSEC,
+            curve.drive_rotation / RAD_PER_ARCSEC,
             {"units": "arcsec", "long_name": "whole-drive rotation (mesh + series stiffness)"},
         )
         data["drive_lost_motion"] = (
             angle_dims,
-            curve.drive_lost_motion / ARCMIN,
+            curve.drive_lost_motion / RAD_PER_ARCMIN,
             {"units": "arcmin", "long_name": "whole-drive lost motion"},
         )
         data["drive_torsional_rigidity"] = (
             angle_dims,
-            curve.drive_torsional_rigidity * ARCMIN,
+            curve.drive_torsional_rigidity * RAD_PER_ARCMIN,
             {"units": "N m/arcmin", "long_name": "whole-drive torsional rigidity"},
         )
     coords = {
@@ -194,7 +195,7 @@ def stiffness(
         coords["disc"] = ("disc", np.arange(1, n_discs + 1), {"units": "1"})
     if ring:
         coords["ring"] = ("ring", np.arange(curve.play.shape[0]))
-    attrs = _attrs(phi, design, modification, None, groove_deformation)
+    attrs = result_attrs(phi, design, modification, None, groove_deformation)
     attrs["contact_law"] = contact_law
     attrs["disc_body"] = disc_body if isinstance(disc_body, str) else "fe"
     attrs.update(

@@ -30,10 +30,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from cyclomesh.designspace.sweep import ARCMIN, ARCSEC, METRICS, PARAMETERS, Constraints
+from cyclomesh.designspace.sweep import METRICS, PARAMETERS, Constraints
 from cyclomesh.exceptions import DesignError, StudyError
 from cyclomesh.results.dataset import resolve_disc_body
 from cyclomesh.studyfile.schema import DesignSpaceSection, Study, load_study
+from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -86,10 +87,10 @@ def constraints(space: DesignSpaceSection) -> Constraints:
         return None if value is None else value * scale
 
     return Constraints(
-        max_play=scaled(space.max_play_arcmin, ARCMIN),
-        min_play=scaled(space.min_play_arcmin, ARCMIN),
+        max_play=scaled(space.max_play_arcmin, RAD_PER_ARCMIN),
+        min_play=scaled(space.min_play_arcmin, RAD_PER_ARCMIN),
         allowable_contact_stress=scaled(space.allowable_contact_stress_mpa, 1e6),
-        max_te_pp=scaled(space.max_te_pp_arcsec, ARCSEC),
+        max_te_pp=scaled(space.max_te_pp_arcsec, RAD_PER_ARCSEC),
         min_contacts=space.min_contacts,
     )
 

@@ -36,6 +36,7 @@ from cyclomesh.exceptions import StudyError
 from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.results.metrics import FE_METRICS
 from cyclomesh.studyfile.schema import FeSection, Study, folder_name
+from cyclomesh.units import ARCSEC_PER_RAD
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -52,7 +53,6 @@ __all__ = [
     "fe_sections",
 ]
 
-ARCSEC = 180.0 / math.pi * 3600.0
 LAWS = ("paper", "half_plane")
 
 
@@ -188,7 +188,7 @@ def _dataset(solved: list[Any], angles: np.ndarray, pins: int) -> xr.Dataset:
         return np.array([get(r) for r in solved], float) * scale
 
     def position(rotation: Callable[[Any], float]) -> np.ndarray:
-        return np.array([-(r.rest_rotation + rotation(r)) * ARCSEC for r in solved])
+        return np.array([-(r.rest_rotation + rotation(r)) * ARCSEC_PER_RAD for r in solved])
 
     per_pin = ("crank_angle", "pin")
     data: dict[str, Any] = {
@@ -267,8 +267,8 @@ def _convergence(section: FeSection, coarse: Any, fine: Any) -> list[list[Any]]:
     table.append(
         [
             "rotation_arcsec",
-            coarse.rotation_fe * ARCSEC,
-            fine.rotation_fe * ARCSEC,
+            coarse.rotation_fe * ARCSEC_PER_RAD,
+            fine.rotation_fe * ARCSEC_PER_RAD,
             fine.rotation_fe / coarse.rotation_fe - 1 if coarse.rotation_fe else "",
         ]
     )

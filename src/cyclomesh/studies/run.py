@@ -22,9 +22,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from cyclomesh.core.pair import Modification, PairDesign
+from cyclomesh.core.pair import Modification
 from cyclomesh.publish.pipeline import case_attrs, study_stamp, summary_document
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
+from cyclomesh.results.profile import profile_curves
 from cyclomesh.studyfile.schema import CaseInputs, CaseSpec, Study, folder_name
 
 if TYPE_CHECKING:
@@ -36,9 +37,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "RunResult",
-    "ProfileCurves",
     "compute_run",
-    "profile_curves",
     "annotate",
     "summary_record",
     "write_case",
@@ -51,64 +50,6 @@ __all__ = [
 ]
 
 Hook = Callable[[str], None]
-
-
-@dataclass(frozen=True)
-class ProfileCurves:
-    """One tooth space of the disc, standard and modified (Eqs. 1–3 of [1]), for a figure.
-
-    Attributes
-    ----------
-    phi1_deg : ndarray
-        Generating angle φ1 within the tooth [deg] (0 = tooth-space bottom).
-    standard_x_mm, standard_y_mm : ndarray
-        The standard profile [mm].
-    modified : dict
-        Label → (x [mm], y [mm], modification normal to the standard profile [µm],
-        positive = material removed).
-    seat_mm, pin_radius_mm : float
-        Centre (on x) and radius of the pin seated at the tooth-space bottom [mm].
-    """
-
-    phi1_deg: np.ndarray
-    standard_x_mm: np.ndarray
-    standard_y_mm: np.ndarray
-    modified: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
-    seat_mm: float
-    pin_radius_mm: float
-
-
-def profile_curves(
-    design: PairDesign, modifications: dict[str, Modification], samples: int = 2001
-) -> ProfileCurves:
-    """The standard and modified profiles of one tooth space and the modification:
-    the offset of each modified point from the standard point of the same generating
-    angle, projected on the standard profile's outward normal (Eqs. 1–3 of [1]).
-
-    Exact for the equidistant modification Δρ (a pure normal offset) and at the
-    tooth-space bottom; elsewhere the error is of second order in the tangential offset
-    (µm² over a curvature radius of millimetres: below 0.02 µm here).
-    """
-    from cyclomesh.core.profile import modified_profile
-
-    phi1 = np.linspace(-np.pi, np.pi, samples)
-    x0, y0 = modified_profile(design, Modification(), phi1)
-    tx, ty = np.gradient(x0, phi1), np.gradient(y0, phi1)
-    length = np.hypot(tx, ty)
-    nx, ny = ty / length, -tx / length  # outward: towards the pins
-    modified = {}
-    for name, modification in modifications.items():
-        x, y = modified_profile(design, modification, phi1)
-        removed = (x0 - x) * nx + (y0 - y) * ny
-        modified[name] = (x * 1e3, y * 1e3, removed * 1e6)
-    return ProfileCurves(
-        phi1_deg=np.rad2deg(phi1),
-        standard_x_mm=x0 * 1e3,
-        standard_y_mm=y0 * 1e3,
-        modified=modified,
-        seat_mm=(design.pin_circle_radius - design.eccentricity) * 1e3,
-        pin_radius_mm=design.pin_radius * 1e3,
-    )
 
 
 @dataclass
