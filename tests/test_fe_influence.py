@@ -109,3 +109,14 @@ def test_disc_fe_compares_with_the_compliant_ltca(coarse):
     # the FE disc is softer than the rigid-disc LTCA; the compliant LTCA closes most of it
     assert soft.rotation_fe > soft.rotation_ltca > rigid_ltca[2]
     assert abs(soft.rotation_ltca - soft.rotation_fe) < 0.5 * (soft.rotation_fe - rigid_ltca[2])
+
+
+def test_cache_folder_from_the_cli_option_or_the_user(monkeypatch, tmp_path):
+    from cyclomesh.cli import _cache_dir
+    from cyclomesh.fe.influence import default_cache_dir
+
+    monkeypatch.delenv("CYCLOMESH_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert default_cache_dir() == tmp_path / "xdg" / "cyclomesh"
+    _cache_dir(tmp_path / "mine")  # what --cache-dir does
+    assert default_cache_dir() == tmp_path / "mine"

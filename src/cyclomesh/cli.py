@@ -566,8 +566,10 @@ def tolerance(
     workers: WorkersOption = None,
     chunk_rings: ChunkOption = None,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
 ) -> None:
     """Monte Carlo tolerance study: per-ring metrics, statistics, worst ring, report."""
+    _cache_dir(cache_dir)
     from cyclomesh.studies import tolerance as kind
 
     loaded, spec = kind.load_tolerance_study(study)
@@ -612,8 +614,10 @@ def allocate(
     workers: WorkersOption = None,
     chunk_rings: ChunkOption = None,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
 ) -> None:
     """Largest scale factor on the tolerances that meets the target exceedance probability."""
+    _cache_dir(cache_dir)
     from cyclomesh.studies import tolerance as kind
 
     loaded, spec = kind.load_tolerance_study(study)
@@ -692,12 +696,14 @@ def design(
     quiet: QuietOption = False,
     workers: WorkersOption = None,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
 ) -> None:
     """Design map: sweep the modification, map the metrics, mark the optimum.
 
     A nominal map runs in this process unless --workers or --scheduler is given; a
     robust map (design_space.rings > 0) runs on all local cores by default.
     """
+    _cache_dir(cache_dir)
     from cyclomesh.publish.pipeline import publish
     from cyclomesh.studies import designmap as kind
 
