@@ -297,9 +297,13 @@ def share_load_coupled(
         np.put_along_axis(grow, order, bad, -1)
         candidate[cases] |= grow
         sub = tuple(a[cases] for a in arrays)
-        x[cases], full[cases] = _solve_set(
-            candidate[cases], sub, x0[cases], f0[cases], torque, body, n // groups
-        )
+        try:
+            x[cases], full[cases] = _solve_set(
+                candidate[cases], sub, x0[cases], f0[cases], torque, body, n // groups
+            )
+        except ConvergenceError as exc:  # name the case in the whole batch
+            exc.case_index = int(cases[getattr(exc, "case_index", 0)])
+            raise
     return x.reshape(lead), full.reshape(*lead, n)
 
 
@@ -367,8 +371,12 @@ def _solve_set(
         try:
             step = np.linalg.solve(jac, -rhs[..., None])[..., 0]
         except np.linalg.LinAlgError:
-            err = ConvergenceError("coupled load sharing: singular Newton system")
-            err.case_index = 0
+            det = np.linalg.det(jac)
+            err = ConvergenceError(
+                "coupled load sharing: singular Newton system (the disc body's coefficients "
+                "plus the contact law are not positive definite here)"
+            )
+            err.case_index = int(np.argmax(~np.isfinite(det) | (det == 0)))
             raise err from None
         step[done] = 0.0
         old = merit(delta, r_w, r_t)
