@@ -128,6 +128,9 @@ def compute_design(
     progress : callable, optional
         Called with the number of candidates finished.
     """
+    from cyclomesh.studyfile.schema import refuse_stage
+
+    refuse_stage(study, "design")
     from cyclomesh.designspace.sweep import design_map
 
     start = time.perf_counter()

@@ -126,6 +126,9 @@ def compute_fe(
     cache_dir : str, optional
         Cache of the disc body's coefficients (``[analysis] disc_body = "fe"``).
     """
+    from cyclomesh.studyfile.schema import refuse_stage
+
+    refuse_stage(study, "fe")
     check_fe(study)
     section = study.file.fe or FeSection()
     angles = np.asarray(

@@ -336,6 +336,9 @@ def compute_tolerance(
     progress : callable, optional
         Called with the number of rings of every finished chunk.
     """
+    from cyclomesh.studyfile.schema import refuse_stage
+
+    refuse_stage(study, "tolerance")
     from cyclomesh.tolerance.tasks import ToleranceTask
 
     if study.tolerance is None:
@@ -506,6 +509,9 @@ def compute_allocation(
     Parameters are those of :func:`compute_tolerance`, and ``target_probability``
     (default: ``tolerance.allocation.target_probability``).
     """
+    from cyclomesh.studyfile.schema import refuse_stage
+
+    refuse_stage(study, "allocate")
     import xarray as xr
 
     from cyclomesh.tolerance.allocation import allocate_factor
