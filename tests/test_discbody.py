@@ -225,3 +225,24 @@ def test_pins_beyond_the_first_set_are_added_exactly(monkeypatch):
     assert len(calls) > 1
     np.testing.assert_allclose(r.pin_load, full.pin_load, rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(r.loaded_rotation, full.loaded_rotation, rtol=1e-12)
+
+
+def test_fe_body_with_the_rv_stage_is_refused(tmp_path):
+    from pathlib import Path
+
+    from typer.testing import CliRunner
+
+    from cyclomesh.cli import app
+
+    text = (Path(__file__).parent.parent / "examples" / "rv_stage.toml").read_text()
+    if "[analysis]" in text:
+        text = text.replace(
+            "[analysis]", '[analysis]\ndisc_body = "fe"\ncontact_law = "half_plane"', 1
+        )
+    else:
+        text += '\n[analysis]\ndisc_body = "fe"\ncontact_law = "half_plane"\n'
+    path = tmp_path / "rv.toml"
+    path.write_text(text)
+    out = CliRunner().invoke(app, ["check", str(path)])
+    assert out.exit_code == 2
+    assert "[stage]" in out.output and "disc_body" in out.output
