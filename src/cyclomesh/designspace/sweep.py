@@ -158,6 +158,7 @@ def candidate_metrics(
     groove_deformation: bool = True,
     lost_motion: bool = False,
     contact_law: str = "paper",
+    disc_body: Any = "rigid",
 ) -> dict[str, FloatArray]:
     """Metrics of one candidate modification (see module doc), per ring, SI units.
 
@@ -176,7 +177,14 @@ def candidate_metrics(
     light = LOST_MOTION_FRACTION * torque
     torques = [torque, -light, light] if lost_motion else [torque]
     res = solve_drive(
-        design, modification, errors, torques, phi, groove_deformation, contact_law=contact_law
+        design,
+        modification,
+        errors,
+        torques,
+        phi,
+        groove_deformation,
+        contact_law=contact_law,
+        disc_body=disc_body,
     )
     te = res.transmission_error  # (..., torque, angle), the one disc's
     out = {
@@ -239,6 +247,9 @@ class DesignTask:
     groove_deformation: bool = True
     lost_motion: bool = False
     contact_law: str = "paper"
+    disc_body: Any = "rigid"
+    """The base design's disc body for every candidate (Δa, Δρ, δ of a few µm leave the
+    body's compliance as it is)."""
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -276,6 +287,7 @@ class DesignTask:
                     self.groove_deformation,
                     self.lost_motion,
                     self.contact_law,
+                    self.disc_body,
                 )
             except CyclomeshError as exc:  # undercut, interfering pin, failed solve
                 reason[row] = str(exc)[:_REASON_LENGTH]
@@ -362,6 +374,7 @@ def design_map(
     chunk: int | None = None,
     progress: Any = None,
     contact_law: str = "paper",
+    disc_body: Any = "rigid",
 ) -> xr.Dataset:
     """Design map over a grid of modifications, as a labelled Dataset.
 
@@ -392,6 +405,9 @@ def design_map(
         Execution (see :func:`evaluate_grid`).
     contact_law : {"paper", "half_plane"}
         Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
+    disc_body : "rigid" or DiscBody
+        The disc body of every candidate: the base design's coefficients (a
+        modification of a few µm leaves the body's compliance as it is).
 
     Returns
     -------
@@ -431,6 +447,7 @@ def design_map(
         groove_deformation=groove_deformation,
         lost_motion=lost_motion,
         contact_law=contact_law,
+        disc_body=disc_body,
     )
     metrics = evaluate_grid(task, backend, chunk, progress)
     feasible, reason = feasibility(metrics, constraints)
@@ -457,6 +474,7 @@ def design_map(
             "objective": objective,
             "objective_variable": METRICS[OBJECTIVES[objective]][0],
             "torque_nm": float(torque),
+            "disc_body": "rigid" if isinstance(disc_body, str) else "fe",
             "rings": int(rings),
             "robust": int(bool(ring_shape)),
             "robust_percentile": ROBUST_PERCENTILE,
