@@ -196,6 +196,7 @@ def candidate_metrics(
     groove_deformation: bool = True,
     lost_motion: bool = False,
     contact_law: str = "paper",
+    disc_body: Any = "rigid",
 ) -> dict[str, FloatArray]:
     """Metrics of one candidate modification (see module doc), per ring, SI units.
 
@@ -214,7 +215,14 @@ def candidate_metrics(
     light = LOST_MOTION_FRACTION * torque
     torques = [torque, -light, light] if lost_motion else [torque]
     res = solve_drive(
-        design, modification, errors, torques, phi, groove_deformation, contact_law=contact_law
+        design,
+        modification,
+        errors,
+        torques,
+        phi,
+        groove_deformation,
+        contact_law=contact_law,
+        disc_body=disc_body,
     )
     te = res.transmission_error  # (..., torque, angle), the one disc's
     out = {
@@ -274,6 +282,9 @@ class DesignTask:
     groove_deformation: bool = True
     lost_motion: bool = False
     contact_law: str = "paper"
+    disc_body: Any = "rigid"
+    """The base design's disc body for every candidate (Δa, Δρ, δ of a few µm leave the
+    body's compliance as it is)."""
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -340,6 +351,7 @@ class DesignTask:
                     self.groove_deformation,
                     self.lost_motion,
                     self.contact_law,
+                    self.disc_body,
                 )
             except CyclomeshError as exc:  # undercut, interfering pin, failed solve
                 reason[row] = str(exc)  # in full: design.nc keeps every character
@@ -429,6 +441,7 @@ def design_map(
     chunk: int | None = None,
     progress: Any = None,
     contact_law: str = "paper",
+    disc_body: Any = "rigid",
 ) -> xr.Dataset:
     """Design map over a grid of modifications, as a labelled Dataset.
 
@@ -462,6 +475,9 @@ def design_map(
         Execution (see :func:`evaluate_grid`).
     contact_law : {"paper", "half_plane"}
         Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
+    disc_body : "rigid" or DiscBody
+        The disc body of every candidate: the base design's coefficients (a
+        modification of a few µm leaves the body's compliance as it is).
 
     Returns
     -------
@@ -502,6 +518,7 @@ def design_map(
         groove_deformation=groove_deformation,
         lost_motion=lost_motion,
         contact_law=contact_law,
+        disc_body=disc_body,
     )
     metrics = evaluate_grid(task, backend, chunk, progress)
     feasible, reason = feasibility(metrics, constraints)
@@ -528,6 +545,7 @@ def design_map(
             "objective": objective,
             "objective_variable": METRICS[OBJECTIVES[objective]][0],
             "torque_nm": float(torque),
+            "disc_body": "rigid" if isinstance(disc_body, str) else "fe",
             "rings": int(rings),
             "robust": int(bool(ring_shape)),
             "robust_percentile": ROBUST_PERCENTILE,

@@ -32,6 +32,7 @@ import numpy as np
 
 from cyclomesh.designspace.sweep import GEOMETRY, METRICS, Constraints, parameter_value
 from cyclomesh.exceptions import DesignError, StudyError
+from cyclomesh.results.dataset import resolve_disc_body
 from cyclomesh.studyfile.schema import DesignSpaceSection, Study, load_study
 from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
@@ -155,6 +156,9 @@ def compute_design(
             crank_angles_deg=study.base.analysis.crank_angles_deg(),
             groove_deformation=base.groove_deformation,
             contact_law=base.contact_law,
+            disc_body=resolve_disc_body(
+                base.disc_body, base.design, base.modification, base.crank_holes
+            ),
             constraints=constraints(space),
             objective=space.objective,
             lost_motion=space.lost_motion,

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cyclomesh.exceptions import StudyError
+from cyclomesh.results.dataset import resolve_disc_body
 from cyclomesh.results.metrics import METRICS, STRESS_METRIC
 from cyclomesh.studyfile.schema import Study, ToleranceSection, load_study
 from cyclomesh.tolerance.allocation import Allocation
@@ -107,6 +108,9 @@ def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
         groove_deformation=bool(core.groove_deformation),
         spec=spec,
         contact_law=core.contact_law,
+        disc_body=resolve_disc_body(
+            core.disc_body, core.design, core.modification, core.crank_holes
+        ),
     )
 
 

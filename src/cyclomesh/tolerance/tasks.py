@@ -77,6 +77,9 @@ class RingModel:
         Distributions and seed.
     contact_law : {"paper", "half_plane"}
         Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
+    disc_body : "rigid" or DiscBody
+        The disc body (:func:`cyclomesh.core.ltca.solve_ltca`), resolved once by the
+        parent and carried to the workers with the task (one table for all rings).
     """
 
     design: PairDesign
@@ -88,6 +91,7 @@ class RingModel:
     groove_deformation: bool
     spec: ToleranceSection
     contact_law: str = "paper"
+    disc_body: Any = "rigid"
 
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
@@ -143,6 +147,7 @@ class RingModel:
             np.deg2rad(self.crank_angles_deg),
             self.groove_deformation,
             self.contact_law,
+            self.disc_body,
         )
         return ltca_metrics(result, self.design.teeth)
 
