@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.design import Modification, PairDesign, PinErrors
 from cyclomesh.drive import Drive, check_torques, solve_drive
-from cyclomesh.ltca import LTCA
+from cyclomesh.ltca import CONTACT_LOAD_FRACTION, LTCA
 from cyclomesh.metrics import DRIVE_METRICS, METRICS, summary_metrics
 
 if TYPE_CHECKING:
@@ -46,7 +46,11 @@ _PER_PIN = {
 _PER_ANGLE = {
     "transmission_error": (1.0 / ARCSEC, "arcsec", "loaded TE"),
     "gear_ratio": (1.0, "1", "instantaneous gear ratio"),
-    "contacts": (1, "1", "number of pins in contact"),
+    "contacts": (
+        1,
+        "1",
+        "number of pins in contact: load above 0.1 % of the largest pin load at the angle",
+    ),
     "loaded_rotation": (1.0 / ARCSEC, "arcsec", "disc rotation under load Δφc"),
     "rest_rotation": (1.0 / ARCSEC, "arcsec", "unloaded rest position φc − φt"),
 }
@@ -96,6 +100,7 @@ def to_dataset(
     if ring_dims:
         coords["ring"] = ("ring", np.arange(result.transmission_error.shape[0]))
     attrs = _attrs(result.crank_angle, design, modification, torque, groove_deformation)
+    data["contacts"][2]["load_threshold_fraction"] = CONTACT_LOAD_FRACTION
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
@@ -212,6 +217,7 @@ def drive_to_dataset(
     single = None if torque_dim else float(result.torque[0])
     attrs = _attrs(result.crank_angle, design, modification, single, groove_deformation)
     attrs["discs"] = int(discs)
+    data["contacts"][2]["load_threshold_fraction"] = CONTACT_LOAD_FRACTION
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
@@ -242,7 +248,7 @@ def analyse(
     *,
     crank_angles_deg: ArrayLike | None = None,
     discs: int = 1,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> xr.Dataset:
     """Loaded tooth contact analysis of a cycloid-pin pair as a labelled Dataset.
 

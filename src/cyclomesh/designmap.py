@@ -157,7 +157,7 @@ def candidate_metrics(
     crank_angles: ArrayLike,
     groove_deformation: bool = True,
     lost_motion: bool = False,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> dict[str, FloatArray]:
     """Metrics of one candidate modification (see module doc), per ring, SI units.
 
@@ -238,7 +238,7 @@ class DesignTask:
     crank_angles: tuple[float, ...]
     groove_deformation: bool = True
     lost_motion: bool = False
-    contact_law: str = "paper"
+    contact_law: str = "half_plane"
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -361,7 +361,7 @@ def design_map(
     backend: Any = None,
     chunk: int | None = None,
     progress: Any = None,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> xr.Dataset:
     """Design map over a grid of modifications, as a labelled Dataset.
 

@@ -72,6 +72,7 @@ from cyclomesh.ltca import (
     check_crank_angles,
     check_pair,
     contact_stresses,
+    count_contacts,
     locate_failure,
     pin_compliance,
     rest_position,
@@ -212,7 +213,8 @@ class Drive:
         Torque carried by each disc, Σ F·l (Eqs. 16, 18), signed like the torque, (..., Q, A, N)
         [N·m].
     contacts : ndarray
-        Loaded pins of each disc, (..., Q, A, N).
+        Pins in contact of each disc, (..., Q, A, N): load above
+        :data:`~cyclomesh.ltca.CONTACT_LOAD_FRACTION` of the stack's largest pin load.
     mesh_force, mesh_force_angle : ndarray
         Magnitude [N] and direction [rad, counter-clockwise from x, fixed frame] of the
         resultant of the pin forces on each disc, (..., Q, A, N).
@@ -362,7 +364,7 @@ def _mesh(
     phi: FloatArray,
     discs: int,
     groove_deformation: bool,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> _Mesh:
     """Unloaded contact, rest positions and compliance of a stack (forward flanks)."""
     ring_shape = errors.ring_shape(design.pins)
@@ -447,7 +449,7 @@ def _load(mesh: _Mesh, torque: float) -> dict[str, FloatArray]:
         "overlap": np.maximum(geo.reverse_rotation - total, 0.0),
         "force_angle": np.arctan2(-mesh.normal_y, -mesh.normal_x),
         "torque_share": np.sum(force * geo.moment_arm, axis=-1),
-        "contacts": np.sum(force > 0, axis=-1),
+        "contacts": count_contacts(force, axes=2),
         "mesh_force_x": fx,
         "mesh_force_y": fy,
         "loaded_rotation": loaded,
@@ -463,7 +465,7 @@ def _directions(
     groove_deformation: bool,
     forward: bool,
     reverse: bool,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> tuple[_Mesh | None, _Mesh | None]:
     """Meshes of the forward flanks and of the mirrored (reverse) problem, as needed."""
     fwd = rev = None
@@ -499,7 +501,7 @@ def solve_drive(
     crank_angles: ArrayLike = (0.0,),
     groove_deformation: bool = True,
     discs: int = 1,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> Drive:
     """Loaded contact of a stack of discs on both flanks over a list of torques.
 
@@ -776,7 +778,7 @@ def torsion_curve(
     discs: int = 1,
     points: int = 41,
     series_stiffness: float | None = None,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> TorsionCurve:
     """Torsion curve of the cycloid-pin mesh: rotation against torque, both directions.
 

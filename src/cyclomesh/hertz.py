@@ -16,7 +16,7 @@ exactly through the Lambert W function.
 
 Contact laws
 ------------
-``contact_law="paper"`` (the default) is Eq. 20 as published: the disc's term is the
+``contact_law="paper"`` is Eq. 20 as published: the disc's term is the
 approach of the centre of curvature of the tooth, c·(ln(4|ρc|/b) − ½). At the
 inflection points of a modified profile |ρc| → ∞, so that term, and the tooth's
 compliance, diverge although the tooth there is nearly flat.
@@ -30,7 +30,9 @@ with d the distance from the contact point to the disc centre (where the disc ca
 its torque). The pin's and the groove's terms stay those of Eqs. 20, 21 (their radii are
 physical). The law has the same form δ = F·(α − γ·ln F) with the same γ, so the exact
 inverse below carries over; it is finite and smooth through the inflection points
-(ρ*pc → ρp there). See ``docs/contact-law.md``.
+(ρ*pc → ρp there). It is the default: under Eq. 20 a pin crossing an inflection point
+loses its load for a crank angle, so the ratio ripple and the TE peak-to-peak grow
+without bound as the crank step shrinks. See ``docs/contact-law.md``.
 
 References
 ----------
@@ -214,7 +216,7 @@ def compliance_coefficients(
     disc_compliance: float,
     ring_compliance: float,
     groove_deformation: bool = True,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
     reference_depth: ArrayLike | None = None,
     disc_poisson: float | None = None,
 ) -> tuple[FloatArray, FloatArray]:

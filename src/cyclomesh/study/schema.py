@@ -345,10 +345,11 @@ class AnalysisSection(_Section):
     crank_step_deg: float = Field(0.1, gt=0, description="crank angle step [deg]")
     groove_deformation: bool = Field(True, description="the improved model of [1] (Eq. 19)")
     contact_law: Literal["paper", "half_plane"] = Field(
-        "paper",
+        "half_plane",
         description=(
-            "tooth term of the contact law: Eq. 20 of [1] as published, or the approach of a "
-            "half-plane to the disc centre (Johnson eq. 5.41), finite at inflection points"
+            "tooth term of the contact law: the approach of a half-plane to the disc centre "
+            "(Johnson eq. 5.41, default: finite at inflection points, converged in the crank "
+            "step), or Eq. 20 of [1] as published (\"paper\", to reproduce the paper)"
         ),
     )
 
@@ -588,7 +589,7 @@ class CaseInputs:
     read once (lists + file + random draws)."""
     discs: int = 1
     """Number of discs on the pin ring."""
-    contact_law: str = "paper"
+    contact_law: str = "half_plane"
     crank_holes: CrankHoles | None = None
     """The disc's crank holes (``[design.disc]``), or None: held at the bore."""
 

@@ -87,7 +87,7 @@ class RingModel:
     crank_angles_deg: NDArray[np.float64]
     groove_deformation: bool
     spec: ToleranceSection
-    contact_law: str = "paper"
+    contact_law: str = "half_plane"
 
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
