@@ -216,7 +216,7 @@ def compliance_coefficients(
     disc_compliance: float,
     ring_compliance: float,
     groove_deformation: bool = True,
-    contact_law: str = "half_plane",
+    contact_law: str = "paper",
     reference_depth: ArrayLike | None = None,
     disc_poisson: float | None = None,
 ) -> tuple[FloatArray, FloatArray]:
@@ -242,8 +242,10 @@ def compliance_coefficients(
     groove_deformation : bool
         Include the pin–groove deformation (the "improved model").
     contact_law : {"paper", "half_plane"}
-        The disc's term: Eq. 20 of [1] as published, or the approach of a half-plane to
-        ``reference_depth`` (Johnson [2], eq. 5.41; see the module docstring).
+        The disc's term: Eq. 20 of [1] as published (the default of this low-level
+        function, which needs no contact geometry), or the approach of a half-plane to
+        ``reference_depth`` (Johnson [2], eq. 5.41; see the module docstring), the default
+        of every solver and study.
     reference_depth : array_like, optional
         Depth d of the reference point in the disc [m]; required by ``"half_plane"``.
     disc_poisson : float, optional
