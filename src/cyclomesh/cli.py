@@ -343,7 +343,7 @@ def run(
             pool=pool,
         )
     if not quiet:
-        _print_summary(result.summaries, out)
+        _print_summary(result.summaries, out, result.study_warnings())
 
 
 _SUMMARY_COLUMNS = (
@@ -357,7 +357,16 @@ _SUMMARY_COLUMNS = (
 )
 
 
-def _print_summary(summaries: dict, out: Path) -> None:
+def _print_warnings(warnings: list[str]) -> None:
+    from rich.console import Console
+    from rich.markup import escape
+
+    console = Console()
+    for warning in warnings:
+        console.print(f"warning: {escape(warning)}")
+
+
+def _print_summary(summaries: dict, out: Path, warnings: list[str] = ()) -> None:
     from rich.console import Console
     from rich.markup import escape
     from rich.table import Table
@@ -386,6 +395,7 @@ def _print_summary(summaries: dict, out: Path) -> None:
         console.print(
             "warning: the disc interferes with unloaded-side pins (see max_overlap_arcsec)"
         )
+    _print_warnings(list(warnings))
     console.print(f"report: {out / 'report.html'}")
 
 

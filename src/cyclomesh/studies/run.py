@@ -120,6 +120,14 @@ class RunResult:
     """Case name → annotated Dataset of :func:`cyclomesh.analyse`."""
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → metrics of :data:`cyclomesh.metrics.METRICS` (plain JSON numbers)."""
+    warnings: dict[str, list[str]] = field(default_factory=dict)
+    """Case name → warnings (:mod:`cyclomesh.study.warnings`)."""
+
+    def study_warnings(self) -> list[str]:
+        """The warnings of the study, each once (prefixed by the case where not all)."""
+        from cyclomesh.study.warnings import merge_warnings
+
+        return merge_warnings(self.warnings)
 
     @property
     def inputs(self) -> list[CaseInputs]:
@@ -175,6 +183,7 @@ def compute_run(
     ``on_start(name)`` and ``on_done(name)`` are called around each case (progress).
     """
     from cyclomesh.analysis import analyse, summarize
+    from cyclomesh.study.warnings import has_pin_errors, study_warnings
 
     run = RunResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
@@ -186,6 +195,11 @@ def compute_run(
         ds = annotate(ds, case, inputs, study)
         run.results[case.name] = ds
         run.summaries[case.name] = summary_record(summarize(ds))
+        run.warnings[case.name] = study_warnings(
+            inputs.contact_law,
+            case.analysis.crank_angles_deg(),
+            has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
+        )
         if on_done:
             on_done(case.name)
     return run
@@ -224,10 +238,15 @@ def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
         folder = case_folder(case.name)
         written += write_case(run.results[case.name], out / folder, options.csv).values()
         records.append(
-            {"name": case.name, "results": f"{folder}/results.nc", **run.summaries[case.name]}
+            {
+                "name": case.name,
+                "results": f"{folder}/results.nc",
+                **run.summaries[case.name],
+                "warnings": run.warnings.get(case.name, []),
+            }
         )
     units = {name: m.unit for name, m in (METRICS | DRIVE_METRICS).items()}
-    document = summary_document(study, units, records)
+    document = summary_document(study, units, records, warnings=run.study_warnings())
     written.append(write_json(out / "summary.json", document))
     return written
 
@@ -465,7 +484,18 @@ def run_sections(run: RunResult) -> list[Section]:
         ["case", *header],
         [[n, *(_cell(run.summaries[n].get(c)) for c in columns)] for n in names],
     )
-    return [Section("Study", intro), Section("Inputs", inputs_html), Section("Summary", summary)]
+    sections = [Section("Study", intro), Section("Inputs", inputs_html), Section("Summary", summary)]
+    return warning_sections(run.study_warnings()) + sections
+
+
+def warning_sections(warnings: list[str]) -> list[Section]:
+    """A "Warnings" report section listing ``warnings`` (none if there are none)."""
+    from cyclomesh.report import Section
+
+    if not warnings:
+        return []
+    items = "".join(f"<li>{html.escape(w)}</li>" for w in warnings)
+    return [Section("Warnings", f"<ul>{items}</ul>")]
 
 
 def run_study(study: Study, out: str | Path, options: OutputOptions | None = None) -> list[Path]:
