@@ -25,7 +25,15 @@ from cyclomesh.metrics import DRIVE_METRICS, METRICS, summary_metrics
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["analyse", "to_dataset", "drive_to_dataset", "summarize", "ltca_metrics", "ARCSEC"]
+__all__ = [
+    "analyse",
+    "to_dataset",
+    "drive_to_dataset",
+    "summarize",
+    "ltca_metrics",
+    "drive_metrics",
+    "ARCSEC",
+]
 
 ARCSEC = np.pi / (180.0 * 3600.0)
 """One second of arc [rad]."""
@@ -349,6 +357,9 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
         data["play_arcsec_max"] = ds["play"].max("crank_angle")
     if "mesh_force" in ds:
         data["max_mesh_force_n"] = ds["mesh_force"].max(("crank_angle", *stack))
+    if "torque_share" in ds:
+        data["torque_share_min_nm"] = ds["torque_share"].min(("crank_angle", *stack))
+        data["torque_share_max_nm"] = ds["torque_share"].max(("crank_angle", *stack))
     summary = xr.Dataset(data, coords=coords)
     for name in summary.data_vars:
         metric = METRICS.get(name) or DRIVE_METRICS[name]
@@ -380,3 +391,37 @@ def ltca_metrics(result: LTCA, teeth: int) -> dict[str, NDArray]:
         )
     }
     return summary_metrics(**scaled, teeth=teeth)
+
+
+def drive_metrics(result: Drive, teeth: int) -> dict[str, NDArray]:
+    """The metrics of ``summarize(analyse(...))`` straight from a one-torque core result.
+
+    :data:`cyclomesh.metrics.METRICS` (per-pin ones reduced over the discs and pins,
+    contacts per disc), ``max_mesh_force_n`` (largest mesh force on a disc [N]) and, for a
+    stack, ``torque_share_min_nm`` / ``torque_share_max_nm`` (range of the torque one
+    disc carries [N·m]); bit for bit those of :func:`summarize`, leading ring axes kept.
+    """
+    angles, discs, pins = result.pin_load.shape[-3:]
+
+    def per_pin(name: str) -> NDArray:
+        value = getattr(result, name)[..., 0, :, :, :] * _PER_PIN[name][0]
+        return value.reshape(*value.shape[:-2], discs * pins)
+
+    out = summary_metrics(
+        transmission_error=result.transmission_error[..., 0, :] * _PER_ANGLE[
+            "transmission_error"
+        ][0],
+        gear_ratio=result.gear_ratio[..., 0, :],
+        contacts=result.contacts[..., 0, :, :].reshape(*result.contacts.shape[:-3], -1),
+        **{
+            name: per_pin(name)
+            for name in ("pin_load", "groove_load", "contact_stress", "groove_stress", "overlap")
+        },
+        teeth=teeth,
+    )
+    out["max_mesh_force_n"] = np.max(result.mesh_force[..., 0, :, :], axis=(-2, -1))
+    if discs > 1:
+        share = result.torque_share[..., 0, :, :]
+        out["torque_share_min_nm"] = np.min(share, axis=(-2, -1))
+        out["torque_share_max_nm"] = np.max(share, axis=(-2, -1))
+    return out

@@ -555,7 +555,8 @@ def tolerance(
     n = spec.rings if rings is None else rings
     with _workers(scheduler, workers, bool(options.figures)) as backend:
         _say(
-            f"tolerance study: {n} rings, {len(spec.crank_angles_deg())} crank angles, "
+            f"tolerance study: {n} rings, "
+            f"{len(spec.crank_angles_deg(loaded.base.analysis))} crank angles, "
             f"{backend.workers} worker(s)",
             quiet,
         )
@@ -619,6 +620,7 @@ def allocate(
     kind.publish_allocation(result, out, options)
     if not quiet:
         typer.echo(result.allocation.statement())
+        _print_warnings(result.record.get("warnings", []))
         typer.echo(f"files: {out}")
 
 
@@ -646,6 +648,7 @@ def _print_tolerance(stats: dict[str, Any], out: Path) -> None:
         f"{ex['probability']:.4g}, {conf:.0%} Clopper-Pearson [{ex['lower']:.4g}, "
         f"{ex['upper']:.4g}] ({ex['count']} of {ex['rings']} rings)"
     )
+    _print_warnings(stats.get("warnings", []))
     worst = stats["worst_ring"]
     console.print(
         f"worst ring {worst['ring']}: {worst['max_contact_stress_mpa']:.5g} MPa -> "
@@ -718,6 +721,7 @@ def design(
             where = ", ".join(f"{k} = {v:g}" for k, v in s["optimum"]["parameters"].items())
             value = s["optimum"]["metrics"][s["objective_variable"]]
             typer.echo(f"optimum: {where} ({s['objective_variable']} = {value:.6g})")
+        _print_warnings(s.get("warnings", []))
         typer.echo(f"report: {out / 'report.html'}")
 
 

@@ -89,6 +89,12 @@ DRIVE_METRICS: dict[str, Metric] = {
             "largest mesh force (resultant of the pin forces on a disc)",
             "max mesh force",
         ),
+        Metric(
+            "torque_share_min_nm", "N m", "smallest torque carried by one disc", "min disc torque"
+        ),
+        Metric(
+            "torque_share_max_nm", "N m", "largest torque carried by one disc", "max disc torque"
+        ),
     )
 }
 """Drive characteristics of a run (:func:`cyclomesh.analyse`; docs/drive.md). Not in

@@ -90,6 +90,7 @@ def constraints(space: DesignSpaceSection) -> Constraints:
         allowable_contact_stress=scaled(space.allowable_contact_stress_mpa, 1e6),
         max_te_pp=scaled(space.max_te_pp_arcsec, ARCSEC),
         min_contacts=space.min_contacts,
+        max_lost_motion=scaled(space.max_lost_motion_arcmin, ARCMIN),
     )
 
 
@@ -132,8 +133,15 @@ def compute_design(
     space = study.file.design_space
     if space is None:
         raise StudyError(f"{study.path.name}: no [design_space] section")
+    from cyclomesh.study.warnings import has_pin_errors, study_warnings
+
     base = study.base.to_core()
+    if np.ndim(base.torque):
+        raise StudyError(
+            "load.torque_nm: a design map takes one torque (of the stack), not a list"
+        )
     errors = base.errors
+    angles = study.base.analysis.crank_angles_deg()
     if space.rings:
         from cyclomesh.studies.tolerance import ring_model
 
@@ -141,6 +149,13 @@ def compute_design(
             raise StudyError("design_space.rings: a robust map needs a [tolerance] section")
         model = ring_model(study, study.file.tolerance)
         errors = model.pin_errors(model.draw(np.arange(space.rings)))
+        angles = model.crank_angles_deg  # [tolerance] keys over [analysis]'s
+    warnings = study_warnings(
+        base.contact_law,
+        angles,
+        bool(space.rings) or has_pin_errors(base.errors_um, study.base.errors.eccentricity_um),
+        "rings drawn from [tolerance]" if space.rings else "pin errors",
+    )
     try:
         ds = design_map(
             base.design,
@@ -148,9 +163,10 @@ def compute_design(
             base=base.modification,
             errors=errors,
             torque=base.torque,
-            crank_angles_deg=study.base.analysis.crank_angles_deg(),
+            crank_angles_deg=angles,
             groove_deformation=base.groove_deformation,
             contact_law=base.contact_law,
+            discs=base.discs,
             constraints=constraints(space),
             objective=space.objective,
             lost_motion=space.lost_motion,
@@ -169,6 +185,7 @@ def compute_design(
         }
     }
     summary = _summary(ds, space, study.title)
+    summary["warnings"] = warnings
     best = best_study(study, ds) if summary["optimum"] is not None else None
     return DesignResult(study, space, ds, summary, best, time.perf_counter() - start, marks)
 
@@ -190,6 +207,9 @@ def _summary(ds: xr.Dataset, space: DesignSpaceSection, title: str) -> dict[str,
         "robust": bool(ds.attrs["robust"]),
         "rings": int(ds.attrs["rings"]) if ds.attrs["robust"] else 0,
         "robust_percentile": float(ds.attrs["robust_percentile"]),
+        "discs": int(ds.attrs["discs"]),
+        "torque_nm": float(ds.attrs["torque_nm"]),
+        "crank_angles": int(ds.attrs["crank_angles"]),
         "candidates": int(ds.attrs["candidates"]),
         "feasible_candidates": int(ds.attrs["feasible_candidates"]),
         "failed_candidates": int(failed.sum()),
@@ -300,6 +320,7 @@ def design_sections(result: DesignResult) -> list[Section]:
     s = result.summary
     rows: list[tuple[str, Any]] = [
         ("study", s["title"]),
+        ("discs (torque of the stack)", f"{s['discs']} ({s['torque_nm']:g} N·m)"),
         ("objective (minimised)", s["objective_variable"]),
         ("candidates", s["candidates"]),
         ("feasible", s["feasible_candidates"]),
@@ -324,4 +345,7 @@ def design_sections(result: DesignResult) -> list[Section]:
         + f" ({html.escape('docs/design-map.md')}). <code>best.toml</code> is the optimum "
         "as a study file.</p>"
     )
-    return [Section(SECTION, text + table_html(["", "value"], rows))]
+    from cyclomesh.studies.run import warning_sections
+
+    sections = [Section(SECTION, text + table_html(["", "value"], rows))]
+    return warning_sections(s.get("warnings", [])) + sections

@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cyclomesh.exceptions import StudyError
-from cyclomesh.metrics import METRICS, STRESS_METRIC
+from cyclomesh.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC
 from cyclomesh.study.schema import Study, ToleranceSection, load_study
 from cyclomesh.tolerance.allocation import Allocation
 from cyclomesh.tolerance.tasks import RingModel
@@ -92,21 +92,32 @@ def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
     """The fixed part of the tolerance study: the study's base case as core objects."""
     base = study.base
     core = base.to_core()
-    if np.ndim(core.torque) or core.discs != 1:
+    if np.ndim(core.torque):
         raise StudyError(
-            "tolerance studies take one disc and one torque: set [load] torque_nm to a "
-            "number and leave [design] discs at 1"
+            "load.torque_nm: tolerance studies take one torque (of the stack), not a list"
         )
+    crank_range = spec.crank_range(base.analysis)
     return RingModel(
         design=core.design,
         modification=core.modification,
         base_errors_um=core.errors_um,
         base_eccentricity_um=float(base.errors.eccentricity_um),
         torque_nm=float(core.torque),
-        crank_angles_deg=spec.crank_angles_deg(),
+        crank_angles_deg=spec.crank_angles_deg(base.analysis),
         groove_deformation=bool(core.groove_deformation),
         spec=spec,
         contact_law=core.contact_law,
+        discs=core.discs,
+        crank_range=crank_range,
+    )
+
+
+def ring_warnings(model: RingModel) -> list[str]:
+    """Warnings of a tolerance or allocation study (:mod:`cyclomesh.study.warnings`)."""
+    from cyclomesh.study.warnings import study_warnings
+
+    return study_warnings(
+        model.contact_law, model.crank_angles_deg, True, "rings drawn from [tolerance]"
     )
 
 
@@ -158,7 +169,7 @@ def metrics_dataset(
         arr = np.asarray(values)
         if arr.dtype == np.bool_:
             arr = arr.astype(np.int8)  # NetCDF has no boolean
-        metric = METRICS.get(name)
+        metric = METRICS.get(name) or DRIVE_METRICS.get(name)
         attrs_ = (
             {"units": metric.unit, "long_name": metric.long_name}
             if metric
@@ -192,7 +203,7 @@ def ring_statistics(
 
     n = ds.sizes["ring"]
     stats = {}
-    for name, metric in METRICS.items():
+    for name, metric in (METRICS | DRIVE_METRICS).items():
         if name in ds and name != "overlap":
             stats[name] = {
                 "unit": metric.unit,
@@ -269,10 +280,11 @@ def worst_ring_study(
         if table:
             sections[name] = table
     analysis = dict(_drop_none(base.get("analysis", {})))
+    start, stop, step = model.crank_range or spec.crank_range()
     analysis.update(
-        crank_start_deg=float(spec.crank_start_deg),
-        crank_stop_deg=float(spec.crank_stop_deg),
-        crank_step_deg=float(spec.crank_step_deg),
+        crank_start_deg=start,
+        crank_stop_deg=stop,
+        crank_step_deg=step,
         groove_deformation=bool(model.groove_deformation),
         contact_law=model.contact_law,
     )
@@ -348,13 +360,18 @@ def compute_tolerance(
         {
             "study_title": study.title,
             "study_sha256": study.sha256,
-            "crank_step_deg": spec.crank_step_deg,
+            "crank_step_deg": model.crank_range[2],
+            "discs": model.discs,
             "torque_nm": model.torque_nm,
             "groove_deformation": int(model.groove_deformation),
             "contact_law": model.contact_law,
         },
     )
     stats = ring_statistics(ds, spec, spec.allocation.confidence)
+    stats["discs"] = model.discs
+    stats["torque_nm"] = model.torque_nm
+    stats["crank_angles"] = len(model.crank_angles_deg)
+    stats["warnings"] = ring_warnings(model)
     stats["seconds"] = seconds
     stats["rings_per_second"] = n / seconds if seconds > 0 else math.nan
     return ToleranceResult(study, spec, model, ds, stats, seconds)
@@ -457,7 +474,11 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
         + html.escape("; ".join(f"{k}: {v}" for k, v in stats["methods"].items()))
         + ".</p>"
     )
-    return [Section("Tolerance study (Monte Carlo)", text)]
+    from cyclomesh.studies.run import warning_sections
+
+    return warning_sections(stats.get("warnings", [])) + [
+        Section("Tolerance study (Monte Carlo)", text)
+    ]
 
 
 # --- tolerance allocation ----------------------------------------------------------------
@@ -559,6 +580,9 @@ def compute_allocation(
         allowable_contact_stress_mpa=allowable,
         seconds=seconds,
         study_title=study.title,
+        discs=model.discs,
+        crank_angles=len(model.crank_angles_deg),
+        warnings=ring_warnings(model),
     )
     return AllocationResult(study, result, ds, record, seconds)
 
@@ -594,8 +618,12 @@ def allocation_sections(result: AllocationResult) -> list[Section]:
     """Report section of a tolerance allocation."""
     from cyclomesh.report import Section
 
+    from cyclomesh.studies.run import warning_sections
+
     statement = html.escape(result.allocation.statement())
-    return [Section("Tolerance allocation", f"<p>{statement}</p>")]
+    return warning_sections(result.record.get("warnings", [])) + [
+        Section("Tolerance allocation", f"<p>{statement}</p>")
+    ]
 
 
 # --- whole studies (compute, write, figures, report) ------------------------------------

@@ -16,7 +16,13 @@ contributions in a fixed order). A chunk is solved in batches of about
 :data:`BLOCK_PIN_STEPS` pin-steps (:func:`block_rings`: 16 rings at 1°, 160 at 10°)
 only to bound the memory of one core call, so ring k's metrics depend on (seed, k)
 alone. The metrics come straight from the core's arrays
-(:func:`cyclomesh.analysis.ltca_metrics`), without building a Dataset per batch.
+(:func:`cyclomesh.analysis.drive_metrics`), without building a Dataset per batch.
+
+Stacks: each ring is drawn once for the pin ring and the whole stack of discs is analysed
+on it (:func:`cyclomesh.drive.solve_drive`; one disc is bit for bit
+:func:`cyclomesh.ltca.solve_ltca`), so the pin errors change the split of the torque
+between the discs (``torque_share_min_nm``, ``torque_share_max_nm``) and the mesh force
+of each disc (``max_mesh_force_n``).
 """
 
 from __future__ import annotations
@@ -27,10 +33,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.analysis import ltca_metrics
+from cyclomesh.analysis import drive_metrics
 from cyclomesh.design import Modification, PairDesign, PinErrors
+from cyclomesh.drive import solve_drive
 from cyclomesh.exceptions import CyclomeshError
-from cyclomesh.ltca import solve_ltca
 from cyclomesh.metrics import STRESS_METRIC
 from cyclomesh.study.schema import ToleranceSection, pin_errors_si
 from cyclomesh.tolerance.sampling import RingErrors, draw_ring_errors
@@ -68,7 +74,7 @@ class RingModel:
     base_eccentricity_um : float
         The base case's eccentricity error [µm].
     torque_nm : float
-        Torque on the disc [N·m].
+        Torque on the stack of discs [N·m].
     crank_angles_deg : ndarray
         Crank angles φin [deg].
     groove_deformation : bool
@@ -77,6 +83,10 @@ class RingModel:
         Distributions and seed.
     contact_law : {"paper", "half_plane"}
         Tooth term of the contact law (:func:`cyclomesh.ltca.solve_ltca`).
+    discs : int
+        Identical discs on the pin ring (:func:`cyclomesh.drive.solve_drive`).
+    crank_range : (start, stop, step) [deg], optional
+        Where ``crank_angles_deg`` came from (written into a ring's study file).
     """
 
     design: PairDesign
@@ -88,6 +98,8 @@ class RingModel:
     groove_deformation: bool
     spec: ToleranceSection
     contact_law: str = "half_plane"
+    discs: int = 1
+    crank_range: tuple[float, float, float] | None = None
 
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
@@ -132,19 +144,20 @@ class RingModel:
     @property
     def block_rings(self) -> int:
         """Rings per core call (see :func:`block_rings`)."""
-        return block_rings(len(self.crank_angles_deg), self.design.pins)
+        return block_rings(len(self.crank_angles_deg), self.design.pins * self.discs)
 
     def _solve(self, block: RingErrors) -> dict[str, NDArray[Any]]:
-        result = solve_ltca(
+        result = solve_drive(
             self.design,
             self.modification,
             self.pin_errors(block),
             self.torque_nm,
             np.deg2rad(self.crank_angles_deg),
             self.groove_deformation,
+            self.discs,
             self.contact_law,
         )
-        return ltca_metrics(result, self.design.teeth)
+        return drive_metrics(result, self.design.teeth)
 
     def _blame(self, block: RingErrors) -> None:
         """Re-solve ring by ring and raise the core's error naming the failing ring."""
