@@ -437,6 +437,7 @@ def stiffness(
             pool=pool,
         )
     if not quiet:
+        _print_warnings(result.study_warnings())
         _print_stiffness(result.summaries, out)
 
 

@@ -129,10 +129,13 @@ def compute_design(
     """
     from cyclomesh.designmap import design_map
 
+    from cyclomesh.study.usage import check_keys
+
     start = time.perf_counter()
     space = study.file.design_space
     if space is None:
         raise StudyError(f"{study.path.name}: no [design_space] section")
+    check_keys(study.raw, "design")
     from cyclomesh.study.warnings import has_pin_errors, study_warnings
 
     base = study.base.to_core()
@@ -338,7 +341,9 @@ def design_sections(result: DesignResult) -> list[Section]:
     else:
         rows += [(f"optimum {k}", v) for k, v in s["optimum"]["parameters"].items()]
         rows += [(f"at the optimum: {k}", v) for k, v in s["optimum"]["metrics"].items()]
-    text = (
+    from cyclomesh.studies.run import description_html
+
+    text = description_html(result.study) + (
         "<p>Every candidate modification analysed with the full model at the study's "
         "torque over its crank angles"
         + (", each metric its robust value over the rings" if s["robust"] else "")

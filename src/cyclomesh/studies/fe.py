@@ -120,6 +120,9 @@ def compute_fe(
     progress : callable, optional
         Called with a line of text before each FE solve.
     """
+    from cyclomesh.study.usage import check_keys
+
+    check_keys(study.raw, "fe")
     check_fe(study)
     section = study.file.fe or FeSection()
     angles = np.asarray(

@@ -183,8 +183,10 @@ def compute_run(
     ``on_start(name)`` and ``on_done(name)`` are called around each case (progress).
     """
     from cyclomesh.analysis import analyse, summarize
+    from cyclomesh.study.usage import check_keys
     from cyclomesh.study.warnings import has_pin_errors, study_warnings
 
+    check_keys(study.raw, "run")
     run = RunResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
         if on_start:
@@ -486,6 +488,11 @@ def run_sections(run: RunResult) -> list[Section]:
     )
     sections = [Section("Study", intro), Section("Inputs", inputs_html), Section("Summary", summary)]
     return warning_sections(run.study_warnings()) + sections
+
+
+def description_html(study: Study) -> str:
+    """The study's description as a report paragraph ('' without one)."""
+    return f"<p>{html.escape(study.description)}</p>" if study.description else ""
 
 
 def warning_sections(warnings: list[str]) -> list[Section]:

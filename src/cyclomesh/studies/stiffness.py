@@ -72,6 +72,14 @@ class StiffnessResult:
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → rated torque, discs and :data:`STIFFNESS_METRICS` (JSON numbers)."""
     seconds: float = 0.0
+    warnings: dict[str, list[str]] = field(default_factory=dict)
+    """Case name → warnings (:mod:`cyclomesh.study.warnings`)."""
+
+    def study_warnings(self) -> list[str]:
+        """The warnings of the study, each once (prefixed by the case where not all)."""
+        from cyclomesh.study.warnings import merge_warnings
+
+        return merge_warnings(self.warnings)
 
 
 def _section(case: CaseSpec) -> StiffnessSection:
@@ -98,9 +106,12 @@ def compute_stiffness(
     torque (0.4 s for 42 torques × 360 crank angles × 40 pins), so the cases run here.
     """
     from cyclomesh.output import jsonable
+    from cyclomesh.study.usage import check_keys
+    from cyclomesh.study.warnings import has_pin_errors, study_warnings
     from cyclomesh.torsion import stiffness, summarize_stiffness
 
     check_stiffness(study)
+    check_keys(study.raw, "stiffness")
     start = time.perf_counter()
     result = StiffnessResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
@@ -130,6 +141,11 @@ def compute_stiffness(
             }
         )
         result.summaries[case.name] = record
+        result.warnings[case.name] = study_warnings(
+            inputs.contact_law,
+            case.analysis.crank_angles_deg(),
+            has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
+        )
         if progress:
             progress(1)
     result.seconds = time.perf_counter() - start
@@ -154,6 +170,7 @@ def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
                 "name": case.name,
                 "results": f"{folder_name(case.name)}/stiffness.nc",
                 **result.summaries[case.name],
+                "warnings": result.warnings.get(case.name, []),
             }
         )
     document = summary_document(
@@ -161,6 +178,7 @@ def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
         {name: m.unit for name, m in STIFFNESS_METRICS.items()},
         records,
         scope="cycloid-pin mesh only; drive_* numbers add the series stiffness",
+        warnings=result.study_warnings(),
     )
     written.append(write_json(out / "summary.json", document))
     return written
@@ -285,4 +303,9 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
     summary = table_html(
         ["case", *header], [[n, *(result.summaries[n].get(c) for c in columns)] for n in names]
     )
-    return [Section("Study", intro), Section("Summary", summary)]
+    from cyclomesh.studies.run import warning_sections
+
+    return warning_sections(result.study_warnings()) + [
+        Section("Study", intro),
+        Section("Summary", summary),
+    ]

@@ -37,6 +37,7 @@ import numpy as np
 from cyclomesh.exceptions import StudyError
 from cyclomesh.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC
 from cyclomesh.study.schema import Study, ToleranceSection, load_study
+from cyclomesh.study.usage import check_keys
 from cyclomesh.tolerance.allocation import Allocation
 from cyclomesh.tolerance.tasks import RingModel
 
@@ -348,6 +349,7 @@ def compute_tolerance(
 
     if study.tolerance is None:
         raise StudyError(f"{study.path.name}: no [tolerance] section (see examples/tolerance.toml)")
+    check_keys(study.raw, "tolerance")
     start = time.perf_counter()
     spec = study.tolerance
     n = _rings(spec, rings)
@@ -462,7 +464,9 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
     ]
     ex = stats["exceedance"][STRESS_METRIC]
     worst = stats["worst_ring"]
-    text = (
+    from cyclomesh.studies.run import description_html
+
+    text = description_html(result.study) + (
         f"<p>{stats['rings']} rings, seed {stats['seed']}. Probability that the peak tooth "
         f"contact stress exceeds {stats['allowable_contact_stress_mpa']:g} MPa: "
         f"<b>{ex['probability']:.4g}</b> ({ex['count']} of {ex['rings']} rings; {conf:.0%} "
@@ -530,6 +534,7 @@ def compute_allocation(
 
     if study.tolerance is None:
         raise StudyError(f"{study.path.name}: no [tolerance] section (see examples/tolerance.toml)")
+    check_keys(study.raw, "allocate")
     start = time.perf_counter()
     spec = study.tolerance
     alloc = spec.allocation
@@ -620,9 +625,11 @@ def allocation_sections(result: AllocationResult) -> list[Section]:
 
     from cyclomesh.studies.run import warning_sections
 
+    from cyclomesh.studies.run import description_html
+
     statement = html.escape(result.allocation.statement())
     return warning_sections(result.record.get("warnings", [])) + [
-        Section("Tolerance allocation", f"<p>{statement}</p>")
+        Section("Tolerance allocation", description_html(result.study) + f"<p>{statement}</p>")
     ]
 
 

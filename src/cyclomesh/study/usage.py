@@ -1,0 +1,240 @@
+"""Which study-file keys each kind of study uses, and the one-line refusal of the others.
+
+Every key of the schema (:class:`~cyclomesh.study.schema.StudyFile`, dotted, tables
+such as ``tolerance.radial_um`` or ``design_space.pin_radius_um`` counted as one key) is,
+for every kind of study (``run``, ``stiffness``, ``tolerance``, ``allocate``, ``design``,
+``fe``), one of:
+
+* **used**: it changes what the study computes, writes or draws (:data:`USED`);
+* **refused**: the kind cannot honour it; a study file that sets it is refused in one
+  line naming the key and why (:data:`REFUSED`, :func:`check_keys`; exit status 2);
+* **another kind's**: it lies in the section of another kind of study (``[stiffness]``,
+  ``[tolerance]``, ``[design_space]``, ``[fe]``, ``[tolerance.allocation]``), which every
+  kind validates (``cyclomesh check``) and leaves to its own command, so one file can
+  hold a run and its tolerance study, and ``best.toml`` of a robust map (which keeps
+  its ``[tolerance]``) reruns with ``cyclomesh run``.
+
+``tests/test_key_usage.py`` checks every kind against every key: a used key changes the
+result, a refused key is refused, nothing else is left over.
+"""
+
+from __future__ import annotations
+
+import types
+import typing
+from collections.abc import Iterator, Mapping
+from typing import Any
+
+from pydantic import BaseModel
+
+from cyclomesh.exceptions import StudyError
+
+__all__ = [
+    "KINDS",
+    "OWN_SECTIONS",
+    "USED",
+    "REFUSED",
+    "schema_keys",
+    "classify",
+    "set_keys",
+    "check_keys",
+]
+
+KINDS = ("run", "stiffness", "tolerance", "allocate", "design", "fe")
+
+OWN_SECTIONS: dict[str, tuple[str, ...]] = {
+    "stiffness": ("stiffness",),
+    "tolerance": ("tolerance",),
+    "allocate": ("tolerance",),
+    "design": ("design_space",),
+    "fe": ("fe",),
+    "run": (),
+}
+"""The sections of a kind of study's own: another kind leaves them alone."""
+
+_PAIR = (
+    "design.pins",
+    "design.pin_circle_radius_mm",
+    "design.pin_radius_mm",
+    "design.groove_radius_mm",
+    "design.eccentricity_mm",
+    "design.width_mm",
+    "modification",
+    "material",
+)
+_OUTPUT = ("title", "description", "figures.enabled", "figures.formats", "figures.dpi")
+_LTCA = (*_PAIR, *_OUTPUT, "design.discs", "load.torque_nm", "errors", "analysis")
+_RUN_FIGURES = ("figures.crank_angles_deg", "figures.stress_pin", "figures.stress_over")
+_RINGS = (
+    "tolerance.seed",
+    "tolerance.crank_start_deg",
+    "tolerance.crank_stop_deg",
+    "tolerance.crank_step_deg",
+    "tolerance.radial_um",
+    "tolerance.angular_urad",
+    "tolerance.pin_radius_um",
+    "tolerance.eccentricity_um",
+    "tolerance.position",
+)
+
+USED: dict[str, tuple[str, ...]] = {
+    "run": (*_LTCA, *_RUN_FIGURES, "cases"),
+    "stiffness": (
+        *_PAIR,
+        *_OUTPUT,
+        "design.discs",
+        "errors",
+        "analysis",
+        "cases",
+        "stiffness",
+    ),
+    "tolerance": (
+        *_LTCA,
+        *_RINGS,
+        "tolerance.rings",
+        "tolerance.allowable_contact_stress_mpa",
+        "tolerance.allocation.confidence",
+    ),
+    "allocate": (*_LTCA, "tolerance"),
+    "design": (*_LTCA, *_RINGS, "design_space"),
+    "fe": (*_PAIR, *_OUTPUT, "load.torque_nm", "analysis.contact_law", "cases", "fe"),
+}
+"""Keys (or whole tables) each kind of study uses."""
+
+_HOLES = (
+    "design.disc: the crank holes are not used by any kind of study yet (the compliant "
+    "disc and the RV stage will use them); remove [design.disc]"
+)
+_BASE_ONLY = (
+    "cases: this kind of study analyses the base description only; remove [[cases]] "
+    "(cyclomesh run runs them)"
+)
+_NO_RUN_FIGURES = "this kind of study draws no load or stress figures; remove the key"
+
+REFUSED: dict[str, dict[str, str]] = {
+    "run": {"design.disc": _HOLES},
+    "stiffness": {
+        "design.disc": _HOLES,
+        "load.torque_nm": "the torsion curve sweeps the torque from -stiffness.rated_torque_nm "
+        "to +stiffness.rated_torque_nm; remove [load] torque_nm",
+        **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
+    },
+    "tolerance": {
+        "design.disc": _HOLES,
+        "cases": _BASE_ONLY,
+        **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
+    },
+    "allocate": {
+        "design.disc": _HOLES,
+        "cases": _BASE_ONLY,
+        **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
+    },
+    "design": {
+        "design.disc": _HOLES,
+        "cases": _BASE_ONLY,
+        **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
+    },
+    "fe": {
+        "design.disc": _HOLES,
+        "design.discs": "the FE model solves one disc; remove [design] discs",
+        "errors": "the FE model takes no pin errors yet; remove [errors] (cyclomesh run "
+        "handles them)",
+        "analysis.crank_start_deg": "cyclomesh fe solves at fe.crank_angles_deg; remove it",
+        "analysis.crank_stop_deg": "cyclomesh fe solves at fe.crank_angles_deg; remove it",
+        "analysis.crank_step_deg": "cyclomesh fe solves at fe.crank_angles_deg; remove it",
+        "analysis.groove_deformation": "the FE model always has the pin-groove contact "
+        "(the improved model); remove it",
+        **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
+    },
+}
+"""Keys each kind of study refuses, with the reason (the fix is in the message)."""
+
+_LEAF_TABLES = ("RangeSection", "Uniform", "Normal", "TruePosition")
+
+
+def _model_of(annotation: Any) -> type[BaseModel] | None:
+    """The section model of a field (through ``X | None``), None for a plain value or a
+    union of models (a tagged distribution: one key)."""
+    args = typing.get_args(annotation)
+    if typing.get_origin(annotation) in (typing.Union, types.UnionType):
+        models = [a for a in args if a is not type(None)]
+        if len(models) != 1:
+            return None
+        annotation = models[0]
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return None if annotation.__name__ in _LEAF_TABLES else annotation
+    return None
+
+
+def schema_keys(model: type[BaseModel] | None = None, prefix: str = "") -> list[str]:
+    """Every key of the study file schema, dotted (a distribution or a range is one key)."""
+    if model is None:
+        from cyclomesh.study.schema import StudyFile
+
+        model = StudyFile
+    out = []
+    for name, field in model.model_fields.items():
+        key = f"{prefix}{name}"
+        sub = _model_of(field.annotation)
+        if sub is None:
+            out.append(key)
+        else:
+            out += schema_keys(sub, key + ".")
+    return out
+
+
+def _matches(key: str, pattern: str) -> bool:
+    return key == pattern or key.startswith(pattern + ".")
+
+
+def classify(kind: str, key: str) -> str:
+    """``"used"``, ``"refused"`` or ``"other"`` (another kind's section) for a key."""
+    if any(_matches(key, p) for p in REFUSED[kind]):
+        return "refused"
+    if any(_matches(key, p) for p in USED[kind]):
+        return "used"
+    for other, sections in OWN_SECTIONS.items():
+        if other != kind and any(_matches(key, s) for s in sections):
+            return "other"
+    if _matches(key, "tolerance.allocation"):  # cyclomesh allocate's subsection
+        return "other"
+    raise KeyError(f"{kind}: key {key} is neither used, refused nor another kind's")
+
+
+def _walk(table: Mapping[str, Any], prefix: str = "") -> Iterator[str]:
+    for name, value in table.items():
+        key = f"{prefix}{name}"
+        if isinstance(value, Mapping) and value:
+            yield key
+            yield from _walk(value, key + ".")
+        else:
+            yield key
+
+
+def set_keys(raw: Mapping[str, Any]) -> list[str]:
+    """The dotted keys a study file sets (its own tables and its cases' keys)."""
+    keys = list(_walk({k: v for k, v in raw.items() if k != "cases"}))
+    cases = raw.get("cases") or []
+    if cases:
+        keys.append("cases")
+    for case in cases:
+        if isinstance(case, Mapping):
+            keys += [k for k in _walk(case) if k not in ("name", "description")]
+    return keys
+
+
+def check_keys(raw: Mapping[str, Any], kind: str) -> None:
+    """Refuse, in one line, the first key of the file that ``kind`` cannot honour.
+
+    Raises
+    ------
+    StudyError
+        ``<key>: <why and the fix>`` (exit status 2 from the CLI).
+    """
+    for key in set_keys(raw):
+        for pattern, why in REFUSED[kind].items():
+            if _matches(key, pattern):
+                text = why if why.startswith(pattern.split(".")[0]) else f"{key}: {why}"
+                if kind != "run":
+                    text = f"cyclomesh {kind}: {text}"
+                raise StudyError(text)
