@@ -418,13 +418,7 @@ NEUTRAL = {
 }
 
 USED_CASES = [c for kind in KINDS for c in _cases(kind, "used")]
-REFNEUTRAL = {
-    # a rotation of the profile turns every tooth alike: it moves the TE, not the loads,
-    # and an allocation reports only the contact stress; the key reaches the ring model
-    ("allocate", "modification.rotation_urad"),
-}
-
-USED_CASES = [c for kind in KINDS for c in _cases(kind, "refused")]
+REFUSED_CASES = [c for kind in KINDS for c in _cases(kind, "refused")]
 
 
 @pytest.fixture(scope="module")
