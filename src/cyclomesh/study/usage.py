@@ -201,26 +201,45 @@ def classify(kind: str, key: str) -> str:
     raise KeyError(f"{kind}: key {key} is neither used, refused nor another kind's")
 
 
-def _walk(table: Mapping[str, Any], prefix: str = "") -> Iterator[str]:
+def _walk(table: Mapping[str, Any], prefix: str = "") -> Iterator[tuple[str, Any]]:
     for name, value in table.items():
         key = f"{prefix}{name}"
-        if isinstance(value, Mapping) and value:
-            yield key
+        if isinstance(value, Mapping):
             yield from _walk(value, key + ".")
         else:
-            yield key
+            yield key, value
+
+
+_UNSET = object()
+
+
+def _default(key: str) -> Any:
+    """The schema default of a dotted key (``_UNSET`` if it has none)."""
+    from cyclomesh.study.schema import StudyFile
+
+    model: Any = StudyFile
+    parts = key.split(".")
+    for i, part in enumerate(parts):
+        fields = getattr(model, "model_fields", None)
+        if not fields or part not in fields:
+            return _UNSET
+        field = fields[part]
+        if i == len(parts) - 1:
+            return _UNSET if field.is_required() else field.default
+        model = _model_of(field.annotation)
+    return _UNSET
 
 
 def set_keys(raw: Mapping[str, Any]) -> list[str]:
-    """The dotted keys a study file sets (its own tables and its cases' keys)."""
-    keys = list(_walk({k: v for k, v in raw.items() if k != "cases"}))
+    """The dotted keys a study file sets to something other than their default (its own
+    tables and its cases' keys; ``cases`` if it has any)."""
+    items = list(_walk({k: v for k, v in raw.items() if k != "cases"}))
     cases = raw.get("cases") or []
-    if cases:
-        keys.append("cases")
     for case in cases:
         if isinstance(case, Mapping):
-            keys += [k for k in _walk(case) if k not in ("name", "description")]
-    return keys
+            items += [(k, v) for k, v in _walk(case) if k not in ("name", "description")]
+    keys = [key for key, value in items if value != _default(key)]
+    return (["cases"] if cases else []) + list(dict.fromkeys(keys))
 
 
 def check_keys(raw: Mapping[str, Any], kind: str) -> None:
