@@ -74,8 +74,15 @@ def test_paper_law_warns_in_summary_cli_and_report(tmp_path):
     for law in ("paper", "half_plane"):
         out = tmp_path / law
         result = runner.invoke(
-            app, ["run", str(study_file(tmp_path, text.format(law))), "--out", str(out),
-                  "--figures", "none"],  # fmt: skip
+            app,
+            [
+                "run",
+                str(study_file(tmp_path, text.format(law))),
+                "--out",
+                str(out),
+                "--figures",
+                "none",
+            ],  # fmt: skip
         )
         assert result.exit_code == 0, result.output
         summary = json.loads((out / "summary.json").read_text())
@@ -174,7 +181,9 @@ def test_lost_motion_constraint():
     assert "max_mesh_force_n" in ds and np.all(ds["max_mesh_force_n"].values > 0)
 
 
-DESIGN_STUDY = PAIR + """
+DESIGN_STUDY = (
+    PAIR
+    + """
 [analysis]
 crank_stop_deg = 9.0
 crank_step_deg = 1.5
@@ -183,19 +192,30 @@ pin_radius_um = {{ start = 6.0, stop = 10.0, points = 3 }}
 allowable_contact_stress_mpa = {allowable}
 max_lost_motion_arcmin = 5.0
 """
+)
 
 
 def test_design_cli_analyses_the_stack(tmp_path):
     runner = CliRunner()
     outs = {}
     for discs, torque in ((1, 125.0), (2, 250.0)):
-        text = DESIGN_STUDY.format(allowable=900.0).replace(
-            "torque_nm = 250.0", f"torque_nm = {torque}"
-        ).replace("width_mm = 12.0", f"width_mm = 12.0\ndiscs = {discs}")
+        text = (
+            DESIGN_STUDY.format(allowable=900.0)
+            .replace("torque_nm = 250.0", f"torque_nm = {torque}")
+            .replace("width_mm = 12.0", f"width_mm = 12.0\ndiscs = {discs}")
+        )
         out = tmp_path / f"d{discs}"
         result = runner.invoke(
-            app, ["design", str(study_file(tmp_path, text, f"d{discs}.toml")), "--out",
-                  str(out), "--figures", "none", "--quiet"],  # fmt: skip
+            app,
+            [
+                "design",
+                str(study_file(tmp_path, text, f"d{discs}.toml")),
+                "--out",
+                str(out),
+                "--figures",
+                "none",
+                "--quiet",
+            ],  # fmt: skip
         )
         assert result.exit_code == 0, result.output
         outs[discs] = json.loads((out / "summary.json").read_text())
@@ -210,7 +230,9 @@ def test_design_cli_analyses_the_stack(tmp_path):
 
 # --- disc stacks in tolerance and allocation studies ------------------------------------
 
-TOLERANCE_STUDY = PAIR + """
+TOLERANCE_STUDY = (
+    PAIR
+    + """
 [design]
 discs = 2
 [tolerance]
@@ -225,12 +247,15 @@ factor_max = 1.5
 factor_steps = 3
 bisections = 2
 """
+)
 
 
 def two_disc_study(tmp_path: Path, radial: float, angular: float) -> Path:
-    text = TOLERANCE_STUDY.format(radial=radial, angular=angular).replace(
-        "[design]\ndiscs = 2\n", ""
-    ).replace("width_mm = 12.0", "width_mm = 12.0\ndiscs = 2")
+    text = (
+        TOLERANCE_STUDY.format(radial=radial, angular=angular)
+        .replace("[design]\ndiscs = 2\n", "")
+        .replace("width_mm = 12.0", "width_mm = 12.0\ndiscs = 2")
+    )
     return study_file(tmp_path, text, f"tol_{radial}.toml")
 
 
@@ -283,7 +308,9 @@ def test_two_disc_allocation_runs_on_the_stack(tmp_path):
 def test_tolerance_crank_angles_fall_back_to_analysis(tmp_path):
     from cyclomesh.studies.tolerance import compute_tolerance, ring_model
 
-    base = PAIR + """
+    base = (
+        PAIR
+        + """
 [analysis]
 crank_step_deg = 10.0
 [tolerance]
@@ -292,6 +319,7 @@ rings = 2
 allowable_contact_stress_mpa = 2000.0
 radial_um = { distribution = "uniform", half_range = 2.0 }
 """
+    )
     study = load_study(study_file(tmp_path, base))
     model = ring_model(study, study.tolerance)
     np.testing.assert_array_equal(model.crank_angles_deg, np.arange(0.0, 360.0, 10.0))
@@ -305,11 +333,15 @@ radial_um = { distribution = "uniform", half_range = 2.0 }
     # a robust design map takes the same angles as the tolerance study
     from cyclomesh.studies.design import compute_design
 
-    text = base + "crank_stop_deg = 90.0\n" + """
+    text = (
+        base
+        + "crank_stop_deg = 90.0\n"
+        + """
 [design_space]
 pin_radius_um = { start = 8.0, stop = 8.0, points = 1 }
 rings = 2
 """
+    )
     result = compute_design(load_study(study_file(tmp_path, text, "d.toml")))
     assert result.map.attrs["crank_angles"] == 9
     assert any("cover 90°" in w for w in result.summary["warnings"])
@@ -319,7 +351,9 @@ def test_crank_range_errors_name_the_key(tmp_path):
     from cyclomesh.exceptions import StudyError
     from cyclomesh.studies.tolerance import ring_model
 
-    text = PAIR + """
+    text = (
+        PAIR
+        + """
 [analysis]
 crank_stop_deg = 30.0
 [tolerance]
@@ -327,6 +361,7 @@ seed = 1
 allowable_contact_stress_mpa = 2000.0
 crank_start_deg = 40.0
 """
+    )
     study = load_study(study_file(tmp_path, text))
     with pytest.raises(StudyError, match="tolerance.crank_stop_deg"):
         ring_model(study, study.tolerance)

@@ -96,6 +96,7 @@ DELETE = object()
 class Replace(dict):
     """A table that replaces the one in the study (a distribution, a range) whole."""
 
+
 RANDOM = {"errors": {"random": {"seed": 1, "radial_um": 3.0, "angular_urad": 20.0}}}
 ROBUST = {"design_space": {"rings": 2}}
 
@@ -402,9 +403,9 @@ def test_every_key_is_used_refused_or_another_kinds(kind):
         what = classify(kind, key)
         if what == "other":
             owners = [k for k, sections in OWN_SECTIONS.items() if k != kind]
-            assert any(
-                key.split(".")[0] in OWN_SECTIONS[k] for k in owners
-            ), f"{kind}: {key} is not in another kind's section"
+            assert any(key.split(".")[0] in OWN_SECTIONS[k] for k in owners), (
+                f"{kind}: {key} is not in another kind's section"
+            )
 
 
 def _cases(kind: str, what: str) -> list[tuple[str, str]]:
@@ -447,9 +448,7 @@ def test_a_used_key_changes_the_study(kind, key, tmp_path, monkeypatch, baseline
     assert fingerprint(kind, changed, monkeypatch) != baselines[cache], f"{kind} ignores {key}"
 
 
-@pytest.mark.parametrize(
-    ("kind", "key"), REFUSED_CASES, ids=[f"{k}-{v}" for k, v in REFUSED_CASES]
-)
+@pytest.mark.parametrize(("kind", "key"), REFUSED_CASES, ids=[f"{k}-{v}" for k, v in REFUSED_CASES])
 def test_a_refused_key_is_refused_in_one_line(kind, key, tmp_path, monkeypatch):
     context = CONTEXT.get((kind, key)) or CONTEXT.get((None, key)) or {}
     base = merge(BASE[kind], context) if kind != "fe" else BASE[kind]
@@ -465,8 +464,13 @@ def test_a_refused_key_is_refused_in_one_line(kind, key, tmp_path, monkeypatch):
 
 @pytest.mark.parametrize(
     ("command", "key"),
-    [("run", "design.disc"), ("stiffness", "load.torque_nm"), ("tolerance", "cases"),
-     ("allocate", "figures.stress_pin"), ("design", "cases")],  # fmt: skip
+    [
+        ("run", "design.disc"),
+        ("stiffness", "load.torque_nm"),
+        ("tolerance", "cases"),
+        ("allocate", "figures.stress_pin"),
+        ("design", "cases"),
+    ],  # fmt: skip
 )
 def test_the_cli_refuses_with_exit_status_2(command, key, tmp_path):
     from typer.testing import CliRunner

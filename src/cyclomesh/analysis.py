@@ -408,9 +408,8 @@ def drive_metrics(result: Drive, teeth: int) -> dict[str, NDArray]:
         return value.reshape(*value.shape[:-2], discs * pins)
 
     out = summary_metrics(
-        transmission_error=result.transmission_error[..., 0, :] * _PER_ANGLE[
-            "transmission_error"
-        ][0],
+        transmission_error=result.transmission_error[..., 0, :]
+        * _PER_ANGLE["transmission_error"][0],
         gear_ratio=result.gear_ratio[..., 0, :],
         contacts=result.contacts[..., 0, :, :].reshape(*result.contacts.shape[:-3], -1),
         **{

@@ -128,7 +128,6 @@ def compute_design(
         Called with the number of candidates finished.
     """
     from cyclomesh.designmap import design_map
-
     from cyclomesh.study.usage import check_keys
 
     start = time.perf_counter()
@@ -140,9 +139,7 @@ def compute_design(
 
     base = study.base.to_core()
     if np.ndim(base.torque):
-        raise StudyError(
-            "load.torque_nm: a design map takes one torque (of the stack), not a list"
-        )
+        raise StudyError("load.torque_nm: a design map takes one torque (of the stack), not a list")
     errors = base.errors
     angles = study.base.analysis.crank_angles_deg()
     if space.rings:

@@ -486,7 +486,11 @@ def run_sections(run: RunResult) -> list[Section]:
         ["case", *header],
         [[n, *(_cell(run.summaries[n].get(c)) for c in columns)] for n in names],
     )
-    sections = [Section("Study", intro), Section("Inputs", inputs_html), Section("Summary", summary)]
+    sections = [
+        Section("Study", intro),
+        Section("Inputs", inputs_html),
+        Section("Summary", summary),
+    ]
     return warning_sections(run.study_warnings()) + sections
 
 

@@ -622,10 +622,7 @@ def allocation_figures(result: AllocationResult) -> list[FigureJob]:
 def allocation_sections(result: AllocationResult) -> list[Section]:
     """Report section of a tolerance allocation."""
     from cyclomesh.report import Section
-
-    from cyclomesh.studies.run import warning_sections
-
-    from cyclomesh.studies.run import description_html
+    from cyclomesh.studies.run import description_html, warning_sections
 
     statement = html.escape(result.allocation.statement())
     return warning_sections(result.record.get("warnings", [])) + [

@@ -349,7 +349,7 @@ class AnalysisSection(_Section):
         description=(
             "tooth term of the contact law: the approach of a half-plane to the disc centre "
             "(Johnson eq. 5.41, default: finite at inflection points, converged in the crank "
-            "step), or Eq. 20 of [1] as published (\"paper\", to reproduce the paper)"
+            'step), or Eq. 20 of [1] as published ("paper", to reproduce the paper)'
         ),
     )
 
