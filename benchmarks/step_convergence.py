@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 from cyclomesh import TABLE1, Modification, solve_ltca
-from cyclomesh.metrics import summary_metrics
+from cyclomesh.results.metrics import summary_metrics
 
 ARCSEC = np.pi / 648000.0
 STEPS = (1.0, 0.1, 0.01, 0.005, 0.002)

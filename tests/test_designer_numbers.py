@@ -13,11 +13,12 @@ from typer.testing import CliRunner
 
 from cyclomesh import TABLE1, Modification, PinErrors
 from cyclomesh.cli import app
-from cyclomesh.designmap import ARCMIN, Constraints, design_map
-from cyclomesh.drive import solve_drive
-from cyclomesh.ltca import CONTACT_LOAD_FRACTION, solve_ltca
-from cyclomesh.metrics import summary_metrics
-from cyclomesh.study.schema import load_study
+from cyclomesh.core.ltca import CONTACT_LOAD_FRACTION, solve_ltca
+from cyclomesh.designspace.sweep import Constraints, design_map
+from cyclomesh.drive.solve import solve_drive
+from cyclomesh.results.metrics import summary_metrics
+from cyclomesh.studyfile.schema import load_study
+from cyclomesh.units import RAD_PER_ARCMIN as ARCMIN
 
 TPM = Modification(pin_radius=8e-6)
 ARCSEC = np.pi / 648000
@@ -331,7 +332,7 @@ radial_um = { distribution = "uniform", half_range = 2.0 }
     warnings = compute_tolerance(over).summary["warnings"]
     assert any("cover 90°" in w for w in warnings)
     # a robust design map takes the same angles as the tolerance study
-    from cyclomesh.studies.design import compute_design
+    from cyclomesh.studies.designmap import compute_design
 
     text = (
         base

@@ -1,7 +1,7 @@
 """Every kind of study × every schema key: used or refused, never ignored.
 
 For each kind of study (run, stiffness, tolerance, allocate, design, fe) and each key of
-the study-file schema, :mod:`cyclomesh.study.usage` says whether the kind uses it,
+the study-file schema, :mod:`cyclomesh.studyfile.usage` says whether the kind uses it,
 refuses it, or leaves it to another kind (a key in another kind's own section). Here:
 
 * every schema key has a test value in :data:`CHANGE` (a new key fails until it does);
@@ -31,8 +31,8 @@ import pytest
 import xarray as xr
 
 from cyclomesh.exceptions import StudyError
-from cyclomesh.study.schema import load_study
-from cyclomesh.study.usage import KINDS, OWN_SECTIONS, classify, schema_keys
+from cyclomesh.studyfile.schema import load_study
+from cyclomesh.studyfile.usage import KINDS, OWN_SECTIONS, classify, schema_keys
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -313,7 +313,7 @@ def job_data(jobs: list[Any]) -> list[Any]:
 
 
 def fingerprint(kind: str, path: Path, monkeypatch: pytest.MonkeyPatch) -> str:
-    from cyclomesh.pipeline import OutputOptions
+    from cyclomesh.publish.pipeline import OutputOptions
 
     study = load_study(path)
     options = OutputOptions.from_study(study)
@@ -362,7 +362,7 @@ def fingerprint(kind: str, path: Path, monkeypatch: pytest.MonkeyPatch) -> str:
 def fake_fe(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
     """Replace the FE solver by a recorder of its arguments returning the LTCA's loads."""
     import cyclomesh.fe.disc as disc
-    from cyclomesh.ltca import solve_ltca
+    from cyclomesh.core.ltca import solve_ltca
 
     calls: list[Any] = []
 

@@ -143,7 +143,7 @@ def _say(message: str, quiet: bool) -> None:
 
 def _version(value: bool) -> None:
     if value:
-        from cyclomesh.report import cyclomesh_version
+        from cyclomesh.publish.report import cyclomesh_version
 
         typer.echo(f"cyclomesh {cyclomesh_version()}")
         raise typer.Exit()
@@ -157,6 +157,9 @@ def main(
     ] = False,
 ) -> None:
     """Loaded tooth contact analysis of cycloid-pin gear pairs (Li et al., Machines 2022)."""
+    from cyclomesh.execution.runtime import tune_allocator
+
+    tune_allocator()
 
 
 @contextmanager
@@ -279,8 +282,8 @@ ChunkOption = Annotated[
 
 
 def output_options(study: Any, figures: str | None, csv: bool = False) -> Any:
-    """The pipeline's :class:`~cyclomesh.pipeline.OutputOptions` from the CLI options."""
-    from cyclomesh.pipeline import OutputOptions
+    """The pipeline's :class:`~cyclomesh.publish.pipeline.OutputOptions` from the CLI options."""
+    from cyclomesh.publish.pipeline import OutputOptions
 
     return OutputOptions.from_study(study, figures, csv)
 
@@ -289,7 +292,7 @@ def output_options(study: Any, figures: str | None, csv: bool = False) -> Any:
 @cli_errors()
 def check(study: StudyArg, crank_step_deg: StepOption = None) -> None:
     """Validate a study file (every section) without running it."""
-    from cyclomesh.study import load_study
+    from cyclomesh.studyfile import load_study
 
     loaded = load_study(study, _overrides(crank_step_deg))
     names = ", ".join(case.name for case in loaded.cases)
@@ -315,9 +318,9 @@ def run(
     csv: CsvOption = False,
 ) -> None:
     """Run every case of a study; write results, figures, summary.json and report.html."""
-    from cyclomesh.pipeline import publish, study_stamp
+    from cyclomesh.publish.pipeline import publish, study_stamp
     from cyclomesh.studies import run as kind
-    from cyclomesh.study import load_study
+    from cyclomesh.studyfile import load_study
 
     loaded = load_study(study, _overrides(crank_step_deg))
     options = output_options(loaded, figures, csv)
@@ -371,7 +374,7 @@ def _print_summary(summaries: dict, out: Path, warnings: list[str] = ()) -> None
     from rich.markup import escape
     from rich.table import Table
 
-    from cyclomesh.metrics import METRICS
+    from cyclomesh.results.metrics import METRICS
 
     labels = [
         METRICS[k].label + ("" if METRICS[k].unit == "1" else f" [{METRICS[k].unit}]")
@@ -414,9 +417,9 @@ def stiffness(
     Writes <case>/stiffness.nc, summary.json, the figures and report.html. The numbers
     are those of the cycloid-pin mesh alone (see docs/drive.md).
     """
-    from cyclomesh.pipeline import publish, study_stamp
+    from cyclomesh.publish.pipeline import publish, study_stamp
     from cyclomesh.studies import stiffness as kind
-    from cyclomesh.study import load_study
+    from cyclomesh.studyfile import load_study
 
     loaded = load_study(study, _overrides(crank_step_deg))
     kind.check_stiffness(loaded)
@@ -455,7 +458,7 @@ def _print_stiffness(summaries: dict, out: Path) -> None:
     from rich.markup import escape
     from rich.table import Table
 
-    from cyclomesh.metrics import STIFFNESS_METRICS
+    from cyclomesh.results.metrics import STIFFNESS_METRICS
 
     metrics = [STIFFNESS_METRICS[k] for k in _STIFFNESS_COLUMNS]
     table = Table("case", *(escape(f"{m.label} [{m.unit}]") for m in metrics))
@@ -500,9 +503,9 @@ def _preload(figures: bool) -> Any:
 
         xr.DataArray(np.zeros(1))  # the first array sets up xarray's array backends
         if figures:
-            from cyclomesh.figures.render import _warm
+            from cyclomesh.figures.render import warm_up
 
-            _warm(draw=True)  # the figure workers forked later inherit it
+            warm_up(draw=True)  # the figure workers forked later inherit it
         import gc
 
         gc.freeze()  # nor do their collections scan what they inherit
@@ -518,7 +521,7 @@ def _workers(
 ) -> Iterator[Any]:
     """The execution backend (local processes or Dask; None unless ``parallel``), started,
     with the import preload thread; closed on exit, the preload joined after success."""
-    from cyclomesh.execution import make_backend
+    from cyclomesh.execution.backends import make_backend
 
     backend = make_backend(scheduler, workers) if parallel else None
     try:
@@ -682,8 +685,8 @@ def design(
     A nominal map runs in this process unless --workers or --scheduler is given; a
     robust map (design_space.rings > 0) runs on all local cores by default.
     """
-    from cyclomesh.pipeline import publish
-    from cyclomesh.studies import design as kind
+    from cyclomesh.publish.pipeline import publish
+    from cyclomesh.studies import designmap as kind
 
     loaded, space = kind.load_design_study(study)
     options = output_options(loaded, figures)
@@ -756,9 +759,9 @@ def fe(
         raise StudyError(
             f"cyclomesh fe needs the fe extra: pip install -e '.[fe]' ({exc})".replace("\n", " ")
         ) from None
-    from cyclomesh.pipeline import publish, study_stamp
+    from cyclomesh.publish.pipeline import publish, study_stamp
     from cyclomesh.studies import fe as kind
-    from cyclomesh.study import load_study
+    from cyclomesh.studyfile import load_study
 
     angles = None
     if crank_angles:
@@ -794,7 +797,7 @@ def _print_fe(summaries: dict, out: Path) -> None:
     from rich.markup import escape
     from rich.table import Table
 
-    from cyclomesh.metrics import FE_METRICS
+    from cyclomesh.results.metrics import FE_METRICS
 
     table = Table("metric", "unit", *(escape(name) for name in summaries))
     for key, m in FE_METRICS.items():

@@ -15,7 +15,7 @@ import numpy as np
 import xarray as xr
 
 from cyclomesh.figures.render import new_figure
-from cyclomesh.metrics import METRICS, STRESS_METRIC, metric_label
+from cyclomesh.results.metrics import METRICS, STRESS_METRIC, metric_label
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -108,7 +108,7 @@ def plot_stress_exceedance(
     The band is the pointwise Clopper–Pearson interval; log scale, probabilities below
     half a ring (0.5/n, including 0) drawn at that floor.
     """
-    from cyclomesh.tolerance.allocation import clopper_pearson
+    from cyclomesh.tolerance.statistics import clopper_pearson
 
     stress = np.sort(np.asarray(ds[STRESS_METRIC].values, dtype=float))
     n = stress.size

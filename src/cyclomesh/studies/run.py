@@ -9,7 +9,7 @@ Stages (see ``docs/pipeline.md``):
    ``csv=True``, ``<case>/results.csv`` (pin-level, long format); ``summary.json``.
 3. :func:`run_figures`: the figure jobs; :func:`run_sections`: the report sections.
 
-:func:`run_study` chains them with :func:`cyclomesh.pipeline.publish`.
+:func:`run_study` chains them with :func:`cyclomesh.publish.pipeline.publish`.
 """
 
 from __future__ import annotations
@@ -22,23 +22,22 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from cyclomesh.design import Modification, PairDesign
-from cyclomesh.metrics import DRIVE_METRICS, METRICS
-from cyclomesh.pipeline import case_attrs, study_stamp, summary_document
-from cyclomesh.study.schema import CaseInputs, CaseSpec, Study, folder_name
+from cyclomesh.core.pair import Modification
+from cyclomesh.publish.pipeline import case_attrs, study_stamp, summary_document
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
+from cyclomesh.results.profile import profile_curves
+from cyclomesh.studyfile.schema import CaseInputs, CaseSpec, Study, folder_name
 
 if TYPE_CHECKING:
     import xarray as xr
 
     from cyclomesh.figures.render import FigureJob
-    from cyclomesh.pipeline import OutputOptions
-    from cyclomesh.report import Section
+    from cyclomesh.publish.pipeline import OutputOptions
+    from cyclomesh.publish.report import Section
 
 __all__ = [
     "RunResult",
-    "ProfileCurves",
     "compute_run",
-    "profile_curves",
     "annotate",
     "summary_record",
     "write_case",
@@ -53,64 +52,6 @@ __all__ = [
 Hook = Callable[[str], None]
 
 
-@dataclass(frozen=True)
-class ProfileCurves:
-    """One tooth space of the disc, standard and modified (Eqs. 1–3 of [1]), for a figure.
-
-    Attributes
-    ----------
-    phi1_deg : ndarray
-        Generating angle φ1 within the tooth [deg] (0 = tooth-space bottom).
-    standard_x_mm, standard_y_mm : ndarray
-        The standard profile [mm].
-    modified : dict
-        Label → (x [mm], y [mm], modification normal to the standard profile [µm],
-        positive = material removed).
-    seat_mm, pin_radius_mm : float
-        Centre (on x) and radius of the pin seated at the tooth-space bottom [mm].
-    """
-
-    phi1_deg: np.ndarray
-    standard_x_mm: np.ndarray
-    standard_y_mm: np.ndarray
-    modified: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
-    seat_mm: float
-    pin_radius_mm: float
-
-
-def profile_curves(
-    design: PairDesign, modifications: dict[str, Modification], samples: int = 2001
-) -> ProfileCurves:
-    """The standard and modified profiles of one tooth space and the modification:
-    the offset of each modified point from the standard point of the same generating
-    angle, projected on the standard profile's outward normal (Eqs. 1–3 of [1]).
-
-    Exact for the equidistant modification Δρ (a pure normal offset) and at the
-    tooth-space bottom; elsewhere the error is of second order in the tangential offset
-    (µm² over a curvature radius of millimetres: below 0.02 µm here).
-    """
-    from cyclomesh.profile import modified_profile
-
-    phi1 = np.linspace(-np.pi, np.pi, samples)
-    x0, y0 = modified_profile(design, Modification(), phi1)
-    tx, ty = np.gradient(x0, phi1), np.gradient(y0, phi1)
-    length = np.hypot(tx, ty)
-    nx, ny = ty / length, -tx / length  # outward: towards the pins
-    modified = {}
-    for name, modification in modifications.items():
-        x, y = modified_profile(design, modification, phi1)
-        removed = (x0 - x) * nx + (y0 - y) * ny
-        modified[name] = (x * 1e3, y * 1e3, removed * 1e6)
-    return ProfileCurves(
-        phi1_deg=np.rad2deg(phi1),
-        standard_x_mm=x0 * 1e3,
-        standard_y_mm=y0 * 1e3,
-        modified=modified,
-        seat_mm=(design.pin_circle_radius - design.eccentricity) * 1e3,
-        pin_radius_mm=design.pin_radius * 1e3,
-    )
-
-
 @dataclass
 class RunResult:
     """The computed results of a run study, in memory."""
@@ -119,13 +60,13 @@ class RunResult:
     results: dict[str, xr.Dataset] = field(default_factory=dict)
     """Case name → annotated Dataset of :func:`cyclomesh.analyse`."""
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
-    """Case name → metrics of :data:`cyclomesh.metrics.METRICS` (plain JSON numbers)."""
+    """Case name → metrics of :data:`cyclomesh.results.metrics.METRICS` (plain JSON numbers)."""
     warnings: dict[str, list[str]] = field(default_factory=dict)
-    """Case name → warnings (:mod:`cyclomesh.study.warnings`)."""
+    """Case name → warnings (:mod:`cyclomesh.studyfile.warnings`)."""
 
     def study_warnings(self) -> list[str]:
         """The warnings of the study, each once (prefixed by the case where not all)."""
-        from cyclomesh.study.warnings import merge_warnings
+        from cyclomesh.studyfile.warnings import merge_warnings
 
         return merge_warnings(self.warnings)
 
@@ -153,7 +94,7 @@ def summary_record(summary: xr.Dataset) -> dict[str, Any]:
     A summary with a ``torque`` dimension (a list of torques) gives ``torque_nm`` and,
     for every metric that depends on the torque, a list with one value per torque.
     """
-    from cyclomesh.output import jsonable
+    from cyclomesh.output.writers import jsonable
 
     record: dict[str, Any] = {}
     if "torque" in summary.dims:
@@ -182,9 +123,9 @@ def compute_run(
 
     ``on_start(name)`` and ``on_done(name)`` are called around each case (progress).
     """
-    from cyclomesh.analysis import analyse, summarize
-    from cyclomesh.study.usage import check_keys
-    from cyclomesh.study.warnings import has_pin_errors, study_warnings
+    from cyclomesh.results.dataset import analyse, summarize
+    from cyclomesh.studyfile.usage import check_keys
+    from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
 
     check_keys(study.raw, "run")
     run = RunResult(study=study)
@@ -214,8 +155,8 @@ def case_folder(name: str) -> str:
 
 def write_case(ds: xr.Dataset, folder: Path, csv: bool = False) -> dict[str, Path]:
     """Write one case: ``results.nc``, ``results.parquet``, ``angles.csv`` and, with
-    ``csv``, ``results.csv`` (see :mod:`cyclomesh.output`)."""
-    from cyclomesh import output
+    ``csv``, ``results.csv`` (see :mod:`cyclomesh.output.writers`)."""
+    from cyclomesh.output import writers as output
 
     folder.mkdir(parents=True, exist_ok=True)
     files = {
@@ -230,7 +171,7 @@ def write_case(ds: xr.Dataset, folder: Path, csv: bool = False) -> dict[str, Pat
 
 def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
     """Write every case's result files and ``summary.json`` into ``out``."""
-    from cyclomesh.output import write_json
+    from cyclomesh.output.writers import write_json
 
     study = run.study
     out.mkdir(parents=True, exist_ok=True)
@@ -448,7 +389,7 @@ def _cell(value: Any) -> Any:
 
 def run_sections(run: RunResult) -> list[Section]:
     """Report sections of a run study: study, inputs, summary (figures come after)."""
-    from cyclomesh.report import Section, table_html
+    from cyclomesh.publish.report import Section, table_html
 
     study = run.study
     names = [case.name for case in study.cases]
@@ -501,7 +442,7 @@ def description_html(study: Study) -> str:
 
 def warning_sections(warnings: list[str]) -> list[Section]:
     """A "Warnings" report section listing ``warnings`` (none if there are none)."""
-    from cyclomesh.report import Section
+    from cyclomesh.publish.report import Section
 
     if not warnings:
         return []
@@ -512,7 +453,7 @@ def warning_sections(warnings: list[str]) -> list[Section]:
 def run_study(study: Study, out: str | Path, options: OutputOptions | None = None) -> list[Path]:
     """Compute every case of ``study``, then write its files, figures and report into
     ``out``. Returns the paths written. Nothing is written if a case fails."""
-    from cyclomesh.pipeline import OutputOptions, publish
+    from cyclomesh.publish.pipeline import OutputOptions, publish
 
     options = options or OutputOptions.from_study(study)
     run = compute_run(study)

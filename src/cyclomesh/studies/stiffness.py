@@ -1,17 +1,17 @@
 """Stiffness studies: the torsion curve of every case of a study file (``cyclomesh stiffness``).
 
-For each case, the ``[stiffness]`` section (:class:`~cyclomesh.study.schema.StiffnessSection`,
+For each case, the ``[stiffness]`` section (:class:`~cyclomesh.studyfile.schema.StiffnessSection`,
 per case: cases may override it) gives ``rated_torque_nm`` (required), ``points``
 (default 41) and ``series_stiffness_nm_per_arcmin`` (optional); the crank angles come
 from ``[analysis]``. Stages (see ``docs/pipeline.md``):
 
 1. :func:`check_stiffness`: every case has a ``[stiffness]`` section;
 2. :func:`compute_stiffness`: the torsion curve of every case
-   (:func:`cyclomesh.torsion.stiffness`) and its headline numbers
-   (:data:`cyclomesh.metrics.STIFFNESS_METRICS`); nothing is written;
+   (:func:`cyclomesh.results.torsion.stiffness`) and its headline numbers
+   (:data:`cyclomesh.results.metrics.STIFFNESS_METRICS`); nothing is written;
 3. :func:`write_stiffness`: ``<case>/stiffness.nc`` and ``summary.json``;
 4. :func:`stiffness_figures`, :func:`stiffness_sections`: figure jobs and report sections
-   for :func:`cyclomesh.pipeline.publish`.
+   for :func:`cyclomesh.publish.pipeline.publish`.
 
 The numbers are those of the cycloid-pin mesh alone; the whole-drive curve (with the
 series stiffness) is reported beside it, never instead of it. See ``docs/drive.md``.
@@ -27,15 +27,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from cyclomesh.exceptions import StudyError
-from cyclomesh.metrics import STIFFNESS_METRICS
-from cyclomesh.pipeline import case_attrs, summary_document
-from cyclomesh.study.schema import CaseSpec, StiffnessSection, Study, folder_name
+from cyclomesh.publish.pipeline import case_attrs, summary_document
+from cyclomesh.results.metrics import STIFFNESS_METRICS
+from cyclomesh.studyfile.schema import CaseSpec, StiffnessSection, Study, folder_name
 
 if TYPE_CHECKING:
     import xarray as xr
 
     from cyclomesh.figures.render import FigureJob
-    from cyclomesh.report import Section
+    from cyclomesh.publish.report import Section
 
 __all__ = [
     "CAVEAT",
@@ -68,16 +68,16 @@ class StiffnessResult:
 
     study: Study
     curves: dict[str, xr.Dataset] = field(default_factory=dict)
-    """Case name → Dataset of :func:`cyclomesh.torsion.stiffness`, with the case inputs."""
+    """Case name → Dataset of :func:`cyclomesh.results.torsion.stiffness`, with the case inputs."""
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → rated torque, discs and :data:`STIFFNESS_METRICS` (JSON numbers)."""
     seconds: float = 0.0
     warnings: dict[str, list[str]] = field(default_factory=dict)
-    """Case name → warnings (:mod:`cyclomesh.study.warnings`)."""
+    """Case name → warnings (:mod:`cyclomesh.studyfile.warnings`)."""
 
     def study_warnings(self) -> list[str]:
         """The warnings of the study, each once (prefixed by the case where not all)."""
-        from cyclomesh.study.warnings import merge_warnings
+        from cyclomesh.studyfile.warnings import merge_warnings
 
         return merge_warnings(self.warnings)
 
@@ -105,10 +105,10 @@ def compute_stiffness(
     ``progress(1)`` is called after each case. One case is one vectorised core call per
     torque (0.4 s for 42 torques × 360 crank angles × 40 pins), so the cases run here.
     """
-    from cyclomesh.output import jsonable
-    from cyclomesh.study.usage import check_keys
-    from cyclomesh.study.warnings import has_pin_errors, study_warnings
-    from cyclomesh.torsion import stiffness, summarize_stiffness
+    from cyclomesh.output.writers import jsonable
+    from cyclomesh.results.torsion import stiffness, summarize_stiffness
+    from cyclomesh.studyfile.usage import check_keys
+    from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
 
     check_stiffness(study)
     check_keys(study.raw, "stiffness")
@@ -154,7 +154,7 @@ def compute_stiffness(
 
 def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
     """Write ``<case>/stiffness.nc`` of every case and ``summary.json`` into ``out``."""
-    from cyclomesh.output import write_json, write_netcdf
+    from cyclomesh.output.writers import write_json, write_netcdf
 
     study = result.study
     out = Path(out)
@@ -201,7 +201,7 @@ def _curves(result: StiffnessResult, names: tuple[str, ...]) -> dict[str, xr.Dat
 
 
 def stiffness_figures(result: StiffnessResult) -> list[FigureJob]:
-    """The figures of a stiffness study as jobs for :func:`cyclomesh.pipeline.publish`."""
+    """The figures of a stiffness study as jobs for :func:`cyclomesh.publish.pipeline.publish`."""
     from cyclomesh.figures import drive as plots
     from cyclomesh.figures.render import FigureJob
 
@@ -258,7 +258,7 @@ def stiffness_figures(result: StiffnessResult) -> list[FigureJob]:
 
 def stiffness_sections(result: StiffnessResult) -> list[Section]:
     """Report sections of a stiffness study: study and scope, summary (figures follow)."""
-    from cyclomesh.report import Section, table_html
+    from cyclomesh.publish.report import Section, table_html
 
     study = result.study
     intro = f"<p>{html.escape(study.description)}</p>" if study.description else ""

@@ -3,7 +3,7 @@
 A :class:`RingModel` holds what is fixed across rings (the study's base case as core
 objects, the crank angles, the sampling spec); :class:`ToleranceTask` and
 :class:`AllocationTask` are picklable callables ``(start, stop) -> {name: array}`` for
-:func:`cyclomesh.execution.run_chunks`. They import the core and NumPy only (no
+:func:`cyclomesh.execution.backends.run_chunks`. They import the core and NumPy only (no
 xarray), so worker processes start quickly.
 
 The sampled errors are added to the base case's own per-pin errors (``[errors]`` of
@@ -16,11 +16,11 @@ contributions in a fixed order). A chunk is solved in batches of about
 :data:`BLOCK_PIN_STEPS` pin-steps (:func:`block_rings`: 16 rings at 1°, 160 at 10°)
 only to bound the memory of one core call, so ring k's metrics depend on (seed, k)
 alone. The metrics come straight from the core's arrays
-(:func:`cyclomesh.analysis.drive_metrics`), without building a Dataset per batch.
+(:func:`cyclomesh.results.dataset.drive_metrics`), without building a Dataset per batch.
 
 Stacks: each ring is drawn once for the pin ring and the whole stack of discs is analysed
-on it (:func:`cyclomesh.drive.solve_drive`; one disc is bit for bit
-:func:`cyclomesh.ltca.solve_ltca`), so the pin errors change the split of the torque
+on it (:func:`cyclomesh.drive.solve.solve_drive`; one disc is bit for bit
+:func:`cyclomesh.core.ltca.solve_ltca`), so the pin errors change the split of the torque
 between the discs (``torque_share_min_nm``, ``torque_share_max_nm``) and the mesh force
 of each disc (``max_mesh_force_n``).
 """
@@ -33,12 +33,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.analysis import drive_metrics
-from cyclomesh.design import Modification, PairDesign, PinErrors
-from cyclomesh.drive import solve_drive
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.drive.solve import solve_drive
 from cyclomesh.exceptions import CyclomeshError
-from cyclomesh.metrics import STRESS_METRIC
-from cyclomesh.study.schema import ToleranceSection, pin_errors_si
+from cyclomesh.results.dataset import drive_metrics
+from cyclomesh.results.metrics import STRESS_METRIC
+from cyclomesh.studyfile.schema import ToleranceSection, pin_errors_si
 from cyclomesh.tolerance.sampling import RingErrors, draw_ring_errors
 
 __all__ = [
@@ -82,9 +82,9 @@ class RingModel:
     spec : ToleranceSection
         Distributions and seed.
     contact_law : {"paper", "half_plane"}
-        Tooth term of the contact law (:func:`cyclomesh.ltca.solve_ltca`).
+        Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
     discs : int
-        Identical discs on the pin ring (:func:`cyclomesh.drive.solve_drive`).
+        Identical discs on the pin ring (:func:`cyclomesh.drive.solve.solve_drive`).
     crank_range : (start, stop, step) [deg], optional
         Where ``crank_angles_deg`` came from (written into a ring's study file).
     """

@@ -1,8 +1,8 @@
 """The last stages every kind of study shares: figures and the report.
 
-A kind of study computes its results, writes its result files (:mod:`cyclomesh.output`),
+A kind of study computes its results, writes its result files (:mod:`cyclomesh.output.writers`),
 describes its figures as :class:`~cyclomesh.figures.render.FigureJob` items and its
-report as :class:`~cyclomesh.report.Section` items; :func:`publish` then renders the
+report as :class:`~cyclomesh.publish.report.Section` items; :func:`publish` then renders the
 figures in the requested formats (a process pool when it pays), puts each figure into
 the section its job names, lists the files and writes ``report.html``. The stages are
 separate functions so that the CLI can show progress and the benchmark can time each
@@ -20,8 +20,8 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from cyclomesh.figures.render import FigureJob, FigurePool, RenderedFigure
-    from cyclomesh.report import Section
-    from cyclomesh.study.schema import Study
+    from cyclomesh.publish.report import Section
+    from cyclomesh.studyfile.schema import Study
 
 __all__ = ["OutputOptions", "Published", "parse_figure_formats", "publish", "attach_figures"]
 
@@ -99,7 +99,7 @@ class Published:
 def attach_figures(sections: Sequence[Section], figures: Sequence[RenderedFigure]) -> list[Section]:
     """Put every figure into the section whose heading its job named (a new section at
     the end, in job order, if none has it)."""
-    from cyclomesh.report import Section
+    from cyclomesh.publish.report import Section
 
     out = [Section(s.heading, s.html, list(s.figures)) for s in sections]
     by_heading = {s.heading: s for s in out}
@@ -150,7 +150,7 @@ def publish(
         :class:`~cyclomesh.figures.render.FigurePool`).
     """
     from cyclomesh.figures.render import render_figures
-    from cyclomesh.report import Section, write_report
+    from cyclomesh.publish.report import Section, write_report
 
     seconds = {}
     start = time.perf_counter()
@@ -198,7 +198,7 @@ def summary_document(
     """The ``summary.json`` of a kind of study: the study's stamp (title, file, SHA-256,
     cyclomesh version), ``extra`` keys, the ``units`` of the metrics and one record per
     case."""
-    from cyclomesh.report import cyclomesh_version
+    from cyclomesh.publish.report import cyclomesh_version
 
     return {
         "title": study.title,

@@ -5,11 +5,11 @@ removed along the outward profile normal (positive = relief), as a function of t
 generating angle φ1 of Eq. 1 in [1] within a tooth space (φ1 = 0 the tooth-space bottom,
 ±π the tips on either side; the flank loaded by cyclomesh's torque convention is
 φ1 ∈ [−π, 0], the other one [0, π]). It adds to the modifications Δa, Δρ, δ of
-:class:`~cyclomesh.design.Modification`: the disc profile becomes
+:class:`~cyclomesh.core.pair.Modification`: the disc profile becomes
 
     X(φ1) = P − (ρ' + d(φ1))·n
 
-with P the pin-centre locus and n its outward normal (see :mod:`cyclomesh.profile`).
+with P the pin-centre locus and n its outward normal (see :mod:`cyclomesh.core.profile`).
 
 Tables
 ------

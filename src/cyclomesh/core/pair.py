@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from cyclomesh.exceptions import DesignError
 
 if TYPE_CHECKING:
-    from cyclomesh.modification import ProfileDeviation
+    from cyclomesh.core.deviation import ProfileDeviation
 
 __all__ = [
     "Material",
@@ -250,7 +250,7 @@ class Modification:
         Positive opens clearance.
     profile : ProfileDeviation, optional
         Tabulated normal deviation d(φ1) of the profile (measured or designed), added to
-        Δa, Δρ and δ (see :mod:`cyclomesh.modification`).
+        Δa, Δρ and δ (see :mod:`cyclomesh.core.deviation`).
     """
 
     pin_circle_radius: float = 0.0
@@ -264,7 +264,7 @@ class Modification:
             if not math.isfinite(value):
                 raise DesignError(f"modification {name} must be finite, got {value!r}")
         if self.profile is not None:
-            from cyclomesh.modification import ProfileDeviation  # SciPy only when used
+            from cyclomesh.core.deviation import ProfileDeviation  # SciPy only when used
 
             if not isinstance(self.profile, ProfileDeviation):
                 raise DesignError("modification profile must be a ProfileDeviation or None")

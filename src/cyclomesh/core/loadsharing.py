@@ -3,7 +3,7 @@
 Under the torque T the disc turns by Δφc beyond its rest position. Pin i, with unloaded
 backlash φbl,i and moment arm l_i, deforms by δi = l_i·(Δφc − φbl,i) when Δφc > φbl,i
 (Eqs. 15, 17) and carries Fi = F(δi) from the nonlinear Hertzian law of
-:mod:`cyclomesh.hertz`. Equilibrium (Eqs. 16, 18) is the scalar equation
+:mod:`cyclomesh.core.hertz`. Equilibrium (Eqs. 16, 18) is the scalar equation
 
     M(Δφc) = Σ l_i·F_i(l_i·(Δφc − φbl,i)⁺) − T = 0.
 
@@ -22,8 +22,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.core.hertz import force_from_approach
 from cyclomesh.exceptions import ConvergenceError
-from cyclomesh.hertz import force_from_approach
 
 __all__ = ["share_load", "TORQUE_TOLERANCE"]
 
@@ -65,7 +65,7 @@ def share_load(
         l_i ≥ 0 [m], same shape.
     alpha, gamma : array_like
         Compliance coefficients of δ = F(α − γ ln F) [m/N], same shape
-        (:func:`cyclomesh.hertz.compliance_coefficients`; γ = 0 for a linear spring).
+        (:func:`cyclomesh.core.hertz.compliance_coefficients`; γ = 0 for a linear spring).
     torque : float
         T > 0 [N·m].
 

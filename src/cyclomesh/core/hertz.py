@@ -76,10 +76,13 @@ def pin_tooth_radius(pin_radius: ArrayLike, profile_radius: ArrayLike) -> FloatA
     """Equivalent radius ρ*pc = ρp·ρc/(ρp + ρc) of pin and tooth (Eq. 22 of [1]) [m].
 
     ``profile_radius`` is the signed ρc of Eq. 4: a concave flank (ρc < 0, |ρc| > ρp)
-    gives a conforming contact with a large ρ*.
+    gives a conforming contact with a large ρ*. At an inflection point of the profile
+    (ρc = ±inf) the limit ρ* = ρp is returned.
     """
     rp, rc = np.asarray(pin_radius, float), np.asarray(profile_radius, float)
-    return rp * rc / (rp + rc)
+    with np.errstate(invalid="ignore"):
+        rho = rp * rc / (rp + rc)
+    return np.where(np.isinf(rc), rp, rho)
 
 
 def pin_groove_radius(pin_radius: ArrayLike, groove_radius: float) -> FloatArray:

@@ -19,10 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.contact import UnloadedContact, unloaded_contact
-from cyclomesh.design import Modification, PairDesign, PinErrors
-from cyclomesh.exceptions import ConvergenceError, DesignError
-from cyclomesh.hertz import (
+from cyclomesh.core.contact import UnloadedContact, unloaded_contact
+from cyclomesh.core.hertz import (
     CONTACT_LAWS,
     compliance_coefficients,
     effective_modulus,
@@ -30,9 +28,11 @@ from cyclomesh.hertz import (
     pin_groove_radius,
     pin_tooth_radius,
 )
-from cyclomesh.loadsharing import share_load
-from cyclomesh.profile import check_profile
-from cyclomesh.transmission import gear_ratio, transmission_error
+from cyclomesh.core.loadsharing import share_load
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.core.profile import check_profile
+from cyclomesh.core.transmission import gear_ratio, transmission_error
+from cyclomesh.exceptions import ConvergenceError, DesignError
 
 __all__ = ["LTCA", "solve_ltca", "rest_position", "count_contacts", "CONTACT_LOAD_FRACTION"]
 
@@ -159,7 +159,7 @@ def solve_ltca(
         centre (Johnson, eq. 5.41; the default), finite at the profile's inflection points
         and converged in the crank step, or Eq. 20 of [1] as published (``"paper"``, to
         reproduce the paper; its ratio ripple and TE peak-to-peak grow without bound as
-        the crank step shrinks); see :mod:`cyclomesh.hertz` and ``docs/contact-law.md``.
+        the crank step shrinks); see :mod:`cyclomesh.core.hertz` and ``docs/contact-law.md``.
 
     Returns
     -------
@@ -266,7 +266,7 @@ def check_pair(design: PairDesign, modification: Modification, errors: PinErrors
 
 
 def check_contact_law(contact_law: str) -> str:
-    """``contact_law`` if it is one of :data:`~cyclomesh.hertz.CONTACT_LAWS`, else a
+    """``contact_law`` if it is one of :data:`~cyclomesh.core.hertz.CONTACT_LAWS`, else a
     one-line :class:`DesignError` naming the choices."""
     if contact_law not in CONTACT_LAWS:
         raise DesignError(
@@ -284,7 +284,7 @@ def pin_compliance(
     """Coefficients (α, γ) of δ = F(α − γ ln F) of every pin contact [m/N].
 
     Eqs. 19–23 of [1] with the tooth term of ``contact_law`` (Eq. 20, or the half-plane
-    law of :mod:`cyclomesh.hertz`, Johnson eq. 5.41).
+    law of :mod:`cyclomesh.core.hertz`, Johnson eq. 5.41).
     """
     with np.errstate(divide="ignore", invalid="ignore"):  # unreachable pins: never loaded
         return compliance_coefficients(

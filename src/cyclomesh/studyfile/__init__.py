@@ -5,6 +5,6 @@
 :mod:`cyclomesh.studies`.
 """
 
-from cyclomesh.study.schema import CaseInputs, CaseSpec, Study, load_study
+from cyclomesh.studyfile.schema import CaseInputs, CaseSpec, Study, load_study
 
 __all__ = ["CaseInputs", "CaseSpec", "Study", "load_study"]

@@ -1,10 +1,10 @@
-"""Labelled results: run :func:`cyclomesh.ltca.solve_ltca` and return an xarray Dataset.
+"""Labelled results: run :func:`cyclomesh.core.ltca.solve_ltca` and return an xarray Dataset.
 
 This is the notebook entry point. The numbers come from the SI core; here they are
 converted to the units a gear engineer reads (N, MPa, arcsec, degrees, mm), labelled
 with ``crank_angle`` (degrees) and ``pin`` (1 … n1), and the inputs recorded as
 attributes. :func:`summarize` reduces a result to the headline numbers of a study
-(:mod:`cyclomesh.metrics`); :func:`ltca_metrics` does the same straight from the core's
+(:mod:`cyclomesh.results.metrics`); :func:`ltca_metrics` does the same straight from the core's
 result, without a Dataset (tolerance studies). xarray is imported only when a Dataset
 is built, so the variable tables below can be read by worker processes cheaply.
 """
@@ -17,10 +17,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.design import Modification, PairDesign, PinErrors
-from cyclomesh.drive import Drive, check_torques, solve_drive
-from cyclomesh.ltca import CONTACT_LOAD_FRACTION, LTCA
-from cyclomesh.metrics import DRIVE_METRICS, METRICS, summary_metrics
+from cyclomesh.core.ltca import CONTACT_LOAD_FRACTION, LTCA
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.drive.solve import Drive, check_torques, solve_drive
+from cyclomesh.execution.runtime import tune_allocator
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, summary_metrics
+from cyclomesh.units import ARCSEC_PER_RAD
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -32,10 +34,8 @@ __all__ = [
     "summarize",
     "ltca_metrics",
     "drive_metrics",
-    "ARCSEC",
 ]
 
-ARCSEC = np.pi / (180.0 * 3600.0)
 """One second of arc [rad]."""
 
 # name (an LTCA field): (scale from SI, units, long name)
@@ -44,25 +44,25 @@ _PER_PIN = {
     "groove_load": (1.0, "N", "pin-groove contact force Fp"),
     "contact_stress": (1e-6, "MPa", "max. Hertzian pressure, pin-tooth"),
     "groove_stress": (1e-6, "MPa", "max. Hertzian pressure, pin-groove"),
-    "backlash": (1.0 / ARCSEC, "arcsec", "unloaded backlash φbl (inf: unreachable)"),
-    "overlap": (1.0 / ARCSEC, "arcsec", "interference with the unloaded flank"),
+    "backlash": (ARCSEC_PER_RAD, "arcsec", "unloaded backlash φbl (inf: unreachable)"),
+    "overlap": (ARCSEC_PER_RAD, "arcsec", "interference with the unloaded flank"),
     "profile_angle": (180.0 / np.pi, "deg", "generating angle φ1 of contact"),
     "contact_radius": (1e3, "mm", "radius of the contact point on the disc"),
     "moment_arm": (1e3, "mm", "moment arm of the line of action"),
     "curvature_radius": (1e3, "mm", "signed profile curvature radius ρc"),
 }
 _PER_ANGLE = {
-    "transmission_error": (1.0 / ARCSEC, "arcsec", "loaded TE"),
+    "transmission_error": (ARCSEC_PER_RAD, "arcsec", "loaded TE"),
     "gear_ratio": (1.0, "1", "instantaneous gear ratio"),
     "contacts": (
         1,
         "1",
         "number of pins in contact: load above 0.1 % of the largest pin load at the angle",
     ),
-    "loaded_rotation": (1.0 / ARCSEC, "arcsec", "disc rotation under load Δφc"),
-    "rest_rotation": (1.0 / ARCSEC, "arcsec", "unloaded rest position φc − φt"),
+    "loaded_rotation": (ARCSEC_PER_RAD, "arcsec", "disc rotation under load Δφc"),
+    "rest_rotation": (ARCSEC_PER_RAD, "arcsec", "unloaded rest position φc − φt"),
 }
-# drive-level results (cyclomesh.drive): per pin, per disc, per crank angle only
+# drive-level results (cyclomesh.drive.solve): per pin, per disc, per crank angle only
 _DRIVE_PER_PIN = {
     "force_angle": (180.0 / np.pi, "deg", "direction of the pin force on the disc, from x"),
 }
@@ -71,7 +71,7 @@ _PER_DISC = {
     "mesh_force_angle": (180.0 / np.pi, "deg", "direction of the mesh force, from x"),
     "torque_share": (1.0, "N m", "torque carried by the disc"),
 }
-_PLAY = ("play", 1.0 / ARCSEC, "arcsec", "angular play between the flanks at zero load")
+_PLAY = ("play", ARCSEC_PER_RAD, "arcsec", "angular play between the flanks at zero load")
 
 
 def _version() -> str:
@@ -88,7 +88,7 @@ def to_dataset(
     torque: float,
     groove_deformation: bool,
 ) -> xr.Dataset:
-    """Label an :class:`~cyclomesh.ltca.LTCA` result (SI) as a Dataset in engineering units."""
+    """Label an :class:`~cyclomesh.core.ltca.LTCA` result (SI) as a Dataset in engineering units."""
     import xarray as xr
 
     ring_dims = ("ring",) if result.transmission_error.ndim == 2 else ()
@@ -107,12 +107,12 @@ def to_dataset(
     }
     if ring_dims:
         coords["ring"] = ("ring", np.arange(result.transmission_error.shape[0]))
-    attrs = _attrs(result.crank_angle, design, modification, torque, groove_deformation)
+    attrs = result_attrs(result.crank_angle, design, modification, torque, groove_deformation)
     data["contacts"][2]["load_threshold_fraction"] = CONTACT_LOAD_FRACTION
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
-def _attrs(
+def result_attrs(
     phi: np.ndarray,
     design: PairDesign,
     modification: Modification,
@@ -160,7 +160,7 @@ def drive_to_dataset(
     groove_deformation: bool,
     torque_dim: bool,
 ) -> xr.Dataset:
-    """Label a :class:`~cyclomesh.drive.Drive` result (SI) as a Dataset in engineering units.
+    """Label a :class:`~cyclomesh.drive.solve.Drive` result (SI) as a Dataset in engineering units.
 
     Dimensions ``ring`` (one ring axis at most), ``torque`` [N·m] (if ``torque_dim``, else
     the one torque is the attribute ``torque_nm``), ``crank_angle`` [deg], ``disc`` (1 … N,
@@ -223,7 +223,7 @@ def drive_to_dataset(
     import xarray as xr
 
     single = None if torque_dim else float(result.torque[0])
-    attrs = _attrs(result.crank_angle, design, modification, single, groove_deformation)
+    attrs = result_attrs(result.crank_angle, design, modification, single, groove_deformation)
     attrs["discs"] = int(discs)
     data["contacts"][2]["load_threshold_fraction"] = CONTACT_LOAD_FRACTION
     return xr.Dataset(data, coords=coords, attrs=attrs)
@@ -283,7 +283,7 @@ def analyse(
         Number N of identical discs on the ring, disc k's eccentric at φ + (k − 1)·360°/N;
         they share one rotation and split the torque by their stiffness.
     contact_law : {"paper", "half_plane"}
-        Tooth term of the contact law (see :mod:`cyclomesh.hertz`); recorded in the
+        Tooth term of the contact law (see :mod:`cyclomesh.core.hertz`); recorded in the
         ``contact_law`` attribute.
 
     Returns
@@ -291,7 +291,7 @@ def analyse(
     xarray.Dataset
         Dimensions ``crank_angle`` [deg] and ``pin`` (1 … n1), plus ``ring`` for several
         rings, ``torque`` [N·m] for a list of torques and ``disc`` (1 … N) for N > 1;
-        variables carry a ``units`` attribute (see :mod:`cyclomesh.analysis` and
+        variables carry a ``units`` attribute (see :mod:`cyclomesh.results.dataset` and
         ``docs/drive.md``). Besides the loaded contact: ``play`` [arcsec] per crank angle,
         ``mesh_force`` [N] and ``mesh_force_angle`` [deg] per disc, ``force_angle`` [deg]
         per pin, ``torque_share`` [N·m] per disc of a stack.
@@ -300,6 +300,7 @@ def analyse(
     ----------
     [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672.
     """
+    tune_allocator()  # once per process: the solver's temporaries stay on the heap
     modification = modification or Modification()
     crank_angles, degrees = resolve_crank_angles(crank_angles, crank_angles_deg)
     torque_dim = np.ndim(torque) > 0
@@ -317,13 +318,13 @@ def analyse(
 def summarize(ds: xr.Dataset) -> xr.Dataset:
     """Headline numbers of a result, reduced over crank angle and pin (ring kept).
 
-    Returns a Dataset with the metrics of :data:`cyclomesh.metrics.METRICS`
+    Returns a Dataset with the metrics of :data:`cyclomesh.results.metrics.METRICS`
     (``te_mean_arcsec``, ``te_pp_arcsec``, ``max_pin_load_n``, ``max_groove_load_n``,
     ``max_contact_stress_mpa``, ``max_groove_stress_mpa``, ``contacts_min``,
     ``contacts_max``, ``gear_ratio_ripple_pct`` (peak-to-peak of the instantaneous ratio
     in % of n2, over the step ``gear_ratio_step_deg``), ``max_overlap_arcsec`` and
     ``overlap``), each with its ``units`` and ``long_name``, and those of
-    :data:`cyclomesh.metrics.DRIVE_METRICS` the result has (``play_arcsec_mean``,
+    :data:`cyclomesh.results.metrics.DRIVE_METRICS` the result has (``play_arcsec_mean``,
     ``play_arcsec_max``, ``max_mesh_force_n``). A ``torque`` dimension (a list of
     torques) is kept; a ``disc`` dimension (a stack) is reduced with the pins (per-disc
     contacts with the crank angles).
@@ -369,7 +370,7 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
 
 
 def ltca_metrics(result: LTCA, teeth: int) -> dict[str, NDArray]:
-    """The metrics of :data:`cyclomesh.metrics.METRICS` straight from a core result (SI).
+    """The metrics of :data:`cyclomesh.results.metrics.METRICS` straight from a core result (SI).
 
     The same numbers as ``summarize(to_dataset(result, ...))``, bit for bit (same unit
     scales, same reductions), without building a Dataset; leading ring axes are kept.
@@ -396,7 +397,7 @@ def ltca_metrics(result: LTCA, teeth: int) -> dict[str, NDArray]:
 def drive_metrics(result: Drive, teeth: int) -> dict[str, NDArray]:
     """The metrics of ``summarize(analyse(...))`` straight from a one-torque core result.
 
-    :data:`cyclomesh.metrics.METRICS` (per-pin ones reduced over the discs and pins,
+    :data:`cyclomesh.results.metrics.METRICS` (per-pin ones reduced over the discs and pins,
     contacts per disc), ``max_mesh_force_n`` (largest mesh force on a disc [N]) and, for a
     stack, ``torque_share_min_nm`` / ``torque_share_max_nm`` (range of the torque one
     disc carries [N·m]); bit for bit those of :func:`summarize`, leading ring axes kept.

@@ -1,6 +1,6 @@
 """Drive characteristics: both flanks, torque sweeps, play, mesh force, disc stacks.
 
-The core of :mod:`cyclomesh.ltca` loads one disc, with a positive torque, on the flank a
+The core of :mod:`cyclomesh.core.ltca` loads one disc, with a positive torque, on the flank a
 counter-clockwise turn of the disc presses onto the pins (the disc lags: TE < 0). This
 module builds the characteristics of a whole cycloid stage on top of it, exactly
 (the same equations, Eqs. 5–26 of [1], solved to round-off).
@@ -25,11 +25,11 @@ place that maps a ring to its mirror image.
 Play
 ----
 At zero load the disc can sit anywhere between the rest position on the forward flanks
-(the first pin a counter-clockwise turn reaches, :func:`~cyclomesh.ltca.rest_position`)
+(the first pin a counter-clockwise turn reaches, :func:`~cyclomesh.core.ltca.rest_position`)
 and the rest position on the reverse flanks (the first pin a clockwise turn reaches). The
 play is TE of the reverse rest position minus TE of the forward one, ≥ 0 [rad]. Both rest
 positions follow from one unloaded contact analysis (the forward and the reverse contact
-rotation of every pin, :class:`~cyclomesh.contact.UnloadedContact`).
+rotation of every pin, :class:`~cyclomesh.core.contact.UnloadedContact`).
 
 Disc stacks
 -----------
@@ -38,7 +38,7 @@ by one rotation (they drive one output). Each disc is measured from its own theo
 position, so one rotation of the stack from theoretical puts every pin of every disc at
 its own backlash: the N·n1 pin contacts form one load-sharing problem (Eqs. 15–18), with
 the backlash measured from the stack's rest position (the first contact over all discs),
-solved exactly by :func:`~cyclomesh.loadsharing.share_load`. The torque of disc k is the
+solved exactly by :func:`~cyclomesh.core.loadsharing.share_load`. The torque of disc k is the
 sum of its pins' moments, so the total torque splits by the stiffness of the discs.
 
 Mesh force
@@ -46,7 +46,7 @@ Mesh force
 The pin i presses on the disc along the common normal of pin and flank, through the pin
 centre C_i. With w = C_i − O2 (disc centre O2), the outward flank normal n makes the angle
 θ = arg n − arg P_s with w (both taken in the tooth frame of the contact, see
-:mod:`cyclomesh.contact`), so the force on the disc is −F_i·(cos(arg w + θ),
+:mod:`cyclomesh.core.contact`), so the force on the disc is −F_i·(cos(arg w + θ),
 sin(arg w + θ)). The mesh force is the resultant over the pins of a disc, the load its
 crank bearing carries; its moment about O2 balances the torque.
 
@@ -63,11 +63,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.contact import UnloadedContact, unloaded_contact
-from cyclomesh.design import Modification, PairDesign, PinErrors
-from cyclomesh.exceptions import ConvergenceError, DesignError
-from cyclomesh.loadsharing import share_load
-from cyclomesh.ltca import (
+from cyclomesh.core.contact import UnloadedContact, unloaded_contact
+from cyclomesh.core.loadsharing import share_load
+from cyclomesh.core.ltca import (
     check_contact_law,
     check_crank_angles,
     check_pair,
@@ -77,8 +75,10 @@ from cyclomesh.ltca import (
     pin_compliance,
     rest_position,
 )
-from cyclomesh.profile import generating_radii
-from cyclomesh.transmission import gear_ratio, transmission_error
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.core.profile import generating_radii
+from cyclomesh.core.transmission import gear_ratio, transmission_error
+from cyclomesh.exceptions import ConvergenceError, DesignError
 
 __all__ = [
     "Drive",
@@ -194,7 +194,7 @@ class Drive:
     torque : ndarray
         Total torque on the stack [N·m], (Q,); negative loads the reverse flanks.
     pin_load, groove_load, contact_stress, groove_stress : ndarray
-        As in :class:`~cyclomesh.ltca.LTCA`, on the flank the torque loads, (..., Q, A, N, n1)
+        As in :class:`~cyclomesh.core.ltca.LTCA`, on the flank the torque loads, (..., Q, A, N, n1)
         [N, N, Pa, Pa].
     backlash : ndarray
         Unloaded angular distance of each pin from the stack's rest position on the loaded
@@ -214,7 +214,7 @@ class Drive:
         [N·m].
     contacts : ndarray
         Pins in contact of each disc, (..., Q, A, N): load above
-        :data:`~cyclomesh.ltca.CONTACT_LOAD_FRACTION` of the stack's largest pin load.
+        :data:`~cyclomesh.core.ltca.CONTACT_LOAD_FRACTION` of the stack's largest pin load.
     mesh_force, mesh_force_angle : ndarray
         Magnitude [N] and direction [rad, counter-clockwise from x, fixed frame] of the
         resultant of the pin forces on each disc, (..., Q, A, N).
@@ -303,7 +303,7 @@ def _stacked_contact(
 def _rests(geo: UnloadedContact, pins: int, discs: int) -> tuple[FloatArray, FloatArray]:
     """Rest positions of a stack on the forward and on the opposite flanks [rad], (..., A).
 
-    Forward: the smallest conditioned contact rotation (:func:`~cyclomesh.ltca.rest_position`,
+    Forward: the smallest conditioned contact rotation (:func:`~cyclomesh.core.ltca.rest_position`,
     Eq. 11); opposite: the largest conditioned reverse-flank contact rotation.
     """
     flat = (*geo.rotation.shape[:-2], discs * pins)
@@ -414,7 +414,7 @@ def _normals(
         pin_r * np.sin(pin_angle) - ecc * np.sin(crank),
         pin_r * np.cos(pin_angle) - ecc * np.cos(crank),
     )
-    # tooth frame of the contact (see cyclomesh.contact): normal n and pin centre P_s
+    # tooth frame of the contact (see cyclomesh.core.contact): normal n and pin centre P_s
     u = geo.profile_angle
     c, sin_u = np.cos(u), np.sin(u)
     d = np.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
@@ -506,10 +506,10 @@ def solve_drive(
     """Loaded contact of a stack of discs on both flanks over a list of torques.
 
     Solves Eqs. 5–26 of [1] for every torque (positive: forward flanks, as in
-    :func:`~cyclomesh.ltca.solve_ltca`; negative: reverse flanks, through the exact mirror
-    described in :mod:`cyclomesh.drive`), for ``discs`` identical discs sharing the ring
+    :func:`~cyclomesh.core.ltca.solve_ltca`; negative: reverse flanks, through the exact mirror
+    described in :mod:`cyclomesh.drive.solve`), for ``discs`` identical discs sharing the ring
     and one rotation. With one disc and a positive torque the result is bit for bit that
-    of :func:`~cyclomesh.ltca.solve_ltca`.
+    of :func:`~cyclomesh.core.ltca.solve_ltca`.
 
     Parameters
     ----------
@@ -527,7 +527,7 @@ def solve_drive(
     discs : int
         Number N of discs; disc k's eccentric is at φin + (k − 1)·2π/N.
     contact_law : {"paper", "half_plane"}
-        Tooth term of the contact law (:func:`~cyclomesh.ltca.solve_ltca`).
+        Tooth term of the contact law (:func:`~cyclomesh.core.ltca.solve_ltca`).
 
     Returns
     -------
@@ -784,7 +784,7 @@ def torsion_curve(
 
     Torques from :func:`torsion_torques`; lost motion and rigidity from
     :func:`torsion_metrics`; the play as in :func:`solve_drive`. Everything is solved
-    with Eqs. 5–26 of [1] on both flanks (see :mod:`cyclomesh.drive`). This is the mesh
+    with Eqs. 5–26 of [1] on both flanks (see :mod:`cyclomesh.drive.solve`). This is the mesh
     alone; ``series_stiffness`` adds the rest of the drive (crank bearings, crankshafts,
     first stage) as a linear torsional spring in series: whole-drive rotation =
     mesh rotation − T/k_series.
@@ -804,7 +804,7 @@ def torsion_curve(
     series_stiffness : float, optional
         k_series [N·m/rad], > 0.
     contact_law : {"paper", "half_plane"}
-        Tooth term of the contact law (:func:`~cyclomesh.ltca.solve_ltca`).
+        Tooth term of the contact law (:func:`~cyclomesh.core.ltca.solve_ltca`).
 
     Returns
     -------

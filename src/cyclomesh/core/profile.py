@@ -25,7 +25,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.design import Modification, PairDesign
+from cyclomesh.core.pair import Modification, PairDesign
 from cyclomesh.exceptions import DesignError
 
 __all__ = [

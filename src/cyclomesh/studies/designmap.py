@@ -3,12 +3,12 @@
 The study's base description (its top-level sections; ``[[cases]]`` are not used) fixes
 the design, the torque, the crank angles (``[analysis]``), the pin errors and the
 unswept part of the modification (including a ``profile_file``); ``[design_space]``
-(:class:`~cyclomesh.study.schema.DesignSpaceSection`) gives the swept parameters, the
+(:class:`~cyclomesh.studyfile.schema.DesignSpaceSection`) gives the swept parameters, the
 constraints, the objective and, with ``rings = K``, the number of rings drawn from
 ``[tolerance]`` for a robust map. Stages (see ``docs/pipeline.md``):
 
-1. :func:`compute_design` analyses every candidate (:mod:`cyclomesh.designmap`), in
-   chunks through :mod:`cyclomesh.execution` when a backend is given (local processes
+1. :func:`compute_design` analyses every candidate (:mod:`cyclomesh.designspace.sweep`), in
+   chunks through :mod:`cyclomesh.execution.backends` when a backend is given (local processes
    or a Dask cluster, bit-for-bit the same);
 2. :func:`write_design` writes ``design.nc`` (one dimension per swept parameter, every
    metric with units, ``feasible``, ``reason``), ``summary.json`` (the optimum, its
@@ -30,16 +30,17 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from cyclomesh.designmap import ARCMIN, ARCSEC, METRICS, PARAMETERS, Constraints
+from cyclomesh.designspace.sweep import METRICS, PARAMETERS, Constraints
 from cyclomesh.exceptions import DesignError, StudyError
-from cyclomesh.study.schema import DesignSpaceSection, Study, load_study
+from cyclomesh.studyfile.schema import DesignSpaceSection, Study, load_study
+from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
     import xarray as xr
 
-    from cyclomesh.execution import Backend
+    from cyclomesh.execution.backends import Backend
     from cyclomesh.figures.render import FigureJob
-    from cyclomesh.report import Section
+    from cyclomesh.publish.report import Section
 
 __all__ = [
     "DesignResult",
@@ -85,12 +86,12 @@ def constraints(space: DesignSpaceSection) -> Constraints:
         return None if value is None else value * scale
 
     return Constraints(
-        max_play=scaled(space.max_play_arcmin, ARCMIN),
-        min_play=scaled(space.min_play_arcmin, ARCMIN),
+        max_play=scaled(space.max_play_arcmin, RAD_PER_ARCMIN),
+        min_play=scaled(space.min_play_arcmin, RAD_PER_ARCMIN),
         allowable_contact_stress=scaled(space.allowable_contact_stress_mpa, 1e6),
-        max_te_pp=scaled(space.max_te_pp_arcsec, ARCSEC),
+        max_te_pp=scaled(space.max_te_pp_arcsec, RAD_PER_ARCSEC),
         min_contacts=space.min_contacts,
-        max_lost_motion=scaled(space.max_lost_motion_arcmin, ARCMIN),
+        max_lost_motion=scaled(space.max_lost_motion_arcmin, RAD_PER_ARCMIN),
     )
 
 
@@ -127,15 +128,15 @@ def compute_design(
     progress : callable, optional
         Called with the number of candidates finished.
     """
-    from cyclomesh.designmap import design_map
-    from cyclomesh.study.usage import check_keys
+    from cyclomesh.designspace.sweep import design_map
+    from cyclomesh.studyfile.usage import check_keys
 
     start = time.perf_counter()
     space = study.file.design_space
     if space is None:
         raise StudyError(f"{study.path.name}: no [design_space] section")
     check_keys(study.raw, "design")
-    from cyclomesh.study.warnings import has_pin_errors, study_warnings
+    from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
 
     base = study.base.to_core()
     if np.ndim(base.torque):
@@ -225,7 +226,7 @@ def best_study(study: Study, ds: xr.Dataset) -> str:
     ``cyclomesh run best.toml`` reruns it; file names inside are made absolute. A robust
     map keeps the ``[tolerance]`` section (the rings' distributions and seed).
     """
-    from cyclomesh.output import toml_dumps
+    from cyclomesh.output.writers import toml_dumps
 
     base = study.base.model_dump()
     sections: dict[str, Any] = {"title": f"{study.title}: optimum of the design map"}
@@ -268,7 +269,7 @@ def _drop_none(table: Mapping[str, Any]) -> dict[str, Any]:
 
 def write_design(result: DesignResult, out: Path) -> list[Path]:
     """Write ``design.nc``, ``summary.json`` and (if any candidate is feasible) ``best.toml``."""
-    from cyclomesh.output import write_json, write_netcdf
+    from cyclomesh.output.writers import write_json, write_netcdf
 
     out.mkdir(parents=True, exist_ok=True)
     files = [
@@ -284,7 +285,7 @@ def write_design(result: DesignResult, out: Path) -> list[Path]:
 
 def design_figures(result: DesignResult) -> list[FigureJob]:
     """One contour map per metric (a line for one swept parameter)."""
-    from cyclomesh.figures import design as plots
+    from cyclomesh.figures import designmap as plots
     from cyclomesh.figures.render import FigureJob
 
     ds = result.map
@@ -315,7 +316,7 @@ def design_figures(result: DesignResult) -> list[FigureJob]:
 
 def design_sections(result: DesignResult) -> list[Section]:
     """The report section of a design map (figures are attached to it by heading)."""
-    from cyclomesh.report import Section, table_html
+    from cyclomesh.publish.report import Section, table_html
 
     s = result.summary
     rows: list[tuple[str, Any]] = [

@@ -1,6 +1,6 @@
 """Torsion curve of a cycloid stage as a labelled Dataset: the catalogue characteristics.
 
-:func:`stiffness` runs :func:`cyclomesh.drive.torsion_curve` (the rotation of the disc, or
+:func:`stiffness` runs :func:`cyclomesh.drive.solve.torsion_curve` (the rotation of the disc, or
 the stack of discs, against the torque, both directions, at every crank angle) and labels
 it in the units of an RV catalogue: rotation in arcsec, play and lost motion in arcmin,
 torsional rigidity in N·m/arcmin. :func:`summarize_stiffness` reduces it to the headline
@@ -23,19 +23,19 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from cyclomesh.analysis import _attrs, resolve_crank_angles
-from cyclomesh.design import Modification, PairDesign, PinErrors
-from cyclomesh.drive import torsion_curve
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.drive.solve import torsion_curve
 from cyclomesh.exceptions import DesignError
+from cyclomesh.execution.runtime import tune_allocator
+from cyclomesh.results.dataset import resolve_crank_angles, result_attrs
+from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["stiffness", "summarize_stiffness", "ARCMIN"]
+__all__ = ["stiffness", "summarize_stiffness"]
 
-ARCMIN = np.pi / (180.0 * 60.0)
 """One minute of arc [rad]."""
-_ARCSEC = ARCMIN / 60.0
 
 
 def stiffness(
@@ -63,7 +63,7 @@ def stiffness(
         Rated torque T_r of the disc stack [N·m], > 0.
     points : int
         Evenly spaced torques from −T_r to +T_r (0 left out; ±3 %, ±50 %, ±100 % of T_r
-        always added), see :func:`cyclomesh.drive.torsion_torques`.
+        always added), see :func:`cyclomesh.drive.solve.torsion_torques`.
     crank_angles : array_like, optional
         Crank angles [rad]; default a revolution at 1°.
     groove_deformation : bool
@@ -71,13 +71,13 @@ def stiffness(
     crank_angles_deg : array_like, optional
         Crank angles [deg] instead of ``crank_angles``, kept exactly as the coordinate.
     discs : int
-        Number of discs of the stack (see :func:`cyclomesh.drive.solve_drive`).
+        Number of discs of the stack (see :func:`cyclomesh.drive.solve.solve_drive`).
     series_stiffness_nm_per_arcmin : float, optional
         Torsional stiffness of the rest of the drive in series with the mesh
         [N·m/arcmin]; adds ``drive_rotation``, ``drive_lost_motion`` and
         ``drive_torsional_rigidity``.
     contact_law : {"paper", "half_plane"}
-        Tooth term of the contact law (:func:`cyclomesh.ltca.solve_ltca`).
+        Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
 
     Returns
     -------
@@ -92,6 +92,7 @@ def stiffness(
     ----------
     [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672.
     """
+    tune_allocator()  # once per process: the solver's temporaries stay on the heap
     modification = modification or Modification()
     phi, degrees = resolve_crank_angles(crank_angles, crank_angles_deg)
     if degrees is None:
@@ -103,7 +104,7 @@ def stiffness(
             raise DesignError(
                 f"series_stiffness_nm_per_arcmin must be a positive number, got {k!r}"
             )
-        series = float(k) / ARCMIN
+        series = float(k) / RAD_PER_ARCMIN
     curve = torsion_curve(
         design,
         modification,
@@ -131,7 +132,7 @@ def stiffness(
     data = {
         "rotation": (
             curve_dims,
-            curve.rotation / _ARCSEC,
+            curve.rotation / RAD_PER_ARCSEC,
             {"units": "arcsec", "long_name": "disc rotation from theoretical (TE sign)"},
         ),
         "contacts": (
@@ -146,17 +147,17 @@ def stiffness(
         ),
         "play": (
             angle_dims,
-            curve.play / ARCMIN,
+            curve.play / RAD_PER_ARCMIN,
             {"units": "arcmin", "long_name": "angular play between the flanks at zero load"},
         ),
         "lost_motion": (
             angle_dims,
-            curve.lost_motion / ARCMIN,
+            curve.lost_motion / RAD_PER_ARCMIN,
             {"units": "arcmin", "long_name": "lost motion TE(-3 %) - TE(+3 %) of rated"},
         ),
         "torsional_rigidity": (
             angle_dims,
-            curve.torsional_rigidity * ARCMIN,
+            curve.torsional_rigidity * RAD_PER_ARCMIN,
             {"units": "N m/arcmin", "long_name": "torsional rigidity, 50-100 % of rated"},
         ),
     }
@@ -169,17 +170,17 @@ def stiffness(
     if series is not None:
         data["drive_rotation"] = (
             curve_dims,
-            curve.drive_rotation / _ARCSEC,
+            curve.drive_rotation / RAD_PER_ARCSEC,
             {"units": "arcsec", "long_name": "whole-drive rotation (mesh + series stiffness)"},
         )
         data["drive_lost_motion"] = (
             angle_dims,
-            curve.drive_lost_motion / ARCMIN,
+            curve.drive_lost_motion / RAD_PER_ARCMIN,
             {"units": "arcmin", "long_name": "whole-drive lost motion"},
         )
         data["drive_torsional_rigidity"] = (
             angle_dims,
-            curve.drive_torsional_rigidity * ARCMIN,
+            curve.drive_torsional_rigidity * RAD_PER_ARCMIN,
             {"units": "N m/arcmin", "long_name": "whole-drive torsional rigidity"},
         )
     coords = {
@@ -190,7 +191,7 @@ def stiffness(
         coords["disc"] = ("disc", np.arange(1, n_discs + 1), {"units": "1"})
     if ring:
         coords["ring"] = ("ring", np.arange(curve.play.shape[0]))
-    attrs = _attrs(phi, design, modification, None, groove_deformation)
+    attrs = result_attrs(phi, design, modification, None, groove_deformation)
     attrs["contact_law"] = contact_law
     attrs.update(
         title="cyclomesh torsion curve of the cycloid-pin mesh",

@@ -1,6 +1,6 @@
 """Which study-file keys each kind of study uses, and the one-line refusal of the others.
 
-Every key of the schema (:class:`~cyclomesh.study.schema.StudyFile`, dotted, tables
+Every key of the schema (:class:`~cyclomesh.studyfile.schema.StudyFile`, dotted, tables
 such as ``tolerance.radial_um`` or ``design_space.pin_radius_um`` counted as one key) is,
 for every kind of study (``run``, ``stiffness``, ``tolerance``, ``allocate``, ``design``,
 ``fe``), one of:
@@ -169,7 +169,7 @@ def _model_of(annotation: Any) -> type[BaseModel] | None:
 def schema_keys(model: type[BaseModel] | None = None, prefix: str = "") -> list[str]:
     """Every key of the study file schema, dotted (a distribution or a range is one key)."""
     if model is None:
-        from cyclomesh.study.schema import StudyFile
+        from cyclomesh.studyfile.schema import StudyFile
 
         model = StudyFile
     out = []
@@ -215,7 +215,7 @@ _UNSET = object()
 
 def _default(key: str) -> Any:
     """The schema default of a dotted key (``_UNSET`` if it has none)."""
-    from cyclomesh.study.schema import StudyFile
+    from cyclomesh.studyfile.schema import StudyFile
 
     model: Any = StudyFile
     parts = key.split(".")

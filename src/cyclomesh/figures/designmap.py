@@ -1,4 +1,4 @@
-"""Figures of a design map (:func:`cyclomesh.designmap.design_map`, ``cyclomesh design``).
+"""Figures of a design map (:func:`cyclomesh.designspace.sweep.design_map`, ``cyclomesh design``).
 
 Every function takes the map's Dataset and returns a :class:`matplotlib.figure.Figure`
 on the Agg canvas without touching pyplot's global state. Infeasible candidates are
@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from cyclomesh.designmap import METRICS
+from cyclomesh.designspace.sweep import METRICS
 from cyclomesh.figures.render import new_figure
 
 if TYPE_CHECKING:

@@ -1,8 +1,8 @@
 """Design map: the modification space swept, with the pin-ring tolerances in the loop.
 
 Every candidate modification (a grid over any of Δa, Δρ, δ) is analysed by the full
-model of [1] (:func:`cyclomesh.drive.solve_drive`, one disc: bit for bit
-:func:`cyclomesh.ltca.solve_ltca`) at the study's torque over its crank
+model of [1] (:func:`cyclomesh.drive.solve.solve_drive`, one disc: bit for bit
+:func:`cyclomesh.core.ltca.solve_ltca`) at the study's torque over its crank
 angles, with the given pin errors, for the whole stack of discs (``discs``: the torque is
 the stack's, split between the discs by their stiffness; per-disc metrics are reduced
 over the discs). With a ring axis on the errors (K rings drawn once:
@@ -27,8 +27,8 @@ Metrics (per candidate, SI inside, engineering units in the Dataset):
   unloaded contact) — largest
   TE(−0.03·T) − TE(+0.03·T) over the crank angles [rad]; the reverse flank is solved
   as the forward flank of the system mirrored about the x-axis
-  (:func:`cyclomesh.drive.solve_drive` with a negative torque); the play is
-  :func:`cyclomesh.drive.play`.
+  (:func:`cyclomesh.drive.solve.solve_drive` with a negative torque); the play is
+  :func:`cyclomesh.drive.solve.play`.
 
 A candidate whose profile is undercut, whose pins interfere with the disc, or whose
 solve fails is infeasible with the reason recorded, never dropped.
@@ -49,10 +49,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.design import Modification, PairDesign, PinErrors
-from cyclomesh.drive import LOST_MOTION_FRACTION, solve_drive
+from cyclomesh.core.ltca import check_contact_law
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.drive.solve import LOST_MOTION_FRACTION, solve_drive
 from cyclomesh.exceptions import CyclomeshError, DesignError
-from cyclomesh.ltca import check_contact_law
+from cyclomesh.execution.runtime import tune_allocator
+from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -72,8 +74,6 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-ARCSEC = math.pi / (180.0 * 3600.0)
-ARCMIN = 60.0 * ARCSEC
 
 PARAMETERS: dict[str, tuple[str, float, str, str]] = {
     # study key: (Modification field, SI per study unit, units, long name)
@@ -92,7 +92,7 @@ METRICS: dict[str, tuple[str, float, str, str, bool]] = {
         "max. pin-tooth Hertzian pressure",
         True,
     ),
-    "te_pp": ("te_pp_arcsec", ARCSEC, "arcsec", "peak-to-peak loaded TE", True),
+    "te_pp": ("te_pp_arcsec", RAD_PER_ARCSEC, "arcsec", "peak-to-peak loaded TE", True),
     "min_contacts": ("min_contacts", 1.0, "1", "fewest loaded pins", False),
     "max_mesh_force": (
         "max_mesh_force_n",
@@ -103,11 +103,11 @@ METRICS: dict[str, tuple[str, float, str, str, bool]] = {
     ),
     "max_torque_share": ("max_torque_share_nm", 1.0, "N m", "largest torque on one disc", True),
     "min_torque_share": ("min_torque_share_nm", 1.0, "N m", "smallest torque on one disc", False),
-    "max_play": ("play_arcmin", ARCMIN, "arcmin", "largest unloaded play", True),
-    "min_play": ("min_play_arcmin", ARCMIN, "arcmin", "smallest unloaded play", False),
+    "max_play": ("play_arcmin", RAD_PER_ARCMIN, "arcmin", "largest unloaded play", True),
+    "min_play": ("min_play_arcmin", RAD_PER_ARCMIN, "arcmin", "smallest unloaded play", False),
     "lost_motion": (
         "lost_motion_arcmin",
-        ARCMIN,
+        RAD_PER_ARCMIN,
         "arcmin",
         "lost motion TE(-3 % T) - TE(+3 % T)",
         True,
@@ -180,9 +180,9 @@ def candidate_metrics(
 ) -> dict[str, FloatArray]:
     """Metrics of one candidate modification (see module doc), per ring, SI units.
 
-    ``contact_law`` is the tooth term of the contact law (:func:`cyclomesh.ltca.solve_ltca`);
+    ``contact_law`` is the tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`);
     ``torque`` [N·m] is the torque on the stack of ``discs`` discs
-    (:func:`cyclomesh.drive.solve_drive`).
+    (:func:`cyclomesh.drive.solve.solve_drive`).
 
     Returns
     -------
@@ -336,7 +336,7 @@ def evaluate_grid(
         if progress is not None:
             progress(task.size)
     else:
-        from cyclomesh.execution import run_chunks
+        from cyclomesh.execution.backends import run_chunks
 
         flat = run_chunks(task, task.size, backend=backend, chunk_size=chunk, progress=progress)
     return {name: value.reshape(task.shape) for name, value in flat.items()}
@@ -427,9 +427,9 @@ def design_map(
     backend, chunk, progress
         Execution (see :func:`evaluate_grid`).
     contact_law : {"paper", "half_plane"}
-        Tooth term of the contact law (:func:`cyclomesh.ltca.solve_ltca`).
+        Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
     discs : int
-        Identical discs on the pin ring (:func:`cyclomesh.drive.solve_drive`); the
+        Identical discs on the pin ring (:func:`cyclomesh.drive.solve.solve_drive`); the
         metrics are those of the stack, per-disc ones reduced over the discs.
 
     Returns
@@ -439,6 +439,7 @@ def design_map(
         variable with ``units`` (NaN only where ``reason`` says the candidate failed);
         ``feasible`` and ``reason``; attributes give the optimum and the inputs.
     """
+    tune_allocator()  # once per process: the solver's temporaries stay on the heap
     import xarray as xr
 
     if not axes:
@@ -522,17 +523,17 @@ def design_map(
 def _constraint_attrs(constraints: Constraints) -> dict[str, float]:
     out = {}
     if constraints.max_play is not None:
-        out["max_play_arcmin"] = constraints.max_play / ARCMIN
+        out["max_play_arcmin"] = constraints.max_play / RAD_PER_ARCMIN
     if constraints.min_play is not None:
-        out["min_play_arcmin"] = constraints.min_play / ARCMIN
+        out["min_play_arcmin"] = constraints.min_play / RAD_PER_ARCMIN
     if constraints.allowable_contact_stress is not None:
         out["allowable_contact_stress_mpa"] = constraints.allowable_contact_stress * 1e-6
     if constraints.max_te_pp is not None:
-        out["max_te_pp_arcsec"] = constraints.max_te_pp / ARCSEC
+        out["max_te_pp_arcsec"] = constraints.max_te_pp / RAD_PER_ARCSEC
     if constraints.min_contacts is not None:
         out["min_contacts"] = int(constraints.min_contacts)
     if constraints.max_lost_motion is not None:
-        out["max_lost_motion_arcmin"] = constraints.max_lost_motion / ARCMIN
+        out["max_lost_motion_arcmin"] = constraints.max_lost_motion / RAD_PER_ARCMIN
     return out
 
 

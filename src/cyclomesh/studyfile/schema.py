@@ -12,8 +12,8 @@ section before any work is done. To add the section of a new kind of study, see
 Each case is the base deep-merged with the case's own keys. Every key a user types
 carries its unit (``_mm``, ``_um``, ``_urad``, ``_gpa``, ``_nm``, ``_deg``);
 :meth:`CaseSpec.to_core` converts a case to the SI objects of the core
-(:class:`~cyclomesh.design.PairDesign`, :class:`~cyclomesh.design.Modification`,
-:class:`~cyclomesh.design.PinErrors`).
+(:class:`~cyclomesh.core.pair.PairDesign`, :class:`~cyclomesh.core.pair.Modification`,
+:class:`~cyclomesh.core.pair.PinErrors`).
 
 Every problem (unknown key, wrong type, list of the wrong length, a design the core
 refuses) is raised as one :class:`~cyclomesh.exceptions.StudyError` whose one-line
@@ -57,12 +57,12 @@ from pydantic import (
     model_validator,
 )
 
-from cyclomesh.design import CrankHoles, Material, Modification, PairDesign, PinErrors
+from cyclomesh.core.deviation import ProfileDeviation
+from cyclomesh.core.pair import CrankHoles, Material, Modification, PairDesign, PinErrors
+from cyclomesh.core.profile import check_profile
 from cyclomesh.exceptions import DesignError, StudyError
-from cyclomesh.modification import ProfileDeviation
-from cyclomesh.profile import check_profile
-from cyclomesh.study.measurements import PIN_ERROR_COLUMNS, read_pin_errors_csv
-from cyclomesh.study.profile_csv import read_profile_csv
+from cyclomesh.studyfile.measurements import PIN_ERROR_COLUMNS, read_pin_errors_csv
+from cyclomesh.studyfile.profile_csv import read_profile_csv
 
 __all__ = [
     "DesignSection",
@@ -175,7 +175,7 @@ class DiscSection(_Section):
         return self
 
     def to_core(self) -> CrankHoles | None:
-        """The :class:`~cyclomesh.design.CrankHoles` in SI units, or None."""
+        """The :class:`~cyclomesh.core.pair.CrankHoles` in SI units, or None."""
         if not self.crank_holes:
             return None
         return CrankHoles(

@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
+from cyclomesh.core.deviation import ProfileDeviation
 from cyclomesh.exceptions import DesignError, StudyError
-from cyclomesh.modification import ProfileDeviation
-from cyclomesh.study.measurements import integer_cell, number_cell, read_csv_table
+from cyclomesh.studyfile.measurements import integer_cell, number_cell, read_csv_table
 
 __all__ = ["PROFILE_COLUMNS", "read_profile_csv"]
 

@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cyclomesh.exceptions import CyclomeshError
+from cyclomesh.execution.runtime import tune_allocator
 
 __all__ = [
     "ExecutionError",
@@ -142,7 +143,9 @@ class ProcessBackend:
                 else "spawn"
             )
             self._pool = ProcessPoolExecutor(
-                max_workers=self.workers, mp_context=multiprocessing.get_context(method)
+                max_workers=self.workers,
+                mp_context=multiprocessing.get_context(method),
+                initializer=tune_allocator,
             )
         return self._pool
 
@@ -298,38 +301,8 @@ def _nothing() -> None:
 
 
 def _call(task: ChunkFunction, start: int, stop: int) -> Any:
-    _tune_malloc()
+    tune_allocator()
     return task(start, stop)
-
-
-_MALLOC_TUNED = False
-
-
-def _tune_malloc() -> None:
-    """Undo, in a Dask worker, the malloc setting that makes the core 4x slower.
-
-    Dask's nanny starts workers with ``MALLOC_TRIM_THRESHOLD_=65536``; setting any
-    glibc malloc threshold switches off glibc's dynamic mmap threshold, so every
-    temporary array above 128 KiB is mmap-ed and unmapped again, and the core spends
-    most of its time in page faults (measured: 0.43 s instead of 0.10 s for 16 rings
-    at 360 crank angles). Raising the mmap threshold to 32 MiB and the trim threshold
-    to 64 MiB in the worker process restores the speed (0.115 s) while memory above
-    64 MiB is still given back. glibc only; elsewhere nothing happens.
-    """
-    global _MALLOC_TUNED
-    if _MALLOC_TUNED:
-        return
-    _MALLOC_TUNED = True
-    if "MALLOC_TRIM_THRESHOLD_" not in os.environ or "MALLOC_MMAP_THRESHOLD_" in os.environ:
-        return
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL("libc.so.6")
-        libc.mallopt(-3, 32 * 1024 * 1024)  # M_MMAP_THRESHOLD
-        libc.mallopt(-1, 64 * 1024 * 1024)  # M_TRIM_THRESHOLD
-    except (OSError, AttributeError):  # pragma: no cover - not glibc
-        pass
 
 
 def _cpu_count() -> int:

@@ -41,9 +41,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.design import Modification, PairDesign, PinErrors
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.core.profile import curvature_radius, deviated_geometry, generating_radii
 from cyclomesh.exceptions import ConvergenceError, DesignError
-from cyclomesh.profile import curvature_radius, deviated_geometry, generating_radii
 
 __all__ = ["UnloadedContact", "unloaded_contact", "contact_phase"]
 
