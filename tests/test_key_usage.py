@@ -344,7 +344,7 @@ def fingerprint(kind: str, path: Path, monkeypatch: pytest.MonkeyPatch) -> str:
         return digest(head, r.rings, without_time(r.record), job_data(k.allocation_figures(r)),
                       report_text(k.allocation_sections(r)))  # fmt: skip
     if kind == "design":
-        from cyclomesh.studies import design as k
+        from cyclomesh.studies import designmap as k
 
         r = k.compute_design(study)
         return digest(head, r.map, r.summary, job_data(k.design_figures(r)),
