@@ -86,7 +86,7 @@ DRIVE_METRICS: dict[str, Metric] = {
         Metric(
             "max_mesh_force_n",
             "N",
-            "largest mesh force (resultant of the pin forces on a disc)",
+            "largest mesh force on a disc (crank bearing load)",
             "max mesh force",
         ),
         Metric(
