@@ -301,6 +301,15 @@ def test_two_disc_allocation_runs_on_the_stack(tmp_path):
     result = compute_allocation(study)
     assert result.record["discs"] == 2
     assert 0.0 <= result.allocation.factor <= 1.5
+    # the split and the mesh force at the stated tolerances, per ring and as statistics
+    stats = result.record["at_stated_tolerances"]
+    assert stats["torque_share_min_nm"]["max"] < 125.0 < stats["torque_share_max_nm"]["min"]
+    assert stats["max_mesh_force_n"]["unit"] == "N"
+    from cyclomesh.studies.tolerance import compute_tolerance
+
+    same = compute_tolerance(study).rings  # the same rings, drawn once each
+    for name in ("torque_share_max_nm", "max_mesh_force_n", "max_contact_stress_mpa"):
+        np.testing.assert_array_equal(result.rings[name].values, same[name].values)
 
 
 # --- one rule for crank angles ----------------------------------------------------------

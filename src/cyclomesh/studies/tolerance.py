@@ -563,11 +563,26 @@ def compute_allocation(
         alloc.confidence,
         alloc.factor_max,
     )
+    from cyclomesh.tolerance.statistics import describe
+    from cyclomesh.tolerance.tasks import STATED_METRICS
+
+    stated = [name for name in STATED_METRICS if name in per_ring]
+    every = METRICS | DRIVE_METRICS
+    data = {
+        name: xr.DataArray(per_ring[name], dims=("ring",), attrs={"units": "1"})
+        for name in ("critical_factor_lower", "critical_factor_upper")
+    }
+    for name in stated:
+        data[name] = xr.DataArray(
+            per_ring[name],
+            dims=("ring",),
+            attrs={
+                "units": every[name].unit,
+                "long_name": every[name].long_name + " at the stated tolerances (factor 1)",
+            },
+        )
     ds = xr.Dataset(
-        {
-            name: xr.DataArray(per_ring[name], dims=("ring",), attrs={"units": "1"})
-            for name in ("critical_factor_lower", "critical_factor_upper")
-        },
+        data,
         coords={"ring": ("ring", per_ring["ring"])},
         attrs={
             "seed": spec.seed,
@@ -587,6 +602,14 @@ def compute_allocation(
         study_title=study.title,
         discs=model.discs,
         crank_angles=len(model.crank_angles_deg),
+        at_stated_tolerances={
+            name: {
+                "unit": every[name].unit,
+                "description": every[name].long_name,
+                **describe(per_ring[name], confidence=alloc.confidence),
+            }
+            for name in stated
+        },
         warnings=ring_warnings(model),
     )
     return AllocationResult(study, result, ds, record, seconds)
@@ -621,12 +644,27 @@ def allocation_figures(result: AllocationResult) -> list[FigureJob]:
 
 def allocation_sections(result: AllocationResult) -> list[Section]:
     """Report section of a tolerance allocation."""
-    from cyclomesh.publish.report import Section
+    from cyclomesh.publish.report import Section, table_html
     from cyclomesh.studies.run import description_html, warning_sections
 
     statement = html.escape(result.allocation.statement())
+    stated = result.record.get("at_stated_tolerances", {})
+    rows = [
+        [name, m["unit"], _fmt(m["mean"]), _fmt(m["min"]), _fmt(m["max"])]
+        + [_fmt(p["estimate"]) for p in m["percentiles"]]
+        for name, m in stated.items()
+    ]
+    table = ""
+    if rows:
+        percents = [p["percent"] for p in next(iter(stated.values()))["percentiles"]]
+        table = "<p>The rings at the stated tolerances (factor 1):</p>" + table_html(
+            ["metric", "unit", "mean", "min", "max", *(f"P{p:g}" for p in percents)], rows
+        )
     return warning_sections(result.record.get("warnings", [])) + [
-        Section("Tolerance allocation", description_html(result.study) + f"<p>{statement}</p>")
+        Section(
+            "Tolerance allocation",
+            description_html(result.study) + f"<p>{statement}</p>" + table,
+        )
     ]
 
 

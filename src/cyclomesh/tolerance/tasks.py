@@ -191,6 +191,15 @@ class ToleranceTask:
         return _by_blocks(start, stop, self._block, self.model.block_rings)
 
 
+STATED_METRICS = (
+    "max_contact_stress_mpa",
+    "max_mesh_force_n",
+    "torque_share_min_nm",
+    "torque_share_max_nm",
+)
+"""Per-ring metrics an allocation also reports at the stated tolerances (f = 1)."""
+
+
 @dataclass(frozen=True)
 class AllocationTask:
     """Chunk function: critical scale factor of every ring (common random numbers).
@@ -204,7 +213,9 @@ class AllocationTask:
 
     The nominal ring (f = 0) must not exceed the allowable (checked by the caller).
     Every step solves the whole batch (rings already settled ride along and their
-    results are ignored).
+    results are ignored). One more solve at the stated tolerances (f = 1) gives each
+    ring's :data:`STATED_METRICS` (peak stress, the largest mesh force on a disc and, for
+    a stack, the range of the torque one disc carries).
     """
 
     model: RingModel
@@ -238,7 +249,13 @@ class AllocationTask:
             exceeded = self._exceeds(drawn, mid)
             upper = np.where(bracketed & exceeded, mid, upper)
             lower = np.where(bracketed & ~exceeded, mid, lower)
-        return {"ring": drawn.rings, "critical_factor_lower": lower, "critical_factor_upper": upper}
+        stated = self.model.metrics(drawn)
+        return {
+            "ring": drawn.rings,
+            "critical_factor_lower": lower,
+            "critical_factor_upper": upper,
+            **{name: stated[name] for name in STATED_METRICS if name in stated},
+        }
 
     def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
         return _by_blocks(start, stop, self._block, self.model.block_rings)
