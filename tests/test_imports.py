@@ -12,6 +12,7 @@ HEAVY = ("xarray", "pandas", "matplotlib", "pyarrow", "netCDF4", "distributed")
     "modules, absent",
     [
         ("cyclomesh.core.ltca", HEAVY),  # the core: NumPy and SciPy only
+        ("cyclomesh.stage.solve, cyclomesh.results.stage", HEAVY),  # the RV stage, same
         ("cyclomesh.drive.solve, cyclomesh.results.torsion", HEAVY),  # drive characteristics, same
         ("cyclomesh, cyclomesh.cli", (*HEAVY, "scipy", "pydantic")),  # --help
         ("cyclomesh.tolerance.tasks", HEAVY),  # what tolerance workers run

@@ -32,7 +32,14 @@ import xarray as xr
 
 from cyclomesh.exceptions import StudyError
 from cyclomesh.studyfile.schema import load_study
-from cyclomesh.studyfile.usage import KINDS, OWN_SECTIONS, classify, schema_keys
+from cyclomesh.studyfile.usage import (
+    KINDS,
+    OWN_SECTIONS,
+    REFUSED,
+    classify,
+    schema_keys,
+    set_keys,
+)
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -188,24 +195,51 @@ CHANGE: dict[str, Any] = {
     "fe.far_size_mm": 2.5,
 }
 HOLES = {"crank_holes": 3, "crank_hole_circle_radius_mm": 45.0, "crank_hole_radius_mm": 10.0}
+BEARING = {"rollers": 10, "roller_diameter_mm": 4.0, "roller_length_mm": 9.0}
+STAGE = {"design": {"disc": HOLES}, "stage": {"crank_bearing": BEARING}}
+CHANGE.update(
+    {
+        "stage.output_speed_rpm": 30.0,
+        "stage.rated_torque_nm": 200.0,
+        "stage.crank_bearing.rollers": 11,
+        "stage.crank_bearing.roller_diameter_mm": 3.5,
+        "stage.crank_bearing.roller_length_mm": 8.0,
+        "stage.crank_bearing.radial_clearance_um": 5.0,
+        "stage.crank_bearing.dynamic_load_rating_kn": 20.0,
+        "stage.crank_bearing.rating_factor": 1.0,
+        "stage.crankshaft_stiffness_n_per_um": 200.0,
+        "stage.carrier_stiffness_nm_per_arcmin": 500.0,
+        "stage.hole_error_radial_um": 5.0,
+        "stage.hole_error_tangential_um": 5.0,
+    }
+)
 for _part in ("pin", "disc", "ring"):
     CHANGE[f"material.{_part}.youngs_modulus_gpa"] = 200.0
     CHANGE[f"material.{_part}.poisson_ratio"] = 0.28
-for _key in HOLES:
-    CHANGE[f"design.disc.{_key}"] = DELETE  # set as a whole table below
+CHANGE["design.disc.crank_holes"] = 2
+CHANGE["design.disc.crank_hole_circle_radius_mm"] = 44.0
+CHANGE["design.disc.crank_hole_radius_mm"] = 11.0
 
 # keys whose change needs something else in both studies (kind, key) or (None, key)
 CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
     **{(None, f"errors.random.{k}"): RANDOM for k in ("seed", "radial_um", "angular_urad")},
     (None, "errors.random.pin_radius_um"): RANDOM,
     **{("design", k): ROBUST for k in schema_keys() if k.startswith("tolerance.")},
+    **{
+        (kind, k): STAGE
+        for kind in ("run", "stiffness")
+        for k in schema_keys()
+        if k.startswith(("stage.", "design.disc."))
+    },
 }
 
 
-def change_table(key: str) -> dict[str, Any]:
+def change_table(key: str, kind: str = "run") -> dict[str, Any]:
     """The nested table that sets ``key`` to its test value."""
-    if key.startswith("design.disc."):
+    if key.startswith("design.disc.") and kind not in ("run", "stiffness"):
         return {"design": {"disc": dict(HOLES)}}
+    if key.startswith("stage.") and kind not in ("run", "stiffness"):
+        return merge(STAGE, _nested(key, CHANGE[key]))
     if key == "tolerance.position":
         return {
             "tolerance": {
@@ -434,7 +468,7 @@ def test_a_used_key_changes_the_study(kind, key, tmp_path, monkeypatch, baseline
 
         paths = [
             write_study(tmp_path, data, name)
-            for data, name in ((BASE[kind], "a"), (merge(BASE[kind], change_table(key)), "b"))
+            for data, name in ((BASE[kind], "a"), (merge(BASE[kind], change_table(key, kind)), "b"))
         ]
         models = [ring_model(s, s.tolerance) for s in map(load_study, paths)]
         assert models[0].modification != models[1].modification
@@ -444,7 +478,7 @@ def test_a_used_key_changes_the_study(kind, key, tmp_path, monkeypatch, baseline
     cache = (kind, json.dumps(context, sort_keys=True))
     if cache not in baselines:
         baselines[cache] = fingerprint(kind, write_study(tmp_path, base, "base"), monkeypatch)
-    changed = write_study(tmp_path, merge(base, change_table(key)), "changed")
+    changed = write_study(tmp_path, merge(base, change_table(key, kind)), "changed")
     assert fingerprint(kind, changed, monkeypatch) != baselines[cache], f"{kind} ignores {key}"
 
 
@@ -452,20 +486,24 @@ def test_a_used_key_changes_the_study(kind, key, tmp_path, monkeypatch, baseline
 def test_a_refused_key_is_refused_in_one_line(kind, key, tmp_path, monkeypatch):
     context = CONTEXT.get((kind, key)) or CONTEXT.get((None, key)) or {}
     base = merge(BASE[kind], context) if kind != "fe" else BASE[kind]
-    change = merge(context, change_table(key)) if key.startswith("errors.random") else {}
-    path = write_study(tmp_path, merge(base, change or change_table(key)), "refused")
+    change = merge(context, change_table(key, kind)) if key.startswith("errors.random") else {}
+    path = write_study(tmp_path, merge(base, change or change_table(key, kind)), "refused")
     load_study(path)  # a valid study file: the kind refuses it, not the schema
     with pytest.raises(StudyError) as info:
         fingerprint(kind, path, monkeypatch)
     message = str(info.value)
     assert "\n" not in message
-    assert key.split(".")[0] in message and ("remove" in message or "set" in message)
+    # refused by the kind's table (for this key, or one it needs set with it, such as the
+    # crank holes of a stage), not by some other check
+    keys = [key, *set_keys(change or change_table(key, kind))]
+    reasons = {w for p, w in REFUSED[kind].items() for k in keys if k == p or k.startswith(p + ".")}
+    assert any(why in message for why in reasons), message
 
 
 @pytest.mark.parametrize(
     ("command", "key"),
     [
-        ("run", "design.disc"),
+        ("design", "stage"),
         ("stiffness", "load.torque_nm"),
         ("tolerance", "cases"),
         ("allocate", "figures.stress_pin"),
@@ -479,9 +517,16 @@ def test_the_cli_refuses_with_exit_status_2(command, key, tmp_path):
 
     kind = command
     full = next(k for k in schema_keys() if k == key or k.startswith(key + "."))
-    path = write_study(tmp_path, merge(BASE[kind], change_table(full)), "cli")
+    path = write_study(tmp_path, merge(BASE[kind], change_table(full, kind)), "cli")
     out = tmp_path / "out"
     result = CliRunner().invoke(app, [command, str(path), "--out", str(out), "--quiet"])
     assert result.exit_code == 2, result.output
     assert key in result.output and "Traceback" not in result.output
     assert not (out / "report.html").exists()
+
+
+@pytest.mark.parametrize("kind", ["run", "stiffness"])
+def test_crank_holes_without_a_stage_are_refused(kind, tmp_path, monkeypatch):
+    path = write_study(tmp_path, merge(BASE[kind], {"design": {"disc": HOLES}}), "holes")
+    with pytest.raises(StudyError, match=r"design\.disc: .*add \[stage\]"):
+        fingerprint(kind, path, monkeypatch)

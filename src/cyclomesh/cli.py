@@ -470,6 +470,15 @@ def _print_stiffness(summaries: dict, out: Path) -> None:
     console.print(
         "the mesh alone: crank bearings, crankshafts and the first stage are not included"
     )
+    for name, record in summaries.items():  # [stage]: the RV stage, beside the mesh
+        if "stage_torsional_rigidity_nm_per_arcmin_mean" in record:
+            console.print(
+                escape(
+                    f"{name}: RV stage (mesh + crank bearings) "
+                    f"{record['stage_torsional_rigidity_nm_per_arcmin_mean']:.4g} N·m/arcmin, "
+                    f"lost motion {record['stage_lost_motion_arcmin_mean']:.4g} arcmin"
+                )
+            )
     console.print(f"report: {out / 'report.html'}")
 
 

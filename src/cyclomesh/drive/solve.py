@@ -88,6 +88,10 @@ __all__ = [
     "mirror_problem",
     "play",
     "solve_drive",
+    "StackMesh",
+    "stack_meshes",
+    "unmirror",
+    "check_discs",
     "check_torques",
     "torsion_torques",
     "torsion_curve",
@@ -863,3 +867,55 @@ def torsion_curve(
             drive_torsional_rigidity=drive_rigidity,
         )
     return TorsionCurve(**result)
+
+
+# --- public steps, for the solvers built on this module (the RV stage, cyclomesh.stage) ---
+
+StackMesh = _Mesh
+"""Unloaded state of a stack on its forward flanks, in the (possibly mirrored) frame: the
+steps of :func:`solve_drive` before the load sharing. Fields: ``design``; ``geo``
+(:class:`~cyclomesh.core.contact.UnloadedContact`, arrays (..., A, N, n1)); ``rest`` and
+``reverse_rest`` (rest rotation on the loaded and the opposite flanks [rad], (..., A));
+``backlash`` (φbl from the stack's rest [rad], (..., A, N·n1)); ``alpha``, ``gamma``
+(compliance of δ = F(α − γ ln F) [m/N], (..., A, N·n1)); ``normal_x``, ``normal_y``
+(outward flank normal, fixed frame, (..., A, N, n1): the force of pin i on its disc is
+−F_i·n, a counter-clockwise disc rotation θ closes the gap by l_i·θ, a translation u by
+n·u); ``ring_shape``; ``phi`` (crank angles of disc 1 in this frame [rad])."""
+
+
+def stack_meshes(
+    design: PairDesign,
+    modification: Modification,
+    errors: PinErrors,
+    phi: FloatArray,
+    discs: int,
+    groove_deformation: bool,
+    forward: bool,
+    reverse: bool,
+    contact_law: str = "paper",
+) -> tuple[StackMesh | None, StackMesh | None]:
+    """The unloaded meshes of the forward flanks and of the mirror problem (reverse flanks),
+    as needed; the mirror problem is solved on the crank angles −φ reversed, and
+    :func:`unmirror` maps its arrays back (Eqs. 5–23 of [1])."""
+    return _directions(
+        design,
+        modification,
+        errors,
+        phi,
+        discs,
+        groove_deformation,
+        forward,
+        reverse,
+        contact_law,
+    )
+
+
+def unmirror(arr: FloatArray, angle_axis: int, disc_axis: int | None, pins: bool) -> FloatArray:
+    """An array of the mirror problem mapped back onto the reverse flanks: crank angle −φ →
+    φ, disc k → (1 − k) mod N + 1, pin i → (n1 − i) mod n1 (values are not negated)."""
+    return _unmirror(arr, angle_axis, disc_axis, pins)
+
+
+def check_discs(discs: int) -> int:
+    """The number of discs of a stack as an int ≥ 1, else a one-line DesignError."""
+    return _check_discs(discs)

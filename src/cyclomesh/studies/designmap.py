@@ -128,14 +128,15 @@ def compute_design(
     progress : callable, optional
         Called with the number of candidates finished.
     """
-    from cyclomesh.designspace.sweep import design_map
     from cyclomesh.studyfile.usage import check_keys
+
+    check_keys(study.raw, "design")  # [stage], [[cases]], ...: refused in one line
+    from cyclomesh.designspace.sweep import design_map
 
     start = time.perf_counter()
     space = study.file.design_space
     if space is None:
         raise StudyError(f"{study.path.name}: no [design_space] section")
-    check_keys(study.raw, "design")
     from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
 
     base = study.base.to_core()

@@ -120,9 +120,11 @@ def compute_fe(
     progress : callable, optional
         Called with a line of text before each FE solve.
     """
+    from cyclomesh.studyfile.schema import refuse_stage
     from cyclomesh.studyfile.usage import check_keys
 
     check_keys(study.raw, "fe")
+    refuse_stage(study, "fe")
     check_fe(study)
     section = study.file.fe or FeSection()
     angles = np.asarray(

@@ -26,6 +26,7 @@ from cyclomesh.core.pair import Modification
 from cyclomesh.publish.pipeline import case_attrs, study_stamp, summary_document
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
 from cyclomesh.results.profile import profile_curves
+from cyclomesh.results.stage import STAGE_METRICS
 from cyclomesh.studyfile.schema import CaseInputs, CaseSpec, Study, folder_name
 
 if TYPE_CHECKING:
@@ -136,8 +137,11 @@ def compute_run(
         kwargs.pop("crank_angles")
         ds = analyse(**kwargs, crank_angles_deg=case.analysis.crank_angles_deg())
         ds = annotate(ds, case, inputs, study)
-        run.results[case.name] = ds
         run.summaries[case.name] = summary_record(summarize(ds))
+        if inputs.stage is not None:
+            ds, sheet = _with_stage(ds, case, inputs)
+            run.summaries[case.name].update(sheet)
+        run.results[case.name] = ds
         run.warnings[case.name] = study_warnings(
             inputs.contact_law,
             case.analysis.crank_angles_deg(),
@@ -146,6 +150,28 @@ def compute_run(
         if on_done:
             on_done(case.name)
     return run
+
+
+def _with_stage(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs) -> tuple[xr.Dataset, dict]:
+    """The case's Dataset with the RV stage's variables, and its data sheet (``[stage]``)."""
+    from cyclomesh.results.stage import data_sheet, solve_case, stage_dataset
+
+    stage = stage_dataset(solve_case(inputs), inputs.stage, inputs.design.pins)
+    if "disc" not in ds.dims:  # one disc: no disc dimension, as the mesh variables
+        stage = stage.isel(disc=0, drop=True)
+    # the same angles (and torques) as the mesh's, bit for bit: no alignment
+    stage = stage.assign_coords(crank_angle=ds["crank_angle"])
+    if "torque" in stage.dims:
+        stage = stage.assign_coords(torque=ds["torque"])
+    rated = case.stage.rated_torque_nm
+    if rated is None:
+        torques = np.atleast_1d(np.asarray(inputs.torque, float))
+        rated = float(np.max(np.abs(torques)))
+    merged = ds.assign({name: stage[name] for name in stage.data_vars}).assign_coords(
+        crank=stage["crank"]
+    )
+    merged.attrs.update(stage.attrs)
+    return merged, data_sheet(inputs, rated)
 
 
 def case_folder(name: str) -> str:
@@ -159,11 +185,13 @@ def write_case(ds: xr.Dataset, folder: Path, csv: bool = False) -> dict[str, Pat
     from cyclomesh.output import writers as output
 
     folder.mkdir(parents=True, exist_ok=True)
-    files = {
-        "netcdf": output.write_netcdf(ds, folder / "results.nc"),
-        "parquet": output.write_parquet(ds, folder / "results.parquet"),
-        "angles_csv": output.write_angle_csv(ds, folder / "angles.csv"),
-    }
+    files = {"netcdf": output.write_netcdf(ds, folder / "results.nc")}
+    # the stage's per-crank variables live in results.nc only (the tables are pin-level)
+    ds = ds.drop_vars([n for n, v in ds.data_vars.items() if "crank" in v.dims], errors="ignore")
+    if "crank" in ds.coords:
+        ds = ds.drop_vars("crank")
+    files["parquet"] = output.write_parquet(ds, folder / "results.parquet")
+    files["angles_csv"] = output.write_angle_csv(ds, folder / "angles.csv")
     if csv:
         files["csv"] = output.write_pin_csv(ds, folder / "results.csv")
     return files
@@ -188,7 +216,7 @@ def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
                 "warnings": run.warnings.get(case.name, []),
             }
         )
-    units = {name: m.unit for name, m in (METRICS | DRIVE_METRICS).items()}
+    units = {name: m.unit for name, m in (METRICS | DRIVE_METRICS | STAGE_METRICS).items()}
     document = summary_document(study, units, records, warnings=run.study_warnings())
     written.append(write_json(out / "summary.json", document))
     return written
@@ -206,6 +234,7 @@ _HEADINGS = {
     "backlash": "Backlash",
     "mesh_force": "Mesh force (crank bearing load)",
     "torque_share": "Torque split between the discs",
+    "crank_bearing_loads": "Crank bearing loads (RV stage)",
 }
 
 
@@ -352,6 +381,19 @@ def run_figures(run: RunResult, inputs: list[FigureJob] | None = None) -> list[F
             "the disc, the load its crank bearing carries (docs/drive.md).",
         ),
     ]
+    staged = {k: v[["crank_bearing_load"]] for k, v in results.items() if "crank_bearing_load" in v}
+    if staged:
+        from cyclomesh.figures import stage as stage_plots
+
+        jobs.append(
+            job(
+                "crank_bearing_loads",
+                stage_plots.plot_crank_bearing_loads,
+                staged,
+                caption="Load of every crank bearing of the RV stage over the crank angle "
+                "(colour: crankshaft, line style: disc; docs/stage.md).",
+            )
+        )
     stacks = {k: v[["torque_share"]] for k, v in run.results.items() if "torque_share" in v}
     if stacks:
         jobs.append(
@@ -418,7 +460,11 @@ def run_sections(run: RunResult) -> list[Section]:
         f"<details><summary>study file {html.escape(study.path.name)}</summary>"
         f"<pre>{html.escape(study.text)}</pre></details>"
     )
-    columns = list(next(iter(run.summaries.values())))
+    columns = list(
+        dict.fromkeys(
+            c for record in run.summaries.values() for c in record if c not in STAGE_METRICS
+        )
+    )
     every = METRICS | DRIVE_METRICS
     header = [
         f"{c} [{every[c].unit}]" if c in every and every[c].unit != "1" else c for c in columns
@@ -432,6 +478,26 @@ def run_sections(run: RunResult) -> list[Section]:
         Section("Inputs", inputs_html),
         Section("Summary", summary),
     ]
+    staged = [n for n in names if any(k in STAGE_METRICS for k in run.summaries[n])]
+    if staged:
+        keys = [k for k in STAGE_METRICS if any(k in run.summaries[n] for n in staged)]
+        sheet = table_html(
+            ["", *staged],
+            [
+                [
+                    f"{STAGE_METRICS[k].long_name} [{STAGE_METRICS[k].unit}]",
+                    *(_cell(run.summaries[n].get(k)) for n in staged),
+                ]
+                for k in keys
+            ],
+        )
+        sheet += (
+            "<p>RV stage (docs/stage.md): discs on the crank bearings, mesh, bearings and "
+            "springs solved together; rigidity and lost motion over at most 360 of the "
+            "case's crank angles; the first stage, the main bearings and the housing are "
+            "not modelled.</p>"
+        )
+        sections.append(Section("Data sheet (RV stage)", sheet))
     return warning_sections(run.study_warnings()) + sections
 
 

@@ -129,6 +129,14 @@ def compute_stiffness(
             contact_law=inputs.contact_law,
         )
         ds.attrs.update(case_attrs(study, case))
+        stage_summary: dict[str, Any] = {}
+        if inputs.stage is not None:  # the RV stage in one solve, beside the mesh alone
+            from cyclomesh.results.stage import stage_torsion_variables
+
+            data, stage_summary = stage_torsion_variables(
+                inputs, section.rated_torque_nm, section.points, inputs.crank_angles
+            )
+            ds = ds.assign(data)
         result.curves[case.name] = ds
         summary = summarize_stiffness(ds)
         record: dict[str, Any] = {"rated_torque_nm": section.rated_torque_nm}
@@ -140,6 +148,7 @@ def compute_stiffness(
                 if name in summary
             }
         )
+        record.update(stage_summary)
         result.summaries[case.name] = record
         result.warnings[case.name] = study_warnings(
             inputs.contact_law,
@@ -173,9 +182,11 @@ def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
                 "warnings": result.warnings.get(case.name, []),
             }
         )
+    from cyclomesh.results.stage import STAGE_STIFFNESS_METRICS
+
     document = summary_document(
         study,
-        {name: m.unit for name, m in STIFFNESS_METRICS.items()},
+        {name: m.unit for name, m in (STIFFNESS_METRICS | STAGE_STIFFNESS_METRICS).items()},
         records,
         scope="cycloid-pin mesh only; drive_* numbers add the series stiffness",
         warnings=result.study_warnings(),
@@ -189,6 +200,7 @@ _HEADINGS = {
     "torsional_rigidity": "Torsional rigidity",
     "play": "Play and lost motion",
     "torque_share": "Torque split between the discs",
+    "stage_torsion_curve": "Torsion curve of the RV stage",
 }
 
 
@@ -242,6 +254,28 @@ def stiffness_figures(result: StiffnessResult) -> list[FigureJob]:
             caption="Play at zero load and lost motion (±3 % of rated) over the crank angle.",
         ),
     ]
+    names = (
+        "rotation",
+        "stage_rotation",
+        "lost_motion",
+        "stage_lost_motion",
+        "torsional_rigidity",
+        "stage_torsional_rigidity",
+    )
+    staged = {k: v for k, v in _curves(result, names).items() if "stage_rotation" in v}
+    if staged:
+        from cyclomesh.figures import stage as stage_plots
+
+        jobs.append(
+            job(
+                "stage_torsion_curve",
+                stage_plots.plot_stage_torsion_curve,
+                staged,
+                caption="Torsion curve of the RV stage (mesh, crank bearings and springs in "
+                "one solve) beside the mesh alone: rotation of the output, mean over the "
+                "crank angles, against torque in % of rated (docs/stage.md).",
+            )
+        )
     stacks = {k: v for k, v in _curves(result, ("torque_share",)).items() if "torque_share" in v}
     if stacks:
         jobs.append(
@@ -298,8 +332,11 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
         f"<pre>{html.escape(study.text)}</pre></details>"
     )
     names = [case.name for case in study.cases]
-    columns = [c for c in STIFFNESS_METRICS if any(c in result.summaries[n] for n in names)]
-    header = [f"{STIFFNESS_METRICS[c].label} [{STIFFNESS_METRICS[c].unit}]" for c in columns]
+    from cyclomesh.results.stage import STAGE_STIFFNESS_METRICS
+
+    every = STIFFNESS_METRICS | STAGE_STIFFNESS_METRICS
+    columns = [c for c in every if any(c in result.summaries[n] for n in names)]
+    header = [f"{every[c].label} [{every[c].unit}]" for c in columns]
     summary = table_html(
         ["case", *header], [[n, *(result.summaries[n].get(c) for c in columns)] for n in names]
     )

@@ -345,11 +345,12 @@ def compute_tolerance(
     progress : callable, optional
         Called with the number of rings of every finished chunk.
     """
+
+    check_keys(study.raw, "tolerance")  # [stage], [[cases]], ...: refused in one line
     from cyclomesh.tolerance.tasks import ToleranceTask
 
     if study.tolerance is None:
         raise StudyError(f"{study.path.name}: no [tolerance] section (see examples/tolerance.toml)")
-    check_keys(study.raw, "tolerance")
     start = time.perf_counter()
     spec = study.tolerance
     n = _rings(spec, rings)
@@ -527,6 +528,8 @@ def compute_allocation(
     Parameters are those of :func:`compute_tolerance`, and ``target_probability``
     (default: ``tolerance.allocation.target_probability``).
     """
+
+    check_keys(study.raw, "allocate")  # [stage], [[cases]], ...: refused in one line
     import xarray as xr
 
     from cyclomesh.tolerance.allocation import allocate_factor
@@ -534,7 +537,6 @@ def compute_allocation(
 
     if study.tolerance is None:
         raise StudyError(f"{study.path.name}: no [tolerance] section (see examples/tolerance.toml)")
-    check_keys(study.raw, "allocate")
     start = time.perf_counter()
     spec = study.tolerance
     alloc = spec.allocation

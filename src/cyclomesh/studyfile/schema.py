@@ -61,8 +61,11 @@ from cyclomesh.core.deviation import ProfileDeviation
 from cyclomesh.core.pair import CrankHoles, Material, Modification, PairDesign, PinErrors
 from cyclomesh.core.profile import check_profile
 from cyclomesh.exceptions import DesignError, StudyError
+from cyclomesh.stage.bearing import RollerSet
+from cyclomesh.stage.solve import StageDesign
 from cyclomesh.studyfile.measurements import PIN_ERROR_COLUMNS, read_pin_errors_csv
 from cyclomesh.studyfile.profile_csv import read_profile_csv
+from cyclomesh.units import RAD_PER_ARCMIN
 
 __all__ = [
     "DesignSection",
@@ -97,7 +100,16 @@ MM = 1e-3
 UM = 1e-6
 URAD = 1e-6
 GPA = 1e9
-CASE_SECTIONS = ("design", "modification", "material", "load", "errors", "analysis", "stiffness")
+CASE_SECTIONS = (
+    "design",
+    "modification",
+    "material",
+    "load",
+    "errors",
+    "analysis",
+    "stiffness",
+    "stage",
+)
 """Sections that a case may override."""
 
 
@@ -284,6 +296,127 @@ class StiffnessSection(_Section):
         gt=0,
         description="torsional stiffness of the rest of the drive, in series [N·m/arcmin]",
     )
+
+
+def _per_crank(value: Any) -> float | list[float] | list[list[float]]:
+    """One number, one per crank, or one list per disc of one per crank [µm]."""
+    rows = value if isinstance(value, list) else [value]
+    for row in rows:
+        for item in row if isinstance(row, list) else [row]:
+            if isinstance(item, bool) or not isinstance(item, int | float):
+                raise ValueError(f"expected numbers [µm], got {_show(item)}")
+            if not math.isfinite(item):
+                raise ValueError(f"expected finite numbers [µm], got {item}")
+    return value
+
+
+PerCrank = Annotated[Any, BeforeValidator(_per_crank)]
+
+
+class CrankBearingSection(_Section):
+    """``[stage.crank_bearing]``: the needle roller set of every crank hole."""
+
+    rollers: int = Field(ge=3, description="number of rollers Z")
+    roller_diameter_mm: float = Field(gt=0, description="roller diameter D_we [mm]")
+    roller_length_mm: float = Field(gt=0, description="effective roller length L_we [mm]")
+    radial_clearance_um: float = Field(
+        0.0, ge=0, description="radial internal clearance P_d (ISO 5753-1, total free travel) [µm]"
+    )
+    dynamic_load_rating_kn: float | None = Field(
+        None, gt=0, description="catalogue C_r [kN]; default: ISO 281 from the geometry"
+    )
+    rating_factor: float = Field(1.1, gt=0, description="b_m of ISO 281 (1.1 machined raceways)")
+
+
+class StageSection(_Section):
+    """``[stage]``: the RV stage around the mesh: crank bearings, springs, hole errors.
+
+    The crankshafts are the crank holes of ``[design.disc]`` (``crank_holes``,
+    ``crank_hole_circle_radius_mm``, ``crank_hole_radius_mm``): one set of keys.
+    """
+
+    output_speed_rpm: float = Field(15.0, gt=0, description="output speed for L10h [rpm]")
+    rated_torque_nm: float | None = Field(
+        None, gt=0, description="rated torque of the data sheet [N·m] (default: the load)"
+    )
+    crank_bearing: CrankBearingSection | None = None
+    crankshaft_stiffness_n_per_um: float | None = Field(
+        None, gt=0, description="radial stiffness of a crank pin, in series with its bearing"
+    )
+    carrier_stiffness_nm_per_arcmin: float | None = Field(
+        None, gt=0, description="torsional stiffness of the carrier, in series [N·m/arcmin]"
+    )
+    hole_error_radial_um: PerCrank = Field(0.0, description="crank hole position error, radial")
+    hole_error_tangential_um: PerCrank = Field(
+        0.0, description="crank hole position error, tangential (counter-clockwise)"
+    )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _one_set_of_keys(cls, raw: Any) -> Any:
+        if isinstance(raw, dict):
+            for key, use in (
+                ("crankshafts", "crank_holes"),
+                ("crank_circle_radius_mm", "crank_hole_circle_radius_mm"),
+            ):
+                if key in raw:
+                    raise ValueError(
+                        f"{key}: the crankshafts are the crank holes; give [design.disc] {use}"
+                    )
+        return raw
+
+    def to_core(self, holes: CrankHoles | None, discs: int) -> StageDesign:
+        """The :class:`~cyclomesh.stage.solve.StageDesign` in SI units."""
+        if holes is None:
+            raise DesignError(
+                "stage: needs the crankshafts: set [design.disc] crank_holes (2 or 3), "
+                "crank_hole_circle_radius_mm and crank_hole_radius_mm"
+            )
+        bearing = None
+        b = self.crank_bearing
+        if b is not None:
+            bearing = RollerSet(
+                rollers=b.rollers,
+                diameter=b.roller_diameter_mm * MM,
+                length=b.roller_length_mm * MM,
+                clearance=b.radial_clearance_um * UM,
+                pitch_diameter=2.0 * holes.radius - b.roller_diameter_mm * MM,
+                dynamic_load_rating=(
+                    None if b.dynamic_load_rating_kn is None else b.dynamic_load_rating_kn * 1e3
+                ),
+                rating_factor=b.rating_factor,
+            )
+        stage = StageDesign(
+            holes=holes,
+            bearing=bearing,
+            crankshaft_stiffness=(
+                None
+                if self.crankshaft_stiffness_n_per_um is None
+                else self.crankshaft_stiffness_n_per_um / UM
+            ),
+            carrier_stiffness=(
+                None
+                if self.carrier_stiffness_nm_per_arcmin is None
+                else self.carrier_stiffness_nm_per_arcmin / RAD_PER_ARCMIN
+            ),
+            hole_error_radial=np.asarray(self.hole_error_radial_um, float) * UM,
+            hole_error_tangential=np.asarray(self.hole_error_tangential_um, float) * UM,
+            output_speed=self.output_speed_rpm,
+        )
+        stage.hole_errors(discs)  # the shapes, checked here
+        return stage
+
+
+def refuse_stage(study: Study, command: str) -> None:
+    """One-line :class:`StudyError` if a case has ``[stage]``, which ``command`` does not
+    take yet (the RV stage runs in ``cyclomesh run`` and ``cyclomesh stiffness``)."""
+    for case in study.cases:
+        if case.stage is not None:
+            raise StudyError(
+                f"{case.label}: [stage] is not taken by cyclomesh {command} yet; use "
+                "cyclomesh run or cyclomesh stiffness for the RV stage, or remove [stage] "
+                "(docs/stage.md)"
+            )
 
 
 class RandomErrorsSection(_Section):
@@ -631,6 +764,8 @@ class CaseInputs:
     contact_law: str = "half_plane"
     crank_holes: CrankHoles | None = None
     """The disc's crank holes (``[design.disc]``), or None: held at the bore."""
+    stage: StageDesign | None = None
+    """The RV stage (``[stage]``: crank bearings on the crank holes), or None: mesh alone."""
 
     def kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`cyclomesh.analyse`."""
@@ -658,6 +793,7 @@ class CaseSpec(_Section):
     errors: ErrorsSection = ErrorsSection()
     analysis: AnalysisSection = AnalysisSection()
     stiffness: StiffnessSection | None = None
+    stage: StageSection | None = None
 
     _base_dir: Path = PrivateAttr(default_factory=Path)
 
@@ -756,6 +892,7 @@ class CaseSpec(_Section):
             crank_holes = d.disc.to_core()
             if crank_holes is not None:
                 crank_holes.check_fits(design)
+            stage = None if self.stage is None else self.stage.to_core(crank_holes, d.discs)
         except DesignError as exc:
             raise StudyError(f"{self.label}: {exc}") from None
         return CaseInputs(
@@ -773,6 +910,7 @@ class CaseSpec(_Section):
             discs=d.discs,
             contact_law=self.analysis.contact_law,
             crank_holes=crank_holes,
+            stage=stage,
         )
 
 
@@ -796,6 +934,7 @@ class StudyFile(_Section):
     # --- sections of the kinds of study (one line each; None when absent)
     tolerance: ToleranceSection | None = None
     stiffness: StiffnessSection | None = None  # also per case: cases may override it
+    stage: StageSection | None = None  # the RV stage (crank bearings); per case too
     design_space: DesignSpaceSection | None = None
     fe: FeSection | None = None  # cyclomesh fe (the FE model needs the fe extra)
 

@@ -78,7 +78,7 @@ _RINGS = (
 )
 
 USED: dict[str, tuple[str, ...]] = {
-    "run": (*_LTCA, *_RUN_FIGURES, "cases"),
+    "run": (*_LTCA, *_RUN_FIGURES, "cases", "stage", "design.disc"),
     "stiffness": (
         *_PAIR,
         *_OUTPUT,
@@ -87,6 +87,8 @@ USED: dict[str, tuple[str, ...]] = {
         "analysis",
         "cases",
         "stiffness",
+        "stage",
+        "design.disc",
     ),
     "tolerance": (
         *_LTCA,
@@ -102,9 +104,24 @@ USED: dict[str, tuple[str, ...]] = {
 """Keys (or whole tables) each kind of study uses."""
 
 _HOLES = (
-    "design.disc: the crank holes are not used by any kind of study yet (the compliant "
-    "disc and the RV stage will use them); remove [design.disc]"
+    "design.disc: the crank holes are the crankshafts of the RV stage, which this kind of "
+    "study does not take; remove [design.disc] (cyclomesh run and stiffness take [stage])"
 )
+_STAGE = (
+    "stage: the RV stage runs in cyclomesh run and cyclomesh stiffness only; remove "
+    "[stage] (docs/stage.md)"
+)
+NEEDS: dict[str, dict[str, tuple[str, str]]] = {
+    kind: {
+        "design.disc": (
+            "stage",
+            "design.disc: the crank holes are the crankshafts of the RV stage: add [stage] "
+            "or remove [design.disc] (docs/stage.md)",
+        )
+    }
+    for kind in ("run", "stiffness")
+}
+"""Keys a kind uses only together with another (key → (needed key, refusal))."""
 _BASE_ONLY = (
     "cases: this kind of study analyses the base description only; remove [[cases]] "
     "(cyclomesh run runs them)"
@@ -112,30 +129,35 @@ _BASE_ONLY = (
 _NO_RUN_FIGURES = "this kind of study draws no load or stress figures; remove the key"
 
 REFUSED: dict[str, dict[str, str]] = {
-    "run": {"design.disc": _HOLES},
+    "run": {},
     "stiffness": {
-        "design.disc": _HOLES,
         "load.torque_nm": "the torsion curve sweeps the torque from -stiffness.rated_torque_nm "
         "to +stiffness.rated_torque_nm; remove [load] torque_nm",
+        "stage.rated_torque_nm": "the torsion curve of the stage is rated by "
+        "stiffness.rated_torque_nm; remove it (cyclomesh run uses it for the data sheet)",
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "tolerance": {
         "design.disc": _HOLES,
+        "stage": _STAGE,
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "allocate": {
         "design.disc": _HOLES,
+        "stage": _STAGE,
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "design": {
         "design.disc": _HOLES,
+        "stage": _STAGE,
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "fe": {
         "design.disc": _HOLES,
+        "stage": _STAGE,
         "design.discs": "the FE model solves one disc; remove [design] discs",
         "errors": "the FE model takes no pin errors yet; remove [errors] (cyclomesh run "
         "handles them)",
@@ -242,6 +264,12 @@ def set_keys(raw: Mapping[str, Any]) -> list[str]:
     return (["cases"] if cases else []) + list(dict.fromkeys(keys))
 
 
+def _present(raw: Mapping[str, Any], section: str) -> bool:
+    """Whether the file or one of its cases has the table ``section`` (even all defaults)."""
+    cases = [c for c in raw.get("cases") or [] if isinstance(c, Mapping)]
+    return any(section in table for table in (raw, *cases))
+
+
 def check_keys(raw: Mapping[str, Any], kind: str) -> None:
     """Refuse, in one line, the first key of the file that ``kind`` cannot honour.
 
@@ -250,7 +278,14 @@ def check_keys(raw: Mapping[str, Any], kind: str) -> None:
     StudyError
         ``<key>: <why and the fix>`` (exit status 2 from the CLI).
     """
-    for key in set_keys(raw):
+    keys = set_keys(raw)
+    for section in REFUSED[kind]:  # a refused section counts when present
+        if "." not in section and section != "cases" and _present(raw, section):
+            keys.insert(0, section)
+    for key in keys:
+        for pattern, (needed, why) in NEEDS.get(kind, {}).items():
+            if _matches(key, pattern) and not _present(raw, needed):
+                raise StudyError(why if kind == "run" else f"cyclomesh {kind}: {why}")
         for pattern, why in REFUSED[kind].items():
             if _matches(key, pattern):
                 text = why if why.startswith(pattern.split(".")[0]) else f"{key}: {why}"
