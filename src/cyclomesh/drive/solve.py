@@ -892,7 +892,7 @@ def stack_meshes(
     groove_deformation: bool,
     forward: bool,
     reverse: bool,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> tuple[StackMesh | None, StackMesh | None]:
     """The unloaded meshes of the forward flanks and of the mirror problem (reverse flanks),
     as needed; the mirror problem is solved on the crank angles −φ reversed, and

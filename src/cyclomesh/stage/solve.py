@@ -790,7 +790,7 @@ def solve_stage(
     crank_angles: ArrayLike = (0.0,),
     groove_deformation: bool = True,
     discs: int = 1,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> Stage:
     """Equilibrium of the RV stage at every crank angle and torque (see the module doc).
 
@@ -937,7 +937,7 @@ def stage_torsion_curve(
     groove_deformation: bool = True,
     discs: int = 1,
     points: int = 41,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> StageTorsion:
     """Torsion curve of the whole stage (mesh, crank bearings, springs in one solve).
 

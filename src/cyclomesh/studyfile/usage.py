@@ -48,9 +48,11 @@ OWN_SECTIONS: dict[str, tuple[str, ...]] = {
     "allocate": ("tolerance",),
     "design": ("design_space",),
     "fe": ("fe",),
-    "run": (),
+    "run": ("load.torque_nm", "stage.rated_torque_nm"),
 }
-"""The sections of a kind of study's own: another kind leaves them alone."""
+"""The sections (or keys) of a kind of study's own: another kind leaves them alone. The
+run's load and the stage's data-sheet rating are the run's: ``cyclomesh stiffness`` sweeps
+±``stiffness.rated_torque_nm`` instead, and one file serves both (examples/rv_stage.toml)."""
 
 _PAIR = (
     "design.pins",
@@ -107,10 +109,15 @@ _HOLES = (
     "design.disc: the crank holes are the crankshafts of the RV stage, which this kind of "
     "study does not take; remove [design.disc] (cyclomesh run and stiffness take [stage])"
 )
-_STAGE = (
-    "stage: the RV stage runs in cyclomesh run and cyclomesh stiffness only; remove "
-    "[stage] (docs/stage.md)"
-)
+
+
+def _stage(kind: str) -> str:
+    return (
+        f"stage: [stage] is not taken by cyclomesh {kind} yet; use cyclomesh run or "
+        "cyclomesh stiffness for the RV stage, or remove [stage] (docs/stage.md)"
+    )
+
+
 NEEDS: dict[str, dict[str, tuple[str, str]]] = {
     kind: {
         "design.disc": (
@@ -131,33 +138,29 @@ _NO_RUN_FIGURES = "this kind of study draws no load or stress figures; remove th
 REFUSED: dict[str, dict[str, str]] = {
     "run": {},
     "stiffness": {
-        "load.torque_nm": "the torsion curve sweeps the torque from -stiffness.rated_torque_nm "
-        "to +stiffness.rated_torque_nm; remove [load] torque_nm",
-        "stage.rated_torque_nm": "the torsion curve of the stage is rated by "
-        "stiffness.rated_torque_nm; remove it (cyclomesh run uses it for the data sheet)",
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "tolerance": {
         "design.disc": _HOLES,
-        "stage": _STAGE,
+        "stage": _stage("tolerance"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "allocate": {
         "design.disc": _HOLES,
-        "stage": _STAGE,
+        "stage": _stage("allocate"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "design": {
         "design.disc": _HOLES,
-        "stage": _STAGE,
+        "stage": _stage("design"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "fe": {
         "design.disc": _HOLES,
-        "stage": _STAGE,
+        "stage": _stage("fe"),
         "design.discs": "the FE model solves one disc; remove [design] discs",
         "errors": "the FE model takes no pin errors yet; remove [errors] (cyclomesh run "
         "handles them)",
@@ -213,6 +216,10 @@ def classify(kind: str, key: str) -> str:
     """``"used"``, ``"refused"`` or ``"other"`` (another kind's section) for a key."""
     if any(_matches(key, p) for p in REFUSED[kind]):
         return "refused"
+    for other, sections in OWN_SECTIONS.items():  # a key another kind owns by name
+        named = [p for p in sections if "." in p]
+        if other != kind and any(_matches(key, p) for p in named) and key not in USED[kind]:
+            return "other"
     if any(_matches(key, p) for p in USED[kind]):
         return "used"
     for other, sections in OWN_SECTIONS.items():
