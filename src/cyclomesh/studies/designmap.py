@@ -1,8 +1,10 @@
 """Design maps (``cyclomesh design``): a study's ``[design_space]`` on the one pipeline.
 
-The study's base description (its top-level sections; ``[[cases]]`` are not used) fixes
-the design, the torque, the crank angles (``[analysis]``), the pin errors and the
-unswept part of the modification (including a ``profile_file``); ``[design_space]``
+The study's base description (its top-level sections; ``[[cases]]`` are refused) fixes
+the design and its stack of discs, the torque of the stack, the crank angles
+(``[analysis]``; for a robust map ``[tolerance]``'s keys over ``[analysis]``'s, the rule of
+the tolerance studies), the pin errors and the unswept part of the modification
+(including a ``profile_file``); ``[design_space]``
 (:class:`~cyclomesh.studyfile.schema.DesignSpaceSection`) gives the swept parameters, the
 constraints, the objective and, with ``rings = K``, the number of rings drawn from
 ``[tolerance]`` for a robust map. Stages (see ``docs/pipeline.md``):

@@ -2,8 +2,9 @@
 (``cyclomesh allocate``), on the one pipeline.
 
 The study runs the base description of the study file (its top-level sections;
-``[[cases]]`` are not used) with the errors of ``[tolerance]`` added to the base's
-``[errors]``. Stages (see ``docs/pipeline.md``):
+``[[cases]]`` are refused) with the errors of ``[tolerance]`` added to the base's
+``[errors]``, for the whole stack of discs, over the crank angles of ``[tolerance]``
+falling back key by key to ``[analysis]``'s. Stages (see ``docs/pipeline.md``):
 
 1. :func:`compute_tolerance` draws the rings and computes their metrics
    (:data:`cyclomesh.results.metrics.METRICS`) in chunks through :mod:`cyclomesh.execution.backends`
