@@ -151,6 +151,7 @@ CHANGE: dict[str, Any] = {
     "analysis.crank_step_deg": 1.5,
     "analysis.groove_deformation": False,
     "analysis.contact_law": "paper",
+    "analysis.disc_body": "fe",
     "figures.enabled": False,
     "figures.crank_angles_deg": [3.0],
     "figures.stress_pin": 10,
@@ -461,8 +462,18 @@ def baselines():
     return {}
 
 
+@pytest.fixture(scope="module")
+def fe_cache(tmp_path_factory):
+    """One cache of the disc body's FE coefficients for every kind (20 s once)."""
+    return tmp_path_factory.mktemp("cache")
+
+
 @pytest.mark.parametrize(("kind", "key"), USED_CASES, ids=[f"{k}-{v}" for k, v in USED_CASES])
-def test_a_used_key_changes_the_study(kind, key, tmp_path, monkeypatch, baselines):
+def test_a_used_key_changes_the_study(kind, key, tmp_path, monkeypatch, baselines, fe_cache):
+    if key == "analysis.disc_body":
+        pytest.importorskip("skfem")
+        pytest.importorskip("gmsh")
+        monkeypatch.setenv("CYCLOMESH_CACHE_DIR", str(fe_cache))
     if (kind, key) in NEUTRAL:  # physically without effect on what the kind reports
         from cyclomesh.studies.tolerance import ring_model
 

@@ -21,6 +21,7 @@ callbacks. Heavy modules are imported inside the commands, so ``--help`` is fast
 from __future__ import annotations
 
 import math
+import os
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -232,6 +233,23 @@ StepOption = Annotated[
         show_default=False,
     ),
 ]
+CacheDirOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--cache-dir",
+        help='Cache of the FE coefficients of [analysis] disc_body = "fe" (default: '
+        "$XDG_CACHE_HOME/cyclomesh or ~/.cache/cyclomesh).",
+        show_default=False,
+    ),
+]
+
+
+def _cache_dir(path: Path | None) -> None:
+    """Point the disc body's cache at ``path`` for this process and its workers."""
+    if path is not None:
+        os.environ["CYCLOMESH_CACHE_DIR"] = str(path)
+
+
 FiguresOption = Annotated[
     str | None,
     typer.Option(
@@ -295,6 +313,11 @@ def check(study: StudyArg, crank_step_deg: StepOption = None) -> None:
     from cyclomesh.studyfile import load_study
 
     loaded = load_study(study, _overrides(crank_step_deg))
+    if any(case.analysis.disc_body == "fe" for case in loaded.cases):
+        from cyclomesh.results.dataset import FE_EXTRA_MESSAGE, fe_extra_available
+
+        if not fe_extra_available():
+            raise StudyError(f"{study}: [analysis] {FE_EXTRA_MESSAGE}")
     names = ", ".join(case.name for case in loaded.cases)
     more = "; [tolerance] OK" if loaded.tolerance is not None else ""
     if any(case.stiffness is not None for case in loaded.cases):
@@ -316,8 +339,10 @@ def run(
     crank_step_deg: StepOption = None,
     figures: FiguresOption = None,
     csv: CsvOption = False,
+    cache_dir: CacheDirOption = None,
 ) -> None:
     """Run every case of a study; write results, figures, summary.json and report.html."""
+    _cache_dir(cache_dir)
     from cyclomesh.publish.pipeline import publish, study_stamp
     from cyclomesh.studies import run as kind
     from cyclomesh.studyfile import load_study
@@ -411,12 +436,14 @@ def stiffness(
     quiet: QuietOption = False,
     crank_step_deg: StepOption = None,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
 ) -> None:
     """Torsion curve of every case ([stiffness] section): play, lost motion, rigidity.
 
     Writes <case>/stiffness.nc, summary.json, the figures and report.html. The numbers
     are those of the cycloid-pin mesh alone (see docs/drive.md).
     """
+    _cache_dir(cache_dir)
     from cyclomesh.publish.pipeline import publish, study_stamp
     from cyclomesh.studies import stiffness as kind
     from cyclomesh.studyfile import load_study
@@ -559,8 +586,10 @@ def tolerance(
     workers: WorkersOption = None,
     chunk_rings: ChunkOption = None,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
 ) -> None:
     """Monte Carlo tolerance study: per-ring metrics, statistics, worst ring, report."""
+    _cache_dir(cache_dir)
     from cyclomesh.studies import tolerance as kind
 
     loaded, spec = kind.load_tolerance_study(study)
@@ -606,8 +635,10 @@ def allocate(
     workers: WorkersOption = None,
     chunk_rings: ChunkOption = None,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
 ) -> None:
     """Largest scale factor on the tolerances that meets the target exceedance probability."""
+    _cache_dir(cache_dir)
     from cyclomesh.studies import tolerance as kind
 
     loaded, spec = kind.load_tolerance_study(study)
@@ -688,12 +719,14 @@ def design(
     quiet: QuietOption = False,
     workers: WorkersOption = None,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
 ) -> None:
     """Design map: sweep the modification, map the metrics, mark the optimum.
 
     A nominal map runs in this process unless --workers or --scheduler is given; a
     robust map (design_space.rings > 0) runs on all local cores by default.
     """
+    _cache_dir(cache_dir)
     from cyclomesh.publish.pipeline import publish
     from cyclomesh.studies import designmap as kind
 
@@ -755,12 +788,15 @@ def fe(
     ] = True,
     quiet: QuietOption = False,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
 ) -> None:
     """Whole-disc finite-element model beside the LTCA, per case (needs the fe extra).
 
     Writes <case>/fe.nc, <case>/convergence.csv, summary.json, the figures and
-    report.html (docs/contact-law.md).
+    report.html (docs/contact-law.md). The LTCA runs under the study's [analysis]
+    settings (contact_law, disc_body).
     """
+    _cache_dir(cache_dir)
     try:
         import gmsh  # noqa: F401
         import skfem  # noqa: F401

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.contact import UnloadedContact, unloaded_contact
+from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
 from cyclomesh.core.hertz import (
     CONTACT_LAWS,
     compliance_coefficients,
@@ -34,7 +35,14 @@ from cyclomesh.core.profile import check_profile
 from cyclomesh.core.transmission import gear_ratio, transmission_error
 from cyclomesh.exceptions import ConvergenceError, DesignError
 
-__all__ = ["LTCA", "solve_ltca", "rest_position", "count_contacts", "CONTACT_LOAD_FRACTION"]
+__all__ = [
+    "LTCA",
+    "solve_ltca",
+    "rest_position",
+    "check_disc_body",
+    "count_contacts",
+    "CONTACT_LOAD_FRACTION",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -136,6 +144,7 @@ def solve_ltca(
     crank_angles: ArrayLike = (0.0,),
     groove_deformation: bool = True,
     contact_law: str = "half_plane",
+    disc_body: str | DiscBody = "rigid",
 ) -> LTCA:
     """Loaded tooth contact analysis of a cycloid-pin pair (Eqs. 1–26 of [1]).
 
@@ -160,6 +169,12 @@ def solve_ltca(
         and converged in the crank step, or Eq. 20 of [1] as published (``"paper"``, to
         reproduce the paper; its ratio ripple and TE peak-to-peak grow without bound as
         the crank step shrinks); see :mod:`cyclomesh.core.hertz` and ``docs/contact-law.md``.
+    disc_body : "rigid" or DiscBody
+        The disc body: rigid apart from the contact law ([1], the default, solved by
+        :func:`~cyclomesh.core.loadsharing.share_load` exactly as before), or elastic with
+        the influence coefficients of a :class:`~cyclomesh.core.discbody.DiscBody`
+        (:func:`cyclomesh.fe.influence.influence`; needs ``contact_law="half_plane"``,
+        whose near field the coefficients leave out).
 
     Returns
     -------
@@ -178,6 +193,7 @@ def solve_ltca(
         raise DesignError(f"torque must be a positive number of N·m, got {torque!r}")
     phi = check_crank_angles(crank_angles)
     check_contact_law(contact_law)
+    body = check_disc_body(disc_body, contact_law, design)
     ring_shape = check_pair(design, modification, errors)
 
     geo = unloaded_contact(design, modification, errors, phi)
@@ -185,7 +201,13 @@ def solve_ltca(
     backlash = geo.rotation - rest[..., None]
     alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
     try:
-        loaded, force = share_load(backlash, geo.moment_arm, alpha, gamma, torque)
+        if body is None:
+            loaded, force = share_load(backlash, geo.moment_arm, alpha, gamma, torque)
+        else:
+            tooth = tooth_index(design.pins, design.pitch, phi)
+            loaded, force = share_load_coupled(
+                backlash, geo.moment_arm, alpha, gamma, torque, body, tooth, geo.profile_angle
+            )
     except ConvergenceError as exc:
         raise locate_failure(exc, (*ring_shape, phi.size), phi) from None
     groove_force, contact_stress, groove_stress = contact_stresses(geo, design, force)
@@ -273,6 +295,32 @@ def check_contact_law(contact_law: str) -> str:
             f"contact_law must be one of {', '.join(CONTACT_LAWS)}, got {contact_law!r}"
         )
     return contact_law
+
+
+def check_disc_body(
+    disc_body: str | DiscBody, contact_law: str, design: PairDesign
+) -> DiscBody | None:
+    """None for the rigid disc, the :class:`DiscBody` for a compliant one, else a
+    one-line :class:`DesignError`."""
+    if isinstance(disc_body, str) and disc_body == "rigid":
+        return None
+    if isinstance(disc_body, DiscBody):
+        if contact_law != "half_plane":
+            raise DesignError(
+                "disc_body: the FE disc body leaves the near field to the half-plane law; "
+                f'set contact_law = "half_plane" (got {contact_law!r})'
+            )
+        if disc_body.teeth != design.teeth:
+            raise DesignError(
+                f"disc_body: coefficients for {disc_body.teeth} teeth, design has {design.teeth}"
+            )
+        return disc_body
+    if disc_body == "fe":
+        raise DesignError(
+            'disc_body = "fe" is resolved by cyclomesh.analyse (or pass the DiscBody of '
+            "cyclomesh.fe.influence.influence)"
+        )
+    raise DesignError(f'disc_body must be "rigid" or "fe", got {disc_body!r}')
 
 
 def pin_compliance(

@@ -177,6 +177,7 @@ def candidate_metrics(
     lost_motion: bool = False,
     contact_law: str = "half_plane",
     discs: int = 1,
+    disc_body: Any = "rigid",
 ) -> dict[str, FloatArray]:
     """Metrics of one candidate modification (see module doc), per ring, SI units.
 
@@ -197,7 +198,15 @@ def candidate_metrics(
     light = LOST_MOTION_FRACTION * torque
     torques = [torque, -light, light] if lost_motion else [torque]
     res = solve_drive(
-        design, modification, errors, torques, phi, groove_deformation, discs, contact_law
+        design,
+        modification,
+        errors,
+        torques,
+        phi,
+        groove_deformation,
+        discs,
+        contact_law=contact_law,
+        disc_body=disc_body,
     )
     te = res.transmission_error  # (..., torque, angle), the stack's
     angles_discs = (-2, -1)
@@ -269,6 +278,9 @@ class DesignTask:
     lost_motion: bool = False
     contact_law: str = "half_plane"
     discs: int = 1
+    disc_body: Any = "rigid"
+    """The base design's disc body for every candidate (Δa, Δρ, δ of a few µm leave the
+    body's compliance as it is)."""
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -310,6 +322,7 @@ class DesignTask:
                     self.lost_motion,
                     self.contact_law,
                     self.discs,
+                    self.disc_body,
                 )
             except CyclomeshError as exc:  # undercut, interfering pin, failed solve
                 reason[row] = str(exc)[:_REASON_LENGTH]
@@ -397,6 +410,7 @@ def design_map(
     progress: Any = None,
     contact_law: str = "half_plane",
     discs: int = 1,
+    disc_body: Any = "rigid",
 ) -> xr.Dataset:
     """Design map over a grid of modifications, as a labelled Dataset.
 
@@ -431,6 +445,9 @@ def design_map(
     discs : int
         Identical discs on the pin ring (:func:`cyclomesh.drive.solve.solve_drive`); the
         metrics are those of the stack, per-disc ones reduced over the discs.
+    disc_body : "rigid" or DiscBody
+        The disc body of every candidate: the base design's coefficients (a
+        modification of a few µm leaves the body's compliance as it is).
 
     Returns
     -------
@@ -475,6 +492,7 @@ def design_map(
         lost_motion=lost_motion,
         contact_law=contact_law,
         discs=int(discs),
+        disc_body=disc_body,
     )
     metrics = evaluate_grid(task, backend, chunk, progress)
     feasible, reason = feasibility(metrics, constraints)
@@ -501,6 +519,7 @@ def design_map(
             "objective": objective,
             "objective_variable": METRICS[OBJECTIVES[objective]][0],
             "torque_nm": float(torque),
+            "disc_body": "rigid" if isinstance(disc_body, str) else "fe",
             "rings": int(rings),
             "robust": int(bool(ring_shape)),
             "robust_percentile": ROBUST_PERCENTILE,

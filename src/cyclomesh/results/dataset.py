@@ -12,7 +12,7 @@ is built, so the variable tables below can be read by worker processes cheaply.
 from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from cyclomesh.core.ltca import CONTACT_LOAD_FRACTION, LTCA
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.solve import Drive, check_torques, solve_drive
+from cyclomesh.exceptions import DesignError
 from cyclomesh.execution.runtime import tune_allocator
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, summary_metrics
 from cyclomesh.units import ARCSEC_PER_RAD
@@ -257,6 +258,9 @@ def analyse(
     crank_angles_deg: ArrayLike | None = None,
     discs: int = 1,
     contact_law: str = "half_plane",
+    disc_body: Any = "rigid",
+    crank_holes: Any = None,
+    cache_dir: Any = None,
 ) -> xr.Dataset:
     """Loaded tooth contact analysis of a cycloid-pin pair as a labelled Dataset.
 
@@ -285,6 +289,12 @@ def analyse(
     contact_law : {"paper", "half_plane"}
         Tooth term of the contact law (see :mod:`cyclomesh.core.hertz`); recorded in the
         ``contact_law`` attribute.
+    disc_body : "rigid", "fe" or DiscBody
+        The disc body (:func:`cyclomesh.core.ltca.solve_ltca`): ``"fe"`` takes the influence
+        coefficients of :func:`cyclomesh.fe.influence.influence` (the fe extra; computed
+        once per design, then loaded from ``cache_dir``, default the per-user cache), the
+        disc held at its ``crank_holes`` (a :class:`~cyclomesh.core.pair.CrankHoles`) or,
+        without them, at the bore. Recorded in the ``disc_body`` attribute.
 
     Returns
     -------
@@ -305,11 +315,23 @@ def analyse(
     crank_angles, degrees = resolve_crank_angles(crank_angles, crank_angles_deg)
     torque_dim = np.ndim(torque) > 0
     torques = check_torques(torque)
+    body = resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir)
     result = solve_drive(
-        design, modification, errors, torques, crank_angles, groove_deformation, discs, contact_law
+        design,
+        modification,
+        errors,
+        torques,
+        crank_angles,
+        groove_deformation,
+        discs,
+        contact_law,
+        body,
     )
     ds = drive_to_dataset(result, design, modification, groove_deformation, torque_dim)
     ds.attrs["contact_law"] = contact_law
+    ds.attrs["disc_body"] = "rigid" if isinstance(body, str) else "fe"
+    if not isinstance(body, str):
+        ds.attrs["disc_body_key"] = body.key
     if degrees is not None:
         ds = ds.assign_coords(crank_angle=("crank_angle", degrees, {"units": "deg"}))
     return ds
@@ -425,3 +447,40 @@ def drive_metrics(result: Drive, teeth: int) -> dict[str, NDArray]:
         out["torque_share_min_nm"] = np.min(share, axis=(-2, -1))
         out["torque_share_max_nm"] = np.max(share, axis=(-2, -1))
     return out
+FE_EXTRA_MESSAGE = (
+    'disc_body = "fe" needs the fe extra: pip install "cyclomesh[fe]" (scikit-fem and gmsh)'
+)
+
+
+def fe_extra_available() -> bool:
+    """Whether the ``fe`` extra (scikit-fem, gmsh and its system libraries) loads."""
+    try:
+        import gmsh  # noqa: F401
+        import skfem  # noqa: F401
+    except (ImportError, OSError):
+        return False
+    return True
+
+
+def resolve_disc_body(
+    disc_body: Any,
+    design: PairDesign,
+    modification: Modification | None = None,
+    crank_holes: Any = None,
+    cache_dir: Any = None,
+) -> Any:
+    """``"rigid"``, or the :class:`~cyclomesh.core.discbody.DiscBody` of ``disc_body="fe"``
+    (from the cache, computed on a miss), or a DiscBody passed through.
+
+    Raises
+    ------
+    DesignError
+        For ``"fe"`` without the fe extra (one line naming it).
+    """
+    if not (isinstance(disc_body, str) and disc_body == "fe"):
+        return disc_body
+    if not fe_extra_available():
+        raise DesignError(FE_EXTRA_MESSAGE)
+    from cyclomesh.fe.influence import influence
+
+    return influence(design, modification, crank_holes, cache_dir)

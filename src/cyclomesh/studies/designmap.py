@@ -34,6 +34,7 @@ import numpy as np
 
 from cyclomesh.designspace.sweep import METRICS, PARAMETERS, Constraints
 from cyclomesh.exceptions import DesignError, StudyError
+from cyclomesh.results.dataset import resolve_disc_body
 from cyclomesh.studyfile.schema import DesignSpaceSection, Study, load_study
 from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
@@ -171,6 +172,9 @@ def compute_design(
             groove_deformation=base.groove_deformation,
             contact_law=base.contact_law,
             discs=base.discs,
+            disc_body=resolve_disc_body(
+                base.disc_body, base.design, base.modification, base.crank_holes
+            ),
             constraints=constraints(space),
             objective=space.objective,
             lost_motion=space.lost_motion,

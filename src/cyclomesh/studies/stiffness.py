@@ -127,6 +127,8 @@ def compute_stiffness(
             discs=inputs.discs,
             series_stiffness_nm_per_arcmin=section.series_stiffness_nm_per_arcmin,
             contact_law=inputs.contact_law,
+            disc_body=inputs.disc_body,
+            crank_holes=inputs.crank_holes,
         )
         ds.attrs.update(case_attrs(study, case))
         stage_summary: dict[str, Any] = {}

@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cyclomesh.exceptions import StudyError
+from cyclomesh.results.dataset import resolve_disc_body
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC
 from cyclomesh.studyfile.schema import Study, ToleranceSection, load_study
 from cyclomesh.studyfile.usage import check_keys
@@ -111,6 +112,9 @@ def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
         contact_law=core.contact_law,
         discs=core.discs,
         crank_range=crank_range,
+        disc_body=resolve_disc_body(
+            core.disc_body, core.design, core.modification, core.crank_holes
+        ),
     )
 
 

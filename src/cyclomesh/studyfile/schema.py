@@ -485,6 +485,23 @@ class AnalysisSection(_Section):
             'step), or Eq. 20 of [1] as published ("paper", to reproduce the paper)'
         ),
     )
+    disc_body: Literal["rigid", "fe"] = Field(
+        "rigid",
+        description=(
+            "the disc body: rigid apart from the contact law (as in [1]), or compliant with "
+            "influence coefficients condensed from the FE model (needs the fe extra and "
+            'contact_law = "half_plane"; computed once per design and cached)'
+        ),
+    )
+
+    @model_validator(mode="after")
+    def _fe_body_needs_half_plane(self) -> AnalysisSection:
+        if self.disc_body == "fe" and self.contact_law != "half_plane":
+            raise ValueError(
+                'disc_body = "fe" leaves the near field to the half-plane law: set '
+                'contact_law = "half_plane"'
+            )
+        return self
 
     @model_validator(mode="after")
     def _at_least_two_angles(self) -> AnalysisSection:
@@ -764,6 +781,8 @@ class CaseInputs:
     contact_law: str = "half_plane"
     crank_holes: CrankHoles | None = None
     """The disc's crank holes (``[design.disc]``), or None: held at the bore."""
+    disc_body: str = "rigid"
+    """``[analysis] disc_body``: "rigid" or "fe" (held at the crank holes if any)."""
     stage: StageDesign | None = None
     """The RV stage (``[stage]``: crank bearings on the crank holes), or None: mesh alone."""
 
@@ -778,6 +797,11 @@ class CaseInputs:
             "groove_deformation": self.groove_deformation,
             "discs": self.discs,
             "contact_law": self.contact_law,
+            **(
+                {"disc_body": self.disc_body, "crank_holes": self.crank_holes}
+                if self.disc_body != "rigid"
+                else {}
+            ),
         }
 
 
@@ -895,6 +919,11 @@ class CaseSpec(_Section):
             stage = None if self.stage is None else self.stage.to_core(crank_holes, d.discs)
         except DesignError as exc:
             raise StudyError(f"{self.label}: {exc}") from None
+        if stage is not None and self.analysis.disc_body != "rigid":
+            raise StudyError(
+                f'{self.label}: [analysis] disc_body = "fe" is not coupled with the [stage] '
+                'crank bearings yet: set disc_body = "rigid" or remove [stage]'
+            )
         return CaseInputs(
             design=design,
             modification=modification,
@@ -910,6 +939,7 @@ class CaseSpec(_Section):
             discs=d.discs,
             contact_law=self.analysis.contact_law,
             crank_holes=crank_holes,
+            disc_body=self.analysis.disc_body,
             stage=stage,
         )
 

@@ -101,7 +101,15 @@ USED: dict[str, tuple[str, ...]] = {
     ),
     "allocate": (*_LTCA, "tolerance"),
     "design": (*_LTCA, *_RINGS, "design_space"),
-    "fe": (*_PAIR, *_OUTPUT, "load.torque_nm", "analysis.contact_law", "cases", "fe"),
+    "fe": (
+        *_PAIR,
+        *_OUTPUT,
+        "load.torque_nm",
+        "analysis.contact_law",
+        "analysis.disc_body",
+        "cases",
+        "fe",
+    ),
 }
 """Keys (or whole tables) each kind of study uses."""
 

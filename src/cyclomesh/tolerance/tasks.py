@@ -87,6 +87,9 @@ class RingModel:
         Identical discs on the pin ring (:func:`cyclomesh.drive.solve.solve_drive`).
     crank_range : (start, stop, step) [deg], optional
         Where ``crank_angles_deg`` came from (written into a ring's study file).
+    disc_body : "rigid" or DiscBody
+        The disc body (:func:`cyclomesh.core.ltca.solve_ltca`), resolved once by the
+        parent and carried to the workers with the task (one table for all rings).
     """
 
     design: PairDesign
@@ -100,6 +103,7 @@ class RingModel:
     contact_law: str = "half_plane"
     discs: int = 1
     crank_range: tuple[float, float, float] | None = None
+    disc_body: Any = "rigid"
 
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
@@ -156,6 +160,7 @@ class RingModel:
             self.groove_deformation,
             self.discs,
             self.contact_law,
+            self.disc_body,
         )
         return drive_metrics(result, self.design.teeth)
 
