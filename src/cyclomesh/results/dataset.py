@@ -447,6 +447,8 @@ def drive_metrics(result: Drive, teeth: int) -> dict[str, NDArray]:
         out["torque_share_min_nm"] = np.min(share, axis=(-2, -1))
         out["torque_share_max_nm"] = np.max(share, axis=(-2, -1))
     return out
+
+
 FE_EXTRA_MESSAGE = (
     'disc_body = "fe" needs the fe extra: pip install "cyclomesh[fe]" (scikit-fem and gmsh)'
 )
