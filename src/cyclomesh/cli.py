@@ -371,7 +371,7 @@ def run(
             pool=pool,
         )
     if not quiet:
-        _print_summary(result.summaries, out)
+        _print_summary(result.summaries, out, result.study_warnings())
 
 
 _SUMMARY_COLUMNS = (
@@ -385,7 +385,16 @@ _SUMMARY_COLUMNS = (
 )
 
 
-def _print_summary(summaries: dict, out: Path) -> None:
+def _print_warnings(warnings: list[str]) -> None:
+    from rich.console import Console
+    from rich.markup import escape
+
+    console = Console()
+    for warning in warnings:
+        console.print(f"warning: {escape(warning)}")
+
+
+def _print_summary(summaries: dict, out: Path, warnings: list[str] = ()) -> None:
     from rich.console import Console
     from rich.markup import escape
     from rich.table import Table
@@ -414,6 +423,7 @@ def _print_summary(summaries: dict, out: Path) -> None:
         console.print(
             "warning: the disc interferes with unloaded-side pins (see max_overlap_arcsec)"
         )
+    _print_warnings(list(warnings))
     console.print(f"report: {out / 'report.html'}")
 
 
@@ -457,6 +467,7 @@ def stiffness(
             pool=pool,
         )
     if not quiet:
+        _print_warnings(result.study_warnings())
         _print_stiffness(result.summaries, out)
 
 
@@ -586,7 +597,8 @@ def tolerance(
     n = spec.rings if rings is None else rings
     with _workers(scheduler, workers, bool(options.figures)) as backend:
         _say(
-            f"tolerance study: {n} rings, {len(spec.crank_angles_deg())} crank angles, "
+            f"tolerance study: {n} rings, "
+            f"{len(spec.crank_angles_deg(loaded.base.analysis))} crank angles, "
             f"{backend.workers} worker(s)",
             quiet,
         )
@@ -652,6 +664,7 @@ def allocate(
     kind.publish_allocation(result, out, options)
     if not quiet:
         typer.echo(result.allocation.statement())
+        _print_warnings(result.record.get("warnings", []))
         typer.echo(f"files: {out}")
 
 
@@ -679,6 +692,7 @@ def _print_tolerance(stats: dict[str, Any], out: Path) -> None:
         f"{ex['probability']:.4g}, {conf:.0%} Clopper-Pearson [{ex['lower']:.4g}, "
         f"{ex['upper']:.4g}] ({ex['count']} of {ex['rings']} rings)"
     )
+    _print_warnings(stats.get("warnings", []))
     worst = stats["worst_ring"]
     console.print(
         f"worst ring {worst['ring']}: {worst['max_contact_stress_mpa']:.5g} MPa -> "
@@ -753,6 +767,7 @@ def design(
             where = ", ".join(f"{k} = {v:g}" for k, v in s["optimum"]["parameters"].items())
             value = s["optimum"]["metrics"][s["objective_variable"]]
             typer.echo(f"optimum: {where} ({s['objective_variable']} = {value:.6g})")
+        _print_warnings(s.get("warnings", []))
         typer.echo(f"report: {out / 'report.html'}")
 
 
