@@ -373,10 +373,21 @@ def run(
             pool=pool,
         )
     if not quiet:
-        _print_summary(result.summaries, out, result.checks)
+        _print_summary(result.summaries, out, result.checks, result.study_warnings())
 
 
-def _print_summary(summaries: dict, out: Path, checks: dict | None = None) -> None:
+def _print_warnings(warnings: list[str]) -> None:
+    from rich.console import Console
+    from rich.markup import escape
+
+    console = Console()
+    for warning in warnings:
+        console.print(f"warning: {escape(warning)}")
+
+
+def _print_summary(
+    summaries: dict, out: Path, checks: dict | None = None, warnings: list[str] = ()
+) -> None:
     from rich.console import Console
 
     from cyclomesh.publish.console import RUN_ROWS, print_checks, print_metrics
@@ -398,6 +409,7 @@ def _print_summary(summaries: dict, out: Path, checks: dict | None = None) -> No
         console.print(
             "warning: the disc interferes with unloaded-side pins (see max_overlap_arcsec)"
         )
+    _print_warnings(list(warnings))
     console.print(f"report: {out / 'report.html'}")
 
 
@@ -487,6 +499,7 @@ def stiffness(
             pool=pool,
         )
     if not quiet:
+        _print_warnings(result.study_warnings())
         _print_stiffness(result.summaries, out, result.checks)
 
 
@@ -610,7 +623,8 @@ def tolerance(
     n = spec.rings if rings is None else rings
     with _workers(scheduler, workers, bool(options.figures)) as backend:
         _say(
-            f"tolerance study: {n} rings, {len(spec.crank_angles_deg())} crank angles, "
+            f"tolerance study: {n} rings, "
+            f"{len(spec.crank_angles_deg(loaded.base.analysis))} crank angles, "
             f"{backend.workers} worker(s)",
             quiet,
         )
@@ -676,6 +690,7 @@ def allocate(
     kind.publish_allocation(result, out, options)
     if not quiet:
         typer.echo(result.allocation.statement())
+        _print_warnings(result.record.get("warnings", []))
         typer.echo(f"files: {out}")
 
 
@@ -711,6 +726,7 @@ def _print_tolerance(stats: dict[str, Any], out: Path) -> None:
         f"{ex['probability']:.4g}, {conf:.0%} Clopper-Pearson [{ex['lower']:.4g}, "
         f"{ex['upper']:.4g}] ({ex['count']} of {ex['rings']} rings)"
     )
+    _print_warnings(stats.get("warnings", []))
     worst = stats["worst_ring"]
     console.print(
         f"worst ring {worst['ring']}: {worst['max_contact_stress_mpa']:.5g} MPa -> "
@@ -791,6 +807,7 @@ def design(
                 from cyclomesh.publish.console import print_checks
 
                 print_checks(Console(highlight=False), {"optimum": s["checks"]})
+        _print_warnings(s.get("warnings", []))
         typer.echo(f"report: {out / 'report.html'}")
 
 

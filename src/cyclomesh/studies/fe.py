@@ -129,7 +129,9 @@ def compute_fe(
         Cache of the disc body's coefficients (``[analysis] disc_body = "fe"``).
     """
     from cyclomesh.studyfile.schema import refuse_stage
+    from cyclomesh.studyfile.usage import check_keys
 
+    check_keys(study.raw, "fe")
     refuse_stage(study, "fe")
     check_fe(study)
     section = study.file.fe or FeSection()

@@ -64,6 +64,14 @@ class RunResult:
     """Case name → metrics of :data:`cyclomesh.results.metrics.METRICS` (plain JSON numbers)."""
     checks: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → requirement checks and design warnings (:mod:`cyclomesh.studies.checks`)."""
+    warnings: dict[str, list[str]] = field(default_factory=dict)
+    """Case name → warnings (:mod:`cyclomesh.studyfile.warnings`)."""
+
+    def study_warnings(self) -> list[str]:
+        """The warnings of the study, each once (prefixed by the case where not all)."""
+        from cyclomesh.studyfile.warnings import merge_warnings
+
+        return merge_warnings(self.warnings)
 
     @property
     def inputs(self) -> list[CaseInputs]:
@@ -120,7 +128,10 @@ def compute_run(
     """
     from cyclomesh.results.dataset import analyse, summarize
     from cyclomesh.studies.checks import case_checks
+    from cyclomesh.studyfile.usage import check_keys
+    from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
 
+    check_keys(study.raw, "run")
     run = RunResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
         if on_start:
@@ -134,6 +145,11 @@ def compute_run(
             ds, sheet = _with_stage(ds, case, inputs)
             run.summaries[case.name].update(sheet)
         run.results[case.name] = ds
+        run.warnings[case.name] = study_warnings(
+            inputs.contact_law,
+            case.analysis.crank_angles_deg(),
+            has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
+        )
         run.checks[case.name] = case_checks(study, case, inputs, run.summaries[case.name], ds)
         if on_done:
             on_done(case.name)
@@ -202,10 +218,11 @@ def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
                 "results": f"{folder}/results.nc",
                 **run.summaries[case.name],
                 "checks": run.checks[case.name],
+                "warnings": run.warnings.get(case.name, []),
             }
         )
     units = {name: m.unit for name, m in (METRICS | DRIVE_METRICS | STAGE_METRICS).items()}
-    document = summary_document(study, units, records)
+    document = summary_document(study, units, records, warnings=run.study_warnings())
     written.append(write_json(out / "summary.json", document))
     return written
 
@@ -517,7 +534,22 @@ def run_sections(run: RunResult) -> list[Section]:
             "not modelled.</p>"
         )
         sections.append(Section("Data sheet (RV stage)", sheet))
-    return sections
+    return warning_sections(run.study_warnings()) + sections
+
+
+def description_html(study: Study) -> str:
+    """The study's description as a report paragraph ('' without one)."""
+    return f"<p>{html.escape(study.description)}</p>" if study.description else ""
+
+
+def warning_sections(warnings: list[str]) -> list[Section]:
+    """A "Warnings" report section listing ``warnings`` (none if there are none)."""
+    from cyclomesh.publish.report import Section
+
+    if not warnings:
+        return []
+    items = "".join(f"<li>{html.escape(w)}</li>" for w in warnings)
+    return [Section("Warnings", f"<ul>{items}</ul>")]
 
 
 def run_study(study: Study, out: str | Path, options: OutputOptions | None = None) -> list[Path]:

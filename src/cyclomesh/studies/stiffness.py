@@ -74,6 +74,14 @@ class StiffnessResult:
     checks: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → requirement checks and design warnings (:mod:`cyclomesh.studies.checks`)."""
     seconds: float = 0.0
+    warnings: dict[str, list[str]] = field(default_factory=dict)
+    """Case name → warnings (:mod:`cyclomesh.studyfile.warnings`)."""
+
+    def study_warnings(self) -> list[str]:
+        """The warnings of the study, each once (prefixed by the case where not all)."""
+        from cyclomesh.studyfile.warnings import merge_warnings
+
+        return merge_warnings(self.warnings)
 
 
 def _section(case: CaseSpec) -> StiffnessSection:
@@ -102,8 +110,11 @@ def compute_stiffness(
     from cyclomesh.output.writers import jsonable
     from cyclomesh.results.torsion import stiffness, summarize_stiffness
     from cyclomesh.studies.checks import case_checks
+    from cyclomesh.studyfile.usage import check_keys
+    from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
 
     check_stiffness(study)
+    check_keys(study.raw, "stiffness")
     start = time.perf_counter()
     result = StiffnessResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
@@ -144,6 +155,11 @@ def compute_stiffness(
         )
         record.update(stage_summary)
         result.summaries[case.name] = record
+        result.warnings[case.name] = study_warnings(
+            inputs.contact_law,
+            case.analysis.crank_angles_deg(),
+            has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
+        )
         result.checks[case.name] = case_checks(study, case, inputs, record)
         if progress:
             progress(1)
@@ -170,6 +186,7 @@ def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
                 "results": f"{folder_name(case.name)}/stiffness.nc",
                 **result.summaries[case.name],
                 "checks": result.checks[case.name],
+                "warnings": result.warnings.get(case.name, []),
             }
         )
     from cyclomesh.results.stage import STAGE_STIFFNESS_METRICS
@@ -179,6 +196,7 @@ def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
         {name: m.unit for name, m in (STIFFNESS_METRICS | STAGE_STIFFNESS_METRICS).items()},
         records,
         scope="cycloid-pin mesh only; drive_* numbers add the series stiffness",
+        warnings=result.study_warnings(),
     )
     written.append(write_json(out / "summary.json", document))
     return written
@@ -325,4 +343,10 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
     from cyclomesh.studies.run import metrics_table
 
     summary = metrics_table(result.summaries, STIFFNESS_METRICS | STAGE_STIFFNESS_METRICS)
-    return [Section("Study", intro), checks_section(result.checks), Section("Summary", summary)]
+    from cyclomesh.studies.run import warning_sections
+
+    return warning_sections(result.study_warnings()) + [
+        Section("Study", intro),
+        checks_section(result.checks),
+        Section("Summary", summary),
+    ]

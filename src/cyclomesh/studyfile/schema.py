@@ -574,10 +574,11 @@ class AnalysisSection(_Section):
     crank_step_deg: float = Field(0.1, gt=0, description="crank angle step [deg]")
     groove_deformation: bool = Field(True, description="the improved model of [1] (Eq. 19)")
     contact_law: Literal["paper", "half_plane"] = Field(
-        "paper",
+        "half_plane",
         description=(
-            "tooth term of the contact law: Eq. 20 of [1] as published, or the approach of a "
-            "half-plane to the disc centre (Johnson eq. 5.41), finite at inflection points"
+            "tooth term of the contact law: the approach of a half-plane to the disc centre "
+            "(Johnson eq. 5.41, default: finite at inflection points, converged in the crank "
+            'step), or Eq. 20 of [1] as published ("paper", to reproduce the paper)'
         ),
     )
     disc_body: Literal["rigid", "fe"] = Field(
@@ -703,9 +704,15 @@ class ToleranceSection(_Section):
     allowable_contact_stress_mpa: float = Field(
         gt=0.0, description="allowable peak tooth contact stress [MPa]"
     )
-    crank_start_deg: float = Field(0.0, description="first crank angle [deg]")
-    crank_stop_deg: float = Field(360.0, description="crank angle where to stop, excluded [deg]")
-    crank_step_deg: float = Field(1.0, gt=0.0, description="crank angle step [deg]")
+    crank_start_deg: float | None = Field(
+        None, description="first crank angle [deg] (default: [analysis]'s)"
+    )
+    crank_stop_deg: float | None = Field(
+        None, description="crank angle where to stop, excluded [deg] (default: [analysis]'s)"
+    )
+    crank_step_deg: float | None = Field(
+        None, gt=0.0, description="crank angle step [deg] (default: [analysis]'s)"
+    )
     radial_um: ErrorDistribution | None = None
     angular_urad: ErrorDistribution | None = None
     tangential_um: ErrorDistribution | None = Field(
@@ -729,18 +736,39 @@ class ToleranceSection(_Section):
             )
         if self.angular_urad is not None and self.tangential_um is not None:
             raise ValueError("give angular_urad or tangential_um, not both")
-        if self.crank_stop_deg <= self.crank_start_deg:
-            raise ValueError("crank_stop_deg must be larger than crank_start_deg")
-        count = (self.crank_stop_deg - self.crank_start_deg) / self.crank_step_deg
-        if count > 1e6:
-            raise ValueError("more than a million crank angles; use a larger crank_step_deg")
-        if len(self.crank_angles_deg()) < 2:
-            raise ValueError("fewer than 2 crank angles; use a smaller crank_step_deg")
         return self
 
-    def crank_angles_deg(self) -> NDArray:
-        """Crank angles start, start + step, ... below stop [deg] (as ``[analysis]``)."""
-        return crank_angles_deg(self.crank_start_deg, self.crank_stop_deg, self.crank_step_deg)
+    def crank_range(self, analysis: AnalysisSection | None = None) -> tuple[float, float, float]:
+        """(start, stop, step) [deg] of the rings' crank angles: the keys of
+        ``[tolerance]``, each falling back to ``analysis``'s (the one rule of tolerance,
+        allocation and robust design studies)."""
+        analysis = analysis or AnalysisSection()
+        start, stop, step = (
+            float(mine if mine is not None else getattr(analysis, key))
+            for key, mine in (
+                ("crank_start_deg", self.crank_start_deg),
+                ("crank_stop_deg", self.crank_stop_deg),
+                ("crank_step_deg", self.crank_step_deg),
+            )
+        )
+        if stop <= start:
+            raise StudyError(
+                f"tolerance.crank_stop_deg: the crank angles stop at {stop:g}°, not after "
+                f"their start {start:g}° (tolerance keys override [analysis]'s)"
+            )
+        if (stop - start) / step > 1e6:
+            raise StudyError(
+                "tolerance.crank_step_deg: more than a million crank angles; use a larger step"
+            )
+        if len(crank_angles_deg(start, stop, step)) < 2:
+            raise StudyError(
+                "tolerance.crank_step_deg: fewer than 2 crank angles; use a smaller step"
+            )
+        return start, stop, step
+
+    def crank_angles_deg(self, analysis: AnalysisSection | None = None) -> NDArray:
+        """Crank angles start, start + step, ... below stop [deg] (:meth:`crank_range`)."""
+        return crank_angles_deg(*self.crank_range(analysis))
 
 
 # --- [design_space]: design maps (docs/design-map.md) ------------------------------------
@@ -794,16 +822,27 @@ class DesignSpaceSection(_Section):
         None, gt=0, description="allowed peak-to-peak TE [arcsec]"
     )
     min_contacts: int | None = Field(None, ge=0, description="fewest loaded pins allowed")
+    max_lost_motion_arcmin: float | None = Field(
+        None, gt=0, description="largest allowed lost motion [arcmin] (computes it)"
+    )
     objective: Literal["max_contact_stress", "te_pp", "lost_motion", "play"] = Field(
         "max_contact_stress", description="metric minimised"
     )
     rings: int = Field(0, ge=0, description="rings drawn from [tolerance] (0: nominal map)")
     lost_motion: bool | None = Field(
-        None, description="compute the lost motion (default: if it is the objective)"
+        None,
+        description="compute the lost motion (default: if it is the objective or constrained)",
     )
 
     @model_validator(mode="after")
     def _something_swept(self) -> DesignSpaceSection:
+        if self.lost_motion is False and (
+            self.max_lost_motion_arcmin is not None or self.objective == "lost_motion"
+        ):
+            raise ValueError(
+                "lost_motion = false, but max_lost_motion_arcmin or objective = "
+                '"lost_motion" needs it: leave lost_motion out'
+            )
         if not self.axes():
             raise ValueError(
                 "sweep at least one of " + ", ".join(self.SWEEPABLE) + " as "
@@ -835,6 +874,7 @@ class DesignSpaceSection(_Section):
             "allowable_contact_stress_mpa",
             "max_te_pp_arcsec",
             "min_contacts",
+            "max_lost_motion_arcmin",
         )
         return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}
 
@@ -843,8 +883,8 @@ class RequirementsSection(_Section):
     """``[requirements]``: limits every kind of study checks where it computes the quantity.
 
     ``max_contact_stress_mpa`` defaults to the allowable contact stress of the pin and
-    disc materials (the smaller), ``max_groove_stress_mpa`` to that of pin and ring, when
-    ``[material]`` gives them (a named material does). See ``docs/requirements.md``.
+    disc materials (the smaller of those ``[material]`` gives; a named material gives
+    one), ``max_groove_stress_mpa`` to that of pin and ring. See ``docs/requirements.md``.
     """
 
     max_contact_stress_mpa: float | None = Field(
@@ -892,7 +932,7 @@ class RequirementsSection(_Section):
                 continue
             allowables = [(material.allowable_mpa(p), p) for p in parts]
             known = [(v, p) for v, p in allowables if v is not None]
-            if len(known) == len(parts):
+            if known:  # the smaller of the parts that have one
                 value, part = min(known)
                 limits[key] = value
                 name = material.names().get(part)
@@ -917,7 +957,7 @@ class CaseInputs:
     read once (lists + file + random draws)."""
     discs: int = 1
     """Number of discs on the pin ring."""
-    contact_law: str = "paper"
+    contact_law: str = "half_plane"
     crank_holes: CrankHoles | None = None
     """The disc's crank holes (``[design.disc]``), or None: held at the bore."""
     disc_body: str = "rigid"
