@@ -321,8 +321,8 @@ def run(
 
     loaded = load_study(study, _overrides(crank_step_deg))
     options = output_options(loaded, figures, csv)
-    with _figure_pool(options) as pool:  # forked now: imports matplotlib while we solve
-        early = kind.input_figures(loaded) if options.figures else []
+    with _folder(out, "run"), _figure_pool(options) as pool:  # pool forked now: it imports
+        early = kind.input_figures(loaded) if options.figures else []  # matplotlib meanwhile
         if pool is not None:  # the profile is drawn while the cases are solved
             pool.submit(early, options.figures, options.dpi)
         with progress_bar(len(loaded.cases), "cases", quiet) as advance:
@@ -411,7 +411,7 @@ def stiffness(
     loaded = load_study(study, _overrides(crank_step_deg))
     kind.check_stiffness(loaded)
     options = output_options(loaded, figures)
-    with _figure_pool(options) as pool:
+    with _folder(out, "stiffness"), _figure_pool(options) as pool:
         with progress_bar(len(loaded.cases), "cases", quiet, unit="cases") as advance:
             result = kind.compute_stiffness(loaded, progress=advance)
         files = kind.write_stiffness(result, out)
@@ -457,6 +457,15 @@ def _print_stiffness(summaries: dict, out: Path) -> None:
         "the mesh alone: crank bearings, crankshafts and the first stage are not included"
     )
     console.print(f"report: {out / 'report.html'}")
+
+
+def _folder(out: Path, command: str) -> Any:
+    """The output folder of a command, locked while it runs, its ``summary.json``
+    (the completion marker) removed now and written last
+    (:class:`~cyclomesh.output_folder.ResultFolder`)."""
+    from cyclomesh.output_folder import ResultFolder
+
+    return ResultFolder(out, command)
 
 
 def _figure_pool(options: Any) -> Any:
@@ -543,17 +552,18 @@ def tolerance(
     loaded, spec = kind.load_tolerance_study(study)
     options = output_options(loaded, figures)
     n = spec.rings if rings is None else rings
-    with _workers(scheduler, workers, bool(options.figures)) as backend:
-        _say(
-            f"tolerance study: {n} rings, {len(spec.crank_angles_deg())} crank angles, "
-            f"{backend.workers} worker(s)",
-            quiet,
-        )
-        with progress_bar(n, "rings", quiet) as advance:
-            result = kind.compute_tolerance(
-                loaded, rings=rings, backend=backend, chunk_rings=chunk_rings, progress=advance
+    with _folder(out, "tolerance"):
+        with _workers(scheduler, workers, bool(options.figures)) as backend:
+            _say(
+                f"tolerance study: {n} rings, {len(spec.crank_angles_deg())} crank angles, "
+                f"{backend.workers} worker(s)",
+                quiet,
             )
-    kind.publish_tolerance(result, out, options)
+            with progress_bar(n, "rings", quiet) as advance:
+                result = kind.compute_tolerance(
+                    loaded, rings=rings, backend=backend, chunk_rings=chunk_rings, progress=advance
+                )
+        kind.publish_tolerance(result, out, options)
     if not quiet:
         _print_tolerance(result.summary, out)
 
@@ -590,23 +600,24 @@ def allocate(
     options = output_options(loaded, figures)
     n = spec.rings if rings is None else rings
     alloc = spec.allocation
-    with _workers(scheduler, workers, bool(options.figures)) as backend:
-        _say(
-            f"tolerance allocation: {n} rings, scale factors up to {alloc.factor_max:g} in "
-            f"{alloc.factor_steps} steps + {alloc.bisections} bisections, "
-            f"{backend.workers} worker(s)",
-            quiet,
-        )
-        with progress_bar(n, "rings", quiet) as advance:
-            result = kind.compute_allocation(
-                loaded,
-                target_probability=target_probability,
-                rings=rings,
-                backend=backend,
-                chunk_rings=chunk_rings,
-                progress=advance,
+    with _folder(out, "allocate"):
+        with _workers(scheduler, workers, bool(options.figures)) as backend:
+            _say(
+                f"tolerance allocation: {n} rings, scale factors up to {alloc.factor_max:g} in "
+                f"{alloc.factor_steps} steps + {alloc.bisections} bisections, "
+                f"{backend.workers} worker(s)",
+                quiet,
             )
-    kind.publish_allocation(result, out, options)
+            with progress_bar(n, "rings", quiet) as advance:
+                result = kind.compute_allocation(
+                    loaded,
+                    target_probability=target_probability,
+                    rings=rings,
+                    backend=backend,
+                    chunk_rings=chunk_rings,
+                    progress=advance,
+                )
+        kind.publish_allocation(result, out, options)
     if not quiet:
         typer.echo(result.allocation.statement())
         typer.echo(f"files: {out}")
@@ -675,27 +686,28 @@ def design(
     options = output_options(loaded, figures)
     n = math.prod(len(v) for v in space.axes().values())
     parallel = scheduler is not None or workers not in (None, 1) or (space.rings and workers != 1)
-    with _workers(scheduler, workers, bool(options.figures), parallel) as backend:
-        _say(
-            f"design map: {n} candidates"
-            + (f" x {space.rings} rings" if space.rings else "")
-            + f", {backend.workers if backend else 1} worker(s)",
-            quiet,
-        )
-        with progress_bar(n, "candidates", quiet) as advance:
-            result = kind.compute_design(
-                loaded, backend=backend, chunk=1 if backend else None, progress=advance
+    with _folder(out, "design"):
+        with _workers(scheduler, workers, bool(options.figures), parallel) as backend:
+            _say(
+                f"design map: {n} candidates"
+                + (f" x {space.rings} rings" if space.rings else "")
+                + f", {backend.workers if backend else 1} worker(s)",
+                quiet,
             )
-    files = kind.write_design(result, out)
-    publish(
-        out,
-        f"{loaded.title}: design map",
-        kind.design_sections(result),
-        kind.design_figures(result) if options.figures else [],
-        files,
-        options,
-        {"SHA-256 of the study file": loaded.sha256},
-    )
+            with progress_bar(n, "candidates", quiet) as advance:
+                result = kind.compute_design(
+                    loaded, backend=backend, chunk=1 if backend else None, progress=advance
+                )
+        files = kind.write_design(result, out)
+        publish(
+            out,
+            f"{loaded.title}: design map",
+            kind.design_sections(result),
+            kind.design_figures(result) if options.figures else [],
+            files,
+            options,
+            {"SHA-256 of the study file": loaded.sha256},
+        )
     if not quiet:
         s = result.summary
         typer.echo(
@@ -757,19 +769,20 @@ def fe(
     kind.check_fe(loaded)
     options = output_options(loaded, figures)
     console = stderr_console(quiet)
-    result = kind.compute_fe(
-        loaded, crank_angles_deg=angles, convergence=convergence, progress=console.print
-    )
-    files = kind.write_fe(result, out)
-    publish(
-        out,
-        f"{loaded.title}: FE check",
-        kind.fe_sections(result),
-        kind.fe_figures(result) if options.figures else [],
-        files,
-        options,
-        study_stamp(loaded),
-    )
+    with _folder(out, "fe"):
+        result = kind.compute_fe(
+            loaded, crank_angles_deg=angles, convergence=convergence, progress=console.print
+        )
+        files = kind.write_fe(result, out)
+        publish(
+            out,
+            f"{loaded.title}: FE check",
+            kind.fe_sections(result),
+            kind.fe_figures(result) if options.figures else [],
+            files,
+            options,
+            study_stamp(loaded),
+        )
     if not quiet:
         _print_fe(result.summaries, out)
 

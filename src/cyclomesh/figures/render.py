@@ -150,12 +150,14 @@ def _render(job: FigureJob, formats: Sequence[str], dpi: int) -> dict[str, bytes
 def _save(
     job: FigureJob, contents: Mapping[str, bytes], folder: Path | None, formats: Sequence[str]
 ) -> RenderedFigure:
-    """Write the drawn ``contents`` of ``job`` into ``folder`` (in this process)."""
+    """Write the drawn ``contents`` of ``job`` into ``folder`` (in this process, atomically)."""
+    from cyclomesh.output_folder import write_bytes
+
     files = []
     if folder is not None:
         for fmt in formats:
             path = folder / f"{job.name}.{fmt}"
-            path.write_bytes(contents[fmt])
+            write_bytes(path, contents[fmt])
             files.append(path)
     return RenderedFigure(job.name, job.caption, job.section, contents["png"], tuple(files))
 

@@ -249,6 +249,7 @@ def _drop_none(table: Mapping[str, Any]) -> dict[str, Any]:
 def write_design(result: DesignResult, out: Path) -> list[Path]:
     """Write ``design.nc``, ``summary.json`` and (if any candidate is feasible) ``best.toml``."""
     from cyclomesh.output import write_json, write_netcdf
+    from cyclomesh.output_folder import write_text
 
     out.mkdir(parents=True, exist_ok=True)
     files = [
@@ -257,8 +258,7 @@ def write_design(result: DesignResult, out: Path) -> list[Path]:
     ]
     if result.best_toml is not None:
         path = out / "best.toml"
-        path.write_text(result.best_toml, encoding="utf-8")
-        files.append(path)
+        files.append(write_text(path, result.best_toml))
     return files
 
 

@@ -253,6 +253,7 @@ def write_fe(result: FeResult, out: Path) -> list[Path]:
     import csv
 
     from cyclomesh.output import write_json, write_netcdf
+    from cyclomesh.output_folder import atomic_write
 
     study = result.study
     out = Path(out)
@@ -265,7 +266,7 @@ def write_fe(result: FeResult, out: Path) -> list[Path]:
         written.append(write_netcdf(result.cases[case.name], folder / "fe.nc"))
         if case.name in result.convergence:
             path = folder / "convergence.csv"
-            with path.open("w", newline="", encoding="utf-8") as fh:
+            with atomic_write(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
                 csv.writer(fh).writerows(result.convergence[case.name])
             written.append(path)
         records.append(

@@ -471,13 +471,15 @@ def run_sections(run: RunResult) -> list[Section]:
 def run_study(study: Study, out: str | Path, options: OutputOptions | None = None) -> list[Path]:
     """Compute every case of ``study``, then write its files, figures and report into
     ``out``. Returns the paths written. Nothing is written if a case fails."""
+    from cyclomesh.output_folder import ResultFolder
     from cyclomesh.pipeline import OutputOptions, publish
 
     options = options or OutputOptions.from_study(study)
-    run = compute_run(study)
     out = Path(out)
-    files = write_run(run, out, options)
-    jobs = run_figures(run) if options.figures else []
-    return publish(
-        out, study.title, run_sections(run), jobs, files, options, study_stamp(study)
-    ).files
+    with ResultFolder(out, "run"):
+        run = compute_run(study)
+        files = write_run(run, out, options)
+        jobs = run_figures(run) if options.figures else []
+        return publish(
+            out, study.title, run_sections(run), jobs, files, options, study_stamp(study)
+        ).files
