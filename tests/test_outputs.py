@@ -111,13 +111,12 @@ def test_disk_full_is_one_line_naming_the_path(tmp_path, monkeypatch, target):
         raise OSError(errno.ENOSPC, "No space left on device")
 
     if target == "netcdf":
-        real = netCDF4.Dataset
 
-        class Full(real):  # HDF5 reports a full disk as "NetCDF: HDF error"
-            def createVariable(self, *a, **k):
-                raise RuntimeError("NetCDF: HDF error")
+        def hdf_error(path, *args, **kwargs):  # HDF5 reports a full disk as "HDF error"
+            Path(path).write_bytes(b"\x89HDF\r\n\x1a\n" + b"\0" * 100)
+            raise RuntimeError("NetCDF: HDF error")
 
-        monkeypatch.setattr(netCDF4, "Dataset", Full)
+        monkeypatch.setattr(netCDF4, "Dataset", hdf_error)
         monkeypatch.setattr("shutil.disk_usage", lambda p: type("U", (), {"free": 0})())
     elif target == "parquet":
         monkeypatch.setattr(pq, "write_table", lambda table, path, **k: full(path))

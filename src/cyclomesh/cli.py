@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
+import typer.core
 
 from cyclomesh.exceptions import CyclomeshError, StudyError
 
@@ -44,8 +45,34 @@ __all__ = [
 EXIT_INPUT_ERROR = 2
 """Exit status for an input that cyclomesh refuses (as for a usage error)."""
 
+
+class _OneLineUsage(typer.core.TyperGroup):
+    """The command group, with usage errors (unknown option, bad value, missing
+    argument) as one line ``error: ...`` and exit status 2, like every refused input."""
+
+    def main(self, *args: Any, standalone_mode: bool = True, **kwargs: Any) -> Any:
+        if not standalone_mode:
+            return super().main(*args, standalone_mode=False, **kwargs)
+        try:
+            rv = super().main(*args, standalone_mode=False, **kwargs)
+        except typer.TyperException as exc:  # Click's usage errors (typer vendors Click)
+            if type(exc).__name__ == "NoArgsIsHelpError" or not hasattr(exc, "format_message"):
+                exc.show()  # type: ignore[attr-defined]
+                sys.exit(getattr(exc, "exit_code", EXIT_INPUT_ERROR))
+            ctx = getattr(exc, "ctx", None)
+            where = ctx.command_path if ctx is not None else "cyclomesh"
+            line = " ".join(exc.format_message().split())
+            typer.echo(f"error: {where}: {line} (see {where} --help)", err=True)
+            sys.exit(EXIT_INPUT_ERROR)
+        except typer.Abort:
+            typer.echo("Aborted!", err=True)
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
 app = typer.Typer(
     name="cyclomesh",
+    cls=_OneLineUsage,
     help="Loaded tooth contact analysis of cycloid-pin gear pairs (RV reducers).",
     no_args_is_help=True,
     add_completion=False,
@@ -79,8 +106,12 @@ def cli_errors() -> Iterator[None]:
     errors, TOML syntax errors and operating-system errors (missing file, no
     permission). Use it as a context manager or as a decorator of a command.
     """
+    import os
     import tomllib
 
+    if os.environ.get("CYCLOMESH_TRACEBACK"):
+        yield
+        return
     try:
         yield
     except CyclomeshError as exc:
@@ -90,11 +121,28 @@ def cli_errors() -> Iterator[None]:
     except OSError as exc:
         where = f"{exc.filename}: " if exc.filename else ""
         raise fail(f"{where}{exc.strerror or exc}") from None
+    except RecursionError:
+        raise fail("input nested too deeply") from None
+    except MemoryError:
+        raise fail(
+            "out of memory: ask for less work (fewer crank angles, rings or points)"
+        ) from None
     except ValueError as exc:
         message = _pydantic_error(exc)
         if message is None:
-            raise
+            raise fail(_internal(exc)) from None
         raise fail(message) from None
+    except (typer.Exit, typer.Abort, KeyboardInterrupt, SystemExit):
+        raise
+    except Exception as exc:  # a bug: still one line, never a traceback
+        raise fail(_internal(exc)) from None
+
+
+def _internal(exc: BaseException) -> str:
+    return (
+        f"internal error ({type(exc).__name__}: {exc}); please report it with the study file "
+        "(CYCLOMESH_TRACEBACK=1 shows the traceback)"
+    )
 
 
 def stderr_console(quiet: bool = False) -> Any:
@@ -267,6 +315,13 @@ WorkersOption = Annotated[
         "--workers", min=1, help="Local worker processes (default: all cores).", show_default=False
     ),
 ]
+NoLimitOption = Annotated[
+    bool,
+    typer.Option(
+        "--no-work-limit",
+        help="Run even a study that asks for more than the work limits (docs/study-files.md).",
+    ),
+]
 ChunkOption = Annotated[
     int | None,
     typer.Option(
@@ -287,11 +342,15 @@ def output_options(study: Any, figures: str | None, csv: bool = False) -> Any:
 
 @app.command()
 @cli_errors()
-def check(study: StudyArg, crank_step_deg: StepOption = None) -> None:
+def check(
+    study: StudyArg, crank_step_deg: StepOption = None, no_work_limit: NoLimitOption = False
+) -> None:
     """Validate a study file (every section) without running it."""
     from cyclomesh.study import load_study
+    from cyclomesh.study.limits import check_study_work
 
     loaded = load_study(study, _overrides(crank_step_deg))
+    check_study_work(loaded, "check", allow=no_work_limit)
     names = ", ".join(case.name for case in loaded.cases)
     more = "; [tolerance] OK" if loaded.tolerance is not None else ""
     if any(case.stiffness is not None for case in loaded.cases):
@@ -313,13 +372,16 @@ def run(
     crank_step_deg: StepOption = None,
     figures: FiguresOption = None,
     csv: CsvOption = False,
+    no_work_limit: NoLimitOption = False,
 ) -> None:
     """Run every case of a study; write results, figures, summary.json and report.html."""
     from cyclomesh.pipeline import publish, study_stamp
     from cyclomesh.studies import run as kind
     from cyclomesh.study import load_study
+    from cyclomesh.study.limits import check_study_work
 
     loaded = load_study(study, _overrides(crank_step_deg))
+    check_study_work(loaded, "run", allow=no_work_limit)
     options = output_options(loaded, figures, csv)
     with _folder(out, "run"), _figure_pool(options) as pool:  # pool forked now: it imports
         early = kind.input_figures(loaded) if options.figures else []  # matplotlib meanwhile
@@ -398,6 +460,7 @@ def stiffness(
     quiet: QuietOption = False,
     crank_step_deg: StepOption = None,
     figures: FiguresOption = None,
+    no_work_limit: NoLimitOption = False,
 ) -> None:
     """Torsion curve of every case ([stiffness] section): play, lost motion, rigidity.
 
@@ -407,9 +470,11 @@ def stiffness(
     from cyclomesh.pipeline import publish, study_stamp
     from cyclomesh.studies import stiffness as kind
     from cyclomesh.study import load_study
+    from cyclomesh.study.limits import check_study_work
 
     loaded = load_study(study, _overrides(crank_step_deg))
     kind.check_stiffness(loaded)
+    check_study_work(loaded, "stiffness", allow=no_work_limit)
     options = output_options(loaded, figures)
     with _folder(out, "stiffness"), _figure_pool(options) as pool:
         with progress_bar(len(loaded.cases), "cases", quiet, unit="cases") as advance:
@@ -457,6 +522,16 @@ def _print_stiffness(summaries: dict, out: Path) -> None:
         "the mesh alone: crank bearings, crankshafts and the first stage are not included"
     )
     console.print(f"report: {out / 'report.html'}")
+
+
+def _check_workers(workers: int | None) -> None:
+    """Refuse ``--workers`` above 4 per usable CPU (each worker holds its own memory)."""
+    import os
+
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    most = 4 * max(1, cpus or 1)
+    if workers is not None and workers > most:
+        raise StudyError(f"--workers {workers}: at most {most} (4 per usable CPU, {cpus} here)")
 
 
 def _folder(out: Path, command: str) -> Any:
@@ -545,11 +620,15 @@ def tolerance(
     workers: WorkersOption = None,
     chunk_rings: ChunkOption = None,
     figures: FiguresOption = None,
+    no_work_limit: NoLimitOption = False,
 ) -> None:
     """Monte Carlo tolerance study: per-ring metrics, statistics, worst ring, report."""
     from cyclomesh.studies import tolerance as kind
+    from cyclomesh.study.limits import check_study_work
 
     loaded, spec = kind.load_tolerance_study(study)
+    check_study_work(loaded, "tolerance", rings=rings, allow=no_work_limit)
+    _check_workers(workers)
     options = output_options(loaded, figures)
     n = spec.rings if rings is None else rings
     with _folder(out, "tolerance"):
@@ -592,11 +671,15 @@ def allocate(
     workers: WorkersOption = None,
     chunk_rings: ChunkOption = None,
     figures: FiguresOption = None,
+    no_work_limit: NoLimitOption = False,
 ) -> None:
     """Largest scale factor on the tolerances that meets the target exceedance probability."""
     from cyclomesh.studies import tolerance as kind
+    from cyclomesh.study.limits import check_study_work
 
     loaded, spec = kind.load_tolerance_study(study)
+    check_study_work(loaded, "allocate", rings=rings, allow=no_work_limit)
+    _check_workers(workers)
     options = output_options(loaded, figures)
     n = spec.rings if rings is None else rings
     alloc = spec.allocation
@@ -673,6 +756,7 @@ def design(
     quiet: QuietOption = False,
     workers: WorkersOption = None,
     figures: FiguresOption = None,
+    no_work_limit: NoLimitOption = False,
 ) -> None:
     """Design map: sweep the modification, map the metrics, mark the optimum.
 
@@ -681,8 +765,11 @@ def design(
     """
     from cyclomesh.pipeline import publish
     from cyclomesh.studies import design as kind
+    from cyclomesh.study.limits import check_study_work
 
     loaded, space = kind.load_design_study(study)
+    check_study_work(loaded, "design", allow=no_work_limit)
+    _check_workers(workers)
     options = output_options(loaded, figures)
     n = math.prod(len(v) for v in space.axes().values())
     parallel = scheduler is not None or workers not in (None, 1) or (space.rings and workers != 1)
@@ -759,12 +846,19 @@ def fe(
 
     angles = None
     if crank_angles:
+        from cyclomesh.study.limits import MAX_ABS_CRANK_DEG
+
         try:
             angles = [float(a) for a in crank_angles.split(",")]
         except ValueError:
             raise StudyError(
                 f"--crank-angles: expected numbers separated by commas, got {crank_angles!r}"
             ) from None
+        if not 1 <= len(angles) <= 24 or not all(abs(a) <= MAX_ABS_CRANK_DEG for a in angles):
+            raise StudyError(
+                f"--crank-angles: expected 1 to 24 angles within ±{MAX_ABS_CRANK_DEG:g} deg, "
+                f"got {crank_angles!r}"
+            )
     loaded = load_study(study)
     kind.check_fe(loaded)
     options = output_options(loaded, figures)

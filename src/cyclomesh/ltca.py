@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.contact import UnloadedContact, unloaded_contact
-from cyclomesh.design import Modification, PairDesign, PinErrors
+from cyclomesh.design import Modification, PairDesign, PinErrors, check_physical
 from cyclomesh.exceptions import ConvergenceError, DesignError
 from cyclomesh.hertz import (
     CONTACT_LAWS,
@@ -223,6 +223,7 @@ def check_pair(design: PairDesign, modification: Modification, errors: PinErrors
     """
     check_profile(design, modification)
     ring_shape = errors.ring_shape(design.pins)
+    check_physical(design, modification, errors)
     pin_radii = design.pin_radius + np.broadcast_to(errors.pin_radius, (*ring_shape, design.pins))
     if not np.all((pin_radii > 0) & (pin_radii < design.groove_radius)):
         pin = int(np.argmax(~((pin_radii > 0) & (pin_radii < design.groove_radius))) % design.pins)

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -334,10 +335,21 @@ def _toml_value(value: Any) -> str:
             return "inf" if v > 0 else "-inf"
         return repr(v)
     if isinstance(value, str):
-        return json.dumps(value, ensure_ascii=False)  # a valid TOML basic string
+        # a valid TOML basic string: JSON escapes quotes, backslashes and U+0000-U+001F;
+        # TOML also forbids a raw U+007F (DEL)
+        return json.dumps(value, ensure_ascii=False).replace("\x7f", "\\u007f")
+    if isinstance(value, Mapping):  # an inline table (inside a list)
+        items = ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items())
+        return "{ " + items + " }" if items else "{}"
     if isinstance(value, Sequence | np.ndarray):
         return "[" + ", ".join(_toml_value(v) for v in list(value)) + "]"
     raise TypeError(f"cannot write {type(value).__name__} to TOML")
+
+
+def _toml_key(key: Any) -> str:
+    """A bare key if it can be one, else a quoted key."""
+    key = str(key)
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else _toml_value(key)
 
 
 def toml_dumps(data: Mapping[str, Any], _prefix: str = "") -> str:
@@ -352,10 +364,10 @@ def toml_dumps(data: Mapping[str, Any], _prefix: str = "") -> str:
         if isinstance(value, Mapping):
             tables.append((key, value))
         else:
-            lines.append(f"{key} = {_toml_value(value)}")
+            lines.append(f"{_toml_key(key)} = {_toml_value(value)}")
     out = "\n".join(lines)
     for key, value in tables:
-        name = f"{_prefix}.{key}" if _prefix else key
+        name = f"{_prefix}.{_toml_key(key)}" if _prefix else _toml_key(key)
         body = toml_dumps(value, name)
         out += ("\n\n" if out else "") + f"[{name}]" + ("\n" + body if body else "")
     return out

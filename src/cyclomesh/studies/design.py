@@ -71,6 +71,12 @@ def load_design_study(path: str | Path) -> tuple[Study, DesignSpaceSection]:
             f"{Path(path).name}: no [design_space] section (see docs/design-map.md, "
             "examples/design.toml)"
         )
+    torques = [case.load.torque_nm for case in study.cases]
+    if any(isinstance(t, list) for t in torques):
+        raise StudyError(
+            "load.torque_nm: a design map takes one torque; give a number "
+            "(cyclomesh stiffness sweeps torques)"
+        )
     if space.rings and study.file.tolerance is None:
         raise StudyError(
             "design_space.rings: a robust map needs a [tolerance] section to draw rings"

@@ -175,6 +175,7 @@ def compute_run(
     ``on_start(name)`` and ``on_done(name)`` are called around each case (progress).
     """
     from cyclomesh.analysis import analyse, summarize
+    from cyclomesh.exceptions import CyclomeshError
 
     run = RunResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
@@ -182,7 +183,10 @@ def compute_run(
             on_start(case.name)
         kwargs = inputs.kwargs()
         kwargs.pop("crank_angles")
-        ds = analyse(**kwargs, crank_angles_deg=case.analysis.crank_angles_deg())
+        try:
+            ds = analyse(**kwargs, crank_angles_deg=case.analysis.crank_angles_deg())
+        except CyclomeshError as exc:  # name the case
+            raise type(exc)(f"{case.label}: {exc}") from None
         ds = annotate(ds, case, inputs, study)
         run.results[case.name] = ds
         run.summaries[case.name] = summary_record(summarize(ds))
@@ -335,7 +339,7 @@ def run_figures(run: RunResult, inputs: list[FigureJob] | None = None) -> list[F
 
     jobs = list(input_figures(run.study) if inputs is None else inputs)
     angles = settings.crank_angles_deg
-    pin = settings.stress_pin
+    pin = settings.stress_pin or min(case.design.pins for case in run.study.cases) // 2
     jobs += [
         job(
             "loads",

@@ -392,8 +392,9 @@ def tolerance_figures(result: ToleranceResult) -> list[FigureJob]:
     from cyclomesh.figures import tolerance as plots
     from cyclomesh.figures.render import FigureJob
 
-    ds, stats = result.rings, result.summary
+    stats = result.summary
     allowable = stats["allowable_contact_stress_mpa"]
+    ds = plots.reduce_rings(result.rings, allowable)  # the workers get no per-ring data
     section = "Tolerance study (Monte Carlo)"
     return [
         FigureJob(
