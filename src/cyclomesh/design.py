@@ -44,6 +44,9 @@ YOUNGS_MODULUS_RANGE = (0.1e9, 1200e9)
 POISSON_RATIO_RANGE = (0.0, 0.5)
 """Poisson's ratios accepted [-]: [0, 0.5) (auxetic materials make no gears)."""
 
+MIN_SHORT_AMPLITUDE = 0.05
+"""Smallest K1 = e·n1/a accepted (cycloid drives use about 0.5 to 0.9)."""
+
 ECCENTRICITY_ERROR_FRACTION = 0.5
 """|εe| must stay below this fraction of e: the disc centre stays off the crank axis."""
 
@@ -143,6 +146,11 @@ class PairDesign:
             raise DesignError(
                 f"eccentricity too large: K1 = e·n1/a = {self.short_amplitude_coefficient:.4g} "
                 "must be below 1 (reduce eccentricity or pins, or enlarge pin_circle_radius)"
+            )
+        if self.short_amplitude_coefficient < MIN_SHORT_AMPLITUDE:
+            raise DesignError(
+                f"eccentricity too small: K1 = e·n1/a = {self.short_amplitude_coefficient:.4g} "
+                f"must be at least {MIN_SHORT_AMPLITUDE:g} (a cycloid disc, not a circle)"
             )
         half_pitch_chord = self.pin_circle_radius * math.sin(math.pi / self.pins)
         if self.pin_radius >= half_pitch_chord:
@@ -362,7 +370,7 @@ def check_physical(design: PairDesign, modification: Modification, errors: PinEr
 
     - |εe| < e/2 (so e + εe > e/2 > 0) and K1 = (e + εe)·n1/a < 1 [m];
     - |δ| and |εψ,i| below a tenth of the tooth pitch 2π/n2 [rad];
-    - |εa,i| below the pin radius ρp [m].
+    - |εa,i|, |Δa| and |Δρ| below the pin radius ρp [m].
 
     Raises
     ------
@@ -384,6 +392,15 @@ def check_physical(design: PairDesign, modification: Modification, errors: PinEr
             f"errors.eccentricity_um: K1 = (e + εe)·n1/a = {k1:.4f} must be below 1 "
             "(reduce the eccentricity error)"
         )
+    for key, value in (
+        ("pin_circle_radius_um", modification.pin_circle_radius),
+        ("pin_radius_um", modification.pin_radius),
+    ):
+        if not abs(value) < design.pin_radius:
+            raise DesignError(
+                f"modification.{key} = {value * 1e6:.6g}: it must stay below the pin radius, "
+                f"{design.pin_radius * 1e6:.6g} µm in size (a modification is a small change)"
+            )
     limit = ANGLE_PITCH_FRACTION * 2.0 * math.pi / design.teeth
     if not abs(modification.rotation) < limit:
         raise DesignError(

@@ -537,8 +537,18 @@ def compute_allocation(
     )
     ds = xr.Dataset(
         {
-            name: xr.DataArray(per_ring[name], dims=("ring",), attrs={"units": "1"})
-            for name in ("critical_factor_lower", "critical_factor_upper")
+            name: xr.DataArray(per_ring[name], dims=("ring",), attrs=attrs)
+            for name, attrs in (
+                ("critical_factor_lower", {"units": "1"}),
+                (
+                    "critical_factor_upper",
+                    {
+                        "units": "1",
+                        "nonfinite": "inf: the ring does not exceed the allowable stress up "
+                        "to factor_max",
+                    },
+                ),
+            )
         },
         coords={"ring": ("ring", per_ring["ring"])},
         attrs={
