@@ -127,6 +127,7 @@ BOUNDED = [
     ("design", {"load.torque_nm": [-250.0, 250.0]}, "design", ["load.torque_nm", "one torque"]),
     ("stiffness", {"stiffness.points": 10**7}, "stiffness", ["stiffness.points", "1001"]),
     ("fe_table1", {"fe.far_size_mm": 1e-300}, "check", ["fe.far_size_mm", "0.2"]),
+    ("fe_table1", {"fe.bore_radius_mm": 78.0}, "check", ["fe.bore_radius_mm", "61.6"]),
     ("fe_table1", {"fe.crank_angles_deg": [1e300]}, "check", ["crank_angles_deg", "36000"]),
     ("table2", {"cases": [{"name": "a", "design": {"pins": 10**6}}]}, "check", ["pins", "400"]),
 ]

@@ -372,6 +372,9 @@ def crank_angles_deg(start_deg: float, stop_deg: float, step_deg: float) -> NDAr
     return start_deg + step_deg * np.arange(count)
 
 
+FE_BORE_FRACTION = 0.8
+"""Largest bore radius of the FE disc as a fraction of the root radius a − e − ρp."""
+
 CrankDeg = Annotated[
     float,
     Field(ge=-MAX_ABS_CRANK_DEG, le=MAX_ABS_CRANK_DEG, description="crank angle [deg]"),
@@ -954,6 +957,17 @@ def load_study(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
             )
         seen[folder] = case.name
     inputs = [case.to_core() for case in cases]
+    if study_file.fe is not None:
+        for case in cases:
+            d = case.design
+            root = d.pin_circle_radius_mm - d.eccentricity_mm - d.pin_radius_mm
+            most = FE_BORE_FRACTION * root
+            if study_file.fe.bore_radius_mm >= most:
+                raise StudyError(
+                    f"{case.label}: fe.bore_radius_mm = {study_file.fe.bore_radius_mm:g}: "
+                    f"expected below {FE_BORE_FRACTION:g} of the root radius a - e - ρp, "
+                    f"{most:.4g} mm (the disc must have a body between bore and teeth)"
+                )
     min_pins = min(case.design.pins for case in cases)
     if study_file.figures.stress_pin is not None and study_file.figures.stress_pin > min_pins:
         raise StudyError(
