@@ -19,7 +19,8 @@ for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 from cyclomesh import TABLE1, Modification  # noqa: E402
-from cyclomesh.ltca import solve_ltca  # noqa: E402
+from cyclomesh.core.ltca import solve_ltca  # noqa: E402
+from cyclomesh.execution.runtime import tune_allocator  # noqa: E402
 
 
 def main() -> None:
@@ -27,7 +28,12 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=7)
     parser.add_argument("--profile", action="store_true", help="print where the time goes")
     parser.add_argument("--contact-law", default="paper", help='"paper" or "half_plane"')
+    parser.add_argument(
+        "--no-tune", action="store_true", help="leave glibc's malloc thresholds alone"
+    )
     args = parser.parse_args()
+    if not args.no_tune:
+        tune_allocator()  # as every cyclomesh process that solves does
 
     phi = np.deg2rad(np.arange(3600) * 0.1)
     mod = Modification(pin_radius=8e-6)

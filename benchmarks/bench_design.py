@@ -28,7 +28,7 @@ ANGLES = np.round(np.arange(90) * 0.1, 10)
 
 def nominal(repeat: int) -> None:
     from cyclomesh import TABLE1, Constraints, design_map
-    from cyclomesh.designmap import ARCMIN
+    from cyclomesh.units import RAD_PER_ARCMIN as ARCMIN
 
     axes = {
         "pin_circle_radius_um": np.linspace(-10.0, 0.0, 21),
@@ -57,8 +57,8 @@ def nominal(repeat: int) -> None:
 def robust(rings: int) -> None:
     import distributed
 
-    from cyclomesh.designmap import DesignTask, evaluate_grid
-    from cyclomesh.execution import ProcessBackend
+    from cyclomesh.designspace.sweep import DesignTask, evaluate_grid
+    from cyclomesh.execution.backends import ProcessBackend
     from cyclomesh.studies.tolerance import load_tolerance_study, ring_model
 
     study, spec = load_tolerance_study(EXAMPLE)
@@ -88,7 +88,7 @@ def robust(rings: int) -> None:
         f"robust 11x11 x {rings} rings, local ({backend.workers} processes): "
         f"{steps / 1e6:.0f} M pin-steps in {seconds:.1f} s = {steps / seconds / 1e6:.2f} M/s"
     )
-    from cyclomesh.execution import DaskBackend
+    from cyclomesh.execution.backends import DaskBackend
 
     with distributed.LocalCluster(
         n_workers=2,

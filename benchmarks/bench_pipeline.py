@@ -66,8 +66,8 @@ def _wall(args: list[str], repeat: int) -> float:
 def _startup(repeat: int) -> float:
     """Seconds to start Python and import what ``cyclomesh run`` imports."""
     code = (
-        "import cyclomesh.cli, cyclomesh.studies.run, cyclomesh.analysis, cyclomesh.output, "
-        "xarray, netCDF4, pyarrow.parquet, pyarrow.csv"
+        "import cyclomesh.cli, cyclomesh.studies.run, cyclomesh.results.dataset, "
+        "cyclomesh.output.writers, xarray, netCDF4, pyarrow.parquet, pyarrow.csv"
     )
     best = float("inf")
     for _ in range(repeat):
@@ -84,9 +84,9 @@ def _stages_run(study_file: Path, out: Path) -> dict[str, float]:
     import xarray  # noqa: F401  (as the CLI does before forking the figure workers)
 
     from cyclomesh.figures.render import FigurePool
-    from cyclomesh.pipeline import OutputOptions, publish
+    from cyclomesh.publish.pipeline import OutputOptions, publish
     from cyclomesh.studies import run as kind
-    from cyclomesh.study import load_study
+    from cyclomesh.studyfile import load_study
 
     t = {}
     start = time.perf_counter()

@@ -65,7 +65,7 @@ def main() -> None:
         if "serial" in which:
             _run("serial", max(1, args.rings // 4), out, workers=1)
         if "local" in which:
-            from cyclomesh.execution import ProcessBackend
+            from cyclomesh.execution.backends import ProcessBackend
 
             backend = ProcessBackend()
             try:

@@ -21,7 +21,7 @@ for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 from cyclomesh import TABLE1, Modification  # noqa: E402
-from cyclomesh.drive import torsion_curve  # noqa: E402
+from cyclomesh.drive.solve import torsion_curve  # noqa: E402
 
 
 def main() -> None:

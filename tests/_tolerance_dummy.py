@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cyclomesh.study.schema import ToleranceSection
+from cyclomesh.studyfile.schema import ToleranceSection
 from cyclomesh.tolerance.sampling import draw_ring_errors
 
 

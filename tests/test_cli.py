@@ -21,7 +21,7 @@ from typer.testing import CliRunner
 
 from cyclomesh import summarize
 from cyclomesh.cli import app
-from cyclomesh.study.measurements import read_pin_errors_csv
+from cyclomesh.studyfile.measurements import read_pin_errors_csv
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

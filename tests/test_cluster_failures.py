@@ -16,8 +16,8 @@ from pathlib import Path
 
 import pytest
 
-from cyclomesh.execution import ClusterError, DaskBackend, run_chunks
-from cyclomesh.study.schema import ToleranceSection, parse_section
+from cyclomesh.execution.backends import ClusterError, DaskBackend, run_chunks
+from cyclomesh.studyfile.schema import ToleranceSection, parse_section
 
 TESTS = Path(__file__).parent
 sys.path.insert(0, str(TESTS))

@@ -5,8 +5,8 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 from cyclomesh import TABLE1, Modification, PinErrors
-from cyclomesh.contact import CONTACT_TOLERANCE, unloaded_contact
-from cyclomesh.profile import modified_profile
+from cyclomesh.core.contact import CONTACT_TOLERANCE, unloaded_contact
+from cyclomesh.core.profile import modified_profile
 
 PSI = 2 * np.pi / TABLE1.pins
 TPM = Modification(pin_radius=8e-6)

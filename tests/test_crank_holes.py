@@ -10,7 +10,7 @@ import pytest
 
 from cyclomesh import TABLE1, CrankHoles, DesignError
 from cyclomesh.exceptions import StudyError
-from cyclomesh.study import load_study
+from cyclomesh.studyfile import load_study
 
 DESIGN = """
 [design]

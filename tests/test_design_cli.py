@@ -133,7 +133,7 @@ def test_study_without_design_space_is_refused(tmp_path):
 def test_example_design_study_is_valid_and_marks_the_paper_tpm():
     from pathlib import Path
 
-    from cyclomesh.studies.design import load_design_study
+    from cyclomesh.studies.designmap import load_design_study
 
     study, space = load_design_study(Path(__file__).parents[1] / "examples" / "design.toml")
     axes = space.axes()

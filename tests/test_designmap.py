@@ -4,18 +4,18 @@ import numpy as np
 import pytest
 
 from cyclomesh import TABLE1, DesignError, Modification, PinErrors
-from cyclomesh.designmap import (
-    ARCMIN,
+from cyclomesh.core.ltca import solve_ltca
+from cyclomesh.designspace.sweep import (
     Constraints,
     DesignTask,
     candidate_metrics,
     design_map,
     evaluate_grid,
 )
-from cyclomesh.drive import play, solve_drive
-from cyclomesh.execution import ProcessBackend, SerialBackend
-from cyclomesh.figures.design import map_metrics, plot_design_map, plot_design_maps
-from cyclomesh.ltca import solve_ltca
+from cyclomesh.drive.solve import play, solve_drive
+from cyclomesh.execution.backends import ProcessBackend, SerialBackend
+from cyclomesh.figures.designmap import map_metrics, plot_design_map, plot_design_maps
+from cyclomesh.units import RAD_PER_ARCMIN as ARCMIN
 
 ANGLES = np.arange(0.0, 9.0, 0.5)
 PHI = np.deg2rad(ANGLES)

@@ -4,15 +4,15 @@ import numpy as np
 import pytest
 
 from cyclomesh import TABLE1, DesignError, Modification, PinErrors
-from cyclomesh.drive import (
+from cyclomesh.core.deviation import ProfileDeviation
+from cyclomesh.core.ltca import solve_ltca
+from cyclomesh.drive.solve import (
     mirror_errors,
     play,
     solve_drive,
     torsion_curve,
     torsion_torques,
 )
-from cyclomesh.ltca import solve_ltca
-from cyclomesh.modification import ProfileDeviation
 
 TPM = Modification(pin_radius=8e-6)
 REV = np.deg2rad(np.arange(0.0, 360.0, 2.0))

@@ -11,7 +11,7 @@ from cyclomesh.figures.drive import (
     plot_torque_share,
     plot_torsion_curve,
 )
-from cyclomesh.torsion import stiffness, summarize_stiffness
+from cyclomesh.results.torsion import stiffness, summarize_stiffness
 
 TPM = Modification(pin_radius=8e-6)
 CRANK = np.arange(0.0, 360.0, 4.0)

@@ -11,7 +11,7 @@ import xarray as xr
 from typer.testing import CliRunner
 
 from cyclomesh.cli import app
-from cyclomesh.metrics import STIFFNESS_METRICS
+from cyclomesh.results.metrics import STIFFNESS_METRICS
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from cyclomesh.exceptions import StudyError
-from cyclomesh.study import load_study
+from cyclomesh.studyfile import load_study
 
 DESIGN = """
 [design]

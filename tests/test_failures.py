@@ -26,7 +26,7 @@ import pytest
 from typer.testing import CliRunner
 
 from cyclomesh.cli import app
-from cyclomesh.output import toml_dumps
+from cyclomesh.output.writers import toml_dumps
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -298,7 +298,7 @@ def test_pool_workers_die_with_their_parent(pool):
         f"""
         import os, sys, time
         if {pool!r} == "ProcessBackend":
-            from cyclomesh.execution import ProcessBackend
+            from cyclomesh.execution.backends import ProcessBackend
             backend = ProcessBackend(2)
             backend.start()
             pids = backend.worker_pids()
@@ -343,7 +343,7 @@ def test_tolerance_figures_get_reduced_statistics_only():
     import xarray as xr
 
     from cyclomesh.figures.tolerance import reduce_rings
-    from cyclomesh.metrics import STRESS_METRIC
+    from cyclomesh.results.metrics import STRESS_METRIC
 
     def rings(n: int) -> xr.Dataset:
         rng = np.random.default_rng(0)

@@ -30,8 +30,8 @@ import pytest
 from typer.testing import CliRunner
 
 from cyclomesh.cli import app
-from cyclomesh.output import toml_dumps
-from cyclomesh.output_folder import load_results
+from cyclomesh.output.folder import load_results
+from cyclomesh.output.writers import toml_dumps
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 CASES_PER_EXAMPLE = 45

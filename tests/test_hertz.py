@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cyclomesh import STEEL
-from cyclomesh.hertz import (
+from cyclomesh.core.hertz import (
     approach,
     compliance_coefficients,
     effective_modulus,

@@ -11,11 +11,12 @@ HEAVY = ("xarray", "pandas", "matplotlib", "pyarrow", "netCDF4", "distributed")
 @pytest.mark.parametrize(
     "modules, absent",
     [
-        ("cyclomesh.ltca", HEAVY),  # the core: NumPy and SciPy only
-        ("cyclomesh.drive, cyclomesh.torsion", HEAVY),  # drive characteristics, same
+        ("cyclomesh.core.ltca", HEAVY),  # the core: NumPy and SciPy only
+        ("cyclomesh.stage.solve, cyclomesh.results.stage", HEAVY),  # the RV stage, same
+        ("cyclomesh.drive.solve, cyclomesh.results.torsion", HEAVY),  # drive characteristics, same
         ("cyclomesh, cyclomesh.cli", (*HEAVY, "scipy", "pydantic")),  # --help
         ("cyclomesh.tolerance.tasks", HEAVY),  # what tolerance workers run
-        ("cyclomesh.studies.run, cyclomesh.studies.tolerance, cyclomesh.pipeline", HEAVY),
+        ("cyclomesh.studies.run, cyclomesh.studies.tolerance, cyclomesh.publish.pipeline", HEAVY),
         ("cyclomesh.studies.stiffness", HEAVY),
         # plot modules: matplotlib only when a figure is drawn (in the figure workers)
         (
@@ -23,8 +24,8 @@ HEAVY = ("xarray", "pandas", "matplotlib", "pyarrow", "netCDF4", "distributed")
             ("matplotlib", "scipy.stats"),
         ),
         # design maps: the chunk function and the kind of study, and its plots
-        ("cyclomesh.designmap, cyclomesh.studies.design", HEAVY),
-        ("cyclomesh.figures.design", ("matplotlib", "xarray")),
+        ("cyclomesh.designspace.sweep, cyclomesh.studies.designmap", HEAVY),
+        ("cyclomesh.figures.designmap", ("matplotlib", "xarray")),
     ],
 )
 def test_modules_import_without_heavy_libraries(modules, absent):

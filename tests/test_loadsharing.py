@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cyclomesh import ConvergenceError
-from cyclomesh.loadsharing import TORQUE_TOLERANCE, share_load
+from cyclomesh.core.loadsharing import TORQUE_TOLERANCE, share_load
 
 ARMS = np.array([0.0, 30e-3, 48e-3, 55e-3, 58e-3, 57e-3, 50e-3, 40e-3, 25e-3, 10e-3])
 

@@ -12,8 +12,8 @@ from cyclomesh import (
     analyse,
     summarize,
 )
-from cyclomesh.loadsharing import TORQUE_TOLERANCE
-from cyclomesh.ltca import solve_ltca
+from cyclomesh.core.loadsharing import TORQUE_TOLERANCE
+from cyclomesh.core.ltca import solve_ltca
 
 TPM = Modification(pin_radius=8e-6)
 STEP = np.deg2rad(0.5)

@@ -3,8 +3,8 @@
 import numpy as np
 
 from cyclomesh import TABLE1, Modification, PinErrors, solve_ltca, summarize, to_dataset
-from cyclomesh.analysis import ltca_metrics
-from cyclomesh.metrics import METRICS
+from cyclomesh.results.dataset import ltca_metrics
+from cyclomesh.results.metrics import METRICS
 
 
 def test_core_metrics_equal_the_dataset_summary_bit_for_bit():

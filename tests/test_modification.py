@@ -5,11 +5,11 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 from cyclomesh import TABLE1, DesignError, Modification, PinErrors
-from cyclomesh.contact import CONTACT_TOLERANCE, unloaded_contact
-from cyclomesh.drive import mirror_errors, play
-from cyclomesh.ltca import CONDITIONED_ARM, solve_ltca
-from cyclomesh.modification import MAX_ANGLE_STEP, ProfileDeviation
-from cyclomesh.profile import check_profile, deviated_geometry, modified_profile
+from cyclomesh.core.contact import CONTACT_TOLERANCE, unloaded_contact
+from cyclomesh.core.deviation import MAX_ANGLE_STEP, ProfileDeviation
+from cyclomesh.core.ltca import CONDITIONED_ARM, solve_ltca
+from cyclomesh.core.profile import check_profile, deviated_geometry, modified_profile
+from cyclomesh.drive.solve import mirror_errors, play
 
 N1, N2 = TABLE1.pins, TABLE1.teeth
 A, E = TABLE1.pin_circle_radius, TABLE1.eccentricity
@@ -271,7 +271,7 @@ def test_per_tooth_table_needs_every_tooth():
 
 def test_profile_figure_shows_the_rotation_and_a_table():
     from cyclomesh.figures import plot_profile
-    from cyclomesh.studies.run import profile_curves
+    from cyclomesh.results.profile import profile_curves
 
     delta = 20e-6
     phi1 = flank(5.0)

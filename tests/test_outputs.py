@@ -23,7 +23,7 @@ from typer.testing import CliRunner
 import cyclomesh
 from cyclomesh.cli import app
 from cyclomesh.exceptions import OutputError
-from cyclomesh.output_folder import LOCK, MARKER, ResultFolder, load_results
+from cyclomesh.output.folder import LOCK, MARKER, ResultFolder, load_results
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 QUICK = ("--crank-step-deg", "10", "--figures", "none", "-q")
@@ -147,7 +147,7 @@ def test_second_command_into_a_locked_folder_fails_at_once(tmp_path):
             textwrap.dedent(
                 f"""
                 import sys, time
-                from cyclomesh.output_folder import ResultFolder
+                from cyclomesh.output.folder import ResultFolder
                 with ResultFolder({str(out)!r}, "run"):
                     print("locked", flush=True)
                     time.sleep(30)
@@ -171,7 +171,7 @@ def test_second_command_into_a_locked_folder_fails_at_once(tmp_path):
 
 
 def test_result_folder_keeps_the_marker_for_last(tmp_path):
-    from cyclomesh.output import write_json
+    from cyclomesh.output.writers import write_json
 
     with ResultFolder(tmp_path, "test") as folder:
         write_json(tmp_path / MARKER, {"answer": 42.0, "bad": float("nan")})
@@ -186,7 +186,7 @@ def test_result_folder_keeps_the_marker_for_last(tmp_path):
 def test_netcdf_variables_have_a_fill_value(tmp_path):
     import netCDF4
 
-    from cyclomesh.output import write_netcdf
+    from cyclomesh.output.writers import write_netcdf
 
     ds = xr.Dataset(
         {"load": ("x", np.arange(3.0), {"units": "N"}), "n": ("x", np.arange(3))},

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cyclomesh import TABLE1, DesignError, Modification, PairDesign
-from cyclomesh.profile import check_profile, curvature_radius, modified_profile
+from cyclomesh.core.profile import check_profile, curvature_radius, modified_profile
 
 MODIFICATIONS = [
     Modification(),

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from cyclomesh import StudyError
-from cyclomesh.ltca import solve_ltca
-from cyclomesh.study.schema import load_study
+from cyclomesh.core.ltca import solve_ltca
+from cyclomesh.studyfile.schema import load_study
 
 DESIGN = """
 [design]

@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cyclomesh.contact import contact_phase
-from cyclomesh.execution import run_chunks
-from cyclomesh.hertz import force_from_approach
+from cyclomesh.core.contact import contact_phase
+from cyclomesh.core.hertz import force_from_approach
+from cyclomesh.execution.backends import run_chunks
 from cyclomesh.studies.tolerance import load_tolerance_study, ring_model
 from cyclomesh.tolerance.tasks import AllocationTask, ToleranceTask
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from cyclomesh.exceptions import StudyError
-from cyclomesh.study import load_study
-from cyclomesh.study.measurements import read_pin_errors_csv
-from cyclomesh.study.schema import crank_angles_deg, deep_merge
+from cyclomesh.studyfile import load_study
+from cyclomesh.studyfile.measurements import read_pin_errors_csv
+from cyclomesh.studyfile.schema import crank_angles_deg, deep_merge
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

@@ -13,9 +13,10 @@ from matplotlib.container import BarContainer
 
 from cyclomesh import TABLE1, Modification, PinErrors, analyse, figures
 from cyclomesh.figures.render import decimate
-from cyclomesh.output import csv_column, write_pin_csv
-from cyclomesh.report import Section, figure_html, render_report, table_html
-from cyclomesh.studies.run import profile_curves, summary_record
+from cyclomesh.output.writers import csv_column, write_pin_csv
+from cyclomesh.publish.report import Section, figure_html, render_report, table_html
+from cyclomesh.results.profile import profile_curves
+from cyclomesh.studies.run import summary_record
 
 ANGLES = np.deg2rad(np.arange(0.0, 360.0, 10.0))
 TPM = Modification(pin_radius=8e-6)
@@ -190,7 +191,7 @@ def test_decimation_keeps_every_spike_and_the_envelope():
 
 
 def test_netcdf_writer_reads_back_as_xarray_writes_it(tmp_path, cases):
-    from cyclomesh.output import write_netcdf
+    from cyclomesh.output.writers import write_netcdf
 
     ds = cases["TPM"].assign(flag=("pin", np.arange(40) % 2 == 0))
     ds.attrs["switch"] = True
@@ -269,7 +270,7 @@ def test_commands_hide_dask_from_xarray_and_restore_it():
 
 def test_figure_formats_option():
     from cyclomesh.exceptions import StudyError
-    from cyclomesh.pipeline import parse_figure_formats
+    from cyclomesh.publish.pipeline import parse_figure_formats
 
     assert parse_figure_formats("png,svg") == ("png", "svg")
     assert parse_figure_formats(" PDF , png,pdf") == ("pdf", "png")

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cyclomesh.execution import (
+from cyclomesh.execution.backends import (
     ClusterError,
     DaskBackend,
     ProcessBackend,
@@ -22,7 +22,7 @@ from cyclomesh.execution import (
     chunk_bounds,
     run_chunks,
 )
-from cyclomesh.study.schema import ToleranceSection, parse_section
+from cyclomesh.studyfile.schema import ToleranceSection, parse_section
 
 sys.path.insert(0, str(Path(__file__).parent))
 from _tolerance_dummy import DummyTask  # noqa: E402

@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 from cyclomesh.exceptions import StudyError
-from cyclomesh.study.schema import ToleranceSection, parse_section
+from cyclomesh.studyfile.schema import ToleranceSection, parse_section
 from cyclomesh.tolerance.sampling import draw_ring_errors
 
 

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from cyclomesh.tolerance.allocation import allocate_factor, clopper_pearson, minimum_rings
+from cyclomesh.tolerance.allocation import allocate_factor, minimum_rings
 from cyclomesh.tolerance.statistics import (
+    clopper_pearson,
     describe,
     exceedance_probability,
     lower_quantile_bound_rank,

@@ -5,7 +5,7 @@ Analysis of the Mismatched Cycloid-Pin Gear Pair in RV Speed Reducers", Machines
 (2022) 672, doi:10.3390/machines10080672.
 
 The names below are imported on first use, so ``import cyclomesh`` (and the
-``cyclomesh`` command's start) stays fast: ``import cyclomesh.ltca`` loads NumPy and
+``cyclomesh`` command's start) stays fast: ``import cyclomesh.core.ltca`` loads NumPy and
 SciPy only, and xarray comes with :func:`analyse`.
 """
 
@@ -15,31 +15,31 @@ from importlib import import_module
 from typing import Any
 
 _EXPORTS = {
-    "analyse": "cyclomesh.analysis",
-    "summarize": "cyclomesh.analysis",
-    "to_dataset": "cyclomesh.analysis",
-    "stiffness": "cyclomesh.torsion",
-    "summarize_stiffness": "cyclomesh.torsion",
-    "solve_drive": "cyclomesh.drive",
-    "solve_ltca": "cyclomesh.ltca",
-    "LTCA": "cyclomesh.ltca",
-    "PairDesign": "cyclomesh.design",
-    "Material": "cyclomesh.design",
-    "CrankHoles": "cyclomesh.design",
-    "Modification": "cyclomesh.design",
-    "PinErrors": "cyclomesh.design",
-    "ProfileDeviation": "cyclomesh.modification",
-    "design_map": "cyclomesh.designmap",
-    "Constraints": "cyclomesh.designmap",
-    "STEEL": "cyclomesh.design",
-    "TABLE1": "cyclomesh.design",
-    "METRICS": "cyclomesh.metrics",
+    "analyse": "cyclomesh.results.dataset",
+    "summarize": "cyclomesh.results.dataset",
+    "to_dataset": "cyclomesh.results.dataset",
+    "stiffness": "cyclomesh.results.torsion",
+    "summarize_stiffness": "cyclomesh.results.torsion",
+    "solve_drive": "cyclomesh.drive.solve",
+    "solve_ltca": "cyclomesh.core.ltca",
+    "LTCA": "cyclomesh.core.ltca",
+    "PairDesign": "cyclomesh.core.pair",
+    "Material": "cyclomesh.core.pair",
+    "CrankHoles": "cyclomesh.core.pair",
+    "Modification": "cyclomesh.core.pair",
+    "PinErrors": "cyclomesh.core.pair",
+    "ProfileDeviation": "cyclomesh.core.deviation",
+    "design_map": "cyclomesh.designspace.sweep",
+    "Constraints": "cyclomesh.designspace.sweep",
+    "STEEL": "cyclomesh.core.pair",
+    "TABLE1": "cyclomesh.core.pair",
+    "METRICS": "cyclomesh.results.metrics",
     "CyclomeshError": "cyclomesh.exceptions",
     "DesignError": "cyclomesh.exceptions",
     "ConvergenceError": "cyclomesh.exceptions",
     "StudyError": "cyclomesh.exceptions",
     "OutputError": "cyclomesh.exceptions",
-    "load_results": "cyclomesh.output_folder",
+    "load_results": "cyclomesh.output.folder",
 }
 
 __all__ = list(_EXPORTS)

@@ -191,7 +191,7 @@ def _say(message: str, quiet: bool) -> None:
 
 def _version(value: bool) -> None:
     if value:
-        from cyclomesh.report import cyclomesh_version
+        from cyclomesh.publish.report import cyclomesh_version
 
         typer.echo(f"cyclomesh {cyclomesh_version()}")
         raise typer.Exit()
@@ -205,6 +205,9 @@ def main(
     ] = False,
 ) -> None:
     """Loaded tooth contact analysis of cycloid-pin gear pairs (Li et al., Machines 2022)."""
+    from cyclomesh.execution.runtime import tune_allocator
+
+    tune_allocator()
 
 
 @contextmanager
@@ -334,8 +337,8 @@ ChunkOption = Annotated[
 
 
 def output_options(study: Any, figures: str | None, csv: bool = False) -> Any:
-    """The pipeline's :class:`~cyclomesh.pipeline.OutputOptions` from the CLI options."""
-    from cyclomesh.pipeline import OutputOptions
+    """The pipeline's :class:`~cyclomesh.publish.pipeline.OutputOptions` from the CLI options."""
+    from cyclomesh.publish.pipeline import OutputOptions
 
     return OutputOptions.from_study(study, figures, csv)
 
@@ -346,8 +349,8 @@ def check(
     study: StudyArg, crank_step_deg: StepOption = None, no_work_limit: NoLimitOption = False
 ) -> None:
     """Validate a study file (every section) without running it."""
-    from cyclomesh.study import load_study
-    from cyclomesh.study.limits import check_study_work
+    from cyclomesh.studyfile import load_study
+    from cyclomesh.studyfile.limits import check_study_work
 
     loaded = load_study(study, _overrides(crank_step_deg))
     check_study_work(loaded, "check", allow=no_work_limit)
@@ -375,10 +378,10 @@ def run(
     no_work_limit: NoLimitOption = False,
 ) -> None:
     """Run every case of a study; write results, figures, summary.json and report.html."""
-    from cyclomesh.pipeline import publish, study_stamp
+    from cyclomesh.publish.pipeline import publish, study_stamp
     from cyclomesh.studies import run as kind
-    from cyclomesh.study import load_study
-    from cyclomesh.study.limits import check_study_work
+    from cyclomesh.studyfile import load_study
+    from cyclomesh.studyfile.limits import check_study_work
 
     loaded = load_study(study, _overrides(crank_step_deg))
     check_study_work(loaded, "run", allow=no_work_limit)
@@ -424,7 +427,7 @@ def _print_summary(summaries: dict, out: Path) -> None:
     from rich.markup import escape
     from rich.table import Table
 
-    from cyclomesh.metrics import METRICS
+    from cyclomesh.results.metrics import METRICS
 
     labels = [
         METRICS[k].label + ("" if METRICS[k].unit == "1" else f" [{METRICS[k].unit}]")
@@ -467,10 +470,10 @@ def stiffness(
     Writes <case>/stiffness.nc, summary.json, the figures and report.html. The numbers
     are those of the cycloid-pin mesh alone (see docs/drive.md).
     """
-    from cyclomesh.pipeline import publish, study_stamp
+    from cyclomesh.publish.pipeline import publish, study_stamp
     from cyclomesh.studies import stiffness as kind
-    from cyclomesh.study import load_study
-    from cyclomesh.study.limits import check_study_work
+    from cyclomesh.studyfile import load_study
+    from cyclomesh.studyfile.limits import check_study_work
 
     loaded = load_study(study, _overrides(crank_step_deg))
     kind.check_stiffness(loaded)
@@ -509,7 +512,7 @@ def _print_stiffness(summaries: dict, out: Path) -> None:
     from rich.markup import escape
     from rich.table import Table
 
-    from cyclomesh.metrics import STIFFNESS_METRICS
+    from cyclomesh.results.metrics import STIFFNESS_METRICS
 
     metrics = [STIFFNESS_METRICS[k] for k in _STIFFNESS_COLUMNS]
     table = Table("case", *(escape(f"{m.label} [{m.unit}]") for m in metrics))
@@ -521,6 +524,15 @@ def _print_stiffness(summaries: dict, out: Path) -> None:
     console.print(
         "the mesh alone: crank bearings, crankshafts and the first stage are not included"
     )
+    for name, record in summaries.items():  # [stage]: the RV stage, beside the mesh
+        if "stage_torsional_rigidity_nm_per_arcmin_mean" in record:
+            console.print(
+                escape(
+                    f"{name}: RV stage (mesh + crank bearings) "
+                    f"{record['stage_torsional_rigidity_nm_per_arcmin_mean']:.4g} N·m/arcmin, "
+                    f"lost motion {record['stage_lost_motion_arcmin_mean']:.4g} arcmin"
+                )
+            )
     console.print(f"report: {out / 'report.html'}")
 
 
@@ -537,8 +549,8 @@ def _check_workers(workers: int | None) -> None:
 def _folder(out: Path, command: str) -> Any:
     """The output folder of a command, locked while it runs, its ``summary.json``
     (the completion marker) removed now and written last
-    (:class:`~cyclomesh.output_folder.ResultFolder`)."""
-    from cyclomesh.output_folder import ResultFolder
+    (:class:`~cyclomesh.output.folder.ResultFolder`)."""
+    from cyclomesh.output.folder import ResultFolder
 
     return ResultFolder(out, command)
 
@@ -573,9 +585,9 @@ def _preload(figures: bool) -> Any:
 
         xr.DataArray(np.zeros(1))  # the first array sets up xarray's array backends
         if figures:
-            from cyclomesh.figures.render import _warm
+            from cyclomesh.figures.render import warm_up
 
-            _warm(draw=True)  # the figure workers forked later inherit it
+            warm_up(draw=True)  # the figure workers forked later inherit it
         import gc
 
         gc.freeze()  # nor do their collections scan what they inherit
@@ -591,7 +603,7 @@ def _workers(
 ) -> Iterator[Any]:
     """The execution backend (local processes or Dask; None unless ``parallel``), started,
     with the import preload thread; closed on exit, the preload joined after success."""
-    from cyclomesh.execution import make_backend
+    from cyclomesh.execution.backends import make_backend
 
     backend = make_backend(scheduler, workers) if parallel else None
     try:
@@ -624,7 +636,7 @@ def tolerance(
 ) -> None:
     """Monte Carlo tolerance study: per-ring metrics, statistics, worst ring, report."""
     from cyclomesh.studies import tolerance as kind
-    from cyclomesh.study.limits import check_study_work
+    from cyclomesh.studyfile.limits import check_study_work
 
     loaded, spec = kind.load_tolerance_study(study)
     check_study_work(loaded, "tolerance", rings=rings, allow=no_work_limit)
@@ -675,7 +687,7 @@ def allocate(
 ) -> None:
     """Largest scale factor on the tolerances that meets the target exceedance probability."""
     from cyclomesh.studies import tolerance as kind
-    from cyclomesh.study.limits import check_study_work
+    from cyclomesh.studyfile.limits import check_study_work
 
     loaded, spec = kind.load_tolerance_study(study)
     check_study_work(loaded, "allocate", rings=rings, allow=no_work_limit)
@@ -763,9 +775,9 @@ def design(
     A nominal map runs in this process unless --workers or --scheduler is given; a
     robust map (design_space.rings > 0) runs on all local cores by default.
     """
-    from cyclomesh.pipeline import publish
-    from cyclomesh.studies import design as kind
-    from cyclomesh.study.limits import check_study_work
+    from cyclomesh.publish.pipeline import publish
+    from cyclomesh.studies import designmap as kind
+    from cyclomesh.studyfile.limits import check_study_work
 
     loaded, space = kind.load_design_study(study)
     check_study_work(loaded, "design", allow=no_work_limit)
@@ -840,13 +852,13 @@ def fe(
         raise StudyError(
             f"cyclomesh fe needs the fe extra: pip install -e '.[fe]' ({exc})".replace("\n", " ")
         ) from None
-    from cyclomesh.pipeline import publish, study_stamp
+    from cyclomesh.publish.pipeline import publish, study_stamp
     from cyclomesh.studies import fe as kind
-    from cyclomesh.study import load_study
+    from cyclomesh.studyfile import load_study
 
     angles = None
     if crank_angles:
-        from cyclomesh.study.limits import MAX_ABS_CRANK_DEG
+        from cyclomesh.studyfile.limits import MAX_ABS_CRANK_DEG
 
         try:
             angles = [float(a) for a in crank_angles.split(",")]
@@ -886,7 +898,7 @@ def _print_fe(summaries: dict, out: Path) -> None:
     from rich.markup import escape
     from rich.table import Table
 
-    from cyclomesh.metrics import FE_METRICS
+    from cyclomesh.results.metrics import FE_METRICS
 
     table = Table("metric", "unit", *(escape(name) for name in summaries))
     for key, m in FE_METRICS.items():

@@ -28,21 +28,22 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from cyclomesh.contact import unloaded_contact
-from cyclomesh.design import Modification, PairDesign
-from cyclomesh.exceptions import ConvergenceError
-from cyclomesh.fe.mesh import Refinement, mesh_disk, mesh_profile_disc
-from cyclomesh.fe.solve import Body, ContactPair, boundary_chain, solve_contact, summarize_contact
-from cyclomesh.fe.tooth import _rho_star, disc_outline
-from cyclomesh.hertz import (
+from cyclomesh.core.contact import unloaded_contact
+from cyclomesh.core.hertz import (
     CONTACT_LAWS,
     effective_modulus,
     half_width,
     max_pressure,
     pin_groove_radius,
+    pin_tooth_radius,
 )
-from cyclomesh.ltca import rest_position, solve_ltca
-from cyclomesh.profile import modified_profile
+from cyclomesh.core.ltca import rest_position, solve_ltca
+from cyclomesh.core.pair import Modification, PairDesign
+from cyclomesh.core.profile import modified_profile
+from cyclomesh.exceptions import ConvergenceError
+from cyclomesh.fe.mesh import Refinement, mesh_disk, mesh_profile_disc
+from cyclomesh.fe.solve import Body, ContactPair, boundary_chain, solve_contact, summarize_contact
+from cyclomesh.fe.tooth import disc_outline
 
 __all__ = ["DiscFE", "solve_disc_fe"]
 
@@ -87,7 +88,7 @@ class DiscFE:
     nodes: int
     groove_iterations: int
     ltca_by_law: dict[str, tuple[FloatArray, FloatArray, float]]
-    """Per contact law of :data:`cyclomesh.hertz.CONTACT_LAWS`: (pin load [N], contact
+    """Per contact law of :data:`cyclomesh.core.hertz.CONTACT_LAWS`: (pin load [N], contact
     stress [Pa], loaded rotation [rad]) of the LTCA."""
     stress_resolved: NDArray
     torque_fe: float = np.nan
@@ -180,7 +181,7 @@ def solve_disc_fe(
     e_pc = effective_modulus(pin_m.compliance, disc_m.compliance)
     e_pg = effective_modulus(pin_m.compliance, ring_m.compliance)
     nominal = np.where(load_ltca > 0, load_ltca, 0.2 * load_ltca.max()) / width  # N/m
-    b_pc = half_width(nominal, _rho_star(rp, geo.curvature_radius[0]), e_pc, 1.0)
+    b_pc = half_width(nominal, pin_tooth_radius(rp, geo.curvature_radius[0]), e_pc, 1.0)
     rho_pg = pin_groove_radius(rp, design.groove_radius)
     b_pg = half_width(nominal, rho_pg, e_pg, 1.0)
 
@@ -290,7 +291,7 @@ def solve_disc_fe(
         if summary.load > 0 and not np.isfinite(summary.peak_pressure):
             # too light for the contact mesh: the Hertz pressure of the FE load (Eq. 24)
             resolved[i] = False
-            rho = _rho_star(rp, geo.curvature_radius[0, i])
+            rho = pin_tooth_radius(rp, geo.curvature_radius[0, i])
             stress_fe[i] = max_pressure(load_fe[i], rho, e_pc, width)
         else:
             stress_fe[i] = summary.peak_pressure

@@ -9,7 +9,7 @@ a frictionless circle). The whole disc is meshed, its bore of radius r_b is fixe
 The tooth's approach is the displacement of the disc's surface at the centre of the
 contact, along the inward normal, relative to the fixed bore: δdisc = −n·u_disc. Its
 compliance per unit length δdisc/F [m²/N] is compared with the disc's term of the
-contact laws of :mod:`cyclomesh.hertz` per unit length:
+contact laws of :mod:`cyclomesh.core.hertz` per unit length:
 
 * ``paper`` (Eq. 20 of [1]):       (2/π)·c·(ln(4|ρc|/b) − ½)
 * ``half_plane`` (Johnson 5.41):  (2/π)·c·(ln(2d/b) − ν/(2(1 − ν))), d = |r_contact|
@@ -25,11 +25,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from cyclomesh.design import Modification, PairDesign
+from cyclomesh.core.hertz import effective_modulus, half_width, pin_tooth_radius
+from cyclomesh.core.pair import Modification, PairDesign
+from cyclomesh.core.profile import curvature_radius, generating_radii, locus, modified_profile
 from cyclomesh.fe.mesh import Refinement, mesh_disk, mesh_profile_disc
 from cyclomesh.fe.solve import Body, ContactPair, boundary_chain, solve_contact, summarize_contact
-from cyclomesh.hertz import effective_modulus, half_width
-from cyclomesh.profile import curvature_radius, generating_radii, locus, modified_profile
 
 __all__ = ["ToothCompliance", "tooth_compliance", "disc_outline", "profile_point"]
 
@@ -132,7 +132,7 @@ def tooth_compliance(
         phi1 = np.deg2rad(phi_deg)
         point, normal = profile_point(design, modification, phi1)
         r_c.append(float(np.hypot(*point)))
-        b = float(half_width(line_load, _rho_star(rp, rc), e_star, 1.0))
+        b = float(half_width(line_load, pin_tooth_radius(rp, rc), e_star, 1.0))
         h = b / elements_per_half_width
         refine = Refinement([tuple(point)], h, 1.5 * b, far_size, 4e-3)
         outline, breaks = disc_outline(design, modification, np.array([phi1]))
@@ -179,7 +179,7 @@ def tooth_compliance(
         out["p"].append(summary.peak_pressure)
         out["nodes"].append(pin.n_nodes + disc.n_nodes)
     r_c = np.asarray(r_c)
-    rho_star = _rho_star(rp, rho_c)
+    rho_star = pin_tooth_radius(rp, rho_c)
     b_h = half_width(line_load, rho_star, e_star, 1.0)
     c, nu = disc_m.compliance, disc_m.poisson_ratio
     tail = nu / (2.0 * (1.0 - nu))
@@ -204,9 +204,3 @@ def _chord(xm: FloatArray, k: int) -> FloatArray:
     d = xm[:, j] - xm[:, k]
     d = d / np.hypot(*d)
     return d if j > k else -d
-
-
-def _rho_star(pin_radius: float, profile_radius: FloatArray) -> FloatArray:
-    """ρ*pc of Eq. 22, written to stay finite (= ρp) where ρc = ±inf at an inflection."""
-    with np.errstate(divide="ignore"):
-        return pin_radius / (1.0 + pin_radius / np.asarray(profile_radius, float))

@@ -4,7 +4,7 @@
   gear ratio, contacts, backlash), after the figures of Li et al. (2022);
 - :mod:`cyclomesh.figures.tolerance`: histograms, distribution functions and
   exceedance curves of a tolerance study, and the allocation curve;
-- :mod:`cyclomesh.figures.design`: contour maps of a design map (``cyclomesh design``);
+- :mod:`cyclomesh.figures.designmap`: contour maps of a design map (``cyclomesh design``);
 - :mod:`cyclomesh.figures.render`: :class:`~cyclomesh.figures.render.FigureJob`,
   :func:`~cyclomesh.figures.render.render_figures` (saves PNG/SVG/PDF, a process pool
   when it pays), :func:`~cyclomesh.figures.render.decimate`.

@@ -1,6 +1,6 @@
 """Figures of the drive characteristics: torsion curve, rigidity, play, torque split, mesh force.
 
-Every function takes results (a Dataset of :func:`cyclomesh.torsion.stiffness` or
+Every function takes results (a Dataset of :func:`cyclomesh.results.torsion.stiffness` or
 :func:`cyclomesh.analyse`, or a mapping ``{case name: Dataset}``) and returns a
 :class:`matplotlib.figure.Figure` on the Agg canvas, without pyplot's global state and
 without writing files. Datasets with a ``ring`` dimension must be reduced to one ring
@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import xarray as xr
 
 from cyclomesh.figures.render import new_figure
-from cyclomesh.figures.run import _cases, _legend
+from cyclomesh.figures.run import case_legend, case_results
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -58,7 +58,7 @@ def plot_torsion_curve(results: Results) -> Figure:
     the origin) and the rigidity secants between 50 % and 100 % on each side (dotted).
     With a series stiffness, the whole-drive curve gets its own axes beside the mesh's.
     """
-    cases = _cases(results, "rotation")
+    cases = case_results(results, "rotation")
     kinds = [("rotation", "cycloid-pin mesh")]
     if any("drive_rotation" in ds for ds in cases.values()):
         kinds.append(("drive_rotation", "whole drive (mesh + series stiffness)"))
@@ -109,7 +109,7 @@ def plot_torsion_curve(results: Results) -> Figure:
 
 def plot_rigidity(results: Results) -> Figure:
     """Torsional rigidity [N·m/arcmin] over the crank angle; whole drive on its own axes."""
-    cases = _cases(results, "torsional_rigidity")
+    cases = case_results(results, "torsional_rigidity")
     drive = any("drive_torsional_rigidity" in ds for ds in cases.values())
     fig = _figure(8.5, 5.6 if drive else 3.6)
     axes = fig.subplots(2 if drive else 1, 1, sharex=True, squeeze=False)[:, 0]
@@ -123,13 +123,13 @@ def plot_rigidity(results: Results) -> Figure:
         axes[1].set_ylabel("whole-drive rigidity\n[N·m/arcmin]")
     axes[-1].set_xlabel("crank angle [deg]")
     axes[0].set_title("Torsional rigidity (secant 50–100 % of rated, mean of both directions)")
-    _legend(axes[0], cases, outside=True)
+    case_legend(axes[0], cases, outside=True)
     return fig
 
 
 def plot_play(results: Results) -> Figure:
     """Play and lost motion [arcmin] over the crank angle."""
-    cases = _cases(results, "play")
+    cases = case_results(results, "play")
     fig = _figure(9.0, 3.8)
     ax = fig.add_subplot()
     for i, (name, ds) in enumerate(cases.items()):
@@ -167,7 +167,7 @@ def plot_torque_share(results: Results, torque_nm: float | None = None) -> Figur
     For results with a ``torque`` dimension, ``torque_nm`` picks the torque (default the
     largest positive one).
     """
-    cases = _cases(results, "torque_share")
+    cases = case_results(results, "torque_share")
     fig = _fixed(7.0, 3.6)
     ax = fig.add_subplot()
     for i, (name, ds) in enumerate(cases.items()):
@@ -195,7 +195,7 @@ def plot_torque_share(results: Results, torque_nm: float | None = None) -> Figur
 
 def plot_mesh_force(results: Results) -> Figure:
     """Mesh force (the crank bearing load) [N] and its direction [deg] over the crank angle."""
-    cases = _cases(results, "mesh_force")
+    cases = case_results(results, "mesh_force")
     fig = _fixed(7.0, 5.0)
     top, bottom = fig.subplots(2, 1, sharex=True)
     for i, (name, ds) in enumerate(cases.items()):

@@ -155,7 +155,7 @@ def _save(
     job: FigureJob, contents: Mapping[str, bytes], folder: Path | None, formats: Sequence[str]
 ) -> RenderedFigure:
     """Write the drawn ``contents`` of ``job`` into ``folder`` (in this process, atomically)."""
-    from cyclomesh.output_folder import write_bytes
+    from cyclomesh.output.folder import write_bytes
 
     files = []
     if folder is not None:
@@ -171,11 +171,11 @@ def _draw(job: FigureJob, folder: Path | None, formats: Sequence[str], dpi: int)
 
 
 _WARM = False
-"""Whether this process has drawn :func:`_warm`'s throw-away figure."""
+"""Whether this process has drawn :func:`warm_up`'s throw-away figure."""
 
 
-def _warm(draw: bool = False) -> None:
-    """Import matplotlib and the plot modules (in a worker, while the study computes).
+def warm_up(draw: bool = False) -> None:
+    """Import matplotlib's Agg backend (in a worker, while the study computes).
 
     With ``draw``, also draw one small figure and throw it away (once per process):
     fonts, text layout, markers and the PNG writer are set up on first use, 0.2–0.4 s
@@ -183,8 +183,6 @@ def _warm(draw: bool = False) -> None:
     """
     global _WARM
     import matplotlib.backends.backend_agg  # noqa: F401
-
-    import cyclomesh.figures.run  # noqa: F401
 
     if not draw or _WARM:
         return
@@ -202,17 +200,17 @@ def _warm(draw: bool = False) -> None:
 
 def _warm_worker(parent: int | None = None) -> None:
     """Start of a figure worker: it dies with ``parent`` (its PID,
-    :func:`cyclomesh.execution.die_with_parent`), :func:`_warm` with its figure (unless
-    the parent drew it), then :func:`gc.freeze`: the objects of the imports are never
-    scanned again (a tenth of a figure's time went to full collections over them)."""
+    :func:`cyclomesh.execution.runtime.die_with_parent`), :func:`warm_up` with its
+    figure (unless the parent drew it), then :func:`gc.freeze`: the objects of the
+    imports are never scanned again (a tenth of a figure's time went to full collections
+    over them)."""
     import gc
 
     if parent is not None:
-        from cyclomesh.execution import die_with_parent
+        from cyclomesh.execution.runtime import die_with_parent
 
         die_with_parent(parent)
-
-    _warm(draw=True)
+    warm_up(draw=True)
     gc.freeze()
 
 
@@ -331,7 +329,7 @@ def render_figures(
         workers = _cpus() if len(jobs) >= POOL_MIN_FIGURES else 1
     workers = min(workers, len(jobs))
     if workers > 1:
-        _warm(draw=True)  # once here rather than in every forked worker
+        warm_up(draw=True)  # once here rather than in every forked worker
         with FigurePool(workers) as own:
             if own.active:
                 return own.map(jobs, folder, formats, dpi)

@@ -1,7 +1,7 @@
 """Figures of a run study (loaded tooth contact analysis), after the figures of [1].
 
 Every function takes results (one Dataset of :func:`cyclomesh.analyse`, or a mapping
-``{case name: Dataset}`` to compare cases; :class:`~cyclomesh.studies.run.ProfileCurves`
+``{case name: Dataset}`` to compare cases; :class:`~cyclomesh.results.profile.ProfileCurves`
 for the profile) and returns a :class:`matplotlib.figure.Figure` drawn on the Agg
 canvas, without touching pyplot's global state; nothing is computed here but the
 drawing, and no file is written (:mod:`cyclomesh.figures.render` saves them). Lines
@@ -24,13 +24,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 import xarray as xr
 
-from cyclomesh.design import PinErrors
+from cyclomesh.core.pair import PinErrors
 from cyclomesh.figures.render import decimate, new_figure
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from cyclomesh.studies.run import ProfileCurves
+    from cyclomesh.results.profile import ProfileCurves
 
 __all__ = [
     "plot_profile",
@@ -63,7 +63,7 @@ def _figure(width: float, height: float, **adjust: float) -> Figure:
     return fig
 
 
-def _cases(results: Results, needs: str | None = None) -> dict[str, xr.Dataset]:
+def case_results(results: Results, needs: str | None = None) -> dict[str, xr.Dataset]:
     """``{case name: Dataset}`` of one ring each (also for the drive figures); with
     ``needs``, each must have that variable."""
     if isinstance(results, xr.Dataset):
@@ -79,7 +79,7 @@ def _cases(results: Results, needs: str | None = None) -> dict[str, xr.Dataset]:
     return cases
 
 
-def _legend(ax, cases: Mapping[str, object], outside: bool = False) -> None:
+def case_legend(ax, cases: Mapping[str, object], outside: bool = False) -> None:
     if len(cases) > 1 or any(cases):
         where = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)} if outside else {}
         ax.legend(fontsize="small", **where)
@@ -100,7 +100,7 @@ def plot_profile(curves: ProfileCurves) -> Figure:
     normal distance from the standard to the modified profile [µm] (positive = material
     removed, clearance opened) over the generating angle φ1 within the tooth [deg]
     (0 = tooth-space bottom, ±180 = tips). The right axes has one line per case, then
-    the zero line. The curves come from :func:`cyclomesh.studies.run.profile_curves`.
+    the zero line. The curves come from :func:`cyclomesh.results.profile.profile_curves`.
     """
     fig = _figure(10.0, 4.2, left=0.7, wspace=0.3)
     ax_tooth, ax_mod = fig.subplots(1, 2, width_ratios=[1.0, 1.4])
@@ -163,7 +163,7 @@ def plot_loads(results: Results, crank_angles_deg: Sequence[float] = (0, 60, 120
     One row per crank angle (the computed angle nearest to each); left the pin-tooth load
     Fc [N], right the groove load Fp [N]; one line per case in each axes.
     """
-    cases = _cases(results)
+    cases = case_results(results)
     fig = _figure(10.0, 2.4 * len(crank_angles_deg) + 0.6, hspace=0.4)
     axes = np.atleast_2d(fig.subplots(len(crank_angles_deg), 2, sharex=True, squeeze=False))
     for row, angle in zip(axes, crank_angles_deg, strict=True):
@@ -178,7 +178,7 @@ def plot_loads(results: Results, crank_angles_deg: Sequence[float] = (0, 60, 120
         row[1].set_ylabel("groove load Fp [N]")
     for ax in axes[-1]:
         ax.set_xlabel("pin")
-    _legend(axes[0, 0], cases)
+    case_legend(axes[0, 0], cases)
     return fig
 
 
@@ -197,7 +197,7 @@ def plot_profile_stress(results: Results, pin: int = 20, x: str = "profile_angle
     """
     if x not in ("profile_angle", "contact_radius"):
         raise ValueError(f"x must be 'profile_angle' or 'contact_radius', got {x!r}")
-    cases = _cases(results)
+    cases = case_results(results)
     fig = _figure(7.5, 4.5)
     ax = fig.subplots()
     for name, ds in cases.items():
@@ -213,7 +213,7 @@ def plot_profile_stress(results: Results, pin: int = 20, x: str = "profile_angle
         ax.set_xlabel("radius of the contact point on the disc [mm]")
     ax.set_ylabel("contact stress σH [MPa]")
     ax.set_title(f"pin {pin}: contact stress over the tooth profile")
-    _legend(ax, cases)
+    case_legend(ax, cases)
     return fig
 
 
@@ -224,7 +224,7 @@ def plot_stress_maps(results: Results) -> Figure:
     shared by a column; blank where a pin carries no load. Equally spaced crank angles
     are drawn as an image (one pixel per angle and pin), others as a mesh.
     """
-    cases = _cases(results)
+    cases = case_results(results)
     height = 2.6 * len(cases) + 0.8
     fig = new_figure(11.0, height)
     grid = fig.add_gridspec(
@@ -283,7 +283,7 @@ def plot_transmission_error(results: Results) -> Figure:
     Left: the first mesh cycle, 360°/n1 of crank angle; right: all computed angles.
     One line per case in each axes; TE [arcsec], negative = the disc lags.
     """
-    cases = _cases(results)
+    cases = case_results(results)
     fig = _figure(11.0, 4.0, left=0.9)
     ax_mesh, ax_all = fig.subplots(1, 2, width_ratios=[1.0, 2.0], sharey=True)
     for name, ds in cases.items():
@@ -298,7 +298,7 @@ def plot_transmission_error(results: Results) -> Figure:
     ax_mesh.set_ylabel("loaded transmission error [arcsec]")
     for ax in (ax_mesh, ax_all):
         ax.set_xlabel("crank angle [deg]")
-    _legend(ax_all, cases)
+    case_legend(ax_all, cases)
     return fig
 
 
@@ -307,7 +307,7 @@ def plot_gear_ratio(results: Results) -> Figure:
 
     One line per case plus the ideal ratio n2.
     """
-    cases = _cases(results)
+    cases = case_results(results)
     fig = _figure(9.0, 4.0)
     ax = fig.subplots()
     for name, ds in cases.items():
@@ -328,7 +328,7 @@ def plot_gear_ratio(results: Results) -> Figure:
 
 def plot_contacts(results: Results) -> Figure:
     """Number of pins in contact over the crank angle; one step line per case."""
-    cases = _cases(results)
+    cases = case_results(results)
     fig = _figure(9.0, 3.6)
     ax = fig.subplots()
     for name, ds in cases.items():
@@ -336,7 +336,7 @@ def plot_contacts(results: Results) -> Figure:
     ax.set_xlabel("crank angle [deg]")
     ax.set_ylabel("pins in contact [-]")
     ax.yaxis.get_major_locator().set_params(integer=True)
-    _legend(ax, cases)
+    case_legend(ax, cases)
     return fig
 
 
@@ -346,7 +346,7 @@ def plot_backlash(results: Results, crank_angles_deg: Sequence[float] = (0.0,)) 
     One axes per crank angle (the computed angle nearest to each), one line per case;
     pins the loaded flank cannot reach (infinite backlash) are left out.
     """
-    cases = _cases(results)
+    cases = case_results(results)
     fig = _figure(9.0, 2.4 * len(crank_angles_deg) + 0.6)
     axes = fig.subplots(len(crank_angles_deg), 1, sharex=True, squeeze=False)[:, 0]
     for ax, angle in zip(axes, crank_angles_deg, strict=True):
@@ -358,5 +358,5 @@ def plot_backlash(results: Results, crank_angles_deg: Sequence[float] = (0.0,)) 
         ax.set_title(f"crank angle {at:g}°", fontsize="medium")
         ax.set_ylabel("backlash [arcsec]")
     axes[-1].set_xlabel("pin")
-    _legend(axes[0], cases)
+    case_legend(axes[0], cases)
     return fig

@@ -16,7 +16,7 @@ import numpy as np
 import xarray as xr
 
 from cyclomesh.figures.render import new_figure
-from cyclomesh.metrics import METRICS, STRESS_METRIC, metric_label
+from cyclomesh.results.metrics import METRICS, STRESS_METRIC, metric_label
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -184,7 +184,7 @@ def plot_stress_exceedance(
     The band is the pointwise Clopper–Pearson interval; log scale, probabilities below
     half a ring (0.5/n, including 0) drawn at that floor.
     """
-    from cyclomesh.tolerance.allocation import clopper_pearson
+    from cyclomesh.tolerance.statistics import clopper_pearson
 
     dist = reduce_rings(ds, allowable_contact_stress_mpa)
     n, levels, counts = dist.rings, dist.levels, dist.exceedance_counts

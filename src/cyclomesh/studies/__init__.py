@@ -4,13 +4,13 @@
   revolution (``cyclomesh run``);
 - :mod:`cyclomesh.studies.tolerance`: Monte Carlo tolerance studies and tolerance
   allocation (``cyclomesh tolerance``, ``cyclomesh allocate``);
-- :mod:`cyclomesh.studies.design`: design maps over the modification space, nominal or
+- :mod:`cyclomesh.studies.designmap`: design maps over the modification space, nominal or
   robust over rings (``cyclomesh design``).
 
 Every kind has the same parts: a section of the study file schema
-(:mod:`cyclomesh.study.schema`), a compute function that returns results in memory
-(parallel work through :mod:`cyclomesh.execution`), a writer of its result files
-(:mod:`cyclomesh.output`), figure jobs (:mod:`cyclomesh.figures`) and report
-sections (:mod:`cyclomesh.report`); :mod:`cyclomesh.pipeline` renders the figures and
-writes the report, and the CLI command is a thin layer with the progress display.
+(:mod:`cyclomesh.studyfile.schema`), a compute function that returns results in memory
+(parallel work through :mod:`cyclomesh.execution.backends`), a writer of its result files
+(:mod:`cyclomesh.output.writers`), figure jobs (:mod:`cyclomesh.figures`) and report
+sections (:mod:`cyclomesh.publish.report`); :mod:`cyclomesh.publish.pipeline` renders the
+figures and writes the report, and the CLI command is a thin layer with the progress display.
 """

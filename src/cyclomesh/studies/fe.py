@@ -3,7 +3,7 @@
 For every case of a study file, at a few crank angles, :func:`cyclomesh.fe.disc.solve_disc_fe`
 solves the disc with its pins by FE (2-D plane strain, unilateral contact; the optional
 ``fe`` extra) and the LTCA of the same case with both contact laws beside it. The
-``[fe]`` section (:class:`~cyclomesh.study.schema.FeSection`, validated with the rest of
+``[fe]`` section (:class:`~cyclomesh.studyfile.schema.FeSection`, validated with the rest of
 the study file) sets the bore, the crank angles and the mesh. Stages (``docs/pipeline.md``):
 
 1. :func:`check_fe`: the cases are ones the FE model takes (no pin errors yet);
@@ -13,7 +13,7 @@ the study file) sets the bore, the crank angles and the mesh. Stages (``docs/pip
    loaded position in the TE convention −(φc − φt + Δφc), Eq. 25]; the ``*_ltca``
    variables use the case's ``[analysis] contact_law`` and ``*_ltca_paper`` /
    ``*_ltca_half_plane`` give both laws; the mesh-convergence table of the first crank
-   angle (half and full contact mesh density); :data:`cyclomesh.metrics.FE_METRICS`;
+   angle (half and full contact mesh density); :data:`cyclomesh.results.metrics.FE_METRICS`;
 3. :func:`write_fe`: ``<case>/fe.nc``, ``<case>/convergence.csv``, ``summary.json``;
 4. :func:`fe_figures`, :func:`fe_sections`: figure jobs and report sections.
 
@@ -33,15 +33,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cyclomesh.exceptions import StudyError
-from cyclomesh.metrics import FE_METRICS
-from cyclomesh.pipeline import case_attrs, summary_document
-from cyclomesh.study.schema import FeSection, Study, folder_name
+from cyclomesh.publish.pipeline import case_attrs, summary_document
+from cyclomesh.results.metrics import FE_METRICS
+from cyclomesh.studyfile.schema import FeSection, Study, folder_name
+from cyclomesh.units import ARCSEC_PER_RAD
 
 if TYPE_CHECKING:
     import xarray as xr
 
     from cyclomesh.figures.render import FigureJob
-    from cyclomesh.report import Section
+    from cyclomesh.publish.report import Section
 
 __all__ = [
     "FeResult",
@@ -52,7 +53,6 @@ __all__ = [
     "fe_sections",
 ]
 
-ARCSEC = 180.0 / math.pi * 3600.0
 LAWS = ("paper", "half_plane")
 
 
@@ -120,6 +120,9 @@ def compute_fe(
     progress : callable, optional
         Called with a line of text before each FE solve.
     """
+    from cyclomesh.studyfile.schema import refuse_stage
+
+    refuse_stage(study, "fe")
     check_fe(study)
     section = study.file.fe or FeSection()
     angles = np.asarray(
@@ -163,7 +166,7 @@ def _dataset(solved: list[Any], angles: np.ndarray, pins: int) -> xr.Dataset:
         return np.array([get(r) for r in solved], float) * scale
 
     def position(rotation: Callable[[Any], float]) -> np.ndarray:
-        return np.array([-(r.rest_rotation + rotation(r)) * ARCSEC for r in solved])
+        return np.array([-(r.rest_rotation + rotation(r)) * ARCSEC_PER_RAD for r in solved])
 
     per_pin = ("crank_angle", "pin")
     data: dict[str, Any] = {
@@ -237,8 +240,8 @@ def _convergence(section: FeSection, coarse: Any, fine: Any) -> list[list[Any]]:
     table.append(
         [
             "rotation_arcsec",
-            coarse.rotation_fe * ARCSEC,
-            fine.rotation_fe * ARCSEC,
+            coarse.rotation_fe * ARCSEC_PER_RAD,
+            fine.rotation_fe * ARCSEC_PER_RAD,
             fine.rotation_fe / coarse.rotation_fe - 1 if coarse.rotation_fe else "",
         ]
     )
@@ -252,8 +255,8 @@ def write_fe(result: FeResult, out: Path) -> list[Path]:
     """Write ``<case>/fe.nc``, ``<case>/convergence.csv`` and ``summary.json`` into ``out``."""
     import csv
 
-    from cyclomesh.output import write_json, write_netcdf
-    from cyclomesh.output_folder import atomic_write
+    from cyclomesh.output.folder import atomic_write
+    from cyclomesh.output.writers import write_json, write_netcdf
 
     study = result.study
     out = Path(out)
@@ -308,7 +311,7 @@ def fe_figures(result: FeResult) -> list[FigureJob]:
 
 def fe_sections(result: FeResult) -> list[Section]:
     """Report sections: study and FE model, summary, convergence tables."""
-    from cyclomesh.report import Section, table_html
+    from cyclomesh.publish.report import Section, table_html
 
     study, section = result.study, result.section
     intro = f"<p>{html.escape(study.description)}</p>" if study.description else ""

@@ -9,7 +9,7 @@ Stages (see ``docs/pipeline.md``):
    ``csv=True``, ``<case>/results.csv`` (pin-level, long format); ``summary.json``.
 3. :func:`run_figures`: the figure jobs; :func:`run_sections`: the report sections.
 
-:func:`run_study` chains them with :func:`cyclomesh.pipeline.publish`.
+:func:`run_study` chains them with :func:`cyclomesh.publish.pipeline.publish`.
 """
 
 from __future__ import annotations
@@ -22,23 +22,23 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from cyclomesh.design import Modification, PairDesign
-from cyclomesh.metrics import DRIVE_METRICS, METRICS
-from cyclomesh.pipeline import case_attrs, study_stamp, summary_document
-from cyclomesh.study.schema import CaseInputs, CaseSpec, Study, folder_name
+from cyclomesh.core.pair import Modification
+from cyclomesh.publish.pipeline import case_attrs, study_stamp, summary_document
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
+from cyclomesh.results.profile import profile_curves
+from cyclomesh.results.stage import STAGE_METRICS
+from cyclomesh.studyfile.schema import CaseInputs, CaseSpec, Study, folder_name
 
 if TYPE_CHECKING:
     import xarray as xr
 
     from cyclomesh.figures.render import FigureJob
-    from cyclomesh.pipeline import OutputOptions
-    from cyclomesh.report import Section
+    from cyclomesh.publish.pipeline import OutputOptions
+    from cyclomesh.publish.report import Section
 
 __all__ = [
     "RunResult",
-    "ProfileCurves",
     "compute_run",
-    "profile_curves",
     "annotate",
     "summary_record",
     "write_case",
@@ -53,64 +53,6 @@ __all__ = [
 Hook = Callable[[str], None]
 
 
-@dataclass(frozen=True)
-class ProfileCurves:
-    """One tooth space of the disc, standard and modified (Eqs. 1–3 of [1]), for a figure.
-
-    Attributes
-    ----------
-    phi1_deg : ndarray
-        Generating angle φ1 within the tooth [deg] (0 = tooth-space bottom).
-    standard_x_mm, standard_y_mm : ndarray
-        The standard profile [mm].
-    modified : dict
-        Label → (x [mm], y [mm], modification normal to the standard profile [µm],
-        positive = material removed).
-    seat_mm, pin_radius_mm : float
-        Centre (on x) and radius of the pin seated at the tooth-space bottom [mm].
-    """
-
-    phi1_deg: np.ndarray
-    standard_x_mm: np.ndarray
-    standard_y_mm: np.ndarray
-    modified: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
-    seat_mm: float
-    pin_radius_mm: float
-
-
-def profile_curves(
-    design: PairDesign, modifications: dict[str, Modification], samples: int = 2001
-) -> ProfileCurves:
-    """The standard and modified profiles of one tooth space and the modification:
-    the offset of each modified point from the standard point of the same generating
-    angle, projected on the standard profile's outward normal (Eqs. 1–3 of [1]).
-
-    Exact for the equidistant modification Δρ (a pure normal offset) and at the
-    tooth-space bottom; elsewhere the error is of second order in the tangential offset
-    (µm² over a curvature radius of millimetres: below 0.02 µm here).
-    """
-    from cyclomesh.profile import modified_profile
-
-    phi1 = np.linspace(-np.pi, np.pi, samples)
-    x0, y0 = modified_profile(design, Modification(), phi1)
-    tx, ty = np.gradient(x0, phi1), np.gradient(y0, phi1)
-    length = np.hypot(tx, ty)
-    nx, ny = ty / length, -tx / length  # outward: towards the pins
-    modified = {}
-    for name, modification in modifications.items():
-        x, y = modified_profile(design, modification, phi1)
-        removed = (x0 - x) * nx + (y0 - y) * ny
-        modified[name] = (x * 1e3, y * 1e3, removed * 1e6)
-    return ProfileCurves(
-        phi1_deg=np.rad2deg(phi1),
-        standard_x_mm=x0 * 1e3,
-        standard_y_mm=y0 * 1e3,
-        modified=modified,
-        seat_mm=(design.pin_circle_radius - design.eccentricity) * 1e3,
-        pin_radius_mm=design.pin_radius * 1e3,
-    )
-
-
 @dataclass
 class RunResult:
     """The computed results of a run study, in memory."""
@@ -119,7 +61,7 @@ class RunResult:
     results: dict[str, xr.Dataset] = field(default_factory=dict)
     """Case name → annotated Dataset of :func:`cyclomesh.analyse`."""
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
-    """Case name → metrics of :data:`cyclomesh.metrics.METRICS` (plain JSON numbers)."""
+    """Case name → metrics of :data:`cyclomesh.results.metrics.METRICS` (plain JSON numbers)."""
 
     @property
     def inputs(self) -> list[CaseInputs]:
@@ -145,7 +87,7 @@ def summary_record(summary: xr.Dataset) -> dict[str, Any]:
     A summary with a ``torque`` dimension (a list of torques) gives ``torque_nm`` and,
     for every metric that depends on the torque, a list with one value per torque.
     """
-    from cyclomesh.output import jsonable
+    from cyclomesh.output.writers import jsonable
 
     record: dict[str, Any] = {}
     if "torque" in summary.dims:
@@ -174,8 +116,8 @@ def compute_run(
 
     ``on_start(name)`` and ``on_done(name)`` are called around each case (progress).
     """
-    from cyclomesh.analysis import analyse, summarize
     from cyclomesh.exceptions import CyclomeshError
+    from cyclomesh.results.dataset import analyse, summarize
 
     run = RunResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
@@ -188,11 +130,36 @@ def compute_run(
         except CyclomeshError as exc:  # name the case
             raise type(exc)(f"{case.label}: {exc}") from None
         ds = annotate(ds, case, inputs, study)
-        run.results[case.name] = ds
         run.summaries[case.name] = summary_record(summarize(ds))
+        if inputs.stage is not None:
+            ds, sheet = _with_stage(ds, case, inputs)
+            run.summaries[case.name].update(sheet)
+        run.results[case.name] = ds
         if on_done:
             on_done(case.name)
     return run
+
+
+def _with_stage(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs) -> tuple[xr.Dataset, dict]:
+    """The case's Dataset with the RV stage's variables, and its data sheet (``[stage]``)."""
+    from cyclomesh.results.stage import data_sheet, solve_case, stage_dataset
+
+    stage = stage_dataset(solve_case(inputs), inputs.stage, inputs.design.pins)
+    if "disc" not in ds.dims:  # one disc: no disc dimension, as the mesh variables
+        stage = stage.isel(disc=0, drop=True)
+    # the same angles (and torques) as the mesh's, bit for bit: no alignment
+    stage = stage.assign_coords(crank_angle=ds["crank_angle"])
+    if "torque" in stage.dims:
+        stage = stage.assign_coords(torque=ds["torque"])
+    rated = case.stage.rated_torque_nm
+    if rated is None:
+        torques = np.atleast_1d(np.asarray(inputs.torque, float))
+        rated = float(np.max(np.abs(torques)))
+    merged = ds.assign({name: stage[name] for name in stage.data_vars}).assign_coords(
+        crank=stage["crank"]
+    )
+    merged.attrs.update(stage.attrs)
+    return merged, data_sheet(inputs, rated)
 
 
 def case_folder(name: str) -> str:
@@ -202,15 +169,17 @@ def case_folder(name: str) -> str:
 
 def write_case(ds: xr.Dataset, folder: Path, csv: bool = False) -> dict[str, Path]:
     """Write one case: ``results.nc``, ``results.parquet``, ``angles.csv`` and, with
-    ``csv``, ``results.csv`` (see :mod:`cyclomesh.output`)."""
-    from cyclomesh import output
+    ``csv``, ``results.csv`` (see :mod:`cyclomesh.output.writers`)."""
+    from cyclomesh.output import writers as output
 
     folder.mkdir(parents=True, exist_ok=True)
-    files = {
-        "netcdf": output.write_netcdf(ds, folder / "results.nc"),
-        "parquet": output.write_parquet(ds, folder / "results.parquet"),
-        "angles_csv": output.write_angle_csv(ds, folder / "angles.csv"),
-    }
+    files = {"netcdf": output.write_netcdf(ds, folder / "results.nc")}
+    # the stage's per-crank variables live in results.nc only (the tables are pin-level)
+    ds = ds.drop_vars([n for n, v in ds.data_vars.items() if "crank" in v.dims], errors="ignore")
+    if "crank" in ds.coords:
+        ds = ds.drop_vars("crank")
+    files["parquet"] = output.write_parquet(ds, folder / "results.parquet")
+    files["angles_csv"] = output.write_angle_csv(ds, folder / "angles.csv")
     if csv:
         files["csv"] = output.write_pin_csv(ds, folder / "results.csv")
     return files
@@ -218,7 +187,7 @@ def write_case(ds: xr.Dataset, folder: Path, csv: bool = False) -> dict[str, Pat
 
 def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
     """Write every case's result files and ``summary.json`` into ``out``."""
-    from cyclomesh.output import write_json
+    from cyclomesh.output.writers import write_json
 
     study = run.study
     out.mkdir(parents=True, exist_ok=True)
@@ -230,7 +199,7 @@ def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
         records.append(
             {"name": case.name, "results": f"{folder}/results.nc", **run.summaries[case.name]}
         )
-    units = {name: m.unit for name, m in (METRICS | DRIVE_METRICS).items()}
+    units = {name: m.unit for name, m in (METRICS | DRIVE_METRICS | STAGE_METRICS).items()}
     document = summary_document(study, units, records)
     written.append(write_json(out / "summary.json", document))
     return written
@@ -248,6 +217,7 @@ _HEADINGS = {
     "backlash": "Backlash",
     "mesh_force": "Mesh force (crank bearing load)",
     "torque_share": "Torque split between the discs",
+    "crank_bearing_loads": "Crank bearing loads (RV stage)",
 }
 
 
@@ -394,6 +364,19 @@ def run_figures(run: RunResult, inputs: list[FigureJob] | None = None) -> list[F
             "the disc, the load its crank bearing carries (docs/drive.md).",
         ),
     ]
+    staged = {k: v[["crank_bearing_load"]] for k, v in results.items() if "crank_bearing_load" in v}
+    if staged:
+        from cyclomesh.figures import stage as stage_plots
+
+        jobs.append(
+            job(
+                "crank_bearing_loads",
+                stage_plots.plot_crank_bearing_loads,
+                staged,
+                caption="Load of every crank bearing of the RV stage over the crank angle "
+                "(colour: crankshaft, line style: disc; docs/stage.md).",
+            )
+        )
     stacks = {k: v[["torque_share"]] for k, v in run.results.items() if "torque_share" in v}
     if stacks:
         jobs.append(
@@ -431,7 +414,7 @@ def _cell(value: Any) -> Any:
 
 def run_sections(run: RunResult) -> list[Section]:
     """Report sections of a run study: study, inputs, summary (figures come after)."""
-    from cyclomesh.report import Section, table_html
+    from cyclomesh.publish.report import Section, table_html
 
     study = run.study
     names = [case.name for case in study.cases]
@@ -460,7 +443,11 @@ def run_sections(run: RunResult) -> list[Section]:
         f"<details><summary>study file {html.escape(study.path.name)}</summary>"
         f"<pre>{html.escape(study.text)}</pre></details>"
     )
-    columns = list(next(iter(run.summaries.values())))
+    columns = list(
+        dict.fromkeys(
+            c for record in run.summaries.values() for c in record if c not in STAGE_METRICS
+        )
+    )
     every = METRICS | DRIVE_METRICS
     header = [
         f"{c} [{every[c].unit}]" if c in every and every[c].unit != "1" else c for c in columns
@@ -469,14 +456,39 @@ def run_sections(run: RunResult) -> list[Section]:
         ["case", *header],
         [[n, *(_cell(run.summaries[n].get(c)) for c in columns)] for n in names],
     )
-    return [Section("Study", intro), Section("Inputs", inputs_html), Section("Summary", summary)]
+    sections = [
+        Section("Study", intro),
+        Section("Inputs", inputs_html),
+        Section("Summary", summary),
+    ]
+    staged = [n for n in names if any(k in STAGE_METRICS for k in run.summaries[n])]
+    if staged:
+        keys = [k for k in STAGE_METRICS if any(k in run.summaries[n] for n in staged)]
+        sheet = table_html(
+            ["", *staged],
+            [
+                [
+                    f"{STAGE_METRICS[k].long_name} [{STAGE_METRICS[k].unit}]",
+                    *(_cell(run.summaries[n].get(k)) for n in staged),
+                ]
+                for k in keys
+            ],
+        )
+        sheet += (
+            "<p>RV stage (docs/stage.md): discs on the crank bearings, mesh, bearings and "
+            "springs solved together; rigidity and lost motion over at most 360 of the "
+            "case's crank angles; the first stage, the main bearings and the housing are "
+            "not modelled.</p>"
+        )
+        sections.append(Section("Data sheet (RV stage)", sheet))
+    return sections
 
 
 def run_study(study: Study, out: str | Path, options: OutputOptions | None = None) -> list[Path]:
     """Compute every case of ``study``, then write its files, figures and report into
     ``out``. Returns the paths written. Nothing is written if a case fails."""
-    from cyclomesh.output_folder import ResultFolder
-    from cyclomesh.pipeline import OutputOptions, publish
+    from cyclomesh.output.folder import ResultFolder
+    from cyclomesh.publish.pipeline import OutputOptions, publish
 
     options = options or OutputOptions.from_study(study)
     out = Path(out)

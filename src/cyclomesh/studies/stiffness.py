@@ -1,17 +1,17 @@
 """Stiffness studies: the torsion curve of every case of a study file (``cyclomesh stiffness``).
 
-For each case, the ``[stiffness]`` section (:class:`~cyclomesh.study.schema.StiffnessSection`,
+For each case, the ``[stiffness]`` section (:class:`~cyclomesh.studyfile.schema.StiffnessSection`,
 per case: cases may override it) gives ``rated_torque_nm`` (required), ``points``
 (default 41) and ``series_stiffness_nm_per_arcmin`` (optional); the crank angles come
 from ``[analysis]``. Stages (see ``docs/pipeline.md``):
 
 1. :func:`check_stiffness`: every case has a ``[stiffness]`` section;
 2. :func:`compute_stiffness`: the torsion curve of every case
-   (:func:`cyclomesh.torsion.stiffness`) and its headline numbers
-   (:data:`cyclomesh.metrics.STIFFNESS_METRICS`); nothing is written;
+   (:func:`cyclomesh.results.torsion.stiffness`) and its headline numbers
+   (:data:`cyclomesh.results.metrics.STIFFNESS_METRICS`); nothing is written;
 3. :func:`write_stiffness`: ``<case>/stiffness.nc`` and ``summary.json``;
 4. :func:`stiffness_figures`, :func:`stiffness_sections`: figure jobs and report sections
-   for :func:`cyclomesh.pipeline.publish`.
+   for :func:`cyclomesh.publish.pipeline.publish`.
 
 The numbers are those of the cycloid-pin mesh alone; the whole-drive curve (with the
 series stiffness) is reported beside it, never instead of it. See ``docs/drive.md``.
@@ -27,15 +27,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from cyclomesh.exceptions import CyclomeshError, StudyError
-from cyclomesh.metrics import STIFFNESS_METRICS
-from cyclomesh.pipeline import case_attrs, summary_document
-from cyclomesh.study.schema import CaseSpec, StiffnessSection, Study, folder_name
+from cyclomesh.publish.pipeline import case_attrs, summary_document
+from cyclomesh.results.metrics import STIFFNESS_METRICS
+from cyclomesh.studyfile.schema import CaseSpec, StiffnessSection, Study, folder_name
 
 if TYPE_CHECKING:
     import xarray as xr
 
     from cyclomesh.figures.render import FigureJob
-    from cyclomesh.report import Section
+    from cyclomesh.publish.report import Section
 
 __all__ = [
     "CAVEAT",
@@ -68,7 +68,7 @@ class StiffnessResult:
 
     study: Study
     curves: dict[str, xr.Dataset] = field(default_factory=dict)
-    """Case name → Dataset of :func:`cyclomesh.torsion.stiffness`, with the case inputs."""
+    """Case name → Dataset of :func:`cyclomesh.results.torsion.stiffness`, with the case inputs."""
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → rated torque, discs and :data:`STIFFNESS_METRICS` (JSON numbers)."""
     seconds: float = 0.0
@@ -97,8 +97,8 @@ def compute_stiffness(
     ``progress(1)`` is called after each case. One case is one vectorised core call per
     torque (0.4 s for 42 torques × 360 crank angles × 40 pins), so the cases run here.
     """
-    from cyclomesh.output import jsonable
-    from cyclomesh.torsion import stiffness, summarize_stiffness
+    from cyclomesh.output.writers import jsonable
+    from cyclomesh.results.torsion import stiffness, summarize_stiffness
 
     check_stiffness(study)
     start = time.perf_counter()
@@ -121,6 +121,14 @@ def compute_stiffness(
         except CyclomeshError as exc:  # name the case
             raise type(exc)(f"{case.label}: {exc}") from None
         ds.attrs.update(case_attrs(study, case))
+        stage_summary: dict[str, Any] = {}
+        if inputs.stage is not None:  # the RV stage in one solve, beside the mesh alone
+            from cyclomesh.results.stage import stage_torsion_variables
+
+            data, stage_summary = stage_torsion_variables(
+                inputs, section.rated_torque_nm, section.points, inputs.crank_angles
+            )
+            ds = ds.assign(data)
         result.curves[case.name] = ds
         summary = summarize_stiffness(ds)
         record: dict[str, Any] = {"rated_torque_nm": section.rated_torque_nm}
@@ -132,6 +140,7 @@ def compute_stiffness(
                 if name in summary
             }
         )
+        record.update(stage_summary)
         result.summaries[case.name] = record
         if progress:
             progress(1)
@@ -141,7 +150,7 @@ def compute_stiffness(
 
 def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
     """Write ``<case>/stiffness.nc`` of every case and ``summary.json`` into ``out``."""
-    from cyclomesh.output import write_json, write_netcdf
+    from cyclomesh.output.writers import write_json, write_netcdf
 
     study = result.study
     out = Path(out)
@@ -159,9 +168,11 @@ def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
                 **result.summaries[case.name],
             }
         )
+    from cyclomesh.results.stage import STAGE_STIFFNESS_METRICS
+
     document = summary_document(
         study,
-        {name: m.unit for name, m in STIFFNESS_METRICS.items()},
+        {name: m.unit for name, m in (STIFFNESS_METRICS | STAGE_STIFFNESS_METRICS).items()},
         records,
         scope="cycloid-pin mesh only; drive_* numbers add the series stiffness",
     )
@@ -174,6 +185,7 @@ _HEADINGS = {
     "torsional_rigidity": "Torsional rigidity",
     "play": "Play and lost motion",
     "torque_share": "Torque split between the discs",
+    "stage_torsion_curve": "Torsion curve of the RV stage",
 }
 
 
@@ -186,7 +198,7 @@ def _curves(result: StiffnessResult, names: tuple[str, ...]) -> dict[str, xr.Dat
 
 
 def stiffness_figures(result: StiffnessResult) -> list[FigureJob]:
-    """The figures of a stiffness study as jobs for :func:`cyclomesh.pipeline.publish`."""
+    """The figures of a stiffness study as jobs for :func:`cyclomesh.publish.pipeline.publish`."""
     from cyclomesh.figures import drive as plots
     from cyclomesh.figures.render import FigureJob
 
@@ -227,6 +239,28 @@ def stiffness_figures(result: StiffnessResult) -> list[FigureJob]:
             caption="Play at zero load and lost motion (±3 % of rated) over the crank angle.",
         ),
     ]
+    names = (
+        "rotation",
+        "stage_rotation",
+        "lost_motion",
+        "stage_lost_motion",
+        "torsional_rigidity",
+        "stage_torsional_rigidity",
+    )
+    staged = {k: v for k, v in _curves(result, names).items() if "stage_rotation" in v}
+    if staged:
+        from cyclomesh.figures import stage as stage_plots
+
+        jobs.append(
+            job(
+                "stage_torsion_curve",
+                stage_plots.plot_stage_torsion_curve,
+                staged,
+                caption="Torsion curve of the RV stage (mesh, crank bearings and springs in "
+                "one solve) beside the mesh alone: rotation of the output, mean over the "
+                "crank angles, against torque in % of rated (docs/stage.md).",
+            )
+        )
     stacks = {k: v for k, v in _curves(result, ("torque_share",)).items() if "torque_share" in v}
     if stacks:
         jobs.append(
@@ -243,7 +277,7 @@ def stiffness_figures(result: StiffnessResult) -> list[FigureJob]:
 
 def stiffness_sections(result: StiffnessResult) -> list[Section]:
     """Report sections of a stiffness study: study and scope, summary (figures follow)."""
-    from cyclomesh.report import Section, table_html
+    from cyclomesh.publish.report import Section, table_html
 
     study = result.study
     intro = f"<p>{html.escape(study.description)}</p>" if study.description else ""
@@ -283,8 +317,11 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
         f"<pre>{html.escape(study.text)}</pre></details>"
     )
     names = [case.name for case in study.cases]
-    columns = [c for c in STIFFNESS_METRICS if any(c in result.summaries[n] for n in names)]
-    header = [f"{STIFFNESS_METRICS[c].label} [{STIFFNESS_METRICS[c].unit}]" for c in columns]
+    from cyclomesh.results.stage import STAGE_STIFFNESS_METRICS
+
+    every = STIFFNESS_METRICS | STAGE_STIFFNESS_METRICS
+    columns = [c for c in every if any(c in result.summaries[n] for n in names)]
+    header = [f"{every[c].label} [{every[c].unit}]" for c in columns]
     summary = table_html(
         ["case", *header], [[n, *(result.summaries[n].get(c) for c in columns)] for n in names]
     )

@@ -6,7 +6,7 @@ The study runs the base description of the study file (its top-level sections;
 ``[errors]``. Stages (see ``docs/pipeline.md``):
 
 1. :func:`compute_tolerance` draws the rings and computes their metrics
-   (:data:`cyclomesh.metrics.METRICS`) in chunks through :mod:`cyclomesh.execution`
+   (:data:`cyclomesh.results.metrics.METRICS`) in chunks through :mod:`cyclomesh.execution.backends`
    (local processes or a Dask cluster, bit-for-bit the same), then the statistics;
 2. :func:`write_tolerance` writes ``tolerance_rings.nc`` and ``tolerance_rings.parquet``
    (per-ring metrics, units in attributes / field metadata), ``tolerance_summary.json``
@@ -35,18 +35,18 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cyclomesh.exceptions import StudyError
-from cyclomesh.metrics import METRICS, STRESS_METRIC
-from cyclomesh.study.schema import Study, ToleranceSection, load_study
+from cyclomesh.results.metrics import METRICS, STRESS_METRIC
+from cyclomesh.studyfile.schema import Study, ToleranceSection, load_study
 from cyclomesh.tolerance.allocation import Allocation
 from cyclomesh.tolerance.tasks import RingModel
 
 if TYPE_CHECKING:
     import xarray as xr
 
-    from cyclomesh.execution import Backend
+    from cyclomesh.execution.backends import Backend
     from cyclomesh.figures.render import FigureJob
-    from cyclomesh.pipeline import OutputOptions
-    from cyclomesh.report import Section
+    from cyclomesh.publish.pipeline import OutputOptions
+    from cyclomesh.publish.report import Section
 
 __all__ = [
     "ToleranceResult",
@@ -125,7 +125,7 @@ def _run(
     chunk: int | None,
     progress: Progress | None,
 ) -> dict[str, np.ndarray]:
-    from cyclomesh.execution import SerialBackend, run_chunks
+    from cyclomesh.execution.backends import SerialBackend, run_chunks
 
     backend = backend or SerialBackend()
     size = chunk or _default_chunk(n, model, backend.workers)
@@ -147,7 +147,7 @@ def metrics_dataset(
     attrs: Mapping[str, Any] | None = None,
 ) -> xr.Dataset:
     """Per-ring metrics as an xarray Dataset with dimension ``ring``, units and long
-    names from :data:`cyclomesh.metrics.METRICS`."""
+    names from :data:`cyclomesh.results.metrics.METRICS`."""
     import xarray as xr
 
     ring = np.asarray(per_ring["ring"], dtype=np.int64)
@@ -259,7 +259,7 @@ def worst_ring_study(
     note : str
         Comment lines put at the top.
     """
-    from cyclomesh.output import toml_dumps
+    from cyclomesh.output.writers import toml_dumps
 
     total = model.total_errors_um(model.draw([ring]))
     spec = model.spec
@@ -325,13 +325,16 @@ def compute_tolerance(
     rings : int, optional
         Number of rings (default: ``tolerance.rings``).
     backend : Backend, optional
-        Where to run (:func:`cyclomesh.execution.make_backend`; default: serial).
+        Where to run (:func:`cyclomesh.execution.backends.make_backend`; default: serial).
     chunk_rings : int, optional
         Rings per chunk (default: one core call's worth, see
         :func:`cyclomesh.tolerance.tasks.block_rings`, at least ~4 chunks per worker).
     progress : callable, optional
         Called with the number of rings of every finished chunk.
     """
+    from cyclomesh.studyfile.schema import refuse_stage
+
+    refuse_stage(study, "tolerance")
     from cyclomesh.tolerance.tasks import ToleranceTask
 
     if study.tolerance is None:
@@ -363,8 +366,8 @@ def compute_tolerance(
 def write_tolerance(result: ToleranceResult, out: Path) -> list[Path]:
     """Write ``tolerance_rings.nc``, ``tolerance_rings.parquet``, ``tolerance_summary.json``
     and ``worst_ring.toml`` into ``out``."""
-    from cyclomesh.output import write_json, write_netcdf, write_parquet
-    from cyclomesh.output_folder import write_text
+    from cyclomesh.output.folder import write_text
+    from cyclomesh.output.writers import write_json, write_netcdf, write_parquet
 
     out.mkdir(parents=True, exist_ok=True)
     ds, study, spec = result.rings, result.study, result.spec
@@ -427,7 +430,7 @@ def _fmt(x: Any) -> str:
 
 def tolerance_sections(result: ToleranceResult) -> list[Section]:
     """Report section of a tolerance study: statistics table, exceedance, worst ring."""
-    from cyclomesh.report import Section, table_html
+    from cyclomesh.publish.report import Section, table_html
 
     stats = result.summary
     conf = stats["confidence"]
@@ -500,6 +503,9 @@ def compute_allocation(
     Parameters are those of :func:`compute_tolerance`, and ``target_probability``
     (default: ``tolerance.allocation.target_probability``).
     """
+    from cyclomesh.studyfile.schema import refuse_stage
+
+    refuse_stage(study, "allocate")
     import xarray as xr
 
     from cyclomesh.tolerance.allocation import allocate_factor
@@ -573,7 +579,7 @@ def compute_allocation(
 
 def write_allocation(result: AllocationResult, out: Path) -> list[Path]:
     """Write ``allocation_rings.nc`` and ``allocation.json`` into ``out``."""
-    from cyclomesh.output import write_json, write_netcdf
+    from cyclomesh.output.writers import write_json, write_netcdf
 
     out.mkdir(parents=True, exist_ok=True)
     return [
@@ -600,7 +606,7 @@ def allocation_figures(result: AllocationResult) -> list[FigureJob]:
 
 def allocation_sections(result: AllocationResult) -> list[Section]:
     """Report section of a tolerance allocation."""
-    from cyclomesh.report import Section
+    from cyclomesh.publish.report import Section
 
     statement = html.escape(result.allocation.statement())
     return [Section("Tolerance allocation", f"<p>{statement}</p>")]
@@ -639,7 +645,7 @@ def _backend(
     if backend is not None or (scheduler is None and workers is None):
         yield backend
         return
-    from cyclomesh.execution import make_backend
+    from cyclomesh.execution.backends import make_backend
 
     own = make_backend(scheduler, workers)
     try:
@@ -649,7 +655,7 @@ def _backend(
 
 
 def _options(study: Study, figures: bool, options: OutputOptions | None) -> OutputOptions:
-    from cyclomesh.pipeline import OutputOptions
+    from cyclomesh.publish.pipeline import OutputOptions
 
     if options is not None:
         return options
@@ -658,9 +664,9 @@ def _options(study: Study, figures: bool, options: OutputOptions | None) -> Outp
 
 def publish_tolerance(result: ToleranceResult, out: str | Path, options: OutputOptions) -> Any:
     """Write the files of a tolerance study into ``out``, then its figures and
-    ``report.html``; returns :class:`cyclomesh.pipeline.Published`."""
-    from cyclomesh.output_folder import ResultFolder
-    from cyclomesh.pipeline import publish
+    ``report.html``; returns :class:`cyclomesh.publish.pipeline.Published`."""
+    from cyclomesh.output.folder import ResultFolder
+    from cyclomesh.publish.pipeline import publish
 
     out = Path(out)
     with ResultFolder(out, "tolerance"):
@@ -678,9 +684,9 @@ def publish_tolerance(result: ToleranceResult, out: str | Path, options: OutputO
 
 def publish_allocation(result: AllocationResult, out: str | Path, options: OutputOptions) -> Any:
     """Write the files of a tolerance allocation into ``out``, then its figure and
-    ``allocation_report.html``; returns :class:`cyclomesh.pipeline.Published`."""
-    from cyclomesh.output_folder import ResultFolder
-    from cyclomesh.pipeline import publish
+    ``allocation_report.html``; returns :class:`cyclomesh.publish.pipeline.Published`."""
+    from cyclomesh.output.folder import ResultFolder
+    from cyclomesh.publish.pipeline import publish
 
     out = Path(out)
     with ResultFolder(out, "allocate"):

@@ -1,13 +1,13 @@
 """Monte Carlo tolerance numerics of the pin ring (issue 4).
 
 ``sampling`` draws reproducible per-ring errors; ``tasks`` turns rings into metrics
-through the core (chunk functions for :mod:`cyclomesh.execution`); ``statistics`` and
+through the core (chunk functions for :mod:`cyclomesh.execution.backends`); ``statistics`` and
 ``allocation`` reduce them. The ``[tolerance]`` section is part of the one study file
-schema (:class:`cyclomesh.study.schema.ToleranceSection`); the study itself (files,
+schema (:class:`cyclomesh.studyfile.schema.ToleranceSection`); the study itself (files,
 figures, report) is :mod:`cyclomesh.studies.tolerance`.
 """
 
-from cyclomesh.study.schema import ToleranceSection
+from cyclomesh.studyfile.schema import ToleranceSection
 from cyclomesh.tolerance.sampling import RingErrors, draw_ring_errors
 
 __all__ = ["RingErrors", "ToleranceSection", "draw_ring_errors"]

@@ -30,23 +30,14 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import special
 
-from cyclomesh.tolerance.statistics import exceedance_probability, lower_quantile_bound_rank
+from cyclomesh.tolerance.statistics import (
+    clopper_pearson,
+    exceedance_probability,
+    lower_quantile_bound_rank,
+)
 
-__all__ = ["Allocation", "allocate_factor", "clopper_pearson", "minimum_rings"]
-
-
-def clopper_pearson(
-    count: ArrayLike, total: int, confidence: float = 0.95
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Exact two-sided Clopper–Pearson interval of count/total, vectorised over count."""
-    k = np.asarray(count, dtype=float)
-    alpha = 1.0 - confidence
-    with np.errstate(invalid="ignore"):
-        lower = np.where(k > 0, special.betaincinv(k, total - k + 1, alpha / 2), 0.0)
-        upper = np.where(k < total, special.betaincinv(k + 1, total - k, 1 - alpha / 2), 1.0)
-    return lower, upper
+__all__ = ["Allocation", "allocate_factor", "minimum_rings"]
 
 
 def minimum_rings(target: float, confidence: float) -> int:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.study.schema import Normal, ToleranceSection, Uniform
+from cyclomesh.studyfile.schema import Normal, ToleranceSection, Uniform
 
 __all__ = ["RingErrors", "draw_ring_errors", "unit_disc"]
 

@@ -33,6 +33,7 @@ __all__ = [
     "Proportion",
     "percentile_with_interval",
     "order_statistic_ranks",
+    "clopper_pearson",
     "exceedance_probability",
     "lower_quantile_bound_rank",
     "describe",
@@ -111,15 +112,25 @@ def percentile_with_interval(
     return out
 
 
+def clopper_pearson(
+    count: ArrayLike, total: int, confidence: float = 0.95
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Exact two-sided Clopper–Pearson interval of count/total, vectorised over count."""
+    k = np.asarray(count, dtype=float)
+    alpha = 1.0 - confidence
+    with np.errstate(invalid="ignore"):
+        lower = np.where(k > 0, special.betaincinv(k, total - k + 1, alpha / 2), 0.0)
+        upper = np.where(k < total, special.betaincinv(k + 1, total - k, 1 - alpha / 2), 1.0)
+    return lower, upper
+
+
 def exceedance_probability(count: int, total: int, confidence: float = 0.95) -> Proportion:
     """Probability estimate count/total with its exact Clopper–Pearson interval."""
     if total <= 0:
         return Proportion(count, total, float("nan"), 0.0, 1.0, confidence)
-    alpha = 1.0 - confidence
     k, n = int(count), int(total)
-    low = float(special.betaincinv(k, n - k + 1, alpha / 2)) if k > 0 else 0.0
-    high = float(special.betaincinv(k + 1, n - k, 1 - alpha / 2)) if k < n else 1.0
-    return Proportion(k, n, count / total, low, high, confidence)
+    low, high = clopper_pearson(k, n, confidence)
+    return Proportion(k, n, count / total, float(low), float(high), confidence)
 
 
 def lower_quantile_bound_rank(n: int, p: float, confidence: float = 0.95) -> int:

@@ -3,7 +3,7 @@
 A :class:`RingModel` holds what is fixed across rings (the study's base case as core
 objects, the crank angles, the sampling spec); :class:`ToleranceTask` and
 :class:`AllocationTask` are picklable callables ``(start, stop) -> {name: array}`` for
-:func:`cyclomesh.execution.run_chunks`. They import the core and NumPy only (no
+:func:`cyclomesh.execution.backends.run_chunks`. They import the core and NumPy only (no
 xarray), so worker processes start quickly.
 
 The sampled errors are added to the base case's own per-pin errors (``[errors]`` of
@@ -16,7 +16,7 @@ contributions in a fixed order). A chunk is solved in batches of about
 :data:`BLOCK_PIN_STEPS` pin-steps (:func:`block_rings`: 16 rings at 1°, 160 at 10°)
 only to bound the memory of one core call, so ring k's metrics depend on (seed, k)
 alone. The metrics come straight from the core's arrays
-(:func:`cyclomesh.analysis.ltca_metrics`), without building a Dataset per batch.
+(:func:`cyclomesh.results.dataset.ltca_metrics`), without building a Dataset per batch.
 """
 
 from __future__ import annotations
@@ -27,12 +27,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.analysis import ltca_metrics
-from cyclomesh.design import Modification, PairDesign, PinErrors
+from cyclomesh.core.ltca import solve_ltca
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.exceptions import CyclomeshError
-from cyclomesh.ltca import solve_ltca
-from cyclomesh.metrics import STRESS_METRIC
-from cyclomesh.study.schema import ToleranceSection, pin_errors_si
+from cyclomesh.results.dataset import ltca_metrics
+from cyclomesh.results.metrics import STRESS_METRIC
+from cyclomesh.studyfile.schema import ToleranceSection, pin_errors_si
 from cyclomesh.tolerance.sampling import RingErrors, draw_ring_errors
 
 __all__ = [
@@ -76,7 +76,7 @@ class RingModel:
     spec : ToleranceSection
         Distributions and seed.
     contact_law : {"paper", "half_plane"}
-        Tooth term of the contact law (:func:`cyclomesh.ltca.solve_ltca`).
+        Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
     """
 
     design: PairDesign

@@ -1,0 +1,78 @@
+"""Solving time of the RV stage: 360 crank angles, two discs, three crankshafts, one torque.
+
+The RV-40E-size stage of ``examples/rv_stage.toml`` (40 pins, a = 64 mm, ρp = 3 mm,
+e = 1.3 mm, two discs of 10 mm, Δρ = 3 µm; three crank holes on r_c = 36 mm, 14 needles
+of 4 × 9 mm, radial clearance 5 µm) at 412 N·m, one revolution at 1°, on one core:
+unloaded geometry, the rigid start, and the equilibrium of both discs and the carrier
+(1 + 3·2 unknowns per crank angle) to round-off. Target: under 1 s. Also the torsion
+curve of the stage (±3 %, ±50 %, ±100 % of 412 N·m: 6 torques). Prints best and median.
+
+    python benchmarks/bench_stage.py [--repeat 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+# one core: keep BLAS/OpenMP pools from spreading over the machine
+for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(var, "1")
+
+import numpy as np  # noqa: E402
+
+from cyclomesh.core.pair import CrankHoles, Modification, PairDesign  # noqa: E402
+from cyclomesh.stage import RollerSet, StageDesign, solve_stage, stage_torsion_curve  # noqa: E402
+
+RV40 = PairDesign(
+    pins=40,
+    pin_circle_radius=64e-3,
+    pin_radius=3e-3,
+    groove_radius=3.005e-3,
+    eccentricity=1.3e-3,
+    width=10e-3,
+)
+STAGE = StageDesign(
+    CrankHoles(count=3, circle_radius=36e-3, radius=13e-3),
+    RollerSet(rollers=14, diameter=4e-3, length=9e-3, clearance=5e-6, pitch_diameter=22e-3),
+)
+
+
+def timed(run, repeat: int) -> tuple[float, float]:
+    run()  # warm-up
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        run()
+        times.append(time.perf_counter() - start)
+    return min(times), float(np.median(times))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=5)
+    args = parser.parse_args()
+    phi = np.deg2rad(np.arange(360.0))
+    mod = Modification(pin_radius=3e-6)
+
+    best, median = timed(
+        lambda: solve_stage(RV40, STAGE, mod, None, 412.0, phi, discs=2), args.repeat
+    )
+    print(
+        f"stage: 360 crank angles x 2 discs x 3 crankshafts, one torque: best {best:.3f} s, "
+        f"median {median:.3f} s over {args.repeat} runs "
+        f"({'under' if best < 1.0 else 'OVER'} the 1 s target)"
+    )
+    best, median = timed(
+        lambda: stage_torsion_curve(RV40, STAGE, mod, None, 412.0, phi, discs=2, points=2),
+        args.repeat,
+    )
+    print(
+        f"stage torsion curve: 6 torques x 360 crank angles: best {best:.3f} s, "
+        f"median {median:.3f} s"
+    )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,386 @@
+"""Unloaded tooth contact analysis with pin position deviations (Eqs. 5–14 of [1]).
+
+Conventions (fixed frame Sf = pin wheel, angles counter-clockwise positive):
+
+* pin k (k = 1 … n1, index i = k − 1) has its centre at radius a + εa,i and angle
+  i·ψ + εψ,i, and radius ρp + ερ,i (Eq. 5);
+* at crank angle φ the disc centre is at (e + εe)·(cos φ, sin φ) (Eqs. 7–9);
+* the disc's theoretical rotation is φt = −φ/n2; the torque resists the disc's
+  (clockwise) motion, so the disc lags: the loaded flank is the one that a
+  counter-clockwise turn of the disc presses onto the pins. In the tooth phase
+  φ1 mod 2π this is the flank (−π, 0) between a tip (−π) and the tooth-space
+  bottom (0).
+
+Eq. 10 (coincident points, collinear normals) is solved exactly by a reduction to one
+scalar equation. In the disc frame the pin centre is q = R(−φc)·w with w = C_i − O2, so
+|q| = |w| whatever the disc rotation φc. The pin touches the profile when q lies on the
+offset P_s = P + s·n of the locus by s = r_pin − ρ' along the outward normal n. Writing
+P(t) = e^{it}·(a' − e·e^{iu}) with the tooth phase u = n2·t, every quantity of the contact
+is a function of c = cos u alone:
+
+    |P_s|² = a'² + e² − 2a'e·c + 2s·G(c)/D(c) + s²,
+    G = a'² + e²n1 − a'e(n1 + 1)c,   D = |P'| = sqrt(a'² + e²n1² − 2a'e·n1·c),
+
+so the contact condition |P_s(c)| = |w| is one smooth, monotone equation in c ∈ [−1, 1]
+whose s = 0 root is closed-form (c = (a'² + e² − |w|²)/(2a'e)). Newton's method from there
+converges to round-off in two or three steps. The same c serves both flanks of the
+pin's tooth space (u = ∓arccos c; the profile is symmetric about the tooth-space
+bottom), and the disc rotation at contact is φc = arg w − arg P_s. The moment arm of the
+line of action about the disc centre is l = a'e·n2·|sin u|/D (Eq. 17 restated). This
+replaces the fsolve of Eqs. 12–14 of [1].
+
+References
+----------
+[1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672, doi:10.3390/machines10080672.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.core.profile import curvature_radius, deviated_geometry, generating_radii
+from cyclomesh.exceptions import ConvergenceError, DesignError
+
+__all__ = ["UnloadedContact", "unloaded_contact", "contact_phase"]
+
+FloatArray = NDArray[np.float64]
+
+CONTACT_TOLERANCE = 1e-13
+"""Required residual of the contact condition, as a distance [m] (1e-10 mm)."""
+_MAX_ITERATIONS = 40
+_MAX_BRACKETED_ITERATIONS = 120
+
+
+@dataclass(frozen=True)
+class UnloadedContact:
+    """Unloaded contact of every pin with the loaded flank of its tooth space.
+
+    Arrays have shape ``(..., n_angles, n1)``; ``...`` are the ring axes of the errors.
+    All angles [rad], lengths [m].
+
+    Attributes
+    ----------
+    rotation : ndarray
+        φc,i − φt: disc rotation from its theoretical position at which pin i just
+        touches the loaded flank (counter-clockwise positive; +inf if the pin lies
+        outside the tip circle of the modified profile and cannot be reached).
+    reverse_rotation : ndarray
+        The same for the unloaded flank of the pin's tooth space (the flank a
+        clockwise turn presses on); −inf where unreachable.
+    moment_arm : ndarray
+        l_i, distance from the disc centre to the line of action at the loaded-flank
+        contact (Eq. 17, from the contact geometry) [m].
+    cos_beta : ndarray
+        cos β_i, β the angle between the line of action and the pin's radial line.
+    profile_angle : ndarray
+        Generating angle φ1 of the contact within its tooth, in [−π, 0] [rad].
+    contact_radius : ndarray
+        Radius of the contact point on the disc [m].
+    curvature_radius : ndarray
+        Signed profile curvature radius ρc at the contact (Eq. 4; concave < 0) [m].
+    pin_radius : ndarray
+        Actual pin radius ρp + ερ,i [m].
+    residual : ndarray
+        Residual of the contact condition, as a distance [m].
+    """
+
+    rotation: FloatArray
+    reverse_rotation: FloatArray
+    moment_arm: FloatArray
+    cos_beta: FloatArray
+    profile_angle: FloatArray
+    contact_radius: FloatArray
+    curvature_radius: FloatArray
+    pin_radius: FloatArray
+    residual: FloatArray
+
+
+def contact_phase(
+    w2: FloatArray, a: float, e: float, n1: int, s: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Solve |P_s(c)| = |w| for c = cos u, the tooth phase of the contact (Eq. 10 of [1]).
+
+    Parameters
+    ----------
+    w2 : ndarray
+        |w|², squared distance from the disc centre to the pin centre [m²].
+    a, e, n1
+        Generating pin-circle radius a' [m], eccentricity [m], number of pins.
+    s : ndarray
+        Offset r_pin − ρ' of the pin centre from the locus [m].
+
+    Returns
+    -------
+    c : ndarray
+        cos u at contact, in [−1, 1].
+    residual : ndarray
+        | |P_s| − |w| | at the solution [m] (0 for unreachable pins).
+    reachable : ndarray of bool
+        False where the pin lies outside the tip circle of the modified profile.
+
+    A pin inside the root circle of the offset locus (|w| < a' − e + s) overlaps the
+    tooth-space bottom whatever the disc rotation; the caller checks for it.
+    """
+    w = np.sqrt(w2)
+    reachable = w <= a + e + s
+    k0 = a * a + e * e + s * s - w2
+    g0, g1 = a * a + e * e * n1, a * e * (n1 + 1)
+    d0, d1 = a * a + e * e * n1 * n1, 2.0 * a * e * n1
+    c = np.clip(k0 / (2.0 * a * e), -1.0, 1.0)
+    for _ in range(_MAX_ITERATIONS):
+        d = np.sqrt(d0 - d1 * c)
+        g = g0 - g1 * c
+        h = k0 - 2.0 * a * e * c + 2.0 * s * g / d
+        residual = np.where(reachable, np.abs(h) / (2.0 * w), 0.0)
+        done = residual <= CONTACT_TOLERANCE
+        if np.all(done):
+            break
+        # dh/dc; D' = −d1/(2D). A converged element stays put, so that its result does
+        # not depend on the other elements of the batch (extra steps move the last bit).
+        dh = -2.0 * a * e + 2.0 * s * (-g1 * d + g * d1 / (2.0 * d)) / (d * d)
+        c = np.where(done, c, np.clip(c - h / dh, -1.0, 1.0))
+    return c, residual, reachable
+
+
+def unloaded_contact(
+    design: PairDesign,
+    modification: Modification | None,
+    errors: PinErrors | None,
+    crank_angles: ArrayLike,
+) -> UnloadedContact:
+    """Unloaded contact of every pin at every crank angle (Eqs. 5–11 of [1]).
+
+    Parameters
+    ----------
+    design : PairDesign
+    modification : Modification or None
+        Tooth profile modification (Eq. 3).
+    errors : PinErrors or None
+        Pin position, pin radius and eccentricity errors (Eq. 5); leading axes are rings.
+    crank_angles : array_like
+        Crank angles φ [rad], shape (n_angles,).
+
+    Returns
+    -------
+    UnloadedContact
+        Arrays of shape ``(..., n_angles, n1)``.
+
+    Raises
+    ------
+    ConvergenceError
+        If the contact condition cannot be met to 1e-10 mm at some pin and angle.
+    DesignError
+        If a pin overlaps the disc whatever its rotation.
+    """
+    modification = modification or Modification()
+    errors = errors or PinErrors()
+    n1, n2 = design.pins, design.teeth
+    a, rho_gen = generating_radii(design, modification)
+    e = design.eccentricity
+    ring_shape = errors.ring_shape(n1)
+    phi = np.asarray(crank_angles, dtype=float)[:, None]  # (A, 1)
+
+    def per_pin(x: ArrayLike) -> FloatArray:  # (..., 1, n1)
+        return np.broadcast_to(np.asarray(x, float), (*ring_shape, n1))[..., None, :]
+
+    index = np.arange(n1)
+    pin_angle = index * design.pitch + per_pin(errors.angular)
+    pin_r = design.pin_circle_radius + per_pin(errors.radial)
+    r_pin = design.pin_radius + per_pin(errors.pin_radius)
+    ecc = e + np.broadcast_to(errors.eccentricity, ring_shape)[..., None, None]
+
+    wx = pin_r * np.cos(pin_angle) - ecc * np.cos(phi)
+    wy = pin_r * np.sin(pin_angle) - ecc * np.sin(phi)
+    w2 = wx * wx + wy * wy
+    s = np.broadcast_to(r_pin - rho_gen, w2.shape)
+    phi_t = -phi / n2
+    # nominal tooth phase n2·(i·ψ + φ/n2) of the pin, and its nearest tooth-space bottom
+    u_nominal = n2 * index * design.pitch + phi
+    t_root = 2.0 * np.pi * np.round(u_nominal / (2.0 * np.pi)) / n2
+
+    if modification.profile is not None:
+        return _deviated_contact(
+            design, modification, w2, wx, wy, r_pin, phi, phi_t, t_root, pin_angle
+        )
+    jammed = np.sqrt(w2) < a - e + s - CONTACT_TOLERANCE
+    if np.any(jammed):
+        where = np.unravel_index(np.argmax(jammed), jammed.shape)
+        raise DesignError(
+            f"pin {where[-1] + 1} overlaps the disc at its tooth-space bottom at crank angle "
+            f"{np.degrees(phi[where[-2], 0]):.6g}° whatever the disc rotation: its radius or "
+            "negative radial error exceeds the clearance of the modification"
+        )
+    c, residual, reach = contact_phase(w2, a, e, n1, s)
+    if not np.all(residual <= CONTACT_TOLERANCE):
+        flat = np.unravel_index(np.argmax(residual), residual.shape)
+        raise ConvergenceError(
+            f"unloaded contact did not converge at crank angle "
+            f"{np.degrees(phi[flat[-2], 0]):.6g}°, pin {flat[-1] + 1}: residual "
+            f"{residual[flat] * 1e3:.3g} mm (limit {CONTACT_TOLERANCE * 1e3:.0e} mm)"
+        )
+    # loaded flank: u = −arccos c ∈ [−π, 0], sin u ≤ 0
+    u = -np.arccos(c)
+    sin_u = -np.sqrt(1.0 - c * c)
+    d = np.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
+    nx, ny = (a - e * n1 * c) / d, -e * n1 * sin_u / d  # normal in the frame turned by t
+    zx, zy = a - e * c + s * nx, -e * sin_u + s * ny  # pin centre P_s, same frame
+    arg_w = np.arctan2(wy, wx)
+    arg_z = np.arctan2(zy, zx)
+    t = t_root + u / n2
+    rotation = _wrap(arg_w - t - arg_z - phi_t)
+    # angle of the line of action in the fixed frame minus the pin's radial angle (a
+    # rotation modification turns flank and disc alike, so it does not enter here)
+    lateral = phi_t + rotation + t + np.arctan2(ny, nx) - pin_angle
+    rotation = rotation + modification.rotation
+    # unloaded flank: the mirror image about the tooth-space bottom
+    reverse = _wrap(arg_w - (t_root - u / n2) + arg_z - phi_t) - modification.rotation
+
+    moment_arm = -a * e * n2 * sin_u / d
+    rho_x, rho_y = a - e * c - rho_gen * nx, -e * sin_u - rho_gen * ny
+    return UnloadedContact(
+        rotation=np.where(reach, rotation, np.inf),
+        reverse_rotation=np.where(reach, reverse, -np.inf),
+        moment_arm=np.where(reach, moment_arm, 0.0),
+        cos_beta=np.where(reach, np.abs(np.cos(lateral)), 1.0),
+        profile_angle=np.where(reach, u, -np.pi),
+        contact_radius=np.where(reach, np.hypot(rho_x, rho_y), a + e - rho_gen),
+        curvature_radius=np.where(reach, curvature_radius(t, design, modification), np.inf),
+        pin_radius=np.broadcast_to(r_pin, w2.shape),
+        residual=residual,
+    )
+
+
+def _flank_phase(
+    design: PairDesign,
+    modification: Modification,
+    w2: FloatArray,
+    r_pin: FloatArray,
+    space: NDArray[np.int64],
+    sign: float,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Tooth phase u of contact on one flank with a tabulated deviation (Eq. 10 of [1]).
+
+    Solves |Q(u)| = |w| for c = cos u, u = sign·arccos c, by Newton's method safeguarded
+    by bisection: |Q| decreases monotonically from the tip (c = −1) to the tooth-space
+    bottom (c = 1). Returns (u, residual [m], reachable, jammed, c).
+    """
+    a, rho_gen = generating_radii(design, modification)
+    e, n1 = design.eccentricity, design.pins
+    w = np.sqrt(w2)
+
+    def q2(cos_u: FloatArray) -> tuple[FloatArray, FloatArray]:
+        u = sign * np.arccos(cos_u)
+        geo = deviated_geometry(u, design, modification, r_pin, space)
+        h = geo.qx * geo.qx + geo.qy * geo.qy - w2
+        dh_du = 2.0 * (geo.qx * geo.dq_du_x + geo.qy * geo.dq_du_y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dh_dc = dh_du / (-np.sin(u))
+        return h, dh_dc
+
+    ones = np.ones_like(w2)
+    h_tip, _ = q2(-ones)
+    h_root, _ = q2(ones)
+    reachable = h_tip >= 0.0
+    jammed = h_root > 2.0 * w * CONTACT_TOLERANCE
+    # start: the constant-offset solution with the deviation at its phase
+    s = r_pin - rho_gen
+    c, _, _ = contact_phase(w2, a, e, n1, s)
+    d0 = modification.profile.evaluate(sign * np.arccos(c), space)
+    c, _, _ = contact_phase(w2, a, e, n1, s - d0)
+    lo, hi = -ones, ones.copy()
+    for _ in range(_MAX_BRACKETED_ITERATIONS):
+        h, dh = q2(c)
+        residual = np.where(reachable & ~jammed, np.abs(h) / (2.0 * w), 0.0)
+        if np.all(residual <= CONTACT_TOLERANCE):
+            break
+        lo = np.where(h > 0, c, lo)
+        hi = np.where(h > 0, hi, c)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = c - h / dh
+        ok = np.isfinite(step) & (step > lo) & (step < hi)
+        c = np.where(residual <= CONTACT_TOLERANCE, c, np.where(ok, step, 0.5 * (lo + hi)))
+    return sign * np.arccos(c), residual, reachable, jammed, c
+
+
+def _deviated_contact(
+    design: PairDesign,
+    modification: Modification,
+    w2: FloatArray,
+    wx: FloatArray,
+    wy: FloatArray,
+    r_pin: FloatArray,
+    phi: FloatArray,
+    phi_t: FloatArray,
+    t_root: FloatArray,
+    pin_angle: FloatArray,
+) -> UnloadedContact:
+    """:func:`unloaded_contact` with a tabulated profile deviation: each flank solved."""
+    n2 = design.teeth
+    r_pin = np.broadcast_to(r_pin, w2.shape)
+    space = np.broadcast_to(np.round(t_root * n2 / (2.0 * np.pi)).astype(np.int64) % n2, w2.shape)
+    u, residual, reach, jammed, _ = _flank_phase(design, modification, w2, r_pin, space, -1.0)
+    if np.any(jammed):
+        where = np.unravel_index(np.argmax(jammed), jammed.shape)
+        raise DesignError(
+            f"pin {where[-1] + 1} overlaps the disc at its tooth-space bottom at crank angle "
+            f"{np.degrees(phi[where[-2], 0]):.6g}° whatever the disc rotation: its radius, "
+            "a negative radial error or the profile deviation exceeds the clearance"
+        )
+    if not np.all(residual <= CONTACT_TOLERANCE):
+        flat = np.unravel_index(np.argmax(residual), residual.shape)
+        raise ConvergenceError(
+            f"unloaded contact did not converge at crank angle "
+            f"{np.degrees(phi[flat[-2], 0]):.6g}°, pin {flat[-1] + 1}: residual "
+            f"{residual[flat] * 1e3:.3g} mm (limit {CONTACT_TOLERANCE * 1e3:.0e} mm)"
+        )
+    geo = deviated_geometry(u, design, modification, r_pin, space)
+    arg_w = np.arctan2(wy, wx)
+    t = t_root + u / n2
+    rotation = _wrap(arg_w - t - np.arctan2(geo.qy, geo.qx) - phi_t)
+    lateral = phi_t + rotation + t + np.arctan2(geo.ny, geo.nx) - pin_angle
+    rotation = rotation + modification.rotation
+    if modification.profile.symmetric:
+        u_rev, rev_reach = -u, reach
+    else:
+        u_rev, res_rev, rev_reach, _, _ = _flank_phase(design, modification, w2, r_pin, space, 1.0)
+        if not np.all(res_rev <= CONTACT_TOLERANCE):
+            flat = np.unravel_index(np.argmax(res_rev), res_rev.shape)
+            raise ConvergenceError(
+                f"unloaded contact (unloaded flank) did not converge at crank angle "
+                f"{np.degrees(phi[flat[-2], 0]):.6g}°, pin {flat[-1] + 1}"
+            )
+    rev = deviated_geometry(u_rev, design, modification, r_pin, space)
+    reverse = (
+        _wrap(arg_w - (t_root + u_rev / n2) - np.arctan2(rev.qy, rev.qx) - phi_t)
+        - modification.rotation
+    )
+    # moment arm of the line of action (through Q along N) about the disc centre
+    moment_arm = geo.qx * geo.ny - geo.qy * geo.nx
+    return UnloadedContact(
+        rotation=np.where(reach, rotation, np.inf),
+        reverse_rotation=np.where(rev_reach, reverse, -np.inf),
+        moment_arm=np.where(reach, moment_arm, 0.0),
+        cos_beta=np.where(reach, np.abs(np.cos(lateral)), 1.0),
+        profile_angle=np.where(reach, u, -np.pi),
+        contact_radius=np.where(
+            reach, np.hypot(geo.x, geo.y), _tip_radius(design, modification, space)
+        ),
+        curvature_radius=np.where(reach, geo.curvature_radius, np.inf),
+        pin_radius=r_pin,
+        residual=residual,
+    )
+
+
+def _tip_radius(design: PairDesign, modification: Modification, space: FloatArray) -> FloatArray:
+    """Radius of the tip of the deviated profile (where unreachable pins are reported) [m]."""
+    a, rho_gen = generating_radii(design, modification)
+    return a + design.eccentricity - rho_gen - modification.profile.evaluate(-np.pi, space)
+
+
+def _wrap(angle: FloatArray) -> FloatArray:
+    """Wrap angles to (−π, π] [rad]."""
+    return np.pi - np.mod(np.pi - angle, 2.0 * np.pi)

@@ -1,0 +1,298 @@
+"""Loaded tooth contact analysis through a crank revolution (Sections 2–3 of [1]).
+
+:func:`solve_ltca` chains the model: unloaded contact of every pin (Eqs. 5–11),
+Hertzian stiffness with or without the pin–groove deformation (Eqs. 19–23), load
+sharing (Eqs. 15–18), contact stresses (Eq. 24), transmission error and gear ratio
+(Eqs. 25, 26). It is vectorised over rings (leading axes of the errors), crank angles
+and pins, works in SI units, and does no I/O.
+
+References
+----------
+[1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672, doi:10.3390/machines10080672.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cyclomesh.core.contact import UnloadedContact, unloaded_contact
+from cyclomesh.core.hertz import (
+    CONTACT_LAWS,
+    compliance_coefficients,
+    effective_modulus,
+    max_pressure,
+    pin_groove_radius,
+    pin_tooth_radius,
+)
+from cyclomesh.core.loadsharing import share_load
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors, check_physical
+from cyclomesh.core.profile import check_profile
+from cyclomesh.core.transmission import gear_ratio, transmission_error
+from cyclomesh.exceptions import ConvergenceError, DesignError
+
+__all__ = ["LTCA", "solve_ltca", "rest_position"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class LTCA:
+    """Result of :func:`solve_ltca`, SI units.
+
+    Per-pin arrays have shape ``(..., n_angles, n1)``, per-angle arrays ``(..., n_angles)``.
+
+    Attributes
+    ----------
+    crank_angle : ndarray
+        φin [rad].
+    pin_load, groove_load : ndarray
+        Fc,i and Fp,i = Fc,i·cos βi [N].
+    contact_stress, groove_stress : ndarray
+        Maximum Hertzian pressure on tooth and groove (Eq. 24) [Pa].
+    backlash : ndarray
+        φbl,i (Eq. 11) [rad]; +inf if the pin cannot reach the loaded flank.
+    overlap : ndarray
+        Interference of the loaded disc with the unloaded flank at pin i [rad], 0 if none.
+    profile_angle, contact_radius, moment_arm, curvature_radius : ndarray
+        Contact geometry on the loaded flank [rad, m, m, m].
+    rest_rotation : ndarray
+        φc − φt, rest position of the unloaded disc from its theoretical one [rad].
+    loaded_rotation : ndarray
+        Δφc [rad].
+    transmission_error : ndarray
+        TE (Eq. 25) [rad], negative when the disc lags.
+    gear_ratio : ndarray
+        Instantaneous ratio (Eq. 26) [-].
+    contacts : ndarray
+        Number of loaded pins [-].
+    """
+
+    crank_angle: FloatArray
+    pin_load: FloatArray
+    groove_load: FloatArray
+    contact_stress: FloatArray
+    groove_stress: FloatArray
+    backlash: FloatArray
+    overlap: FloatArray
+    profile_angle: FloatArray
+    contact_radius: FloatArray
+    moment_arm: FloatArray
+    curvature_radius: FloatArray
+    rest_rotation: FloatArray
+    loaded_rotation: FloatArray
+    transmission_error: FloatArray
+    gear_ratio: FloatArray
+    contacts: NDArray[np.int64]
+
+
+CONDITIONED_ARM = 1e-4
+"""Smallest moment arm [m] of a pin that can set the rest position of the disc."""
+
+
+def rest_position(rotation: FloatArray, moment_arm: FloatArray) -> FloatArray:
+    """Rest position φc − φt of the unloaded disc: the first pin it touches (Eq. 11 of [1]).
+
+    φc is the extreme (here the smallest counter-clockwise) contact rotation over the
+    pins. A pin right at a tip or a tooth-space bottom (moment arm below
+    :data:`CONDITIONED_ARM`) is left out: its gap does not change to first order with
+    the disc rotation, so it cannot stop the disc, and its contact rotation is
+    ill-conditioned (set only to about 1e-9 rad by round-off).
+
+    Parameters
+    ----------
+    rotation : ndarray
+        Contact rotations φc,i − φt, shape (..., n1) [rad].
+    moment_arm : ndarray
+        Moment arms l_i [m].
+
+    Returns
+    -------
+    ndarray
+        Shape (...) [rad].
+    """
+    conditioned = np.where(moment_arm >= CONDITIONED_ARM, rotation, np.inf)
+    rest = np.min(conditioned, axis=-1)
+    return np.where(np.isfinite(rest), rest, np.min(rotation, axis=-1))
+
+
+def solve_ltca(
+    design: PairDesign,
+    modification: Modification | None = None,
+    errors: PinErrors | None = None,
+    torque: float = 250.0,
+    crank_angles: ArrayLike = (0.0,),
+    groove_deformation: bool = True,
+    contact_law: str = "paper",
+) -> LTCA:
+    """Loaded tooth contact analysis of a cycloid-pin pair (Eqs. 1–26 of [1]).
+
+    Parameters
+    ----------
+    design : PairDesign
+        Nominal geometry and materials.
+    modification : Modification, optional
+        Tooth profile modification (Eq. 3).
+    errors : PinErrors, optional
+        Pin ring errors (Eq. 5); leading axes are independent rings.
+    torque : float
+        Torque on the disc T [N·m], > 0.
+    crank_angles : array_like
+        Crank angles φin [rad], one-dimensional and increasing.
+    groove_deformation : bool
+        True for the "improved model" (pin–groove deformation, Eq. 19), False for the
+        "current model".
+    contact_law : {"paper", "half_plane"}
+        The tooth's term of the contact law: Eq. 20 of [1] as published (default), or
+        the approach of a half-plane to the disc centre (Johnson, eq. 5.41), finite at
+        the profile's inflection points; see :mod:`cyclomesh.core.hertz`.
+
+    Returns
+    -------
+    LTCA
+
+    Raises
+    ------
+    DesignError
+        For an invalid torque, crank angles, undercut profile or interfering pins.
+    ConvergenceError
+        If a solver fails; the message names the crank angle (and ring).
+    """
+    modification = modification or Modification()
+    errors = errors or PinErrors()
+    if not (isinstance(torque, int | float) and math.isfinite(torque) and torque > 0):
+        raise DesignError(f"torque must be a positive number of N·m, got {torque!r}")
+    phi = check_crank_angles(crank_angles)
+    check_contact_law(contact_law)
+    ring_shape = check_pair(design, modification, errors)
+
+    geo = unloaded_contact(design, modification, errors, phi)
+    rest = rest_position(geo.rotation, geo.moment_arm)
+    backlash = geo.rotation - rest[..., None]
+    alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
+    try:
+        loaded, force = share_load(backlash, geo.moment_arm, alpha, gamma, torque)
+    except ConvergenceError as exc:
+        raise locate_failure(exc, (*ring_shape, phi.size), phi) from None
+    groove_force, contact_stress, groove_stress = contact_stresses(geo, design, force)
+
+    # unloaded flank: interference when the loaded disc sits clockwise of its contact angle
+    overlap = np.maximum(geo.reverse_rotation - (rest + loaded)[..., None], 0.0)
+
+    te = transmission_error(rest, loaded)
+    return LTCA(
+        crank_angle=phi,
+        pin_load=force,
+        groove_load=groove_force,
+        contact_stress=contact_stress,
+        groove_stress=groove_stress,
+        backlash=backlash,
+        overlap=overlap,
+        profile_angle=geo.profile_angle,
+        contact_radius=geo.contact_radius,
+        moment_arm=geo.moment_arm,
+        curvature_radius=geo.curvature_radius,
+        rest_rotation=rest,
+        loaded_rotation=loaded,
+        transmission_error=te,
+        gear_ratio=gear_ratio(te, phi, design.teeth),
+        contacts=np.sum(force > 0, axis=-1),
+    )
+
+
+def check_crank_angles(crank_angles: ArrayLike) -> FloatArray:
+    """Crank angles [rad] as a one-dimensional increasing array, or a :class:`DesignError`."""
+    phi = np.atleast_1d(np.asarray(crank_angles, float))
+    if phi.ndim != 1 or phi.size == 0 or not np.all(np.isfinite(phi)):
+        raise DesignError("crank angles must be a non-empty one-dimensional list of numbers")
+    if phi.size > 1 and not np.all(np.diff(phi) > 0):
+        raise DesignError("crank angles must increase")
+    return phi
+
+
+def check_pair(design: PairDesign, modification: Modification, errors: PinErrors) -> tuple:
+    """Check profile and pin radii; return the ring shape of the errors.
+
+    Raises
+    ------
+    DesignError
+        For an undercut profile or a pin that does not fit its groove.
+    """
+    check_profile(design, modification)
+    ring_shape = errors.ring_shape(design.pins)
+    check_physical(design, modification, errors)
+    pin_radii = design.pin_radius + np.broadcast_to(errors.pin_radius, (*ring_shape, design.pins))
+    if not np.all((pin_radii > 0) & (pin_radii < design.groove_radius)):
+        pin = int(np.argmax(~((pin_radii > 0) & (pin_radii < design.groove_radius))) % design.pins)
+        raise DesignError(
+            f"errors.pin_radius: pin {pin + 1} radius must stay between 0 and the groove "
+            f"radius {design.groove_radius * 1e3:.4g} mm"
+        )
+    return ring_shape
+
+
+def check_contact_law(contact_law: str) -> str:
+    """``contact_law`` if it is one of :data:`~cyclomesh.core.hertz.CONTACT_LAWS`, else a
+    one-line :class:`DesignError` naming the choices."""
+    if contact_law not in CONTACT_LAWS:
+        raise DesignError(
+            f"contact_law must be one of {', '.join(CONTACT_LAWS)}, got {contact_law!r}"
+        )
+    return contact_law
+
+
+def pin_compliance(
+    geo: UnloadedContact,
+    design: PairDesign,
+    groove_deformation: bool,
+    contact_law: str = "paper",
+) -> tuple[FloatArray, FloatArray]:
+    """Coefficients (α, γ) of δ = F(α − γ ln F) of every pin contact [m/N].
+
+    Eqs. 19–23 of [1] with the tooth term of ``contact_law`` (Eq. 20, or the half-plane
+    law of :mod:`cyclomesh.core.hertz`, Johnson eq. 5.41).
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):  # unreachable pins: never loaded
+        return compliance_coefficients(
+            geo.pin_radius,
+            geo.curvature_radius,
+            design.groove_radius,
+            geo.cos_beta,
+            design.width,
+            design.pin_material.compliance,
+            design.disc_material.compliance,
+            design.ring_material.compliance,
+            groove_deformation,
+            contact_law,
+            geo.contact_radius,
+            design.disc_material.poisson_ratio,
+        )
+
+
+def contact_stresses(
+    geo: UnloadedContact, design: PairDesign, force: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Groove force Fc·cos β [N] and the Hertzian pressures of tooth and groove (Eq. 24) [Pa]."""
+    pin_c = design.pin_material.compliance
+    groove_force = force * geo.cos_beta
+    tooth_modulus = effective_modulus(pin_c, design.disc_material.compliance)
+    groove_modulus = effective_modulus(pin_c, design.ring_material.compliance)
+    with np.errstate(invalid="ignore"):  # unreachable pins have ρc = inf and no load
+        rho_pc = np.where(force > 0, pin_tooth_radius(geo.pin_radius, geo.curvature_radius), 1.0)
+    rho_pg = pin_groove_radius(geo.pin_radius, design.groove_radius)
+    contact_stress = max_pressure(force, rho_pc, tooth_modulus, design.width)
+    groove_stress = max_pressure(groove_force, rho_pg, groove_modulus, design.width)
+    return groove_force, contact_stress, groove_stress
+
+
+def locate_failure(exc: ConvergenceError, shape: tuple, phi: FloatArray) -> ConvergenceError:
+    """The load-sharing error ``exc`` with the ring and crank angle of its case named."""
+    index = getattr(exc, "case_index", None)
+    if index is None:
+        return exc
+    where = np.unravel_index(index, shape)
+    ring = f"ring {where[0]}, " if len(where) > 1 else ""
+    return ConvergenceError(f"{ring}crank angle {np.degrees(phi[where[-1]]):.6g}°: {exc}")

@@ -1,0 +1,1 @@
+"""The design-space sweep (modification design maps) on the drive layer. Pure."""

@@ -1,0 +1,500 @@
+"""Design map: the modification space swept, with the pin-ring tolerances in the loop.
+
+Every candidate modification (a grid over any of Δa, Δρ, δ) is analysed by the full
+model of [1] (:func:`cyclomesh.drive.solve.solve_drive`, one disc: bit for bit
+:func:`cyclomesh.core.ltca.solve_ltca`) at the study's torque over its crank
+angles, with the given pin errors. With a ring axis on the errors (K rings drawn once:
+the same rings for every candidate, i.e. common random numbers), each metric is reduced
+over the rings to a robust value: the 95th percentile of a metric where larger is worse,
+the 5th percentile of one where smaller is worse (``min_contacts``, ``min_play``), taken
+as conservative order statistics (a value some ring has), so at least 95 % of rings do
+as well as the map says.
+
+Metrics (per candidate, SI inside, engineering units in the Dataset):
+
+* ``max_contact_stress`` — largest pin–tooth Hertzian pressure (Eq. 24) [Pa];
+* ``te_pp`` — peak-to-peak loaded transmission error (Eq. 25) [rad];
+* ``min_contacts`` — fewest loaded pins over the crank angles [-];
+* ``max_play``, ``min_play`` — largest and smallest play over the crank angles: the
+  TE of the reverse-flank rest position minus that of the forward-flank rest position,
+  unloaded (Eq. 11 on both flanks) [rad];
+* ``lost_motion`` (optional, it costs two more load solves a candidate, on the same
+  unloaded contact) — largest
+  TE(−0.03·T) − TE(+0.03·T) over the crank angles [rad]; the reverse flank is solved
+  as the forward flank of the system mirrored about the x-axis
+  (:func:`cyclomesh.drive.solve.solve_drive` with a negative torque); the play is
+  :func:`cyclomesh.drive.solve.play`.
+
+A candidate whose profile is undercut, whose pins interfere with the disc, or whose
+solve fails is infeasible with the reason recorded, never dropped.
+
+References
+----------
+[1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672, doi:10.3390/machines10080672.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cyclomesh.core.ltca import check_contact_law
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.drive.solve import LOST_MOTION_FRACTION, solve_drive
+from cyclomesh.exceptions import CyclomeshError, DesignError
+from cyclomesh.execution.runtime import tune_allocator
+from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = [
+    "PARAMETERS",
+    "METRICS",
+    "OBJECTIVES",
+    "Constraints",
+    "candidate_metrics",
+    "DesignTask",
+    "evaluate_grid",
+    "feasibility",
+    "design_map",
+    "optimum",
+]
+
+NONFINITE_FAILED = "NaN: the candidate failed (undercut, interference, no solution): see reason"
+"""The ``nonfinite`` attribute of the metric variables of a design map."""
+
+FloatArray = NDArray[np.float64]
+
+
+PARAMETERS: dict[str, tuple[str, float, str, str]] = {
+    # study key: (Modification field, SI per study unit, units, long name)
+    "pin_circle_radius_um": ("pin_circle_radius", 1e-6, "um", "shift modification Δa"),
+    "pin_radius_um": ("pin_radius", 1e-6, "um", "equidistant modification Δρ"),
+    "rotation_urad": ("rotation", 1e-6, "urad", "rotation modification Δδ"),
+}
+"""Sweepable parameters: study key → (field of Modification, scale to SI, units, name)."""
+
+METRICS: dict[str, tuple[str, float, str, str, bool]] = {
+    # core name: (Dataset variable, SI per unit, units, long name, larger is worse)
+    "max_contact_stress": (
+        "max_contact_stress_mpa",
+        1e6,
+        "MPa",
+        "max. pin-tooth Hertzian pressure",
+        True,
+    ),
+    "te_pp": ("te_pp_arcsec", RAD_PER_ARCSEC, "arcsec", "peak-to-peak loaded TE", True),
+    "min_contacts": ("min_contacts", 1.0, "1", "fewest loaded pins", False),
+    "max_play": ("play_arcmin", RAD_PER_ARCMIN, "arcmin", "largest unloaded play", True),
+    "min_play": ("min_play_arcmin", RAD_PER_ARCMIN, "arcmin", "smallest unloaded play", False),
+    "lost_motion": (
+        "lost_motion_arcmin",
+        RAD_PER_ARCMIN,
+        "arcmin",
+        "lost motion TE(-3 % T) - TE(+3 % T)",
+        True,
+    ),
+}
+"""Metrics: core name → (Dataset variable, SI per unit, units, long name, larger is worse)."""
+
+OBJECTIVES: dict[str, str] = {
+    "max_contact_stress": "max_contact_stress",
+    "te_pp": "te_pp",
+    "lost_motion": "lost_motion",
+    "play": "max_play",
+}
+"""Objective names of a study (minimised) → metric."""
+
+ROBUST_PERCENTILE = 95.0
+
+
+@dataclass(frozen=True)
+class Constraints:
+    """Feasibility limits of a design map, SI units; None = no limit.
+
+    Parameters
+    ----------
+    max_play, min_play : float, optional
+        Bounds on the play [rad] (``max_play`` on the largest, ``min_play`` on the smallest).
+    allowable_contact_stress : float, optional
+        Upper bound on the max. contact stress [Pa].
+    max_te_pp : float, optional
+        Upper bound on the peak-to-peak TE [rad].
+    min_contacts : int, optional
+        Lower bound on the fewest loaded pins.
+    """
+
+    max_play: float | None = None
+    min_play: float | None = None
+    allowable_contact_stress: float | None = None
+    max_te_pp: float | None = None
+    min_contacts: int | None = None
+
+    def checks(self) -> list[tuple[str, str, float, str]]:
+        """(metric, "<=" or ">=", limit [SI], name) of every limit set."""
+        out = []
+        for metric, op, value, name in (
+            ("max_play", "<=", self.max_play, "max_play"),
+            ("min_play", ">=", self.min_play, "min_play"),
+            ("max_contact_stress", "<=", self.allowable_contact_stress, "allowable_stress"),
+            ("te_pp", "<=", self.max_te_pp, "max_te_pp"),
+            ("min_contacts", ">=", self.min_contacts, "min_contacts"),
+        ):
+            if value is not None:
+                out.append((metric, op, float(value), name))
+        return out
+
+
+def candidate_metrics(
+    design: PairDesign,
+    modification: Modification,
+    errors: PinErrors | None,
+    torque: float,
+    crank_angles: ArrayLike,
+    groove_deformation: bool = True,
+    lost_motion: bool = False,
+    contact_law: str = "paper",
+) -> dict[str, FloatArray]:
+    """Metrics of one candidate modification (see module doc), per ring, SI units.
+
+    ``contact_law`` is the tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
+
+    Returns
+    -------
+    dict of ndarray
+        Keys of :data:`METRICS` (``lost_motion`` only if asked), each of the errors'
+        ring shape.
+    """
+    if not (isinstance(torque, int | float) and math.isfinite(torque) and torque > 0):
+        raise DesignError(f"torque must be a positive number of N·m, got {torque!r}")
+    phi = np.atleast_1d(np.asarray(crank_angles, float))
+    # one unloaded contact for the loaded solve, the play and the lost motion's ±3 %
+    light = LOST_MOTION_FRACTION * torque
+    torques = [torque, -light, light] if lost_motion else [torque]
+    res = solve_drive(
+        design, modification, errors, torques, phi, groove_deformation, contact_law=contact_law
+    )
+    te = res.transmission_error  # (..., torque, angle), the one disc's
+    out = {
+        "max_contact_stress": res.contact_stress[..., 0, :, 0, :].max(axis=(-2, -1)),
+        "te_pp": te[..., 0, :].max(axis=-1) - te[..., 0, :].min(axis=-1),
+        "min_contacts": res.contacts[..., 0, :, 0].min(axis=-1).astype(float),
+        "max_play": res.play.max(axis=-1),
+        "min_play": res.play.min(axis=-1),
+    }
+    if lost_motion:
+        out["lost_motion"] = np.max(te[..., 1, :] - te[..., 2, :], axis=-1)
+    return out
+
+
+def _robust(name: str, values: FloatArray) -> float:
+    """Reduce a metric over rings: 95th percentile if larger is worse, else 5th.
+
+    Conservative order statistics (numpy's ``higher``/``lower`` methods): the value is one
+    that a ring actually has, and at least 95 % of the rings do as well or better.
+    """
+    if values.ndim == 0:
+        return float(values)
+    if METRICS[name][4]:
+        return float(np.percentile(values.reshape(-1), ROBUST_PERCENTILE, method="higher"))
+    return float(np.percentile(values.reshape(-1), 100.0 - ROBUST_PERCENTILE, method="lower"))
+
+
+_REASON_LENGTH = 160
+
+
+@dataclass(frozen=True)
+class DesignTask:
+    """Picklable chunk function: candidates ``start .. stop − 1`` of a grid (C order).
+
+    Parameters
+    ----------
+    design : PairDesign
+    base : Modification
+        The study's modification; swept fields are replaced by the grid values.
+    axes : tuple of (field, values [SI])
+        Swept Modification fields and their values, in grid order.
+    errors : PinErrors or None
+        Pin errors, possibly with one leading ring axis (robust map).
+    torque : float
+        [N·m].
+    crank_angles : ndarray
+        [rad].
+    groove_deformation : bool
+    lost_motion : bool
+        Also compute the lost motion.
+    contact_law : {"paper", "half_plane"}
+    """
+
+    design: PairDesign
+    base: Modification
+    axes: tuple[tuple[str, tuple[float, ...]], ...]
+    errors: PinErrors | None
+    torque: float
+    crank_angles: tuple[float, ...]
+    groove_deformation: bool = True
+    lost_motion: bool = False
+    contact_law: str = "paper"
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """Grid shape."""
+        return tuple(len(values) for _, values in self.axes)
+
+    @property
+    def size(self) -> int:
+        """Number of candidates."""
+        return math.prod(self.shape)
+
+    def modification(self, index: int) -> Modification:
+        """Candidate ``index`` (flat, C order) of the grid."""
+        where = np.unravel_index(index, self.shape)
+        changes = {name: values[k] for (name, values), k in zip(self.axes, where, strict=True)}
+        return replace(self.base, **changes)
+
+    def metric_names(self) -> list[str]:
+        """Metrics this task computes."""
+        return [m for m in METRICS if m != "lost_motion" or self.lost_motion]
+
+    def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
+        names = self.metric_names()
+        n = stop - start
+        out: dict[str, NDArray[Any]] = {m: np.full(n, np.nan) for m in names}
+        reason = np.full(n, "", dtype=f"<U{_REASON_LENGTH}")
+        for row, index in enumerate(range(start, stop)):
+            try:
+                values = candidate_metrics(
+                    self.design,
+                    self.modification(index),
+                    self.errors,
+                    self.torque,
+                    np.asarray(self.crank_angles),
+                    self.groove_deformation,
+                    self.lost_motion,
+                    self.contact_law,
+                )
+            except CyclomeshError as exc:  # undercut, interfering pin, failed solve
+                reason[row] = str(exc)[:_REASON_LENGTH]
+                continue
+            for m in names:
+                out[m][row] = _robust(m, values[m])
+        out["reason"] = reason
+        return out
+
+
+def evaluate_grid(
+    task: DesignTask,
+    backend: Any = None,
+    chunk: int | None = None,
+    progress: Any = None,
+) -> dict[str, NDArray[Any]]:
+    """Run a :class:`DesignTask` over its whole grid (serially, or on a tolerance backend).
+
+    The result of every candidate depends only on the candidate, so it is bit-for-bit
+    the same for every chunking and backend. Returns arrays of the grid's shape.
+    """
+    if backend is None:
+        flat = dict(task(0, task.size))
+        if progress is not None:
+            progress(task.size)
+    else:
+        from cyclomesh.execution.backends import run_chunks
+
+        flat = run_chunks(task, task.size, backend=backend, chunk_size=chunk, progress=progress)
+    return {name: value.reshape(task.shape) for name, value in flat.items()}
+
+
+def feasibility(
+    metrics: Mapping[str, NDArray[Any]], constraints: Constraints
+) -> tuple[NDArray[np.bool_], NDArray[np.str_]]:
+    """Feasible candidates and, for the others, why not (first reason) [-].
+
+    A candidate with a failure reason in ``metrics["reason"]`` is infeasible for it;
+    otherwise every constraint must hold.
+    """
+    reason = np.asarray(metrics["reason"]).astype(f"<U{_REASON_LENGTH}").copy()
+    ok = reason == ""
+    for metric, op, limit, name in constraints.checks():
+        value = metrics.get(metric)
+        if value is None:
+            raise DesignError(f"constraint {name} needs metric {metric}, which was not computed")
+        with np.errstate(invalid="ignore"):
+            good = value <= limit if op == "<=" else value >= limit
+        fail = ok & ~good
+        reason[fail] = f"{name} violated"
+        ok &= good
+    return ok, reason
+
+
+def optimum(
+    metrics: Mapping[str, NDArray[Any]], feasible: NDArray[np.bool_], objective: str
+) -> tuple[int, ...] | None:
+    """Grid index of the feasible candidate with the smallest objective (first on ties)."""
+    metric = OBJECTIVES.get(objective, objective)
+    if metric not in metrics:
+        raise DesignError(
+            f"objective {objective!r}: metric {metric} was not computed "
+            f"(choose one of {', '.join(OBJECTIVES)})"
+        )
+    value = np.where(feasible, metrics[metric], np.inf)
+    if not np.any(feasible):
+        return None
+    return tuple(int(i) for i in np.unravel_index(np.argmin(value), value.shape))
+
+
+def design_map(
+    design: PairDesign,
+    axes: Mapping[str, ArrayLike],
+    *,
+    base: Modification | None = None,
+    errors: PinErrors | None = None,
+    torque: float = 250.0,
+    crank_angles_deg: ArrayLike = (0.0,),
+    groove_deformation: bool = True,
+    constraints: Constraints | None = None,
+    objective: str = "max_contact_stress",
+    lost_motion: bool | None = None,
+    backend: Any = None,
+    chunk: int | None = None,
+    progress: Any = None,
+    contact_law: str = "paper",
+) -> xr.Dataset:
+    """Design map over a grid of modifications, as a labelled Dataset.
+
+    Parameters
+    ----------
+    design : PairDesign
+        Geometry and materials (SI).
+    axes : mapping
+        Swept parameters in study units, keys of :data:`PARAMETERS`
+        (``pin_circle_radius_um``, ``pin_radius_um``, ``rotation_urad``) → values.
+    base : Modification, optional
+        Fixed part of the modification (unswept fields, a profile table).
+    errors : PinErrors, optional
+        Pin errors; one leading ring axis makes the map robust (percentiles over rings).
+    torque : float
+        Torque on the disc [N·m].
+    crank_angles_deg : array_like
+        Crank angles [deg].
+    groove_deformation : bool
+        Improved model of [1] (pin-groove deformation).
+    constraints : Constraints, optional
+        Feasibility limits (SI).
+    objective : str
+        ``max_contact_stress``, ``te_pp``, ``lost_motion`` or ``play`` (minimised).
+    lost_motion : bool, optional
+        Compute the lost motion (default: when it is the objective).
+    backend, chunk, progress
+        Execution (see :func:`evaluate_grid`).
+    contact_law : {"paper", "half_plane"}
+        Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
+
+    Returns
+    -------
+    xarray.Dataset
+        One dimension per swept parameter (coordinate in study units); every metric a
+        variable with ``units`` (NaN only where ``reason`` says the candidate failed);
+        ``feasible`` and ``reason``; attributes give the optimum and the inputs.
+    """
+    tune_allocator()  # once per process: the solver's temporaries stay on the heap
+    import xarray as xr
+
+    if not axes:
+        raise DesignError("design_space: sweep at least one parameter")
+    for key in axes:
+        if key not in PARAMETERS:
+            raise DesignError(
+                f"design_space.{key}: not a sweepable parameter (one of {', '.join(PARAMETERS)})"
+            )
+    if objective not in OBJECTIVES:
+        raise DesignError(f"objective {objective!r}: choose one of {', '.join(OBJECTIVES)}")
+    check_contact_law(contact_law)
+    base = base or Modification()
+    constraints = constraints or Constraints()
+    if lost_motion is None:
+        lost_motion = objective == "lost_motion"
+    coords = {key: np.atleast_1d(np.asarray(v, dtype=float)) for key, v in axes.items()}
+    task = DesignTask(
+        design=design,
+        base=base,
+        axes=tuple(
+            (PARAMETERS[key][0], tuple(float(x) * PARAMETERS[key][1] for x in values))
+            for key, values in coords.items()
+        ),
+        errors=errors,
+        torque=float(torque),
+        crank_angles=tuple(np.deg2rad(np.atleast_1d(np.asarray(crank_angles_deg, float)))),
+        groove_deformation=groove_deformation,
+        lost_motion=lost_motion,
+        contact_law=contact_law,
+    )
+    metrics = evaluate_grid(task, backend, chunk, progress)
+    feasible, reason = feasibility(metrics, constraints)
+    best = optimum(metrics, feasible, objective)
+    dims = tuple(coords)
+    data: dict[str, Any] = {}
+    for name in task.metric_names():
+        var, scale, units, long_name, _ = METRICS[name]
+        attrs = {"units": units, "long_name": long_name, "nonfinite": NONFINITE_FAILED}
+        data[var] = (dims, metrics[name] / scale, attrs)
+    data["feasible"] = (dims, feasible.astype(np.int8), {"units": "1", "long_name": "feasible"})
+    data["reason"] = (dims, reason, {"long_name": "why a candidate is infeasible ('' if not)"})
+    ds = xr.Dataset(
+        data,
+        coords={
+            key: (key, values, {"units": PARAMETERS[key][2], "long_name": PARAMETERS[key][3]})
+            for key, values in coords.items()
+        },
+    )
+    ring_shape = () if errors is None else errors.ring_shape(design.pins)
+    rings = math.prod(ring_shape)
+    ds.attrs.update(
+        {
+            "title": "cyclomesh design map",
+            "objective": objective,
+            "objective_variable": METRICS[OBJECTIVES[objective]][0],
+            "torque_nm": float(torque),
+            "rings": int(rings),
+            "robust": int(bool(ring_shape)),
+            "robust_percentile": ROBUST_PERCENTILE,
+            "groove_deformation": int(bool(groove_deformation)),
+            "contact_law": contact_law,
+            "crank_angles": len(task.crank_angles),
+            "feasible_candidates": int(feasible.sum()),
+            "candidates": int(task.size),
+        }
+    )
+    for name, value in _constraint_attrs(constraints).items():
+        ds.attrs[name] = value
+    if best is not None:
+        for key, k in zip(dims, best, strict=True):
+            ds.attrs[f"optimum_{key}"] = float(coords[key][k])
+    return ds
+
+
+def _constraint_attrs(constraints: Constraints) -> dict[str, float]:
+    out = {}
+    if constraints.max_play is not None:
+        out["max_play_arcmin"] = constraints.max_play / RAD_PER_ARCMIN
+    if constraints.min_play is not None:
+        out["min_play_arcmin"] = constraints.min_play / RAD_PER_ARCMIN
+    if constraints.allowable_contact_stress is not None:
+        out["allowable_contact_stress_mpa"] = constraints.allowable_contact_stress * 1e-6
+    if constraints.max_te_pp is not None:
+        out["max_te_pp_arcsec"] = constraints.max_te_pp / RAD_PER_ARCSEC
+    if constraints.min_contacts is not None:
+        out["min_contacts"] = int(constraints.min_contacts)
+    return out
+
+
+def grid_points(axes: Mapping[str, Sequence[float]]) -> list[dict[str, float]]:
+    """Every candidate of a grid as {key: value}, C order (the first key slowest)."""
+    keys = list(axes)
+    return [dict(zip(keys, combo, strict=True)) for combo in itertools.product(*axes.values())]

@@ -1,0 +1,1 @@
+"""Result-file writers: NetCDF, Parquet, CSV, JSON, TOML."""

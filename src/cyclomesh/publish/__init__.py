@@ -1,0 +1,1 @@
+"""The shared last stages of every study: figures rendered, report written."""

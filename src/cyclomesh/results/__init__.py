@@ -1,0 +1,1 @@
+"""Labelled results (xarray) and the one table of metrics and variables."""

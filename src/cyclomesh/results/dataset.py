@@ -1,0 +1,389 @@
+"""Labelled results: run :func:`cyclomesh.core.ltca.solve_ltca` and return an xarray Dataset.
+
+This is the notebook entry point. The numbers come from the SI core; here they are
+converted to the units a gear engineer reads (N, MPa, arcsec, degrees, mm), labelled
+with ``crank_angle`` (degrees) and ``pin`` (1 … n1), and the inputs recorded as
+attributes. :func:`summarize` reduces a result to the headline numbers of a study
+(:mod:`cyclomesh.results.metrics`); :func:`ltca_metrics` does the same straight from the core's
+result, without a Dataset (tolerance studies). xarray is imported only when a Dataset
+is built, so the variable tables below can be read by worker processes cheaply.
+"""
+
+from __future__ import annotations
+
+from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cyclomesh.core.ltca import LTCA
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.drive.solve import Drive, check_torques, solve_drive
+from cyclomesh.execution.runtime import tune_allocator
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, summary_metrics
+from cyclomesh.units import ARCSEC_PER_RAD
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = ["analyse", "to_dataset", "drive_to_dataset", "summarize", "ltca_metrics"]
+
+"""One second of arc [rad]."""
+
+# name (an LTCA field): (scale from SI, units, long name)
+_PER_PIN = {
+    "pin_load": (1.0, "N", "pin-tooth contact force Fc"),
+    "groove_load": (1.0, "N", "pin-groove contact force Fp"),
+    "contact_stress": (1e-6, "MPa", "max. Hertzian pressure, pin-tooth"),
+    "groove_stress": (1e-6, "MPa", "max. Hertzian pressure, pin-groove"),
+    "backlash": (ARCSEC_PER_RAD, "arcsec", "unloaded backlash φbl (inf: unreachable)"),
+    "overlap": (ARCSEC_PER_RAD, "arcsec", "interference with the unloaded flank"),
+    "profile_angle": (180.0 / np.pi, "deg", "generating angle φ1 of contact"),
+    "contact_radius": (1e3, "mm", "radius of the contact point on the disc"),
+    "moment_arm": (1e3, "mm", "moment arm of the line of action"),
+    "curvature_radius": (1e3, "mm", "signed profile curvature radius ρc"),
+}
+NONFINITE = {
+    "backlash": "inf: the pin lies above the tip circle of the modified profile and cannot "
+    "touch the loaded flank",
+    "curvature_radius": "inf: the contact point is an inflection point of the profile "
+    "(straight, ρc → ∞)",
+}
+"""What a non-finite value means in a variable (its ``nonfinite`` attribute); no other
+variable holds one."""
+_PER_ANGLE = {
+    "transmission_error": (ARCSEC_PER_RAD, "arcsec", "loaded TE"),
+    "gear_ratio": (1.0, "1", "instantaneous gear ratio"),
+    "contacts": (1, "1", "number of pins in contact"),
+    "loaded_rotation": (ARCSEC_PER_RAD, "arcsec", "disc rotation under load Δφc"),
+    "rest_rotation": (ARCSEC_PER_RAD, "arcsec", "unloaded rest position φc − φt"),
+}
+# drive-level results (cyclomesh.drive.solve): per pin, per disc, per crank angle only
+_DRIVE_PER_PIN = {
+    "force_angle": (180.0 / np.pi, "deg", "direction of the pin force on the disc, from x"),
+}
+_PER_DISC = {
+    "mesh_force": (1.0, "N", "resultant of the pin forces on the disc (crank bearing load)"),
+    "mesh_force_angle": (180.0 / np.pi, "deg", "direction of the mesh force, from x"),
+    "torque_share": (1.0, "N m", "torque carried by the disc"),
+}
+_PLAY = ("play", ARCSEC_PER_RAD, "arcsec", "angular play between the flanks at zero load")
+
+
+def _version() -> str:
+    try:
+        return version("cyclomesh")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "unknown"
+
+
+def to_dataset(
+    result: LTCA,
+    design: PairDesign,
+    modification: Modification,
+    torque: float,
+    groove_deformation: bool,
+) -> xr.Dataset:
+    """Label an :class:`~cyclomesh.core.ltca.LTCA` result (SI) as a Dataset in engineering units."""
+    import xarray as xr
+
+    ring_dims = ("ring",) if result.transmission_error.ndim == 2 else ()
+    if result.transmission_error.ndim > 2:
+        raise ValueError("to_dataset supports at most one ring axis")
+    dims_pin = (*ring_dims, "crank_angle", "pin")
+    dims_angle = (*ring_dims, "crank_angle")
+    data = {}
+    for dims, table in ((dims_pin, _PER_PIN), (dims_angle, _PER_ANGLE)):
+        for name, (scale, units, long_name) in table.items():
+            attrs = {"units": units, "long_name": long_name}
+            attrs.update({"nonfinite": NONFINITE[name]} if name in NONFINITE else {})
+            data[name] = (dims, getattr(result, name) * scale, attrs)
+    coords = {
+        "crank_angle": ("crank_angle", np.degrees(result.crank_angle), {"units": "deg"}),
+        "pin": ("pin", np.arange(1, design.pins + 1), {"units": "1"}),
+    }
+    if ring_dims:
+        coords["ring"] = ("ring", np.arange(result.transmission_error.shape[0]))
+    attrs = result_attrs(result.crank_angle, design, modification, torque, groove_deformation)
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def result_attrs(
+    phi: np.ndarray,
+    design: PairDesign,
+    modification: Modification,
+    torque: float | None,
+    groove_deformation: bool,
+) -> dict:
+    """Attributes of a result Dataset: the inputs with unit-suffixed names."""
+    step = np.degrees(np.diff(phi))
+    attrs = {
+        "title": "cyclomesh loaded tooth contact analysis",
+        "source": "Li, Tang, He, Sun, Machines 2022, 10, 672, doi:10.3390/machines10080672",
+        "cyclomesh_version": _version(),
+        "pins": design.pins,
+        "teeth": design.teeth,
+        "pin_circle_radius_mm": design.pin_circle_radius * 1e3,
+        "pin_radius_mm": design.pin_radius * 1e3,
+        "groove_radius_mm": design.groove_radius * 1e3,
+        "eccentricity_mm": design.eccentricity * 1e3,
+        "width_mm": design.width * 1e3,
+        "pin_youngs_modulus_gpa": design.pin_material.youngs_modulus * 1e-9,
+        "pin_poisson_ratio": design.pin_material.poisson_ratio,
+        "disc_youngs_modulus_gpa": design.disc_material.youngs_modulus * 1e-9,
+        "disc_poisson_ratio": design.disc_material.poisson_ratio,
+        "ring_youngs_modulus_gpa": design.ring_material.youngs_modulus * 1e-9,
+        "ring_poisson_ratio": design.ring_material.poisson_ratio,
+        "modification_pin_circle_radius_um": modification.pin_circle_radius * 1e6,
+        "modification_pin_radius_um": modification.pin_radius * 1e6,
+        "modification_rotation_urad": modification.rotation * 1e6,
+        "groove_deformation": int(bool(groove_deformation)),
+        "gear_ratio_step_deg": float(step[0]) if step.size else 0.0,
+        "sign_convention": (
+            "crank counter-clockwise; disc turns by -phi/n2; TE positive in the disc's "
+            "direction of motion (a lagging disc has negative TE)"
+        ),
+    }
+    if torque is not None:
+        attrs["torque_nm"] = float(torque)
+    return attrs
+
+
+def drive_to_dataset(
+    result: Drive,
+    design: PairDesign,
+    modification: Modification,
+    groove_deformation: bool,
+    torque_dim: bool,
+) -> xr.Dataset:
+    """Label a :class:`~cyclomesh.drive.solve.Drive` result (SI) as a Dataset in engineering units.
+
+    Dimensions ``ring`` (one ring axis at most), ``torque`` [N·m] (if ``torque_dim``, else
+    the one torque is the attribute ``torque_nm``), ``crank_angle`` [deg], ``disc`` (1 … N,
+    only for a stack of more than one disc) and ``pin``.
+    """
+    lead = result.transmission_error.ndim - 2
+    if lead > 1:
+        raise ValueError("drive_to_dataset supports at most one ring axis")
+    discs = result.contacts.shape[-1]
+    ring = ("ring",) * lead
+    keep = ("torque",) if torque_dim else ()
+    stack = ("disc",) if discs > 1 else ()
+
+    trailing = {"pin": 3, "disc": 2, "angle": 1}  # axes after the torque axis
+
+    def select(value: np.ndarray, per: str) -> np.ndarray:
+        """Drop the torque axis of a single torque and the disc axis of a single disc."""
+        if not torque_dim:
+            value = np.take(value, 0, axis=-1 - trailing[per])
+        if discs == 1 and per != "angle":
+            value = np.take(value, 0, axis=-2 if per == "pin" else -1)
+        return value
+
+    pin_dims = (*ring, *keep, "crank_angle", *stack, "pin")
+    disc_dims = (*ring, *keep, "crank_angle", *stack)
+    angle_dims = (*ring, *keep, "crank_angle")
+    # the variables of to_dataset first, in its order, then the drive's own
+    tables = (
+        (pin_dims, "pin", _PER_PIN),
+        *(
+            (disc_dims, "disc", {k: v}) if k == "contacts" else (angle_dims, "angle", {k: v})
+            for k, v in _PER_ANGLE.items()
+        ),
+        (pin_dims, "pin", _DRIVE_PER_PIN),
+        (disc_dims, "disc", _PER_DISC),
+    )
+    data = {}
+    for dims, per, table in tables:
+        for name, (scale, units, long_name) in table.items():
+            if name == "torque_share" and discs == 1:
+                continue
+            value = select(getattr(result, name), per)
+            attrs = {"units": units, "long_name": long_name}
+            attrs.update({"nonfinite": NONFINITE[name]} if name in NONFINITE else {})
+            data[name] = (dims, value * scale, attrs)
+    name, scale, units, long_name = _PLAY
+    data[name] = (
+        (*ring, "crank_angle"),
+        result.play * scale,
+        {"units": units, "long_name": long_name},
+    )
+    coords = {
+        "crank_angle": ("crank_angle", np.degrees(result.crank_angle), {"units": "deg"}),
+        "pin": ("pin", np.arange(1, design.pins + 1), {"units": "1"}),
+    }
+    if torque_dim:
+        coords["torque"] = ("torque", result.torque, {"units": "N m", "long_name": "torque"})
+    if stack:
+        coords["disc"] = ("disc", np.arange(1, discs + 1), {"units": "1"})
+    if ring:
+        coords["ring"] = ("ring", np.arange(result.transmission_error.shape[0]))
+    import xarray as xr
+
+    single = None if torque_dim else float(result.torque[0])
+    attrs = result_attrs(result.crank_angle, design, modification, single, groove_deformation)
+    attrs["discs"] = int(discs)
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def resolve_crank_angles(
+    crank_angles: ArrayLike | None, crank_angles_deg: ArrayLike | None
+) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+    """The crank angles of an API call given in [rad] or in [deg] (not both; neither: a
+    revolution at 1°): (φin [rad], the degrees as given, kept exactly as the
+    ``crank_angle`` coordinate, or None when they were given in radians)."""
+    if crank_angles_deg is not None:
+        if crank_angles is not None:
+            raise TypeError("give crank_angles [rad] or crank_angles_deg, not both")
+        degrees = np.atleast_1d(np.asarray(crank_angles_deg, float))
+    elif crank_angles is None:
+        degrees = np.arange(360.0)
+    else:
+        return np.atleast_1d(np.asarray(crank_angles, float)), None
+    return np.deg2rad(degrees), degrees
+
+
+def analyse(
+    design: PairDesign,
+    modification: Modification | None = None,
+    errors: PinErrors | None = None,
+    torque: float | ArrayLike = 250.0,
+    crank_angles: ArrayLike | None = None,
+    groove_deformation: bool = True,
+    *,
+    crank_angles_deg: ArrayLike | None = None,
+    discs: int = 1,
+    contact_law: str = "paper",
+) -> xr.Dataset:
+    """Loaded tooth contact analysis of a cycloid-pin pair as a labelled Dataset.
+
+    Parameters
+    ----------
+    design : PairDesign
+        Geometry and materials (SI).
+    modification : Modification, optional
+        Tooth profile modification (Eq. 3 of [1]).
+    errors : PinErrors, optional
+        Pin ring errors (Eq. 5 of [1]); one leading axis gives a ``ring`` dimension.
+    torque : float or list of float
+        Torque on the disc (on the stack of discs) [N·m]; positive loads the forward
+        flanks (the disc lags, TE < 0), negative the reverse flanks (TE > 0); 0 is refused.
+        A list adds a ``torque`` dimension.
+    crank_angles : array_like, optional
+        Crank angles [rad]; default a revolution at 1°.
+    groove_deformation : bool
+        "Improved model" (True) or "current model" (False).
+    crank_angles_deg : array_like, optional
+        Crank angles [deg], instead of ``crank_angles``; they become the ``crank_angle``
+        coordinate exactly as given, so ``ds.sel(crank_angle=60.0)`` finds them.
+    discs : int
+        Number N of identical discs on the ring, disc k's eccentric at φ + (k − 1)·360°/N;
+        they share one rotation and split the torque by their stiffness.
+    contact_law : {"paper", "half_plane"}
+        Tooth term of the contact law (see :mod:`cyclomesh.core.hertz`); recorded in the
+        ``contact_law`` attribute.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dimensions ``crank_angle`` [deg] and ``pin`` (1 … n1), plus ``ring`` for several
+        rings, ``torque`` [N·m] for a list of torques and ``disc`` (1 … N) for N > 1;
+        variables carry a ``units`` attribute (see :mod:`cyclomesh.results.dataset` and
+        ``docs/drive.md``). Besides the loaded contact: ``play`` [arcsec] per crank angle,
+        ``mesh_force`` [N] and ``mesh_force_angle`` [deg] per disc, ``force_angle`` [deg]
+        per pin, ``torque_share`` [N·m] per disc of a stack.
+
+    References
+    ----------
+    [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672.
+    """
+    tune_allocator()  # once per process: the solver's temporaries stay on the heap
+    modification = modification or Modification()
+    crank_angles, degrees = resolve_crank_angles(crank_angles, crank_angles_deg)
+    torque_dim = np.ndim(torque) > 0
+    torques = check_torques(torque)
+    result = solve_drive(
+        design, modification, errors, torques, crank_angles, groove_deformation, discs, contact_law
+    )
+    ds = drive_to_dataset(result, design, modification, groove_deformation, torque_dim)
+    ds.attrs["contact_law"] = contact_law
+    if degrees is not None:
+        ds = ds.assign_coords(crank_angle=("crank_angle", degrees, {"units": "deg"}))
+    return ds
+
+
+def summarize(ds: xr.Dataset) -> xr.Dataset:
+    """Headline numbers of a result, reduced over crank angle and pin (ring kept).
+
+    Returns a Dataset with the metrics of :data:`cyclomesh.results.metrics.METRICS`
+    (``te_mean_arcsec``, ``te_pp_arcsec``, ``max_pin_load_n``, ``max_groove_load_n``,
+    ``max_contact_stress_mpa``, ``max_groove_stress_mpa``, ``contacts_min``,
+    ``contacts_max``, ``gear_ratio_ripple_pct`` (peak-to-peak of the instantaneous ratio
+    in % of n2, over the step ``gear_ratio_step_deg``), ``max_overlap_arcsec`` and
+    ``overlap``), each with its ``units`` and ``long_name``, and those of
+    :data:`cyclomesh.results.metrics.DRIVE_METRICS` the result has (``play_arcsec_mean``,
+    ``play_arcsec_max``, ``max_mesh_force_n``). A ``torque`` dimension (a list of
+    torques) is kept; a ``disc`` dimension (a stack) is reduced with the pins (per-disc
+    contacts with the crank angles).
+    """
+    import xarray as xr
+
+    order = [d for d in ds["pin_load"].dims if d not in ("crank_angle", "disc", "pin")]
+    stack = ("disc",) if "disc" in ds.dims else ()
+
+    def merged(name: str, dims: tuple[str, ...]) -> np.ndarray:
+        """``ds[name]`` over ``(*order, *dims)``, the last two of dims merged if stacked."""
+        present = tuple(d for d in dims if d in ds[name].dims)
+        values = ds[name].transpose(*order, *present).values
+        extra = len(present) - (2 if present[-1] == "pin" else 1)
+        return values.reshape(*values.shape[: values.ndim - extra - 1], -1) if extra else values
+
+    values = summary_metrics(
+        transmission_error=merged("transmission_error", ("crank_angle",)),
+        gear_ratio=merged("gear_ratio", ("crank_angle",)),
+        contacts=merged("contacts", ("crank_angle", *stack)),
+        **{
+            name: merged(name, ("crank_angle", *stack, "pin"))
+            for name in ("pin_load", "groove_load", "contact_stress", "groove_stress", "overlap")
+        },
+        teeth=ds.attrs["teeth"],
+    )
+    coords = {d: ds[d] for d in order if d in ds.coords}
+    data = {name: (tuple(order), values[name]) for name in METRICS}
+    if "play" in ds:
+        data["play_arcsec_mean"] = ds["play"].mean("crank_angle")
+        data["play_arcsec_max"] = ds["play"].max("crank_angle")
+    if "mesh_force" in ds:
+        data["max_mesh_force_n"] = ds["mesh_force"].max(("crank_angle", *stack))
+    summary = xr.Dataset(data, coords=coords)
+    for name in summary.data_vars:
+        metric = METRICS.get(name) or DRIVE_METRICS[name]
+        summary[name].attrs = {"units": metric.unit, "long_name": metric.long_name}
+    summary.attrs["gear_ratio_step_deg"] = ds.attrs.get("gear_ratio_step_deg", 0.0)
+    return summary
+
+
+def ltca_metrics(result: LTCA, teeth: int) -> dict[str, NDArray]:
+    """The metrics of :data:`cyclomesh.results.metrics.METRICS` straight from a core result (SI).
+
+    The same numbers as ``summarize(to_dataset(result, ...))``, bit for bit (same unit
+    scales, same reductions), without building a Dataset; leading ring axes are kept.
+    """
+    scaled = {
+        name: getattr(result, name) * table[name][0]
+        for table in (_PER_PIN, _PER_ANGLE)
+        for name in table
+        if name
+        in (
+            "transmission_error",
+            "gear_ratio",
+            "contacts",
+            "pin_load",
+            "groove_load",
+            "contact_stress",
+            "groove_stress",
+            "overlap",
+        )
+    }
+    return summary_metrics(**scaled, teeth=teeth)

@@ -1,0 +1,350 @@
+"""Labelled results of the RV stage: the Dataset variables and the catalogue data sheet.
+
+Thin layer over :mod:`cyclomesh.stage` (SI inside): :func:`stage_dataset` turns a
+:class:`~cyclomesh.stage.solve.Stage` into xarray variables with units (dims
+``crank_angle``, ``disc``, ``crank``), :func:`data_sheet` computes the catalogue-style
+numbers of a stage at its rated torque and output speed (rigidity and lost motion of the
+stage from one solve of mesh, bearings and springs, beside the mesh alone; L10 of the
+weakest crank bearing; peak contact stress), :data:`STAGE_METRICS` names them.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from cyclomesh.results.metrics import Metric
+from cyclomesh.stage.solve import (
+    Stage,
+    StageDesign,
+    bearing_life,
+    solve_stage,
+    stage_torsion_curve,
+)
+from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = [
+    "STAGE_METRICS",
+    "STAGE_STIFFNESS_METRICS",
+    "SHEET_ANGLES",
+    "stage_dataset",
+    "data_sheet",
+    "sheet_angles",
+    "solve_case",
+    "stage_torsion_variables",
+]
+
+ARCSEC = RAD_PER_ARCSEC
+ARCMIN = RAD_PER_ARCMIN
+
+SHEET_ANGLES = 360
+"""At most this many crank angles (evenly subsampled from the case's) for the data sheet."""
+
+STAGE_METRICS: dict[str, Metric] = {
+    m.name: m
+    for m in (
+        Metric("stage_rated_torque_nm", "N·m", "rated torque of the data sheet", "rated torque"),
+        Metric("stage_output_speed_rpm", "rpm", "output speed of the rated life", "speed"),
+        Metric("stage_l10_h_min", "h", "L10h of the weakest crank bearing (ISO 281)", "L10h min"),
+        Metric(
+            "stage_equivalent_load_n_max",
+            "N",
+            "largest equivalent dynamic load of a crank bearing over the revolution",
+            "P max",
+        ),
+        Metric(
+            "stage_dynamic_load_rating_kn",
+            "kN",
+            "basic dynamic load rating C_r of a crank bearing",
+            "C_r",
+        ),
+        Metric(
+            "stage_torsional_rigidity_nm_per_arcmin",
+            "N·m/arcmin",
+            "torsional rigidity of the stage (mesh, bearings, springs), secant 50-100 %",
+            "rigidity",
+        ),
+        Metric(
+            "mesh_torsional_rigidity_nm_per_arcmin",
+            "N·m/arcmin",
+            "torsional rigidity of the mesh alone (rigid bearings)",
+            "mesh rigidity",
+        ),
+        Metric(
+            "stage_lost_motion_arcmin",
+            "arcmin",
+            "lost motion of the stage, TE(-3 %) - TE(+3 %)",
+            "lost motion",
+        ),
+        Metric("mesh_lost_motion_arcmin", "arcmin", "lost motion of the mesh alone", "mesh LM"),
+        Metric(
+            "stage_max_contact_stress_mpa",
+            "MPa",
+            "peak pin-tooth contact stress at rated torque",
+            "max σH",
+        ),
+        Metric(
+            "stage_max_crank_bearing_load_n",
+            "N",
+            "largest crank bearing load at rated torque",
+            "max bearing load",
+        ),
+        Metric(
+            "stage_max_roller_load_n", "N", "largest needle roller load at rated torque", "max Q"
+        ),
+    )
+}
+
+
+def sheet_angles(crank_angles: np.ndarray) -> np.ndarray:
+    """The case's crank angles [rad] subsampled evenly to at most :data:`SHEET_ANGLES`."""
+    step = max(1, int(math.ceil(crank_angles.size / SHEET_ANGLES)))
+    return crank_angles[::step]
+
+
+def stage_dataset(result: Stage, stage: StageDesign, pins: int) -> xr.Dataset:
+    """The stage variables of a run with units; a ``torque`` dimension for several torques.
+
+    Variables: ``crank_bearing_load`` [N], ``crank_bearing_load_angle`` [deg] (force of the
+    disc on the crank pin, counter-clockwise from x), ``crank_bearing_deflection`` [um],
+    ``max_roller_load`` [N] (crank_angle, disc, crank); ``disc_translation_x/_y`` [um],
+    ``stage_pin_load`` [N] (…, pin); ``stage_transmission_error`` [arcsec] (the output's);
+    ``crank_bearing_equivalent_load`` [N] and ``crank_bearing_l10`` [h] (disc, crank).
+    """
+    import xarray as xr
+
+    q = result.torque.size
+    squeeze = q == 1
+    deg = np.degrees(result.crank_angle)
+
+    def var(values: np.ndarray, dims: tuple[str, ...], units: str, long_name: str):
+        values = values[0] if squeeze else values
+        return (
+            (dims if squeeze else ("torque", *dims)),
+            values,
+            {
+                "units": units,
+                "long_name": long_name,
+            },
+        )
+
+    data = {
+        "crank_bearing_load": var(
+            result.bearing_load, ("crank_angle", "disc", "crank"), "N", "crank bearing load"
+        ),
+        "crank_bearing_load_angle": var(
+            np.degrees(result.bearing_load_angle),
+            ("crank_angle", "disc", "crank"),
+            "deg",
+            "direction of the disc's force on the crank pin, from x",
+        ),
+        "crank_bearing_deflection": var(
+            result.bearing_deflection * 1e6,
+            ("crank_angle", "disc", "crank"),
+            "um",
+            "displacement of the crank hole against its crank pin (clearance included)",
+        ),
+        "disc_translation_x": var(
+            result.disc_translation_x * 1e6, ("crank_angle", "disc"), "um", "disc translation x"
+        ),
+        "disc_translation_y": var(
+            result.disc_translation_y * 1e6, ("crank_angle", "disc"), "um", "disc translation y"
+        ),
+        "stage_pin_load": var(
+            result.pin_load, ("crank_angle", "disc", "pin"), "N", "pin load in the stage"
+        ),
+        "stage_opposite_pin_load": var(
+            result.opposite_pin_load,
+            ("crank_angle", "disc", "pin"),
+            "N",
+            "pin load on the opposite flank (closed by the disc's translation)",
+        ),
+        "stage_transmission_error": var(
+            result.transmission_error / ARCSEC,
+            ("crank_angle",),
+            "arcsec",
+            "TE of the output (carrier), mesh, bearings and springs",
+        ),
+    }
+    if stage.bearing is not None:
+        data["max_roller_load"] = var(
+            result.max_roller_load,
+            ("crank_angle", "disc", "crank"),
+            "N",
+            "load of the most loaded needle roller",
+        )
+        p, _, hours = bearing_life(result, stage, pins)
+        data["crank_bearing_equivalent_load"] = var(
+            p, ("disc", "crank"), "N", "equivalent dynamic load over the crank angles (p = 10/3)"
+        )
+        data["crank_bearing_l10"] = var(
+            hours, ("disc", "crank"), "h", "basic rating life L10h (ISO 281) at the output speed"
+        )
+    coords = {
+        "crank_angle": ("crank_angle", deg, {"units": "deg"}),
+        "disc": np.arange(1, result.pin_load.shape[-2] + 1),
+        "crank": np.arange(1, stage.holes.count + 1),
+        "pin": np.arange(1, result.pin_load.shape[-1] + 1),
+    }
+    if not squeeze:
+        coords["torque"] = ("torque", result.torque, {"units": "N m"})
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs["stage_output_speed_rpm"] = float(stage.output_speed)
+    return ds
+
+
+def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
+    """Catalogue-style numbers of a case's stage at ``rated_torque`` [N·m] (JSON values).
+
+    ``inputs``: the case's core inputs (a study's ``CaseInputs``: design, stage,
+    modification, errors, crank_angles, groove_deformation, discs, contact_law).
+
+    One :func:`~cyclomesh.stage.solve.stage_torsion_curve` (±3 %, ±50 %, ±100 % of the
+    rated torque) on at most :data:`SHEET_ANGLES` of the case's crank angles gives the
+    rigidity and lost motion of the stage and of the mesh alone (means over the angles);
+    the +100 % solve gives the bearing loads, L10h of the weakest bearing and the peak
+    contact stress.
+    """
+    stage = inputs.stage
+    phi = sheet_angles(np.asarray(inputs.crank_angles, float))
+    curve = stage_torsion_curve(
+        inputs.design,
+        stage,
+        inputs.modification,
+        inputs.errors,
+        rated_torque,
+        phi,
+        inputs.groove_deformation,
+        inputs.discs,
+        points=2,
+        contact_law=inputs.contact_law,
+    )
+    result = curve.stage
+    at = int(np.flatnonzero(result.torque == rated_torque)[0])
+    sheet: dict[str, Any] = {
+        "stage_rated_torque_nm": float(rated_torque),
+        "stage_output_speed_rpm": float(stage.output_speed),
+        "stage_torsional_rigidity_nm_per_arcmin": float(np.mean(curve.torsional_rigidity) * ARCMIN),
+        "mesh_torsional_rigidity_nm_per_arcmin": float(
+            np.mean(curve.mesh_torsional_rigidity) * ARCMIN
+        ),
+        "stage_lost_motion_arcmin": float(np.mean(curve.lost_motion) / ARCMIN),
+        "mesh_lost_motion_arcmin": float(np.mean(curve.mesh_lost_motion) / ARCMIN),
+        "stage_max_contact_stress_mpa": float(np.max(result.contact_stress[at]) / 1e6),
+        "stage_max_crank_bearing_load_n": float(np.max(result.bearing_load[at])),
+    }
+    if stage.bearing is not None:
+        p, _, hours = bearing_life(result, stage, inputs.design.pins)
+        sheet.update(
+            stage_l10_h_min=float(np.min(hours[at])),
+            stage_equivalent_load_n_max=float(np.max(p[at])),
+            stage_dynamic_load_rating_kn=float(stage.bearing.rating() / 1e3),
+            stage_max_roller_load_n=float(np.max(result.max_roller_load[at])),
+        )
+    return {name: sheet[name] for name in STAGE_METRICS if name in sheet}
+
+
+def solve_case(inputs: Any) -> Stage:
+    """The stage of a run case at its torque(s) and crank angles."""
+    return solve_stage(
+        inputs.design,
+        inputs.stage,
+        inputs.modification,
+        inputs.errors,
+        inputs.torque,
+        inputs.crank_angles,
+        inputs.groove_deformation,
+        inputs.discs,
+        inputs.contact_law,
+    )
+
+
+def stage_torsion_variables(
+    inputs: Any, rated_torque: float, points: int, crank_angles: np.ndarray
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The stage's torsion curve for a stiffness study: Dataset variables and summary keys.
+
+    Variables (same ``torque`` and ``crank_angle`` as ``stiffness.nc``): ``stage_rotation``
+    [arcsec], ``stage_lost_motion`` [arcmin], ``stage_torsional_rigidity`` [N m/arcmin],
+    ``crank_bearing_load`` [N] (torque, crank_angle, disc, crank). Summary:
+    ``stage_lost_motion_arcmin_mean``/``_max``, ``stage_torsional_rigidity_nm_per_arcmin_
+    mean``/``_min`` and, with a bearing, ``stage_l10_h_min`` at +T_r.
+    """
+    curve = stage_torsion_curve(
+        inputs.design,
+        inputs.stage,
+        inputs.modification,
+        inputs.errors,
+        rated_torque,
+        crank_angles,
+        inputs.groove_deformation,
+        inputs.discs,
+        points=points,
+        contact_law=inputs.contact_law,
+    )
+    data: dict[str, Any] = {
+        "stage_rotation": (
+            ("torque", "crank_angle"),
+            curve.rotation / ARCSEC,
+            {"units": "arcsec", "long_name": "output rotation of the RV stage (TE sign)"},
+        ),
+        "stage_lost_motion": (
+            ("crank_angle",),
+            curve.lost_motion / ARCMIN,
+            {"units": "arcmin", "long_name": "lost motion of the RV stage"},
+        ),
+        "stage_torsional_rigidity": (
+            ("crank_angle",),
+            curve.torsional_rigidity * ARCMIN,
+            {"units": "N m/arcmin", "long_name": "torsional rigidity of the RV stage"},
+        ),
+        "crank_bearing_load": (
+            ("torque", "crank_angle", "stage_disc", "crank"),
+            curve.stage.bearing_load,
+            {"units": "N", "long_name": "crank bearing load"},
+        ),
+    }
+    summary = {
+        "stage_lost_motion_arcmin_mean": float(np.mean(curve.lost_motion) / ARCMIN),
+        "stage_lost_motion_arcmin_max": float(np.max(curve.lost_motion) / ARCMIN),
+        "stage_torsional_rigidity_nm_per_arcmin_mean": float(
+            np.mean(curve.torsional_rigidity) * ARCMIN
+        ),
+        "stage_torsional_rigidity_nm_per_arcmin_min": float(
+            np.min(curve.torsional_rigidity) * ARCMIN
+        ),
+    }
+    if inputs.stage.bearing is not None:
+        at = int(np.flatnonzero(curve.torque == rated_torque)[0])
+        _, _, hours = bearing_life(curve.stage, inputs.stage, inputs.design.pins)
+        summary["stage_l10_h_min"] = float(np.min(hours[at]))
+    return data, summary
+
+
+STAGE_STIFFNESS_METRICS: dict[str, Metric] = {
+    m.name: m
+    for m in (
+        Metric(
+            "stage_lost_motion_arcmin_mean", "arcmin", "mean lost motion of the stage", "stage LM"
+        ),
+        Metric("stage_lost_motion_arcmin_max", "arcmin", "largest lost motion of the stage", "max"),
+        Metric(
+            "stage_torsional_rigidity_nm_per_arcmin_mean",
+            "N·m/arcmin",
+            "mean torsional rigidity of the stage",
+            "stage rigidity",
+        ),
+        Metric(
+            "stage_torsional_rigidity_nm_per_arcmin_min",
+            "N·m/arcmin",
+            "smallest torsional rigidity of the stage",
+            "min",
+        ),
+        Metric("stage_l10_h_min", "h", "L10h of the weakest crank bearing at +T_r", "L10h"),
+    )
+}

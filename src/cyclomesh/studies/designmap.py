@@ -1,0 +1,337 @@
+"""Design maps (``cyclomesh design``): a study's ``[design_space]`` on the one pipeline.
+
+The study's base description (its top-level sections; ``[[cases]]`` are not used) fixes
+the design, the torque, the crank angles (``[analysis]``), the pin errors and the
+unswept part of the modification (including a ``profile_file``); ``[design_space]``
+(:class:`~cyclomesh.studyfile.schema.DesignSpaceSection`) gives the swept parameters, the
+constraints, the objective and, with ``rings = K``, the number of rings drawn from
+``[tolerance]`` for a robust map. Stages (see ``docs/pipeline.md``):
+
+1. :func:`compute_design` analyses every candidate (:mod:`cyclomesh.designspace.sweep`), in
+   chunks through :mod:`cyclomesh.execution.backends` when a backend is given (local processes
+   or a Dask cluster, bit-for-bit the same);
+2. :func:`write_design` writes ``design.nc`` (one dimension per swept parameter, every
+   metric with units, ``feasible``, ``reason``), ``summary.json`` (the optimum, its
+   metrics, the number of feasible candidates) and ``best.toml`` (the optimum as a study
+   file that ``cyclomesh run`` reruns to the same numbers);
+3. :func:`design_figures` (one contour map per metric) and :func:`design_sections`.
+
+See ``docs/design-map.md``. Nothing here prints; progress goes to a callback.
+"""
+
+from __future__ import annotations
+
+import html
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from cyclomesh.designspace.sweep import METRICS, PARAMETERS, Constraints
+from cyclomesh.exceptions import DesignError, StudyError
+from cyclomesh.studyfile.schema import DesignSpaceSection, Study, load_study
+from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from cyclomesh.execution.backends import Backend
+    from cyclomesh.figures.render import FigureJob
+    from cyclomesh.publish.report import Section
+
+__all__ = [
+    "DesignResult",
+    "load_design_study",
+    "constraints",
+    "compute_design",
+    "best_study",
+    "write_design",
+    "design_figures",
+    "design_sections",
+]
+
+Progress = Callable[[int], None]
+SECTION = "Design map"
+
+
+def load_design_study(path: str | Path) -> tuple[Study, DesignSpaceSection]:
+    """Load a study file that must have a ``[design_space]`` section.
+
+    Raises
+    ------
+    StudyError
+        A bad study file, or no ``[design_space]`` section.
+    """
+    study = load_study(path)
+    space = study.file.design_space
+    if space is None:
+        raise StudyError(
+            f"{Path(path).name}: no [design_space] section (see docs/design-map.md, "
+            "examples/design.toml)"
+        )
+    torques = [case.load.torque_nm for case in study.cases]
+    if any(isinstance(t, list) for t in torques):
+        raise StudyError(
+            "load.torque_nm: a design map takes one torque; give a number "
+            "(cyclomesh stiffness sweeps torques)"
+        )
+    if space.rings and study.file.tolerance is None:
+        raise StudyError(
+            "design_space.rings: a robust map needs a [tolerance] section to draw rings"
+        )
+    return study, space
+
+
+def constraints(space: DesignSpaceSection) -> Constraints:
+    """The constraints of a ``[design_space]`` in SI units."""
+
+    def scaled(value: float | None, scale: float) -> float | None:
+        return None if value is None else value * scale
+
+    return Constraints(
+        max_play=scaled(space.max_play_arcmin, RAD_PER_ARCMIN),
+        min_play=scaled(space.min_play_arcmin, RAD_PER_ARCMIN),
+        allowable_contact_stress=scaled(space.allowable_contact_stress_mpa, 1e6),
+        max_te_pp=scaled(space.max_te_pp_arcsec, RAD_PER_ARCSEC),
+        min_contacts=space.min_contacts,
+    )
+
+
+@dataclass(frozen=True)
+class DesignResult:
+    """A computed design map."""
+
+    study: Study
+    space: DesignSpaceSection
+    map: xr.Dataset
+    summary: dict[str, Any]
+    best_toml: str | None
+    seconds: float
+    marks: dict[str, dict[str, float]]
+
+
+def compute_design(
+    study: Study,
+    *,
+    backend: Backend | None = None,
+    chunk: int | None = None,
+    progress: Progress | None = None,
+) -> DesignResult:
+    """Compute the design map of a study's base case (see the module doc).
+
+    Parameters
+    ----------
+    study : Study
+        With a ``[design_space]`` section.
+    backend : Backend, optional
+        Where the candidates run (default: this process).
+    chunk : int, optional
+        Candidates per chunk of work.
+    progress : callable, optional
+        Called with the number of candidates finished.
+    """
+    from cyclomesh.studyfile.schema import refuse_stage
+
+    refuse_stage(study, "design")
+    from cyclomesh.designspace.sweep import design_map
+
+    start = time.perf_counter()
+    space = study.file.design_space
+    if space is None:
+        raise StudyError(f"{study.path.name}: no [design_space] section")
+    base = study.base.to_core()
+    errors = base.errors
+    if space.rings:
+        from cyclomesh.studies.tolerance import ring_model
+
+        if study.file.tolerance is None:
+            raise StudyError("design_space.rings: a robust map needs a [tolerance] section")
+        model = ring_model(study, study.file.tolerance)
+        errors = model.pin_errors(model.draw(np.arange(space.rings)))
+    try:
+        ds = design_map(
+            base.design,
+            space.axes(),
+            base=base.modification,
+            errors=errors,
+            torque=base.torque,
+            crank_angles_deg=study.base.analysis.crank_angles_deg(),
+            groove_deformation=base.groove_deformation,
+            contact_law=base.contact_law,
+            constraints=constraints(space),
+            objective=space.objective,
+            lost_motion=space.lost_motion,
+            backend=backend,
+            chunk=chunk,
+            progress=progress,
+        )
+    except DesignError as exc:
+        raise StudyError(f"design_space: {exc}") from None
+    ds.attrs["study_title"] = study.title
+    ds.attrs["study_sha256"] = study.sha256
+    marks = {
+        "study's modification": {
+            key: float(getattr(base.modification, PARAMETERS[key][0])) / PARAMETERS[key][1]
+            for key in space.axes()
+        }
+    }
+    summary = _summary(ds, space, study.title)
+    best = best_study(study, ds) if summary["optimum"] is not None else None
+    return DesignResult(study, space, ds, summary, best, time.perf_counter() - start, marks)
+
+
+def _summary(ds: xr.Dataset, space: DesignSpaceSection, title: str) -> dict[str, Any]:
+    dims = list(ds["feasible"].dims)
+    optimum = None
+    if all(f"optimum_{d}" in ds.attrs for d in dims):
+        where = {d: float(ds.attrs[f"optimum_{d}"]) for d in dims}
+        cell = ds.sel(where)
+        values = {var: float(cell[var]) for var, *_ in METRICS.values() if var in ds}
+        optimum = {"parameters": where, "metrics": values}
+    reasons = ds["reason"].values
+    failed = (reasons != "") & ~np.char.endswith(reasons.astype(str), " violated")
+    return {
+        "title": title,
+        "objective": space.objective,
+        "objective_variable": ds.attrs["objective_variable"],
+        "robust": bool(ds.attrs["robust"]),
+        "rings": int(ds.attrs["rings"]) if ds.attrs["robust"] else 0,
+        "robust_percentile": float(ds.attrs["robust_percentile"]),
+        "candidates": int(ds.attrs["candidates"]),
+        "feasible_candidates": int(ds.attrs["feasible_candidates"]),
+        "failed_candidates": int(failed.sum()),
+        "parameters": {d: ds[d].values.tolist() for d in dims},
+        "constraints": space.constraints_dict(),
+        "optimum": optimum,
+    }
+
+
+def best_study(study: Study, ds: xr.Dataset) -> str:
+    """The study file (TOML) of the optimum: the base case with the optimum modification.
+
+    ``cyclomesh run best.toml`` reruns it; file names inside are made absolute. A robust
+    map keeps the ``[tolerance]`` section (the rings' distributions and seed).
+    """
+    from cyclomesh.output.writers import toml_dumps
+
+    base = study.base.model_dump()
+    sections: dict[str, Any] = {"title": f"{study.title}: optimum of the design map"}
+    for name in ("design", "modification", "material", "load", "errors", "analysis"):
+        table = _drop_none(base.get(name) or {})
+        if table:
+            sections[name] = table
+    modification = sections.setdefault("modification", {})
+    for d in ds["feasible"].dims:
+        modification[d] = float(ds.attrs[f"optimum_{d}"])
+    folder = study.path.parent.resolve()
+    if modification.get("profile_file"):
+        modification["profile_file"] = str(folder / modification["profile_file"])
+    errors = sections.get("errors", {})
+    if errors.get("file"):
+        errors["file"] = str(folder / errors["file"])
+    if study.file.tolerance is not None and ds.attrs["robust"]:
+        sections["tolerance"] = _drop_none(study.file.tolerance.model_dump())
+    note = (
+        f"Optimum of the design map of {study.title!r} ({study.path.name}), objective "
+        f"{ds.attrs['objective']}"
+        + (f", robust over {ds.attrs['rings']} rings" if ds.attrs["robust"] else "")
+        + ".\nRerun with: cyclomesh run best.toml --out DIR"
+    )
+    return "".join(f"# {line}\n" for line in note.splitlines()) + toml_dumps(sections) + "\n"
+
+
+def _drop_none(table: Mapping[str, Any]) -> dict[str, Any]:
+    out = {}
+    for key, value in table.items():
+        if value is None:
+            continue
+        if isinstance(value, Mapping):
+            value = _drop_none(value)
+            if not value:
+                continue
+        out[key] = value
+    return out
+
+
+def write_design(result: DesignResult, out: Path) -> list[Path]:
+    """Write ``design.nc``, ``summary.json`` and (if any candidate is feasible) ``best.toml``."""
+    from cyclomesh.output.folder import write_text
+    from cyclomesh.output.writers import write_json, write_netcdf
+
+    out.mkdir(parents=True, exist_ok=True)
+    files = [
+        write_netcdf(result.map, out / "design.nc"),
+        write_json(out / "summary.json", dict(result.summary, seconds=result.seconds)),
+    ]
+    if result.best_toml is not None:
+        path = out / "best.toml"
+        files.append(write_text(path, result.best_toml))
+    return files
+
+
+def design_figures(result: DesignResult) -> list[FigureJob]:
+    """One contour map per metric (a line for one swept parameter)."""
+    from cyclomesh.figures import designmap as plots
+    from cyclomesh.figures.render import FigureJob
+
+    ds = result.map
+    robust = (
+        f", {ds.attrs['robust_percentile']:g}th-percentile value over {ds.attrs['rings']} rings"
+        if ds.attrs["robust"]
+        else ""
+    )
+    jobs = []
+    for metric in plots.map_metrics(ds):
+        attrs = ds[metric].attrs
+        caption = (
+            f"{attrs['long_name']} [{attrs['units']}]{robust}; hatched: infeasible; "
+            "star: optimum; cross: the study's own modification."
+        )
+        keep = [metric, "feasible"]
+        jobs.append(
+            FigureJob(
+                f"design_{metric}",
+                plots.plot_design_map,
+                (ds[keep], metric, result.marks),
+                caption=caption,
+                section=SECTION,
+            )
+        )
+    return jobs
+
+
+def design_sections(result: DesignResult) -> list[Section]:
+    """The report section of a design map (figures are attached to it by heading)."""
+    from cyclomesh.publish.report import Section, table_html
+
+    s = result.summary
+    rows: list[tuple[str, Any]] = [
+        ("study", s["title"]),
+        ("objective (minimised)", s["objective_variable"]),
+        ("candidates", s["candidates"]),
+        ("feasible", s["feasible_candidates"]),
+        ("failed (undercut, interference, ...)", s["failed_candidates"]),
+        (
+            "robust",
+            f"{s['rings']} rings, percentile {s['robust_percentile']:g}"
+            if s["robust"]
+            else "no (nominal)",
+        ),
+    ]
+    rows += [(f"constraint {k}", v) for k, v in s["constraints"].items()]
+    if s["optimum"] is None:
+        rows.append(("optimum", "none: no candidate is feasible"))
+    else:
+        rows += [(f"optimum {k}", v) for k, v in s["optimum"]["parameters"].items()]
+        rows += [(f"at the optimum: {k}", v) for k, v in s["optimum"]["metrics"].items()]
+    text = (
+        "<p>Every candidate modification analysed with the full model at the study's "
+        "torque over its crank angles"
+        + (", each metric its robust value over the rings" if s["robust"] else "")
+        + f" ({html.escape('docs/design-map.md')}). <code>best.toml</code> is the optimum "
+        "as a study file.</p>"
+    )
+    return [Section(SECTION, text + table_html(["", "value"], rows))]

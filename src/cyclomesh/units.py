@@ -1,0 +1,21 @@
+"""Unit constants, each defined once and named by direction: ``x_rad / RAD_PER_ARCSEC`` is
+``x`` in arcseconds, ``x_arcsec * RAD_PER_ARCSEC`` is ``x`` in radians.
+
+Inside the package everything is SI; these convert at the edges (labelled results, study
+files, figures).
+"""
+
+from __future__ import annotations
+
+import math
+
+__all__ = ["RAD_PER_ARCSEC", "RAD_PER_ARCMIN", "ARCSEC_PER_RAD"]
+
+RAD_PER_ARCSEC = math.pi / (180.0 * 3600.0)
+"""One arcsecond in radians."""
+
+RAD_PER_ARCMIN = math.pi / (180.0 * 60.0)
+"""One arcminute in radians (= 60 · RAD_PER_ARCSEC to the last bit)."""
+
+ARCSEC_PER_RAD = 1.0 / RAD_PER_ARCSEC
+"""One radian in arcseconds (= 180/π · 3600 to the last bit)."""

@@ -1,0 +1,144 @@
+"""End-to-end: ``[stage]`` in ``cyclomesh run`` and ``cyclomesh stiffness`` (the RV stage)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+from cyclomesh.cli import app
+
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "rv_stage.toml"
+
+
+def invoke(*args: str):
+    return CliRunner().invoke(app, list(args))
+
+
+@pytest.fixture(scope="module")
+def run_out(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("rv") / "out"
+    result = invoke(
+        "run", str(EXAMPLE), "--out", str(out), "--crank-step-deg", "10", "--figures", "none"
+    )
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_run_writes_bearing_loads_life_and_data_sheet(run_out):
+    summary = json.loads((run_out / "summary.json").read_text())
+    cases = {case["name"]: case for case in summary["cases"]}
+    assert list(cases) == ["three crankshafts", "two crankshafts"]
+    for case in cases.values():
+        assert case["stage_rated_torque_nm"] == 412.0
+        assert (
+            case["stage_torsional_rigidity_nm_per_arcmin"]
+            < case["mesh_torsional_rigidity_nm_per_arcmin"]
+        )
+        assert case["stage_lost_motion_arcmin"] > case["mesh_lost_motion_arcmin"]
+        ds = xr.open_dataset(run_out / case["results"])
+        load = ds["crank_bearing_load"]
+        assert load.dims == ("crank_angle", "disc", "crank") and load.attrs["units"] == "N"
+        assert ds.sizes["crank"] == (3 if case["name"] == "three crankshafts" else 2)
+        assert ds["crank_bearing_l10"].attrs["units"] == "h"
+        assert ds["disc_translation_x"].attrs["units"] == "um"
+        # the run's torque is the rated torque: the sheet's weakest bearing is in the file
+        assert case["stage_l10_h_min"] == pytest.approx(float(ds["crank_bearing_l10"].min()))
+        assert np.all(np.isfinite(load.values))
+    # three crankshafts share the load better than two
+    assert (
+        cases["three crankshafts"]["stage_l10_h_min"] > cases["two crankshafts"]["stage_l10_h_min"]
+    )
+    report = (run_out / "report.html").read_text()
+    assert "Data sheet (RV stage)" in report
+
+
+def test_stiffness_reports_the_stage_beside_the_mesh(tmp_path):
+    out = tmp_path / "stiff"
+    result = invoke(
+        "stiffness", str(EXAMPLE), "--out", str(out), "--crank-step-deg", "30", "--figures", "none"
+    )
+    assert result.exit_code == 0, result.output
+    case = json.loads((out / "summary.json").read_text())["cases"][0]
+    assert (
+        case["stage_torsional_rigidity_nm_per_arcmin_mean"]
+        < case["torsional_rigidity_nm_per_arcmin_mean"]
+    )
+    assert case["stage_lost_motion_arcmin_mean"] > case["lost_motion_arcmin_mean"]
+    ds = xr.open_dataset(out / case["results"])
+    assert ds["stage_rotation"].dims == ("torque", "crank_angle")
+    assert ds["crank_bearing_load"].dims == ("torque", "crank_angle", "stage_disc", "crank")
+    from cyclomesh.figures.stage import plot_stage_torsion_curve
+
+    fig = plot_stage_torsion_curve({"three": ds})
+    assert len(fig.axes) == 1 and len(fig.axes[0].lines) == 4  # mesh, stage, two axes lines
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        ("[stage]\ncrankshafts = 3\n", "give [design.disc] crank_holes"),
+        ("[stage]\ncrank_circle_radius_mm = 36.0\n", "crank_hole_circle_radius_mm"),
+    ],
+)
+def test_one_set_of_keys_for_the_crankshafts(tmp_path, extra, message):
+    text = EXAMPLE.read_text().replace("[stage]\n", extra, 1)
+    study = tmp_path / "s.toml"
+    study.write_text(text)
+    result = invoke("run", str(study), "--out", str(tmp_path / "o"))
+    assert result.exit_code == 2
+    assert message in result.output and "Traceback" not in result.output
+
+
+def test_stage_needs_the_crank_holes(tmp_path):
+    text = EXAMPLE.read_text()
+    start = text.index("[design.disc]")
+    text = text[:start] + text[text.index("[modification]") :]
+    text = text.replace("design.disc.crank_holes = 2\n", "")
+    study = tmp_path / "s.toml"
+    study.write_text(text)
+    result = invoke("run", str(study), "--out", str(tmp_path / "o"))
+    assert result.exit_code == 2
+    assert "set [design.disc] crank_holes" in result.output
+
+
+@pytest.mark.parametrize(
+    "command, section",
+    [
+        (
+            "tolerance",
+            "[tolerance]\nseed = 1\nrings = 4\nallowable_contact_stress_mpa = 2000.0\n"
+            'radial_um = { distribution = "uniform", half_range = 4.0 }\n',
+        ),
+        ("design", "[design_space]\npin_radius_um = { start = 1.0, stop = 4.0, points = 3 }\n"),
+    ],
+)
+def test_other_studies_refuse_stage_rather_than_ignore_it(tmp_path, command, section):
+    study = tmp_path / "s.toml"
+    text = EXAMPLE.read_text()
+    study.write_text(text[: text.index("[[cases]]")] + section)
+    result = invoke(command, str(study), "--out", str(tmp_path / "o"))
+    assert result.exit_code == 2, result.output
+    assert "[stage] is not taken by cyclomesh" in result.output
+
+
+def test_one_disc_stage_and_its_figure(tmp_path):
+    from cyclomesh.figures.stage import plot_crank_bearing_loads
+
+    text = EXAMPLE.read_text().replace("discs = 2 ", "discs = 1 ")
+    study = tmp_path / "s.toml"
+    study.write_text(text[: text.index("[[cases]]")])
+    out = tmp_path / "o"
+    result = invoke("run", str(study), "--out", str(out), "--crank-step-deg", "30")
+    assert result.exit_code == 0, result.output
+    case = json.loads((out / "summary.json").read_text())["cases"][0]
+    ds = xr.open_dataset(out / case["results"])
+    assert ds["crank_bearing_load"].dims == ("crank_angle", "crank")
+    assert "disc" not in ds.dims
+    assert (out / "figures" / "crank_bearing_loads.png").exists()
+    fig = plot_crank_bearing_loads({"one disc": ds})
+    assert len(fig.axes) == 1 and len(fig.axes[0].lines) == 3
