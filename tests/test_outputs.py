@@ -197,3 +197,43 @@ def test_netcdf_variables_have_a_fill_value(tmp_path):
         assert np.isnan(nc["load"]._FillValue)
         assert nc["n"].filters() is not None and nc["n"].get_fill_value() is not None
     xr.testing.assert_identical(xr.load_dataset(path), ds)
+
+
+def test_kill_during_a_run_never_leaves_a_readable_partial_folder(tmp_path):
+    """``kill -9`` of ``cyclomesh run`` into a folder that holds an earlier run, at
+    several moments: the folder is either complete (load_results) or refused, and every
+    NetCDF file under its final name is whole (it opens and reads finite numbers)."""
+    out = tmp_path / "out"
+    assert run(out, *QUICK).exit_code == 0
+    command = [
+        sys.executable,
+        "-m",
+        "cyclomesh",
+        "run",
+        str(EXAMPLES / "table2.toml"),
+        "--out",
+        str(out),
+        "--crank-step-deg",
+        "0.5",
+        "--figures",
+        "none",
+        "-q",
+    ]
+    outcomes = set()
+    for delay in (0.4, 0.9, 1.4, 2.2):
+        process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(delay)
+        process.kill()
+        process.wait()
+        try:
+            load_results(out)
+            outcomes.add("complete")
+        except OutputError:
+            outcomes.add("refused")
+        for nc in out.rglob("results.nc"):
+            ds = xr.load_dataset(nc)
+            assert np.isfinite(ds["pin_load"].values).all(), nc
+    assert "refused" in outcomes  # at least one kill hit the run before its marker
+    assert run(out, *QUICK).exit_code == 0  # the next run cleans up and completes
+    assert not list(out.rglob(".*.tmp"))
+    load_results(out)

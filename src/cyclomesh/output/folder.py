@@ -187,7 +187,7 @@ class ResultFolder:
             os.ftruncate(fd, 0)
             os.write(fd, f"{os.getpid()}\n".encode("ascii"))
             self.marker.unlink(missing_ok=True)  # the folder is incomplete from now on
-            for stale in out.glob(f".*{_TMP_SUFFIX}"):  # left by a killed run
+            for stale in out.rglob(f".*{_TMP_SUFFIX}"):  # left by a killed run
                 stale.unlink(missing_ok=True)
         except OSError as exc:
             self._release()
