@@ -21,6 +21,7 @@ callbacks. Heavy modules are imported inside the commands, so ``--help`` is fast
 from __future__ import annotations
 
 import math
+import os
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -280,6 +281,23 @@ StepOption = Annotated[
         show_default=False,
     ),
 ]
+CacheDirOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--cache-dir",
+        help='Cache of the FE coefficients of [analysis] disc_body = "fe" (default: '
+        "$XDG_CACHE_HOME/cyclomesh or ~/.cache/cyclomesh).",
+        show_default=False,
+    ),
+]
+
+
+def _cache_dir(path: Path | None) -> None:
+    """Point the disc body's cache at ``path`` for this process and its workers."""
+    if path is not None:
+        os.environ["CYCLOMESH_CACHE_DIR"] = str(path)
+
+
 FiguresOption = Annotated[
     str | None,
     typer.Option(
@@ -354,6 +372,11 @@ def check(
 
     loaded = load_study(study, _overrides(crank_step_deg))
     check_study_work(loaded, "check", allow=no_work_limit)
+    if any(case.analysis.disc_body == "fe" for case in loaded.cases):
+        from cyclomesh.results.dataset import FE_EXTRA_MESSAGE, fe_extra_available
+
+        if not fe_extra_available():
+            raise StudyError(f"{study}: [analysis] {FE_EXTRA_MESSAGE}")
     names = ", ".join(case.name for case in loaded.cases)
     more = "; [tolerance] OK" if loaded.tolerance is not None else ""
     if any(case.stiffness is not None for case in loaded.cases):
@@ -375,9 +398,11 @@ def run(
     crank_step_deg: StepOption = None,
     figures: FiguresOption = None,
     csv: CsvOption = False,
+    cache_dir: CacheDirOption = None,
     no_work_limit: NoLimitOption = False,
 ) -> None:
     """Run every case of a study; write results, figures, summary.json and report.html."""
+    _cache_dir(cache_dir)
     from cyclomesh.publish.pipeline import publish, study_stamp
     from cyclomesh.studies import run as kind
     from cyclomesh.studyfile import load_study
@@ -408,7 +433,7 @@ def run(
             pool=pool,
         )
     if not quiet:
-        _print_summary(result.summaries, out)
+        _print_summary(result.summaries, out, result.study_warnings())
 
 
 _SUMMARY_COLUMNS = (
@@ -422,7 +447,16 @@ _SUMMARY_COLUMNS = (
 )
 
 
-def _print_summary(summaries: dict, out: Path) -> None:
+def _print_warnings(warnings: list[str]) -> None:
+    from rich.console import Console
+    from rich.markup import escape
+
+    console = Console()
+    for warning in warnings:
+        console.print(f"warning: {escape(warning)}")
+
+
+def _print_summary(summaries: dict, out: Path, warnings: list[str] = ()) -> None:
     from rich.console import Console
     from rich.markup import escape
     from rich.table import Table
@@ -451,6 +485,7 @@ def _print_summary(summaries: dict, out: Path) -> None:
         console.print(
             "warning: the disc interferes with unloaded-side pins (see max_overlap_arcsec)"
         )
+    _print_warnings(list(warnings))
     console.print(f"report: {out / 'report.html'}")
 
 
@@ -463,6 +498,7 @@ def stiffness(
     quiet: QuietOption = False,
     crank_step_deg: StepOption = None,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
     no_work_limit: NoLimitOption = False,
 ) -> None:
     """Torsion curve of every case ([stiffness] section): play, lost motion, rigidity.
@@ -470,6 +506,7 @@ def stiffness(
     Writes <case>/stiffness.nc, summary.json, the figures and report.html. The numbers
     are those of the cycloid-pin mesh alone (see docs/drive.md).
     """
+    _cache_dir(cache_dir)
     from cyclomesh.publish.pipeline import publish, study_stamp
     from cyclomesh.studies import stiffness as kind
     from cyclomesh.studyfile import load_study
@@ -495,6 +532,7 @@ def stiffness(
             pool=pool,
         )
     if not quiet:
+        _print_warnings(result.study_warnings())
         _print_stiffness(result.summaries, out)
 
 
@@ -632,9 +670,11 @@ def tolerance(
     workers: WorkersOption = None,
     chunk_rings: ChunkOption = None,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
     no_work_limit: NoLimitOption = False,
 ) -> None:
     """Monte Carlo tolerance study: per-ring metrics, statistics, worst ring, report."""
+    _cache_dir(cache_dir)
     from cyclomesh.studies import tolerance as kind
     from cyclomesh.studyfile.limits import check_study_work
 
@@ -646,7 +686,8 @@ def tolerance(
     with _folder(out, "tolerance"):
         with _workers(scheduler, workers, bool(options.figures)) as backend:
             _say(
-                f"tolerance study: {n} rings, {len(spec.crank_angles_deg())} crank angles, "
+                f"tolerance study: {n} rings, "
+                f"{len(spec.crank_angles_deg(loaded.base.analysis))} crank angles, "
                 f"{backend.workers} worker(s)",
                 quiet,
             )
@@ -683,9 +724,11 @@ def allocate(
     workers: WorkersOption = None,
     chunk_rings: ChunkOption = None,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
     no_work_limit: NoLimitOption = False,
 ) -> None:
     """Largest scale factor on the tolerances that meets the target exceedance probability."""
+    _cache_dir(cache_dir)
     from cyclomesh.studies import tolerance as kind
     from cyclomesh.studyfile.limits import check_study_work
 
@@ -715,6 +758,7 @@ def allocate(
         kind.publish_allocation(result, out, options)
     if not quiet:
         typer.echo(result.allocation.statement())
+        _print_warnings(result.record.get("warnings", []))
         typer.echo(f"files: {out}")
 
 
@@ -742,6 +786,7 @@ def _print_tolerance(stats: dict[str, Any], out: Path) -> None:
         f"{ex['probability']:.4g}, {conf:.0%} Clopper-Pearson [{ex['lower']:.4g}, "
         f"{ex['upper']:.4g}] ({ex['count']} of {ex['rings']} rings)"
     )
+    _print_warnings(stats.get("warnings", []))
     worst = stats["worst_ring"]
     console.print(
         f"worst ring {worst['ring']}: {worst['max_contact_stress_mpa']:.5g} MPa -> "
@@ -768,6 +813,7 @@ def design(
     quiet: QuietOption = False,
     workers: WorkersOption = None,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
     no_work_limit: NoLimitOption = False,
 ) -> None:
     """Design map: sweep the modification, map the metrics, mark the optimum.
@@ -775,6 +821,7 @@ def design(
     A nominal map runs in this process unless --workers or --scheduler is given; a
     robust map (design_space.rings > 0) runs on all local cores by default.
     """
+    _cache_dir(cache_dir)
     from cyclomesh.publish.pipeline import publish
     from cyclomesh.studies import designmap as kind
     from cyclomesh.studyfile.limits import check_study_work
@@ -819,6 +866,7 @@ def design(
             where = ", ".join(f"{k} = {v:g}" for k, v in s["optimum"]["parameters"].items())
             value = s["optimum"]["metrics"][s["objective_variable"]]
             typer.echo(f"optimum: {where} ({s['objective_variable']} = {value:.6g})")
+        _print_warnings(s.get("warnings", []))
         typer.echo(f"report: {out / 'report.html'}")
 
 
@@ -839,12 +887,15 @@ def fe(
     ] = True,
     quiet: QuietOption = False,
     figures: FiguresOption = None,
+    cache_dir: CacheDirOption = None,
 ) -> None:
     """Whole-disc finite-element model beside the LTCA, per case (needs the fe extra).
 
     Writes <case>/fe.nc, <case>/convergence.csv, summary.json, the figures and
-    report.html (docs/contact-law.md).
+    report.html (docs/contact-law.md). The LTCA runs under the study's [analysis]
+    settings (contact_law, disc_body).
     """
+    _cache_dir(cache_dir)
     try:
         import gmsh  # noqa: F401
         import skfem  # noqa: F401

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.contact import UnloadedContact, unloaded_contact
+from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
 from cyclomesh.core.hertz import (
     CONTACT_LAWS,
     compliance_coefficients,
@@ -34,7 +35,14 @@ from cyclomesh.core.profile import check_profile
 from cyclomesh.core.transmission import gear_ratio, transmission_error
 from cyclomesh.exceptions import ConvergenceError, DesignError
 
-__all__ = ["LTCA", "solve_ltca", "rest_position"]
+__all__ = [
+    "LTCA",
+    "solve_ltca",
+    "rest_position",
+    "check_disc_body",
+    "count_contacts",
+    "CONTACT_LOAD_FRACTION",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -68,7 +76,9 @@ class LTCA:
     gear_ratio : ndarray
         Instantaneous ratio (Eq. 26) [-].
     contacts : ndarray
-        Number of loaded pins [-].
+        Number of pins in contact [-]: pins carrying more than
+        :data:`CONTACT_LOAD_FRACTION` of the largest pin load at that crank angle
+        (:func:`count_contacts`).
     """
 
     crank_angle: FloatArray
@@ -88,6 +98,13 @@ class LTCA:
     gear_ratio: FloatArray
     contacts: NDArray[np.int64]
 
+
+CONTACT_LOAD_FRACTION = 1e-3
+"""A pin is counted in contact when its load exceeds this fraction of the largest pin load
+at the same crank angle (over all discs of a stack). Pins at a tip or a tooth-space bottom
+(moment arm ≈ 0) touch the disc but carry about 1e-8 of the peak load; 0.1 % leaves them
+out and no pin that carries load (the lightest loaded pins of the examples carry 0.3 % to
+5 % of the peak)."""
 
 CONDITIONED_ARM = 1e-4
 """Smallest moment arm [m] of a pin that can set the rest position of the disc."""
@@ -126,7 +143,8 @@ def solve_ltca(
     torque: float = 250.0,
     crank_angles: ArrayLike = (0.0,),
     groove_deformation: bool = True,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
+    disc_body: str | DiscBody = "rigid",
 ) -> LTCA:
     """Loaded tooth contact analysis of a cycloid-pin pair (Eqs. 1–26 of [1]).
 
@@ -146,9 +164,17 @@ def solve_ltca(
         True for the "improved model" (pin–groove deformation, Eq. 19), False for the
         "current model".
     contact_law : {"paper", "half_plane"}
-        The tooth's term of the contact law: Eq. 20 of [1] as published (default), or
-        the approach of a half-plane to the disc centre (Johnson, eq. 5.41), finite at
-        the profile's inflection points; see :mod:`cyclomesh.core.hertz`.
+        The tooth's term of the contact law: the approach of a half-plane to the disc
+        centre (Johnson, eq. 5.41; the default), finite at the profile's inflection points
+        and converged in the crank step, or Eq. 20 of [1] as published (``"paper"``, to
+        reproduce the paper; its ratio ripple and TE peak-to-peak grow without bound as
+        the crank step shrinks); see :mod:`cyclomesh.core.hertz` and ``docs/contact-law.md``.
+    disc_body : "rigid" or DiscBody
+        The disc body: rigid apart from the contact law ([1], the default, solved by
+        :func:`~cyclomesh.core.loadsharing.share_load` exactly as before), or elastic with
+        the influence coefficients of a :class:`~cyclomesh.core.discbody.DiscBody`
+        (:func:`cyclomesh.fe.influence.influence`; needs ``contact_law="half_plane"``,
+        whose near field the coefficients leave out).
 
     Returns
     -------
@@ -167,6 +193,7 @@ def solve_ltca(
         raise DesignError(f"torque must be a positive number of N·m, got {torque!r}")
     phi = check_crank_angles(crank_angles)
     check_contact_law(contact_law)
+    body = check_disc_body(disc_body, contact_law, design)
     ring_shape = check_pair(design, modification, errors)
 
     geo = unloaded_contact(design, modification, errors, phi)
@@ -174,7 +201,13 @@ def solve_ltca(
     backlash = geo.rotation - rest[..., None]
     alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
     try:
-        loaded, force = share_load(backlash, geo.moment_arm, alpha, gamma, torque)
+        if body is None:
+            loaded, force = share_load(backlash, geo.moment_arm, alpha, gamma, torque)
+        else:
+            tooth = tooth_index(design.pins, design.pitch, phi)
+            loaded, force = share_load_coupled(
+                backlash, geo.moment_arm, alpha, gamma, torque, body, tooth, geo.profile_angle
+            )
     except ConvergenceError as exc:
         raise locate_failure(exc, (*ring_shape, phi.size), phi) from None
     groove_force, contact_stress, groove_stress = contact_stresses(geo, design, force)
@@ -199,8 +232,29 @@ def solve_ltca(
         loaded_rotation=loaded,
         transmission_error=te,
         gear_ratio=gear_ratio(te, phi, design.teeth),
-        contacts=np.sum(force > 0, axis=-1),
+        contacts=count_contacts(force),
     )
+
+
+def count_contacts(force: FloatArray, axes: int = 1) -> NDArray[np.int64]:
+    """Pins in contact: load above :data:`CONTACT_LOAD_FRACTION` of the largest pin load.
+
+    Parameters
+    ----------
+    force : ndarray
+        Pin loads [N], the last ``axes`` axes are the pins of one crank angle (``axes=2``
+        for the discs × pins of a stack: the reference is the stack's largest pin load).
+    axes : int
+        Trailing axes that make up the reference set; the count is per last axis
+        (per disc).
+
+    Returns
+    -------
+    ndarray
+        Counts, ``force.shape[:-1]``.
+    """
+    reference = np.max(force, axis=tuple(range(-axes, 0)), keepdims=True)
+    return np.sum(force > CONTACT_LOAD_FRACTION * reference, axis=-1)
 
 
 def check_crank_angles(crank_angles: ArrayLike) -> FloatArray:
@@ -244,11 +298,37 @@ def check_contact_law(contact_law: str) -> str:
     return contact_law
 
 
+def check_disc_body(
+    disc_body: str | DiscBody, contact_law: str, design: PairDesign
+) -> DiscBody | None:
+    """None for the rigid disc, the :class:`DiscBody` for a compliant one, else a
+    one-line :class:`DesignError`."""
+    if isinstance(disc_body, str) and disc_body == "rigid":
+        return None
+    if isinstance(disc_body, DiscBody):
+        if contact_law != "half_plane":
+            raise DesignError(
+                "disc_body: the FE disc body leaves the near field to the half-plane law; "
+                f'set contact_law = "half_plane" (got {contact_law!r})'
+            )
+        if disc_body.teeth != design.teeth:
+            raise DesignError(
+                f"disc_body: coefficients for {disc_body.teeth} teeth, design has {design.teeth}"
+            )
+        return disc_body
+    if disc_body == "fe":
+        raise DesignError(
+            'disc_body = "fe" is resolved by cyclomesh.analyse (or pass the DiscBody of '
+            "cyclomesh.fe.influence.influence)"
+        )
+    raise DesignError(f'disc_body must be "rigid" or "fe", got {disc_body!r}')
+
+
 def pin_compliance(
     geo: UnloadedContact,
     design: PairDesign,
     groove_deformation: bool,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> tuple[FloatArray, FloatArray]:
     """Coefficients (α, γ) of δ = F(α − γ ln F) of every pin contact [m/N].
 

@@ -64,12 +64,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.contact import UnloadedContact, unloaded_contact
+from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
 from cyclomesh.core.loadsharing import share_load
 from cyclomesh.core.ltca import (
     check_contact_law,
     check_crank_angles,
+    check_disc_body,
     check_pair,
     contact_stresses,
+    count_contacts,
     locate_failure,
     pin_compliance,
     rest_position,
@@ -216,7 +219,8 @@ class Drive:
         Torque carried by each disc, Σ F·l (Eqs. 16, 18), signed like the torque, (..., Q, A, N)
         [N·m].
     contacts : ndarray
-        Loaded pins of each disc, (..., Q, A, N).
+        Pins in contact of each disc, (..., Q, A, N): load above
+        :data:`~cyclomesh.core.ltca.CONTACT_LOAD_FRACTION` of the stack's largest pin load.
     mesh_force, mesh_force_angle : ndarray
         Magnitude [N] and direction [rad, counter-clockwise from x, fixed frame] of the
         resultant of the pin forces on each disc, (..., Q, A, N).
@@ -271,6 +275,8 @@ class _Mesh:
     normal_y: FloatArray
     ring_shape: tuple
     phi: FloatArray
+    body: DiscBody | None = None
+    tooth: NDArray | None = None  # (A, N·n1): tooth space of every contact (compliant disc)
 
 
 def _disc_angles(phi: FloatArray, discs: int) -> FloatArray:
@@ -366,7 +372,8 @@ def _mesh(
     phi: FloatArray,
     discs: int,
     groove_deformation: bool,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
+    body: DiscBody | None = None,
 ) -> _Mesh:
     """Unloaded contact, rest positions and compliance of a stack (forward flanks)."""
     ring_shape = errors.ring_shape(design.pins)
@@ -387,6 +394,13 @@ def _mesh(
         normal_y=ny,
         ring_shape=ring_shape,
         phi=phi,
+        body=body,
+        tooth=None
+        if body is None
+        else tooth_index(design.pins, design.pitch, _disc_angles(phi, discs))
+        .reshape(discs, phi.size, design.pins)
+        .transpose(1, 0, 2)
+        .reshape(phi.size, discs * design.pins),
     )
 
 
@@ -432,9 +446,22 @@ def _load(mesh: _Mesh, torque: float) -> dict[str, FloatArray]:
     design, geo = mesh.design, mesh.geo
     flat_arm = mesh.backlash.shape
     try:
-        loaded, force = share_load(
-            mesh.backlash, geo.moment_arm.reshape(flat_arm), mesh.alpha, mesh.gamma, torque
-        )
+        if mesh.body is None:
+            loaded, force = share_load(
+                mesh.backlash, geo.moment_arm.reshape(flat_arm), mesh.alpha, mesh.gamma, torque
+            )
+        else:
+            loaded, force = share_load_coupled(
+                mesh.backlash,
+                geo.moment_arm.reshape(flat_arm),
+                mesh.alpha,
+                mesh.gamma,
+                torque,
+                mesh.body,
+                mesh.tooth,
+                geo.profile_angle.reshape(flat_arm),
+                groups=geo.rotation.shape[-2],
+            )
     except ConvergenceError as exc:
         err = locate_failure(exc, (*mesh.ring_shape, mesh.phi.size), mesh.phi)
         raise ConvergenceError(f"torque {torque:g} N·m: {err}") from None
@@ -451,7 +478,7 @@ def _load(mesh: _Mesh, torque: float) -> dict[str, FloatArray]:
         "overlap": np.maximum(geo.reverse_rotation - total, 0.0),
         "force_angle": np.arctan2(-mesh.normal_y, -mesh.normal_x),
         "torque_share": np.sum(force * geo.moment_arm, axis=-1),
-        "contacts": np.sum(force > 0, axis=-1),
+        "contacts": count_contacts(force, axes=2),
         "mesh_force_x": fx,
         "mesh_force_y": fy,
         "loaded_rotation": loaded,
@@ -467,16 +494,22 @@ def _directions(
     groove_deformation: bool,
     forward: bool,
     reverse: bool,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
+    body: DiscBody | None = None,
 ) -> tuple[_Mesh | None, _Mesh | None]:
-    """Meshes of the forward flanks and of the mirrored (reverse) problem, as needed."""
+    """Meshes of the forward flanks and of the mirrored (reverse) problem, as needed.
+
+    The mirrored problem uses the same body coefficients: the disc (profile, bore and
+    the crank holes at 2πk/N) is symmetric about its x-axis.
+    """
     fwd = rev = None
+    args = (discs, groove_deformation, contact_law, body)
     if forward:
-        fwd = _mesh(design, modification, errors, phi, discs, groove_deformation, contact_law)
+        fwd = _mesh(design, modification, errors, phi, *args)
     if reverse:
         mod_m, errors_m = mirror_problem(modification, errors, design.pins)
         # the mirror of crank angle φ is −φ; solve increasing angles and flip back below
-        rev = _mesh(design, mod_m, errors_m, -phi[::-1], discs, groove_deformation, contact_law)
+        rev = _mesh(design, mod_m, errors_m, -phi[::-1], *args)
     return fwd, rev
 
 
@@ -503,7 +536,8 @@ def solve_drive(
     crank_angles: ArrayLike = (0.0,),
     groove_deformation: bool = True,
     discs: int = 1,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
+    disc_body: str | DiscBody = "rigid",
 ) -> Drive:
     """Loaded contact of a stack of discs on both flanks over a list of torques.
 
@@ -530,6 +564,9 @@ def solve_drive(
         Number N of discs; disc k's eccentric is at φin + (k − 1)·2π/N.
     contact_law : {"paper", "half_plane"}
         Tooth term of the contact law (:func:`~cyclomesh.core.ltca.solve_ltca`).
+    disc_body : "rigid" or DiscBody
+        Rigid disc, or the compliant disc body (:func:`~cyclomesh.core.ltca.solve_ltca`);
+        the discs of a stack share no body.
 
     Returns
     -------
@@ -549,6 +586,7 @@ def solve_drive(
     discs = _check_discs(discs)
     phi = check_crank_angles(crank_angles)
     check_contact_law(contact_law)
+    body = check_disc_body(disc_body, contact_law, design)
     check_pair(design, modification, errors)
     fwd, rev = _directions(
         design,
@@ -560,6 +598,7 @@ def solve_drive(
         bool(np.any(torques > 0)),
         bool(np.any(torques < 0)),
         contact_law,
+        body,
     )
     if fwd is not None:
         play = fwd.rest - fwd.reverse_rest
@@ -780,7 +819,8 @@ def torsion_curve(
     discs: int = 1,
     points: int = 41,
     series_stiffness: float | None = None,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
+    disc_body: str | DiscBody = "rigid",
 ) -> TorsionCurve:
     """Torsion curve of the cycloid-pin mesh: rotation against torque, both directions.
 
@@ -807,6 +847,8 @@ def torsion_curve(
         k_series [N·m/rad], > 0.
     contact_law : {"paper", "half_plane"}
         Tooth term of the contact law (:func:`~cyclomesh.core.ltca.solve_ltca`).
+    disc_body : "rigid" or DiscBody
+        Rigid or compliant disc body (:func:`solve_drive`).
 
     Returns
     -------
@@ -824,9 +866,10 @@ def torsion_curve(
         raise DesignError(f"series_stiffness must be a positive number, got {series_stiffness!r}")
     phi = check_crank_angles(crank_angles)
     check_contact_law(contact_law)
+    body = check_disc_body(disc_body, contact_law, design)
     check_pair(design, modification, errors)
     fwd, rev = _directions(
-        design, modification, errors, phi, discs, groove_deformation, True, True, contact_law
+        design, modification, errors, phi, discs, groove_deformation, True, True, contact_law, body
     )
     rotation, contacts, stress, share = [], [], [], []
     for value in torques:
@@ -890,7 +933,7 @@ def stack_meshes(
     groove_deformation: bool,
     forward: bool,
     reverse: bool,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> tuple[StackMesh | None, StackMesh | None]:
     """The unloaded meshes of the forward flanks and of the mirror problem (reverse flanks),
     as needed; the mirror problem is solved on the crank angles −φ reversed, and

@@ -107,9 +107,10 @@ def solve_disc_fe(
     bore_radius: float = 30e-3,
     elements_per_half_width: float = 8.0,
     far_size: float = 1.5e-3,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
     reach: float = 2.0,
     groove_tolerance: float = 1e-7,
+    disc_body: object = "rigid",
 ) -> DiscFE:
     """Solve the whole disc with its pins by FE at one crank angle [rad]; LTCA beside it.
 
@@ -132,6 +133,9 @@ def solve_disc_fe(
     reach : float
         Pins whose unloaded gap is below ``reach`` times the largest LTCA approach are
         modelled (the others cannot be reached).
+    disc_body : "rigid" or DiscBody
+        The disc body of the LTCA beside the FE under ``contact_law`` (the
+        ``ltca_by_law`` entries stay rigid-disc).
     groove_tolerance : float
         The projections of the gaps and the groove stiffness are updated together
         until no contact force changes by more than this fraction of the largest, no gap
@@ -152,6 +156,8 @@ def solve_disc_fe(
         by_law[law] = (r.pin_load[0], r.contact_stress[0], float(r.loaded_rotation[0]))
         if law == contact_law:
             ltca = r
+            if not isinstance(disc_body, str):
+                ltca = solve_ltca(design, modification, None, torque, phi, True, law, disc_body)
     geo = unloaded_contact(design, modification, None, phi)
     rest = float(rest_position(geo.rotation, geo.moment_arm)[0])
     n1, n2, rp = design.pins, design.teeth, design.pin_radius

@@ -74,17 +74,22 @@ def _mesh(build: Callable[[], int], refine: Refinement) -> tuple[FloatArray, NDA
         n_pts = len(refine.points)
         h_fine = np.broadcast_to(np.asarray(refine.h_fine, float), (n_pts,))
         fine_radius = np.broadcast_to(np.asarray(refine.fine_radius, float), (n_pts,))
-        for (x, y), h_i, r_i in zip(refine.points, h_fine, fine_radius, strict=True):
+        # one Distance/Threshold pair per distinct (size, radius): the minimum of the
+        # thresholds of points sharing them is the threshold of their nearest distance
+        groups: dict[tuple[float, float], list[tuple[float, float]]] = {}
+        for xy, h_i, r_i in zip(refine.points, h_fine, fine_radius, strict=True):
+            groups.setdefault((float(h_i), float(r_i)), []).append(xy)
+        for (h_i, r_i), pts in groups.items():
             occ.synchronize()
-            tag = occ.addPoint(x / MM, y / MM, 0.0)
+            tags = [occ.addPoint(x / MM, y / MM, 0.0) for x, y in pts]
             occ.synchronize()
             dist = gmsh.model.mesh.field.add("Distance")
-            gmsh.model.mesh.field.setNumbers(dist, "PointsList", [tag])
+            gmsh.model.mesh.field.setNumbers(dist, "PointsList", tags)
             thr = gmsh.model.mesh.field.add("Threshold")
             gmsh.model.mesh.field.setNumber(thr, "InField", dist)
-            gmsh.model.mesh.field.setNumber(thr, "SizeMin", float(h_i) / MM)
+            gmsh.model.mesh.field.setNumber(thr, "SizeMin", h_i / MM)
             gmsh.model.mesh.field.setNumber(thr, "SizeMax", refine.h_far / MM)
-            gmsh.model.mesh.field.setNumber(thr, "DistMin", float(r_i) / MM)
+            gmsh.model.mesh.field.setNumber(thr, "DistMin", r_i / MM)
             gmsh.model.mesh.field.setNumber(thr, "DistMax", refine.grow_radius / MM)
             fields.append(thr)
         occ.synchronize()
@@ -182,12 +187,14 @@ def mesh_profile_disc(
     bore_radius: float,
     refine: Refinement,
     breaks: Sequence[int] = (),
+    holes: Sequence[tuple[float, float, float]] = (),
 ) -> tuple[FloatArray, NDArray]:
     """The cycloid disc: a closed outline (2, K) [m] interpolated by splines, minus a bore.
 
     ``breaks`` are indices of outline points that become geometric vertices (and so mesh
     nodes), e.g. the contact points; the outline is split into one spline between each
-    pair of consecutive breaks.
+    pair of consecutive breaks. ``holes`` are further circular holes (x, y, radius) [m],
+    e.g. the crank holes.
     """
 
     def build() -> int:
@@ -202,7 +209,9 @@ def mesh_profile_disc(
             curves.append(occ.addSpline(chain))
         loop = occ.addCurveLoop(curves)
         bore = occ.addCircle(0.0, 0.0, 0.0, bore_radius / MM)
-        hole = occ.addCurveLoop([bore])
-        return occ.addPlaneSurface([loop, hole])
+        inner = [occ.addCurveLoop([bore])]
+        for x, y, r in holes:
+            inner.append(occ.addCurveLoop([occ.addCircle(x / MM, y / MM, 0.0, r / MM)]))
+        return occ.addPlaneSurface([loop, *inner])
 
     return _mesh(build, refine)

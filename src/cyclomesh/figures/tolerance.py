@@ -16,7 +16,7 @@ import numpy as np
 import xarray as xr
 
 from cyclomesh.figures.render import new_figure
-from cyclomesh.results.metrics import METRICS, STRESS_METRIC, metric_label
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC, metric_label
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -115,7 +115,8 @@ def reduce_rings(
 
 
 def _metrics(ds: xr.Dataset) -> list[str]:
-    return [name for name in METRICS if name in ds and name != "overlap"]
+    names = (*METRICS, *DRIVE_METRICS)  # the mesh force and a stack's torque split too
+    return [name for name in names if name in ds and name != "overlap"]
 
 
 def _label(name: str) -> str:

@@ -12,14 +12,15 @@ is built, so the variable tables below can be read by worker processes cheaply.
 from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.core.ltca import LTCA
+from cyclomesh.core.ltca import CONTACT_LOAD_FRACTION, LTCA
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.solve import Drive, check_torques, solve_drive
+from cyclomesh.exceptions import DesignError
 from cyclomesh.execution.runtime import tune_allocator
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, summary_metrics
 from cyclomesh.units import ARCSEC_PER_RAD
@@ -27,7 +28,14 @@ from cyclomesh.units import ARCSEC_PER_RAD
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["analyse", "to_dataset", "drive_to_dataset", "summarize", "ltca_metrics"]
+__all__ = [
+    "analyse",
+    "to_dataset",
+    "drive_to_dataset",
+    "summarize",
+    "ltca_metrics",
+    "drive_metrics",
+]
 
 """One second of arc [rad]."""
 
@@ -55,7 +63,11 @@ variable holds one."""
 _PER_ANGLE = {
     "transmission_error": (ARCSEC_PER_RAD, "arcsec", "loaded TE"),
     "gear_ratio": (1.0, "1", "instantaneous gear ratio"),
-    "contacts": (1, "1", "number of pins in contact"),
+    "contacts": (
+        1,
+        "1",
+        "number of pins in contact: load above 0.1 % of the largest pin load at the angle",
+    ),
     "loaded_rotation": (ARCSEC_PER_RAD, "arcsec", "disc rotation under load Δφc"),
     "rest_rotation": (ARCSEC_PER_RAD, "arcsec", "unloaded rest position φc − φt"),
 }
@@ -106,6 +118,7 @@ def to_dataset(
     if ring_dims:
         coords["ring"] = ("ring", np.arange(result.transmission_error.shape[0]))
     attrs = result_attrs(result.crank_angle, design, modification, torque, groove_deformation)
+    data["contacts"][2]["load_threshold_fraction"] = CONTACT_LOAD_FRACTION
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
@@ -224,6 +237,7 @@ def drive_to_dataset(
     single = None if torque_dim else float(result.torque[0])
     attrs = result_attrs(result.crank_angle, design, modification, single, groove_deformation)
     attrs["discs"] = int(discs)
+    data["contacts"][2]["load_threshold_fraction"] = CONTACT_LOAD_FRACTION
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
@@ -254,7 +268,10 @@ def analyse(
     *,
     crank_angles_deg: ArrayLike | None = None,
     discs: int = 1,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
+    disc_body: Any = "rigid",
+    crank_holes: Any = None,
+    cache_dir: Any = None,
 ) -> xr.Dataset:
     """Loaded tooth contact analysis of a cycloid-pin pair as a labelled Dataset.
 
@@ -283,6 +300,12 @@ def analyse(
     contact_law : {"paper", "half_plane"}
         Tooth term of the contact law (see :mod:`cyclomesh.core.hertz`); recorded in the
         ``contact_law`` attribute.
+    disc_body : "rigid", "fe" or DiscBody
+        The disc body (:func:`cyclomesh.core.ltca.solve_ltca`): ``"fe"`` takes the influence
+        coefficients of :func:`cyclomesh.fe.influence.influence` (the fe extra; computed
+        once per design, then loaded from ``cache_dir``, default the per-user cache), the
+        disc held at its ``crank_holes`` (a :class:`~cyclomesh.core.pair.CrankHoles`) or,
+        without them, at the bore. Recorded in the ``disc_body`` attribute.
 
     Returns
     -------
@@ -303,11 +326,23 @@ def analyse(
     crank_angles, degrees = resolve_crank_angles(crank_angles, crank_angles_deg)
     torque_dim = np.ndim(torque) > 0
     torques = check_torques(torque)
+    body = resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir)
     result = solve_drive(
-        design, modification, errors, torques, crank_angles, groove_deformation, discs, contact_law
+        design,
+        modification,
+        errors,
+        torques,
+        crank_angles,
+        groove_deformation,
+        discs,
+        contact_law,
+        body,
     )
     ds = drive_to_dataset(result, design, modification, groove_deformation, torque_dim)
     ds.attrs["contact_law"] = contact_law
+    ds.attrs["disc_body"] = "rigid" if isinstance(body, str) else "fe"
+    if not isinstance(body, str):
+        ds.attrs["disc_body_key"] = body.key
     if degrees is not None:
         ds = ds.assign_coords(crank_angle=("crank_angle", degrees, {"units": "deg"}))
     return ds
@@ -356,6 +391,9 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
         data["play_arcsec_max"] = ds["play"].max("crank_angle")
     if "mesh_force" in ds:
         data["max_mesh_force_n"] = ds["mesh_force"].max(("crank_angle", *stack))
+    if "torque_share" in ds:
+        data["torque_share_min_nm"] = ds["torque_share"].min(("crank_angle", *stack))
+        data["torque_share_max_nm"] = ds["torque_share"].max(("crank_angle", *stack))
     summary = xr.Dataset(data, coords=coords)
     for name in summary.data_vars:
         metric = METRICS.get(name) or DRIVE_METRICS[name]
@@ -387,3 +425,75 @@ def ltca_metrics(result: LTCA, teeth: int) -> dict[str, NDArray]:
         )
     }
     return summary_metrics(**scaled, teeth=teeth)
+
+
+def drive_metrics(result: Drive, teeth: int) -> dict[str, NDArray]:
+    """The metrics of ``summarize(analyse(...))`` straight from a one-torque core result.
+
+    :data:`cyclomesh.results.metrics.METRICS` (per-pin ones reduced over the discs and pins,
+    contacts per disc), ``max_mesh_force_n`` (largest mesh force on a disc [N]) and, for a
+    stack, ``torque_share_min_nm`` / ``torque_share_max_nm`` (range of the torque one
+    disc carries [N·m]); bit for bit those of :func:`summarize`, leading ring axes kept.
+    """
+    angles, discs, pins = result.pin_load.shape[-3:]
+
+    def per_pin(name: str) -> NDArray:
+        value = getattr(result, name)[..., 0, :, :, :] * _PER_PIN[name][0]
+        return value.reshape(*value.shape[:-2], discs * pins)
+
+    out = summary_metrics(
+        transmission_error=result.transmission_error[..., 0, :]
+        * _PER_ANGLE["transmission_error"][0],
+        gear_ratio=result.gear_ratio[..., 0, :],
+        contacts=result.contacts[..., 0, :, :].reshape(*result.contacts.shape[:-3], -1),
+        **{
+            name: per_pin(name)
+            for name in ("pin_load", "groove_load", "contact_stress", "groove_stress", "overlap")
+        },
+        teeth=teeth,
+    )
+    out["max_mesh_force_n"] = np.max(result.mesh_force[..., 0, :, :], axis=(-2, -1))
+    if discs > 1:
+        share = result.torque_share[..., 0, :, :]
+        out["torque_share_min_nm"] = np.min(share, axis=(-2, -1))
+        out["torque_share_max_nm"] = np.max(share, axis=(-2, -1))
+    return out
+
+
+FE_EXTRA_MESSAGE = (
+    'disc_body = "fe" needs the fe extra: pip install "cyclomesh[fe]" (scikit-fem and gmsh)'
+)
+
+
+def fe_extra_available() -> bool:
+    """Whether the ``fe`` extra (scikit-fem, gmsh and its system libraries) loads."""
+    try:
+        import gmsh  # noqa: F401
+        import skfem  # noqa: F401
+    except (ImportError, OSError):
+        return False
+    return True
+
+
+def resolve_disc_body(
+    disc_body: Any,
+    design: PairDesign,
+    modification: Modification | None = None,
+    crank_holes: Any = None,
+    cache_dir: Any = None,
+) -> Any:
+    """``"rigid"``, or the :class:`~cyclomesh.core.discbody.DiscBody` of ``disc_body="fe"``
+    (from the cache, computed on a miss), or a DiscBody passed through.
+
+    Raises
+    ------
+    DesignError
+        For ``"fe"`` without the fe extra (one line naming it).
+    """
+    if not (isinstance(disc_body, str) and disc_body == "fe"):
+        return disc_body
+    if not fe_extra_available():
+        raise DesignError(FE_EXTRA_MESSAGE)
+    from cyclomesh.fe.influence import influence
+
+    return influence(design, modification, crank_holes, cache_dir)

@@ -86,8 +86,14 @@ DRIVE_METRICS: dict[str, Metric] = {
         Metric(
             "max_mesh_force_n",
             "N",
-            "largest mesh force (resultant of the pin forces on a disc)",
+            "largest mesh force on a disc (crank bearing load)",
             "max mesh force",
+        ),
+        Metric(
+            "torque_share_min_nm", "N m", "smallest torque carried by one disc", "min disc torque"
+        ),
+        Metric(
+            "torque_share_max_nm", "N m", "largest torque carried by one disc", "max disc torque"
         ),
     )
 }
@@ -176,6 +182,26 @@ def _fe_metrics() -> dict[str, Metric]:
                 f"{law} rotation",
             ),
         ]
+    out += [
+        Metric(
+            "ltca_max_pin_load_n",
+            "N",
+            "largest pin load, LTCA of the study ([analysis]: contact law, disc body)",
+            "LTCA",
+        ),
+        Metric(
+            "ltca_pin_load_rms_pct",
+            "%",
+            "RMS of LTCA of the study minus FE pin loads, % of the FE peak",
+            "LTCA RMS dev.",
+        ),
+        Metric(
+            "ltca_rotation_arcsec_mean",
+            "arcsec",
+            "mean loaded disc position, LTCA of the study",
+            "LTCA rotation",
+        ),
+    ]
     return {m.name: m for m in out}
 
 

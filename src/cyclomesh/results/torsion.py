@@ -18,7 +18,7 @@ Dataset then carries the whole-drive curve beside the mesh curve.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -27,7 +27,7 @@ from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.solve import torsion_curve
 from cyclomesh.exceptions import DesignError
 from cyclomesh.execution.runtime import tune_allocator
-from cyclomesh.results.dataset import resolve_crank_angles, result_attrs
+from cyclomesh.results.dataset import resolve_crank_angles, resolve_disc_body, result_attrs
 from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
@@ -50,7 +50,10 @@ def stiffness(
     crank_angles_deg: ArrayLike | None = None,
     discs: int = 1,
     series_stiffness_nm_per_arcmin: float | None = None,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
+    disc_body: Any = "rigid",
+    crank_holes: Any = None,
+    cache_dir: Any = None,
 ) -> xr.Dataset:
     """Torsion curve, play, lost motion and torsional rigidity of the mesh (Eqs. 5–26 of [1]).
 
@@ -116,6 +119,7 @@ def stiffness(
         points,
         series,
         contact_law,
+        resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir),
     )
     lead = curve.play.ndim - 1
     if lead > 1:
@@ -193,6 +197,7 @@ def stiffness(
         coords["ring"] = ("ring", np.arange(curve.play.shape[0]))
     attrs = result_attrs(phi, design, modification, None, groove_deformation)
     attrs["contact_law"] = contact_law
+    attrs["disc_body"] = disc_body if isinstance(disc_body, str) else "fe"
     attrs.update(
         title="cyclomesh torsion curve of the cycloid-pin mesh",
         discs=int(n_discs),

@@ -201,8 +201,8 @@ def check_study_work(
     if command in ("check", "tolerance", "allocate") and file.tolerance is not None:
         spec = file.tolerance
         n = spec.rings if rings is None else rings
-        angles = count_crank_angles(spec.crank_start_deg, spec.crank_stop_deg, spec.crank_step_deg)
         base = study.base  # type: ignore[attr-defined]
+        angles = count_crank_angles(*spec.crank_range(base.analysis))
         ring = angles * base.design.pins * base.design.discs
         steps = 1 if command != "allocate" else spec.allocation.factor_steps
         steps += 0 if command != "allocate" else spec.allocation.bisections

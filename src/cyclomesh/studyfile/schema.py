@@ -524,12 +524,30 @@ class AnalysisSection(_Section):
     )
     groove_deformation: bool = Field(True, description="the improved model of [1] (Eq. 19)")
     contact_law: Literal["paper", "half_plane"] = Field(
-        "paper",
+        "half_plane",
         description=(
-            "tooth term of the contact law: Eq. 20 of [1] as published, or the approach of a "
-            "half-plane to the disc centre (Johnson eq. 5.41), finite at inflection points"
+            "tooth term of the contact law: the approach of a half-plane to the disc centre "
+            "(Johnson eq. 5.41, default: finite at inflection points, converged in the crank "
+            'step), or Eq. 20 of [1] as published ("paper", to reproduce the paper)'
         ),
     )
+    disc_body: Literal["rigid", "fe"] = Field(
+        "rigid",
+        description=(
+            "the disc body: rigid apart from the contact law (as in [1]), or compliant with "
+            "influence coefficients condensed from the FE model (needs the fe extra and "
+            'contact_law = "half_plane"; computed once per design and cached)'
+        ),
+    )
+
+    @model_validator(mode="after")
+    def _fe_body_needs_half_plane(self) -> AnalysisSection:
+        if self.disc_body == "fe" and self.contact_law != "half_plane":
+            raise ValueError(
+                'disc_body = "fe" leaves the near field to the half-plane law: set '
+                'contact_law = "half_plane"'
+            )
+        return self
 
     @model_validator(mode="after")
     def _at_least_two_angles(self) -> AnalysisSection:
@@ -646,10 +664,17 @@ class ToleranceSection(_Section):
     allowable_contact_stress_mpa: float = Field(
         gt=0.0, description="allowable peak tooth contact stress [MPa]"
     )
-    crank_start_deg: CrankDeg = Field(0.0, description="first crank angle [deg]")
-    crank_stop_deg: CrankDeg = Field(360.0, description="crank angle where to stop, excluded [deg]")
-    crank_step_deg: float = Field(
-        1.0, ge=MIN_CRANK_STEP_DEG, le=MAX_ABS_CRANK_DEG, description="crank angle step [deg]"
+    crank_start_deg: CrankDeg | None = Field(
+        None, description="first crank angle [deg] (default: [analysis]'s)"
+    )
+    crank_stop_deg: CrankDeg | None = Field(
+        None, description="crank angle where to stop, excluded [deg] (default: [analysis]'s)"
+    )
+    crank_step_deg: float | None = Field(
+        None,
+        ge=MIN_CRANK_STEP_DEG,
+        le=MAX_ABS_CRANK_DEG,
+        description="crank angle step [deg] (default: [analysis]'s)",
     )
     radial_um: ErrorDistribution | None = None
     angular_urad: ErrorDistribution | None = None
@@ -667,21 +692,41 @@ class ToleranceSection(_Section):
                 "position (true_position) replaces radial_um and angular_urad; "
                 "give one or the other"
             )
-        if self.crank_stop_deg <= self.crank_start_deg:
-            raise ValueError("crank_stop_deg must be larger than crank_start_deg")
-        count = count_crank_angles(self.crank_start_deg, self.crank_stop_deg, self.crank_step_deg)
-        if count > MAX_CRANK_ANGLES:
-            raise ValueError(
-                f"crank_start_deg, crank_stop_deg and crank_step_deg give {count:.3g} crank "
-                f"angles, more than {MAX_CRANK_ANGLES}: use a larger crank_step_deg"
-            )
-        if count < 2:
-            raise ValueError("fewer than 2 crank angles; use a smaller crank_step_deg")
         return self
 
-    def crank_angles_deg(self) -> NDArray:
-        """Crank angles start, start + step, ... below stop [deg] (as ``[analysis]``)."""
-        return crank_angles_deg(self.crank_start_deg, self.crank_stop_deg, self.crank_step_deg)
+    def crank_range(self, analysis: AnalysisSection | None = None) -> tuple[float, float, float]:
+        """(start, stop, step) [deg] of the rings' crank angles: the keys of
+        ``[tolerance]``, each falling back to ``analysis``'s (the one rule of tolerance,
+        allocation and robust design studies)."""
+        analysis = analysis or AnalysisSection()
+        start, stop, step = (
+            float(mine if mine is not None else getattr(analysis, key))
+            for key, mine in (
+                ("crank_start_deg", self.crank_start_deg),
+                ("crank_stop_deg", self.crank_stop_deg),
+                ("crank_step_deg", self.crank_step_deg),
+            )
+        )
+        if stop <= start:
+            raise StudyError(
+                f"tolerance.crank_stop_deg: the crank angles stop at {stop:g}°, not after "
+                f"their start {start:g}° (tolerance keys override [analysis]'s)"
+            )
+        count = count_crank_angles(start, stop, step)
+        if count > MAX_CRANK_ANGLES:
+            raise StudyError(
+                f"tolerance.crank_step_deg: {count:.3g} crank angles, more than "
+                f"{MAX_CRANK_ANGLES}; use a larger step"
+            )
+        if count < 2:
+            raise StudyError(
+                "tolerance.crank_step_deg: fewer than 2 crank angles; use a smaller step"
+            )
+        return start, stop, step
+
+    def crank_angles_deg(self, analysis: AnalysisSection | None = None) -> NDArray:
+        """Crank angles start, start + step, ... below stop [deg] (:meth:`crank_range`)."""
+        return crank_angles_deg(*self.crank_range(analysis))
 
 
 # --- [design_space]: design maps (docs/design-map.md) ------------------------------------
@@ -731,6 +776,9 @@ class DesignSpaceSection(_Section):
         None, gt=0, description="allowed peak-to-peak TE [arcsec]"
     )
     min_contacts: int | None = Field(None, ge=0, description="fewest loaded pins allowed")
+    max_lost_motion_arcmin: float | None = Field(
+        None, gt=0, description="largest allowed lost motion [arcmin] (computes it)"
+    )
     objective: Literal["max_contact_stress", "te_pp", "lost_motion", "play"] = Field(
         "max_contact_stress", description="metric minimised"
     )
@@ -738,7 +786,8 @@ class DesignSpaceSection(_Section):
         0, ge=0, le=MAX_RINGS, description="rings drawn from [tolerance] (0: nominal map)"
     )
     lost_motion: bool | None = Field(
-        None, description="compute the lost motion (default: if it is the objective)"
+        None,
+        description="compute the lost motion (default: if it is the objective or constrained)",
     )
 
     @model_validator(mode="after")
@@ -750,6 +799,13 @@ class DesignSpaceSection(_Section):
             raise ValueError(
                 f"the design space has {size} candidates (the product of the points), "
                 f"more than {MAX_CANDIDATES}: use fewer points"
+            )
+        if self.lost_motion is False and (
+            self.max_lost_motion_arcmin is not None or self.objective == "lost_motion"
+        ):
+            raise ValueError(
+                "lost_motion = false, but max_lost_motion_arcmin or objective = "
+                '"lost_motion" needs it: leave lost_motion out'
             )
         if not self.axes():
             raise ValueError(
@@ -771,6 +827,7 @@ class DesignSpaceSection(_Section):
             "allowable_contact_stress_mpa",
             "max_te_pp_arcsec",
             "min_contacts",
+            "max_lost_motion_arcmin",
         )
         return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}
 
@@ -792,9 +849,11 @@ class CaseInputs:
     read once (lists + file + random draws)."""
     discs: int = 1
     """Number of discs on the pin ring."""
-    contact_law: str = "paper"
+    contact_law: str = "half_plane"
     crank_holes: CrankHoles | None = None
     """The disc's crank holes (``[design.disc]``), or None: held at the bore."""
+    disc_body: str = "rigid"
+    """``[analysis] disc_body``: "rigid" or "fe" (held at the crank holes if any)."""
     stage: StageDesign | None = None
     """The RV stage (``[stage]``: crank bearings on the crank holes), or None: mesh alone."""
 
@@ -809,6 +868,11 @@ class CaseInputs:
             "groove_deformation": self.groove_deformation,
             "discs": self.discs,
             "contact_law": self.contact_law,
+            **(
+                {"disc_body": self.disc_body, "crank_holes": self.crank_holes}
+                if self.disc_body != "rigid"
+                else {}
+            ),
         }
 
 
@@ -927,6 +991,11 @@ class CaseSpec(_Section):
             stage = None if self.stage is None else self.stage.to_core(crank_holes, d.discs)
         except DesignError as exc:
             raise StudyError(f"{self.label}: {exc}") from None
+        if stage is not None and self.analysis.disc_body != "rigid":
+            raise StudyError(
+                f'{self.label}: [analysis] disc_body = "fe" is not coupled with the [stage] '
+                'crank bearings yet: set disc_body = "rigid" or remove [stage]'
+            )
         return CaseInputs(
             design=design,
             modification=modification,
@@ -942,6 +1011,7 @@ class CaseSpec(_Section):
             discs=d.discs,
             contact_law=self.analysis.contact_law,
             crank_holes=crank_holes,
+            disc_body=self.analysis.disc_body,
             stage=stage,
         )
 

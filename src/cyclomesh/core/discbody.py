@@ -1,0 +1,404 @@
+"""The compliant disc: influence coefficients of the disc body and coupled load sharing.
+
+The rigid-disc model (Eqs. 15–18 of [1]) writes the compatibility of pin i as
+l_i·(Δφc − φbl,i) = δ_i(F_i), the Hertzian approach of the contact law alone. The disc
+body is elastic too: the web between the crank bearing and the teeth twists, the teeth
+bend, and a load on one tooth moves its neighbours. The hybrid method of gear contact
+analysis keeps the singular near field of every contact in the analytical law and adds
+a linear body compliance, computed once by FE and condensed on the points where contact
+can occur (:mod:`cyclomesh.fe.influence`):
+
+    l_i·(Δφc − φbl,i) = δ_i(F_i) + Σ_j C_ij·F_j,     F_i ≥ 0,     Σ_i l_i·F_i = T,
+
+C_ij [m/N] the normal displacement of contact i (into the disc, relative to the
+support) under a unit normal load at contact j, less the near field the contact law
+already carries (the half-plane approach to the same reference depth, at i = j).
+
+:class:`DiscBody` holds the table of C for a load on one tooth and the responses on all
+teeth (cyclic symmetry: C depends on the tooth offset and the two profile positions),
+and interpolates it with a local bicubic (Catmull–Rom) in the two profile angles.
+:func:`share_load_coupled` solves the coupled system exactly (Newton's method, dense:
+the pins in contact), to a torque residual of 1e-12·T and a compatibility residual of
+1e-12 of the largest approach, or raises :class:`~cyclomesh.exceptions.ConvergenceError`.
+
+NumPy only, SI units, no I/O.
+
+References
+----------
+[1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672, doi:10.3390/machines10080672.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cyclomesh.core.hertz import force_from_approach
+from cyclomesh.core.loadsharing import TORQUE_TOLERANCE, share_load
+from cyclomesh.exceptions import ConvergenceError
+
+__all__ = [
+    "DiscBody",
+    "DISC_BODIES",
+    "share_load_coupled",
+    "tooth_index",
+    "COMPATIBILITY_TOLERANCE",
+]
+
+FloatArray = NDArray[np.float64]
+
+DISC_BODIES = ("rigid", "fe")
+"""Values of ``disc_body``: the rigid disc of [1], or the FE influence coefficients."""
+
+COMPATIBILITY_TOLERANCE = 1e-12
+"""Compatibility residual accepted, relative to the largest approach l·(Δφc − φbl)."""
+_MAX_ITERATIONS = 100
+
+
+@dataclass(frozen=True, eq=False)
+class DiscBody:
+    """Influence coefficients of the disc body on its loaded flanks [m/N].
+
+    Attributes
+    ----------
+    profile_angles : ndarray
+        Grid of generating angles u of the forward flank [rad], shape (m,), evenly
+        spaced and increasing (u ∈ [−π, 0], u = 0 the tooth-space bottom).
+    table : ndarray
+        Shape (p, n2, m, m): ``table[k0, d, a, b]`` is the normal displacement [m], into
+        the disc, of the contact at profile angle b on tooth k0 + d under a unit normal
+        load [N] (on the face width) at profile angle a on tooth k0, k0 = 0 … p − 1.
+        p = 1 for a cyclically symmetric support (the bore); with N crank holes p is
+        the number of teeth after which the holes repeat, n2/gcd(n2, N).
+    teeth : int
+        n2 [-].
+    key : str
+        Hash of the inputs the table was computed from (cache key), "" if none.
+    info : dict
+        Description of the FE model (support, mesh, timing), for reports.
+    diagonal : ndarray, optional
+        Shape (p, m): the self-compliance of a contact, ``table[k0, 0, a, a]`` less the
+        near field of the contact law [m/N]. A contact's own coefficient is
+        interpolated from it along u alone (the table's same-tooth block holds the
+        whole FE response, singular at the load, and serves only two contacts on one
+        tooth). Default: the table's diagonal.
+    """
+
+    profile_angles: FloatArray
+    table: FloatArray
+    teeth: int
+    key: str = ""
+    info: dict = field(default_factory=dict)
+    diagonal: FloatArray | None = None
+
+    def __post_init__(self) -> None:
+        u = np.asarray(self.profile_angles, float)
+        t = np.asarray(self.table, float)
+        if u.ndim != 1 or u.size < 4 or not np.all(np.diff(u) > 0):
+            raise ValueError("DiscBody.profile_angles: at least 4 increasing angles")
+        if not np.allclose(np.diff(u), u[1] - u[0], rtol=1e-9, atol=0):
+            raise ValueError("DiscBody.profile_angles must be evenly spaced")
+        if t.ndim != 4 or t.shape[1] != self.teeth or t.shape[2:] != (u.size, u.size):
+            raise ValueError("DiscBody.table must have shape (p, teeth, m, m)")
+        if self.teeth % t.shape[0]:
+            raise ValueError("DiscBody.table: the period p must divide the number of teeth")
+        object.__setattr__(self, "profile_angles", u)
+        object.__setattr__(self, "table", t)
+        if self.diagonal is None:
+            diag = np.diagonal(t[:, 0], axis1=-2, axis2=-1).copy()
+        else:
+            diag = np.asarray(self.diagonal, float)
+        if diag.shape != (t.shape[0], u.size):
+            raise ValueError("DiscBody.diagonal must have shape (p, m)")
+        object.__setattr__(self, "diagonal", diag)
+
+    @property
+    def period(self) -> int:
+        """p: teeth after which the support repeats (1 for the bore)."""
+        return int(self.table.shape[0])
+
+    def _weights(self, angle: FloatArray) -> tuple[NDArray, FloatArray]:
+        """Catmull–Rom nodes (..., 4) and weights (..., 4) at profile angles [rad].
+
+        Angles outside the grid are clamped to its ends (the contacts there, at a tip or
+        a tooth-space bottom, have no moment arm and carry no load).
+        """
+        u = self.profile_angles
+        m = u.size
+        h = u[1] - u[0]
+        s = (np.clip(np.nan_to_num(angle, nan=u[0]), u[0], u[-1]) - u[0]) / h
+        i = np.clip(np.floor(s).astype(np.int64), 0, m - 2)
+        t = s - i
+        t2, t3 = t * t, t * t * t
+        w = np.stack(
+            [
+                0.5 * (-t3 + 2.0 * t2 - t),
+                0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+                0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+                0.5 * (t3 - t2),
+            ],
+            axis=-1,
+        )
+        nodes = np.clip(i[..., None] + np.arange(-1, 3), 0, m - 1)
+        return nodes, w
+
+    def matrix(self, tooth: ArrayLike, angle: ArrayLike) -> FloatArray:
+        """C_ij of contacts at (tooth, profile angle), shape (..., n) → (..., n, n) [m/N].
+
+        ``C[..., i, j]`` is the displacement of contact i under a unit load at contact j
+        (``table[k_j mod p, (k_i − k_j) mod n2, u_j, u_i]``, interpolated bicubically).
+        """
+        k = np.asarray(tooth, np.int64)
+        nodes, w = self._weights(np.asarray(angle, float))
+        n2, p = self.teeth, self.period
+        m = self.profile_angles.size
+        ki, kj = k[..., :, None], k[..., None, :]
+        # flat index into the table: ((k0·n2 + d)·m + a)·m + b
+        small = np.int32 if self.table.size < 2**31 else np.int64
+        block = ((np.mod(kj, p) * n2 + np.mod(ki - kj, n2)) * (m * m)).astype(small)
+        a = (nodes * m).astype(small)[..., None, :, :, None]  # load j's nodes
+        b = nodes.astype(small)[..., :, None, None, :]  # response i's nodes
+        vals = np.take(self.table.ravel(), block[..., None, None] + a + b)  # (..., n, n, 4, 4)
+        half = np.einsum("...ijab,...ja->...ijb", vals, w)
+        out = np.einsum("...ijb,...ib->...ij", half, w)
+        own = np.einsum("...ia,...ia->...i", self.diagonal[np.mod(k, p)[..., None], nodes], w)
+        n = k.shape[-1]
+        out[..., np.arange(n), np.arange(n)] = own
+        return out
+
+    def self_compliance(self, tooth: ArrayLike, angle: ArrayLike) -> FloatArray:
+        """The own coefficient C_ii of contacts at (tooth, profile angle) [m/N]."""
+        k = np.asarray(tooth, np.int64)
+        nodes, w = self._weights(np.asarray(angle, float))
+        return np.einsum(
+            "...a,...a->...", self.diagonal[np.mod(k, self.period)[..., None], nodes], w
+        )
+
+
+def tooth_index(pins: int, pitch: float, crank_angle: ArrayLike) -> NDArray[np.int64]:
+    """Tooth space of the disc each pin meets, (..., n1) for crank angles (...) [rad].
+
+    Pin i (nominal angle i·2π/n1) lies in the tooth space whose generating angle
+    φ1 = 2πk + u (u ∈ (−π, π]) is nearest: k = round((n2·i·pitch + φin)/2π) mod n2.
+    """
+    n2 = pins - 1
+    phi = np.asarray(crank_angle, float)[..., None]
+    u_nom = n2 * pitch * np.arange(pins) + phi
+    return np.mod(np.round(u_nom / (2.0 * np.pi)).astype(np.int64), n2)
+
+
+def share_load_coupled(
+    backlash: ArrayLike,
+    moment_arm: ArrayLike,
+    alpha: ArrayLike,
+    gamma: ArrayLike,
+    torque: float,
+    body: DiscBody,
+    tooth: ArrayLike,
+    profile_angle: ArrayLike,
+    groups: int = 1,
+) -> tuple[FloatArray, FloatArray]:
+    """Load sharing with the compliant disc body (Eqs. 15–18 of [1] plus Σ C_ij F_j).
+
+    Solves, for every case along the leading axes,
+
+        l_i·(Δφc − φbl,i) − w_i = δ_i(F_i) (F_i > 0),   w = C·F,   Σ l_i·F_i = T,
+
+    with F_i = F(δ⁺) the exact inverse of the contact law
+    (:func:`~cyclomesh.core.hertz.force_from_approach`). The unknowns are Δφc and the body
+    displacements w; F is a C¹ function of them (dF/dδ = 0 at δ = 0), so Newton's
+    method (dense, on the pins that can engage) solves the system without an active
+    set. It starts from the rigid-disc solution and stops when the torque residual is
+    below 1e-12·T and the compatibility residual |w − C·F| below 1e-12 of the largest
+    approach, with a backtracking line search on the scaled residual.
+
+    Parameters
+    ----------
+    backlash, moment_arm, alpha, gamma, torque
+        As in :func:`cyclomesh.core.loadsharing.share_load` (shape (..., n) [rad, m, m/N,
+        m/N]; T [N·m]).
+    body : DiscBody
+        Influence coefficients.
+    tooth : array_like
+        Tooth space of each contact (int, (..., n)); ``groups`` discs of n/groups pins
+        each (a stack) share no body: C between discs is 0.
+    profile_angle : array_like
+        Generating angle u of each contact on the forward flank [rad], (..., n).
+    groups : int
+        Number of discs along the pin axis (the pins of disc g are the g-th block).
+
+    Returns
+    -------
+    rotation : ndarray
+        Δφc [rad], shape (...).
+    force : ndarray
+        F_i [N], shape (..., n).
+    """
+    bl = np.asarray(backlash, float)
+    arm = np.asarray(moment_arm, float)
+    bl, arm, alpha, gamma, tooth, angle = np.broadcast_arrays(
+        bl,
+        arm,
+        np.asarray(alpha, float),
+        np.asarray(gamma, float),
+        np.asarray(tooth, np.int64),
+        np.asarray(profile_angle, float),
+    )
+    lead, n = bl.shape[:-1], bl.shape[-1]
+    flat = (-1, n)
+    bl, arm, alpha, gamma = (x.reshape(flat) for x in (bl, arm, alpha, gamma))
+    tooth, angle = tooth.reshape(flat), angle.reshape(flat)
+    x0, f0 = share_load(bl, arm, alpha, gamma, torque)  # the rigid disc: the start
+
+    usable = np.isfinite(bl) & (arm > 0)
+    # single-pin bound with the body's own compliance (as share_load's start)
+    diag = body.self_compliance(tooth, angle)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        single = np.where(usable, torque / np.where(usable, arm, 1.0), 0.0)
+        log_single = np.log(np.where(usable, single, 1.0))
+        hertz = single * (alpha - gamma * log_single)
+        # as in share_load: a force past the stiffest point of the law bounds nothing
+        valid = usable & ((gamma == 0) | (log_single < alpha / gamma - 1.0))
+        alone = bl + (hertz + diag * single) / np.where(valid, arm, 1.0)
+        alone = np.where(valid & (alone > bl), alone, np.inf)
+    bound = np.min(alone, axis=-1)
+    # the pins that can engage below the single-pin bound; the solution is then checked
+    # for every other pin that could touch (its body displacement may be negative by at
+    # most the table's most negative coefficient times the total load), and re-solved
+    # with the pins that would penetrate, so the result is that of all pins
+    candidate = usable & (bl < bound[:, None])
+    arrays = (bl, arm, alpha, gamma, tooth, angle)
+    x, full = _solve_set(candidate, arrays, x0, f0, torque, body, n // groups)
+    lowest = max(0.0, -float(np.min(body.table)), -float(np.min(body.diagonal)))
+    for _ in range(n):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            reach = x[:, None] + lowest * np.sum(full, axis=-1)[:, None] / arm
+        risky = usable & ~candidate & (bl < reach)
+        cases = np.flatnonzero(np.any(risky, axis=-1))
+        if cases.size == 0:
+            break
+        pins = candidate[cases] | risky[cases]
+        width = int(np.max(np.sum(pins, axis=-1)))
+        order = np.argsort(~pins, axis=-1, kind="stable")[:, :width]
+        take = np.take_along_axis
+        ok = take(pins, order, -1)
+        cmat = body.matrix(take(tooth[cases], order, -1), take(angle[cases], order, -1))
+        disc = order // (n // groups)
+        cmat = np.where(ok[:, None, :] & (disc[:, :, None] == disc[:, None, :]), cmat, 0.0)
+        w = np.einsum("bij,bj->bi", cmat, take(full[cases], order, -1))
+        gap = take(arm[cases], order, -1) * (x[cases, None] - take(bl[cases], order, -1)) - w
+        scale = np.max(np.where(ok, gap, 0.0), axis=-1, keepdims=True)
+        bad = ok & take(risky[cases], order, -1) & (gap > COMPATIBILITY_TOLERANCE * scale)
+        if not np.any(bad):
+            break
+        grow = np.zeros_like(pins)
+        np.put_along_axis(grow, order, bad, -1)
+        candidate[cases] |= grow
+        sub = tuple(a[cases] for a in arrays)
+        try:
+            x[cases], full[cases] = _solve_set(
+                candidate[cases], sub, x0[cases], f0[cases], torque, body, n // groups
+            )
+        except ConvergenceError as exc:  # name the case in the whole batch
+            exc.case_index = int(cases[getattr(exc, "case_index", 0)])
+            raise
+    return x.reshape(lead), full.reshape(*lead, n)
+
+
+def _solve_set(
+    candidate: NDArray,
+    arrays: tuple,
+    x0: FloatArray,
+    f0: FloatArray,
+    torque: float,
+    body: DiscBody,
+    per_disc: int,
+) -> tuple[FloatArray, FloatArray]:
+    """Newton's method of :func:`share_load_coupled` on the ``candidate`` pins, (B, n)."""
+    bl, arm, alpha, gamma, tooth, angle = arrays
+    width = int(np.max(np.sum(candidate, axis=-1)))
+    order = np.argsort(~candidate, axis=-1, kind="stable")[:, :width]
+    take = np.take_along_axis
+    ok = take(candidate, order, -1)
+    c_bl = np.where(ok, take(bl, order, -1), 0.0)  # padding: no arm, no approach
+    c_arm = np.where(ok, take(arm, order, -1), 0.0)
+    c_alpha, c_gamma = take(alpha, order, -1), take(gamma, order, -1)
+    c_alpha = np.where(ok, c_alpha, 1.0)
+    c_gamma = np.where(ok, c_gamma, 0.0)
+    cmat = body.matrix(take(tooth, order, -1), take(angle, order, -1))
+    disc = order // per_disc
+    cmat = np.where(
+        ok[:, :, None] & ok[:, None, :] & (disc[:, :, None] == disc[:, None, :]), cmat, 0.0
+    )
+    cmat = 0.5 * (cmat + np.swapaxes(cmat, -1, -2))  # reciprocity (the FE's round-off)
+
+    x = x0.copy()
+    w = np.einsum("bij,bj->bi", cmat, take(f0, order, -1))
+    eye = np.eye(width)
+
+    def evaluate(x, w):
+        delta = np.maximum(c_arm * (x[:, None] - c_bl) - w, 0.0)
+        f = force_from_approach(delta, c_alpha, c_gamma)
+        r_w = w - np.einsum("bij,bj->bi", cmat, f)
+        r_t = np.sum(f * c_arm, axis=-1) - torque
+        return delta, f, r_w, r_t
+
+    def merit(delta, r_w, r_t):
+        scale = np.maximum(np.max(delta, axis=-1), 1e-300)
+        return np.max(np.abs(r_w), axis=-1) / scale + np.abs(r_t) / torque
+
+    delta, f, r_w, r_t = evaluate(x, w)
+    for _ in range(_MAX_ITERATIONS):
+        scale = np.max(c_arm * np.maximum(x[:, None] - c_bl, 0.0), axis=-1)
+        done = (np.abs(r_t) <= TORQUE_TOLERANCE * torque) & (
+            np.max(np.abs(r_w), axis=-1) <= COMPATIBILITY_TOLERANCE * scale
+        )
+        if np.all(done):
+            break
+        engaged = f > 0
+        with np.errstate(divide="ignore"):
+            log_f = np.log(np.where(engaged, f, 1.0))
+        d = np.where(engaged, 1.0 / (c_alpha - c_gamma * (1.0 + log_f)), 0.0)  # dF/dδ
+        jac = np.zeros((x.size, width + 1, width + 1))
+        cd = cmat * d[:, None, :]
+        jac[:, :width, :width] = eye + cd
+        jac[:, :width, width] = -np.einsum("bij,bj->bi", cd, c_arm)
+        jac[:, width, :width] = -d * c_arm
+        jac[:, width, width] = np.sum(d * c_arm * c_arm, axis=-1)
+        rhs = np.concatenate([r_w, r_t[:, None]], axis=-1)
+        try:
+            step = np.linalg.solve(jac, -rhs[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            det = np.linalg.det(jac)
+            err = ConvergenceError(
+                "coupled load sharing: singular Newton system (the disc body's coefficients "
+                "plus the contact law are not positive definite here)"
+            )
+            err.case_index = int(np.argmax(~np.isfinite(det) | (det == 0)))
+            raise err from None
+        step[done] = 0.0
+        old = merit(delta, r_w, r_t)
+        lam = np.ones(x.size)
+        for _ in range(30):
+            xn = x + lam * step[:, width]
+            wn = w + lam[:, None] * step[:, :width]
+            dn, fn, rwn, rtn = evaluate(xn, wn)
+            new = merit(dn, rwn, rtn)
+            worse = (new > old) & (lam > 1e-6) & ~done
+            if not np.any(worse):
+                break
+            lam = np.where(worse, 0.5 * lam, lam)
+        x, w, delta, f, r_w, r_t = xn, wn, dn, fn, rwn, rtn
+    else:
+        bad = int(np.flatnonzero(~done)[0])
+        err = ConvergenceError(
+            f"coupled load sharing did not converge: residual above {TORQUE_TOLERANCE:.0e} "
+            f"after {_MAX_ITERATIONS} Newton steps"
+        )
+        err.case_index = bad
+        raise err
+    full = np.zeros_like(bl)
+    np.put_along_axis(full, order, np.where(ok, f, 0.0), -1)
+    return x, full
