@@ -309,8 +309,9 @@ def force_from_approach(approach: ArrayLike, alpha: ArrayLike, gamma: ArrayLike)
     the Lambert W function (the branch on which dδ/dF > 0); :func:`force_from_approach_w`
     evaluates it with SciPy. This hot-path version reaches the same root by Newton's
     method in y = ln F, started from two fixed-point steps y = ln(δ/(α − γ·y)), and stops
-    at a residual of 2e-15·δ (round-off), 10 times faster than the complex-valued
-    ``scipy.special.lambertw``. γ = 0 gives the linear spring F = δ/α.
+    at a residual of 2e-15·δ (round-off), each element on its own (so that its result
+    does not depend on the other elements of the array), 10 times faster than the
+    complex-valued ``scipy.special.lambertw``. γ = 0 gives the linear spring F = δ/α.
 
     Parameters
     ----------
@@ -341,12 +342,16 @@ def force_from_approach(approach: ArrayLike, alpha: ArrayLike, gamma: ArrayLike)
     y = np.log(d / a)
     y = np.log(d / (a - g * y))
     y = np.log(d / (a - g * y))
+    # Each element stops at its own residual: a batch-wide stop would give an element
+    # extra Newton steps when another element of the batch converges later, so its last
+    # bit would depend on what it was solved with (docs/pipeline.md, reproducibility).
     for _ in range(_MAX_NEWTON):
         f = np.exp(y)
         resid = f * (a - g * y) - d
-        if np.all(np.abs(resid) <= _ROUND_OFF * d):
+        active = ~(np.abs(resid) <= _ROUND_OFF * d)
+        if not np.any(active):
             break
-        y = y - resid / (f * (a - g - g * y))
+        y = np.where(active, y - resid / (f * (a - g - g * y)), y)
     else:
         raise ConvergenceError("inversion of the contact law (Eq. 20) did not converge")
     out[nl] = np.exp(y)

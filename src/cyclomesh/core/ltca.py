@@ -30,7 +30,7 @@ from cyclomesh.core.hertz import (
     pin_tooth_radius,
 )
 from cyclomesh.core.loadsharing import share_load
-from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors, check_physical
 from cyclomesh.core.profile import check_profile
 from cyclomesh.core.transmission import gear_ratio, transmission_error
 from cyclomesh.exceptions import ConvergenceError, DesignError
@@ -277,6 +277,7 @@ def check_pair(design: PairDesign, modification: Modification, errors: PinErrors
     """
     check_profile(design, modification)
     ring_shape = errors.ring_shape(design.pins)
+    check_physical(design, modification, errors)
     pin_radii = design.pin_radius + np.broadcast_to(errors.pin_radius, (*ring_shape, design.pins))
     if not np.all((pin_radii > 0) & (pin_radii < design.groove_radius)):
         pin = int(np.argmax(~((pin_radii > 0) & (pin_radii < design.groove_radius))) % design.pins)

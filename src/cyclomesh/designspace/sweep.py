@@ -79,6 +79,9 @@ __all__ = [
     "optimum",
 ]
 
+NONFINITE_FAILED = "NaN: the candidate failed (undercut, interference, no solution): see reason"
+"""The ``nonfinite`` attribute of the metric variables of a design map."""
+
 FloatArray = NDArray[np.float64]
 
 
@@ -572,7 +575,8 @@ def design_map(
     data: dict[str, Any] = {}
     for name in task.metric_names():
         var, scale, units, long_name, _ = METRICS[name]
-        data[var] = (dims, metrics[name] / scale, {"units": units, "long_name": long_name})
+        attrs = {"units": units, "long_name": long_name, "nonfinite": NONFINITE_FAILED}
+        data[var] = (dims, metrics[name] / scale, attrs)
     data["feasible"] = (dims, feasible.astype(np.int8), {"units": "1", "long_name": "feasible"})
     data["reason"] = (dims, reason, {"long_name": "why a candidate is infeasible ('' if not)"})
     ds = xr.Dataset(

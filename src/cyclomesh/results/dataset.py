@@ -52,6 +52,14 @@ _PER_PIN = {
     "moment_arm": (1e3, "mm", "moment arm of the line of action"),
     "curvature_radius": (1e3, "mm", "signed profile curvature radius ρc"),
 }
+NONFINITE = {
+    "backlash": "inf: the pin lies above the tip circle of the modified profile and cannot "
+    "touch the loaded flank",
+    "curvature_radius": "inf: the contact point is an inflection point of the profile "
+    "(straight, ρc → ∞)",
+}
+"""What a non-finite value means in a variable (its ``nonfinite`` attribute); no other
+variable holds one."""
 _PER_ANGLE = {
     "transmission_error": (ARCSEC_PER_RAD, "arcsec", "loaded TE"),
     "gear_ratio": (1.0, "1", "instantaneous gear ratio"),
@@ -101,6 +109,7 @@ def to_dataset(
     for dims, table in ((dims_pin, _PER_PIN), (dims_angle, _PER_ANGLE)):
         for name, (scale, units, long_name) in table.items():
             attrs = {"units": units, "long_name": long_name}
+            attrs.update({"nonfinite": NONFINITE[name]} if name in NONFINITE else {})
             data[name] = (dims, getattr(result, name) * scale, attrs)
     coords = {
         "crank_angle": ("crank_angle", np.degrees(result.crank_angle), {"units": "deg"}),
@@ -204,7 +213,9 @@ def drive_to_dataset(
             if name == "torque_share" and discs == 1:
                 continue
             value = select(getattr(result, name), per)
-            data[name] = (dims, value * scale, {"units": units, "long_name": long_name})
+            attrs = {"units": units, "long_name": long_name}
+            attrs.update({"nonfinite": NONFINITE[name]} if name in NONFINITE else {})
+            data[name] = (dims, value * scale, attrs)
     name, scale, units, long_name = _PLAY
     data[name] = (
         (*ring, "crank_angle"),

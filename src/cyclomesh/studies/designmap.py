@@ -75,6 +75,12 @@ def load_design_study(path: str | Path) -> tuple[Study, DesignSpaceSection]:
             f"{Path(path).name}: no [design_space] section (see docs/design-map.md, "
             "examples/design.toml)"
         )
+    torques = [case.load.torque_nm for case in study.cases]
+    if any(isinstance(t, list) for t in torques):
+        raise StudyError(
+            "load.torque_nm: a design map takes one torque; give a number "
+            "(cyclomesh stiffness sweeps torques)"
+        )
     if space.rings and study.file.tolerance is None:
         raise StudyError(
             "design_space.rings: a robust map needs a [tolerance] section to draw rings"
@@ -327,6 +333,7 @@ def _drop_none(table: Mapping[str, Any]) -> dict[str, Any]:
 
 def write_design(result: DesignResult, out: Path) -> list[Path]:
     """Write ``design.nc``, ``summary.json`` and (if any candidate is feasible) ``best.toml``."""
+    from cyclomesh.output.folder import write_text
     from cyclomesh.output.writers import write_json, write_netcdf
 
     out.mkdir(parents=True, exist_ok=True)
@@ -336,8 +343,7 @@ def write_design(result: DesignResult, out: Path) -> list[Path]:
     ]
     if result.best_toml is not None:
         path = out / "best.toml"
-        path.write_text(result.best_toml, encoding="utf-8")
-        files.append(path)
+        files.append(write_text(path, result.best_toml))
     return files
 
 

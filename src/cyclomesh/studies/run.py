@@ -126,6 +126,7 @@ def compute_run(
 
     ``on_start(name)`` and ``on_done(name)`` are called around each case (progress).
     """
+    from cyclomesh.exceptions import CyclomeshError
     from cyclomesh.results.dataset import analyse, summarize
     from cyclomesh.studies.checks import case_checks
     from cyclomesh.studyfile.usage import check_keys
@@ -138,7 +139,10 @@ def compute_run(
             on_start(case.name)
         kwargs = inputs.kwargs()
         kwargs.pop("crank_angles")
-        ds = analyse(**kwargs, crank_angles_deg=case.analysis.crank_angles_deg())
+        try:
+            ds = analyse(**kwargs, crank_angles_deg=case.analysis.crank_angles_deg())
+        except CyclomeshError as exc:  # name the case
+            raise type(exc)(f"{case.label}: {exc}") from None
         ds = annotate(ds, case, inputs, study)
         run.summaries[case.name] = summary_record(summarize(ds))
         if inputs.stage is not None:
@@ -331,7 +335,7 @@ def run_figures(run: RunResult, inputs: list[FigureJob] | None = None) -> list[F
 
     jobs = list(input_figures(run.study) if inputs is None else inputs)
     angles = settings.crank_angles_deg
-    pin = settings.stress_pin
+    pin = settings.stress_pin or min(case.design.pins for case in run.study.cases) // 2
     jobs += [
         job(
             "loads",
@@ -555,13 +559,15 @@ def warning_sections(warnings: list[str]) -> list[Section]:
 def run_study(study: Study, out: str | Path, options: OutputOptions | None = None) -> list[Path]:
     """Compute every case of ``study``, then write its files, figures and report into
     ``out``. Returns the paths written. Nothing is written if a case fails."""
+    from cyclomesh.output.folder import ResultFolder
     from cyclomesh.publish.pipeline import OutputOptions, publish
 
     options = options or OutputOptions.from_study(study)
-    run = compute_run(study)
     out = Path(out)
-    files = write_run(run, out, options)
-    jobs = run_figures(run) if options.figures else []
-    return publish(
-        out, study.title, run_sections(run), jobs, files, options, study_stamp(study)
-    ).files
+    with ResultFolder(out, "run"):
+        run = compute_run(study)
+        files = write_run(run, out, options)
+        jobs = run_figures(run) if options.figures else []
+        return publish(
+            out, study.title, run_sections(run), jobs, files, options, study_stamp(study)
+        ).files

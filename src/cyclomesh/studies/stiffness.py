@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from cyclomesh.exceptions import StudyError
+from cyclomesh.exceptions import CyclomeshError, StudyError
 from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.results.metrics import STIFFNESS_METRICS
 from cyclomesh.studyfile.schema import CaseSpec, StiffnessSection, Study, folder_name
@@ -119,20 +119,23 @@ def compute_stiffness(
     result = StiffnessResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
         section = _section(case)
-        ds = stiffness(
-            inputs.design,
-            inputs.modification,
-            inputs.errors,
-            section.rated_torque_nm,
-            section.points,
-            groove_deformation=inputs.groove_deformation,
-            crank_angles_deg=case.analysis.crank_angles_deg(),
-            discs=inputs.discs,
-            series_stiffness_nm_per_arcmin=section.series_stiffness_nm_per_arcmin,
-            contact_law=inputs.contact_law,
-            disc_body=inputs.disc_body,
-            crank_holes=inputs.crank_holes,
-        )
+        try:
+            ds = stiffness(
+                inputs.design,
+                inputs.modification,
+                inputs.errors,
+                section.rated_torque_nm,
+                section.points,
+                groove_deformation=inputs.groove_deformation,
+                crank_angles_deg=case.analysis.crank_angles_deg(),
+                discs=inputs.discs,
+                series_stiffness_nm_per_arcmin=section.series_stiffness_nm_per_arcmin,
+                contact_law=inputs.contact_law,
+                disc_body=inputs.disc_body,
+                crank_holes=inputs.crank_holes,
+            )
+        except CyclomeshError as exc:  # name the case
+            raise type(exc)(f"{case.label}: {exc}") from None
         ds.attrs.update(case_attrs(study, case))
         stage_summary: dict[str, Any] = {}
         if inputs.stage is not None:  # the RV stage in one solve, beside the mesh alone

@@ -397,6 +397,7 @@ def compute_tolerance(
 def write_tolerance(result: ToleranceResult, out: Path) -> list[Path]:
     """Write ``tolerance_rings.nc``, ``tolerance_rings.parquet``, ``tolerance_summary.json``
     and ``worst_ring.toml`` into ``out``."""
+    from cyclomesh.output.folder import write_text
     from cyclomesh.output.writers import write_json, write_netcdf, write_parquet
 
     out.mkdir(parents=True, exist_ok=True)
@@ -413,14 +414,10 @@ def write_tolerance(result: ToleranceResult, out: Path) -> list[Path]:
         f"{float(ds[STRESS_METRIC].sel(ring=k)):.6g} MPa. "
         "Reproduce with: cyclomesh run worst_ring.toml --out DIR"
     )
-    path = out / "worst_ring.toml"
-    path.write_text(
-        worst_ring_study(
-            result.model, study.base.model_dump(), k, f"{study.title}: worst ring {k}", note
-        ),
-        encoding="utf-8",
+    text = worst_ring_study(
+        result.model, study.base.model_dump(), k, f"{study.title}: worst ring {k}", note
     )
-    files.append(path)
+    files.append(write_text(out / "worst_ring.toml", text))
     return files
 
 
@@ -429,8 +426,9 @@ def tolerance_figures(result: ToleranceResult) -> list[FigureJob]:
     from cyclomesh.figures import tolerance as plots
     from cyclomesh.figures.render import FigureJob
 
-    ds, stats = result.rings, result.summary
+    stats = result.summary
     allowable = stats["allowable_contact_stress_mpa"]
+    ds = plots.reduce_rings(result.rings, allowable)  # the workers get no per-ring data
     section = "Tolerance study (Monte Carlo)"
     return [
         FigureJob(
@@ -590,6 +588,9 @@ def compute_allocation(
         name: xr.DataArray(per_ring[name], dims=("ring",), attrs={"units": "1"})
         for name in ("critical_factor_lower", "critical_factor_upper")
     }
+    data["critical_factor_upper"].attrs["nonfinite"] = (
+        "inf: the ring does not exceed the allowable stress up to factor_max"
+    )
     for name in stated:
         data[name] = xr.DataArray(
             per_ring[name],
@@ -739,38 +740,42 @@ def _options(study: Study, figures: bool, options: OutputOptions | None) -> Outp
 def publish_tolerance(result: ToleranceResult, out: str | Path, options: OutputOptions) -> Any:
     """Write the files of a tolerance study into ``out``, then its figures and
     ``report.html``; returns :class:`cyclomesh.publish.pipeline.Published`."""
+    from cyclomesh.output.folder import ResultFolder
     from cyclomesh.publish.pipeline import publish
 
     out = Path(out)
-    files = write_tolerance(result, out)
-    return publish(
-        out,
-        f"{result.study.title}: tolerance study",
-        tolerance_sections(result),
-        tolerance_figures(result) if options.figures else [],
-        files,
-        options,
-        {"SHA-256 of the study file": result.study.sha256},
-    )
+    with ResultFolder(out, "tolerance"):
+        files = write_tolerance(result, out)
+        return publish(
+            out,
+            f"{result.study.title}: tolerance study",
+            tolerance_sections(result),
+            tolerance_figures(result) if options.figures else [],
+            files,
+            options,
+            {"SHA-256 of the study file": result.study.sha256},
+        )
 
 
 def publish_allocation(result: AllocationResult, out: str | Path, options: OutputOptions) -> Any:
     """Write the files of a tolerance allocation into ``out``, then its figure and
     ``allocation_report.html``; returns :class:`cyclomesh.publish.pipeline.Published`."""
+    from cyclomesh.output.folder import ResultFolder
     from cyclomesh.publish.pipeline import publish
 
     out = Path(out)
-    files = write_allocation(result, out)
-    return publish(
-        out,
-        f"{result.study.title}: tolerance allocation",
-        allocation_sections(result),
-        allocation_figures(result) if options.figures else [],
-        files,
-        options,
-        {"SHA-256 of the study file": result.study.sha256},
-        report_name="allocation_report.html",
-    )
+    with ResultFolder(out, "allocate"):
+        files = write_allocation(result, out)
+        return publish(
+            out,
+            f"{result.study.title}: tolerance allocation",
+            allocation_sections(result),
+            allocation_figures(result) if options.figures else [],
+            files,
+            options,
+            {"SHA-256 of the study file": result.study.sha256},
+            report_name="allocation_report.html",
+        )
 
 
 def run_tolerance(
