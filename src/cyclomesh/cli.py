@@ -507,7 +507,8 @@ def export(
             f"--chord-tolerance-um: expected a number of at least 0.001, got {chord_tolerance_um}"
         )
     loaded = load_study(study)
-    written = export_study(loaded, out, formats, chord_tolerance_um * 1e-6)
+    with _folder(out, "export"):  # locked; summary.json (files, sizes) written last
+        written = export_study(loaded, out, formats, chord_tolerance_um * 1e-6)
     if not quiet:
         for name, files in written.items():
             import json

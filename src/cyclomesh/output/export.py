@@ -28,6 +28,7 @@ import numpy as np
 from cyclomesh.core.outline import Outline, PinLayout, disc_outline, pin_layout
 from cyclomesh.core.pair import Modification, PairDesign
 from cyclomesh.exceptions import StudyError
+from cyclomesh.output.folder import atomic_write, write_text
 
 if TYPE_CHECKING:
     from cyclomesh.studyfile.schema import Study
@@ -106,8 +107,8 @@ def write_dxf(outline: Outline, pins: PinLayout, path: Path) -> Path:
     msp.add_circle((cx * MM, cy * MM), pins.circle_radius * MM, dxfattribs={"layer": "PINS"})
     for x, y in pins.centres:
         msp.add_circle((x * MM, y * MM), pins.pin_radius * MM, dxfattribs={"layer": "PINS"})
-    path.parent.mkdir(parents=True, exist_ok=True)
-    doc.saveas(path)
+    with atomic_write(path) as tmp:
+        doc.saveas(tmp)
     return path
 
 
@@ -138,9 +139,7 @@ def write_svg(outline: Outline, pins: PinLayout, path: Path, title: str = "") ->
         "</g>",
         "</svg>",
     ]
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return path
+    return write_text(path, "\n".join(lines) + "\n")
 
 
 def _xml(text: str) -> str:
@@ -149,8 +148,7 @@ def _xml(text: str) -> str:
 
 def write_csv(outline: Outline, path: Path) -> Path:
     """Write one row per vertex: tooth space, φ1 [deg], x, y [mm], outward unit normal."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="", encoding="utf-8") as fh:
+    with atomic_write(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh)
         writer.writerow(["tooth", "profile_angle_deg", "x_mm", "y_mm", "normal_x", "normal_y"])
         for row in zip(
