@@ -432,7 +432,6 @@ def _solve_set(
     current = merit(delta, r_w, r_t)
     done = np.zeros(x.size, bool)
     active = np.arange(x.size)
-    diagonal = np.arange(width)
     for _ in range(_MAX_ITERATIONS):
         case = everything if active.size == x.size else active
         scale = np.max(c_arm[case] * np.maximum(x[case, None] - c_bl[case], 0.0), axis=-1)
@@ -449,11 +448,23 @@ def _solve_set(
         with np.errstate(divide="ignore"):
             log_f = np.log(np.where(engaged, f_a, 1.0))
         d = np.where(engaged, 1.0 / (c_alpha[case] - c_gamma[case] * (1.0 + log_f)), 0.0)
-        both = engaged[:, :, None] & engaged[:, None, :]
-        system = np.where(both, cmat[case], 0.0)
-        system[:, diagonal, diagonal] += np.where(engaged, 1.0 / np.where(engaged, d, 1.0), 1.0)
-        l_e = np.where(engaged, l_a, 0.0)
-        rhs = np.stack([np.where(engaged, r_w_a, 0.0), l_e], axis=-1)
+        c_a = cmat[case]
+        # the engaged pins first: the system is that of the widest engaged set
+        wide = int(np.max(np.sum(engaged, axis=-1)))
+        if wide < width:
+            first = np.argsort(~engaged, axis=-1, kind="stable")[:, :wide]
+            flat = (np.arange(first.shape[0]) * (width * width))[:, None, None]
+            flat = flat + first[:, :, None] * width + first[:, None, :]
+            c_e = np.take(c_a, flat)
+            eng, d_e = take(engaged, first, -1), take(d, first, -1)
+            r_e, l_e = take(r_w_a, first, -1), take(l_a, first, -1)
+        else:
+            c_e, eng, d_e, r_e, l_e = c_a, engaged, d, r_w_a, l_a
+        system = np.where(eng[:, :, None] & eng[:, None, :], c_e, 0.0)
+        diagonal = np.arange(wide)
+        system[:, diagonal, diagonal] += np.where(eng, 1.0 / np.where(eng, d_e, 1.0), 1.0)
+        l_e = np.where(eng, l_e, 0.0)
+        rhs = np.stack([np.where(eng, r_e, 0.0), l_e], axis=-1)
         try:
             sol = np.linalg.solve(system, rhs)
         except np.linalg.LinAlgError:
@@ -472,8 +483,13 @@ def _solve_set(
             err.case_index = int(active[np.argmax(singular)])
             raise err from None
         step_x = -(r_t_a + np.sum(l_e * sol[..., 0], axis=-1)) / den
-        step_f = sol[..., 0] + sol[..., 1] * step_x[:, None]
-        step_w = np.einsum("bij,bj->bi", cmat[case], step_f) - r_w_a
+        step_e = sol[..., 0] + sol[..., 1] * step_x[:, None]
+        if wide < width:
+            step_f = np.zeros_like(f_a)
+            np.put_along_axis(step_f, first, step_e, -1)
+        else:
+            step_f = step_e
+        step_w = np.einsum("bij,bj->bi", c_a, step_f) - r_w_a
         old = current[case]
         x_a, w_a = x[case], w[case]
         lam = np.ones(active.size)
