@@ -215,9 +215,14 @@ class DiscBody:
         n2, p = self.teeth, self.period
         cells = self.profile_angles.size - 1
         rows, cols = np.triu_indices(n, 1)  # response i = rows, load j = cols
-        kj = k[:, cols]
-        index = (np.mod(kj, p) * n2 + np.mod(k[:, rows] - kj, n2)) * (cells * cells)
-        index += cell[:, cols] * cells + cell[:, rows]
+        # window of the pair: ((k_j mod p)·n2 + (k_i − k_j) mod n2, cell_j, cell_i)
+        base = (np.mod(k, p) * n2 * cells + cell) * cells  # the load's part, per pin
+        km = np.mod(k, n2)
+        offset = km[:, rows] - km[:, cols]
+        offset += n2 * (offset < 0)
+        index = offset * (cells * cells)
+        index += base[:, cols]
+        index += cell[:, rows]
         vals = np.take(self._windows, index.ravel(), axis=1).reshape(4, 4, -1)
         wt = np.moveaxis(w, -1, 0)  # (4, B, n)
         wj = np.take(wt, cols, axis=2).reshape(4, -1)
@@ -230,17 +235,19 @@ class DiscBody:
         if own is None:
             nodes = np.clip(cell[..., None] + np.arange(-1, 3), 0, cells)
             own = np.einsum("...ia,...ia->...i", self.diagonal[np.mod(k, p)[..., None], nodes], w)
+        else:
+            own = np.broadcast_to(own, (*lead, n)).reshape(-1, n)
         diag = np.arange(n)
-        out[:, diag, diag] = np.broadcast_to(own, (*lead, n)).reshape(-1, n)
+        out[:, diag, diag] = own
         return out.reshape(*lead, n, n)
 
     def self_compliance(self, tooth: ArrayLike, angle: ArrayLike) -> FloatArray:
         """The own coefficient C_ii of contacts at (tooth, profile angle) [m/N]."""
         k = np.asarray(tooth, np.int64)
         nodes, w = self._weights(np.asarray(angle, float))
-        return np.einsum(
-            "...a,...a->...", self.diagonal[np.mod(k, self.period)[..., None], nodes], w
-        )
+        m = self.profile_angles.size
+        index = nodes if self.period == 1 else np.mod(k, self.period)[..., None] * m + nodes
+        return np.einsum("...a,...a->...", np.take(self.diagonal, index), w)
 
 
 def tooth_index(pins: int, pitch: float, crank_angle: ArrayLike) -> NDArray[np.int64]:
