@@ -434,7 +434,9 @@ def _solve_set(
 
     everything = slice(None)
     x = x0.copy()
-    w = np.einsum("bij,bj->bi", cmat, take(f0, order, -1))
+    # the start: the rigid-disc solution itself (w = 0: δ, F and the torque exact, only
+    # r_w = −C·F0 open); 1–3 Newton steps fewer than from w = C·F0 at the rigid Δφc
+    w = np.zeros_like(c_bl)
     delta, f, r_w, r_t = evaluate(x, w, everything)
     current = merit(delta, r_w, r_t)
     done = np.zeros(x.size, bool)
