@@ -218,27 +218,27 @@ class DiscBody:
         # window of the pair: ((k_j mod p)·n2 + (k_i − k_j) mod n2, cell_j, cell_i)
         base = (np.mod(k, p) * n2 * cells + cell) * cells  # the load's part, per pin
         km = np.mod(k, n2)
-        offset = km[:, rows] - km[:, cols]
+        offset = np.take(km, rows, axis=1) - np.take(km, cols, axis=1)
         offset += n2 * (offset < 0)
         index = offset * (cells * cells)
-        index += base[:, cols]
-        index += cell[:, rows]
+        index += np.take(base, cols, axis=1)
+        index += np.take(cell, rows, axis=1)
         vals = np.take(self._windows, index.ravel(), axis=1).reshape(4, 4, -1)
         wt = np.moveaxis(w, -1, 0)  # (4, B, n)
         wj = np.take(wt, cols, axis=2).reshape(4, -1)
         wi = np.take(wt, rows, axis=2).reshape(4, -1)
         half = np.einsum("abp,ap->bp", vals, wj)  # the load's nodes first, as matrix()
         pair = np.einsum("bp,bp->p", half, wi).reshape(index.shape)
-        out = np.empty((k.shape[0], n, n))
-        out[:, rows, cols] = pair
-        out[:, cols, rows] = pair
         if own is None:
             nodes = np.clip(cell[..., None] + np.arange(-1, 3), 0, cells)
             own = np.einsum("...ia,...ia->...i", self.diagonal[np.mod(k, p)[..., None], nodes], w)
         else:
             own = np.broadcast_to(own, (*lead, n)).reshape(-1, n)
-        diag = np.arange(n)
-        out[:, diag, diag] = own
+        # the matrix from the pairs and the diagonal in one gather
+        where = np.empty((n, n), np.int64)
+        where[rows, cols] = where[cols, rows] = np.arange(rows.size)
+        where[np.arange(n), np.arange(n)] = rows.size + np.arange(n)
+        out = np.take(np.concatenate([pair, own], axis=1), where.ravel(), axis=1)
         return out.reshape(*lead, n, n)
 
     def self_compliance(self, tooth: ArrayLike, angle: ArrayLike) -> FloatArray:
