@@ -31,7 +31,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=7)
     parser.add_argument("--profile", action="store_true", help="print where the time goes")
-    parser.add_argument("--contact-law", default="paper", help='"paper" or "half_plane"')
+    parser.add_argument(
+        "--contact-law", default="half_plane", help='"half_plane" (default) or "paper"'
+    )
     parser.add_argument("--disc-body", default="rigid", help='"rigid" or "fe"')
     parser.add_argument("--cache-dir", default=None, help="cache of the FE coefficients")
     parser.add_argument(

@@ -74,7 +74,7 @@ def test_finite_and_smooth_through_the_inflection_point_where_eq20_diverges():
 
 def test_ltca_with_half_plane_has_no_load_jumps_at_the_inflection_points():
     phi = np.deg2rad(np.arange(0.0, 18.0, 0.05))
-    paper = solve_ltca(TABLE1, TPM, torque=250.0, crank_angles=phi)
+    paper = solve_ltca(TABLE1, TPM, torque=250.0, crank_angles=phi, contact_law="paper")
     half = solve_ltca(TABLE1, TPM, torque=250.0, crank_angles=phi, contact_law="half_plane")
     for r in (paper, half):  # equilibrium Σ F·l = T
         np.testing.assert_allclose(np.sum(r.pin_load * r.moment_arm, axis=-1), 250.0, rtol=1e-9)
@@ -85,15 +85,34 @@ def test_ltca_with_half_plane_has_no_load_jumps_at_the_inflection_points():
     assert half.pin_load.max() == pytest.approx(paper.pin_load.max(), rel=0.03)
 
 
-def test_default_is_the_paper_law_and_is_recorded():
+def test_default_is_the_half_plane_law_and_is_recorded():
     phi = np.deg2rad([0.0, 3.0])
     default = analyse(TABLE1, TPM, crank_angles=phi)
     paper = analyse(TABLE1, TPM, crank_angles=phi, contact_law="paper")
     half = analyse(TABLE1, TPM, crank_angles=phi, contact_law="half_plane")
-    assert default.attrs["contact_law"] == "paper"
-    assert half.attrs["contact_law"] == "half_plane"
-    np.testing.assert_array_equal(default.pin_load.values, paper.pin_load.values)
-    assert not np.array_equal(default.pin_load.values, half.pin_load.values)
+    assert default.attrs["contact_law"] == "half_plane"
+    assert paper.attrs["contact_law"] == "paper"
+    np.testing.assert_array_equal(default.pin_load.values, half.pin_load.values)
+    assert not np.array_equal(default.pin_load.values, paper.pin_load.values)
+
+
+def test_every_api_defaults_to_the_half_plane_law():
+    """Every public entry point that takes a contact law defaults to the converged one."""
+    import inspect
+
+    from cyclomesh.designspace.sweep import DesignTask, candidate_metrics, design_map
+    from cyclomesh.drive.solve import solve_drive, torsion_curve
+    from cyclomesh.fe.disc import solve_disc_fe
+    from cyclomesh.results.torsion import stiffness
+    from cyclomesh.studyfile.schema import AnalysisSection, CaseInputs
+    from cyclomesh.tolerance.tasks import RingModel
+
+    for fn in (solve_ltca, analyse, solve_drive, torsion_curve, stiffness, design_map,
+               candidate_metrics, solve_disc_fe):  # fmt: skip
+        assert inspect.signature(fn).parameters["contact_law"].default == "half_plane", fn
+    for cls in (DesignTask, RingModel, CaseInputs):
+        assert cls.__dataclass_fields__["contact_law"].default == "half_plane", cls
+    assert AnalysisSection().contact_law == "half_plane"
 
 
 def test_unknown_contact_law_is_refused():
@@ -118,6 +137,8 @@ crank_step_deg = 0.5
     path.write_text(base + 'contact_law = "half_plane"\n', encoding="utf-8")
     assert load_study(path).cases[0].to_core().kwargs()["contact_law"] == "half_plane"
     path.write_text(base, encoding="utf-8")
+    assert load_study(path).cases[0].to_core().kwargs()["contact_law"] == "half_plane"
+    path.write_text(base + 'contact_law = "paper"\n', encoding="utf-8")
     assert load_study(path).cases[0].to_core().kwargs()["contact_law"] == "paper"
     path.write_text(base + 'contact_law = "fitted"\n', encoding="utf-8")
     with pytest.raises(StudyError, match="contact_law"):
@@ -133,7 +154,7 @@ def test_every_kind_of_study_solves_with_the_chosen_law():
 
     phi = np.deg2rad([0.0, 1.0, 2.0])
     half = solve_ltca(TABLE1, TPM, None, 250.0, phi, contact_law="half_plane")
-    paper = solve_ltca(TABLE1, TPM, None, 250.0, phi)
+    paper = solve_ltca(TABLE1, TPM, None, 250.0, phi, contact_law="paper")
     drive = solve_drive(TABLE1, TPM, None, [-250.0, 250.0], phi, contact_law="half_plane")
     np.testing.assert_array_equal(drive.pin_load[1, :, 0], half.pin_load)
     # error-free pair at crank angle 0: the reverse flank is the mirror image of the forward

@@ -137,7 +137,6 @@ def test_scaling_scales_the_same_draws():
         ),
         ({"rings": 0}, r"^tolerance\.rings: "),
         ({"crank_step_deg": 0.0}, r"^tolerance\.crank_step_deg: "),
-        ({"crank_stop_deg": 0.5, "crank_step_deg": 1.0}, r"fewer than 2 crank angles"),
         ({"allocation": {"target_probability": 1.5}}, r"^tolerance\.allocation\.target_prob"),
         ({"bogus": 1}, r"^tolerance\.bogus: unknown key"),
     ],
@@ -156,6 +155,25 @@ def test_seed_and_allowable_are_required():
         parse_tolerance({"seed": 1})
 
 
-def test_crank_angles_default_to_a_revolution_in_degree_steps():
-    angles = spec().crank_angles_deg()
-    assert angles.size == 360 and angles[0] == 0.0 and angles[-1] == 359.0
+def test_crank_angles_fall_back_to_analysis_key_by_key():
+    """One rule (issue 14): [tolerance] crank keys override [analysis]'s, else fall back."""
+    from cyclomesh.studyfile.schema import AnalysisSection
+
+    angles = spec().crank_angles_deg()  # [analysis] defaults: a revolution at 0.1°
+    assert angles.size == 3600 and angles[0] == 0.0 and angles[-1] == pytest.approx(359.9)
+    analysis = AnalysisSection(crank_step_deg=1.0, crank_stop_deg=90.0)
+    assert spec().crank_angles_deg(analysis).size == 90
+    own = parse_tolerance(
+        {"seed": 1, "allowable_contact_stress_mpa": 1500.0, "crank_stop_deg": 45.0}
+    )
+    assert own.crank_range(analysis) == (0.0, 45.0, 1.0)
+
+
+def test_too_few_crank_angles_name_the_key():
+    short = parse_tolerance(
+        {"seed": 1, "allowable_contact_stress_mpa": 1500.0, "crank_stop_deg": 0.5}
+    )
+    from cyclomesh.studyfile.schema import AnalysisSection
+
+    with pytest.raises(StudyError, match=r"^tolerance\.crank_step_deg: fewer than 2 crank"):
+        short.crank_range(AnalysisSection(crank_step_deg=1.0))

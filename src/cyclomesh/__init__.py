@@ -38,6 +38,8 @@ _EXPORTS = {
     "DesignError": "cyclomesh.exceptions",
     "ConvergenceError": "cyclomesh.exceptions",
     "StudyError": "cyclomesh.exceptions",
+    "OutputError": "cyclomesh.exceptions",
+    "load_results": "cyclomesh.output.folder",
 }
 
 __all__ = list(_EXPORTS)

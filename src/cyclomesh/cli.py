@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
+import typer.core
 
 from cyclomesh.exceptions import CyclomeshError, StudyError
 
@@ -45,8 +46,34 @@ __all__ = [
 EXIT_INPUT_ERROR = 2
 """Exit status for an input that cyclomesh refuses (as for a usage error)."""
 
+
+class _OneLineUsage(typer.core.TyperGroup):
+    """The command group, with usage errors (unknown option, bad value, missing
+    argument) as one line ``error: ...`` and exit status 2, like every refused input."""
+
+    def main(self, *args: Any, standalone_mode: bool = True, **kwargs: Any) -> Any:
+        if not standalone_mode:
+            return super().main(*args, standalone_mode=False, **kwargs)
+        try:
+            rv = super().main(*args, standalone_mode=False, **kwargs)
+        except typer.TyperException as exc:  # Click's usage errors (typer vendors Click)
+            if type(exc).__name__ == "NoArgsIsHelpError" or not hasattr(exc, "format_message"):
+                exc.show()  # type: ignore[attr-defined]
+                sys.exit(getattr(exc, "exit_code", EXIT_INPUT_ERROR))
+            ctx = getattr(exc, "ctx", None)
+            where = ctx.command_path if ctx is not None else "cyclomesh"
+            line = " ".join(exc.format_message().split())
+            typer.echo(f"error: {where}: {line} (see {where} --help)", err=True)
+            sys.exit(EXIT_INPUT_ERROR)
+        except typer.Abort:
+            typer.echo("Aborted!", err=True)
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
 app = typer.Typer(
     name="cyclomesh",
+    cls=_OneLineUsage,
     help="Loaded tooth contact analysis of cycloid-pin gear pairs (RV reducers).",
     no_args_is_help=True,
     add_completion=False,
@@ -80,8 +107,12 @@ def cli_errors() -> Iterator[None]:
     errors, TOML syntax errors and operating-system errors (missing file, no
     permission). Use it as a context manager or as a decorator of a command.
     """
+    import os
     import tomllib
 
+    if os.environ.get("CYCLOMESH_TRACEBACK"):
+        yield
+        return
     try:
         yield
     except CyclomeshError as exc:
@@ -91,11 +122,28 @@ def cli_errors() -> Iterator[None]:
     except OSError as exc:
         where = f"{exc.filename}: " if exc.filename else ""
         raise fail(f"{where}{exc.strerror or exc}") from None
+    except RecursionError:
+        raise fail("input nested too deeply") from None
+    except MemoryError:
+        raise fail(
+            "out of memory: ask for less work (fewer crank angles, rings or points)"
+        ) from None
     except ValueError as exc:
         message = _pydantic_error(exc)
         if message is None:
-            raise
+            raise fail(_internal(exc)) from None
         raise fail(message) from None
+    except (typer.Exit, typer.Abort, KeyboardInterrupt, SystemExit):
+        raise
+    except Exception as exc:  # a bug: still one line, never a traceback
+        raise fail(_internal(exc)) from None
+
+
+def _internal(exc: BaseException) -> str:
+    return (
+        f"internal error ({type(exc).__name__}: {exc}); please report it with the study file "
+        "(CYCLOMESH_TRACEBACK=1 shows the traceback)"
+    )
 
 
 def stderr_console(quiet: bool = False) -> Any:
@@ -288,6 +336,13 @@ WorkersOption = Annotated[
         "--workers", min=1, help="Local worker processes (default: all cores).", show_default=False
     ),
 ]
+NoLimitOption = Annotated[
+    bool,
+    typer.Option(
+        "--no-work-limit",
+        help="Run even a study that asks for more than the work limits (docs/study-files.md).",
+    ),
+]
 ChunkOption = Annotated[
     int | None,
     typer.Option(
@@ -308,11 +363,15 @@ def output_options(study: Any, figures: str | None, csv: bool = False) -> Any:
 
 @app.command()
 @cli_errors()
-def check(study: StudyArg, crank_step_deg: StepOption = None) -> None:
+def check(
+    study: StudyArg, crank_step_deg: StepOption = None, no_work_limit: NoLimitOption = False
+) -> None:
     """Validate a study file (every section) without running it."""
     from cyclomesh.studyfile import load_study
+    from cyclomesh.studyfile.limits import check_study_work
 
     loaded = load_study(study, _overrides(crank_step_deg))
+    check_study_work(loaded, "check", allow=no_work_limit)
     if any(case.analysis.disc_body == "fe" for case in loaded.cases):
         from cyclomesh.results.dataset import FE_EXTRA_MESSAGE, fe_extra_available
 
@@ -340,17 +399,20 @@ def run(
     figures: FiguresOption = None,
     csv: CsvOption = False,
     cache_dir: CacheDirOption = None,
+    no_work_limit: NoLimitOption = False,
 ) -> None:
     """Run every case of a study; write results, figures, summary.json and report.html."""
     _cache_dir(cache_dir)
     from cyclomesh.publish.pipeline import publish, study_stamp
     from cyclomesh.studies import run as kind
     from cyclomesh.studyfile import load_study
+    from cyclomesh.studyfile.limits import check_study_work
 
     loaded = load_study(study, _overrides(crank_step_deg))
+    check_study_work(loaded, "run", allow=no_work_limit)
     options = output_options(loaded, figures, csv)
-    with _figure_pool(options) as pool:  # forked now: imports matplotlib while we solve
-        early = kind.input_figures(loaded) if options.figures else []
+    with _folder(out, "run"), _figure_pool(options) as pool:  # pool forked now: it imports
+        early = kind.input_figures(loaded) if options.figures else []  # matplotlib meanwhile
         if pool is not None:  # the profile is drawn while the cases are solved
             pool.submit(early, options.figures, options.dpi)
         with progress_bar(len(loaded.cases), "cases", quiet) as advance:
@@ -371,7 +433,7 @@ def run(
             pool=pool,
         )
     if not quiet:
-        _print_summary(result.summaries, out)
+        _print_summary(result.summaries, out, result.study_warnings())
 
 
 _SUMMARY_COLUMNS = (
@@ -385,7 +447,16 @@ _SUMMARY_COLUMNS = (
 )
 
 
-def _print_summary(summaries: dict, out: Path) -> None:
+def _print_warnings(warnings: list[str]) -> None:
+    from rich.console import Console
+    from rich.markup import escape
+
+    console = Console()
+    for warning in warnings:
+        console.print(f"warning: {escape(warning)}")
+
+
+def _print_summary(summaries: dict, out: Path, warnings: list[str] = ()) -> None:
     from rich.console import Console
     from rich.markup import escape
     from rich.table import Table
@@ -414,6 +485,7 @@ def _print_summary(summaries: dict, out: Path) -> None:
         console.print(
             "warning: the disc interferes with unloaded-side pins (see max_overlap_arcsec)"
         )
+    _print_warnings(list(warnings))
     console.print(f"report: {out / 'report.html'}")
 
 
@@ -427,6 +499,7 @@ def stiffness(
     crank_step_deg: StepOption = None,
     figures: FiguresOption = None,
     cache_dir: CacheDirOption = None,
+    no_work_limit: NoLimitOption = False,
 ) -> None:
     """Torsion curve of every case ([stiffness] section): play, lost motion, rigidity.
 
@@ -437,11 +510,13 @@ def stiffness(
     from cyclomesh.publish.pipeline import publish, study_stamp
     from cyclomesh.studies import stiffness as kind
     from cyclomesh.studyfile import load_study
+    from cyclomesh.studyfile.limits import check_study_work
 
     loaded = load_study(study, _overrides(crank_step_deg))
     kind.check_stiffness(loaded)
+    check_study_work(loaded, "stiffness", allow=no_work_limit)
     options = output_options(loaded, figures)
-    with _figure_pool(options) as pool:
+    with _folder(out, "stiffness"), _figure_pool(options) as pool:
         with progress_bar(len(loaded.cases), "cases", quiet, unit="cases") as advance:
             result = kind.compute_stiffness(loaded, progress=advance)
         files = kind.write_stiffness(result, out)
@@ -457,6 +532,7 @@ def stiffness(
             pool=pool,
         )
     if not quiet:
+        _print_warnings(result.study_warnings())
         _print_stiffness(result.summaries, out)
 
 
@@ -496,6 +572,25 @@ def _print_stiffness(summaries: dict, out: Path) -> None:
                 )
             )
     console.print(f"report: {out / 'report.html'}")
+
+
+def _check_workers(workers: int | None) -> None:
+    """Refuse ``--workers`` above 4 per usable CPU (each worker holds its own memory)."""
+    import os
+
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    most = 4 * max(1, cpus or 1)
+    if workers is not None and workers > most:
+        raise StudyError(f"--workers {workers}: at most {most} (4 per usable CPU, {cpus} here)")
+
+
+def _folder(out: Path, command: str) -> Any:
+    """The output folder of a command, locked while it runs, its ``summary.json``
+    (the completion marker) removed now and written last
+    (:class:`~cyclomesh.output.folder.ResultFolder`)."""
+    from cyclomesh.output.folder import ResultFolder
+
+    return ResultFolder(out, command)
 
 
 def _figure_pool(options: Any) -> Any:
@@ -576,25 +671,31 @@ def tolerance(
     chunk_rings: ChunkOption = None,
     figures: FiguresOption = None,
     cache_dir: CacheDirOption = None,
+    no_work_limit: NoLimitOption = False,
 ) -> None:
     """Monte Carlo tolerance study: per-ring metrics, statistics, worst ring, report."""
     _cache_dir(cache_dir)
     from cyclomesh.studies import tolerance as kind
+    from cyclomesh.studyfile.limits import check_study_work
 
     loaded, spec = kind.load_tolerance_study(study)
+    check_study_work(loaded, "tolerance", rings=rings, allow=no_work_limit)
+    _check_workers(workers)
     options = output_options(loaded, figures)
     n = spec.rings if rings is None else rings
-    with _workers(scheduler, workers, bool(options.figures)) as backend:
-        _say(
-            f"tolerance study: {n} rings, {len(spec.crank_angles_deg())} crank angles, "
-            f"{backend.workers} worker(s)",
-            quiet,
-        )
-        with progress_bar(n, "rings", quiet) as advance:
-            result = kind.compute_tolerance(
-                loaded, rings=rings, backend=backend, chunk_rings=chunk_rings, progress=advance
+    with _folder(out, "tolerance"):
+        with _workers(scheduler, workers, bool(options.figures)) as backend:
+            _say(
+                f"tolerance study: {n} rings, "
+                f"{len(spec.crank_angles_deg(loaded.base.analysis))} crank angles, "
+                f"{backend.workers} worker(s)",
+                quiet,
             )
-    kind.publish_tolerance(result, out, options)
+            with progress_bar(n, "rings", quiet) as advance:
+                result = kind.compute_tolerance(
+                    loaded, rings=rings, backend=backend, chunk_rings=chunk_rings, progress=advance
+                )
+        kind.publish_tolerance(result, out, options)
     if not quiet:
         _print_tolerance(result.summary, out)
 
@@ -624,34 +725,40 @@ def allocate(
     chunk_rings: ChunkOption = None,
     figures: FiguresOption = None,
     cache_dir: CacheDirOption = None,
+    no_work_limit: NoLimitOption = False,
 ) -> None:
     """Largest scale factor on the tolerances that meets the target exceedance probability."""
     _cache_dir(cache_dir)
     from cyclomesh.studies import tolerance as kind
+    from cyclomesh.studyfile.limits import check_study_work
 
     loaded, spec = kind.load_tolerance_study(study)
+    check_study_work(loaded, "allocate", rings=rings, allow=no_work_limit)
+    _check_workers(workers)
     options = output_options(loaded, figures)
     n = spec.rings if rings is None else rings
     alloc = spec.allocation
-    with _workers(scheduler, workers, bool(options.figures)) as backend:
-        _say(
-            f"tolerance allocation: {n} rings, scale factors up to {alloc.factor_max:g} in "
-            f"{alloc.factor_steps} steps + {alloc.bisections} bisections, "
-            f"{backend.workers} worker(s)",
-            quiet,
-        )
-        with progress_bar(n, "rings", quiet) as advance:
-            result = kind.compute_allocation(
-                loaded,
-                target_probability=target_probability,
-                rings=rings,
-                backend=backend,
-                chunk_rings=chunk_rings,
-                progress=advance,
+    with _folder(out, "allocate"):
+        with _workers(scheduler, workers, bool(options.figures)) as backend:
+            _say(
+                f"tolerance allocation: {n} rings, scale factors up to {alloc.factor_max:g} in "
+                f"{alloc.factor_steps} steps + {alloc.bisections} bisections, "
+                f"{backend.workers} worker(s)",
+                quiet,
             )
-    kind.publish_allocation(result, out, options)
+            with progress_bar(n, "rings", quiet) as advance:
+                result = kind.compute_allocation(
+                    loaded,
+                    target_probability=target_probability,
+                    rings=rings,
+                    backend=backend,
+                    chunk_rings=chunk_rings,
+                    progress=advance,
+                )
+        kind.publish_allocation(result, out, options)
     if not quiet:
         typer.echo(result.allocation.statement())
+        _print_warnings(result.record.get("warnings", []))
         typer.echo(f"files: {out}")
 
 
@@ -679,6 +786,7 @@ def _print_tolerance(stats: dict[str, Any], out: Path) -> None:
         f"{ex['probability']:.4g}, {conf:.0%} Clopper-Pearson [{ex['lower']:.4g}, "
         f"{ex['upper']:.4g}] ({ex['count']} of {ex['rings']} rings)"
     )
+    _print_warnings(stats.get("warnings", []))
     worst = stats["worst_ring"]
     console.print(
         f"worst ring {worst['ring']}: {worst['max_contact_stress_mpa']:.5g} MPa -> "
@@ -706,6 +814,7 @@ def design(
     workers: WorkersOption = None,
     figures: FiguresOption = None,
     cache_dir: CacheDirOption = None,
+    no_work_limit: NoLimitOption = False,
 ) -> None:
     """Design map: sweep the modification, map the metrics, mark the optimum.
 
@@ -715,32 +824,36 @@ def design(
     _cache_dir(cache_dir)
     from cyclomesh.publish.pipeline import publish
     from cyclomesh.studies import designmap as kind
+    from cyclomesh.studyfile.limits import check_study_work
 
     loaded, space = kind.load_design_study(study)
+    check_study_work(loaded, "design", allow=no_work_limit)
+    _check_workers(workers)
     options = output_options(loaded, figures)
     n = math.prod(len(v) for v in space.axes().values())
     parallel = scheduler is not None or workers not in (None, 1) or (space.rings and workers != 1)
-    with _workers(scheduler, workers, bool(options.figures), parallel) as backend:
-        _say(
-            f"design map: {n} candidates"
-            + (f" x {space.rings} rings" if space.rings else "")
-            + f", {backend.workers if backend else 1} worker(s)",
-            quiet,
-        )
-        with progress_bar(n, "candidates", quiet) as advance:
-            result = kind.compute_design(
-                loaded, backend=backend, chunk=1 if backend else None, progress=advance
+    with _folder(out, "design"):
+        with _workers(scheduler, workers, bool(options.figures), parallel) as backend:
+            _say(
+                f"design map: {n} candidates"
+                + (f" x {space.rings} rings" if space.rings else "")
+                + f", {backend.workers if backend else 1} worker(s)",
+                quiet,
             )
-    files = kind.write_design(result, out)
-    publish(
-        out,
-        f"{loaded.title}: design map",
-        kind.design_sections(result),
-        kind.design_figures(result) if options.figures else [],
-        files,
-        options,
-        {"SHA-256 of the study file": loaded.sha256},
-    )
+            with progress_bar(n, "candidates", quiet) as advance:
+                result = kind.compute_design(
+                    loaded, backend=backend, chunk=1 if backend else None, progress=advance
+                )
+        files = kind.write_design(result, out)
+        publish(
+            out,
+            f"{loaded.title}: design map",
+            kind.design_sections(result),
+            kind.design_figures(result) if options.figures else [],
+            files,
+            options,
+            {"SHA-256 of the study file": loaded.sha256},
+        )
     if not quiet:
         s = result.summary
         typer.echo(
@@ -753,6 +866,7 @@ def design(
             where = ", ".join(f"{k} = {v:g}" for k, v in s["optimum"]["parameters"].items())
             value = s["optimum"]["metrics"][s["objective_variable"]]
             typer.echo(f"optimum: {where} ({s['objective_variable']} = {value:.6g})")
+        _print_warnings(s.get("warnings", []))
         typer.echo(f"report: {out / 'report.html'}")
 
 
@@ -795,29 +909,37 @@ def fe(
 
     angles = None
     if crank_angles:
+        from cyclomesh.studyfile.limits import MAX_ABS_CRANK_DEG
+
         try:
             angles = [float(a) for a in crank_angles.split(",")]
         except ValueError:
             raise StudyError(
                 f"--crank-angles: expected numbers separated by commas, got {crank_angles!r}"
             ) from None
+        if not 1 <= len(angles) <= 24 or not all(abs(a) <= MAX_ABS_CRANK_DEG for a in angles):
+            raise StudyError(
+                f"--crank-angles: expected 1 to 24 angles within ±{MAX_ABS_CRANK_DEG:g} deg, "
+                f"got {crank_angles!r}"
+            )
     loaded = load_study(study)
     kind.check_fe(loaded)
     options = output_options(loaded, figures)
     console = stderr_console(quiet)
-    result = kind.compute_fe(
-        loaded, crank_angles_deg=angles, convergence=convergence, progress=console.print
-    )
-    files = kind.write_fe(result, out)
-    publish(
-        out,
-        f"{loaded.title}: FE check",
-        kind.fe_sections(result),
-        kind.fe_figures(result) if options.figures else [],
-        files,
-        options,
-        study_stamp(loaded),
-    )
+    with _folder(out, "fe"):
+        result = kind.compute_fe(
+            loaded, crank_angles_deg=angles, convergence=convergence, progress=console.print
+        )
+        files = kind.write_fe(result, out)
+        publish(
+            out,
+            f"{loaded.title}: FE check",
+            kind.fe_sections(result),
+            kind.fe_figures(result) if options.figures else [],
+            files,
+            options,
+            study_stamp(loaded),
+        )
     if not quiet:
         _print_fe(result.summaries, out)
 

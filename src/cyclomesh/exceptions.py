@@ -1,6 +1,6 @@
 """Exceptions raised by cyclomesh. Every one carries a one-line message for the user."""
 
-__all__ = ["CyclomeshError", "DesignError", "ConvergenceError", "StudyError"]
+__all__ = ["CyclomeshError", "DesignError", "ConvergenceError", "StudyError", "OutputError"]
 
 
 class CyclomeshError(ValueError):
@@ -17,3 +17,8 @@ class ConvergenceError(CyclomeshError):
 
 class StudyError(CyclomeshError):
     """A study file, its values or a file it names is wrong."""
+
+
+class OutputError(CyclomeshError):
+    """A result file or folder cannot be written (disk full, locked folder) or read
+    (incomplete folder)."""

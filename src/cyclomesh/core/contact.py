@@ -136,11 +136,13 @@ def contact_phase(
         g = g0 - g1 * c
         h = k0 - 2.0 * a * e * c + 2.0 * s * g / d
         residual = np.where(reachable, np.abs(h) / (2.0 * w), 0.0)
-        if np.all(residual <= CONTACT_TOLERANCE):
+        done = residual <= CONTACT_TOLERANCE
+        if np.all(done):
             break
-        # dh/dc; D' = −d1/(2D)
+        # dh/dc; D' = −d1/(2D). A converged element stays put, so that its result does
+        # not depend on the other elements of the batch (extra steps move the last bit).
         dh = -2.0 * a * e + 2.0 * s * (-g1 * d + g * d1 / (2.0 * d)) / (d * d)
-        c = np.clip(c - h / dh, -1.0, 1.0)
+        c = np.where(done, c, np.clip(c - h / dh, -1.0, 1.0))
     return c, residual, reachable
 
 

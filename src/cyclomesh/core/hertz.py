@@ -16,7 +16,7 @@ exactly through the Lambert W function.
 
 Contact laws
 ------------
-``contact_law="paper"`` (the default) is Eq. 20 as published: the disc's term is the
+``contact_law="paper"`` is Eq. 20 as published: the disc's term is the
 approach of the centre of curvature of the tooth, c·(ln(4|ρc|/b) − ½). At the
 inflection points of a modified profile |ρc| → ∞, so that term, and the tooth's
 compliance, diverge although the tooth there is nearly flat.
@@ -30,7 +30,9 @@ with d the distance from the contact point to the disc centre (where the disc ca
 its torque). The pin's and the groove's terms stay those of Eqs. 20, 21 (their radii are
 physical). The law has the same form δ = F·(α − γ·ln F) with the same γ, so the exact
 inverse below carries over; it is finite and smooth through the inflection points
-(ρ*pc → ρp there). See ``docs/contact-law.md``.
+(ρ*pc → ρp there). It is the default: under Eq. 20 a pin crossing an inflection point
+loses its load for a crank angle, so the ratio ripple and the TE peak-to-peak grow
+without bound as the crank step shrinks. See ``docs/contact-law.md``.
 
 References
 ----------
@@ -243,8 +245,10 @@ def compliance_coefficients(
     groove_deformation : bool
         Include the pin–groove deformation (the "improved model").
     contact_law : {"paper", "half_plane"}
-        The disc's term: Eq. 20 of [1] as published, or the approach of a half-plane to
-        ``reference_depth`` (Johnson [2], eq. 5.41; see the module docstring).
+        The disc's term: Eq. 20 of [1] as published (the default of this low-level
+        function, which needs no contact geometry), or the approach of a half-plane to
+        ``reference_depth`` (Johnson [2], eq. 5.41; see the module docstring), the default
+        of every solver and study.
     reference_depth : array_like, optional
         Depth d of the reference point in the disc [m]; required by ``"half_plane"``.
     disc_poisson : float, optional
@@ -305,8 +309,9 @@ def force_from_approach(approach: ArrayLike, alpha: ArrayLike, gamma: ArrayLike)
     the Lambert W function (the branch on which dδ/dF > 0); :func:`force_from_approach_w`
     evaluates it with SciPy. This hot-path version reaches the same root by Newton's
     method in y = ln F, started from two fixed-point steps y = ln(δ/(α − γ·y)), and stops
-    at a residual of 2e-15·δ (round-off), 10 times faster than the complex-valued
-    ``scipy.special.lambertw``. γ = 0 gives the linear spring F = δ/α.
+    at a residual of 2e-15·δ (round-off), each element on its own (so that its result
+    does not depend on the other elements of the array), 10 times faster than the
+    complex-valued ``scipy.special.lambertw``. γ = 0 gives the linear spring F = δ/α.
 
     Parameters
     ----------
@@ -337,12 +342,16 @@ def force_from_approach(approach: ArrayLike, alpha: ArrayLike, gamma: ArrayLike)
     y = np.log(d / a)
     y = np.log(d / (a - g * y))
     y = np.log(d / (a - g * y))
+    # Each element stops at its own residual: a batch-wide stop would give an element
+    # extra Newton steps when another element of the batch converges later, so its last
+    # bit would depend on what it was solved with (docs/pipeline.md, reproducibility).
     for _ in range(_MAX_NEWTON):
         f = np.exp(y)
         resid = f * (a - g * y) - d
-        if np.all(np.abs(resid) <= _ROUND_OFF * d):
+        active = ~(np.abs(resid) <= _ROUND_OFF * d)
+        if not np.any(active):
             break
-        y = y - resid / (f * (a - g - g * y))
+        y = np.where(active, y - resid / (f * (a - g - g * y)), y)
     else:
         raise ConvergenceError("inversion of the contact law (Eq. 20) did not converge")
     out[nl] = np.exp(y)

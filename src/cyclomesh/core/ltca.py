@@ -30,12 +30,19 @@ from cyclomesh.core.hertz import (
     pin_tooth_radius,
 )
 from cyclomesh.core.loadsharing import share_load
-from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors, check_physical
 from cyclomesh.core.profile import check_profile
 from cyclomesh.core.transmission import gear_ratio, transmission_error
 from cyclomesh.exceptions import ConvergenceError, DesignError
 
-__all__ = ["LTCA", "solve_ltca", "rest_position", "check_disc_body"]
+__all__ = [
+    "LTCA",
+    "solve_ltca",
+    "rest_position",
+    "check_disc_body",
+    "count_contacts",
+    "CONTACT_LOAD_FRACTION",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -69,7 +76,9 @@ class LTCA:
     gear_ratio : ndarray
         Instantaneous ratio (Eq. 26) [-].
     contacts : ndarray
-        Number of loaded pins [-].
+        Number of pins in contact [-]: pins carrying more than
+        :data:`CONTACT_LOAD_FRACTION` of the largest pin load at that crank angle
+        (:func:`count_contacts`).
     """
 
     crank_angle: FloatArray
@@ -89,6 +98,13 @@ class LTCA:
     gear_ratio: FloatArray
     contacts: NDArray[np.int64]
 
+
+CONTACT_LOAD_FRACTION = 1e-3
+"""A pin is counted in contact when its load exceeds this fraction of the largest pin load
+at the same crank angle (over all discs of a stack). Pins at a tip or a tooth-space bottom
+(moment arm ≈ 0) touch the disc but carry about 1e-8 of the peak load; 0.1 % leaves them
+out and no pin that carries load (the lightest loaded pins of the examples carry 0.3 % to
+5 % of the peak)."""
 
 CONDITIONED_ARM = 1e-4
 """Smallest moment arm [m] of a pin that can set the rest position of the disc."""
@@ -127,7 +143,7 @@ def solve_ltca(
     torque: float = 250.0,
     crank_angles: ArrayLike = (0.0,),
     groove_deformation: bool = True,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
     disc_body: str | DiscBody = "rigid",
 ) -> LTCA:
     """Loaded tooth contact analysis of a cycloid-pin pair (Eqs. 1–26 of [1]).
@@ -148,9 +164,11 @@ def solve_ltca(
         True for the "improved model" (pin–groove deformation, Eq. 19), False for the
         "current model".
     contact_law : {"paper", "half_plane"}
-        The tooth's term of the contact law: Eq. 20 of [1] as published (default), or
-        the approach of a half-plane to the disc centre (Johnson, eq. 5.41), finite at
-        the profile's inflection points; see :mod:`cyclomesh.core.hertz`.
+        The tooth's term of the contact law: the approach of a half-plane to the disc
+        centre (Johnson, eq. 5.41; the default), finite at the profile's inflection points
+        and converged in the crank step, or Eq. 20 of [1] as published (``"paper"``, to
+        reproduce the paper; its ratio ripple and TE peak-to-peak grow without bound as
+        the crank step shrinks); see :mod:`cyclomesh.core.hertz` and ``docs/contact-law.md``.
     disc_body : "rigid" or DiscBody
         The disc body: rigid apart from the contact law ([1], the default, solved by
         :func:`~cyclomesh.core.loadsharing.share_load` exactly as before), or elastic with
@@ -214,8 +232,29 @@ def solve_ltca(
         loaded_rotation=loaded,
         transmission_error=te,
         gear_ratio=gear_ratio(te, phi, design.teeth),
-        contacts=np.sum(force > 0, axis=-1),
+        contacts=count_contacts(force),
     )
+
+
+def count_contacts(force: FloatArray, axes: int = 1) -> NDArray[np.int64]:
+    """Pins in contact: load above :data:`CONTACT_LOAD_FRACTION` of the largest pin load.
+
+    Parameters
+    ----------
+    force : ndarray
+        Pin loads [N], the last ``axes`` axes are the pins of one crank angle (``axes=2``
+        for the discs × pins of a stack: the reference is the stack's largest pin load).
+    axes : int
+        Trailing axes that make up the reference set; the count is per last axis
+        (per disc).
+
+    Returns
+    -------
+    ndarray
+        Counts, ``force.shape[:-1]``.
+    """
+    reference = np.max(force, axis=tuple(range(-axes, 0)), keepdims=True)
+    return np.sum(force > CONTACT_LOAD_FRACTION * reference, axis=-1)
 
 
 def check_crank_angles(crank_angles: ArrayLike) -> FloatArray:
@@ -238,6 +277,7 @@ def check_pair(design: PairDesign, modification: Modification, errors: PinErrors
     """
     check_profile(design, modification)
     ring_shape = errors.ring_shape(design.pins)
+    check_physical(design, modification, errors)
     pin_radii = design.pin_radius + np.broadcast_to(errors.pin_radius, (*ring_shape, design.pins))
     if not np.all((pin_radii > 0) & (pin_radii < design.groove_radius)):
         pin = int(np.argmax(~((pin_radii > 0) & (pin_radii < design.groove_radius))) % design.pins)
@@ -288,7 +328,7 @@ def pin_compliance(
     geo: UnloadedContact,
     design: PairDesign,
     groove_deformation: bool,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> tuple[FloatArray, FloatArray]:
     """Coefficients (α, γ) of δ = F(α − γ ln F) of every pin contact [m/N].
 

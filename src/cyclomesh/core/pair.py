@@ -32,7 +32,27 @@ __all__ = [
     "Modification",
     "PinErrors",
     "TABLE1",
+    "check_physical",
+    "YOUNGS_MODULUS_RANGE",
+    "POISSON_RATIO_RANGE",
 ]
+
+
+YOUNGS_MODULUS_RANGE = (0.1e9, 1200e9)
+"""Young's moduli accepted [Pa]: from soft polymers to diamond."""
+
+POISSON_RATIO_RANGE = (0.0, 0.5)
+"""Poisson's ratios accepted [-]: [0, 0.5) (auxetic materials make no gears)."""
+
+MIN_SHORT_AMPLITUDE = 0.05
+"""Smallest K1 = e·n1/a accepted (cycloid drives use about 0.5 to 0.9)."""
+
+ECCENTRICITY_ERROR_FRACTION = 0.5
+"""|εe| must stay below this fraction of e: the disc centre stays off the crank axis."""
+
+ANGLE_PITCH_FRACTION = 0.1
+"""|δ| and |εψ,i| must stay below this fraction of the tooth pitch 2π/n2: they are
+small corrections and errors, not a re-indexing of the teeth."""
 
 
 @dataclass(frozen=True)
@@ -51,10 +71,18 @@ class Material:
     poisson_ratio: float
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.youngs_modulus) and self.youngs_modulus > 0):
-            raise DesignError("youngs_modulus must be a positive number of pascals")
-        if not (-1.0 < self.poisson_ratio < 0.5):
-            raise DesignError("poisson_ratio must lie in (-1, 0.5)")
+        lo, hi = YOUNGS_MODULUS_RANGE
+        if not (math.isfinite(self.youngs_modulus) and lo <= self.youngs_modulus <= hi):
+            raise DesignError(
+                f"youngs_modulus_gpa = {self.youngs_modulus / 1e9:.6g}: expected "
+                f"{lo / 1e9:g} to {hi / 1e9:g} GPa (polymers to diamond)"
+            )
+        lo, hi = POISSON_RATIO_RANGE
+        if not (lo <= self.poisson_ratio < hi):
+            raise DesignError(
+                f"poisson_ratio = {self.poisson_ratio:.6g}: expected {lo:g} to below {hi:g} "
+                "(engineering materials)"
+            )
 
     @property
     def compliance(self) -> float:
@@ -116,8 +144,13 @@ class PairDesign:
             _positive(name, getattr(self, name))
         if self.short_amplitude_coefficient >= 1.0:
             raise DesignError(
-                f"eccentricity too large: K1 = e·n1/a = {self.short_amplitude_coefficient:.3f} "
+                f"eccentricity too large: K1 = e·n1/a = {self.short_amplitude_coefficient:.4g} "
                 "must be below 1 (reduce eccentricity or pins, or enlarge pin_circle_radius)"
+            )
+        if self.short_amplitude_coefficient < MIN_SHORT_AMPLITUDE:
+            raise DesignError(
+                f"eccentricity too small: K1 = e·n1/a = {self.short_amplitude_coefficient:.4g} "
+                f"must be at least {MIN_SHORT_AMPLITUDE:g} (a cycloid disc, not a circle)"
             )
         half_pitch_chord = self.pin_circle_radius * math.sin(math.pi / self.pins)
         if self.pin_radius >= half_pitch_chord:
@@ -330,3 +363,59 @@ class PinErrors:
             return tuple(np.broadcast_shapes(*shapes))
         except ValueError as exc:
             raise DesignError(f"error arrays have incompatible ring shapes {shapes}") from exc
+
+
+def check_physical(design: PairDesign, modification: Modification, errors: PinErrors) -> None:
+    """Refuse modifications and errors outside the physics of the model.
+
+    - |εe| < e/2 (so e + εe > e/2 > 0) and K1 = (e + εe)·n1/a < 1 [m];
+    - |δ| and |εψ,i| below a tenth of the tooth pitch 2π/n2 [rad];
+    - |εa,i|, |Δa| and |Δρ| below the pin radius ρp [m].
+
+    Raises
+    ------
+    DesignError
+        Naming the key and the bound (in study units: µm, µrad).
+    """
+    e = design.eccentricity
+    ecc = np.asarray(errors.eccentricity, float)
+    bound = ECCENTRICITY_ERROR_FRACTION * e
+    if ecc.size and np.max(np.abs(ecc)) >= bound:
+        worst = float(ecc.flat[int(np.argmax(np.abs(ecc)))])
+        raise DesignError(
+            f"errors.eccentricity_um = {worst * 1e6:.6g}: the eccentricity error must stay "
+            f"within ±e/2 = ±{bound * 1e6:.6g} µm (e + εe must stay well above 0)"
+        )
+    if ecc.size and (e + np.max(ecc)) * design.pins / design.pin_circle_radius >= 1.0:
+        k1 = (e + float(np.max(ecc))) * design.pins / design.pin_circle_radius
+        raise DesignError(
+            f"errors.eccentricity_um: K1 = (e + εe)·n1/a = {k1:.4f} must be below 1 "
+            "(reduce the eccentricity error)"
+        )
+    for key, value in (
+        ("pin_circle_radius_um", modification.pin_circle_radius),
+        ("pin_radius_um", modification.pin_radius),
+    ):
+        if not abs(value) < design.pin_radius:
+            raise DesignError(
+                f"modification.{key} = {value * 1e6:.6g}: it must stay below the pin radius, "
+                f"{design.pin_radius * 1e6:.6g} µm in size (a modification is a small change)"
+            )
+    limit = ANGLE_PITCH_FRACTION * 2.0 * math.pi / design.teeth
+    if not abs(modification.rotation) < limit:
+        raise DesignError(
+            f"modification.rotation_urad = {modification.rotation * 1e6:.6g}: |δ| must stay "
+            f"below a tenth of the tooth pitch 2π/n2, {limit * 1e6:.6g} µrad"
+        )
+    angular = np.asarray(errors.angular, float)
+    if angular.size and not np.max(np.abs(angular)) < limit:
+        raise DesignError(
+            f"errors.angular_urad: |εψ| up to {np.max(np.abs(angular)) * 1e6:.6g} µrad; it "
+            f"must stay below a tenth of the pin pitch, {limit * 1e6:.6g} µrad"
+        )
+    radial = np.asarray(errors.radial, float)
+    if radial.size and not np.max(np.abs(radial)) < design.pin_radius:
+        raise DesignError(
+            f"errors.radial_um: |εa| up to {np.max(np.abs(radial)) * 1e6:.6g} µm; it must "
+            f"stay below the pin radius, {design.pin_radius * 1e6:.6g} µm"
+        )

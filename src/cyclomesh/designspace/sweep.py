@@ -3,7 +3,9 @@
 Every candidate modification (a grid over any of Δa, Δρ, δ) is analysed by the full
 model of [1] (:func:`cyclomesh.drive.solve.solve_drive`, one disc: bit for bit
 :func:`cyclomesh.core.ltca.solve_ltca`) at the study's torque over its crank
-angles, with the given pin errors. With a ring axis on the errors (K rings drawn once:
+angles, with the given pin errors, for the whole stack of discs (``discs``: the torque is
+the stack's, split between the discs by their stiffness; per-disc metrics are reduced
+over the discs). With a ring axis on the errors (K rings drawn once:
 the same rings for every candidate, i.e. common random numbers), each metric is reduced
 over the rings to a robust value: the 95th percentile of a metric where larger is worse,
 the 5th percentile of one where smaller is worse (``min_contacts``, ``min_play``), taken
@@ -12,9 +14,12 @@ as well as the map says.
 
 Metrics (per candidate, SI inside, engineering units in the Dataset):
 
-* ``max_contact_stress`` — largest pin–tooth Hertzian pressure (Eq. 24) [Pa];
-* ``te_pp`` — peak-to-peak loaded transmission error (Eq. 25) [rad];
-* ``min_contacts`` — fewest loaded pins over the crank angles [-];
+* ``max_contact_stress`` — largest pin–tooth Hertzian pressure (Eq. 24) over the discs [Pa];
+* ``te_pp`` — peak-to-peak loaded transmission error of the stack (Eq. 25) [rad];
+* ``min_contacts`` — fewest pins in contact on a disc over the crank angles [-];
+* ``max_mesh_force`` — largest mesh force on a disc (the crank bearing load) [N];
+* ``max_torque_share``, ``min_torque_share`` (stacks only) — the range of the torque one
+  disc carries over the crank angles and discs [N·m];
 * ``max_play``, ``min_play`` — largest and smallest play over the crank angles: the
   TE of the reverse-flank rest position minus that of the forward-flank rest position,
   unloaded (Eq. 11 on both flanks) [rad];
@@ -67,6 +72,9 @@ __all__ = [
     "optimum",
 ]
 
+NONFINITE_FAILED = "NaN: the candidate failed (undercut, interference, no solution): see reason"
+"""The ``nonfinite`` attribute of the metric variables of a design map."""
+
 FloatArray = NDArray[np.float64]
 
 
@@ -89,6 +97,15 @@ METRICS: dict[str, tuple[str, float, str, str, bool]] = {
     ),
     "te_pp": ("te_pp_arcsec", RAD_PER_ARCSEC, "arcsec", "peak-to-peak loaded TE", True),
     "min_contacts": ("min_contacts", 1.0, "1", "fewest loaded pins", False),
+    "max_mesh_force": (
+        "max_mesh_force_n",
+        1.0,
+        "N",
+        "largest mesh force on a disc (crank bearing load)",
+        True,
+    ),
+    "max_torque_share": ("max_torque_share_nm", 1.0, "N m", "largest torque on one disc", True),
+    "min_torque_share": ("min_torque_share_nm", 1.0, "N m", "smallest torque on one disc", False),
     "max_play": ("play_arcmin", RAD_PER_ARCMIN, "arcmin", "largest unloaded play", True),
     "min_play": ("min_play_arcmin", RAD_PER_ARCMIN, "arcmin", "smallest unloaded play", False),
     "lost_motion": (
@@ -126,6 +143,8 @@ class Constraints:
         Upper bound on the peak-to-peak TE [rad].
     min_contacts : int, optional
         Lower bound on the fewest loaded pins.
+    max_lost_motion : float, optional
+        Upper bound on the lost motion [rad] (the map then computes it).
     """
 
     max_play: float | None = None
@@ -133,6 +152,7 @@ class Constraints:
     allowable_contact_stress: float | None = None
     max_te_pp: float | None = None
     min_contacts: int | None = None
+    max_lost_motion: float | None = None
 
     def checks(self) -> list[tuple[str, str, float, str]]:
         """(metric, "<=" or ">=", limit [SI], name) of every limit set."""
@@ -143,6 +163,7 @@ class Constraints:
             ("max_contact_stress", "<=", self.allowable_contact_stress, "allowable_stress"),
             ("te_pp", "<=", self.max_te_pp, "max_te_pp"),
             ("min_contacts", ">=", self.min_contacts, "min_contacts"),
+            ("lost_motion", "<=", self.max_lost_motion, "max_lost_motion"),
         ):
             if value is not None:
                 out.append((metric, op, float(value), name))
@@ -157,12 +178,15 @@ def candidate_metrics(
     crank_angles: ArrayLike,
     groove_deformation: bool = True,
     lost_motion: bool = False,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
+    discs: int = 1,
     disc_body: Any = "rigid",
 ) -> dict[str, FloatArray]:
     """Metrics of one candidate modification (see module doc), per ring, SI units.
 
-    ``contact_law`` is the tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
+    ``contact_law`` is the tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`);
+    ``torque`` [N·m] is the torque on the stack of ``discs`` discs
+    (:func:`cyclomesh.drive.solve.solve_drive`).
 
     Returns
     -------
@@ -183,17 +207,24 @@ def candidate_metrics(
         torques,
         phi,
         groove_deformation,
+        discs,
         contact_law=contact_law,
         disc_body=disc_body,
     )
-    te = res.transmission_error  # (..., torque, angle), the one disc's
+    te = res.transmission_error  # (..., torque, angle), the stack's
+    angles_discs = (-2, -1)
     out = {
-        "max_contact_stress": res.contact_stress[..., 0, :, 0, :].max(axis=(-2, -1)),
+        "max_contact_stress": res.contact_stress[..., 0, :, :, :].max(axis=(-3, -2, -1)),
         "te_pp": te[..., 0, :].max(axis=-1) - te[..., 0, :].min(axis=-1),
-        "min_contacts": res.contacts[..., 0, :, 0].min(axis=-1).astype(float),
+        "min_contacts": res.contacts[..., 0, :, :].min(axis=angles_discs).astype(float),
+        "max_mesh_force": res.mesh_force[..., 0, :, :].max(axis=angles_discs),
         "max_play": res.play.max(axis=-1),
         "min_play": res.play.min(axis=-1),
     }
+    if discs > 1:
+        share = res.torque_share[..., 0, :, :]
+        out["max_torque_share"] = share.max(axis=angles_discs)
+        out["min_torque_share"] = share.min(axis=angles_discs)
     if lost_motion:
         out["lost_motion"] = np.max(te[..., 1, :] - te[..., 2, :], axis=-1)
     return out
@@ -236,6 +267,8 @@ class DesignTask:
     lost_motion : bool
         Also compute the lost motion.
     contact_law : {"paper", "half_plane"}
+    discs : int
+        Discs of the stack (``torque`` is the stack's).
     """
 
     design: PairDesign
@@ -246,7 +279,8 @@ class DesignTask:
     crank_angles: tuple[float, ...]
     groove_deformation: bool = True
     lost_motion: bool = False
-    contact_law: str = "paper"
+    contact_law: str = "half_plane"
+    discs: int = 1
     disc_body: Any = "rigid"
     """The base design's disc body for every candidate (Δa, Δρ, δ of a few µm leave the
     body's compliance as it is)."""
@@ -269,7 +303,10 @@ class DesignTask:
 
     def metric_names(self) -> list[str]:
         """Metrics this task computes."""
-        return [m for m in METRICS if m != "lost_motion" or self.lost_motion]
+        skip = set() if self.lost_motion else {"lost_motion"}
+        if self.discs == 1:
+            skip |= {"max_torque_share", "min_torque_share"}
+        return [m for m in METRICS if m not in skip]
 
     def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
         names = self.metric_names()
@@ -287,6 +324,7 @@ class DesignTask:
                     self.groove_deformation,
                     self.lost_motion,
                     self.contact_law,
+                    self.discs,
                     self.disc_body,
                 )
             except CyclomeshError as exc:  # undercut, interfering pin, failed solve
@@ -373,7 +411,8 @@ def design_map(
     backend: Any = None,
     chunk: int | None = None,
     progress: Any = None,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
+    discs: int = 1,
     disc_body: Any = "rigid",
 ) -> xr.Dataset:
     """Design map over a grid of modifications, as a labelled Dataset.
@@ -390,7 +429,7 @@ def design_map(
     errors : PinErrors, optional
         Pin errors; one leading ring axis makes the map robust (percentiles over rings).
     torque : float
-        Torque on the disc [N·m].
+        Torque on the stack of discs [N·m].
     crank_angles_deg : array_like
         Crank angles [deg].
     groove_deformation : bool
@@ -400,11 +439,15 @@ def design_map(
     objective : str
         ``max_contact_stress``, ``te_pp``, ``lost_motion`` or ``play`` (minimised).
     lost_motion : bool, optional
-        Compute the lost motion (default: when it is the objective).
+        Compute the lost motion (default: when it is the objective or constrained; a
+        lost-motion constraint needs it).
     backend, chunk, progress
         Execution (see :func:`evaluate_grid`).
     contact_law : {"paper", "half_plane"}
         Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
+    discs : int
+        Identical discs on the pin ring (:func:`cyclomesh.drive.solve.solve_drive`); the
+        metrics are those of the stack, per-disc ones reduced over the discs.
     disc_body : "rigid" or DiscBody
         The disc body of every candidate: the base design's coefficients (a
         modification of a few µm leaves the body's compliance as it is).
@@ -432,7 +475,11 @@ def design_map(
     base = base or Modification()
     constraints = constraints or Constraints()
     if lost_motion is None:
-        lost_motion = objective == "lost_motion"
+        lost_motion = objective == "lost_motion" or constraints.max_lost_motion is not None
+    if not lost_motion and (objective == "lost_motion" or constraints.max_lost_motion):
+        raise DesignError("lost_motion=False, but the objective or a constraint needs it")
+    if isinstance(discs, bool) or not isinstance(discs, int | np.integer) or discs < 1:
+        raise DesignError(f"discs must be a whole number of at least 1, got {discs!r}")
     coords = {key: np.atleast_1d(np.asarray(v, dtype=float)) for key, v in axes.items()}
     task = DesignTask(
         design=design,
@@ -447,6 +494,7 @@ def design_map(
         groove_deformation=groove_deformation,
         lost_motion=lost_motion,
         contact_law=contact_law,
+        discs=int(discs),
         disc_body=disc_body,
     )
     metrics = evaluate_grid(task, backend, chunk, progress)
@@ -456,7 +504,8 @@ def design_map(
     data: dict[str, Any] = {}
     for name in task.metric_names():
         var, scale, units, long_name, _ = METRICS[name]
-        data[var] = (dims, metrics[name] / scale, {"units": units, "long_name": long_name})
+        attrs = {"units": units, "long_name": long_name, "nonfinite": NONFINITE_FAILED}
+        data[var] = (dims, metrics[name] / scale, attrs)
     data["feasible"] = (dims, feasible.astype(np.int8), {"units": "1", "long_name": "feasible"})
     data["reason"] = (dims, reason, {"long_name": "why a candidate is infeasible ('' if not)"})
     ds = xr.Dataset(
@@ -480,6 +529,7 @@ def design_map(
             "robust_percentile": ROBUST_PERCENTILE,
             "groove_deformation": int(bool(groove_deformation)),
             "contact_law": contact_law,
+            "discs": int(discs),
             "crank_angles": len(task.crank_angles),
             "feasible_candidates": int(feasible.sum()),
             "candidates": int(task.size),
@@ -505,6 +555,8 @@ def _constraint_attrs(constraints: Constraints) -> dict[str, float]:
         out["max_te_pp_arcsec"] = constraints.max_te_pp / RAD_PER_ARCSEC
     if constraints.min_contacts is not None:
         out["min_contacts"] = int(constraints.min_contacts)
+    if constraints.max_lost_motion is not None:
+        out["max_lost_motion_arcmin"] = constraints.max_lost_motion / RAD_PER_ARCMIN
     return out
 
 

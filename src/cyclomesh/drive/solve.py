@@ -72,6 +72,7 @@ from cyclomesh.core.ltca import (
     check_disc_body,
     check_pair,
     contact_stresses,
+    count_contacts,
     locate_failure,
     pin_compliance,
     rest_position,
@@ -218,7 +219,8 @@ class Drive:
         Torque carried by each disc, Σ F·l (Eqs. 16, 18), signed like the torque, (..., Q, A, N)
         [N·m].
     contacts : ndarray
-        Loaded pins of each disc, (..., Q, A, N).
+        Pins in contact of each disc, (..., Q, A, N): load above
+        :data:`~cyclomesh.core.ltca.CONTACT_LOAD_FRACTION` of the stack's largest pin load.
     mesh_force, mesh_force_angle : ndarray
         Magnitude [N] and direction [rad, counter-clockwise from x, fixed frame] of the
         resultant of the pin forces on each disc, (..., Q, A, N).
@@ -370,7 +372,7 @@ def _mesh(
     phi: FloatArray,
     discs: int,
     groove_deformation: bool,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
     body: DiscBody | None = None,
 ) -> _Mesh:
     """Unloaded contact, rest positions and compliance of a stack (forward flanks)."""
@@ -476,7 +478,7 @@ def _load(mesh: _Mesh, torque: float) -> dict[str, FloatArray]:
         "overlap": np.maximum(geo.reverse_rotation - total, 0.0),
         "force_angle": np.arctan2(-mesh.normal_y, -mesh.normal_x),
         "torque_share": np.sum(force * geo.moment_arm, axis=-1),
-        "contacts": np.sum(force > 0, axis=-1),
+        "contacts": count_contacts(force, axes=2),
         "mesh_force_x": fx,
         "mesh_force_y": fy,
         "loaded_rotation": loaded,
@@ -492,7 +494,7 @@ def _directions(
     groove_deformation: bool,
     forward: bool,
     reverse: bool,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
     body: DiscBody | None = None,
 ) -> tuple[_Mesh | None, _Mesh | None]:
     """Meshes of the forward flanks and of the mirrored (reverse) problem, as needed.
@@ -534,7 +536,7 @@ def solve_drive(
     crank_angles: ArrayLike = (0.0,),
     groove_deformation: bool = True,
     discs: int = 1,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
     disc_body: str | DiscBody = "rigid",
 ) -> Drive:
     """Loaded contact of a stack of discs on both flanks over a list of torques.
@@ -817,7 +819,7 @@ def torsion_curve(
     discs: int = 1,
     points: int = 41,
     series_stiffness: float | None = None,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
     disc_body: str | DiscBody = "rigid",
 ) -> TorsionCurve:
     """Torsion curve of the cycloid-pin mesh: rotation against torque, both directions.
@@ -931,7 +933,7 @@ def stack_meshes(
     groove_deformation: bool,
     forward: bool,
     reverse: bool,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> tuple[StackMesh | None, StackMesh | None]:
     """The unloaded meshes of the forward flanks and of the mirror problem (reverse flanks),
     as needed; the mirror problem is solved on the crank angles −φ reversed, and

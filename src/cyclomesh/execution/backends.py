@@ -23,10 +23,13 @@ prints: progress goes to the ``progress`` callback (the CLI draws the bar).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import multiprocessing
 import os
+import re
 import threading
+import time
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -37,7 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cyclomesh.exceptions import CyclomeshError
-from cyclomesh.execution.runtime import tune_allocator
+from cyclomesh.execution.runtime import start_worker, tune_allocator
 
 __all__ = [
     "ExecutionError",
@@ -145,7 +148,8 @@ class ProcessBackend:
             self._pool = ProcessPoolExecutor(
                 max_workers=self.workers,
                 mp_context=multiprocessing.get_context(method),
-                initializer=tune_allocator,
+                initializer=start_worker,
+                initargs=(os.getpid(),),
             )
         return self._pool
 
@@ -210,6 +214,10 @@ class ProcessBackend:
             self._pool = None
 
 
+_ADDRESS = re.compile(r"inproc://\S+|(?:(?:tcp|tls|ucx|ws|wss)://)?[\w.\-\[\]:]+:\d{1,5}")
+"""A Dask scheduler address: ``[scheme://]host:port``."""
+
+
 class DaskBackend:
     """Runs chunks on an existing Dask ``distributed`` cluster.
 
@@ -223,6 +231,12 @@ class DaskBackend:
         Chunks submitted ahead per worker thread; bounds the memory held by results.
     client : distributed.Client, optional
         An existing client to use instead of connecting (not closed by :meth:`close`).
+    no_worker_timeout_s : float
+        How long the cluster may have no worker at all before the run fails [s] (a
+        run never waits forever on a cluster whose workers all died).
+
+    A lost scheduler or a run stuck without workers is a one-line :class:`ClusterError`
+    naming the address.
     """
 
     def __init__(
@@ -231,6 +245,7 @@ class DaskBackend:
         timeout_s: float = 5.0,
         in_flight_per_worker: int = 2,
         client: Any = None,
+        no_worker_timeout_s: float = 60.0,
     ) -> None:
         try:
             import distributed
@@ -241,6 +256,11 @@ class DaskBackend:
             ) from None
         self._distributed = distributed
         self._own = client is None
+        if client is None and not _ADDRESS.fullmatch(str(address or "")):
+            raise ClusterError(
+                f"--scheduler {address!r}: expected a Dask scheduler address such as "
+                "tcp://HOST:PORT"
+            )
         if client is None:
             try:
                 client = distributed.Client(address, timeout=f"{timeout_s}s", set_as_default=False)
@@ -251,6 +271,9 @@ class DaskBackend:
                     f"within {timeout_s:g} s: {first}"
                 ) from None
         self.client = client
+        self.address = address
+        self.poll_s = 1.0
+        self.no_worker_timeout_s = no_worker_timeout_s
         threads = sum(client.nthreads().values())
         self.workers = max(1, threads)
         self._per_worker = max(1, in_flight_per_worker)
@@ -278,18 +301,69 @@ class DaskBackend:
                 break
             first.append(submit(chunk))
         queue = distributed.as_completed(first, loop=client.loop, with_results=False)
+        idle_since: float | None = None
+        checked = time.monotonic()
         try:
-            for future in queue:
-                chunk = keys.pop(future.key)
-                result = future.result()
-                future.release()
-                nxt = next(todo, None)
-                if nxt is not None:
-                    queue.add(submit(nxt))
-                yield chunk, result
+            while not queue.is_empty():
+                try:
+                    done = queue.next_batch(block=False)
+                except Exception as exc:  # the scheduler is gone
+                    raise self._lost(exc) from None
+                if not done:  # nothing finished: is there a worker left?
+                    now = time.monotonic()
+                    if now - checked >= self.poll_s:
+                        checked = now
+                        idle_since = self._check_workers(idle_since)
+                    time.sleep(0.02)
+                    continue
+                idle_since = None
+                for future in done:
+                    chunk = keys.pop(future.key)
+                    try:
+                        result = future.result()
+                    except CyclomeshError:
+                        raise
+                    except Exception as exc:  # cancelled: scheduler lost, or a worker error
+                        raise self._lost(exc) from None
+                    future.release()
+                    nxt = next(todo, None)
+                    if nxt is not None:
+                        queue.add(submit(nxt))
+                    yield chunk, result
         finally:
             for future in list(queue.futures):
-                future.cancel()
+                with contextlib.suppress(Exception):
+                    future.cancel()
+
+    def _where(self) -> str:
+        if self.address:
+            return str(self.address)
+        scheduler = getattr(self.client, "scheduler", None)
+        return str(getattr(scheduler, "address", "the scheduler"))
+
+    def _lost(self, exc: BaseException) -> ClusterError:
+        first = (str(exc).splitlines() or [""])[0] or type(exc).__name__
+        return ClusterError(f"lost the Dask cluster at {self._where()}: {first}")
+
+    def _check_workers(self, idle_since: float | None) -> float | None:
+        """Raise if the cluster has had no worker for :attr:`no_worker_timeout_s`."""
+        try:
+            workers = self.client.scheduler_info(n_workers=-1).get("workers", {})
+        except TypeError:  # older distributed
+            workers = self.client.scheduler_info().get("workers", {})
+        except Exception as exc:
+            raise self._lost(exc) from None
+        if workers:
+            return None
+        now = time.monotonic()
+        if idle_since is None:
+            return now
+        if now - idle_since > self.no_worker_timeout_s:
+            raise ClusterError(
+                f"no Dask worker left at {self._where()} for "
+                f"{self.no_worker_timeout_s:g} s: restart the workers and run again"
+            )
+        return idle_since
 
     def close(self) -> None:
         if self._own:

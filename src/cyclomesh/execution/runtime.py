@@ -6,8 +6,11 @@ entry points (:func:`cyclomesh.analyse`, :func:`cyclomesh.stiffness`, ...).
 from __future__ import annotations
 
 import os
+import sys
+import threading
+import time
 
-__all__ = ["tune_allocator"]
+__all__ = ["tune_allocator", "die_with_parent", "start_worker"]
 
 MMAP_THRESHOLD = 32 * 1024 * 1024
 """Arrays up to this size [bytes] come from the heap, not from a fresh mmap."""
@@ -44,3 +47,43 @@ def tune_allocator() -> None:
         libc.mallopt(-1, TRIM_THRESHOLD)  # M_TRIM_THRESHOLD
     except (OSError, AttributeError):  # pragma: no cover - not glibc
         pass
+
+
+PR_SET_PDEATHSIG = 1
+"""``prctl`` option: the signal a process gets when its parent dies (Linux)."""
+
+
+def die_with_parent(parent: int) -> None:
+    """Make this (worker) process die with its parent ``parent`` (a PID).
+
+    On Linux, ``prctl(PR_SET_PDEATHSIG, SIGKILL)``: the kernel kills the worker when the
+    process that started it ends, even by ``kill -9``, so no orphan keeps its memory.
+    Elsewhere a daemon thread checks every second that the parent is still there.
+    """
+    import signal
+
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            if libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0:
+                if os.getppid() != parent:  # the parent died before the prctl
+                    os._exit(1)
+                return
+        except (OSError, AttributeError):  # pragma: no cover - no prctl
+            pass
+
+    def watch() -> None:  # pragma: no cover - not Linux
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="cyclomesh-watchdog", daemon=True).start()
+
+
+def start_worker(parent: int) -> None:
+    """Initializer of a local worker process: it dies with ``parent``
+    (:func:`die_with_parent`) and tunes its allocator (:func:`tune_allocator`)."""
+    die_with_parent(parent)
+    tune_allocator()

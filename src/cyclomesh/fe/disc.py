@@ -107,7 +107,7 @@ def solve_disc_fe(
     bore_radius: float = 30e-3,
     elements_per_half_width: float = 8.0,
     far_size: float = 1.5e-3,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
     reach: float = 2.0,
     groove_tolerance: float = 1e-7,
     disc_body: object = "rigid",

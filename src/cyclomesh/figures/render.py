@@ -137,25 +137,31 @@ def decimate(
 def _render(job: FigureJob, formats: Sequence[str], dpi: int) -> dict[str, bytes]:
     """Draw ``job`` and return its file contents: PNG (always, for the report) and
     every other format of ``formats``."""
-    fig = job.plot(*job.args, **dict(job.kwargs))
-    contents = {}
-    for fmt in ("png", *(f for f in formats if f != "png")):
-        buffer = io.BytesIO()
-        png = {"pil_kwargs": {"compress_level": PNG_COMPRESSION}} if fmt == "png" else {}
-        fig.savefig(buffer, format=fmt, dpi=dpi, **png)
-        contents[fmt] = buffer.getvalue()
+    import matplotlib
+
+    # text is plain: a case name or title such as "$x^{$" is not parsed as mathtext
+    with matplotlib.rc_context({"text.parse_math": False}):
+        fig = job.plot(*job.args, **dict(job.kwargs))
+        contents = {}
+        for fmt in ("png", *(f for f in formats if f != "png")):
+            buffer = io.BytesIO()
+            png = {"pil_kwargs": {"compress_level": PNG_COMPRESSION}} if fmt == "png" else {}
+            fig.savefig(buffer, format=fmt, dpi=dpi, **png)
+            contents[fmt] = buffer.getvalue()
     return contents
 
 
 def _save(
     job: FigureJob, contents: Mapping[str, bytes], folder: Path | None, formats: Sequence[str]
 ) -> RenderedFigure:
-    """Write the drawn ``contents`` of ``job`` into ``folder`` (in this process)."""
+    """Write the drawn ``contents`` of ``job`` into ``folder`` (in this process, atomically)."""
+    from cyclomesh.output.folder import write_bytes
+
     files = []
     if folder is not None:
         for fmt in formats:
             path = folder / f"{job.name}.{fmt}"
-            path.write_bytes(contents[fmt])
+            write_bytes(path, contents[fmt])
             files.append(path)
     return RenderedFigure(job.name, job.caption, job.section, contents["png"], tuple(files))
 
@@ -192,12 +198,18 @@ def warm_up(draw: bool = False) -> None:
     _WARM = True
 
 
-def _warm_worker() -> None:
-    """Start of a figure worker: :func:`warm_up` with its figure (unless the parent drew
-    it), then :func:`gc.freeze`: the objects of the imports are never scanned again (a
-    tenth of a figure's time went to full collections over them)."""
+def _warm_worker(parent: int | None = None) -> None:
+    """Start of a figure worker: it dies with ``parent`` (its PID,
+    :func:`cyclomesh.execution.runtime.die_with_parent`), :func:`warm_up` with its
+    figure (unless the parent drew it), then :func:`gc.freeze`: the objects of the
+    imports are never scanned again (a tenth of a figure's time went to full collections
+    over them)."""
     import gc
 
+    if parent is not None:
+        from cyclomesh.execution.runtime import die_with_parent
+
+        die_with_parent(parent)
     warm_up(draw=True)
     gc.freeze()
 
@@ -234,6 +246,7 @@ class FigurePool:
                 max_workers=self.workers,
                 mp_context=multiprocessing.get_context("fork"),
                 initializer=_warm_worker,
+                initargs=(os.getpid(),),
             )
             self._pool.submit(_nothing)  # fork all workers now
 

@@ -9,13 +9,14 @@ they write no file (:mod:`cyclomesh.figures.render` does).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import xarray as xr
 
 from cyclomesh.figures.render import new_figure
-from cyclomesh.results.metrics import METRICS, STRESS_METRIC, metric_label
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC, metric_label
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -23,6 +24,8 @@ if TYPE_CHECKING:
     from cyclomesh.tolerance.allocation import Allocation
 
 __all__ = [
+    "RingDistributions",
+    "reduce_rings",
     "plot_metric_histograms",
     "plot_metric_ecdfs",
     "plot_stress_exceedance",
@@ -43,29 +46,97 @@ def _figure(width: float, height: float, hspace: float = 0.55) -> Figure:
     return fig
 
 
+ECDF_POINTS = 2000
+"""Points of an empirical distribution function drawn (evenly spaced in probability)."""
+
+EXCEEDANCE_LEVELS = 400
+"""Stress levels of the exceedance curve."""
+
+
+@dataclass(frozen=True)
+class RingDistributions:
+    """What the tolerance figures draw, reduced from the per-ring metrics: its size does
+    not depend on the number of rings (the figures of 10^6 rings need no more memory
+    than those of 100; the workers receive this, not the rings).
+
+    Attributes
+    ----------
+    rings : int
+    histograms : dict of (counts, edges, integer)
+        Per metric: bin counts, bin edges [unit of the metric], integer-valued.
+    ecdfs : dict of (values, fractions)
+        Per metric: at most :data:`ECDF_POINTS` order statistics and their fractions
+        i/n of rings ≤ the value (the first and the last always included).
+    levels, exceedance_counts : ndarray
+        Stress levels [MPa] and the number of rings above each (for the exceedance).
+    exceeding : int
+        Rings above the allowable contact stress.
+    """
+
+    rings: int
+    histograms: dict[str, tuple[np.ndarray, np.ndarray, bool]]
+    ecdfs: dict[str, tuple[np.ndarray, np.ndarray]]
+    levels: np.ndarray
+    exceedance_counts: np.ndarray
+    exceeding: int
+
+
+def reduce_rings(
+    ds: xr.Dataset | RingDistributions, allowable_contact_stress_mpa: float | None = None
+) -> RingDistributions:
+    """The histograms, ECDF points and exceedance counts of every per-ring metric."""
+    if isinstance(ds, RingDistributions):
+        return ds
+    n = int(ds.sizes["ring"])
+    histograms, ecdfs = {}, {}
+    take = np.unique(np.linspace(0, n - 1, min(n, ECDF_POINTS)).round().astype(np.int64))
+    for name in _metrics(ds):
+        values = np.sort(np.asarray(ds[name].values, dtype=float))
+        integer = bool(np.issubdtype(ds[name].dtype, np.integer))
+        finite = values[np.isfinite(values)]
+        if integer and finite.size:
+            bins: Any = np.arange(finite.min() - 0.5, finite.max() + 1.5)
+        else:
+            bins = min(50, max(5, int(np.sqrt(max(finite.size, 1)))))
+        counts, edges = np.histogram(finite, bins=bins)
+        histograms[name] = (counts, edges, integer)
+        ecdfs[name] = (values[take], (take + 1) / n)
+    stress = np.sort(np.asarray(ds[STRESS_METRIC].values, dtype=float))
+    allowable = stress[-1] if allowable_contact_stress_mpa is None else allowable_contact_stress_mpa
+    span = max(stress[-1] - stress[0], 1.0)
+    levels = np.linspace(
+        min(stress[0], allowable) - 0.05 * span,
+        max(stress[-1], allowable) + 0.05 * span,
+        EXCEEDANCE_LEVELS,
+    )
+    counts = n - np.searchsorted(stress, levels, side="right")  # #{σ > level}
+    exceeding = int(np.count_nonzero(stress > allowable))
+    return RingDistributions(n, histograms, ecdfs, levels, counts, exceeding)
+
+
 def _metrics(ds: xr.Dataset) -> list[str]:
-    return [name for name in METRICS if name in ds and name != "overlap"]
+    names = (*METRICS, *DRIVE_METRICS)  # the mesh force and a stack's torque split too
+    return [name for name in names if name in ds and name != "overlap"]
 
 
 def _label(name: str) -> str:
     return metric_label(name)
 
 
-def plot_metric_histograms(ds: xr.Dataset, allowable_contact_stress_mpa: float | None = None):
-    """Histogram of every per-ring metric (one panel each)."""
-    names = _metrics(ds)
+def plot_metric_histograms(
+    ds: xr.Dataset | RingDistributions, allowable_contact_stress_mpa: float | None = None
+):
+    """Histogram of every per-ring metric (one panel each), from the rings or from their
+    :func:`reduce_rings`."""
+    dist = reduce_rings(ds, allowable_contact_stress_mpa)
+    names = list(dist.histograms)
     cols = 4
     rows = -(-len(names) // cols)
     fig = _figure(3.2 * cols, 2.5 * rows)
     axes = fig.subplots(rows, cols, squeeze=False).ravel()
     for ax, name in zip(axes, names, strict=False):
-        values = np.asarray(ds[name].values, dtype=float)
-        integer = np.issubdtype(ds[name].dtype, np.integer)
-        if integer:
-            bins = np.arange(values.min() - 0.5, values.max() + 1.5)
-        else:
-            bins = min(50, max(5, int(np.sqrt(values.size))))
-        ax.hist(values, bins=bins, color="tab:blue", alpha=0.8)
+        counts, edges, _ = dist.histograms[name]
+        ax.stairs(counts, edges, fill=True, color="tab:blue", alpha=0.8)
         if name == STRESS_METRIC and allowable_contact_stress_mpa is not None:
             ax.axvline(allowable_contact_stress_mpa, color="tab:red", label="allowable")
             ax.legend(fontsize="small")
@@ -73,21 +144,25 @@ def plot_metric_histograms(ds: xr.Dataset, allowable_contact_stress_mpa: float |
         ax.set_ylabel("rings")
     for ax in axes[len(names) :]:
         ax.set_visible(False)
-    fig.suptitle(f"Per-ring metrics over {ds.sizes['ring']} rings")
+    fig.suptitle(f"Per-ring metrics over {dist.rings} rings")
     return fig
 
 
-def plot_metric_ecdfs(ds: xr.Dataset, allowable_contact_stress_mpa: float | None = None):
-    """Empirical distribution function of every per-ring metric (one panel each)."""
-    names = _metrics(ds)
+def plot_metric_ecdfs(
+    ds: xr.Dataset | RingDistributions, allowable_contact_stress_mpa: float | None = None
+):
+    """Empirical distribution function of every per-ring metric (one panel each), at
+    most :data:`ECDF_POINTS` order statistics each."""
+    dist = reduce_rings(ds, allowable_contact_stress_mpa)
+    names = list(dist.ecdfs)
     cols = 4
     rows = -(-len(names) // cols)
     fig = _figure(3.2 * cols, 2.5 * rows)
     axes = fig.subplots(rows, cols, squeeze=False).ravel()
-    n = ds.sizes["ring"]
+    n = dist.rings
     for ax, name in zip(axes, names, strict=False):
-        values = np.sort(np.asarray(ds[name].values, dtype=float))
-        ax.step(values, np.arange(1, n + 1) / n, where="post", color="tab:blue")
+        values, fractions = dist.ecdfs[name]
+        ax.step(values, fractions, where="post", color="tab:blue")
         if name == STRESS_METRIC and allowable_contact_stress_mpa is not None:
             ax.axvline(allowable_contact_stress_mpa, color="tab:red", label="allowable")
             ax.legend(fontsize="small")
@@ -101,7 +176,9 @@ def plot_metric_ecdfs(ds: xr.Dataset, allowable_contact_stress_mpa: float | None
 
 
 def plot_stress_exceedance(
-    ds: xr.Dataset, allowable_contact_stress_mpa: float, confidence: float = 0.95
+    ds: xr.Dataset | RingDistributions,
+    allowable_contact_stress_mpa: float,
+    confidence: float = 0.95,
 ):
     """Probability that the peak tooth contact stress exceeds a level, vs. the level.
 
@@ -110,15 +187,8 @@ def plot_stress_exceedance(
     """
     from cyclomesh.tolerance.statistics import clopper_pearson
 
-    stress = np.sort(np.asarray(ds[STRESS_METRIC].values, dtype=float))
-    n = stress.size
-    span = max(stress[-1] - stress[0], 1.0)
-    levels = np.linspace(
-        min(stress[0], allowable_contact_stress_mpa) - 0.05 * span,
-        max(stress[-1], allowable_contact_stress_mpa) + 0.05 * span,
-        400,
-    )
-    counts = n - np.searchsorted(stress, levels, side="right")  # #{σ > level}
+    dist = reduce_rings(ds, allowable_contact_stress_mpa)
+    n, levels, counts = dist.rings, dist.levels, dist.exceedance_counts
     lo, hi = clopper_pearson(counts, n, confidence)
     floor = 0.5 / n
     lo, hi = np.maximum(lo, floor), np.maximum(hi, floor)
@@ -135,7 +205,7 @@ def plot_stress_exceedance(
     )
     ax.step(levels, np.maximum(counts / n, floor), where="post", color="tab:blue", label="estimate")
     ax.axvline(allowable_contact_stress_mpa, color="tab:red", label="allowable")
-    p = float(np.count_nonzero(stress > allowable_contact_stress_mpa)) / n
+    p = dist.exceeding / n
     ax.set_title(f"P(σH > {allowable_contact_stress_mpa:g} MPa) = {p:.3g}  ({n} rings)")
     ax.set_xlabel("peak tooth contact stress level [MPa]")
     ax.set_ylabel("exceedance probability [-] (log)")

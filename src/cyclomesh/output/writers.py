@@ -9,6 +9,9 @@ Files (see ``docs/study-files.md``):
 - Pin-level CSV (:func:`write_pin_csv`, opt-in ``--csv``): the same table as text.
 - Per-angle CSV (:func:`write_angle_csv`): one row per crank angle with TE, ratio,
   contacts, rotations, and the peak loads and stresses over the pins.
+Every file is written atomically (:func:`cyclomesh.output.folder.atomic_write`: a
+temporary name in the same folder, renamed into place).
+
 - JSON (:func:`write_json`) through the one cleaner :func:`jsonable` (NaN and
   infinities as ``null``, NumPy scalars as numbers), and TOML (:func:`toml_dumps`).
 
@@ -24,11 +27,14 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from cyclomesh.output.folder import active_folder, atomic_write, write_text
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -91,10 +97,16 @@ def jsonable(value: Any) -> Any:
 
 
 def write_json(path: Path, document: Mapping[str, Any]) -> Path:
-    """Write ``jsonable(document)`` as strict JSON (indented, UTF-8)."""
+    """Write ``jsonable(document)`` as strict JSON (indented, UTF-8).
+
+    Inside a :class:`~cyclomesh.output.folder.ResultFolder`, its ``summary.json`` is
+    kept and written last, as the completion marker."""
+    folder = active_folder()
+    if folder is not None and Path(path) == folder.marker:
+        folder.defer_marker(jsonable(document))
+        return path
     text = json.dumps(jsonable(document), indent=2, allow_nan=False, ensure_ascii=False)
-    path.write_text(text + "\n", encoding="utf-8")
-    return path
+    return write_text(path, text + "\n")
 
 
 def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
@@ -114,19 +126,23 @@ def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
         for name in list(out.data_vars):
             if out[name].dtype == np.bool_:
                 out[name] = out[name].astype(np.int8)
-        out.to_netcdf(path)
+        with atomic_write(path) as tmp:
+            out.to_netcdf(tmp)
         return path
     import netCDF4
 
-    with netCDF4.Dataset(path, "w", format="NETCDF4") as nc:
+    with atomic_write(path) as tmp, netCDF4.Dataset(tmp, "w", format="NETCDF4") as nc:
         for dim, size in ds.sizes.items():
             nc.createDimension(str(dim), size)
         for name, var in ds.variables.items():
             values = np.asarray(var.values)
             if values.dtype == np.bool_:
                 values = values.astype(np.int8)
+            # a fill value (NaN for floats, netCDF's default otherwise): storage never
+            # written reads as missing, not as whatever bytes were there
+            fill = np.nan if values.dtype.kind == "f" else None
             out = nc.createVariable(
-                str(name), values.dtype, tuple(str(d) for d in var.dims), fill_value=False
+                str(name), values.dtype, tuple(str(d) for d in var.dims), fill_value=fill
             )
             if values.ndim:
                 out[...] = values
@@ -213,7 +229,8 @@ def write_parquet(ds: xr.Dataset, path: Path) -> Path:
     table = long_table(ds)
     attrs = json.dumps(jsonable(dict(ds.attrs)), ensure_ascii=False)
     table = table.replace_schema_metadata({"cyclomesh.attrs": attrs})
-    pq.write_table(table, path, compression="zstd")
+    with atomic_write(path) as tmp:
+        pq.write_table(table, tmp, compression="zstd")
     return path
 
 
@@ -226,7 +243,9 @@ def _write_csv(table: pa.Table, path: Path) -> Path:
         pc.cast(col, pa.int8()) if pa.types.is_boolean(col.type) else col for col in table.columns
     ]
     table = pa.Table.from_arrays(arrays, names=table.column_names)
-    pacsv.write_csv(table, path, pacsv.WriteOptions(quoting_style="none", quoting_header="none"))
+    options = pacsv.WriteOptions(quoting_style="none", quoting_header="none")
+    with atomic_write(path) as tmp:
+        pacsv.write_csv(table, tmp, options)
     return path
 
 
@@ -316,10 +335,21 @@ def _toml_value(value: Any) -> str:
             return "inf" if v > 0 else "-inf"
         return repr(v)
     if isinstance(value, str):
-        return json.dumps(value, ensure_ascii=False)  # a valid TOML basic string
+        # a valid TOML basic string: JSON escapes quotes, backslashes and U+0000-U+001F;
+        # TOML also forbids a raw U+007F (DEL)
+        return json.dumps(value, ensure_ascii=False).replace("\x7f", "\\u007f")
+    if isinstance(value, Mapping):  # an inline table (inside a list)
+        items = ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items())
+        return "{ " + items + " }" if items else "{}"
     if isinstance(value, Sequence | np.ndarray):
         return "[" + ", ".join(_toml_value(v) for v in list(value)) + "]"
     raise TypeError(f"cannot write {type(value).__name__} to TOML")
+
+
+def _toml_key(key: Any) -> str:
+    """A bare key if it can be one, else a quoted key."""
+    key = str(key)
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else _toml_value(key)
 
 
 def toml_dumps(data: Mapping[str, Any], _prefix: str = "") -> str:
@@ -334,10 +364,10 @@ def toml_dumps(data: Mapping[str, Any], _prefix: str = "") -> str:
         if isinstance(value, Mapping):
             tables.append((key, value))
         else:
-            lines.append(f"{key} = {_toml_value(value)}")
+            lines.append(f"{_toml_key(key)} = {_toml_value(value)}")
     out = "\n".join(lines)
     for key, value in tables:
-        name = f"{_prefix}.{key}" if _prefix else key
+        name = f"{_prefix}.{_toml_key(key)}" if _prefix else _toml_key(key)
         body = toml_dumps(value, name)
         out += ("\n\n" if out else "") + f"[{name}]" + ("\n" + body if body else "")
     return out

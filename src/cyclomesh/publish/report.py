@@ -158,5 +158,6 @@ def write_report(
 ) -> Path:
     """Write :func:`render_report` to ``path`` (UTF-8) and return the path."""
     path = Path(path)
-    path.write_text(render_report(title, sections, stamp, embed), encoding="utf-8")
-    return path
+    from cyclomesh.output.folder import write_text
+
+    return write_text(path, render_report(title, sections, stamp, embed))

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.core.ltca import LTCA
+from cyclomesh.core.ltca import CONTACT_LOAD_FRACTION, LTCA
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.solve import Drive, check_torques, solve_drive
 from cyclomesh.exceptions import DesignError
@@ -28,7 +28,14 @@ from cyclomesh.units import ARCSEC_PER_RAD
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["analyse", "to_dataset", "drive_to_dataset", "summarize", "ltca_metrics"]
+__all__ = [
+    "analyse",
+    "to_dataset",
+    "drive_to_dataset",
+    "summarize",
+    "ltca_metrics",
+    "drive_metrics",
+]
 
 """One second of arc [rad]."""
 
@@ -45,10 +52,22 @@ _PER_PIN = {
     "moment_arm": (1e3, "mm", "moment arm of the line of action"),
     "curvature_radius": (1e3, "mm", "signed profile curvature radius ρc"),
 }
+NONFINITE = {
+    "backlash": "inf: the pin lies above the tip circle of the modified profile and cannot "
+    "touch the loaded flank",
+    "curvature_radius": "inf: the contact point is an inflection point of the profile "
+    "(straight, ρc → ∞)",
+}
+"""What a non-finite value means in a variable (its ``nonfinite`` attribute); no other
+variable holds one."""
 _PER_ANGLE = {
     "transmission_error": (ARCSEC_PER_RAD, "arcsec", "loaded TE"),
     "gear_ratio": (1.0, "1", "instantaneous gear ratio"),
-    "contacts": (1, "1", "number of pins in contact"),
+    "contacts": (
+        1,
+        "1",
+        "number of pins in contact: load above 0.1 % of the largest pin load at the angle",
+    ),
     "loaded_rotation": (ARCSEC_PER_RAD, "arcsec", "disc rotation under load Δφc"),
     "rest_rotation": (ARCSEC_PER_RAD, "arcsec", "unloaded rest position φc − φt"),
 }
@@ -90,6 +109,7 @@ def to_dataset(
     for dims, table in ((dims_pin, _PER_PIN), (dims_angle, _PER_ANGLE)):
         for name, (scale, units, long_name) in table.items():
             attrs = {"units": units, "long_name": long_name}
+            attrs.update({"nonfinite": NONFINITE[name]} if name in NONFINITE else {})
             data[name] = (dims, getattr(result, name) * scale, attrs)
     coords = {
         "crank_angle": ("crank_angle", np.degrees(result.crank_angle), {"units": "deg"}),
@@ -98,6 +118,7 @@ def to_dataset(
     if ring_dims:
         coords["ring"] = ("ring", np.arange(result.transmission_error.shape[0]))
     attrs = result_attrs(result.crank_angle, design, modification, torque, groove_deformation)
+    data["contacts"][2]["load_threshold_fraction"] = CONTACT_LOAD_FRACTION
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
@@ -192,7 +213,9 @@ def drive_to_dataset(
             if name == "torque_share" and discs == 1:
                 continue
             value = select(getattr(result, name), per)
-            data[name] = (dims, value * scale, {"units": units, "long_name": long_name})
+            attrs = {"units": units, "long_name": long_name}
+            attrs.update({"nonfinite": NONFINITE[name]} if name in NONFINITE else {})
+            data[name] = (dims, value * scale, attrs)
     name, scale, units, long_name = _PLAY
     data[name] = (
         (*ring, "crank_angle"),
@@ -214,6 +237,7 @@ def drive_to_dataset(
     single = None if torque_dim else float(result.torque[0])
     attrs = result_attrs(result.crank_angle, design, modification, single, groove_deformation)
     attrs["discs"] = int(discs)
+    data["contacts"][2]["load_threshold_fraction"] = CONTACT_LOAD_FRACTION
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
@@ -244,7 +268,7 @@ def analyse(
     *,
     crank_angles_deg: ArrayLike | None = None,
     discs: int = 1,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
     disc_body: Any = "rigid",
     crank_holes: Any = None,
     cache_dir: Any = None,
@@ -367,6 +391,9 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
         data["play_arcsec_max"] = ds["play"].max("crank_angle")
     if "mesh_force" in ds:
         data["max_mesh_force_n"] = ds["mesh_force"].max(("crank_angle", *stack))
+    if "torque_share" in ds:
+        data["torque_share_min_nm"] = ds["torque_share"].min(("crank_angle", *stack))
+        data["torque_share_max_nm"] = ds["torque_share"].max(("crank_angle", *stack))
     summary = xr.Dataset(data, coords=coords)
     for name in summary.data_vars:
         metric = METRICS.get(name) or DRIVE_METRICS[name]
@@ -398,6 +425,39 @@ def ltca_metrics(result: LTCA, teeth: int) -> dict[str, NDArray]:
         )
     }
     return summary_metrics(**scaled, teeth=teeth)
+
+
+def drive_metrics(result: Drive, teeth: int) -> dict[str, NDArray]:
+    """The metrics of ``summarize(analyse(...))`` straight from a one-torque core result.
+
+    :data:`cyclomesh.results.metrics.METRICS` (per-pin ones reduced over the discs and pins,
+    contacts per disc), ``max_mesh_force_n`` (largest mesh force on a disc [N]) and, for a
+    stack, ``torque_share_min_nm`` / ``torque_share_max_nm`` (range of the torque one
+    disc carries [N·m]); bit for bit those of :func:`summarize`, leading ring axes kept.
+    """
+    angles, discs, pins = result.pin_load.shape[-3:]
+
+    def per_pin(name: str) -> NDArray:
+        value = getattr(result, name)[..., 0, :, :, :] * _PER_PIN[name][0]
+        return value.reshape(*value.shape[:-2], discs * pins)
+
+    out = summary_metrics(
+        transmission_error=result.transmission_error[..., 0, :]
+        * _PER_ANGLE["transmission_error"][0],
+        gear_ratio=result.gear_ratio[..., 0, :],
+        contacts=result.contacts[..., 0, :, :].reshape(*result.contacts.shape[:-3], -1),
+        **{
+            name: per_pin(name)
+            for name in ("pin_load", "groove_load", "contact_stress", "groove_stress", "overlap")
+        },
+        teeth=teeth,
+    )
+    out["max_mesh_force_n"] = np.max(result.mesh_force[..., 0, :, :], axis=(-2, -1))
+    if discs > 1:
+        share = result.torque_share[..., 0, :, :]
+        out["torque_share_min_nm"] = np.min(share, axis=(-2, -1))
+        out["torque_share_max_nm"] = np.max(share, axis=(-2, -1))
+    return out
 
 
 FE_EXTRA_MESSAGE = (

@@ -86,8 +86,14 @@ DRIVE_METRICS: dict[str, Metric] = {
         Metric(
             "max_mesh_force_n",
             "N",
-            "largest mesh force (resultant of the pin forces on a disc)",
+            "largest mesh force on a disc (crank bearing load)",
             "max mesh force",
+        ),
+        Metric(
+            "torque_share_min_nm", "N m", "smallest torque carried by one disc", "min disc torque"
+        ),
+        Metric(
+            "torque_share_max_nm", "N m", "largest torque carried by one disc", "max disc torque"
         ),
     )
 }

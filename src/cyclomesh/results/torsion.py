@@ -50,7 +50,7 @@ def stiffness(
     crank_angles_deg: ArrayLike | None = None,
     discs: int = 1,
     series_stiffness_nm_per_arcmin: float | None = None,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
     disc_body: Any = "rigid",
     crank_holes: Any = None,
     cache_dir: Any = None,

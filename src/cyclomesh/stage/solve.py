@@ -60,7 +60,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.hertz import force_from_approach
-from cyclomesh.core.ltca import check_contact_law, check_crank_angles, check_pair, contact_stresses
+from cyclomesh.core.ltca import (
+    check_contact_law,
+    check_crank_angles,
+    check_pair,
+    contact_stresses,
+    count_contacts,
+)
 from cyclomesh.core.pair import CrankHoles, Modification, PairDesign, PinErrors
 from cyclomesh.core.transmission import transmission_error
 from cyclomesh.drive.solve import (
@@ -691,7 +697,7 @@ def _solve_direction(
         "pin_load": F[..., :n1],
         "opposite_pin_load": F[..., n1:],
         "contact_stress": stress,
-        "contacts": np.sum(F[..., :n1] > 0, axis=-1),
+        "contacts": count_contacts(F[..., :n1], axes=2),  # per disc, against the stack
         "torque_share": np.sum(F * prob.arm, axis=-1),
         "mesh_fx": mfx,
         "mesh_fy": mfy,
@@ -790,7 +796,7 @@ def solve_stage(
     crank_angles: ArrayLike = (0.0,),
     groove_deformation: bool = True,
     discs: int = 1,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> Stage:
     """Equilibrium of the RV stage at every crank angle and torque (see the module doc).
 
@@ -937,7 +943,7 @@ def stage_torsion_curve(
     groove_deformation: bool = True,
     discs: int = 1,
     points: int = 41,
-    contact_law: str = "paper",
+    contact_law: str = "half_plane",
 ) -> StageTorsion:
     """Torsion curve of the whole stage (mesh, crank bearings, springs in one solve).
 

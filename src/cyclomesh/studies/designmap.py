@@ -1,8 +1,10 @@
 """Design maps (``cyclomesh design``): a study's ``[design_space]`` on the one pipeline.
 
-The study's base description (its top-level sections; ``[[cases]]`` are not used) fixes
-the design, the torque, the crank angles (``[analysis]``), the pin errors and the
-unswept part of the modification (including a ``profile_file``); ``[design_space]``
+The study's base description (its top-level sections; ``[[cases]]`` are refused) fixes
+the design and its stack of discs, the torque of the stack, the crank angles
+(``[analysis]``; for a robust map ``[tolerance]``'s keys over ``[analysis]``'s, the rule of
+the tolerance studies), the pin errors and the unswept part of the modification
+(including a ``profile_file``); ``[design_space]``
 (:class:`~cyclomesh.studyfile.schema.DesignSpaceSection`) gives the swept parameters, the
 constraints, the objective and, with ``rings = K``, the number of rings drawn from
 ``[tolerance]`` for a robust map. Stages (see ``docs/pipeline.md``):
@@ -73,6 +75,12 @@ def load_design_study(path: str | Path) -> tuple[Study, DesignSpaceSection]:
             f"{Path(path).name}: no [design_space] section (see docs/design-map.md, "
             "examples/design.toml)"
         )
+    torques = [case.load.torque_nm for case in study.cases]
+    if any(isinstance(t, list) for t in torques):
+        raise StudyError(
+            "load.torque_nm: a design map takes one torque; give a number "
+            "(cyclomesh stiffness sweeps torques)"
+        )
     if space.rings and study.file.tolerance is None:
         raise StudyError(
             "design_space.rings: a robust map needs a [tolerance] section to draw rings"
@@ -92,6 +100,7 @@ def constraints(space: DesignSpaceSection) -> Constraints:
         allowable_contact_stress=scaled(space.allowable_contact_stress_mpa, 1e6),
         max_te_pp=scaled(space.max_te_pp_arcsec, RAD_PER_ARCSEC),
         min_contacts=space.min_contacts,
+        max_lost_motion=scaled(space.max_lost_motion_arcmin, RAD_PER_ARCMIN),
     )
 
 
@@ -128,17 +137,22 @@ def compute_design(
     progress : callable, optional
         Called with the number of candidates finished.
     """
-    from cyclomesh.studyfile.schema import refuse_stage
+    from cyclomesh.studyfile.usage import check_keys
 
-    refuse_stage(study, "design")
+    check_keys(study.raw, "design")  # [stage], [[cases]], ...: refused in one line
     from cyclomesh.designspace.sweep import design_map
 
     start = time.perf_counter()
     space = study.file.design_space
     if space is None:
         raise StudyError(f"{study.path.name}: no [design_space] section")
+    from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
+
     base = study.base.to_core()
+    if np.ndim(base.torque):
+        raise StudyError("load.torque_nm: a design map takes one torque (of the stack), not a list")
     errors = base.errors
+    angles = study.base.analysis.crank_angles_deg()
     if space.rings:
         from cyclomesh.studies.tolerance import ring_model
 
@@ -146,6 +160,13 @@ def compute_design(
             raise StudyError("design_space.rings: a robust map needs a [tolerance] section")
         model = ring_model(study, study.file.tolerance)
         errors = model.pin_errors(model.draw(np.arange(space.rings)))
+        angles = model.crank_angles_deg  # [tolerance] keys over [analysis]'s
+    warnings = study_warnings(
+        base.contact_law,
+        angles,
+        bool(space.rings) or has_pin_errors(base.errors_um, study.base.errors.eccentricity_um),
+        "rings drawn from [tolerance]" if space.rings else "pin errors",
+    )
     try:
         ds = design_map(
             base.design,
@@ -153,9 +174,10 @@ def compute_design(
             base=base.modification,
             errors=errors,
             torque=base.torque,
-            crank_angles_deg=study.base.analysis.crank_angles_deg(),
+            crank_angles_deg=angles,
             groove_deformation=base.groove_deformation,
             contact_law=base.contact_law,
+            discs=base.discs,
             disc_body=resolve_disc_body(
                 base.disc_body, base.design, base.modification, base.crank_holes
             ),
@@ -177,6 +199,7 @@ def compute_design(
         }
     }
     summary = _summary(ds, space, study.title)
+    summary["warnings"] = warnings
     best = best_study(study, ds) if summary["optimum"] is not None else None
     return DesignResult(study, space, ds, summary, best, time.perf_counter() - start, marks)
 
@@ -198,6 +221,9 @@ def _summary(ds: xr.Dataset, space: DesignSpaceSection, title: str) -> dict[str,
         "robust": bool(ds.attrs["robust"]),
         "rings": int(ds.attrs["rings"]) if ds.attrs["robust"] else 0,
         "robust_percentile": float(ds.attrs["robust_percentile"]),
+        "discs": int(ds.attrs["discs"]),
+        "torque_nm": float(ds.attrs["torque_nm"]),
+        "crank_angles": int(ds.attrs["crank_angles"]),
         "candidates": int(ds.attrs["candidates"]),
         "feasible_candidates": int(ds.attrs["feasible_candidates"]),
         "failed_candidates": int(failed.sum()),
@@ -256,6 +282,7 @@ def _drop_none(table: Mapping[str, Any]) -> dict[str, Any]:
 
 def write_design(result: DesignResult, out: Path) -> list[Path]:
     """Write ``design.nc``, ``summary.json`` and (if any candidate is feasible) ``best.toml``."""
+    from cyclomesh.output.folder import write_text
     from cyclomesh.output.writers import write_json, write_netcdf
 
     out.mkdir(parents=True, exist_ok=True)
@@ -265,8 +292,7 @@ def write_design(result: DesignResult, out: Path) -> list[Path]:
     ]
     if result.best_toml is not None:
         path = out / "best.toml"
-        path.write_text(result.best_toml, encoding="utf-8")
-        files.append(path)
+        files.append(write_text(path, result.best_toml))
     return files
 
 
@@ -308,6 +334,7 @@ def design_sections(result: DesignResult) -> list[Section]:
     s = result.summary
     rows: list[tuple[str, Any]] = [
         ("study", s["title"]),
+        ("discs (torque of the stack)", f"{s['discs']} ({s['torque_nm']:g} N·m)"),
         ("objective (minimised)", s["objective_variable"]),
         ("candidates", s["candidates"]),
         ("feasible", s["feasible_candidates"]),
@@ -325,11 +352,16 @@ def design_sections(result: DesignResult) -> list[Section]:
     else:
         rows += [(f"optimum {k}", v) for k, v in s["optimum"]["parameters"].items()]
         rows += [(f"at the optimum: {k}", v) for k, v in s["optimum"]["metrics"].items()]
-    text = (
+    from cyclomesh.studies.run import description_html
+
+    text = description_html(result.study) + (
         "<p>Every candidate modification analysed with the full model at the study's "
         "torque over its crank angles"
         + (", each metric its robust value over the rings" if s["robust"] else "")
         + f" ({html.escape('docs/design-map.md')}). <code>best.toml</code> is the optimum "
         "as a study file.</p>"
     )
-    return [Section(SECTION, text + table_html(["", "value"], rows))]
+    from cyclomesh.studies.run import warning_sections
+
+    sections = [Section(SECTION, text + table_html(["", "value"], rows))]
+    return warning_sections(s.get("warnings", [])) + sections

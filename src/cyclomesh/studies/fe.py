@@ -127,7 +127,9 @@ def compute_fe(
         Cache of the disc body's coefficients (``[analysis] disc_body = "fe"``).
     """
     from cyclomesh.studyfile.schema import refuse_stage
+    from cyclomesh.studyfile.usage import check_keys
 
+    check_keys(study.raw, "fe")
     refuse_stage(study, "fe")
     check_fe(study)
     section = study.file.fe or FeSection()
@@ -285,6 +287,7 @@ def write_fe(result: FeResult, out: Path) -> list[Path]:
     """Write ``<case>/fe.nc``, ``<case>/convergence.csv`` and ``summary.json`` into ``out``."""
     import csv
 
+    from cyclomesh.output.folder import atomic_write
     from cyclomesh.output.writers import write_json, write_netcdf
 
     study = result.study
@@ -298,7 +301,7 @@ def write_fe(result: FeResult, out: Path) -> list[Path]:
         written.append(write_netcdf(result.cases[case.name], folder / "fe.nc"))
         if case.name in result.convergence:
             path = folder / "convergence.csv"
-            with path.open("w", newline="", encoding="utf-8") as fh:
+            with atomic_write(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
                 csv.writer(fh).writerows(result.convergence[case.name])
             written.append(path)
         records.append(

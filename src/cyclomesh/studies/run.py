@@ -62,6 +62,14 @@ class RunResult:
     """Case name → annotated Dataset of :func:`cyclomesh.analyse`."""
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → metrics of :data:`cyclomesh.results.metrics.METRICS` (plain JSON numbers)."""
+    warnings: dict[str, list[str]] = field(default_factory=dict)
+    """Case name → warnings (:mod:`cyclomesh.studyfile.warnings`)."""
+
+    def study_warnings(self) -> list[str]:
+        """The warnings of the study, each once (prefixed by the case where not all)."""
+        from cyclomesh.studyfile.warnings import merge_warnings
+
+        return merge_warnings(self.warnings)
 
     @property
     def inputs(self) -> list[CaseInputs]:
@@ -116,21 +124,33 @@ def compute_run(
 
     ``on_start(name)`` and ``on_done(name)`` are called around each case (progress).
     """
+    from cyclomesh.exceptions import CyclomeshError
     from cyclomesh.results.dataset import analyse, summarize
+    from cyclomesh.studyfile.usage import check_keys
+    from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
 
+    check_keys(study.raw, "run")
     run = RunResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
         if on_start:
             on_start(case.name)
         kwargs = inputs.kwargs()
         kwargs.pop("crank_angles")
-        ds = analyse(**kwargs, crank_angles_deg=case.analysis.crank_angles_deg())
+        try:
+            ds = analyse(**kwargs, crank_angles_deg=case.analysis.crank_angles_deg())
+        except CyclomeshError as exc:  # name the case
+            raise type(exc)(f"{case.label}: {exc}") from None
         ds = annotate(ds, case, inputs, study)
         run.summaries[case.name] = summary_record(summarize(ds))
         if inputs.stage is not None:
             ds, sheet = _with_stage(ds, case, inputs)
             run.summaries[case.name].update(sheet)
         run.results[case.name] = ds
+        run.warnings[case.name] = study_warnings(
+            inputs.contact_law,
+            case.analysis.crank_angles_deg(),
+            has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
+        )
         if on_done:
             on_done(case.name)
     return run
@@ -193,10 +213,15 @@ def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
         folder = case_folder(case.name)
         written += write_case(run.results[case.name], out / folder, options.csv).values()
         records.append(
-            {"name": case.name, "results": f"{folder}/results.nc", **run.summaries[case.name]}
+            {
+                "name": case.name,
+                "results": f"{folder}/results.nc",
+                **run.summaries[case.name],
+                "warnings": run.warnings.get(case.name, []),
+            }
         )
     units = {name: m.unit for name, m in (METRICS | DRIVE_METRICS | STAGE_METRICS).items()}
-    document = summary_document(study, units, records)
+    document = summary_document(study, units, records, warnings=run.study_warnings())
     written.append(write_json(out / "summary.json", document))
     return written
 
@@ -305,7 +330,7 @@ def run_figures(run: RunResult, inputs: list[FigureJob] | None = None) -> list[F
 
     jobs = list(input_figures(run.study) if inputs is None else inputs)
     angles = settings.crank_angles_deg
-    pin = settings.stress_pin
+    pin = settings.stress_pin or min(case.design.pins for case in run.study.cases) // 2
     jobs += [
         job(
             "loads",
@@ -477,19 +502,36 @@ def run_sections(run: RunResult) -> list[Section]:
             "not modelled.</p>"
         )
         sections.append(Section("Data sheet (RV stage)", sheet))
-    return sections
+    return warning_sections(run.study_warnings()) + sections
+
+
+def description_html(study: Study) -> str:
+    """The study's description as a report paragraph ('' without one)."""
+    return f"<p>{html.escape(study.description)}</p>" if study.description else ""
+
+
+def warning_sections(warnings: list[str]) -> list[Section]:
+    """A "Warnings" report section listing ``warnings`` (none if there are none)."""
+    from cyclomesh.publish.report import Section
+
+    if not warnings:
+        return []
+    items = "".join(f"<li>{html.escape(w)}</li>" for w in warnings)
+    return [Section("Warnings", f"<ul>{items}</ul>")]
 
 
 def run_study(study: Study, out: str | Path, options: OutputOptions | None = None) -> list[Path]:
     """Compute every case of ``study``, then write its files, figures and report into
     ``out``. Returns the paths written. Nothing is written if a case fails."""
+    from cyclomesh.output.folder import ResultFolder
     from cyclomesh.publish.pipeline import OutputOptions, publish
 
     options = options or OutputOptions.from_study(study)
-    run = compute_run(study)
     out = Path(out)
-    files = write_run(run, out, options)
-    jobs = run_figures(run) if options.figures else []
-    return publish(
-        out, study.title, run_sections(run), jobs, files, options, study_stamp(study)
-    ).files
+    with ResultFolder(out, "run"):
+        run = compute_run(study)
+        files = write_run(run, out, options)
+        jobs = run_figures(run) if options.figures else []
+        return publish(
+            out, study.title, run_sections(run), jobs, files, options, study_stamp(study)
+        ).files

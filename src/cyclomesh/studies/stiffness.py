@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from cyclomesh.exceptions import StudyError
+from cyclomesh.exceptions import CyclomeshError, StudyError
 from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.results.metrics import STIFFNESS_METRICS
 from cyclomesh.studyfile.schema import CaseSpec, StiffnessSection, Study, folder_name
@@ -72,6 +72,14 @@ class StiffnessResult:
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → rated torque, discs and :data:`STIFFNESS_METRICS` (JSON numbers)."""
     seconds: float = 0.0
+    warnings: dict[str, list[str]] = field(default_factory=dict)
+    """Case name → warnings (:mod:`cyclomesh.studyfile.warnings`)."""
+
+    def study_warnings(self) -> list[str]:
+        """The warnings of the study, each once (prefixed by the case where not all)."""
+        from cyclomesh.studyfile.warnings import merge_warnings
+
+        return merge_warnings(self.warnings)
 
 
 def _section(case: CaseSpec) -> StiffnessSection:
@@ -99,26 +107,32 @@ def compute_stiffness(
     """
     from cyclomesh.output.writers import jsonable
     from cyclomesh.results.torsion import stiffness, summarize_stiffness
+    from cyclomesh.studyfile.usage import check_keys
+    from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
 
     check_stiffness(study)
+    check_keys(study.raw, "stiffness")
     start = time.perf_counter()
     result = StiffnessResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
         section = _section(case)
-        ds = stiffness(
-            inputs.design,
-            inputs.modification,
-            inputs.errors,
-            section.rated_torque_nm,
-            section.points,
-            groove_deformation=inputs.groove_deformation,
-            crank_angles_deg=case.analysis.crank_angles_deg(),
-            discs=inputs.discs,
-            series_stiffness_nm_per_arcmin=section.series_stiffness_nm_per_arcmin,
-            contact_law=inputs.contact_law,
-            disc_body=inputs.disc_body,
-            crank_holes=inputs.crank_holes,
-        )
+        try:
+            ds = stiffness(
+                inputs.design,
+                inputs.modification,
+                inputs.errors,
+                section.rated_torque_nm,
+                section.points,
+                groove_deformation=inputs.groove_deformation,
+                crank_angles_deg=case.analysis.crank_angles_deg(),
+                discs=inputs.discs,
+                series_stiffness_nm_per_arcmin=section.series_stiffness_nm_per_arcmin,
+                contact_law=inputs.contact_law,
+                disc_body=inputs.disc_body,
+                crank_holes=inputs.crank_holes,
+            )
+        except CyclomeshError as exc:  # name the case
+            raise type(exc)(f"{case.label}: {exc}") from None
         ds.attrs.update(case_attrs(study, case))
         stage_summary: dict[str, Any] = {}
         if inputs.stage is not None:  # the RV stage in one solve, beside the mesh alone
@@ -141,6 +155,11 @@ def compute_stiffness(
         )
         record.update(stage_summary)
         result.summaries[case.name] = record
+        result.warnings[case.name] = study_warnings(
+            inputs.contact_law,
+            case.analysis.crank_angles_deg(),
+            has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
+        )
         if progress:
             progress(1)
     result.seconds = time.perf_counter() - start
@@ -165,6 +184,7 @@ def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
                 "name": case.name,
                 "results": f"{folder_name(case.name)}/stiffness.nc",
                 **result.summaries[case.name],
+                "warnings": result.warnings.get(case.name, []),
             }
         )
     from cyclomesh.results.stage import STAGE_STIFFNESS_METRICS
@@ -174,6 +194,7 @@ def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
         {name: m.unit for name, m in (STIFFNESS_METRICS | STAGE_STIFFNESS_METRICS).items()},
         records,
         scope="cycloid-pin mesh only; drive_* numbers add the series stiffness",
+        warnings=result.study_warnings(),
     )
     written.append(write_json(out / "summary.json", document))
     return written
@@ -324,4 +345,9 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
     summary = table_html(
         ["case", *header], [[n, *(result.summaries[n].get(c) for c in columns)] for n in names]
     )
-    return [Section("Study", intro), Section("Summary", summary)]
+    from cyclomesh.studies.run import warning_sections
+
+    return warning_sections(result.study_warnings()) + [
+        Section("Study", intro),
+        Section("Summary", summary),
+    ]

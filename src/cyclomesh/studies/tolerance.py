@@ -2,8 +2,9 @@
 (``cyclomesh allocate``), on the one pipeline.
 
 The study runs the base description of the study file (its top-level sections;
-``[[cases]]`` are not used) with the errors of ``[tolerance]`` added to the base's
-``[errors]``. Stages (see ``docs/pipeline.md``):
+``[[cases]]`` are refused) with the errors of ``[tolerance]`` added to the base's
+``[errors]``, for the whole stack of discs, over the crank angles of ``[tolerance]``
+falling back key by key to ``[analysis]``'s. Stages (see ``docs/pipeline.md``):
 
 1. :func:`compute_tolerance` draws the rings and computes their metrics
    (:data:`cyclomesh.results.metrics.METRICS`) in chunks through :mod:`cyclomesh.execution.backends`
@@ -36,8 +37,9 @@ import numpy as np
 
 from cyclomesh.exceptions import StudyError
 from cyclomesh.results.dataset import resolve_disc_body
-from cyclomesh.results.metrics import METRICS, STRESS_METRIC
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC
 from cyclomesh.studyfile.schema import Study, ToleranceSection, load_study
+from cyclomesh.studyfile.usage import check_keys
 from cyclomesh.tolerance.allocation import Allocation
 from cyclomesh.tolerance.tasks import RingModel
 
@@ -93,24 +95,35 @@ def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
     """The fixed part of the tolerance study: the study's base case as core objects."""
     base = study.base
     core = base.to_core()
-    if np.ndim(core.torque) or core.discs != 1:
+    if np.ndim(core.torque):
         raise StudyError(
-            "tolerance studies take one disc and one torque: set [load] torque_nm to a "
-            "number and leave [design] discs at 1"
+            "load.torque_nm: tolerance studies take one torque (of the stack), not a list"
         )
+    crank_range = spec.crank_range(base.analysis)
     return RingModel(
         design=core.design,
         modification=core.modification,
         base_errors_um=core.errors_um,
         base_eccentricity_um=float(base.errors.eccentricity_um),
         torque_nm=float(core.torque),
-        crank_angles_deg=spec.crank_angles_deg(),
+        crank_angles_deg=spec.crank_angles_deg(base.analysis),
         groove_deformation=bool(core.groove_deformation),
         spec=spec,
         contact_law=core.contact_law,
+        discs=core.discs,
+        crank_range=crank_range,
         disc_body=resolve_disc_body(
             core.disc_body, core.design, core.modification, core.crank_holes
         ),
+    )
+
+
+def ring_warnings(model: RingModel) -> list[str]:
+    """Warnings of a tolerance or allocation study (:mod:`cyclomesh.studyfile.warnings`)."""
+    from cyclomesh.studyfile.warnings import study_warnings
+
+    return study_warnings(
+        model.contact_law, model.crank_angles_deg, True, "rings drawn from [tolerance]"
     )
 
 
@@ -162,7 +175,7 @@ def metrics_dataset(
         arr = np.asarray(values)
         if arr.dtype == np.bool_:
             arr = arr.astype(np.int8)  # NetCDF has no boolean
-        metric = METRICS.get(name)
+        metric = METRICS.get(name) or DRIVE_METRICS.get(name)
         attrs_ = (
             {"units": metric.unit, "long_name": metric.long_name}
             if metric
@@ -196,7 +209,7 @@ def ring_statistics(
 
     n = ds.sizes["ring"]
     stats = {}
-    for name, metric in METRICS.items():
+    for name, metric in (METRICS | DRIVE_METRICS).items():
         if name in ds and name != "overlap":
             stats[name] = {
                 "unit": metric.unit,
@@ -273,10 +286,11 @@ def worst_ring_study(
         if table:
             sections[name] = table
     analysis = dict(_drop_none(base.get("analysis", {})))
+    start, stop, step = model.crank_range or spec.crank_range()
     analysis.update(
-        crank_start_deg=float(spec.crank_start_deg),
-        crank_stop_deg=float(spec.crank_stop_deg),
-        crank_step_deg=float(spec.crank_step_deg),
+        crank_start_deg=start,
+        crank_stop_deg=stop,
+        crank_step_deg=step,
         groove_deformation=bool(model.groove_deformation),
         contact_law=model.contact_law,
     )
@@ -336,9 +350,8 @@ def compute_tolerance(
     progress : callable, optional
         Called with the number of rings of every finished chunk.
     """
-    from cyclomesh.studyfile.schema import refuse_stage
 
-    refuse_stage(study, "tolerance")
+    check_keys(study.raw, "tolerance")  # [stage], [[cases]], ...: refused in one line
     from cyclomesh.tolerance.tasks import ToleranceTask
 
     if study.tolerance is None:
@@ -355,13 +368,18 @@ def compute_tolerance(
         {
             "study_title": study.title,
             "study_sha256": study.sha256,
-            "crank_step_deg": spec.crank_step_deg,
+            "crank_step_deg": model.crank_range[2],
+            "discs": model.discs,
             "torque_nm": model.torque_nm,
             "groove_deformation": int(model.groove_deformation),
             "contact_law": model.contact_law,
         },
     )
     stats = ring_statistics(ds, spec, spec.allocation.confidence)
+    stats["discs"] = model.discs
+    stats["torque_nm"] = model.torque_nm
+    stats["crank_angles"] = len(model.crank_angles_deg)
+    stats["warnings"] = ring_warnings(model)
     stats["seconds"] = seconds
     stats["rings_per_second"] = n / seconds if seconds > 0 else math.nan
     return ToleranceResult(study, spec, model, ds, stats, seconds)
@@ -370,6 +388,7 @@ def compute_tolerance(
 def write_tolerance(result: ToleranceResult, out: Path) -> list[Path]:
     """Write ``tolerance_rings.nc``, ``tolerance_rings.parquet``, ``tolerance_summary.json``
     and ``worst_ring.toml`` into ``out``."""
+    from cyclomesh.output.folder import write_text
     from cyclomesh.output.writers import write_json, write_netcdf, write_parquet
 
     out.mkdir(parents=True, exist_ok=True)
@@ -386,14 +405,10 @@ def write_tolerance(result: ToleranceResult, out: Path) -> list[Path]:
         f"{float(ds[STRESS_METRIC].sel(ring=k)):.6g} MPa. "
         "Reproduce with: cyclomesh run worst_ring.toml --out DIR"
     )
-    path = out / "worst_ring.toml"
-    path.write_text(
-        worst_ring_study(
-            result.model, study.base.model_dump(), k, f"{study.title}: worst ring {k}", note
-        ),
-        encoding="utf-8",
+    text = worst_ring_study(
+        result.model, study.base.model_dump(), k, f"{study.title}: worst ring {k}", note
     )
-    files.append(path)
+    files.append(write_text(out / "worst_ring.toml", text))
     return files
 
 
@@ -402,8 +417,9 @@ def tolerance_figures(result: ToleranceResult) -> list[FigureJob]:
     from cyclomesh.figures import tolerance as plots
     from cyclomesh.figures.render import FigureJob
 
-    ds, stats = result.rings, result.summary
+    stats = result.summary
     allowable = stats["allowable_contact_stress_mpa"]
+    ds = plots.reduce_rings(result.rings, allowable)  # the workers get no per-ring data
     section = "Tolerance study (Monte Carlo)"
     return [
         FigureJob(
@@ -452,7 +468,9 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
     ]
     ex = stats["exceedance"][STRESS_METRIC]
     worst = stats["worst_ring"]
-    text = (
+    from cyclomesh.studies.run import description_html
+
+    text = description_html(result.study) + (
         f"<p>{stats['rings']} rings, seed {stats['seed']}. Probability that the peak tooth "
         f"contact stress exceeds {stats['allowable_contact_stress_mpa']:g} MPa: "
         f"<b>{ex['probability']:.4g}</b> ({ex['count']} of {ex['rings']} rings; {conf:.0%} "
@@ -464,7 +482,11 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
         + html.escape("; ".join(f"{k}: {v}" for k, v in stats["methods"].items()))
         + ".</p>"
     )
-    return [Section("Tolerance study (Monte Carlo)", text)]
+    from cyclomesh.studies.run import warning_sections
+
+    return warning_sections(stats.get("warnings", [])) + [
+        Section("Tolerance study (Monte Carlo)", text)
+    ]
 
 
 # --- tolerance allocation ----------------------------------------------------------------
@@ -509,9 +531,8 @@ def compute_allocation(
     Parameters are those of :func:`compute_tolerance`, and ``target_probability``
     (default: ``tolerance.allocation.target_probability``).
     """
-    from cyclomesh.studyfile.schema import refuse_stage
 
-    refuse_stage(study, "allocate")
+    check_keys(study.raw, "allocate")  # [stage], [[cases]], ...: refused in one line
     import xarray as xr
 
     from cyclomesh.tolerance.allocation import allocate_factor
@@ -547,11 +568,29 @@ def compute_allocation(
         alloc.confidence,
         alloc.factor_max,
     )
+    from cyclomesh.tolerance.statistics import describe
+    from cyclomesh.tolerance.tasks import STATED_METRICS
+
+    stated = [name for name in STATED_METRICS if name in per_ring]
+    every = METRICS | DRIVE_METRICS
+    data = {
+        name: xr.DataArray(per_ring[name], dims=("ring",), attrs={"units": "1"})
+        for name in ("critical_factor_lower", "critical_factor_upper")
+    }
+    data["critical_factor_upper"].attrs["nonfinite"] = (
+        "inf: the ring does not exceed the allowable stress up to factor_max"
+    )
+    for name in stated:
+        data[name] = xr.DataArray(
+            per_ring[name],
+            dims=("ring",),
+            attrs={
+                "units": every[name].unit,
+                "long_name": every[name].long_name + " at the stated tolerances (factor 1)",
+            },
+        )
     ds = xr.Dataset(
-        {
-            name: xr.DataArray(per_ring[name], dims=("ring",), attrs={"units": "1"})
-            for name in ("critical_factor_lower", "critical_factor_upper")
-        },
+        data,
         coords={"ring": ("ring", per_ring["ring"])},
         attrs={
             "seed": spec.seed,
@@ -569,6 +608,17 @@ def compute_allocation(
         allowable_contact_stress_mpa=allowable,
         seconds=seconds,
         study_title=study.title,
+        discs=model.discs,
+        crank_angles=len(model.crank_angles_deg),
+        at_stated_tolerances={
+            name: {
+                "unit": every[name].unit,
+                "description": every[name].long_name,
+                **describe(per_ring[name], confidence=alloc.confidence),
+            }
+            for name in stated
+        },
+        warnings=ring_warnings(model),
     )
     return AllocationResult(study, result, ds, record, seconds)
 
@@ -602,10 +652,28 @@ def allocation_figures(result: AllocationResult) -> list[FigureJob]:
 
 def allocation_sections(result: AllocationResult) -> list[Section]:
     """Report section of a tolerance allocation."""
-    from cyclomesh.publish.report import Section
+    from cyclomesh.publish.report import Section, table_html
+    from cyclomesh.studies.run import description_html, warning_sections
 
     statement = html.escape(result.allocation.statement())
-    return [Section("Tolerance allocation", f"<p>{statement}</p>")]
+    stated = result.record.get("at_stated_tolerances", {})
+    rows = [
+        [name, m["unit"], _fmt(m["mean"]), _fmt(m["min"]), _fmt(m["max"])]
+        + [_fmt(p["estimate"]) for p in m["percentiles"]]
+        for name, m in stated.items()
+    ]
+    table = ""
+    if rows:
+        percents = [p["percent"] for p in next(iter(stated.values()))["percentiles"]]
+        table = "<p>The rings at the stated tolerances (factor 1):</p>" + table_html(
+            ["metric", "unit", "mean", "min", "max", *(f"P{p:g}" for p in percents)], rows
+        )
+    return warning_sections(result.record.get("warnings", [])) + [
+        Section(
+            "Tolerance allocation",
+            description_html(result.study) + f"<p>{statement}</p>" + table,
+        )
+    ]
 
 
 # --- whole studies (compute, write, figures, report) ------------------------------------
@@ -661,38 +729,42 @@ def _options(study: Study, figures: bool, options: OutputOptions | None) -> Outp
 def publish_tolerance(result: ToleranceResult, out: str | Path, options: OutputOptions) -> Any:
     """Write the files of a tolerance study into ``out``, then its figures and
     ``report.html``; returns :class:`cyclomesh.publish.pipeline.Published`."""
+    from cyclomesh.output.folder import ResultFolder
     from cyclomesh.publish.pipeline import publish
 
     out = Path(out)
-    files = write_tolerance(result, out)
-    return publish(
-        out,
-        f"{result.study.title}: tolerance study",
-        tolerance_sections(result),
-        tolerance_figures(result) if options.figures else [],
-        files,
-        options,
-        {"SHA-256 of the study file": result.study.sha256},
-    )
+    with ResultFolder(out, "tolerance"):
+        files = write_tolerance(result, out)
+        return publish(
+            out,
+            f"{result.study.title}: tolerance study",
+            tolerance_sections(result),
+            tolerance_figures(result) if options.figures else [],
+            files,
+            options,
+            {"SHA-256 of the study file": result.study.sha256},
+        )
 
 
 def publish_allocation(result: AllocationResult, out: str | Path, options: OutputOptions) -> Any:
     """Write the files of a tolerance allocation into ``out``, then its figure and
     ``allocation_report.html``; returns :class:`cyclomesh.publish.pipeline.Published`."""
+    from cyclomesh.output.folder import ResultFolder
     from cyclomesh.publish.pipeline import publish
 
     out = Path(out)
-    files = write_allocation(result, out)
-    return publish(
-        out,
-        f"{result.study.title}: tolerance allocation",
-        allocation_sections(result),
-        allocation_figures(result) if options.figures else [],
-        files,
-        options,
-        {"SHA-256 of the study file": result.study.sha256},
-        report_name="allocation_report.html",
-    )
+    with ResultFolder(out, "allocate"):
+        files = write_allocation(result, out)
+        return publish(
+            out,
+            f"{result.study.title}: tolerance allocation",
+            allocation_sections(result),
+            allocation_figures(result) if options.figures else [],
+            files,
+            options,
+            {"SHA-256 of the study file": result.study.sha256},
+            report_name="allocation_report.html",
+        )
 
 
 def run_tolerance(

@@ -105,11 +105,13 @@ def read_csv_table(
         of values.
     """
     where = f"{key}: {path.name}"
+    from cyclomesh.studyfile.limits import MAX_CSV_FILE_BYTES, read_regular_file
+
     try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise StudyError(f"{key}: file not found: {path}") from None
-    except (OSError, UnicodeDecodeError) as exc:
+        text = read_regular_file(path, "file", MAX_CSV_FILE_BYTES).decode("utf-8-sig")
+    except StudyError as exc:
+        raise StudyError(f"{key}: {exc}") from None
+    except UnicodeDecodeError as exc:
         raise StudyError(f"{key}: cannot read {path}: {exc}") from None
     numbered = [
         (number, line)

@@ -58,11 +58,33 @@ from pydantic import (
 )
 
 from cyclomesh.core.deviation import ProfileDeviation
-from cyclomesh.core.pair import CrankHoles, Material, Modification, PairDesign, PinErrors
+from cyclomesh.core.pair import (
+    POISSON_RATIO_RANGE,
+    YOUNGS_MODULUS_RANGE,
+    CrankHoles,
+    Material,
+    Modification,
+    PairDesign,
+    PinErrors,
+    check_physical,
+)
 from cyclomesh.core.profile import check_profile
 from cyclomesh.exceptions import DesignError, StudyError
 from cyclomesh.stage.bearing import RollerSet
 from cyclomesh.stage.solve import StageDesign
+from cyclomesh.studyfile.limits import (
+    MAX_ABS_CRANK_DEG,
+    MAX_CANDIDATES,
+    MAX_CRANK_ANGLES,
+    MAX_DISCS,
+    MAX_PINS,
+    MAX_RINGS,
+    MAX_STIFFNESS_POINTS,
+    MAX_STUDY_FILE_BYTES,
+    MIN_CRANK_STEP_DEG,
+    count_crank_angles,
+    read_regular_file,
+)
 from cyclomesh.studyfile.measurements import PIN_ERROR_COLUMNS, read_pin_errors_csv
 from cyclomesh.studyfile.profile_csv import read_profile_csv
 from cyclomesh.units import RAD_PER_ARCMIN
@@ -200,7 +222,9 @@ class DiscSection(_Section):
 class DesignSection(_Section):
     """``[design]``: the nominal gear pair (Table 1 of [1]); every key is required."""
 
-    pins: int = Field(ge=3, description="number of ring pins n1; the disc has n1 - 1 teeth")
+    pins: int = Field(
+        ge=3, le=MAX_PINS, description="number of ring pins n1; the disc has n1 - 1 teeth"
+    )
     pin_circle_radius_mm: float = Field(gt=0, description="pin-centre circle radius a [mm]")
     pin_radius_mm: float = Field(gt=0, description="pin radius ρp [mm]")
     groove_radius_mm: float = Field(gt=0, description="pin-groove radius ρg [mm]")
@@ -209,6 +233,7 @@ class DesignSection(_Section):
     discs: int = Field(
         1,
         ge=1,
+        le=MAX_DISCS,
         description="identical discs on the pin ring, disc k's eccentric at φ + (k - 1)·360°/N",
     )
     disc: DiscSection = DiscSection()
@@ -228,8 +253,15 @@ class ModificationSection(_Section):
 class MaterialProperties(_Section):
     """Elastic constants; a key left out falls back to ``[material]``, then to steel."""
 
-    youngs_modulus_gpa: float | None = Field(None, gt=0, description="E [GPa]")
-    poisson_ratio: float | None = Field(None, gt=-1.0, lt=0.5, description="ν [-]")
+    youngs_modulus_gpa: float | None = Field(
+        None,
+        ge=YOUNGS_MODULUS_RANGE[0] / 1e9,
+        le=YOUNGS_MODULUS_RANGE[1] / 1e9,
+        description="E [GPa]",
+    )
+    poisson_ratio: float | None = Field(
+        None, ge=POISSON_RATIO_RANGE[0], lt=POISSON_RATIO_RANGE[1], description="ν [-]"
+    )
 
 
 class MaterialSection(MaterialProperties):
@@ -289,7 +321,10 @@ class StiffnessSection(_Section):
 
     rated_torque_nm: float = Field(gt=0, description="rated torque T_r of the stack [N·m]")
     points: int = Field(
-        41, ge=2, description="evenly spaced torques from -T_r to +T_r (0 left out)"
+        41,
+        ge=2,
+        le=MAX_STIFFNESS_POINTS,
+        description="evenly spaced torques from -T_r to +T_r (0 left out)",
     )
     series_stiffness_nm_per_arcmin: float | None = Field(
         None,
@@ -470,18 +505,30 @@ def crank_angles_deg(start_deg: float, stop_deg: float, step_deg: float) -> NDAr
     return start_deg + step_deg * np.arange(count)
 
 
+FE_BORE_FRACTION = 0.8
+"""Largest bore radius of the FE disc as a fraction of the root radius a − e − ρp."""
+
+CrankDeg = Annotated[
+    float,
+    Field(ge=-MAX_ABS_CRANK_DEG, le=MAX_ABS_CRANK_DEG, description="crank angle [deg]"),
+]
+
+
 class AnalysisSection(_Section):
     """``[analysis]``: crank angles and the pin-groove deformation switch."""
 
-    crank_start_deg: float = Field(0.0, description="first crank angle [deg]")
-    crank_stop_deg: float = Field(360.0, description="crank angle where to stop, excluded [deg]")
-    crank_step_deg: float = Field(0.1, gt=0, description="crank angle step [deg]")
+    crank_start_deg: CrankDeg = Field(0.0, description="first crank angle [deg]")
+    crank_stop_deg: CrankDeg = Field(360.0, description="crank angle where to stop, excluded [deg]")
+    crank_step_deg: float = Field(
+        0.1, ge=MIN_CRANK_STEP_DEG, le=MAX_ABS_CRANK_DEG, description="crank angle step [deg]"
+    )
     groove_deformation: bool = Field(True, description="the improved model of [1] (Eq. 19)")
     contact_law: Literal["paper", "half_plane"] = Field(
-        "paper",
+        "half_plane",
         description=(
-            "tooth term of the contact law: Eq. 20 of [1] as published, or the approach of a "
-            "half-plane to the disc centre (Johnson eq. 5.41), finite at inflection points"
+            "tooth term of the contact law: the approach of a half-plane to the disc centre "
+            "(Johnson eq. 5.41, default: finite at inflection points, converged in the crank "
+            'step), or Eq. 20 of [1] as published ("paper", to reproduce the paper)'
         ),
     )
     disc_body: Literal["rigid", "fe"] = Field(
@@ -504,7 +551,13 @@ class AnalysisSection(_Section):
 
     @model_validator(mode="after")
     def _at_least_two_angles(self) -> AnalysisSection:
-        if len(self.crank_angles_deg()) < 2:
+        count = count_crank_angles(self.crank_start_deg, self.crank_stop_deg, self.crank_step_deg)
+        if count > MAX_CRANK_ANGLES:
+            raise ValueError(
+                f"crank_start_deg, crank_stop_deg and crank_step_deg give {count:.3g} crank "
+                f"angles, more than {MAX_CRANK_ANGLES}: use a larger crank_step_deg"
+            )
+        if count < 2:
             raise ValueError(
                 f"crank_start_deg = {self.crank_start_deg:g}, crank_stop_deg = "
                 f"{self.crank_stop_deg:g} and crank_step_deg = {self.crank_step_deg:g} "
@@ -527,8 +580,10 @@ class FiguresSection(_Section):
         max_length=12,
         description="crank angles of the load and backlash figures (nearest computed angle)",
     )
-    stress_pin: int = Field(
-        20, ge=1, description="pin whose contact stress is drawn over the profile"
+    stress_pin: int | None = Field(
+        None,
+        ge=1,
+        description="pin whose contact stress is drawn over the profile (default: pin n1/2)",
     )
     stress_over: Literal["profile_angle", "contact_radius"] = Field(
         "profile_angle", description="abscissa of the contact stress over the tooth profile"
@@ -603,13 +658,24 @@ class ToleranceSection(_Section):
     """
 
     seed: int = Field(ge=0, description="ring k's errors depend only on (seed, k)")
-    rings: int = Field(1000, ge=1, description="how many rings to draw (--rings overrides)")
+    rings: int = Field(
+        1000, ge=1, le=MAX_RINGS, description="how many rings to draw (--rings overrides)"
+    )
     allowable_contact_stress_mpa: float = Field(
         gt=0.0, description="allowable peak tooth contact stress [MPa]"
     )
-    crank_start_deg: float = Field(0.0, description="first crank angle [deg]")
-    crank_stop_deg: float = Field(360.0, description="crank angle where to stop, excluded [deg]")
-    crank_step_deg: float = Field(1.0, gt=0.0, description="crank angle step [deg]")
+    crank_start_deg: CrankDeg | None = Field(
+        None, description="first crank angle [deg] (default: [analysis]'s)"
+    )
+    crank_stop_deg: CrankDeg | None = Field(
+        None, description="crank angle where to stop, excluded [deg] (default: [analysis]'s)"
+    )
+    crank_step_deg: float | None = Field(
+        None,
+        ge=MIN_CRANK_STEP_DEG,
+        le=MAX_ABS_CRANK_DEG,
+        description="crank angle step [deg] (default: [analysis]'s)",
+    )
     radial_um: ErrorDistribution | None = None
     angular_urad: ErrorDistribution | None = None
     pin_radius_um: ErrorDistribution | None = None
@@ -626,18 +692,41 @@ class ToleranceSection(_Section):
                 "position (true_position) replaces radial_um and angular_urad; "
                 "give one or the other"
             )
-        if self.crank_stop_deg <= self.crank_start_deg:
-            raise ValueError("crank_stop_deg must be larger than crank_start_deg")
-        count = (self.crank_stop_deg - self.crank_start_deg) / self.crank_step_deg
-        if count > 1e6:
-            raise ValueError("more than a million crank angles; use a larger crank_step_deg")
-        if len(self.crank_angles_deg()) < 2:
-            raise ValueError("fewer than 2 crank angles; use a smaller crank_step_deg")
         return self
 
-    def crank_angles_deg(self) -> NDArray:
-        """Crank angles start, start + step, ... below stop [deg] (as ``[analysis]``)."""
-        return crank_angles_deg(self.crank_start_deg, self.crank_stop_deg, self.crank_step_deg)
+    def crank_range(self, analysis: AnalysisSection | None = None) -> tuple[float, float, float]:
+        """(start, stop, step) [deg] of the rings' crank angles: the keys of
+        ``[tolerance]``, each falling back to ``analysis``'s (the one rule of tolerance,
+        allocation and robust design studies)."""
+        analysis = analysis or AnalysisSection()
+        start, stop, step = (
+            float(mine if mine is not None else getattr(analysis, key))
+            for key, mine in (
+                ("crank_start_deg", self.crank_start_deg),
+                ("crank_stop_deg", self.crank_stop_deg),
+                ("crank_step_deg", self.crank_step_deg),
+            )
+        )
+        if stop <= start:
+            raise StudyError(
+                f"tolerance.crank_stop_deg: the crank angles stop at {stop:g}°, not after "
+                f"their start {start:g}° (tolerance keys override [analysis]'s)"
+            )
+        count = count_crank_angles(start, stop, step)
+        if count > MAX_CRANK_ANGLES:
+            raise StudyError(
+                f"tolerance.crank_step_deg: {count:.3g} crank angles, more than "
+                f"{MAX_CRANK_ANGLES}; use a larger step"
+            )
+        if count < 2:
+            raise StudyError(
+                "tolerance.crank_step_deg: fewer than 2 crank angles; use a smaller step"
+            )
+        return start, stop, step
+
+    def crank_angles_deg(self, analysis: AnalysisSection | None = None) -> NDArray:
+        """Crank angles start, start + step, ... below stop [deg] (:meth:`crank_range`)."""
+        return crank_angles_deg(*self.crank_range(analysis))
 
 
 # --- [design_space]: design maps (docs/design-map.md) ------------------------------------
@@ -663,13 +752,13 @@ class FeSection(_Section):
     """
 
     bore_radius_mm: float = Field(30.0, gt=0, description="bore tied to the rigid centre [mm]")
-    crank_angles_deg: list[float] = Field(
+    crank_angles_deg: list[CrankDeg] = Field(
         [0.0, 3.0, 6.0], min_length=1, max_length=24, description="crank angles solved [deg]"
     )
     elements_per_half_width: float = Field(
         8.0, ge=2, le=40, description="contact mesh size: the Hertz half-width b over this"
     )
-    far_size_mm: float = Field(1.5, gt=0, le=5, description="mesh size away from contacts [mm]")
+    far_size_mm: float = Field(1.5, ge=0.2, le=5, description="mesh size away from contacts [mm]")
 
 
 class DesignSpaceSection(_Section):
@@ -687,16 +776,37 @@ class DesignSpaceSection(_Section):
         None, gt=0, description="allowed peak-to-peak TE [arcsec]"
     )
     min_contacts: int | None = Field(None, ge=0, description="fewest loaded pins allowed")
+    max_lost_motion_arcmin: float | None = Field(
+        None, gt=0, description="largest allowed lost motion [arcmin] (computes it)"
+    )
     objective: Literal["max_contact_stress", "te_pp", "lost_motion", "play"] = Field(
         "max_contact_stress", description="metric minimised"
     )
-    rings: int = Field(0, ge=0, description="rings drawn from [tolerance] (0: nominal map)")
+    rings: int = Field(
+        0, ge=0, le=MAX_RINGS, description="rings drawn from [tolerance] (0: nominal map)"
+    )
     lost_motion: bool | None = Field(
-        None, description="compute the lost motion (default: if it is the objective)"
+        None,
+        description="compute the lost motion (default: if it is the objective or constrained)",
     )
 
     @model_validator(mode="after")
     def _something_swept(self) -> DesignSpaceSection:
+        ranges = [getattr(self, k) for k in ("pin_circle_radius_um", "pin_radius_um")]
+        ranges.append(self.rotation_urad)
+        size = math.prod(r.points for r in ranges if r is not None)
+        if size > MAX_CANDIDATES:
+            raise ValueError(
+                f"the design space has {size} candidates (the product of the points), "
+                f"more than {MAX_CANDIDATES}: use fewer points"
+            )
+        if self.lost_motion is False and (
+            self.max_lost_motion_arcmin is not None or self.objective == "lost_motion"
+        ):
+            raise ValueError(
+                "lost_motion = false, but max_lost_motion_arcmin or objective = "
+                '"lost_motion" needs it: leave lost_motion out'
+            )
         if not self.axes():
             raise ValueError(
                 "sweep at least one of pin_circle_radius_um, pin_radius_um, rotation_urad "
@@ -717,6 +827,7 @@ class DesignSpaceSection(_Section):
             "allowable_contact_stress_mpa",
             "max_te_pp_arcsec",
             "min_contacts",
+            "max_lost_motion_arcmin",
         )
         return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}
 
@@ -738,7 +849,7 @@ class CaseInputs:
     read once (lists + file + random draws)."""
     discs: int = 1
     """Number of discs on the pin ring."""
-    contact_law: str = "paper"
+    contact_law: str = "half_plane"
     crank_holes: CrankHoles | None = None
     """The disc's crank holes (``[design.disc]``), or None: held at the bore."""
     disc_body: str = "rigid"
@@ -872,6 +983,7 @@ class CaseSpec(_Section):
                 self.errors.eccentricity_um,
             )
             errors.ring_shape(design.pins)
+            check_physical(design, modification, errors)
             check_profile(design, modification)
             crank_holes = d.disc.to_core()
             if crank_holes is not None:
@@ -1012,12 +1124,7 @@ def load_study(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         One line naming the file or the dotted key and what is expected.
     """
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        raise StudyError(f"study file not found: {path}") from None
-    except OSError as exc:
-        raise StudyError(f"cannot read study file {path}: {exc.strerror or exc}") from None
+    data = read_regular_file(path, "study file", MAX_STUDY_FILE_BYTES)
     try:
         text = data.decode("utf-8")
         raw = tomllib.loads(text)
@@ -1025,12 +1132,16 @@ def load_study(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         raise StudyError(f"{path.name}: not a UTF-8 text file") from None
     except tomllib.TOMLDecodeError as exc:
         raise StudyError(f"{path.name}: invalid TOML: {exc}") from None
+    except RecursionError:
+        raise StudyError(f"{path.name}: arrays or tables nested too deeply") from None
     overrides = dict(overrides or {})
     top = deep_merge(raw, {k: v for k, v in overrides.items() if k in CASE_SECTIONS})
     try:
         study_file = StudyFile.model_validate(top)
     except ValidationError as exc:
         raise StudyError(one_line(exc, StudyFile)) from None
+    except RecursionError:
+        raise StudyError(f"{path.name}: arrays or tables nested too deeply") from None
 
     base_raw = {key: top[key] for key in CASE_SECTIONS if key in top}
     base = _validate_case({"name": "base", **base_raw}, "base", path.parent)
@@ -1055,8 +1166,19 @@ def load_study(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
             )
         seen[folder] = case.name
     inputs = [case.to_core() for case in cases]
+    if study_file.fe is not None:
+        for case in cases:
+            d = case.design
+            root = d.pin_circle_radius_mm - d.eccentricity_mm - d.pin_radius_mm
+            most = FE_BORE_FRACTION * root
+            if study_file.fe.bore_radius_mm >= most:
+                raise StudyError(
+                    f"{case.label}: fe.bore_radius_mm = {study_file.fe.bore_radius_mm:g}: "
+                    f"expected below {FE_BORE_FRACTION:g} of the root radius a - e - ρp, "
+                    f"{most:.4g} mm (the disc must have a body between bore and teeth)"
+                )
     min_pins = min(case.design.pins for case in cases)
-    if study_file.figures.stress_pin > min_pins:
+    if study_file.figures.stress_pin is not None and study_file.figures.stress_pin > min_pins:
         raise StudyError(
             f"figures.stress_pin: expected a pin number from 1 to {min_pins}, "
             f"got {study_file.figures.stress_pin}"

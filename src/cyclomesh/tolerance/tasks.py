@@ -16,7 +16,13 @@ contributions in a fixed order). A chunk is solved in batches of about
 :data:`BLOCK_PIN_STEPS` pin-steps (:func:`block_rings`: 16 rings at 1°, 160 at 10°)
 only to bound the memory of one core call, so ring k's metrics depend on (seed, k)
 alone. The metrics come straight from the core's arrays
-(:func:`cyclomesh.results.dataset.ltca_metrics`), without building a Dataset per batch.
+(:func:`cyclomesh.results.dataset.drive_metrics`), without building a Dataset per batch.
+
+Stacks: each ring is drawn once for the pin ring and the whole stack of discs is analysed
+on it (:func:`cyclomesh.drive.solve.solve_drive`; one disc is bit for bit
+:func:`cyclomesh.core.ltca.solve_ltca`), so the pin errors change the split of the torque
+between the discs (``torque_share_min_nm``, ``torque_share_max_nm``) and the mesh force
+of each disc (``max_mesh_force_n``).
 """
 
 from __future__ import annotations
@@ -27,10 +33,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.core.ltca import solve_ltca
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.drive.solve import solve_drive
 from cyclomesh.exceptions import CyclomeshError
-from cyclomesh.results.dataset import ltca_metrics
+from cyclomesh.results.dataset import drive_metrics
 from cyclomesh.results.metrics import STRESS_METRIC
 from cyclomesh.studyfile.schema import ToleranceSection, pin_errors_si
 from cyclomesh.tolerance.sampling import RingErrors, draw_ring_errors
@@ -68,7 +74,7 @@ class RingModel:
     base_eccentricity_um : float
         The base case's eccentricity error [µm].
     torque_nm : float
-        Torque on the disc [N·m].
+        Torque on the stack of discs [N·m].
     crank_angles_deg : ndarray
         Crank angles φin [deg].
     groove_deformation : bool
@@ -77,6 +83,10 @@ class RingModel:
         Distributions and seed.
     contact_law : {"paper", "half_plane"}
         Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
+    discs : int
+        Identical discs on the pin ring (:func:`cyclomesh.drive.solve.solve_drive`).
+    crank_range : (start, stop, step) [deg], optional
+        Where ``crank_angles_deg`` came from (written into a ring's study file).
     disc_body : "rigid" or DiscBody
         The disc body (:func:`cyclomesh.core.ltca.solve_ltca`), resolved once by the
         parent and carried to the workers with the task (one table for all rings).
@@ -90,7 +100,9 @@ class RingModel:
     crank_angles_deg: NDArray[np.float64]
     groove_deformation: bool
     spec: ToleranceSection
-    contact_law: str = "paper"
+    contact_law: str = "half_plane"
+    discs: int = 1
+    crank_range: tuple[float, float, float] | None = None
     disc_body: Any = "rigid"
 
     def draw(self, rings: ArrayLike) -> RingErrors:
@@ -136,20 +148,21 @@ class RingModel:
     @property
     def block_rings(self) -> int:
         """Rings per core call (see :func:`block_rings`)."""
-        return block_rings(len(self.crank_angles_deg), self.design.pins)
+        return block_rings(len(self.crank_angles_deg), self.design.pins * self.discs)
 
     def _solve(self, block: RingErrors) -> dict[str, NDArray[Any]]:
-        result = solve_ltca(
+        result = solve_drive(
             self.design,
             self.modification,
             self.pin_errors(block),
             self.torque_nm,
             np.deg2rad(self.crank_angles_deg),
             self.groove_deformation,
+            self.discs,
             self.contact_law,
             self.disc_body,
         )
-        return ltca_metrics(result, self.design.teeth)
+        return drive_metrics(result, self.design.teeth)
 
     def _blame(self, block: RingErrors) -> None:
         """Re-solve ring by ring and raise the core's error naming the failing ring."""
@@ -183,6 +196,15 @@ class ToleranceTask:
         return _by_blocks(start, stop, self._block, self.model.block_rings)
 
 
+STATED_METRICS = (
+    "max_contact_stress_mpa",
+    "max_mesh_force_n",
+    "torque_share_min_nm",
+    "torque_share_max_nm",
+)
+"""Per-ring metrics an allocation also reports at the stated tolerances (f = 1)."""
+
+
 @dataclass(frozen=True)
 class AllocationTask:
     """Chunk function: critical scale factor of every ring (common random numbers).
@@ -196,7 +218,9 @@ class AllocationTask:
 
     The nominal ring (f = 0) must not exceed the allowable (checked by the caller).
     Every step solves the whole batch (rings already settled ride along and their
-    results are ignored).
+    results are ignored). One more solve at the stated tolerances (f = 1) gives each
+    ring's :data:`STATED_METRICS` (peak stress, the largest mesh force on a disc and, for
+    a stack, the range of the torque one disc carries).
     """
 
     model: RingModel
@@ -230,7 +254,13 @@ class AllocationTask:
             exceeded = self._exceeds(drawn, mid)
             upper = np.where(bracketed & exceeded, mid, upper)
             lower = np.where(bracketed & ~exceeded, mid, lower)
-        return {"ring": drawn.rings, "critical_factor_lower": lower, "critical_factor_upper": upper}
+        stated = self.model.metrics(drawn)
+        return {
+            "ring": drawn.rings,
+            "critical_factor_lower": lower,
+            "critical_factor_upper": upper,
+            **{name: stated[name] for name in STATED_METRICS if name in stated},
+        }
 
     def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
         return _by_blocks(start, stop, self._block, self.model.block_rings)

@@ -1,0 +1,225 @@
+"""Upper bounds on what a study may ask for, and on the files it reads.
+
+The bounds keep a study file from asking for more than a machine can give (memory or
+hours) by a slip of a key (``crank_step_deg = 1e-5``, ``rings = 10**15``), and every
+bound is named in its message. They are checked before anything is allocated: the
+validators count, they never build the arrays they count.
+
+Two kinds of limit:
+
+- per-key bounds in the schema (:mod:`cyclomesh.studyfile.schema`): pins, discs, crank
+  angles per case, torque points, design-space points, FE mesh sizes;
+- the **work** of a whole study (:func:`check_work`): pin-steps (rings × crank angles ×
+  pins × discs × torques × candidates) solved, and pin-steps held in memory, against
+  :data:`MAX_SOLVED_PIN_STEPS` and :data:`MAX_STORED_PIN_STEPS`. ``--no-work-limit``
+  lifts this one.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import stat
+from pathlib import Path
+
+from cyclomesh.exceptions import StudyError
+
+__all__ = [
+    "MAX_PINS",
+    "MAX_DISCS",
+    "MAX_CRANK_ANGLES",
+    "MAX_ABS_CRANK_DEG",
+    "MIN_CRANK_STEP_DEG",
+    "MAX_STIFFNESS_POINTS",
+    "MAX_CANDIDATES",
+    "MAX_RINGS",
+    "MAX_SOLVED_PIN_STEPS",
+    "MAX_STORED_PIN_STEPS",
+    "MAX_STUDY_FILE_BYTES",
+    "MAX_CSV_FILE_BYTES",
+    "count_crank_angles",
+    "check_work",
+    "check_study_work",
+    "read_regular_file",
+]
+
+MAX_PINS = 400
+"""Most ring pins n1 (cycloid drives have 10 to about 100)."""
+
+MAX_DISCS = 8
+"""Most discs on one pin ring (RV reducers have 2, some 3)."""
+
+MAX_CRANK_ANGLES = 100_000
+"""Most crank angles of one case or ring (0.0036° over a revolution)."""
+
+MAX_ABS_CRANK_DEG = 36_000.0
+"""Largest |crank angle| accepted [deg] (100 revolutions)."""
+
+MIN_CRANK_STEP_DEG = 1e-4
+"""Smallest crank angle step [deg]."""
+
+MAX_STIFFNESS_POINTS = 1001
+"""Most torques of a torsion curve."""
+
+MAX_CANDIDATES = 100_000
+"""Most candidates of a design map."""
+
+MAX_RINGS = 10_000_000
+"""Most rings of a tolerance study (or a robust design map)."""
+
+MAX_SOLVED_PIN_STEPS = 2e10
+"""Most pin-steps (one pin at one crank angle) a study solves: about an hour on a few
+cores. ``--no-work-limit`` lifts it."""
+
+MAX_STORED_PIN_STEPS = 2e7
+"""Most pin-steps a study holds in memory with every variable (``run``,
+``stiffness``): about 3 GB. ``--no-work-limit`` lifts it."""
+
+MAX_STUDY_FILE_BYTES = 16 << 20
+"""Largest study file read [bytes]."""
+
+MAX_CSV_FILE_BYTES = 64 << 20
+"""Largest CSV (measured pins, profile deviation) read [bytes]."""
+
+
+def count_crank_angles(start_deg: float, stop_deg: float, step_deg: float) -> float:
+    """How many crank angles ``start:stop:step`` has, counted without building them
+    (a float, so that an absurd count does not overflow)."""
+    if not all(math.isfinite(v) for v in (start_deg, stop_deg, step_deg)) or step_deg <= 0:
+        return math.inf
+    return max(math.ceil((stop_deg - start_deg) / step_deg - 1e-9), 0)
+
+
+def check_work(
+    what: str,
+    solved: float,
+    stored: float = 0.0,
+    fix: str = "",
+    allow: bool = False,
+) -> None:
+    """Refuse a study that asks for more than :data:`MAX_SOLVED_PIN_STEPS` pin-steps of
+    work or :data:`MAX_STORED_PIN_STEPS` held in memory, unless ``allow``.
+
+    Parameters
+    ----------
+    what : str
+        The product that gives the work, e.g. ``"1000 rings x 360 crank angles x 40 pins"``.
+    solved, stored : float
+        Pin-steps solved and held [-].
+    fix : str
+        The keys to change, e.g. ``"tolerance.rings or --rings"``.
+    allow : bool
+        ``--no-work-limit``: no check.
+    """
+    if allow:
+        return
+    if solved > MAX_SOLVED_PIN_STEPS:
+        raise StudyError(
+            f"the study asks for {solved:.3g} pin-steps ({what}), above the limit of "
+            f"{MAX_SOLVED_PIN_STEPS:.0e} (hours of computing): reduce {fix}, or pass "
+            "--no-work-limit"
+        )
+    if stored > MAX_STORED_PIN_STEPS:
+        raise StudyError(
+            f"the study holds {stored:.3g} pin-steps in memory ({what}), above the limit of "
+            f"{MAX_STORED_PIN_STEPS:.0e} (about 3 GB): reduce {fix}, or pass --no-work-limit"
+        )
+
+
+def read_regular_file(path: Path, what: str, max_bytes: int) -> bytes:
+    """The bytes of ``path`` if it is a regular file of at most ``max_bytes``.
+
+    A FIFO, a device (``/dev/zero``) or a folder is refused before it is opened for
+    reading (opening a FIFO blocks; reading ``/dev/zero`` never ends).
+
+    Raises
+    ------
+    StudyError
+        Missing, not a regular file, too large, or unreadable; naming ``what`` and the path.
+    """
+    try:
+        info = os.stat(path)
+    except FileNotFoundError:
+        raise StudyError(f"{what} not found: {path}") from None
+    except OSError as exc:
+        raise StudyError(f"cannot read {what} {path}: {exc.strerror or exc}") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise StudyError(f"{what} {path}: not a regular file")
+    if info.st_size > max_bytes:
+        raise StudyError(
+            f"{what} {path}: {info.st_size} bytes, larger than the limit of {max_bytes} bytes"
+        )
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(fd, "rb") as fh:
+            if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):  # replaced meanwhile
+                raise StudyError(f"{what} {path}: not a regular file")
+            data = fh.read(max_bytes + 1)
+    except OSError as exc:
+        raise StudyError(f"cannot read {what} {path}: {exc.strerror or exc}") from None
+    if len(data) > max_bytes:
+        raise StudyError(f"{what} {path}: larger than the limit of {max_bytes} bytes")
+    return data
+
+
+def _torques(inputs: object) -> int:
+    import numpy as np
+
+    return int(np.size(getattr(inputs, "torque", 1)))
+
+
+def check_study_work(
+    study: object,
+    command: str,
+    *,
+    rings: int | None = None,
+    allow: bool = False,
+) -> None:
+    """:func:`check_work` of a loaded study for ``command`` (``run``, ``check``,
+    ``stiffness``, ``tolerance``, ``allocate``, ``design``); ``rings`` is ``--rings``.
+
+    Raises
+    ------
+    StudyError
+        The work is above a limit (its product and the keys to change in the message).
+    """
+    cases = list(zip(study.cases, study.inputs, strict=True))  # type: ignore[attr-defined]
+    file = study.file  # type: ignore[attr-defined]
+    if command in ("run", "check", "stiffness"):
+        per_case = [
+            len(inputs.crank_angles) * case.design.pins * case.design.discs * _torques(inputs)
+            for case, inputs in cases
+        ]
+        what = f"{len(cases)} case(s) x crank angles x pins x discs x torques"
+        fix = "analysis.crank_step_deg (or --crank-step-deg)"
+        if command == "stiffness":
+            points = [case.stiffness.points if case.stiffness else 1 for case, _ in cases]
+            per_case = [n * p for n, p in zip(per_case, points, strict=True)]
+            what = f"{len(cases)} case(s) x stiffness.points x crank angles x pins x discs"
+            fix += " or stiffness.points"
+        check_work(what, float(sum(per_case)), float(sum(per_case)), fix, allow)
+    if command in ("check", "tolerance", "allocate") and file.tolerance is not None:
+        spec = file.tolerance
+        n = spec.rings if rings is None else rings
+        base = study.base  # type: ignore[attr-defined]
+        angles = count_crank_angles(*spec.crank_range(base.analysis))
+        ring = angles * base.design.pins * base.design.discs
+        steps = 1 if command != "allocate" else spec.allocation.factor_steps
+        steps += 0 if command != "allocate" else spec.allocation.bisections
+        what = f"{n} rings x {angles:.0f} crank angles x {base.design.pins} pins"
+        if steps > 1:
+            what += f" x {steps} scale factors"
+        fix = "tolerance.rings (or --rings) or tolerance.crank_step_deg"
+        check_work(what, float(n) * ring * steps, ring, fix, allow)
+    if command in ("check", "design") and file.design_space is not None:
+        space = file.design_space
+        candidates = math.prod(len(v) for v in space.axes().values())
+        case, inputs = cases[0]
+        per = len(inputs.crank_angles) * case.design.pins * case.design.discs * _torques(inputs)
+        k = max(1, space.rings)
+        what = (
+            f"{candidates} candidates x {k} ring(s) x {len(inputs.crank_angles)} crank angles "
+            f"x {case.design.pins} pins"
+        )
+        fix = "the design_space points, design_space.rings or analysis.crank_step_deg"
+        check_work(what, float(candidates) * k * per, float(k) * per, fix, allow)

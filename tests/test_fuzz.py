@@ -1,0 +1,200 @@
+"""Fuzz: mutate the examples' study files and run every command on them in-process.
+
+For every mutated file and every command that takes it, the outcome must be either
+exit 0 with a complete result folder (``cyclomesh.load_results``) whose NetCDF numbers
+are finite (except in variables that document what a non-finite value means, in their
+``nonfinite`` attribute), or exit 2 with one line ``error: ...`` and nothing written.
+No traceback, no "internal error", no NumPy RuntimeWarning (overflow, invalid value),
+no hang. ``CYCLOMESH_FUZZ_SEED`` picks other mutations.
+
+The examples are first made cheap (coarse crank steps, few rings, points and
+candidates, no figures) so that a few hundred cases run in well under a minute; the
+mutations then hit one key each (or add or delete one). The counts are printed
+(``pytest -s``) and checked against a floor so that the test cannot pass vacuously.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import random
+import shutil
+import time
+import tomllib
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from cyclomesh.cli import app
+from cyclomesh.output.folder import load_results
+from cyclomesh.output.writers import toml_dumps
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+CASES_PER_EXAMPLE = 45
+SEED = int(os.environ.get("CYCLOMESH_FUZZ_SEED", "15"))
+
+CHEAP = {
+    "table2": {"analysis.crank_step_deg": 30.0},
+    "section42": {"analysis.crank_step_deg": 30.0},
+    "measured": {"analysis.crank_step_deg": 30.0},
+    "stiffness": {"analysis.crank_step_deg": 30.0, "stiffness.points": 5},
+    "tolerance": {
+        "tolerance.crank_step_deg": 30.0,
+        "tolerance.rings": 6,
+        "tolerance.allocation.factor_steps": 2,
+        "tolerance.allocation.bisections": 1,
+    },
+    "design": {
+        "analysis.crank_step_deg": 30.0,
+        "design_space.pin_circle_radius_um.points": 2,
+        "design_space.pin_radius_um.points": 3,
+    },
+    "fe_table1": {},
+}
+COMMANDS = {
+    "table2": ["check", "run"],
+    "section42": ["check", "run"],
+    "measured": ["check", "run"],
+    "stiffness": ["check", "stiffness"],
+    "tolerance": ["check", "tolerance", "allocate"],
+    "design": ["check", "design"],
+    "fe_table1": ["check"],
+}
+EXTRA = {
+    "run": ["--figures", "none"],
+    "stiffness": ["--figures", "none"],
+    "tolerance": ["--figures", "none", "--workers", "1"],
+    "allocate": ["--figures", "none", "--workers", "1"],
+    "design": ["--figures", "none", "--workers", "1"],
+}
+
+
+def _set(raw: dict, path: list[str], value: Any) -> None:
+    for part in path[:-1]:
+        raw = raw.setdefault(part, {})
+    raw[path[-1]] = value
+
+
+def _leaves(node: Any, path: tuple = ()) -> list[tuple]:
+    if isinstance(node, dict):
+        return [leaf for k, v in node.items() for leaf in _leaves(v, (*path, k))]
+    if isinstance(node, list) and node and all(isinstance(v, dict) for v in node):
+        return [leaf for i, v in enumerate(node) for leaf in _leaves(v, (*path, i))]
+    return [path]
+
+
+def _get(node: Any, path: tuple) -> Any:
+    for part in path:
+        node = node[part]
+    return node
+
+
+def _mutant_value(rng: random.Random, old: Any) -> Any:
+    number = old if isinstance(old, int | float) and not isinstance(old, bool) else 1.0
+    choices = [
+        0,
+        0.0,
+        -1.0,
+        -number,
+        number * 10,
+        number * 1e6,
+        number * 1e-6,
+        1e300,
+        -1e300,
+        1e-300,
+        2**62,
+        3,
+        "x",
+        "",
+        True,
+        [],
+        [1.0, 2.0],
+        [[[1.0]]],
+        {"a": 1},
+        math.inf,
+        math.nan,
+    ]
+    if isinstance(old, list) and old:
+        choices += [old[:-1], old + old[:1], [x * 1e3 for x in old if isinstance(x, float)]]
+    if isinstance(old, str):
+        choices += ["$x^{$", "\x7fname", old + "/../.."]
+    return rng.choice(choices)
+
+
+def mutate(raw: dict, rng: random.Random) -> str:
+    """Change one thing in ``raw`` in place; return what."""
+    leaves = [p for p in _leaves(raw) if p]
+    kind = rng.random()
+    path = rng.choice(leaves)
+    if kind < 0.1:  # delete a key
+        parent = _get(raw, path[:-1])
+        parent.pop(path[-1]) if isinstance(parent, dict) else None
+        return f"del {'.'.join(map(str, path))}"
+    if kind < 0.15:  # an unknown key
+        _get(raw, path[:-1])["no_such_key"] = 1 if isinstance(_get(raw, path[:-1]), dict) else 0
+        return f"add {'.'.join(map(str, path[:-1]))}.no_such_key"
+    value = _mutant_value(rng, _get(raw, path))
+    parent = _get(raw, path[:-1])
+    parent[path[-1]] = value
+    return f"{'.'.join(map(str, path))} = {value!r}"
+
+
+def _finite_or_documented(folder: Path) -> None:
+    results = load_results(folder)  # refuses an incomplete folder
+    for nc in results.netcdf:
+        ds = results.dataset(nc.relative_to(folder).as_posix())
+        for name, var in ds.variables.items():
+            if var.dtype.kind != "f":
+                continue
+            if not np.isfinite(var.values).all():
+                assert "nonfinite" in var.attrs, f"{nc.name}: {name} has undocumented inf/NaN"
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # an overflow is a bug, not a result
+def test_fuzz_examples(tmp_path):
+    rng = random.Random(SEED)
+    runner = CliRunner()
+    counts: Counter[str] = Counter()
+    start = time.perf_counter()
+    for example, cheap in CHEAP.items():
+        base = tomllib.loads((EXAMPLES / f"{example}.toml").read_text())
+        for dotted, value in cheap.items():
+            _set(base, dotted.split("."), value)
+        for index in range(CASES_PER_EXAMPLE):
+            raw = tomllib.loads(toml_dumps(base))  # a deep copy
+            what = mutate(raw, rng) if index else "unchanged"
+            folder = tmp_path / f"{example}-{index}"
+            folder.mkdir()
+            shutil.copy(EXAMPLES / "measured_pins.csv", folder / "measured_pins.csv")
+            study = folder / "study.toml"
+            try:
+                study.write_text(toml_dumps(raw), encoding="utf-8")
+            except TypeError:
+                continue
+            for command in COMMANDS[example]:
+                out = folder / f"out-{command}"
+                args = [command, str(study)]
+                if command != "check":
+                    args += ["--out", str(out), "-q", *EXTRA[command]]
+                result = runner.invoke(app, args)
+                label = f"{example} [{what}] {command}"
+                counts["cases"] += 1
+                if result.exit_code == 0:
+                    counts["exit 0"] += 1
+                    if command != "check":
+                        _finite_or_documented(out)
+                    continue
+                lines = [line for line in result.output.splitlines() if line.strip()]
+                assert result.exit_code == 2, (label, result.exit_code, result.output)
+                assert len(lines) == 1 and lines[0].startswith("error: "), (label, result.output)
+                assert "internal error" not in lines[0], (label, lines[0])
+                assert not out.exists(), (label, sorted(out.rglob("*")))
+                counts["exit 2"] += 1
+    seconds = time.perf_counter() - start
+    print(f"\nfuzz: {dict(counts)} in {seconds:.1f} s")
+    assert counts["cases"] >= 300 and counts["exit 0"] >= 50 and counts["exit 2"] >= 100
+    assert counts["exit 0"] + counts["exit 2"] == counts["cases"]

@@ -1,0 +1,239 @@
+"""Result folders that cannot be lost or misread (issue 15, items 1, 2 and disk full).
+
+Every result file is written to a temporary name and renamed into place; ``summary.json``
+is the completion marker, removed first and written last; ``--out`` is locked while a
+command runs; :func:`cyclomesh.load_results` refuses an incomplete folder.
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+import cyclomesh
+from cyclomesh.cli import app
+from cyclomesh.exceptions import OutputError
+from cyclomesh.output.folder import LOCK, MARKER, ResultFolder, load_results
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+QUICK = ("--crank-step-deg", "10", "--figures", "none", "-q")
+
+
+def run(out: Path, *more: str):
+    return CliRunner().invoke(app, ["run", str(EXAMPLES / "table2.toml"), "--out", str(out), *more])
+
+
+def one_line_error(result) -> str:
+    assert result.exit_code == 2, result.output
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), result.output
+    return lines[0]
+
+
+def test_marker_written_last_lists_every_file(tmp_path):
+    out = tmp_path / "out"
+    assert run(out, *QUICK).exit_code == 0
+    marker = json.loads((out / MARKER).read_text())
+    assert marker["status"] == "complete" and marker["command"] == "run"
+    listed = {f["path"] for f in marker["files"]}
+    on_disk = {
+        p.relative_to(out).as_posix()
+        for p in out.rglob("*")
+        if p.is_file() and p.name not in (MARKER, LOCK)
+    }
+    assert listed == on_disk and "Case_1/results.nc" in listed
+    assert not list(out.rglob("*.tmp"))
+    results = cyclomesh.load_results(out)
+    ds = results.dataset("Case_1/results.nc")
+    assert np.isfinite(ds["pin_load"].values).all()
+    assert results.summary["cases"][0]["name"] == "Case 1"
+
+
+def test_load_results_refuses_incomplete_or_changed_folders(tmp_path):
+    out = tmp_path / "out"
+    assert run(out, *QUICK).exit_code == 0
+    nc = out / "Case_2" / "results.nc"
+    nc.write_bytes(nc.read_bytes()[:1000])  # a truncated file under the final name
+    with pytest.raises(OutputError, match="changed"):
+        load_results(out)
+    (out / MARKER).unlink()
+    with pytest.raises(OutputError, match="did not finish"):
+        load_results(out)
+
+
+def test_failed_run_removes_the_earlier_marker(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    assert run(out, *QUICK).exit_code == 0
+    from cyclomesh.studies import run as kind
+
+    def broken(*args, **kwargs):
+        raise cyclomesh.ConvergenceError("injected failure")
+
+    monkeypatch.setattr(kind, "compute_run", broken)
+    assert "injected failure" in one_line_error(run(out, *QUICK))
+    assert not (out / MARKER).exists()  # the old results are no longer vouched for
+    with pytest.raises(OutputError):
+        load_results(out)
+
+
+def test_failed_run_into_a_new_folder_writes_nothing(tmp_path, monkeypatch):
+    from cyclomesh.studies import run as kind
+
+    def broken(*args, **kwargs):
+        raise cyclomesh.ConvergenceError("injected failure")
+
+    monkeypatch.setattr(kind, "compute_run", broken)
+    out = tmp_path / "new" / "out"
+    one_line_error(run(out, *QUICK))
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("target", ["netcdf", "parquet", "text"])
+def test_disk_full_is_one_line_naming_the_path(tmp_path, monkeypatch, target):
+    """A writer failing with ENOSPC (as on a full disk) midway: one line, exit 2, no
+    partial file under a final name, no temporary file, no marker."""
+    import netCDF4
+    import pyarrow.parquet as pq
+
+    def full(*args, **kwargs):
+        path = next(a for a in args if isinstance(a, str | Path))
+        Path(path).write_bytes(b"\0" * 100)  # a partial file
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    if target == "netcdf":
+
+        def hdf_error(path, *args, **kwargs):  # HDF5 reports a full disk as "HDF error"
+            Path(path).write_bytes(b"\x89HDF\r\n\x1a\n" + b"\0" * 100)
+            raise RuntimeError("NetCDF: HDF error")
+
+        monkeypatch.setattr(netCDF4, "Dataset", hdf_error)
+        monkeypatch.setattr("shutil.disk_usage", lambda p: type("U", (), {"free": 0})())
+    elif target == "parquet":
+        monkeypatch.setattr(pq, "write_table", lambda table, path, **k: full(path))
+    else:  # report.html and the marker
+        real_write = Path.write_bytes
+
+        def write_bytes(self, data):
+            real_write(self, data[: len(data) // 2])
+            if self.name.startswith(".report.html"):
+                raise OSError(errno.ENOSPC, "No space left on device")
+            return real_write(self, data)
+
+        monkeypatch.setattr(Path, "write_bytes", write_bytes)
+    out = tmp_path / "out"
+    line = one_line_error(run(out, *QUICK))
+    assert "no space left on the device" in line and str(out) in line
+    assert not (out / MARKER).exists()
+    assert not list(out.rglob("*.tmp"))
+    assert not list(out.rglob("results.nc")) or target != "netcdf"
+
+
+def test_second_command_into_a_locked_folder_fails_at_once(tmp_path):
+    out = tmp_path / "out"
+    holder = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            textwrap.dedent(
+                f"""
+                import sys, time
+                from cyclomesh.output.folder import ResultFolder
+                with ResultFolder({str(out)!r}, "run"):
+                    print("locked", flush=True)
+                    time.sleep(30)
+                """
+            ),
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        start = time.perf_counter()
+        line = one_line_error(run(out, *QUICK))
+        assert time.perf_counter() - start < 5
+        assert f"PID {holder.pid}" in line and "in use" in line
+        assert not (out / "Case_1").exists()
+    finally:
+        holder.kill()
+        holder.wait()
+    assert run(out, *QUICK).exit_code == 0  # the lock dies with its holder
+
+
+def test_result_folder_keeps_the_marker_for_last(tmp_path):
+    from cyclomesh.output.writers import write_json
+
+    with ResultFolder(tmp_path, "test") as folder:
+        write_json(tmp_path / MARKER, {"answer": 42.0, "bad": float("nan")})
+        assert not (tmp_path / MARKER).exists()
+        write_json(tmp_path / "other.json", {"x": 1})
+        assert folder.marker == tmp_path / MARKER
+    marker = json.loads((tmp_path / MARKER).read_text())
+    assert marker["answer"] == 42.0 and marker["bad"] is None
+    assert [f["path"] for f in marker["files"]] == ["other.json"]
+
+
+def test_netcdf_variables_have_a_fill_value(tmp_path):
+    import netCDF4
+
+    from cyclomesh.output.writers import write_netcdf
+
+    ds = xr.Dataset(
+        {"load": ("x", np.arange(3.0), {"units": "N"}), "n": ("x", np.arange(3))},
+        coords={"x": [1, 2, 3]},
+    )
+    path = write_netcdf(ds, tmp_path / "a.nc")
+    with netCDF4.Dataset(path) as nc:
+        assert np.isnan(nc["load"]._FillValue)
+        assert nc["n"].filters() is not None and nc["n"].get_fill_value() is not None
+    xr.testing.assert_identical(xr.load_dataset(path), ds)
+
+
+def test_kill_during_a_run_never_leaves_a_readable_partial_folder(tmp_path):
+    """``kill -9`` of ``cyclomesh run`` into a folder that holds an earlier run, at
+    several moments: the folder is either complete (load_results) or refused, and every
+    NetCDF file under its final name is whole (it opens and reads finite numbers)."""
+    out = tmp_path / "out"
+    assert run(out, *QUICK).exit_code == 0
+    command = [
+        sys.executable,
+        "-m",
+        "cyclomesh",
+        "run",
+        str(EXAMPLES / "table2.toml"),
+        "--out",
+        str(out),
+        "--crank-step-deg",
+        "0.5",
+        "--figures",
+        "none",
+        "-q",
+    ]
+    outcomes = set()
+    for delay in (0.4, 0.9, 1.4, 2.2):
+        process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(delay)
+        process.kill()
+        process.wait()
+        try:
+            load_results(out)
+            outcomes.add("complete")
+        except OutputError:
+            outcomes.add("refused")
+        for nc in out.rglob("results.nc"):
+            ds = xr.load_dataset(nc)
+            assert np.isfinite(ds["pin_load"].values).all(), nc
+    assert "refused" in outcomes  # at least one kill hit the run before its marker
+    assert run(out, *QUICK).exit_code == 0  # the next run cleans up and completes
+    assert not list(out.rglob(".*.tmp"))
+    load_results(out)
