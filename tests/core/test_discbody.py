@@ -234,7 +234,7 @@ def test_fe_body_with_the_rv_stage_is_refused(tmp_path):
 
     from cyclomesh.cli import app
 
-    text = (Path(__file__).parent.parent / "examples" / "rv_stage.toml").read_text()
+    text = (Path(__file__).parents[2] / "examples" / "rv_stage.toml").read_text()
     if "[analysis]" in text:
         text = text.replace(
             "[analysis]", '[analysis]\ndisc_body = "fe"\ncontact_law = "half_plane"', 1
