@@ -31,6 +31,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -119,8 +120,9 @@ class DiscBody:
         """p: teeth after which the support repeats (1 for the bore)."""
         return int(self.table.shape[0])
 
-    def _weights(self, angle: FloatArray) -> tuple[NDArray, FloatArray]:
-        """Catmull–Rom nodes (..., 4) and weights (..., 4) at profile angles [rad].
+    def _cells(self, angle: FloatArray) -> tuple[NDArray, FloatArray]:
+        """Catmull–Rom cell i (..., ) and weights (..., 4) at profile angles [rad]: the
+        nodes are i − 1 … i + 2, clamped to the grid.
 
         Angles outside the grid are clamped to its ends (the contacts there, at a tip or
         a tooth-space bottom, have no moment arm and carry no load).
@@ -141,8 +143,33 @@ class DiscBody:
             ],
             axis=-1,
         )
-        nodes = np.clip(i[..., None] + np.arange(-1, 3), 0, m - 1)
+        return i, w
+
+    def _weights(self, angle: FloatArray) -> tuple[NDArray, FloatArray]:
+        """Catmull–Rom nodes (..., 4) and weights (..., 4) at profile angles [rad]."""
+        i, w = self._cells(angle)
+        nodes = np.clip(i[..., None] + np.arange(-1, 3), 0, self.profile_angles.size - 1)
         return nodes, w
+
+    @cached_property
+    def _windows(self) -> FloatArray:
+        """The reciprocal table in Catmull–Rom windows, shape (16, p·n2·(m − 1)²).
+
+        ``0.5·(table[k0, d, a, b] + table[(k0 + d) mod p, −d mod n2, b, a])`` (the
+        response of contact i to j averaged with that of j to i: reciprocity, which the
+        FE holds to its round-off), edge-padded in both profile angles so that the
+        clamped nodes i − 1 … i + 2 of cell i are the padded rows i … i + 3, and cut
+        into the 4×4 windows of every (k0, d, cell of the load, cell of the response),
+        component-major (one row per window node pair, ``4·a + b``).
+        """
+        t = self.table
+        p, n2, m = self.period, self.teeth, self.profile_angles.size
+        k0, d = np.arange(p)[:, None], np.arange(n2)[None, :]
+        partner = np.swapaxes(t[np.mod(k0 + d, p), np.mod(-d, n2)], -1, -2)
+        sym = 0.5 * (t + partner)
+        padded = np.pad(sym, ((0, 0), (0, 0), (1, 1), (1, 1)), mode="edge")
+        win = np.lib.stride_tricks.sliding_window_view(padded, (4, 4), axis=(2, 3))
+        return np.ascontiguousarray(win.reshape(p * n2 * (m - 1) ** 2, 16).T)
 
     def matrix(self, tooth: ArrayLike, angle: ArrayLike) -> FloatArray:
         """C_ij of contacts at (tooth, profile angle), shape (..., n) → (..., n, n) [m/N].
@@ -168,13 +195,59 @@ class DiscBody:
         out[..., np.arange(n), np.arange(n)] = own
         return out
 
+    def reciprocal_matrix(
+        self, tooth: ArrayLike, angle: ArrayLike, own: ArrayLike | None = None
+    ) -> FloatArray:
+        """½(C + Cᵀ) of :meth:`matrix` (the same to round-off), shape (..., n, n) [m/N].
+
+        The coefficients the load sharing uses, formed once per set of contacts: each
+        pair i < j interpolated from the reciprocal table (:attr:`_windows`), its 16
+        values gathered as one window. ``own``: the diagonal if already known
+        (:meth:`self_compliance` of the same contacts).
+        """
+        k = np.asarray(tooth, np.int64)
+        cell, w = self._cells(np.asarray(angle, float))
+        k, cell = np.broadcast_arrays(k, cell)
+        n = k.shape[-1]
+        lead = k.shape[:-1]
+        w = np.broadcast_to(w, (*cell.shape, 4)).reshape(-1, n, 4)
+        k, cell = k.reshape(-1, n), cell.reshape(-1, n)
+        n2, p = self.teeth, self.period
+        cells = self.profile_angles.size - 1
+        rows, cols = np.triu_indices(n, 1)  # response i = rows, load j = cols
+        # window of the pair: ((k_j mod p)·n2 + (k_i − k_j) mod n2, cell_j, cell_i)
+        base = (np.mod(k, p) * n2 * cells + cell) * cells  # the load's part, per pin
+        km = np.mod(k, n2)
+        offset = np.take(km, rows, axis=1) - np.take(km, cols, axis=1)
+        offset += n2 * (offset < 0)
+        index = offset * (cells * cells)
+        index += np.take(base, cols, axis=1)
+        index += np.take(cell, rows, axis=1)
+        vals = np.take(self._windows, index.ravel(), axis=1).reshape(4, 4, -1)
+        wt = np.moveaxis(w, -1, 0)  # (4, B, n)
+        wj = np.take(wt, cols, axis=2).reshape(4, -1)
+        wi = np.take(wt, rows, axis=2).reshape(4, -1)
+        half = np.einsum("abp,ap->bp", vals, wj)  # the load's nodes first, as matrix()
+        pair = np.einsum("bp,bp->p", half, wi).reshape(index.shape)
+        if own is None:
+            nodes = np.clip(cell[..., None] + np.arange(-1, 3), 0, cells)
+            own = np.einsum("...ia,...ia->...i", self.diagonal[np.mod(k, p)[..., None], nodes], w)
+        else:
+            own = np.broadcast_to(own, (*lead, n)).reshape(-1, n)
+        # the matrix from the pairs and the diagonal in one gather
+        where = np.empty((n, n), np.int64)
+        where[rows, cols] = where[cols, rows] = np.arange(rows.size)
+        where[np.arange(n), np.arange(n)] = rows.size + np.arange(n)
+        out = np.take(np.concatenate([pair, own], axis=1), where.ravel(), axis=1)
+        return out.reshape(*lead, n, n)
+
     def self_compliance(self, tooth: ArrayLike, angle: ArrayLike) -> FloatArray:
         """The own coefficient C_ii of contacts at (tooth, profile angle) [m/N]."""
         k = np.asarray(tooth, np.int64)
         nodes, w = self._weights(np.asarray(angle, float))
-        return np.einsum(
-            "...a,...a->...", self.diagonal[np.mod(k, self.period)[..., None], nodes], w
-        )
+        m = self.profile_angles.size
+        index = nodes if self.period == 1 else np.mod(k, self.period)[..., None] * m + nodes
+        return np.einsum("...a,...a->...", np.take(self.diagonal, index), w)
 
 
 def tooth_index(pins: int, pitch: float, crank_angle: ArrayLike) -> NDArray[np.int64]:
@@ -269,7 +342,7 @@ def share_load_coupled(
     # most the table's most negative coefficient times the total load), and re-solved
     # with the pins that would penetrate, so the result is that of all pins
     candidate = usable & (bl < bound[:, None])
-    arrays = (bl, arm, alpha, gamma, tooth, angle)
+    arrays = (bl, arm, alpha, gamma, tooth, angle, diag)
     x, full = _solve_set(candidate, arrays, x0, f0, torque, body, n // groups)
     lowest = max(0.0, -float(np.min(body.table)), -float(np.min(body.diagonal)))
     for _ in range(n):
@@ -316,8 +389,22 @@ def _solve_set(
     body: DiscBody,
     per_disc: int,
 ) -> tuple[FloatArray, FloatArray]:
-    """Newton's method of :func:`share_load_coupled` on the ``candidate`` pins, (B, n)."""
-    bl, arm, alpha, gamma, tooth, angle = arrays
+    """Newton's method of :func:`share_load_coupled` on the ``candidate`` pins, (B, n).
+
+    The Newton step of the unknowns (w, Δφc) solves
+
+        (I + C·D)·Δw − C·D·l·Δx = −r_w,     −(D·l)ᵀ·Δw + lᵀ·D·l·Δx = −r_t,
+
+    D = diag(dF/dδ), nonzero on the engaged pins E only. With ΔF = D·(l·Δx − Δw) this is
+    Δw = C·ΔF − r_w and the symmetric system on E
+
+        (D⁻¹ + C)_EE·ΔF_E − l_E·Δx = r_w,E,     l_Eᵀ·ΔF_E = −r_t,
+
+    solved with two right-hand sides (r_w and l) of the one matrix; the same step to
+    round-off as the full system, at half the cost. Cases that have converged take no
+    further steps (their state is final), so the iterations work on the rest only.
+    """
+    bl, arm, alpha, gamma, tooth, angle, own = arrays
     width = int(np.max(np.sum(candidate, axis=-1)))
     order = np.argsort(~candidate, axis=-1, kind="stable")[:, :width]
     take = np.take_along_axis
@@ -327,70 +414,105 @@ def _solve_set(
     c_alpha, c_gamma = take(alpha, order, -1), take(gamma, order, -1)
     c_alpha = np.where(ok, c_alpha, 1.0)
     c_gamma = np.where(ok, c_gamma, 0.0)
-    cmat = body.matrix(take(tooth, order, -1), take(angle, order, -1))
-    disc = order // per_disc
-    cmat = np.where(
-        ok[:, :, None] & ok[:, None, :] & (disc[:, :, None] == disc[:, None, :]), cmat, 0.0
+    # reciprocal (C = Cᵀ, as the FE to its round-off), formed once for the candidate set
+    cmat = body.reciprocal_matrix(
+        take(tooth, order, -1), take(angle, order, -1), take(own, order, -1)
     )
-    cmat = 0.5 * (cmat + np.swapaxes(cmat, -1, -2))  # reciprocity (the FE's round-off)
+    disc = order // per_disc
+    cmat[~(ok[:, :, None] & ok[:, None, :] & (disc[:, :, None] == disc[:, None, :]))] = 0.0
 
-    x = x0.copy()
-    w = np.einsum("bij,bj->bi", cmat, take(f0, order, -1))
-    eye = np.eye(width)
-
-    def evaluate(x, w):
-        delta = np.maximum(c_arm * (x[:, None] - c_bl) - w, 0.0)
-        f = force_from_approach(delta, c_alpha, c_gamma)
-        r_w = w - np.einsum("bij,bj->bi", cmat, f)
-        r_t = np.sum(f * c_arm, axis=-1) - torque
+    def evaluate(x, w, case):
+        delta = np.maximum(c_arm[case] * (x[:, None] - c_bl[case]) - w, 0.0)
+        f = force_from_approach(delta, c_alpha[case], c_gamma[case])
+        r_w = w - np.einsum("bij,bj->bi", cmat[case], f)
+        r_t = np.sum(f * c_arm[case], axis=-1) - torque
         return delta, f, r_w, r_t
 
     def merit(delta, r_w, r_t):
         scale = np.maximum(np.max(delta, axis=-1), 1e-300)
         return np.max(np.abs(r_w), axis=-1) / scale + np.abs(r_t) / torque
 
-    delta, f, r_w, r_t = evaluate(x, w)
+    everything = slice(None)
+    x = x0.copy()
+    # the start: the rigid-disc solution itself (w = 0: δ, F and the torque exact, only
+    # r_w = −C·F0 open); 1–3 Newton steps fewer than from w = C·F0 at the rigid Δφc
+    w = np.zeros_like(c_bl)
+    delta, f, r_w, r_t = evaluate(x, w, everything)
+    current = merit(delta, r_w, r_t)
+    done = np.zeros(x.size, bool)
+    active = np.arange(x.size)
     for _ in range(_MAX_ITERATIONS):
-        scale = np.max(c_arm * np.maximum(x[:, None] - c_bl, 0.0), axis=-1)
-        done = (np.abs(r_t) <= TORQUE_TOLERANCE * torque) & (
-            np.max(np.abs(r_w), axis=-1) <= COMPATIBILITY_TOLERANCE * scale
+        case = everything if active.size == x.size else active
+        scale = np.max(c_arm[case] * np.maximum(x[case, None] - c_bl[case], 0.0), axis=-1)
+        now = (np.abs(r_t[case]) <= TORQUE_TOLERANCE * torque) & (
+            np.max(np.abs(r_w[case]), axis=-1) <= COMPATIBILITY_TOLERANCE * scale
         )
-        if np.all(done):
+        done[active[now]] = True
+        if np.all(now):
             break
-        engaged = f > 0
+        active = active[~now]
+        case = everything if active.size == x.size else active
+        f_a, r_w_a, r_t_a, l_a = f[case], r_w[case], r_t[case], c_arm[case]
+        engaged = f_a > 0
         with np.errstate(divide="ignore"):
-            log_f = np.log(np.where(engaged, f, 1.0))
-        d = np.where(engaged, 1.0 / (c_alpha - c_gamma * (1.0 + log_f)), 0.0)  # dF/dδ
-        jac = np.zeros((x.size, width + 1, width + 1))
-        cd = cmat * d[:, None, :]
-        jac[:, :width, :width] = eye + cd
-        jac[:, :width, width] = -np.einsum("bij,bj->bi", cd, c_arm)
-        jac[:, width, :width] = -d * c_arm
-        jac[:, width, width] = np.sum(d * c_arm * c_arm, axis=-1)
-        rhs = np.concatenate([r_w, r_t[:, None]], axis=-1)
+            log_f = np.log(np.where(engaged, f_a, 1.0))
+        d = np.where(engaged, 1.0 / (c_alpha[case] - c_gamma[case] * (1.0 + log_f)), 0.0)
+        c_a = cmat[case]
+        # the engaged pins first: the system is that of the widest engaged set
+        wide = int(np.max(np.sum(engaged, axis=-1)))
+        if wide < width:
+            first = np.argsort(~engaged, axis=-1, kind="stable")[:, :wide]
+            flat = (np.arange(first.shape[0]) * (width * width))[:, None, None]
+            flat = flat + first[:, :, None] * width + first[:, None, :]
+            c_e = np.take(c_a, flat)
+            eng, d_e = take(engaged, first, -1), take(d, first, -1)
+            r_e, l_e = take(r_w_a, first, -1), take(l_a, first, -1)
+        else:
+            c_e, eng, d_e, r_e, l_e = c_a, engaged, d, r_w_a, l_a
+        system = np.where(eng[:, :, None] & eng[:, None, :], c_e, 0.0)
+        diagonal = np.arange(wide)
+        system[:, diagonal, diagonal] += np.where(eng, 1.0 / np.where(eng, d_e, 1.0), 1.0)
+        l_e = np.where(eng, l_e, 0.0)
+        rhs = np.stack([np.where(eng, r_e, 0.0), l_e], axis=-1)
         try:
-            step = np.linalg.solve(jac, -rhs[..., None])[..., 0]
+            sol = np.linalg.solve(system, rhs)
         except np.linalg.LinAlgError:
-            det = np.linalg.det(jac)
+            sol = None
+        if sol is not None:
+            den = np.sum(l_e * sol[..., 1], axis=-1)
+            singular = ~(np.isfinite(den) & (den != 0.0))
+        if sol is None or np.any(singular):
+            if sol is None:
+                det = np.linalg.det(system)
+                singular = ~np.isfinite(det) | (det == 0)
             err = ConvergenceError(
                 "coupled load sharing: singular Newton system (the disc body's coefficients "
                 "plus the contact law are not positive definite here)"
             )
-            err.case_index = int(np.argmax(~np.isfinite(det) | (det == 0)))
+            err.case_index = int(active[np.argmax(singular)])
             raise err from None
-        step[done] = 0.0
-        old = merit(delta, r_w, r_t)
-        lam = np.ones(x.size)
+        step_x = -(r_t_a + np.sum(l_e * sol[..., 0], axis=-1)) / den
+        step_e = sol[..., 0] + sol[..., 1] * step_x[:, None]
+        if wide < width:
+            step_f = np.zeros_like(f_a)
+            np.put_along_axis(step_f, first, step_e, -1)
+        else:
+            step_f = step_e
+        step_w = np.einsum("bij,bj->bi", c_a, step_f) - r_w_a
+        old = current[case]
+        x_a, w_a = x[case], w[case]
+        lam = np.ones(active.size)
         for _ in range(30):
-            xn = x + lam * step[:, width]
-            wn = w + lam[:, None] * step[:, :width]
-            dn, fn, rwn, rtn = evaluate(xn, wn)
+            xn = x_a + lam * step_x
+            wn = w_a + lam[:, None] * step_w
+            dn, fn, rwn, rtn = evaluate(xn, wn, case)
             new = merit(dn, rwn, rtn)
-            worse = (new > old) & (lam > 1e-6) & ~done
+            worse = (new > old) & (lam > 1e-6)
             if not np.any(worse):
                 break
             lam = np.where(worse, 0.5 * lam, lam)
-        x, w, delta, f, r_w, r_t = xn, wn, dn, fn, rwn, rtn
+        x[case], w[case], delta[case], f[case], r_w[case], r_t[case] = xn, wn, dn, fn, rwn, rtn
+        current[case] = new
     else:
         bad = int(np.flatnonzero(~done)[0])
         err = ConvergenceError(

@@ -14,7 +14,7 @@ for every kind of study (``run``, ``stiffness``, ``tolerance``, ``allocate``, ``
   hold a run and its tolerance study, and ``best.toml`` of a robust map (which keeps
   its ``[tolerance]``) reruns with ``cyclomesh run``.
 
-``tests/test_key_usage.py`` checks every kind against every key: a used key changes the
+``tests/studies/test_key_usage.py`` checks every kind against every key: a used key changes the
 result, a refused key is refused, nothing else is left over.
 """
 

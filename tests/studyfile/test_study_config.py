@@ -13,7 +13,7 @@ from cyclomesh.studyfile import load_study
 from cyclomesh.studyfile.measurements import read_pin_errors_csv
 from cyclomesh.studyfile.schema import crank_angles_deg, deep_merge
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 def numbers(count: int, value: float = 0.0) -> str:

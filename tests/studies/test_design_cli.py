@@ -135,7 +135,7 @@ def test_example_design_study_is_valid_and_marks_the_paper_tpm():
 
     from cyclomesh.studies.designmap import load_design_study
 
-    study, space = load_design_study(Path(__file__).parents[1] / "examples" / "design.toml")
+    study, space = load_design_study(Path(__file__).parents[2] / "examples" / "design.toml")
     axes = space.axes()
     assert list(axes) == ["pin_circle_radius_um", "pin_radius_um"]
     assert 8.0 in axes["pin_radius_um"] and 0.0 in axes["pin_circle_radius_um"]

@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 
 from cyclomesh.cli import app
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "rv_stage.toml"
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "rv_stage.toml"
 
 
 def invoke(*args: str):

@@ -41,7 +41,7 @@ from cyclomesh.studyfile.usage import (
     set_keys,
 )
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 DESIGN = {
     "pins": 40,

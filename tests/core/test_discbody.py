@@ -234,7 +234,7 @@ def test_fe_body_with_the_rv_stage_is_refused(tmp_path):
 
     from cyclomesh.cli import app
 
-    text = (Path(__file__).parent.parent / "examples" / "rv_stage.toml").read_text()
+    text = (Path(__file__).parents[2] / "examples" / "rv_stage.toml").read_text()
     if "[analysis]" in text:
         text = text.replace(
             "[analysis]", '[analysis]\ndisc_body = "fe"\ncontact_law = "half_plane"', 1
@@ -246,3 +246,25 @@ def test_fe_body_with_the_rv_stage_is_refused(tmp_path):
     out = CliRunner().invoke(app, ["check", str(path)])
     assert out.exit_code == 2
     assert "[stage]" in out.output and "disc_body" in out.output
+
+
+@pytest.mark.parametrize("period", [1, 3, 13])
+def test_reciprocal_matrix_is_the_symmetrised_matrix(period):
+    """The fast path of the load sharing (whole 4×4 windows of the symmetrised table,
+    pairs i < j once) equals ½(C + Cᵀ) of the plain interpolation to round-off, for any
+    period of the support, angles off the grid (clamped) or NaN, and leading axes."""
+    rng = np.random.default_rng(period)
+    u = np.linspace(-np.pi, 0.0, 9)
+    body = DiscBody(u, rng.normal(size=(period, TABLE1.teeth, 9, 9)), TABLE1.teeth)
+    for shape in ((16,), (5, 12), (2, 3, 7)):
+        k = rng.integers(-50, 200, shape)
+        ang = rng.uniform(u[0] - 0.3, u[-1] + 0.3, shape)
+        ang[..., 0] = np.nan
+        c = body.matrix(k, ang)
+        sym = 0.5 * (c + np.swapaxes(c, -1, -2))
+        fast = body.reciprocal_matrix(k, ang)
+        np.testing.assert_allclose(fast, sym, rtol=0, atol=1e-14 * np.max(np.abs(sym)))
+        assert np.array_equal(fast, np.swapaxes(fast, -1, -2))
+        own = body.self_compliance(k, ang)
+        assert np.array_equal(np.diagonal(fast, axis1=-2, axis2=-1), own)
+        assert np.array_equal(body.reciprocal_matrix(k, ang, own), fast)

@@ -20,7 +20,7 @@ from cyclomesh.execution.backends import run_chunks
 from cyclomesh.studies.tolerance import load_tolerance_study, ring_model
 from cyclomesh.tolerance.tasks import AllocationTask, ToleranceTask
 
-EXAMPLE = Path(__file__).parents[1] / "examples" / "tolerance.toml"
+EXAMPLE = Path(__file__).parents[2] / "examples" / "tolerance.toml"
 
 
 def _bitwise(a: dict, b: dict, label: str) -> None:

@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 from cyclomesh.cli import app
 from cyclomesh.results.metrics import STIFFNESS_METRICS
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 DESIGN = """
 [design]

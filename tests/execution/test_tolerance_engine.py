@@ -1,6 +1,6 @@
 """The chunked Monte Carlo engine: reproducible across chunkings and backends, no ring lost.
 
-These tests use a cheap chunk function (tests/_tolerance_dummy.py) that depends only on
+These tests use a cheap chunk function (tests/execution/_tolerance_dummy.py) that depends only on
 the sampled errors, so they run without the numerical core.
 """
 

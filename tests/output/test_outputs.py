@@ -25,7 +25,7 @@ from cyclomesh.cli import app
 from cyclomesh.exceptions import OutputError
 from cyclomesh.output.folder import LOCK, MARKER, ResultFolder, load_results
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 QUICK = ("--crank-step-deg", "10", "--figures", "none", "-q")
 
 

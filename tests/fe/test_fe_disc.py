@@ -20,7 +20,7 @@ from cyclomesh.cli import app  # noqa: E402
 from cyclomesh.fe.disc import solve_disc_fe  # noqa: E402
 from cyclomesh.fe.tooth import tooth_compliance  # noqa: E402
 
-EXAMPLE = Path(__file__).parent.parent / "examples" / "fe_table1.toml"
+EXAMPLE = Path(__file__).parents[2] / "examples" / "fe_table1.toml"
 
 
 def test_tooth_is_finite_at_the_inflection_where_eq20_is_infinite():

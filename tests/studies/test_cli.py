@@ -23,7 +23,7 @@ from cyclomesh import summarize
 from cyclomesh.cli import app
 from cyclomesh.studyfile.measurements import read_pin_errors_csv
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 def numbers(count: int, value: float = 0.0) -> str:

@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 from cyclomesh.cli import app
 from cyclomesh.studies.tolerance import run_allocation, run_tolerance
 
-EXAMPLE = Path(__file__).parents[1] / "examples" / "tolerance.toml"
+EXAMPLE = Path(__file__).parents[2] / "examples" / "tolerance.toml"
 
 STUDY = """
 title = "tolerance test"
