@@ -29,6 +29,8 @@ _EXPORTS = {
     "Modification": "cyclomesh.core.pair",
     "PinErrors": "cyclomesh.core.pair",
     "ProfileDeviation": "cyclomesh.core.deviation",
+    "export_profile": "cyclomesh.output.export",
+    "disc_outline": "cyclomesh.core.outline",
     "design_map": "cyclomesh.designspace.sweep",
     "Constraints": "cyclomesh.designspace.sweep",
     "STEEL": "cyclomesh.core.pair",

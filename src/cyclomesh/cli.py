@@ -385,6 +385,8 @@ def check(
         more += "; [design_space] OK"
     if loaded.file.fe is not None:
         more += "; [fe] OK"
+    if loaded.file.requirements != type(loaded.file.requirements)():
+        more += "; [requirements] OK"
     typer.echo(f"{study}: {len(loaded.cases)} case(s) OK: {names}{more}")
 
 
@@ -433,18 +435,7 @@ def run(
             pool=pool,
         )
     if not quiet:
-        _print_summary(result.summaries, out, result.study_warnings())
-
-
-_SUMMARY_COLUMNS = (
-    "te_pp_arcsec",
-    "max_pin_load_n",
-    "max_contact_stress_mpa",
-    "max_groove_stress_mpa",
-    "contacts_min",
-    "contacts_max",
-    "gear_ratio_ripple_pct",
-)
+        _print_summary(result.summaries, out, result.checks, result.study_warnings())
 
 
 def _print_warnings(warnings: list[str]) -> None:
@@ -456,30 +447,25 @@ def _print_warnings(warnings: list[str]) -> None:
         console.print(f"warning: {escape(warning)}")
 
 
-def _print_summary(summaries: dict, out: Path, warnings: list[str] = ()) -> None:
+def _print_summary(
+    summaries: dict, out: Path, checks: dict | None = None, warnings: list[str] = ()
+) -> None:
     from rich.console import Console
-    from rich.markup import escape
-    from rich.table import Table
 
-    from cyclomesh.results.metrics import METRICS
+    from cyclomesh.publish.console import RUN_ROWS, print_checks, print_metrics
 
-    labels = [
-        METRICS[k].label + ("" if METRICS[k].unit == "1" else f" [{METRICS[k].unit}]")
-        for k in _SUMMARY_COLUMNS
-    ]
-
-    def text(value: Any) -> str:
-        if isinstance(value, list):  # one value per torque of a torque list
-            return " / ".join(text(v) for v in value)
-        return "–" if value is None else f"{value:.4g}"
-
-    table = Table("case", *(escape(label) for label in labels))
-    for name, record in summaries.items():
-        if "torque_nm" in record:
-            name = f"{name} ({text(record['torque_nm'])} N·m)"
-        table.add_row(escape(name), *(text(record.get(key)) for key in _SUMMARY_COLUMNS))
-    console = Console()
-    console.print(table)
+    console = Console(highlight=False)
+    records = {
+        (
+            f"{name} ({'/'.join(f'{t:g}' for t in r['torque_nm'])} N·m)"
+            if isinstance(r.get("torque_nm"), list)
+            else name
+        ): r
+        for name, r in summaries.items()
+    }
+    print_metrics(console, records, RUN_ROWS)
+    if checks:
+        print_checks(console, checks)
     overlap = [record.get("overlap") for record in summaries.values()]
     if any(any(v) if isinstance(v, list) else v for v in overlap):
         console.print(
@@ -487,6 +473,53 @@ def _print_summary(summaries: dict, out: Path, warnings: list[str] = ()) -> None
         )
     _print_warnings(list(warnings))
     console.print(f"report: {out / 'report.html'}")
+
+
+@app.command()
+@cli_errors()
+def export(
+    study: StudyArg,
+    out: OutOption,
+    format: Annotated[
+        str,
+        typer.Option("--format", help="Comma-separated: dxf, svg, csv."),
+    ] = "dxf,svg,csv",
+    chord_tolerance_um: Annotated[
+        float,
+        typer.Option(
+            "--chord-tolerance-um",
+            help="Largest distance between the exported polyline and the exact profile [µm].",
+        ),
+    ] = 0.1,
+    quiet: QuietOption = False,
+) -> None:
+    """Export the whole modified disc profile (every tooth) and the pins: DXF, SVG, CSV.
+
+    Writes <case>/profile.dxf (polyline and splines, mm), profile.svg, profile.csv (points
+    with outward unit normals) and export.json. Datum: disc centre, tooth space 1 on +x.
+    """
+    from cyclomesh.output.export import export_study, parse_formats
+    from cyclomesh.studyfile import load_study
+
+    formats = parse_formats(format)
+    if not (math.isfinite(chord_tolerance_um) and chord_tolerance_um >= 0.001):
+        raise StudyError(
+            f"--chord-tolerance-um: expected a number of at least 0.001, got {chord_tolerance_um}"
+        )
+    loaded = load_study(study)
+    with _folder(out, "export"):  # locked; summary.json (files, sizes) written last
+        written = export_study(loaded, out, formats, chord_tolerance_um * 1e-6)
+    if not quiet:
+        for name, files in written.items():
+            import json
+
+            meta = json.loads(files["json"].read_text())
+            typer.echo(
+                f"{name}: {meta['vertices']} points, tip radius {meta['tip_radius_mm']:.4f} mm, "
+                f"root radius {meta['root_radius_mm']:.4f} mm, chord tolerance "
+                f"{chord_tolerance_um:g} µm"
+            )
+            typer.echo("  " + ", ".join(str(p) for p in files.values()))
 
 
 @app.command()
@@ -533,44 +566,38 @@ def stiffness(
         )
     if not quiet:
         _print_warnings(result.study_warnings())
-        _print_stiffness(result.summaries, out)
+        _print_stiffness(result.summaries, out, result.checks)
 
 
-_STIFFNESS_COLUMNS = (
-    "play_arcmin_mean",
-    "lost_motion_arcmin_mean",
-    "torsional_rigidity_nm_per_arcmin_mean",
-    "drive_lost_motion_arcmin_mean",
-    "drive_torsional_rigidity_nm_per_arcmin_mean",
+_STIFFNESS_ROWS = (
+    ("rated_torque_nm", "rated torque [N·m]", 1.0),
+    ("play_arcmin_max", "max play [arcmin]", 1.0),
+    ("lost_motion_arcmin_mean", "lost motion [arcmin]", 1.0),
+    ("lost_motion_arcmin_max", "max lost motion [arcmin]", 1.0),
+    ("torsional_rigidity_nm_per_arcmin_mean", "rigidity [N·m/arcmin]", 1.0),
+    ("torsional_rigidity_nm_per_arcmin_min", "min rigidity [N·m/arcmin]", 1.0),
+    ("drive_lost_motion_arcmin_max", "drive lost motion [arcmin]", 1.0),
+    ("drive_torsional_rigidity_nm_per_arcmin_min", "drive rigidity [N·m/arcmin]", 1.0),
+    ("stage_lost_motion_arcmin_max", "stage lost motion [arcmin]", 1.0),
+    ("stage_torsional_rigidity_nm_per_arcmin_min", "stage rigidity [N·m/arcmin]", 1.0),
+    ("stage_l10_h_min", "bearing L10h [h]", 1.0),
 )
 
 
-def _print_stiffness(summaries: dict, out: Path) -> None:
+def _print_stiffness(summaries: dict, out: Path, checks: dict | None = None) -> None:
     from rich.console import Console
-    from rich.markup import escape
-    from rich.table import Table
 
-    from cyclomesh.results.metrics import STIFFNESS_METRICS
+    from cyclomesh.publish.console import print_checks, print_metrics
 
-    metrics = [STIFFNESS_METRICS[k] for k in _STIFFNESS_COLUMNS]
-    table = Table("case", *(escape(f"{m.label} [{m.unit}]") for m in metrics))
-    for name, record in summaries.items():
-        cells = [record.get(key) for key in _STIFFNESS_COLUMNS]
-        table.add_row(escape(name), *("–" if v is None else f"{v:.4g}" for v in cells))
-    console = Console()
-    console.print(table)
+    console = Console(highlight=False)
+    print_metrics(console, summaries, _STIFFNESS_ROWS)
+    if checks:
+        print_checks(console, checks)
     console.print(
         "the mesh alone: crank bearings, crankshafts and the first stage are not included"
     )
-    for name, record in summaries.items():  # [stage]: the RV stage, beside the mesh
-        if "stage_torsional_rigidity_nm_per_arcmin_mean" in record:
-            console.print(
-                escape(
-                    f"{name}: RV stage (mesh + crank bearings) "
-                    f"{record['stage_torsional_rigidity_nm_per_arcmin_mean']:.4g} N·m/arcmin, "
-                    f"lost motion {record['stage_lost_motion_arcmin_mean']:.4g} arcmin"
-                )
-            )
+    if any("stage_lost_motion_arcmin_max" in record for record in summaries.values()):
+        console.print("stage: the RV stage of [stage] (mesh + crank bearings), beside the mesh")
     console.print(f"report: {out / 'report.html'}")
 
 
@@ -764,21 +791,29 @@ def allocate(
 
 def _print_tolerance(stats: dict[str, Any], out: Path) -> None:
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
+    from cyclomesh.results.metrics import METRICS
+
     table = Table(title=f"{stats['rings']} rings (seed {stats['seed']})")
-    for col in ("metric", "unit", "mean", "std", "P5", "P50", "P95", "P99"):
-        table.add_column(col, justify="left" if col in ("metric", "unit") else "right")
+    for col in ("metric", "mean", "std", "P5", "P50", "P95", "P99"):
+        table.add_column(col, justify="left" if col == "metric" else "right")
     for name, s in stats["metrics"].items():
+        m = METRICS.get(name)
+        label = name if m is None else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
         table.add_row(
-            name,
-            s["unit"],
+            escape(label),
             f"{s['mean']:.4g}",
             f"{s['std']:.3g}",
             *(f"{q['estimate']:.4g}" for q in s["percentiles"]),
         )
     console = Console(highlight=False)
     console.print(table)
+    if stats.get("checks"):
+        from cyclomesh.publish.console import print_checks
+
+        print_checks(console, {"tolerance": stats["checks"]})
     ex = stats["exceedance"]["max_contact_stress_mpa"]
     conf = stats["confidence"]
     console.print(
@@ -866,6 +901,12 @@ def design(
             where = ", ".join(f"{k} = {v:g}" for k, v in s["optimum"]["parameters"].items())
             value = s["optimum"]["metrics"][s["objective_variable"]]
             typer.echo(f"optimum: {where} ({s['objective_variable']} = {value:.6g})")
+            if s.get("checks"):
+                from rich.console import Console
+
+                from cyclomesh.publish.console import print_checks
+
+                print_checks(Console(highlight=False), {"optimum": s["checks"]})
         _print_warnings(s.get("warnings", []))
         typer.echo(f"report: {out / 'report.html'}")
 
@@ -941,20 +982,21 @@ def fe(
             study_stamp(loaded),
         )
     if not quiet:
-        _print_fe(result.summaries, out)
+        _print_fe(result.summaries, out, result.checks)
 
 
-def _print_fe(summaries: dict, out: Path) -> None:
+def _print_fe(summaries: dict, out: Path, checks: dict | None = None) -> None:
     from rich.console import Console
-    from rich.markup import escape
-    from rich.table import Table
 
+    from cyclomesh.publish.console import print_checks, print_metrics
     from cyclomesh.results.metrics import FE_METRICS
 
-    table = Table("metric", "unit", *(escape(name) for name in summaries))
-    for key, m in FE_METRICS.items():
-        cells = [record.get(key) for record in summaries.values()]
-        table.add_row(m.long_name, m.unit, *("–" if v is None else f"{v:.4g}" for v in cells))
-    console = Console()
-    console.print(table)
+    rows = [
+        (key, m.label + ("" if m.unit == "1" else f" [{m.unit}]"), 1.0)
+        for key, m in FE_METRICS.items()
+    ]
+    console = Console(highlight=False)
+    print_metrics(console, summaries, rows)
+    if checks:
+        print_checks(console, checks)
     console.print(f"report: {out / 'report.html'}")

@@ -162,8 +162,8 @@ def test_robust_map_is_bit_for_bit_the_same_on_local_processes():
 
 
 def test_bad_design_space_is_refused():
-    with pytest.raises(DesignError, match="eccentricity_mm"):
-        design_map(TABLE1, {"eccentricity_mm": [1.0]})
+    with pytest.raises(DesignError, match="groove_radius_mm"):
+        design_map(TABLE1, {"groove_radius_mm": [4.0]})
     with pytest.raises(DesignError, match="objective"):
         design_map(TABLE1, {"pin_radius_um": [8.0]}, objective="cost")
 
@@ -175,7 +175,75 @@ def test_design_map_figures_show_feasible_region_and_optimum():
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert labels == ["optimum", "paper"]
     assert "Δρ" in ax.get_xlabel() and "Δa" in ax.get_ylabel()
+    assert ax.get_xlabel().endswith("[µm]") and "um]" not in ax.get_ylabel()
+    assert ax.get_title() == ds["max_contact_stress_mpa"].attrs["long_name"]
+    star = next(line for line in ax.lines if line.get_label() == "optimum")
+    assert not star.get_clip_on()  # drawn whole on the edge of the range
     fig = plot_design_maps(ds)
     assert len([a for a in fig.axes if a.get_visible() and a.get_title()]) == len(map_metrics(ds))
     with pytest.raises(ValueError, match="not in the map"):
         plot_design_map(ds, "lost_motion_arcmin")
+
+
+def test_geometry_sweep_checks_every_candidate_and_keeps_full_reasons():
+    base = Modification(pin_radius=8e-6)
+    ds = design_map(
+        TABLE1,
+        {"eccentricity_mm": [1.5, 2.0], "pin_radius_mm": [3.5, 6.5], "width_mm": [12.0, 16.0]},
+        base=base,
+        torque=250.0,
+        crank_angles_deg=ANGLES,
+    )
+    assert ds["eccentricity_mm"].attrs["units"] == "mm"
+    # the base geometry in the grid reproduces the analysis of the base design exactly
+    res = solve_ltca(TABLE1, base, None, 250.0, PHI)
+    same = ds.sel(eccentricity_mm=1.5, pin_radius_mm=3.5, width_mm=12.0)
+    assert float(same["max_contact_stress_mpa"]) == pytest.approx(
+        res.contact_stress.max() * 1e-6, rel=1e-12
+    )
+    # a wider disc carries the same torque at a lower stress
+    wide = ds.sel(eccentricity_mm=1.5, pin_radius_mm=3.5, width_mm=16.0)
+    assert float(wide["max_contact_stress_mpa"]) < float(same["max_contact_stress_mpa"])
+    # e = 2 mm (K1 = 0.976) undercuts the profile; ρp = 6.5 mm makes neighbouring pins
+    # overlap: infeasible, with the core's whole message as the reason
+    undercut = str(ds["reason"].sel(eccentricity_mm=2.0, pin_radius_mm=3.5, width_mm=12.0).values)
+    assert undercut.startswith("undercut profile") and undercut.endswith("pin_circle_radius")
+    assert len(undercut) > 160  # was cut at 160 characters
+    overlap = str(ds["reason"].sel(eccentricity_mm=1.5, pin_radius_mm=6.5, width_mm=12.0).values)
+    assert "neighbouring pins interfere" in overlap
+    assert int(ds["feasible"].sum()) == 2  # e = 1.5, ρp = 3.5, both widths
+    assert ds.attrs["optimum_width_mm"] == 16.0
+
+
+def test_swept_pin_radius_keeps_the_groove_clearance():
+    task = DesignTask(
+        TABLE1,
+        Modification(),
+        (("design.pin_radius", (4.0e-3,)), ("pin_radius", (5e-6,))),
+        None,
+        250.0,
+        (0.0,),
+    )
+    design, modification = task.candidate(0)
+    assert design.pin_radius == 4.0e-3 and modification.pin_radius == 5e-6
+    assert design.groove_radius - design.pin_radius == pytest.approx(5e-6, abs=1e-15)
+    assert task.modification(0) == modification
+
+
+def test_robust_geometry_map_uses_the_same_rings_for_every_width():
+    from dataclasses import replace
+
+    errors = rings(8)
+    ds = design_map(
+        TABLE1,
+        {"width_mm": [10.0, 14.0]},
+        base=Modification(pin_radius=8e-6),
+        errors=errors,
+        crank_angles_deg=ANGLES,
+    )
+    assert ds.attrs["robust"] == 1 and ds.attrs["rings"] == 8
+    wide = replace(TABLE1, width=14e-3)
+    per_ring = candidate_metrics(wide, Modification(pin_radius=8e-6), errors, 250.0, PHI)
+    assert float(ds["max_contact_stress_mpa"].sel(width_mm=14.0)) == pytest.approx(
+        np.percentile(per_ring["max_contact_stress"], 95, method="higher") * 1e-6, rel=1e-14
+    )

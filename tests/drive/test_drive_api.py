@@ -114,6 +114,10 @@ def test_figures_have_their_axes_and_curves():
     assert fig.axes[0].get_xlabel() == "torque [% of rated]"
     assert len(plot_rigidity(ds).axes) == 2
     assert len(plot_play(ds).axes[0].lines) == 3  # play, lost motion, whole-drive lost motion
+    # the same case twice: the second is drawn thinner, so the first still shows around it
+    lines = plot_play({"A": ds, "B": ds}).axes[0].lines
+    assert lines[0].get_linewidth() > lines[3].get_linewidth()
+    np.testing.assert_array_equal(lines[0].get_ydata(), lines[3].get_ydata())
     assert len(plot_torque_share(ds).axes[0].lines) == 3  # two discs and the equal split
     run = analyse(TABLE1, TPM, torque=[-250.0, 250.0], crank_angles_deg=CRANK, discs=2)
     assert len(plot_mesh_force(run).axes[0].lines) == 2

@@ -141,3 +141,41 @@ def test_example_design_study_is_valid_and_marks_the_paper_tpm():
     assert 8.0 in axes["pin_radius_um"] and 0.0 in axes["pin_circle_radius_um"]
     assert space.max_play_arcmin == 1.0
     assert study.base.modification.pin_radius_um == 8.0  # the paper's TPM, marked on the maps
+
+
+def test_geometry_design_map_end_to_end(tmp_path):
+    import tomllib
+
+    study = STUDY.split("[design_space]")[0] + (
+        "[design_space]\n"
+        "pin_radius_mm = { start = 3.5, stop = 4.5, points = 3 }\n"
+        "eccentricity_mm = { start = 1.5, stop = 2.0, points = 2 }\n"
+        "max_play_arcmin = 2.0\n"
+        "[requirements]\nmax_contact_stress_mpa = 900.0\n"
+    )
+    out = tmp_path / "out"
+    result = invoke("design", write(tmp_path, study), "--out", out)
+    assert result.exit_code == 0, result.output
+    ds = xr.open_dataset(out / "design.nc")
+    assert set(ds["feasible"].dims) == {"pin_radius_mm", "eccentricity_mm"}
+    reasons = ds["reason"].sel(eccentricity_mm=2.0).values
+    assert all(
+        r.startswith("undercut profile") and r.endswith("pin_circle_radius")
+        for r in reasons.ravel()
+    )
+    best = tomllib.loads((out / "best.toml").read_text())
+    optimum = json.loads((out / "summary.json").read_text())["optimum"]["parameters"]
+    assert best["design"]["pin_radius_mm"] == optimum["pin_radius_mm"]
+    assert best["design"]["eccentricity_mm"] == optimum["eccentricity_mm"]
+    assert best["design"]["groove_radius_mm"] == pytest.approx(optimum["pin_radius_mm"] + 0.005)
+    assert "pin_radius_mm" not in best["modification"]
+    summary = json.loads((out / "summary.json").read_text())
+    rows = {r["check"]: r for r in summary["checks"]["rows"]}
+    stress = summary["optimum"]["metrics"]["max_contact_stress_mpa"]
+    assert rows["max_contact_stress_mpa"]["value"] == stress
+    assert rows["max_contact_stress_mpa"]["verdict"] == ("pass" if stress <= 900 else "fail")
+    e = optimum["eccentricity_mm"]
+    assert rows["k1"]["value"] == pytest.approx(e * 40 / 82.0)  # the optimum's geometry
+    assert "verdict" in result.output
+    rerun = invoke("run", out / "best.toml", "--out", tmp_path / "best", "--figures", "none", "-q")
+    assert rerun.exit_code == 0, rerun.output

@@ -40,7 +40,7 @@ far_size_mm = 5.0
 
 def test_fe_writes_the_comparison_with_units_and_report(tmp_path):
     study = tmp_path / "fe.toml"
-    study.write_text(STUDY, encoding="utf-8")
+    study.write_text(STUDY + "[requirements]\nmax_contact_stress_mpa = 1500.0\n", encoding="utf-8")
     out = tmp_path / "out"
     result = CliRunner().invoke(app, ["fe", str(study), "--out", str(out), "--no-convergence"])
     assert result.exit_code == 0, result.output
@@ -66,6 +66,11 @@ def test_fe_writes_the_comparison_with_units_and_report(tmp_path):
     assert float(ds["rotation_fe"][0]) < float(ds["rotation_ltca"][0]) < 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["cases"][0]["fe_max_pin_load_n"] == pytest.approx(fe.max())
+    # the FE study checks the requirements it computes: the peak stress of the FE model
+    rows = {r["check"]: r for r in summary["cases"][0]["checks"]["rows"]}
+    stress = rows["max_contact_stress_mpa"]
+    assert stress["value"] == summary["cases"][0]["fe_max_contact_stress_mpa"]
+    assert "FE model" in stress["note"] and "verdict" in result.output
     assert (out / "report.html").read_text().count("FE against LTCA") >= 1
     assert (out / "figures" / "fe_FE_coarse.png").stat().st_size > 0
 

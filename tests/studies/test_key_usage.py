@@ -217,6 +217,32 @@ CHANGE.update(
 for _part in ("pin", "disc", "ring"):
     CHANGE[f"material.{_part}.youngs_modulus_gpa"] = 200.0
     CHANGE[f"material.{_part}.poisson_ratio"] = 0.28
+# issue 18: named materials and allowables, requirements, tangential errors, geometry maps
+for _part in ("", "pin.", "disc.", "ring."):
+    CHANGE[f"material.{_part}name"] = "42CrMo4"
+    CHANGE[f"material.{_part}allowable_contact_stress_mpa"] = 900.0
+CHANGE.update(
+    {
+        "requirements.max_contact_stress_mpa": 900.0,
+        "requirements.max_groove_stress_mpa": 30.0,
+        "requirements.max_te_pp_arcsec": 0.5,
+        "requirements.min_contacts": 10,
+        "requirements.max_gear_ratio_ripple_pct": 0.1,
+        "requirements.max_play_arcmin": 0.5,
+        "requirements.max_lost_motion_arcmin": 0.5,
+        "requirements.min_torsional_rigidity_nm_per_arcmin": 3000.0,
+        "requirements.max_mesh_force_n": 4000.0,
+        "requirements.min_bearing_life_h": 6000.0,
+        "requirements.tolerance_percentile": 90.0,
+        "errors.tangential_um": 2.0,
+        "errors.random.tangential_um": 3.0,
+        "tolerance.tangential_um": {"distribution": "uniform", "half_range": 4.0},
+        "design_space.pin_circle_radius_mm": _range(81.0, 82.0),
+        "design_space.pin_radius_mm": _range(3.4, 3.5),
+        "design_space.eccentricity_mm": _range(1.4, 1.5),
+        "design_space.width_mm": _range(11.0, 12.0),
+    }
+)
 CHANGE["design.disc.crank_holes"] = 2
 CHANGE["design.disc.crank_hole_circle_radius_mm"] = 44.0
 CHANGE["design.disc.crank_hole_radius_mm"] = 11.0
@@ -225,6 +251,7 @@ CHANGE["design.disc.crank_hole_radius_mm"] = 11.0
 CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
     **{(None, f"errors.random.{k}"): RANDOM for k in ("seed", "radial_um", "angular_urad")},
     (None, "errors.random.pin_radius_um"): RANDOM,
+    (None, "errors.random.tangential_um"): RANDOM,
     **{("design", k): ROBUST for k in schema_keys() if k.startswith("tolerance.")},
     **{
         (kind, k): STAGE
@@ -241,6 +268,10 @@ def change_table(key: str, kind: str = "run") -> dict[str, Any]:
         return {"design": {"disc": dict(HOLES)}}
     if key.startswith("stage.") and kind not in ("run", "stiffness"):
         return merge(STAGE, _nested(key, CHANGE[key]))
+    if key == "tolerance.tangential_um":  # instead of angular_urad (not both)
+        return {"tolerance": {"angular_urad": DELETE, "tangential_um": CHANGE[key]}}
+    if key == "errors.random.tangential_um":  # instead of angular_urad (not both)
+        return {"errors": {"random": {"angular_urad": DELETE, "tangential_um": CHANGE[key]}}}
     if key == "tolerance.position":
         return {
             "tolerance": {

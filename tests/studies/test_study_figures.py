@@ -115,9 +115,19 @@ def test_stress_maps_teeth_and_grooves(cases):
 def test_transmission_error_gear_ratio_contacts_backlash(cases):
     te = figures.plot_transmission_error(cases)
     assert [len(ax.lines) for ax in te.axes] == [2, 2]
-    assert te.axes[0].get_ylabel() == "loaded transmission error [arcsec]"
+    assert te.axes[0].get_ylabel() == "TE minus its mean [arcsec]"
+    assert te.axes[1].get_ylabel() == "loaded transmission error [arcsec]"
     mesh_cycle = te.axes[0].lines[0].get_xdata()
     assert mesh_cycle.max() <= 360.0 / 40 + 1e-9
+    # the left axes shows the ripple: TE minus the mean of the case, which the legend gives
+    first = next(iter(cases.values()))["transmission_error"]
+    ripple = te.axes[0].lines[0].get_ydata()
+    mean = float(first.mean())
+    np.testing.assert_allclose(ripple, first.values[: len(ripple)] - mean, atol=1e-12)
+    assert f"{mean:.4g}" in te.axes[1].get_legend().get_texts()[0].get_text()
+    # a case drawn exactly over another still shows: different width and dashes
+    a, b = te.axes[1].lines[:2]
+    assert a.get_linewidth() > b.get_linewidth() and a.get_linestyle() != b.get_linestyle()
     ratio = figures.plot_gear_ratio(cases)
     assert len(ratio.axes[0].lines) == 3  # two cases + ideal n2
     assert ratio.axes[0].lines[-1].get_ydata()[0] == 39
@@ -129,6 +139,13 @@ def test_transmission_error_gear_ratio_contacts_backlash(cases):
     assert len(backlash.axes) == 2 and backlash.axes[0].get_ylabel() == "backlash [arcsec]"
     values = backlash.axes[0].lines[0].get_ydata()
     assert np.all(np.isfinite(values) | np.isnan(values))
+    # the axes show the backlash that matters (3 × the largest play, at least 60″) and
+    # mark the pins above it on the top edge
+    play = max(float(ds["play"].max()) for ds in cases.values())
+    top = backlash.axes[0].get_ylim()[1]
+    assert top == pytest.approx(max(60.0, 3 * play))
+    marks = backlash.axes[0].lines[1].get_ydata()
+    assert np.all(marks == top) and len(marks) == np.sum(values > top)
 
 
 def test_a_single_dataset_is_accepted(cases):
@@ -147,7 +164,7 @@ def test_report_embeds_figures_and_escapes_text(cases):
         ],
         {"SHA-256 of the study file": "abc123"},
     )
-    assert "<h1>A &lt;study&gt;</h1>" in page and "<td>&lt;a&gt;</td>" in page
+    assert "<h1>A &lt;study&gt;</h1>" in page and '<td class="t">&lt;a&gt;</td>' in page
     assert "<td>1.235</td>" in page
     assert page.count("data:image/png;base64,") == 3
     assert "abc123" in page and "cyclomesh version: <code>" in page

@@ -369,3 +369,118 @@ def test_bad_csv_names_errors_file(tmp_path, csv, expected):
     message = str(info.value)
     assert message.startswith('case "measured": errors.file: ')
     assert expected in message and "\n" not in message
+
+
+def test_named_materials_and_explicit_values(tmp_path):
+    from cyclomesh.core.materials import MATERIALS
+
+    base = (EXAMPLES / "table2.toml").read_text().split("[material]")[0]
+    path = tmp_path / "m.toml"
+    path.write_text(
+        base
+        + '[material]\nname = "gcr15"\n[material.ring]\nname = "nodular_iron"\n'
+        + "poisson_ratio = 0.28\n"
+    )
+    study = load_study(path)
+    design = study.inputs[0].design
+    assert design.disc_material.youngs_modulus == MATERIALS["gcr15"].youngs_modulus
+    assert design.ring_material.youngs_modulus == 176e9  # EN 1563
+    assert design.ring_material.poisson_ratio == 0.28  # explicit value wins over the name
+    material = study.cases[0].material
+    assert material.allowable_mpa("disc") == 1500.0 and material.allowable_mpa("ring") == 600.0
+    assert material.names() == {"pin": "GCr15", "disc": "GCr15", "ring": "EN-GJS-700-2"}
+    assert all(grade.source and grade.allowable_contact_stress > 0 for grade in MATERIALS.values())
+    path.write_text(base + '[material]\nname = "unobtainium"\n')
+    with pytest.raises(StudyError, match=r"^material\.name: unknown material 'unobtainium'"):
+        load_study(path)
+    # without a name or value, no allowable (steel's E and ν as before)
+    path.write_text(base)
+    assert load_study(path).cases[0].material.allowable_mpa("disc") is None
+
+
+def _table2_base() -> str:
+    return (EXAMPLES / "table2.toml").read_text().split("[[cases]]")[0]
+
+
+def test_groove_radius_defaults_to_the_table1_clearance(tmp_path):
+    path = tmp_path / "g.toml"
+    path.write_text(_table2_base().replace("groove_radius_mm = 3.505", ""))
+    design = load_study(path).inputs[0].design
+    assert design.groove_radius == pytest.approx(3.505e-3, abs=1e-15)
+    path.write_text(
+        _table2_base()
+        .replace("groove_radius_mm = 3.505", "")
+        .replace("pin_radius_mm = 3.5", "pin_radius_mm = 4.0")
+    )
+    assert load_study(path).inputs[0].design.groove_radius == pytest.approx(4.005e-3)
+
+
+def test_tangential_errors_become_angular(tmp_path):
+    path = tmp_path / "t.toml"
+    tangential = [0.1 * k for k in range(40)]
+    path.write_text(
+        _table2_base() + f"\n[errors]\ntangential_um = {tangential}\nangular_urad = 10.0\n"
+    )
+    study = load_study(path)
+    angular = study.inputs[0].errors_um["angular_urad"]
+    assert np.allclose(angular, 10.0 + np.array(tangential) / 82.0 * 1e3, rtol=1e-14)
+    assert np.allclose(study.inputs[0].errors.angular, angular * 1e-6)
+    # ±5 µm tangential on a = 82 mm is ±60.98 µrad
+    path.write_text(_table2_base() + "\n[errors]\ntangential_um = 5.0\n")
+    assert load_study(path).inputs[0].errors_um["angular_urad"][0] == pytest.approx(60.9756, 1e-5)
+    path.write_text(_table2_base() + "\n[errors]\ntangential_um = [1.0, 2.0]\n")
+    with pytest.raises(StudyError, match="errors.tangential_um: expected 40 values"):
+        load_study(path)
+
+
+def test_random_tangential_errors_keep_the_other_draws(tmp_path):
+    path = tmp_path / "r.toml"
+    path.write_text(_table2_base() + "\n[errors.random]\nseed = 3\nradial_um = 4.0\n")
+    before = load_study(path).inputs[0].errors_um
+    path.write_text(
+        _table2_base() + "\n[errors.random]\nseed = 3\nradial_um = 4.0\ntangential_um = 5.0\n"
+    )
+    after = load_study(path).inputs[0].errors_um
+    assert np.array_equal(before["radial_um"], after["radial_um"])
+    assert not np.any(before["angular_urad"])
+    assert np.all(np.abs(after["angular_urad"]) <= 5.0 / 82.0 * 1e3)
+    assert np.std(after["angular_urad"]) > 10.0
+    path.write_text(
+        _table2_base() + "\n[errors.random]\nseed = 3\nangular_urad = 4.0\ntangential_um = 5.0\n"
+    )
+    with pytest.raises(StudyError, match="angular_urad or tangential_um"):
+        load_study(path)
+
+
+def test_tolerance_tangential_draws():
+    from cyclomesh.studyfile.schema import ToleranceSection
+    from cyclomesh.tolerance.sampling import draw_ring_errors
+
+    spec = ToleranceSection.model_validate(
+        {
+            "seed": 1,
+            "allowable_contact_stress_mpa": 2000.0,
+            "radial_um": {"distribution": "uniform", "half_range": 4.0},
+            "tangential_um": {"distribution": "uniform", "half_range": 5.0},
+        }
+    )
+    drawn = draw_ring_errors(spec, 40, 82e-3, range(50))
+    assert np.max(np.abs(drawn.angular_urad)) <= 5.0 / 0.082 and np.std(drawn.angular_urad) > 20
+    base = ToleranceSection.model_validate(
+        {
+            "seed": 1,
+            "allowable_contact_stress_mpa": 2000.0,
+            "radial_um": {"distribution": "uniform", "half_range": 4.0},
+        }
+    )
+    # the radial draws do not change when a tangential tolerance is added
+    assert np.array_equal(draw_ring_errors(base, 40, 82e-3, range(50)).radial_um, drawn.radial_um)
+    with pytest.raises(ValueError, match="angular_urad or tangential_um"):
+        ToleranceSection.model_validate(
+            {
+                "seed": 1,
+                "allowable_contact_stress_mpa": 2000.0,
+                "angular_urad": {"distribution": "uniform", "half_range": 4.0},
+                "tangential_um": {"distribution": "uniform", "half_range": 5.0},
+            }
+        )

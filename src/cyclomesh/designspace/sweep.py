@@ -30,8 +30,12 @@ Metrics (per candidate, SI inside, engineering units in the Dataset):
   (:func:`cyclomesh.drive.solve.solve_drive` with a negative torque); the play is
   :func:`cyclomesh.drive.solve.play`.
 
-A candidate whose profile is undercut, whose pins interfere with the disc, or whose
-solve fails is infeasible with the reason recorded, never dropped.
+The geometry may be swept too (pin-circle radius a, pin radius ρp, eccentricity e,
+face width B: :data:`GEOMETRY`); each such candidate is checked like a study's design
+(K1 < 1, pins that do not overlap, a profile that is not undercut and seats the pin).
+A candidate whose geometry is refused, whose profile is undercut, whose pins interfere
+with the disc, or whose solve fails is infeasible with the reason recorded in full,
+never dropped.
 
 References
 ----------
@@ -61,6 +65,9 @@ if TYPE_CHECKING:
 
 __all__ = [
     "PARAMETERS",
+    "GEOMETRY",
+    "parameter",
+    "parameter_value",
     "METRICS",
     "OBJECTIVES",
     "Constraints",
@@ -84,7 +91,38 @@ PARAMETERS: dict[str, tuple[str, float, str, str]] = {
     "pin_radius_um": ("pin_radius", 1e-6, "um", "equidistant modification Δρ"),
     "rotation_urad": ("rotation", 1e-6, "urad", "rotation modification Δδ"),
 }
-"""Sweepable parameters: study key → (field of Modification, scale to SI, units, name)."""
+"""Sweepable modification parameters: study key → (field of Modification, scale to SI,
+units, name)."""
+
+GEOMETRY: dict[str, tuple[str, float, str, str]] = {
+    # study key: (PairDesign field, SI per study unit, units, long name)
+    "pin_circle_radius_mm": ("pin_circle_radius", 1e-3, "mm", "pin-circle radius a"),
+    "pin_radius_mm": ("pin_radius", 1e-3, "mm", "pin radius ρp"),
+    "eccentricity_mm": ("eccentricity", 1e-3, "mm", "eccentricity e"),
+    "width_mm": ("width", 1e-3, "mm", "face width B"),
+}
+"""Sweepable geometry: study key → (field of PairDesign, scale to SI, units, name). A
+swept pin radius keeps the groove clearance ρg − ρp of the base design."""
+
+_DESIGN = "design."  # prefix of a PairDesign field in DesignTask.axes
+
+
+def parameter(key: str) -> tuple[str, float, str, str]:
+    """(field, SI per study unit, units, long name) of a sweepable key; the field of a
+    geometry key is prefixed ``design.``."""
+    if key in PARAMETERS:
+        return PARAMETERS[key]
+    field, scale, units, name = GEOMETRY[key]
+    return _DESIGN + field, scale, units, name
+
+
+def parameter_value(design: PairDesign, modification: Modification, key: str) -> float:
+    """The value of a sweepable key in a design and modification [study units]."""
+    field, scale, _, _ = parameter(key)
+    if field.startswith(_DESIGN):
+        return float(getattr(design, field[len(_DESIGN) :])) / scale
+    return float(getattr(modification, field)) / scale
+
 
 METRICS: dict[str, tuple[str, float, str, str, bool]] = {
     # core name: (Dataset variable, SI per unit, units, long name, larger is worse)
@@ -243,9 +281,6 @@ def _robust(name: str, values: FloatArray) -> float:
     return float(np.percentile(values.reshape(-1), 100.0 - ROBUST_PERCENTILE, method="lower"))
 
 
-_REASON_LENGTH = 160
-
-
 @dataclass(frozen=True)
 class DesignTask:
     """Picklable chunk function: candidates ``start .. stop − 1`` of a grid (C order).
@@ -296,10 +331,38 @@ class DesignTask:
         return math.prod(self.shape)
 
     def modification(self, index: int) -> Modification:
-        """Candidate ``index`` (flat, C order) of the grid."""
+        """The modification of candidate ``index`` (flat, C order) of the grid."""
+        return self.candidate(index)[1]
+
+    def candidate(self, index: int) -> tuple[PairDesign, Modification]:
+        """Design and modification of candidate ``index`` (flat, C order) of the grid.
+
+        Raises
+        ------
+        DesignError
+            A swept geometry the design refuses (K1 ≥ 1, interfering pins, ...), or a
+            profile that is undercut or does not seat the pin
+            (:func:`cyclomesh.core.profile.check_profile`); the message is the reason.
+        """
+        from cyclomesh.core.profile import check_profile
+
         where = np.unravel_index(index, self.shape)
         changes = {name: values[k] for (name, values), k in zip(self.axes, where, strict=True)}
-        return replace(self.base, **changes)
+        geometry = {
+            name[len(_DESIGN) :]: changes.pop(name)
+            for name in list(changes)
+            if name.startswith(_DESIGN)
+        }
+        design = self.design
+        if geometry:
+            if "pin_radius" in geometry:  # the groove moves with the pin: same clearance
+                clearance = design.groove_radius - design.pin_radius
+                geometry["groove_radius"] = geometry["pin_radius"] + clearance
+            design = replace(design, **geometry)  # validated: DesignError with the reason
+        modification = replace(self.base, **changes)
+        if geometry:
+            check_profile(design, modification)
+        return design, modification
 
     def metric_names(self) -> list[str]:
         """Metrics this task computes."""
@@ -312,12 +375,13 @@ class DesignTask:
         names = self.metric_names()
         n = stop - start
         out: dict[str, NDArray[Any]] = {m: np.full(n, np.nan) for m in names}
-        reason = np.full(n, "", dtype=f"<U{_REASON_LENGTH}")
+        reason = [""] * n
         for row, index in enumerate(range(start, stop)):
             try:
+                design, modification = self.candidate(index)
                 values = candidate_metrics(
-                    self.design,
-                    self.modification(index),
+                    design,
+                    modification,
                     self.errors,
                     self.torque,
                     np.asarray(self.crank_angles),
@@ -328,11 +392,11 @@ class DesignTask:
                     self.disc_body,
                 )
             except CyclomeshError as exc:  # undercut, interfering pin, failed solve
-                reason[row] = str(exc)[:_REASON_LENGTH]
+                reason[row] = str(exc)  # in full: design.nc keeps every character
                 continue
             for m in names:
                 out[m][row] = _robust(m, values[m])
-        out["reason"] = reason
+        out["reason"] = np.asarray(reason, dtype=str)
         return out
 
 
@@ -366,9 +430,12 @@ def feasibility(
     A candidate with a failure reason in ``metrics["reason"]`` is infeasible for it;
     otherwise every constraint must hold.
     """
-    reason = np.asarray(metrics["reason"]).astype(f"<U{_REASON_LENGTH}").copy()
+    checks = constraints.checks()
+    width = max([np.asarray(metrics["reason"]).dtype.itemsize // 4, 1])
+    width = max([width, *(len(f"{name} violated") for *_, name in checks)])
+    reason = np.asarray(metrics["reason"]).astype(f"<U{width}")
     ok = reason == ""
-    for metric, op, limit, name in constraints.checks():
+    for metric, op, limit, name in checks:
         value = metrics.get(metric)
         if value is None:
             raise DesignError(f"constraint {name} needs metric {metric}, which was not computed")
@@ -423,7 +490,10 @@ def design_map(
         Geometry and materials (SI).
     axes : mapping
         Swept parameters in study units, keys of :data:`PARAMETERS`
-        (``pin_circle_radius_um``, ``pin_radius_um``, ``rotation_urad``) → values.
+        (``pin_circle_radius_um``, ``pin_radius_um``, ``rotation_urad``) and of
+        :data:`GEOMETRY` (``pin_circle_radius_mm``, ``pin_radius_mm``, ``eccentricity_mm``,
+        ``width_mm``) → values. A geometry the design or the profile check refuses is an
+        infeasible candidate with that reason in full.
     base : Modification, optional
         Fixed part of the modification (unswept fields, a profile table).
     errors : PinErrors, optional
@@ -465,9 +535,10 @@ def design_map(
     if not axes:
         raise DesignError("design_space: sweep at least one parameter")
     for key in axes:
-        if key not in PARAMETERS:
+        if key not in PARAMETERS and key not in GEOMETRY:
             raise DesignError(
-                f"design_space.{key}: not a sweepable parameter (one of {', '.join(PARAMETERS)})"
+                f"design_space.{key}: not a sweepable parameter "
+                f"(one of {', '.join([*PARAMETERS, *GEOMETRY])})"
             )
     if objective not in OBJECTIVES:
         raise DesignError(f"objective {objective!r}: choose one of {', '.join(OBJECTIVES)}")
@@ -485,7 +556,7 @@ def design_map(
         design=design,
         base=base,
         axes=tuple(
-            (PARAMETERS[key][0], tuple(float(x) * PARAMETERS[key][1] for x in values))
+            (parameter(key)[0], tuple(float(x) * parameter(key)[1] for x in values))
             for key, values in coords.items()
         ),
         errors=errors,
@@ -511,7 +582,7 @@ def design_map(
     ds = xr.Dataset(
         data,
         coords={
-            key: (key, values, {"units": PARAMETERS[key][2], "long_name": PARAMETERS[key][3]})
+            key: (key, values, {"units": parameter(key)[2], "long_name": parameter(key)[3]})
             for key, values in coords.items()
         },
     )

@@ -453,6 +453,8 @@ def run_chunks(
                 )
             if name not in out:
                 out[name] = np.zeros((items, *arr.shape[1:]), dtype=arr.dtype)
+            elif arr.dtype.kind == "U" and arr.dtype.itemsize > out[name].dtype.itemsize:
+                out[name] = out[name].astype(arr.dtype)  # text of a later chunk: keep it whole
             out[name][rows] = arr
         stored[rows] += 1
         if progress is not None:

@@ -34,9 +34,15 @@ def map_metrics(ds: xr.Dataset) -> list[str]:
     return [var for var, *_ in METRICS.values() if var in ds]
 
 
+_UNITS = {"um": "µm", "urad": "µrad", "1": ""}
+"""How file units are shown on axes (the files keep the ASCII names)."""
+
+
 def _label(ds: xr.Dataset, name: str) -> str:
     var = ds[name]
-    return f"{var.attrs.get('long_name', name)} [{var.attrs.get('units', '')}]"
+    units = var.attrs.get("units", "")
+    units = _UNITS.get(units, units)
+    return var.attrs.get("long_name", name) + (f" [{units}]" if units else "")
 
 
 def _optimum(ds: xr.Dataset) -> dict[str, float] | None:
@@ -77,6 +83,8 @@ def _draw(ax, ds: xr.Dataset, metric: str, marks: Marks | None) -> None:
                 ms=14,
                 color="C3",
                 label="optimum",
+                clip_on=False,  # on the edge of the range it is drawn whole
+                zorder=5,
             )
     else:
         x, y = plane[dims[1]].values, plane[dims[0]].values
@@ -94,7 +102,17 @@ def _draw(ax, ds: xr.Dataset, metric: str, marks: Marks | None) -> None:
         elif bad.all():
             ax.contourf(x, y, bad, levels=[0.5, 1.5], colors="none", hatches=["///"])
         if best:
-            ax.plot(best[dims[1]], best[dims[0]], "*", ms=14, color="C3", mec="w", label="optimum")
+            ax.plot(
+                best[dims[1]],
+                best[dims[0]],
+                "*",
+                ms=14,
+                color="C3",
+                mec="w",
+                label="optimum",
+                clip_on=False,  # on the edge of the range it is drawn whole
+                zorder=5,
+            )
         ax.set_xlabel(_label(plane, dims[1]))
         ax.set_ylabel(_label(plane, dims[0]))
     for name, where in (marks or {}).items():
@@ -105,7 +123,7 @@ def _draw(ax, ds: xr.Dataset, metric: str, marks: Marks | None) -> None:
         else:
             xv, yv = where.get(dims[1], 0.0), where.get(dims[0], 0.0)
             ax.plot(xv, yv, "X", ms=10, color="C1", mec="k", label=name)
-    ax.set_title(metric)
+    ax.set_title(ds[metric].attrs.get("long_name", metric), fontsize="medium")
     if best or marks:
         ax.legend(fontsize="small", loc="best")
 

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import xarray as xr
 
 from cyclomesh.figures.render import new_figure
-from cyclomesh.figures.run import case_legend, case_results
+from cyclomesh.figures.run import case_legend, case_results, case_width
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -74,7 +74,7 @@ def plot_torsion_curve(results: Results) -> Figure:
             rot = ds[var].values / 60.0  # arcsec → arcmin
             mean = rot.mean(-1)
             ax.fill_between(pct, rot.min(-1), rot.max(-1), color=colour, alpha=0.25, lw=0)
-            ax.plot(pct, mean, color=colour, label=name or None)
+            ax.plot(pct, mean, color=colour, label=name or None, lw=case_width(i, len(cases)))
             at = {round(p, 9): k for k, p in enumerate(pct)}
             lo, hi = mean[at[-3.0]], mean[at[3.0]]
             ax.plot([-3.0, 3.0], [lo, hi], "o", color=colour, ms=4)
@@ -113,11 +113,12 @@ def plot_rigidity(results: Results) -> Figure:
     drive = any("drive_torsional_rigidity" in ds for ds in cases.values())
     fig = _figure(8.5, 5.6 if drive else 3.6)
     axes = fig.subplots(2 if drive else 1, 1, sharex=True, squeeze=False)[:, 0]
-    for name, ds in cases.items():
+    for i, (name, ds) in enumerate(cases.items()):
         crank = ds["crank_angle"].values
-        axes[0].plot(crank, ds["torsional_rigidity"].values, label=name or "mesh")
+        lw = case_width(i, len(cases))
+        axes[0].plot(crank, ds["torsional_rigidity"].values, label=name or "mesh", lw=lw)
         if drive and "drive_torsional_rigidity" in ds:
-            axes[1].plot(crank, ds["drive_torsional_rigidity"].values, label=name or "drive")
+            axes[1].plot(crank, ds["drive_torsional_rigidity"].values, label=name or "drive", lw=lw)
     axes[0].set_ylabel("mesh rigidity [N·m/arcmin]")
     if drive:
         axes[1].set_ylabel("whole-drive rigidity\n[N·m/arcmin]")
@@ -137,7 +138,8 @@ def plot_play(results: Results) -> Figure:
         play = ds["play"]
         scale = 1.0 / 60.0 if play.attrs.get("units") == "arcsec" else 1.0
         prefix = f"{name}: " if name else ""
-        ax.plot(crank, play.values * scale, color=f"C{i}", label=f"{prefix}play")
+        lw = case_width(i, len(cases))
+        ax.plot(crank, play.values * scale, color=f"C{i}", label=f"{prefix}play", lw=lw)
         if "lost_motion" in ds:
             ax.plot(
                 crank,
@@ -145,6 +147,7 @@ def plot_play(results: Results) -> Figure:
                 "--",
                 color=f"C{i}",
                 label=f"{prefix}lost motion (±3 %)",
+                lw=lw,
             )
         if "drive_lost_motion" in ds:
             ax.plot(
@@ -153,9 +156,10 @@ def plot_play(results: Results) -> Figure:
                 ":",
                 color=f"C{i}",
                 label=f"{prefix}whole-drive lost motion",
+                lw=lw,
             )
     ax.set_xlabel("crank angle [deg]")
-    ax.set_ylabel("[arcmin]")
+    ax.set_ylabel("play, lost motion [arcmin]")
     ax.set_title("Play (zero load) and lost motion")
     ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return fig
@@ -209,8 +213,9 @@ def plot_mesh_force(results: Results) -> Figure:
             a = angle if disc is None else angle.sel(disc=disc)
             label = " ".join(x for x in (name, "" if disc is None else f"disc {disc}") if x)
             style = ("-", "--", ":", "-.")[k % 4]
-            top.plot(f["crank_angle"].values, f.values, style, color=f"C{i}", label=label)
-            bottom.plot(a["crank_angle"].values, a.values, style, color=f"C{i}")
+            lw = case_width(i, len(cases))
+            top.plot(f["crank_angle"].values, f.values, style, color=f"C{i}", label=label, lw=lw)
+            bottom.plot(a["crank_angle"].values, a.values, style, color=f"C{i}", lw=lw)
     top.set_ylabel("mesh force [N]")
     bottom.set_ylabel("direction [deg from x]")
     bottom.set_xlabel("crank angle [deg]")

@@ -85,6 +85,28 @@ def case_legend(ax, cases: Mapping[str, object], outside: bool = False) -> None:
         ax.legend(fontsize="small", **where)
 
 
+_DASHES = ("-", "--", "-.", ":")
+
+
+def case_width(index: int, count: int) -> float:
+    """Line width of case ``index`` of ``count``: each later case thinner, so that a case
+    drawn exactly over an earlier one leaves the earlier one showing around it."""
+    return max(2.8 - 0.6 * index, 1.0) if count > 1 else 1.5
+
+
+def case_style(index: int, count: int, marker: str | None = None) -> dict[str, object]:
+    """Line style of case ``index`` of ``count``: with several cases each later case is
+    thinner and dashed differently, so a case drawn exactly over another still shows
+    (the earlier, wider line shows around the later one)."""
+    style: dict[str, object] = {} if marker is None else {"marker": marker}
+    if count > 1:
+        style["ls"] = _DASHES[index % len(_DASHES)]
+        style["lw"] = case_width(index, count)
+        if marker is not None:
+            style["ms"] = max(7.0 - 1.2 * index, 3.0)
+    return style
+
+
 def _nearest_angle(ds: xr.Dataset, angle_deg: float) -> float:
     """The computed crank angle [deg] nearest to ``angle_deg`` (modulo 360)."""
     crank = ds["crank_angle"].values
@@ -117,13 +139,12 @@ def plot_profile(curves: ProfileCurves) -> Figure:
     ax_tooth.set_xlabel("x [mm]")
     ax_tooth.set_ylabel("y [mm]")
     ax_tooth.set_title("one tooth space, disc frame")
-    ax_tooth.legend(fontsize="small")
-    ax_mod.axhline(0.0, color="k", lw=0.6)
+    ax_mod.axhline(0.0, color="k", ls="--", lw=1.0, label="standard")
     ax_mod.set_xlabel("generating angle φ1 within the tooth [deg] (0 = tooth-space bottom)")
     ax_mod.set_ylabel("modification, normal to profile [µm]")
     ax_mod.set_title("profile modification (positive = clearance)")
     ax_mod.set_xlim(-180.0, 180.0)
-    ax_mod.legend(fontsize="small")
+    ax_mod.legend(fontsize="small")  # one legend for both axes: it covers no label
     return fig
 
 
@@ -167,11 +188,12 @@ def plot_loads(results: Results, crank_angles_deg: Sequence[float] = (0, 60, 120
     fig = _figure(10.0, 2.4 * len(crank_angles_deg) + 0.6, hspace=0.4)
     axes = np.atleast_2d(fig.subplots(len(crank_angles_deg), 2, sharex=True, squeeze=False))
     for row, angle in zip(axes, crank_angles_deg, strict=True):
-        for name, ds in cases.items():
+        for i, (name, ds) in enumerate(cases.items()):
             at = _nearest_angle(ds, angle)
             one = ds.sel(crank_angle=at)
-            row[0].plot(one["pin"], one["pin_load"], ".-", label=name)
-            row[1].plot(one["pin"], one["groove_load"], ".-", label=name)
+            style = case_style(i, len(cases), ".")
+            row[0].plot(one["pin"], one["pin_load"], label=name, **style)
+            row[1].plot(one["pin"], one["groove_load"], label=name, **style)
         row[0].set_title(f"pin-tooth load, crank angle {at:g}°", fontsize="medium")
         row[1].set_title(f"pin-groove load, crank angle {at:g}°", fontsize="medium")
         row[0].set_ylabel("pin load Fc [N]")
@@ -200,13 +222,13 @@ def plot_profile_stress(results: Results, pin: int = 20, x: str = "profile_angle
     cases = case_results(results)
     fig = _figure(7.5, 4.5)
     ax = fig.subplots()
-    for name, ds in cases.items():
+    for i, (name, ds) in enumerate(cases.items()):
         one = ds.sel(pin=pin)
         loaded = one["pin_load"].values > 0
         abscissa = np.where(loaded, one[x].values, np.nan)
         stress = np.where(loaded, one["contact_stress"].values, np.nan)
         order = np.argsort(np.where(loaded, abscissa, np.inf), kind="stable")
-        ax.plot(abscissa[order], stress[order], label=name)
+        ax.plot(abscissa[order], stress[order], label=name, **case_style(i, len(cases)))
     if x == "profile_angle":
         ax.set_xlabel("generating angle φ1 of the contact [deg] (0 = tooth-space bottom)")
     else:
@@ -278,27 +300,32 @@ def plot_stress_maps(results: Results) -> Figure:
 
 
 def plot_transmission_error(results: Results) -> Figure:
-    """Loaded transmission error (Eq. 25 of [1]) over one mesh cycle and over the run.
+    """Loaded transmission error (Eq. 25 of [1]): its ripple and its course over the run.
 
-    Left: the first mesh cycle, 360°/n1 of crank angle; right: all computed angles.
-    One line per case in each axes; TE [arcsec], negative = the disc lags.
+    Left: the ripple, TE minus its mean, over the first mesh cycle (360°/n1 of crank
+    angle), where the mean of a case (in the legend) would hide it; right: TE over all
+    computed angles. One line per case; TE [arcsec], negative = the disc lags.
     """
     cases = case_results(results)
-    fig = _figure(11.0, 4.0, left=0.9)
-    ax_mesh, ax_all = fig.subplots(1, 2, width_ratios=[1.0, 2.0], sharey=True)
-    for name, ds in cases.items():
+    fig = _figure(11.0, 4.0, left=0.9, wspace=0.3)
+    ax_mesh, ax_all = fig.subplots(1, 2, width_ratios=[1.0, 2.0])
+    for i, (name, ds) in enumerate(cases.items()):
         crank = ds["crank_angle"].values
         te = ds["transmission_error"].values
         period = 360.0 / int(ds.attrs.get("pins") or ds.sizes["pin"])
         cycle = crank <= crank[0] + period + 1e-9
-        ax_mesh.plot(*decimate(crank[cycle], te[cycle]), label=name)
-        ax_all.plot(*decimate(crank, te), label=name)
-    ax_mesh.set_title("one mesh cycle (360°/n1)", fontsize="medium")
+        mean = float(np.mean(te))
+        style = case_style(i, len(cases))
+        ax_mesh.plot(*decimate(crank[cycle], te[cycle] - mean), **style)
+        label = f"{name} (mean {mean:.4g}″)" if name else f"mean {mean:.4g}″"
+        ax_all.plot(*decimate(crank, te), label=label, **style)
+    ax_mesh.set_title("ripple over one mesh cycle (360°/n1)", fontsize="medium")
     ax_all.set_title("all computed crank angles", fontsize="medium")
-    ax_mesh.set_ylabel("loaded transmission error [arcsec]")
+    ax_mesh.set_ylabel("TE minus its mean [arcsec]")
+    ax_all.set_ylabel("loaded transmission error [arcsec]")
     for ax in (ax_mesh, ax_all):
         ax.set_xlabel("crank angle [deg]")
-    case_legend(ax_all, cases)
+    ax_all.legend(fontsize="small")
     return fig
 
 
@@ -310,8 +337,12 @@ def plot_gear_ratio(results: Results) -> Figure:
     cases = case_results(results)
     fig = _figure(9.0, 4.0)
     ax = fig.subplots()
-    for name, ds in cases.items():
-        ax.plot(*decimate(ds["crank_angle"].values, ds["gear_ratio"].values), label=name)
+    for i, (name, ds) in enumerate(cases.items()):
+        ax.plot(
+            *decimate(ds["crank_angle"].values, ds["gear_ratio"].values),
+            label=name,
+            **case_style(i, len(cases)),
+        )
     first = next(iter(cases.values()))
     teeth = int(first.attrs.get("teeth") or first.sizes["pin"] - 1)
     ax.axhline(teeth, color="k", ls=":", lw=1.0, label=f"ideal n2 = {teeth}")
@@ -331,8 +362,13 @@ def plot_contacts(results: Results) -> Figure:
     cases = case_results(results)
     fig = _figure(9.0, 3.6)
     ax = fig.subplots()
-    for name, ds in cases.items():
-        ax.step(*decimate(ds["crank_angle"].values, ds["contacts"].values), where="mid", label=name)
+    for i, (name, ds) in enumerate(cases.items()):
+        ax.step(
+            *decimate(ds["crank_angle"].values, ds["contacts"].values),
+            where="mid",
+            label=name,
+            **case_style(i, len(cases)),
+        )
     ax.set_xlabel("crank angle [deg]")
     ax.set_ylabel("pins in contact [-]")
     ax.yaxis.get_major_locator().set_params(integer=True)
@@ -340,22 +376,45 @@ def plot_contacts(results: Results) -> Figure:
     return fig
 
 
+BACKLASH_SCALE_MIN = 60.0
+"""Smallest top of the backlash axes [arcsec]."""
+
+
 def plot_backlash(results: Results, crank_angles_deg: Sequence[float] = (0.0,)) -> Figure:
     """Unloaded backlash of every pin (Eq. 11 of [1]) at a few crank angles [arcsec].
 
     One axes per crank angle (the computed angle nearest to each), one line per case;
-    pins the loaded flank cannot reach (infinite backlash) are left out.
+    pins the loaded flank cannot reach (infinite backlash) are left out. The pins far
+    from the mesh have backlashes of thousands of arcseconds; the axes show the ones
+    that matter, up to three times the largest play of the cases (at least
+    :data:`BACKLASH_SCALE_MIN`), and mark the pins above it with a triangle on the top
+    edge.
     """
     cases = case_results(results)
+    plays = [float(np.nanmax(ds["play"].values)) for ds in cases.values() if "play" in ds]
+    top = max([BACKLASH_SCALE_MIN, *(3.0 * p for p in plays if np.isfinite(p))])
     fig = _figure(9.0, 2.4 * len(crank_angles_deg) + 0.6)
     axes = fig.subplots(len(crank_angles_deg), 1, sharex=True, squeeze=False)[:, 0]
     for ax, angle in zip(axes, crank_angles_deg, strict=True):
-        for name, ds in cases.items():
+        above = 0
+        for i, (name, ds) in enumerate(cases.items()):
             at = _nearest_angle(ds, angle)
             one = ds["backlash"].sel(crank_angle=at)
             values = np.where(np.isfinite(one.values), one.values, np.nan)
-            ax.plot(one["pin"], values, ".-", label=name)
-        ax.set_title(f"crank angle {at:g}°", fontsize="medium")
+            line = ax.plot(one["pin"], values, label=name, **case_style(i, len(cases), "."))[0]
+            high = values > top
+            above = max(above, int(np.sum(high)))
+            ax.plot(
+                one["pin"].values[high],
+                np.full(int(np.sum(high)), top),
+                "^",
+                color=line.get_color(),
+                ms=5,
+                clip_on=False,
+            )
+        ax.set_ylim(-0.03 * top, top)
+        note = f"; {above} pins above {top:.0f}″ (▲)" if above else ""
+        ax.set_title(f"crank angle {at:g}°{note}", fontsize="medium")
         ax.set_ylabel("backlash [arcsec]")
     axes[-1].set_xlabel("pin")
     case_legend(axes[0], cases)

@@ -109,9 +109,18 @@ def write_json(path: Path, document: Mapping[str, Any]) -> Path:
     return write_text(path, text + "\n")
 
 
+COMPRESSION = {"zlib": True, "complevel": 1, "shuffle": True}
+"""Lossless NetCDF-4 compression of large variables: a run of the Table 1 pair at 3600
+crank angles shrinks from 13.0 to 2.9 MB a case, for 0.14 s more writing (level 4 gains
+another 2 % for 0.05 s more)."""
+COMPRESS_FROM = 4096
+"""Variables with at least this many values are compressed (smaller ones do not pay)."""
+
+
 def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
     """Write ``ds`` to NetCDF-4 (booleans as 0/1 bytes); ``xarray.open_dataset`` reads
-    it back equal, attributes and units included.
+    it back equal, attributes and units included. Variables of :data:`COMPRESS_FROM`
+    values or more are compressed losslessly (:data:`COMPRESSION`).
 
     Datasets of numbers with dimension coordinates only (all of cyclomesh's) are
     written with netCDF4 directly: ``Dataset.to_netcdf`` imports dask and
@@ -126,8 +135,13 @@ def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
         for name in list(out.data_vars):
             if out[name].dtype == np.bool_:
                 out[name] = out[name].astype(np.int8)
+        encoding = {
+            name: dict(COMPRESSION)
+            for name, var in out.data_vars.items()
+            if var.dtype.kind in "biuf" and var.size >= COMPRESS_FROM
+        }
         with atomic_write(path) as tmp:
-            out.to_netcdf(tmp)
+            out.to_netcdf(tmp, encoding=encoding)
         return path
     import netCDF4
 
@@ -142,7 +156,11 @@ def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
             # written reads as missing, not as whatever bytes were there
             fill = np.nan if values.dtype.kind == "f" else None
             out = nc.createVariable(
-                str(name), values.dtype, tuple(str(d) for d in var.dims), fill_value=fill
+                str(name),
+                values.dtype,
+                tuple(str(d) for d in var.dims),
+                fill_value=fill,
+                **(COMPRESSION if values.size >= COMPRESS_FROM else {}),
             )
             if values.ndim:
                 out[...] = values

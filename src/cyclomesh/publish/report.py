@@ -34,12 +34,14 @@ body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1100px;
 h1 { font-size: 1.6em; } h2 { font-size: 1.25em; border-bottom: 1px solid #ccc; }
 table { border-collapse: collapse; margin: 0.5em 0 1em; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 0.2em 0.6em; text-align: right; }
-th:first-child, td:first-child { text-align: left; }
+th:first-child, td:first-child, th.t { text-align: left; }
 th { background: #f3f3f3; }
 figure { margin: 1em 0; } figure img, figure svg { max-width: 100%; height: auto; }
 figcaption { font-size: 0.9em; color: #444; }
 pre { background: #f7f7f7; padding: 0.8em; overflow-x: auto; font-size: 0.85em; }
 .stamp { color: #555; font-size: 0.9em; }
+tr.fail td, td.fail { background: #fbe3e3; } tr.warn td, td.warn { background: #fff4d6; }
+td.note { text-align: left; font-size: 0.9em; color: #444; } td.t { text-align: left; }
 """
 
 
@@ -101,8 +103,16 @@ def table_html(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
             return html.escape(f"{value:.4g}")
         return html.escape("" if value is None else str(value))
 
+    def td(value: Any) -> str:  # text left, numbers right
+        text = cell(value)
+        try:
+            float(text.replace("–", "-").split(" / ")[0] or "0")
+        except ValueError:
+            return f'<td class="t">{text}</td>'
+        return f"<td>{text}</td>"
+
     head = "".join(f"<th>{cell(h)}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f"<td>{cell(v)}</td>" for v in row) + "</tr>" for row in rows)
+    body = "".join("<tr>" + "".join(td(v) for v in row) + "</tr>" for row in rows)
     return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
 
 

@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from cyclomesh.designspace.sweep import METRICS, PARAMETERS, Constraints
+from cyclomesh.designspace.sweep import GEOMETRY, METRICS, Constraints, parameter_value
 from cyclomesh.exceptions import DesignError, StudyError
 from cyclomesh.results.dataset import resolve_disc_body
 from cyclomesh.studyfile.schema import DesignSpaceSection, Study, load_study
@@ -192,16 +192,59 @@ def compute_design(
         raise StudyError(f"design_space: {exc}") from None
     ds.attrs["study_title"] = study.title
     ds.attrs["study_sha256"] = study.sha256
+    label = "study's design" if set(space.axes()) & set(GEOMETRY) else "study's modification"
     marks = {
-        "study's modification": {
-            key: float(getattr(base.modification, PARAMETERS[key][0])) / PARAMETERS[key][1]
-            for key in space.axes()
-        }
+        label: {key: parameter_value(base.design, base.modification, key) for key in space.axes()}
     }
     summary = _summary(ds, space, study.title)
     summary["warnings"] = warnings
+    if summary["optimum"] is not None:
+        summary["checks"] = _optimum_checks(study, base, summary["optimum"], ds)
     best = best_study(study, ds) if summary["optimum"] is not None else None
     return DesignResult(study, space, ds, summary, best, time.perf_counter() - start, marks)
+
+
+_AS_SUMMARY = {  # design-map variable -> the summary metric the requirements read
+    "max_contact_stress_mpa": "max_contact_stress_mpa",
+    "te_pp_arcsec": "te_pp_arcsec",
+    "min_contacts": "contacts_min",
+    "play_arcmin": "play_arcmin_max",
+    "lost_motion_arcmin": "lost_motion_arcmin_max",
+}
+
+
+def _optimum_checks(
+    study: Study, base: Any, optimum: dict[str, Any], ds: xr.Dataset
+) -> dict[str, Any]:
+    """The verdict table of the optimum: its map values against ``[requirements]``, and
+    the design warnings of its geometry."""
+    from dataclasses import replace
+
+    from cyclomesh.designspace.sweep import parameter
+    from cyclomesh.studies.checks import case_checks
+
+    design, modification = base.design, base.modification
+    geometry, changes = {}, {}
+    for key, value in optimum["parameters"].items():
+        field, scale, _, _ = parameter(key)
+        if field.startswith("design."):
+            geometry[field[len("design.") :]] = value * scale
+        else:
+            changes[field] = value * scale
+    if "pin_radius" in geometry:
+        geometry["groove_radius"] = (
+            geometry["pin_radius"] + design.groove_radius - design.pin_radius
+        )
+    inputs = replace(
+        base, design=replace(design, **geometry), modification=replace(modification, **changes)
+    )
+    values = {_AS_SUMMARY[k]: v for k, v in optimum["metrics"].items() if k in _AS_SUMMARY}
+    where = (
+        f"P{ds.attrs['robust_percentile']:g} over {ds.attrs['rings']} rings"
+        if ds.attrs["robust"]
+        else ""
+    )
+    return case_checks(study, study.base, inputs, values, where=where)
 
 
 def _summary(ds: xr.Dataset, space: DesignSpaceSection, title: str) -> dict[str, Any]:
@@ -248,8 +291,16 @@ def best_study(study: Study, ds: xr.Dataset) -> str:
         if table:
             sections[name] = table
     modification = sections.setdefault("modification", {})
+    design = sections["design"]
     for d in ds["feasible"].dims:
-        modification[d] = float(ds.attrs[f"optimum_{d}"])
+        value = float(ds.attrs[f"optimum_{d}"])
+        if d in GEOMETRY:
+            if d == "pin_radius_mm" and design.get("groove_radius_mm") is not None:
+                # the groove moved with the pin in the map: the same clearance
+                design["groove_radius_mm"] += value - design["pin_radius_mm"]
+            design[d] = value
+        else:
+            modification[d] = value
     folder = study.path.parent.resolve()
     if modification.get("profile_file"):
         modification["profile_file"] = str(folder / modification["profile_file"])
@@ -355,8 +406,8 @@ def design_sections(result: DesignResult) -> list[Section]:
     from cyclomesh.studies.run import description_html
 
     text = description_html(result.study) + (
-        "<p>Every candidate modification analysed with the full model at the study's "
-        "torque over its crank angles"
+        "<p>Every candidate (modification and geometry) analysed with the full model at "
+        "the study's torque over its crank angles"
         + (", each metric its robust value over the rings" if s["robust"] else "")
         + f" ({html.escape('docs/design-map.md')}). <code>best.toml</code> is the optimum "
         "as a study file.</p>"
@@ -364,4 +415,8 @@ def design_sections(result: DesignResult) -> list[Section]:
     from cyclomesh.studies.run import warning_sections
 
     sections = [Section(SECTION, text + table_html(["", "value"], rows))]
+    if s.get("checks"):
+        from cyclomesh.studies.checks import checks_section
+
+        sections.insert(0, checks_section({"optimum": s["checks"]}))
     return warning_sections(s.get("warnings", [])) + sections

@@ -68,6 +68,8 @@ class FeResult:
     """Case name → rows of the mesh-convergence table (header first)."""
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → :data:`FE_METRICS` (JSON numbers)."""
+    checks: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """Case name → requirement checks and design warnings (:mod:`cyclomesh.studies.checks`)."""
     seconds: float = 0.0
 
 
@@ -138,6 +140,8 @@ def compute_fe(
     )
     if angles.ndim != 1 or angles.size == 0 or not np.all(np.isfinite(angles)):
         raise StudyError("--crank-angles: give one or more finite crank angles [deg]")
+    from cyclomesh.studies.checks import case_checks
+
     start = time.perf_counter()
     result = FeResult(study=study, section=section)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
@@ -175,6 +179,7 @@ def compute_fe(
         )
         result.cases[case.name] = ds
         result.summaries[case.name] = _summary(ds)
+        result.checks[case.name] = case_checks(study, case, inputs, result.summaries[case.name])
         if convergence:
             if progress:
                 progress(f"{case.name}: crank angle {angles[0]:g}° at half the mesh density")
@@ -310,6 +315,7 @@ def write_fe(result: FeResult, out: Path) -> list[Path]:
                 "results": f"{folder_name(case.name)}/fe.nc",
                 "crank_angles_deg": [float(a) for a in result.cases[case.name].crank_angle],
                 **result.summaries[case.name],
+                "checks": result.checks[case.name],
             }
         )
     document = summary_document(
@@ -358,13 +364,11 @@ def fe_sections(result: FeResult) -> list[Section]:
         f"<details><summary>study file {html.escape(study.path.name)}</summary>"
         f"<pre>{html.escape(study.text)}</pre></details>"
     )
-    names = list(result.cases)
-    columns = list(FE_METRICS)
-    summary = table_html(
-        ["case", *(f"{FE_METRICS[c].label} [{FE_METRICS[c].unit}]" for c in columns)],
-        [[n, *(result.summaries[n].get(c) for c in columns)] for n in names],
-    )
-    sections = [Section("Study", intro), Section("Summary", summary)]
+    from cyclomesh.studies.checks import checks_section
+    from cyclomesh.studies.run import metrics_table
+
+    summary = metrics_table(result.summaries, FE_METRICS)
+    sections = [Section("Study", intro), checks_section(result.checks), Section("Summary", summary)]
     for name, table in result.convergence.items():
         sections.append(
             Section(

@@ -62,6 +62,8 @@ class RunResult:
     """Case name → annotated Dataset of :func:`cyclomesh.analyse`."""
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → metrics of :data:`cyclomesh.results.metrics.METRICS` (plain JSON numbers)."""
+    checks: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """Case name → requirement checks and design warnings (:mod:`cyclomesh.studies.checks`)."""
     warnings: dict[str, list[str]] = field(default_factory=dict)
     """Case name → warnings (:mod:`cyclomesh.studyfile.warnings`)."""
 
@@ -126,6 +128,7 @@ def compute_run(
     """
     from cyclomesh.exceptions import CyclomeshError
     from cyclomesh.results.dataset import analyse, summarize
+    from cyclomesh.studies.checks import case_checks
     from cyclomesh.studyfile.usage import check_keys
     from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
 
@@ -151,6 +154,7 @@ def compute_run(
             case.analysis.crank_angles_deg(),
             has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
         )
+        run.checks[case.name] = case_checks(study, case, inputs, run.summaries[case.name], ds)
         if on_done:
             on_done(case.name)
     return run
@@ -217,6 +221,7 @@ def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
                 "name": case.name,
                 "results": f"{folder}/results.nc",
                 **run.summaries[case.name],
+                "checks": run.checks[case.name],
                 "warnings": run.warnings.get(case.name, []),
             }
         )
@@ -433,6 +438,43 @@ def _cell(value: Any) -> Any:
     return value
 
 
+_OTHER_LABELS = {
+    "torque_nm": "torque [N·m]",
+    "rated_torque_nm": "rated torque [N·m]",
+    "discs": "discs",
+    "gear_ratio_step_deg": "ratio taken over [deg]",
+}
+
+
+def metrics_table(records: dict[str, dict[str, Any]], metrics: dict[str, Any]) -> str:
+    """HTML table of summary records: one row per metric (short label with its unit,
+    long name on hover), one column per case, so that it fits a laptop screen."""
+    from cyclomesh.publish.report import table_html
+
+    names = list(records)
+    keys = list(dict.fromkeys(k for record in records.values() for k in record))
+    rows = []
+    for key in keys:
+        m = metrics.get(key)
+        label = (
+            _OTHER_LABELS.get(key, key)
+            if m is None
+            else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
+        )
+        rows.append([label, *(_cell(records[n].get(key)) for n in names)])
+    table = table_html(["metric", *names], rows)
+    for key in keys:  # the long name as a tooltip on its label
+        m = metrics.get(key)
+        if m is not None:
+            label = html.escape(m.label + ("" if m.unit == "1" else f" [{m.unit}]"))
+            table = table.replace(
+                f'<td class="t">{label}</td>',
+                f'<td class="t" title="{html.escape(m.long_name)} ({key})">{label}</td>',
+                1,
+            )
+    return table
+
+
 def run_sections(run: RunResult) -> list[Section]:
     """Report sections of a run study: study, inputs, summary (figures come after)."""
     from cyclomesh.publish.report import Section, table_html
@@ -464,23 +506,17 @@ def run_sections(run: RunResult) -> list[Section]:
         f"<details><summary>study file {html.escape(study.path.name)}</summary>"
         f"<pre>{html.escape(study.text)}</pre></details>"
     )
-    columns = list(
-        dict.fromkeys(
-            c for record in run.summaries.values() for c in record if c not in STAGE_METRICS
-        )
+    summary = metrics_table(
+        {n: {k: v for k, v in run.summaries[n].items() if k not in STAGE_METRICS} for n in names},
+        METRICS | DRIVE_METRICS,
     )
-    every = METRICS | DRIVE_METRICS
-    header = [
-        f"{c} [{every[c].unit}]" if c in every and every[c].unit != "1" else c for c in columns
-    ]
-    summary = table_html(
-        ["case", *header],
-        [[n, *(_cell(run.summaries[n].get(c)) for c in columns)] for n in names],
-    )
+    from cyclomesh.studies.checks import checks_section
+
     sections = [
         Section("Study", intro),
-        Section("Inputs", inputs_html),
+        checks_section(run.checks),
         Section("Summary", summary),
+        Section("Inputs", inputs_html),
     ]
     staged = [n for n in names if any(k in STAGE_METRICS for k in run.summaries[n])]
     if staged:

@@ -71,6 +71,8 @@ class StiffnessResult:
     """Case name → Dataset of :func:`cyclomesh.results.torsion.stiffness`, with the case inputs."""
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → rated torque, discs and :data:`STIFFNESS_METRICS` (JSON numbers)."""
+    checks: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """Case name → requirement checks and design warnings (:mod:`cyclomesh.studies.checks`)."""
     seconds: float = 0.0
     warnings: dict[str, list[str]] = field(default_factory=dict)
     """Case name → warnings (:mod:`cyclomesh.studyfile.warnings`)."""
@@ -107,6 +109,7 @@ def compute_stiffness(
     """
     from cyclomesh.output.writers import jsonable
     from cyclomesh.results.torsion import stiffness, summarize_stiffness
+    from cyclomesh.studies.checks import case_checks
     from cyclomesh.studyfile.usage import check_keys
     from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
 
@@ -160,6 +163,7 @@ def compute_stiffness(
             case.analysis.crank_angles_deg(),
             has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
         )
+        result.checks[case.name] = case_checks(study, case, inputs, record)
         if progress:
             progress(1)
     result.seconds = time.perf_counter() - start
@@ -184,6 +188,7 @@ def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
                 "name": case.name,
                 "results": f"{folder_name(case.name)}/stiffness.nc",
                 **result.summaries[case.name],
+                "checks": result.checks[case.name],
                 "warnings": result.warnings.get(case.name, []),
             }
         )
@@ -336,18 +341,15 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
         f"<details><summary>study file {html.escape(study.path.name)}</summary>"
         f"<pre>{html.escape(study.text)}</pre></details>"
     )
-    names = [case.name for case in study.cases]
     from cyclomesh.results.stage import STAGE_STIFFNESS_METRICS
+    from cyclomesh.studies.checks import checks_section
+    from cyclomesh.studies.run import metrics_table
 
-    every = STIFFNESS_METRICS | STAGE_STIFFNESS_METRICS
-    columns = [c for c in every if any(c in result.summaries[n] for n in names)]
-    header = [f"{every[c].label} [{every[c].unit}]" for c in columns]
-    summary = table_html(
-        ["case", *header], [[n, *(result.summaries[n].get(c) for c in columns)] for n in names]
-    )
+    summary = metrics_table(result.summaries, STIFFNESS_METRICS | STAGE_STIFFNESS_METRICS)
     from cyclomesh.studies.run import warning_sections
 
     return warning_sections(result.study_warnings()) + [
         Section("Study", intro),
+        checks_section(result.checks),
         Section("Summary", summary),
     ]

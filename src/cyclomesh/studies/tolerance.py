@@ -350,6 +350,7 @@ def compute_tolerance(
     progress : callable, optional
         Called with the number of rings of every finished chunk.
     """
+    from cyclomesh.studies.checks import case_checks, percentile_summary
 
     check_keys(study.raw, "tolerance")  # [stage], [[cases]], ...: refused in one line
     from cyclomesh.tolerance.tasks import ToleranceTask
@@ -380,6 +381,14 @@ def compute_tolerance(
     stats["torque_nm"] = model.torque_nm
     stats["crank_angles"] = len(model.crank_angles_deg)
     stats["warnings"] = ring_warnings(model)
+    p = study.file.requirements.tolerance_percentile
+    stats["checks"] = case_checks(
+        study,
+        study.base,
+        study.base.to_core(),
+        percentile_summary(ds, p),
+        where=f"P{p:g} of {n} rings (P{100 - p:g} for lower limits)",
+    )
     stats["seconds"] = seconds
     stats["rings_per_second"] = n / seconds if seconds > 0 else math.nan
     return ToleranceResult(study, spec, model, ds, stats, seconds)
@@ -462,10 +471,10 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
             f"{_fmt(p['estimate'])} [{_fmt(p['lower'])}, {_fmt(p['upper'])}]"
             for p in s["percentiles"]
         ]
-        rows.append([name, s["unit"], _fmt(s["mean"]), _fmt(s["std"]), *pct])
-    header = ["metric", "unit", "mean", "std"] + [
-        f"P{p:g} [{conf:.0%} CI]" for p in stats["percentiles"]
-    ]
+        m = METRICS.get(name)
+        label = name if m is None else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
+        rows.append([label, _fmt(s["mean"]), _fmt(s["std"]), *pct])
+    header = ["metric", "mean", "std"] + [f"P{p:g} [{conf:.0%} CI]" for p in stats["percentiles"]]
     ex = stats["exceedance"][STRESS_METRIC]
     worst = stats["worst_ring"]
     from cyclomesh.studies.run import description_html
@@ -482,10 +491,12 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
         + html.escape("; ".join(f"{k}: {v}" for k, v in stats["methods"].items()))
         + ".</p>"
     )
+    from cyclomesh.studies.checks import checks_section
     from cyclomesh.studies.run import warning_sections
 
     return warning_sections(stats.get("warnings", [])) + [
-        Section("Tolerance study (Monte Carlo)", text)
+        checks_section({result.study.title: stats["checks"]}),
+        Section("Tolerance study (Monte Carlo)", text),
     ]
 
 

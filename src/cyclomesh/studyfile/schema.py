@@ -54,6 +54,7 @@ from pydantic import (
     Field,
     PrivateAttr,
     ValidationError,
+    field_validator,
     model_validator,
 )
 
@@ -101,6 +102,7 @@ __all__ = [
     "StiffnessSection",
     "FeSection",
     "FiguresSection",
+    "RequirementsSection",
     "Uniform",
     "Normal",
     "TruePosition",
@@ -133,6 +135,14 @@ CASE_SECTIONS = (
     "stage",
 )
 """Sections that a case may override."""
+
+
+def tangential_urad(tangential_um: Any, pin_circle_radius_mm: float) -> NDArray:
+    """Angular pin position error εψ,i [µrad] of a tangential one [µm]: t / a.
+
+    µm over mm is 1e-3 rad, i.e. 1e3 µrad.
+    """
+    return np.asarray(tangential_um, dtype=float) / pin_circle_radius_mm * 1e3
 
 
 def pin_errors_si(
@@ -219,15 +229,25 @@ class DiscSection(_Section):
         )
 
 
+GROOVE_CLEARANCE_MM = 0.005
+"""Default ρg − ρp [mm]: 3.505 − 3.5 mm of Table 1 of [1]."""
+
+
 class DesignSection(_Section):
-    """``[design]``: the nominal gear pair (Table 1 of [1]); every key is required."""
+    """``[design]``: the nominal gear pair (Table 1 of [1]); every key but
+    ``groove_radius_mm`` (default ρp + :data:`GROOVE_CLEARANCE_MM`) is required."""
 
     pins: int = Field(
         ge=3, le=MAX_PINS, description="number of ring pins n1; the disc has n1 - 1 teeth"
     )
     pin_circle_radius_mm: float = Field(gt=0, description="pin-centre circle radius a [mm]")
     pin_radius_mm: float = Field(gt=0, description="pin radius ρp [mm]")
-    groove_radius_mm: float = Field(gt=0, description="pin-groove radius ρg [mm]")
+    groove_radius_mm: float | None = Field(
+        None,
+        gt=0,
+        description="pin-groove radius ρg [mm]; default ρp + 0.005 mm (the clearance of "
+        "Table 1 of [1])",
+    )
     eccentricity_mm: float = Field(gt=0, description="eccentricity e [mm]")
     width_mm: float = Field(gt=0, description="disc face width B [mm]")
     discs: int = Field(
@@ -251,8 +271,13 @@ class ModificationSection(_Section):
 
 
 class MaterialProperties(_Section):
-    """Elastic constants; a key left out falls back to ``[material]``, then to steel."""
+    """Material of a part: a named grade (:data:`cyclomesh.core.materials.MATERIALS`) and/or
+    explicit values; a key left out falls back to the name, then to ``[material]``, then
+    to steel (Table 1 of [1])."""
 
+    name: str | None = Field(
+        None, description='named material, e.g. "GCr15" (docs/study-files.md lists them)'
+    )
     youngs_modulus_gpa: float | None = Field(
         None,
         ge=YOUNGS_MODULUS_RANGE[0] / 1e9,
@@ -262,6 +287,35 @@ class MaterialProperties(_Section):
     poisson_ratio: float | None = Field(
         None, ge=POISSON_RATIO_RANGE[0], lt=POISSON_RATIO_RANGE[1], description="ν [-]"
     )
+    allowable_contact_stress_mpa: float | None = Field(
+        None, gt=0, description="allowable contact stress σH,lim [MPa]"
+    )
+
+    @field_validator("name")
+    @classmethod
+    def _known_name(cls, name: str | None) -> str | None:
+        if name is not None:
+            from cyclomesh.core.materials import material_grade
+
+            try:
+                material_grade(name)
+            except KeyError as exc:
+                raise ValueError(exc.args[0]) from None
+        return name
+
+    def value(self, key: str) -> float | None:
+        """The explicit value of ``key`` (study units), else the named grade's, else None."""
+        own = getattr(self, key)
+        if own is not None or self.name is None:
+            return own
+        from cyclomesh.core.materials import material_grade
+
+        grade = material_grade(self.name)
+        return {
+            "youngs_modulus_gpa": grade.youngs_modulus / GPA,
+            "poisson_ratio": grade.poisson_ratio,
+            "allowable_contact_stress_mpa": grade.allowable_contact_stress / 1e6,
+        }[key]
 
 
 class MaterialSection(MaterialProperties):
@@ -271,12 +325,33 @@ class MaterialSection(MaterialProperties):
     disc: MaterialProperties = MaterialProperties()
     ring: MaterialProperties = MaterialProperties()
 
+    def _lookup(self, part: str, key: str) -> float | None:
+        own = getattr(self, part).value(key)
+        return own if own is not None else self.value(key)
+
     def resolve(self, part: Literal["pin", "disc", "ring"]) -> Material:
         """Core :class:`Material` of one part (E in Pa); steel of Table 1 of [1] by default."""
-        own: MaterialProperties = getattr(self, part)
-        modulus = own.youngs_modulus_gpa or self.youngs_modulus_gpa or 206.0
-        ratio = own.poisson_ratio if own.poisson_ratio is not None else self.poisson_ratio
-        return Material(youngs_modulus=modulus * GPA, poisson_ratio=0.3 if ratio is None else ratio)
+        modulus = self._lookup(part, "youngs_modulus_gpa")
+        ratio = self._lookup(part, "poisson_ratio")
+        return Material(
+            youngs_modulus=(206.0 if modulus is None else modulus) * GPA,
+            poisson_ratio=0.3 if ratio is None else ratio,
+        )
+
+    def allowable_mpa(self, part: Literal["pin", "disc", "ring"]) -> float | None:
+        """Allowable contact stress of one part [MPa], or None if no name or value gives it."""
+        return self._lookup(part, "allowable_contact_stress_mpa")
+
+    def names(self) -> dict[str, str]:
+        """Part → name of its material grade, for the parts that have one."""
+        out = {}
+        for part in ("pin", "disc", "ring"):
+            name = getattr(self, part).name or self.name
+            if name is not None:
+                from cyclomesh.core.materials import material_grade
+
+                out[part] = material_grade(name).name
+        return out
 
 
 def _torques(value: Any) -> float | list[float]:
@@ -466,11 +541,23 @@ class RandomErrorsSection(_Section):
     radial_um: float = Field(0.0, ge=0, description="half-range of εa,i [µm]")
     angular_urad: float = Field(0.0, ge=0, description="half-range of εψ,i [µrad]")
     pin_radius_um: float = Field(0.0, ge=0, description="half-range of ερ,i [µm]")
+    tangential_um: float = Field(
+        0.0, ge=0, description="half-range of the tangential position error a·εψ,i [µm]"
+    )
 
-    def draw(self, pins: int) -> dict[str, NDArray]:
-        """Per-pin errors in study units (µm, µrad, µm), shape ``(pins,)`` each."""
+    @model_validator(mode="after")
+    def _one_angular(self) -> RandomErrorsSection:
+        if self.tangential_um and self.angular_urad:
+            raise ValueError("give angular_urad or tangential_um, not both")
+        return self
+
+    def draw(self, pins: int, pin_circle_radius_mm: float | None = None) -> dict[str, NDArray]:
+        """Per-pin errors in study units (µm, µrad, µm), shape ``(pins,)`` each.
+
+        A tangential half-range is drawn after the three others (their draws do not
+        change) and turned into the angular error εψ,i = tangential / a [µrad]."""
         rng = np.random.default_rng(self.seed)
-        return {
+        out = {
             name: rng.uniform(-half, half, pins)
             for name, half in (
                 ("radial_um", self.radial_um),
@@ -478,6 +565,12 @@ class RandomErrorsSection(_Section):
                 ("pin_radius_um", self.pin_radius_um),
             )
         }
+        if self.tangential_um:
+            tangential = rng.uniform(-self.tangential_um, self.tangential_um, pins)
+            out["angular_urad"] = out["angular_urad"] + tangential_urad(
+                tangential, pin_circle_radius_mm
+            )
+        return out
 
 
 class ErrorsSection(_Section):
@@ -490,6 +583,9 @@ class ErrorsSection(_Section):
     eccentricity_um: float = Field(0.0, description="eccentricity error εe [µm]")
     radial_um: PerPin = Field(0.0, description="radial position error εa,i [µm]")
     angular_urad: PerPin = Field(0.0, description="angular position error εψ,i [µrad]")
+    tangential_um: PerPin = Field(
+        0.0, description="tangential position error a·εψ,i [µm], added to angular_urad"
+    )
     pin_radius_um: PerPin = Field(0.0, description="pin radius error ερ,i [µm]")
     file: str | None = Field(None, description="CSV of measured pins, relative to the study")
     random: RandomErrorsSection | None = None
@@ -678,6 +774,9 @@ class ToleranceSection(_Section):
     )
     radial_um: ErrorDistribution | None = None
     angular_urad: ErrorDistribution | None = None
+    tangential_um: ErrorDistribution | None = Field(
+        None, description="tangential position error a·εψ,i [µm] (instead of angular_urad)"
+    )
     pin_radius_um: ErrorDistribution | None = None
     eccentricity_um: ErrorDistribution | None = None
     position: TruePosition | None = None
@@ -686,12 +785,16 @@ class ToleranceSection(_Section):
     @model_validator(mode="after")
     def _consistent(self) -> ToleranceSection:
         if self.position is not None and (
-            self.radial_um is not None or self.angular_urad is not None
+            self.radial_um is not None
+            or self.angular_urad is not None
+            or self.tangential_um is not None
         ):
             raise ValueError(
-                "position (true_position) replaces radial_um and angular_urad; "
+                "position (true_position) replaces radial_um, angular_urad and tangential_um; "
                 "give one or the other"
             )
+        if self.angular_urad is not None and self.tangential_um is not None:
+            raise ValueError("give angular_urad or tangential_um, not both")
         return self
 
     def crank_range(self, analysis: AnalysisSection | None = None) -> tuple[float, float, float]:
@@ -767,6 +870,10 @@ class DesignSpaceSection(_Section):
     pin_circle_radius_um: RangeSection | None = Field(None, description="Δa range [µm]")
     pin_radius_um: RangeSection | None = Field(None, description="Δρ range [µm]")
     rotation_urad: RangeSection | None = Field(None, description="rotation δ range [µrad]")
+    pin_circle_radius_mm: RangeSection | None = Field(None, description="a range [mm]")
+    pin_radius_mm: RangeSection | None = Field(None, description="ρp range [mm]")
+    eccentricity_mm: RangeSection | None = Field(None, description="e range [mm]")
+    width_mm: RangeSection | None = Field(None, description="face width B range [mm]")
     max_play_arcmin: float | None = Field(None, description="largest allowed play [arcmin]")
     min_play_arcmin: float | None = Field(None, description="smallest allowed play [arcmin]")
     allowable_contact_stress_mpa: float | None = Field(
@@ -809,15 +916,26 @@ class DesignSpaceSection(_Section):
             )
         if not self.axes():
             raise ValueError(
-                "sweep at least one of pin_circle_radius_um, pin_radius_um, rotation_urad "
-                "as { start = , stop = , points = }"
+                "sweep at least one of " + ", ".join(self.SWEEPABLE) + " as "
+                "{ start = , stop = , points = }"
             )
         return self
 
+    SWEEPABLE: typing.ClassVar[tuple[str, ...]] = (
+        "pin_circle_radius_um",
+        "pin_radius_um",
+        "rotation_urad",
+        "pin_circle_radius_mm",
+        "pin_radius_mm",
+        "eccentricity_mm",
+        "width_mm",
+    )
+
     def axes(self) -> dict[str, NDArray]:
-        """Swept parameters (study units), in the order Δa, Δρ, δ."""
-        keys = ("pin_circle_radius_um", "pin_radius_um", "rotation_urad")
-        return {k: getattr(self, k).values() for k in keys if getattr(self, k) is not None}
+        """Swept parameters (study units), in the order Δa, Δρ, δ, a, ρp, e, B."""
+        return {
+            k: getattr(self, k).values() for k in self.SWEEPABLE if getattr(self, k) is not None
+        }
 
     def constraints_dict(self) -> dict[str, Any]:
         """The constraints that are set, in study units."""
@@ -830,6 +948,67 @@ class DesignSpaceSection(_Section):
             "max_lost_motion_arcmin",
         )
         return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}
+
+
+class RequirementsSection(_Section):
+    """``[requirements]``: limits every kind of study checks where it computes the quantity.
+
+    ``max_contact_stress_mpa`` defaults to the allowable contact stress of the pin and
+    disc materials (the smaller of those ``[material]`` gives; a named material gives
+    one), ``max_groove_stress_mpa`` to that of pin and ring. See ``docs/requirements.md``.
+    """
+
+    max_contact_stress_mpa: float | None = Field(
+        None, gt=0, description="peak pin-tooth contact stress [MPa] (default: allowable)"
+    )
+    max_groove_stress_mpa: float | None = Field(
+        None, gt=0, description="peak pin-groove contact stress [MPa] (default: allowable)"
+    )
+    max_te_pp_arcsec: float | None = Field(None, gt=0, description="TE peak-to-peak [arcsec]")
+    min_contacts: int | None = Field(None, ge=1, description="fewest pins in contact")
+    max_gear_ratio_ripple_pct: float | None = Field(
+        None, gt=0, description="gear-ratio ripple [% of n2]"
+    )
+    max_play_arcmin: float | None = Field(None, ge=0, description="largest play [arcmin]")
+    max_lost_motion_arcmin: float | None = Field(
+        None, gt=0, description="largest lost motion [arcmin] (cyclomesh stiffness)"
+    )
+    min_torsional_rigidity_nm_per_arcmin: float | None = Field(
+        None, gt=0, description="smallest torsional rigidity [N·m/arcmin] (cyclomesh stiffness)"
+    )
+    max_mesh_force_n: float | None = Field(None, gt=0, description="largest mesh force [N]")
+    min_bearing_life_h: float | None = Field(
+        None, gt=0, description="L10h of the weakest crank bearing [h] (RV stage, [stage])"
+    )
+    tolerance_percentile: float = Field(
+        95.0,
+        gt=0,
+        lt=100,
+        description="percentile of the rings a tolerance study checks the limits at [%]",
+    )
+
+    def limits(self, material: MaterialSection) -> tuple[dict[str, float], dict[str, str]]:
+        """The limits of one case (study units) and a note for each defaulted one."""
+        limits = {
+            k: v
+            for k, v in self.model_dump().items()
+            if v is not None and k != "tolerance_percentile"
+        }
+        notes = {}
+        for key, parts in (
+            ("max_contact_stress_mpa", ("pin", "disc")),
+            ("max_groove_stress_mpa", ("pin", "ring")),
+        ):
+            if key in limits:
+                continue
+            allowables = [(material.allowable_mpa(p), p) for p in parts]
+            known = [(v, p) for v, p in allowables if v is not None]
+            if known:  # the smaller of the parts that have one
+                value, part = min(known)
+                limits[key] = value
+                name = material.names().get(part)
+                notes[key] = f"allowable of the {part} material" + (f" ({name})" if name else "")
+        return limits, notes
 
 
 @dataclass(frozen=True)
@@ -917,6 +1096,16 @@ class CaseSpec(_Section):
                     f"got {len(value)}"
                 )
             total[name] = np.broadcast_to(np.asarray(value, dtype=float), (pins,)).copy()
+        tangential = self.errors.tangential_um
+        if isinstance(tangential, list) and len(tangential) != pins:
+            raise StudyError(
+                f"{self.label}: errors.tangential_um: expected {pins} values (one per pin), "
+                f"got {len(tangential)}"
+            )
+        total["angular_urad"] += tangential_urad(
+            np.broadcast_to(np.asarray(tangential, dtype=float), (pins,)),
+            self.design.pin_circle_radius_mm,
+        )
         if self.errors.file is not None:
             try:
                 measured = read_pin_errors_csv(self._base_dir / self.errors.file, pins)
@@ -925,7 +1114,7 @@ class CaseSpec(_Section):
             for name in PIN_ERROR_COLUMNS:
                 total[name] += measured[name]
         if self.errors.random is not None:
-            drawn = self.errors.random.draw(pins)
+            drawn = self.errors.random.draw(pins, self.design.pin_circle_radius_mm)
             for name in PIN_ERROR_COLUMNS:
                 total[name] += drawn[name]
         return total
@@ -963,7 +1152,12 @@ class CaseSpec(_Section):
                 pins=d.pins,
                 pin_circle_radius=d.pin_circle_radius_mm * MM,
                 pin_radius=d.pin_radius_mm * MM,
-                groove_radius=d.groove_radius_mm * MM,
+                groove_radius=(
+                    d.groove_radius_mm
+                    if d.groove_radius_mm is not None
+                    else d.pin_radius_mm + GROOVE_CLEARANCE_MM
+                )
+                * MM,
                 eccentricity=d.eccentricity_mm * MM,
                 width=d.width_mm * MM,
                 pin_material=self.material.resolve("pin"),
@@ -1039,6 +1233,7 @@ class StudyFile(_Section):
     stage: StageSection | None = None  # the RV stage (crank bearings); per case too
     design_space: DesignSpaceSection | None = None
     fe: FeSection | None = None  # cyclomesh fe (the FE model needs the fe extra)
+    requirements: RequirementsSection = RequirementsSection()  # checked by every kind
 
 
 @dataclass(frozen=True)

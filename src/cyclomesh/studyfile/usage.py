@@ -42,17 +42,32 @@ __all__ = [
 
 KINDS = ("run", "stiffness", "tolerance", "allocate", "design", "fe")
 
+_ALLOWABLES = tuple(
+    f"material.{part}allowable_contact_stress_mpa" for part in ("", "pin.", "disc.", "ring.")
+)
+"""The allowable contact stresses: the default limits of [requirements]. The kinds that
+check requirements use them; an allocation (its own allowable in [tolerance]) leaves them."""
+
 OWN_SECTIONS: dict[str, tuple[str, ...]] = {
     "stiffness": ("stiffness",),
-    "tolerance": ("tolerance",),
+    "tolerance": ("tolerance", "requirements.tolerance_percentile"),
     "allocate": ("tolerance",),
     "design": ("design_space",),
     "fe": ("fe",),
-    "run": ("load.torque_nm", "stage.rated_torque_nm"),
+    "run": (
+        "load.torque_nm",
+        "stage.rated_torque_nm",
+        "requirements",
+        *_ALLOWABLES,
+    ),
 }
 """The sections (or keys) of a kind of study's own: another kind leaves them alone. The
 run's load and the stage's data-sheet rating are the run's: ``cyclomesh stiffness`` sweeps
-±``stiffness.rated_torque_nm`` instead, and one file serves both (examples/rv_stage.toml)."""
+±``stiffness.rated_torque_nm`` instead, and one file serves both (examples/rv_stage.toml).
+``[requirements]`` is checked by every kind that computes a quantity (run, stiffness,
+tolerance, design, fe); ``cyclomesh allocate`` reports no metric and leaves it, as it
+leaves the allowables of ``[material]`` (the default limits) and the tolerance study's
+percentile."""
 
 _PAIR = (
     "design.pins",
@@ -77,10 +92,13 @@ _RINGS = (
     "tolerance.pin_radius_um",
     "tolerance.eccentricity_um",
     "tolerance.position",
+    "tolerance.tangential_um",
 )
+_CHECKED = ("requirements", *_ALLOWABLES)
+"""What the kinds that check requirements use besides their own keys."""
 
 USED: dict[str, tuple[str, ...]] = {
-    "run": (*_LTCA, *_RUN_FIGURES, "cases", "stage", "design.disc"),
+    "run": (*_LTCA, *_RUN_FIGURES, "cases", "stage", "design.disc", *_CHECKED),
     "stiffness": (
         *_PAIR,
         *_OUTPUT,
@@ -91,6 +109,7 @@ USED: dict[str, tuple[str, ...]] = {
         "stiffness",
         "stage",
         "design.disc",
+        *_CHECKED,
     ),
     "tolerance": (
         *_LTCA,
@@ -98,9 +117,11 @@ USED: dict[str, tuple[str, ...]] = {
         "tolerance.rings",
         "tolerance.allowable_contact_stress_mpa",
         "tolerance.allocation.confidence",
+        *_CHECKED,
+        "requirements.tolerance_percentile",
     ),
     "allocate": (*_LTCA, "tolerance"),
-    "design": (*_LTCA, *_RINGS, "design_space"),
+    "design": (*_LTCA, *_RINGS, "design_space", *_CHECKED),
     "fe": (
         *_PAIR,
         *_OUTPUT,
@@ -109,6 +130,7 @@ USED: dict[str, tuple[str, ...]] = {
         "analysis.disc_body",
         "cases",
         "fe",
+        *_CHECKED,
     ),
 }
 """Keys (or whole tables) each kind of study uses."""

@@ -25,7 +25,7 @@ from cyclomesh.studyfile.schema import Normal, ToleranceSection, Uniform
 __all__ = ["RingErrors", "draw_ring_errors", "unit_disc"]
 
 # stream ids of the error kinds (part of the reproducibility contract: never renumber)
-_RADIAL, _ANGULAR, _PIN_RADIUS, _ECCENTRICITY, _POSITION = 1, 2, 3, 4, 5
+_RADIAL, _ANGULAR, _PIN_RADIUS, _ECCENTRICITY, _POSITION, _TANGENTIAL = 1, 2, 3, 4, 5, 6
 
 
 @dataclass(frozen=True)
@@ -118,8 +118,8 @@ def draw_ring_errors(
     pins : int
         Number of pins n1 [-].
     pin_circle_radius : float
-        Pin-circle radius a [m], to turn the tangential true-position error into
-        the angular error εψ,i = tangential / a.
+        Pin-circle radius a [m], to turn a tangential error (``tangential_um`` or the
+        true-position zone's) into the angular error εψ,i = tangential / a.
     rings : sequence of int
         Ring indices k ≥ 0.
 
@@ -140,6 +140,9 @@ def draw_ring_errors(
             radial[j] = _standard(spec.radial_um, _stream(seed, k, _RADIAL), pins)
         if spec.angular_urad is not None:
             angular[j] = _standard(spec.angular_urad, _stream(seed, k, _ANGULAR), pins)
+        if spec.tangential_um is not None:  # µm / m = µrad
+            tangential = _standard(spec.tangential_um, _stream(seed, k, _TANGENTIAL), pins)
+            angular[j] = tangential / pin_circle_radius
         if spec.position is not None:
             x, y = unit_disc(_stream(seed, k, _POSITION), pins)
             radius_um = 0.5 * spec.position.zone_diameter_um

@@ -1,0 +1,140 @@
+"""Tables the ``cyclomesh`` command prints: they fit an 80-column terminal.
+
+A study of one case is a vertical key/value table; several cases are a table with one
+row per metric and one column per case, in blocks of at most :data:`CASES_PER_TABLE`
+cases. Headers are the metrics' short labels with their units. The verdict table
+(requirements and design warnings) is one table per case: check, limit, value, margin,
+verdict.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+__all__ = ["CASES_PER_TABLE", "cell", "print_metrics", "print_checks", "RUN_ROWS"]
+
+CASES_PER_TABLE = 4
+"""Cases side by side in one table (4 × 13 columns + labels fit 80 columns)."""
+
+RUN_ROWS: tuple[tuple[str, str, float], ...] = (
+    ("te_pp_arcsec", "TE p-p [arcsec]", 1.0),
+    ("te_mean_arcsec", "TE mean [arcsec]", 1.0),
+    ("max_pin_load_n", "max pin load [N]", 1.0),
+    ("max_contact_stress_mpa", "max σH tooth [MPa]", 1.0),
+    ("max_groove_stress_mpa", "max σH groove [MPa]", 1.0),
+    ("contacts", "pins in contact", 1.0),
+    ("gear_ratio_ripple_pct", "ratio ripple [%]", 1.0),
+    ("play_arcsec_max", "max play [arcmin]", 1.0 / 60.0),
+    ("max_mesh_force_n", "max mesh force [N]", 1.0),
+    ("stage_lost_motion_arcmin", "stage lost motion [arcmin]", 1.0),
+    ("stage_torsional_rigidity_nm_per_arcmin", "stage rigidity [N·m/arcmin]", 1.0),
+    ("stage_max_crank_bearing_load_n", "max bearing load [N]", 1.0),
+    ("stage_l10_h_min", "bearing L10h [h]", 1.0),
+)
+"""Rows of the run summary: metric key, short label with unit, factor to that unit."""
+
+
+def cell(value: Any, factor: float = 1.0) -> str:
+    """A number with 4 significant digits ("–" for none; a list per torque joined by /)."""
+    if isinstance(value, list):
+        return " / ".join(cell(v, factor) for v in value)
+    if value is None:
+        return "–"
+    if isinstance(value, int):
+        return str(value)
+    return f"{value * factor:.4g}"
+
+
+def _value(record: dict[str, Any], key: str, factor: float) -> str:
+    if key == "contacts":  # fewest–most pins in contact
+        low, high = record.get("contacts_min"), record.get("contacts_max")
+        if isinstance(low, list):
+            return " / ".join(f"{a}–{b}" for a, b in zip(low, high, strict=True))
+        return "–" if low is None else f"{low}–{high}"
+    return cell(record.get(key), factor)
+
+
+def print_metrics(
+    console: Any,
+    records: dict[str, dict[str, Any]],
+    rows: Sequence[tuple[str, str, float]],
+    title: str | None = None,
+) -> None:
+    """Print ``rows`` of the records: key/value for one case, metric × case for several.
+
+    Rows whose metric no case has are left out.
+    """
+    from rich.markup import escape
+    from rich.table import Table
+
+    rows = [r for r in rows if any(_has(rec, r[0]) for rec in records.values())]
+    names = list(records)
+    for start in range(0, len(names), CASES_PER_TABLE):
+        block = names[start : start + CASES_PER_TABLE]
+        if len(names) == 1:
+            table = Table("metric", "value", title=title or escape(block[0]))
+        else:
+            table = Table("metric", *(escape(n) for n in block), title=title)
+        for key, label, factor in rows:
+            table.add_row(escape(label), *(_value(records[n], key, factor) for n in block))
+        for column in table.columns[1:]:
+            column.justify = "right"
+            column.overflow = "fold"
+        console.print(table)
+
+
+def _has(record: dict[str, Any], key: str) -> bool:
+    if key == "contacts":
+        return record.get("contacts_min") is not None
+    return record.get(key) is not None
+
+
+def print_checks(console: Any, checks: dict[str, dict[str, Any]]) -> None:
+    """Print the verdict table: check, limit, value, margin, verdict for one case; for
+    several, one row per check and a "value verdict" column per case (blocks of
+    :data:`CASES_PER_TABLE`)."""
+    from rich.markup import escape
+    from rich.table import Table
+
+    from cyclomesh.results.requirements import VERDICT_MARK, checks_rows
+
+    checks = {name: case for name, case in checks.items() if case["rows"]}
+    if not checks:
+        return
+    style = {"fail": "bold red", "warning": "yellow"}
+    if len(checks) == 1:
+        name, case = next(iter(checks.items()))
+        title = f"verdict: {name}" + (f" ({case['values']})" if case.get("values") else "")
+        table = Table("check", "limit", "value", "margin", "verdict", title=escape(title))
+        for row, text in zip(case["rows"], checks_rows(case), strict=True):
+            table.add_row(*(escape(t) for t in text), style=style.get(row["verdict"]))
+        for column in table.columns[1:4]:
+            column.justify = "right"
+        console.print(table)
+    else:
+        names = list(checks)
+        for start in range(0, len(names), CASES_PER_TABLE):
+            block = names[start : start + CASES_PER_TABLE]
+            order: dict[str, tuple[str, str]] = {}
+            cells: dict[str, dict[str, str]] = {}
+            for name in block:
+                case = checks[name]
+                for row, text in zip(case["rows"], checks_rows(case), strict=True):
+                    limit = order.get(row["check"], (text[0], text[1]))[1]
+                    order[row["check"]] = (text[0], limit if limit == text[1] else "per case")
+                    mark = VERDICT_MARK.get(row["verdict"], row["verdict"])
+                    color = style.get(row["verdict"])
+                    value = f"{text[2]} {mark}"
+                    cells.setdefault(row["check"], {})[name] = (
+                        f"[{color}]{escape(value)}[/]" if color else escape(value)
+                    )
+            table = Table("check", "limit", *(escape(n) for n in block), title="verdict")
+            for key, (label, limit) in order.items():
+                table.add_row(escape(label), limit, *(cells[key].get(n, "–") for n in block))
+            for column in table.columns[1:]:
+                column.justify = "right"
+            console.print(table)
+    unchecked = sorted({k for case in checks.values() for k in case["not_checked"]})
+    if unchecked:
+        console.print("not computed here, not checked: " + ", ".join(unchecked), highlight=False)
