@@ -132,7 +132,9 @@ def main() -> None:
     parser.add_argument("--only", choices=("help", "run", "tolerance"), action="append")
     args = parser.parse_args()
     which = args.only or ["help", "run", "tolerance"]
-    if "dask" not in sys.modules:  # as the CLI does without --scheduler (cli._dask_hidden)
+    if (
+        "dask" not in sys.modules
+    ):  # as the CLI does without --scheduler (execution.runtime.hidden_dask)
         sys.modules["dask"] = None
     print(f"cores: {len(os.sched_getaffinity(0))}; best of {args.repeat}", flush=True)
     with tempfile.TemporaryDirectory() as tmp:

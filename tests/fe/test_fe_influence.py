@@ -112,7 +112,7 @@ def test_disc_fe_compares_with_the_compliant_ltca(coarse):
 
 
 def test_cache_folder_from_the_cli_option_or_the_user(monkeypatch, tmp_path):
-    from cyclomesh.cli import _cache_dir
+    from cyclomesh.cli.options import use_cache_dir as _cache_dir
     from cyclomesh.fe.influence import default_cache_dir
 
     monkeypatch.delenv("CYCLOMESH_CACHE_DIR", raising=False)

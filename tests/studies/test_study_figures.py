@@ -273,7 +273,7 @@ def test_commands_hide_dask_from_xarray_and_restore_it():
     pytest.importorskip("dask")
     code = (
         "import sys, numpy as np\n"
-        "from cyclomesh.cli import _dask_hidden\n"
+        "from cyclomesh.execution.runtime import hidden_dask as _dask_hidden\n"
         "with _dask_hidden():\n"
         "    import xarray as xr\n"
         "    xr.Dataset({'a': ('x', np.zeros(3))}, coords={'x': np.arange(3)}).sel(x=1)\n"

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -419,3 +419,20 @@ def check_physical(design: PairDesign, modification: Modification, errors: PinEr
             f"errors.radial_um: |εa| up to {np.max(np.abs(radial)) * 1e6:.6g} µm; it must "
             f"stay below the pin radius, {design.pin_radius * 1e6:.6g} µm"
         )
+
+
+def pin_errors_si(
+    radial_um: Any, angular_urad: Any, pin_radius_um: Any, eccentricity_um: Any
+) -> PinErrors:
+    """Core errors (SI) from µm, µrad, µm, µm, the units of study files (leading axes =
+    rings).
+
+    The one conversion of study-file errors, shared with the tolerance studies so that a
+    ring written out as a study file reads back to bit-for-bit the same errors.
+    """
+    return PinErrors(
+        radial=np.asarray(radial_um, float) * 1e-6,
+        angular=np.asarray(angular_urad, float) * 1e-6,
+        pin_radius=np.asarray(pin_radius_um, float) * 1e-6,
+        eccentricity=np.asarray(eccentricity_um, float) * 1e-6,
+    )

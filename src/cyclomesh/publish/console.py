@@ -10,9 +10,25 @@ verdict.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
-__all__ = ["CASES_PER_TABLE", "cell", "print_metrics", "print_checks", "RUN_ROWS"]
+__all__ = [
+    "CASES_PER_TABLE",
+    "cell",
+    "print_metrics",
+    "print_checks",
+    "print_warnings",
+    "print_run",
+    "print_stiffness",
+    "print_tolerance",
+    "print_allocation",
+    "print_design",
+    "print_fe",
+    "print_export",
+    "RUN_ROWS",
+    "STIFFNESS_ROWS",
+]
 
 CASES_PER_TABLE = 4
 """Cases side by side in one table (4 × 13 columns + labels fit 80 columns)."""
@@ -138,3 +154,177 @@ def print_checks(console: Any, checks: dict[str, dict[str, Any]]) -> None:
     unchecked = sorted({k for case in checks.values() for k in case["not_checked"]})
     if unchecked:
         console.print("not computed here, not checked: " + ", ".join(unchecked), highlight=False)
+
+
+def print_warnings(warnings: list[str]) -> None:
+    from rich.console import Console
+    from rich.markup import escape
+
+    console = Console()
+    for warning in warnings:
+        console.print(f"warning: {escape(warning)}")
+
+
+def print_run(
+    summaries: dict, out: Path, checks: dict | None = None, warnings: list[str] = ()
+) -> None:
+    from rich.console import Console
+
+    console = Console(highlight=False)
+    records = {
+        (
+            f"{name} ({'/'.join(f'{t:g}' for t in r['torque_nm'])} N·m)"
+            if isinstance(r.get("torque_nm"), list)
+            else name
+        ): r
+        for name, r in summaries.items()
+    }
+    print_metrics(console, records, RUN_ROWS)
+    if checks:
+        print_checks(console, checks)
+    overlap = [record.get("overlap") for record in summaries.values()]
+    if any(any(v) if isinstance(v, list) else v for v in overlap):
+        console.print(
+            "warning: the disc interferes with unloaded-side pins (see max_overlap_arcsec)"
+        )
+    print_warnings(list(warnings))
+    console.print(f"report: {out / 'report.html'}")
+
+
+STIFFNESS_ROWS = (
+    ("rated_torque_nm", "rated torque [N·m]", 1.0),
+    ("play_arcmin_max", "max play [arcmin]", 1.0),
+    ("lost_motion_arcmin_mean", "lost motion [arcmin]", 1.0),
+    ("lost_motion_arcmin_max", "max lost motion [arcmin]", 1.0),
+    ("torsional_rigidity_nm_per_arcmin_mean", "rigidity [N·m/arcmin]", 1.0),
+    ("torsional_rigidity_nm_per_arcmin_min", "min rigidity [N·m/arcmin]", 1.0),
+    ("drive_lost_motion_arcmin_max", "drive lost motion [arcmin]", 1.0),
+    ("drive_torsional_rigidity_nm_per_arcmin_min", "drive rigidity [N·m/arcmin]", 1.0),
+    ("stage_lost_motion_arcmin_max", "stage lost motion [arcmin]", 1.0),
+    ("stage_torsional_rigidity_nm_per_arcmin_min", "stage rigidity [N·m/arcmin]", 1.0),
+    ("stage_l10_h_min", "bearing L10h [h]", 1.0),
+)
+
+
+def print_stiffness(summaries: dict, out: Path, checks: dict | None = None) -> None:
+    from rich.console import Console
+
+    console = Console(highlight=False)
+    print_metrics(console, summaries, STIFFNESS_ROWS)
+    if checks:
+        print_checks(console, checks)
+    console.print(
+        "the mesh alone: crank bearings, crankshafts and the first stage are not included"
+    )
+    if any("stage_lost_motion_arcmin_max" in record for record in summaries.values()):
+        console.print("stage: the RV stage of [stage] (mesh + crank bearings), beside the mesh")
+    console.print(f"report: {out / 'report.html'}")
+
+
+def print_tolerance(stats: dict[str, Any], out: Path) -> None:
+    from rich.console import Console
+    from rich.markup import escape
+    from rich.table import Table
+
+    from cyclomesh.results.metrics import METRICS
+
+    table = Table(title=f"{stats['rings']} rings (seed {stats['seed']})")
+    for col in ("metric", "mean", "std", "P5", "P50", "P95", "P99"):
+        table.add_column(col, justify="left" if col == "metric" else "right")
+    for name, s in stats["metrics"].items():
+        m = METRICS.get(name)
+        label = name if m is None else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
+        table.add_row(
+            escape(label),
+            f"{s['mean']:.4g}",
+            f"{s['std']:.3g}",
+            *(f"{q['estimate']:.4g}" for q in s["percentiles"]),
+        )
+    console = Console(highlight=False)
+    console.print(table)
+    if stats.get("checks"):
+        print_checks(console, {"tolerance": stats["checks"]})
+    ex = stats["exceedance"]["max_contact_stress_mpa"]
+    conf = stats["confidence"]
+    console.print(
+        f"P(max_contact_stress_mpa > {stats['allowable_contact_stress_mpa']:g}) = "
+        f"{ex['probability']:.4g}, {conf:.0%} Clopper-Pearson [{ex['lower']:.4g}, "
+        f"{ex['upper']:.4g}] ({ex['count']} of {ex['rings']} rings)"
+    )
+    print_warnings(stats.get("warnings", []))
+    worst = stats["worst_ring"]
+    console.print(
+        f"worst ring {worst['ring']}: {worst['max_contact_stress_mpa']:.5g} MPa -> "
+        f"{out / 'worst_ring.toml'}"
+    )
+    console.print(
+        f"percentile intervals: {out / 'tolerance_summary.json'}; "
+        f"report: {out / 'report.html'} ({stats['rings_per_second']:.1f} rings/s)"
+    )
+
+
+def print_fe(summaries: dict, out: Path, checks: dict | None = None) -> None:
+    from rich.console import Console
+
+    from cyclomesh.results.metrics import FE_METRICS
+
+    rows = [
+        (key, m.label + ("" if m.unit == "1" else f" [{m.unit}]"), 1.0)
+        for key, m in FE_METRICS.items()
+    ]
+    console = Console(highlight=False)
+    print_metrics(console, summaries, rows)
+    if checks:
+        print_checks(console, checks)
+    console.print(f"report: {out / 'report.html'}")
+
+
+def print_allocation(statement: str, warnings: list[str], out: Path) -> None:
+    """The allocation's statement, its warnings and where the files are."""
+    from rich.console import Console
+
+    console = Console(highlight=False)
+    console.print(statement, markup=False)
+    print_warnings(warnings)
+    console.print(f"files: {out}", markup=False)
+
+
+def print_design(summary: dict[str, Any], seconds: float, out: Path) -> None:
+    """Candidates, the optimum and its verdict table, warnings, where the report is."""
+    from rich.console import Console
+
+    console = Console(highlight=False)
+    s = summary
+    console.print(
+        f"{s['candidates']} candidates, {s['feasible_candidates']} feasible, "
+        f"{s['failed_candidates']} failed ({seconds:.1f} s)",
+        markup=False,
+    )
+    if s["optimum"] is None:
+        console.print("no feasible candidate: relax the constraints or widen the ranges")
+    else:
+        where = ", ".join(f"{k} = {v:g}" for k, v in s["optimum"]["parameters"].items())
+        value = s["optimum"]["metrics"][s["objective_variable"]]
+        console.print(f"optimum: {where} ({s['objective_variable']} = {value:.6g})", markup=False)
+        if s.get("checks"):
+            print_checks(console, {"optimum": s["checks"]})
+    print_warnings(s.get("warnings", []))
+    console.print(f"report: {out / 'report.html'}", markup=False)
+
+
+def print_export(written: dict[str, dict[str, Path]], chord_tolerance_um: float) -> None:
+    """Per case of an export: points, tip and root radii, the files written."""
+    import json
+
+    from rich.console import Console
+
+    console = Console(highlight=False)
+    for name, files in written.items():
+        meta = json.loads(files["json"].read_text())
+        console.print(
+            f"{name}: {meta['vertices']} points, tip radius {meta['tip_radius_mm']:.4f} mm, "
+            f"root radius {meta['root_radius_mm']:.4f} mm, chord tolerance "
+            f"{chord_tolerance_um:g} µm",
+            markup=False,
+        )
+        console.print("  " + ", ".join(str(p) for p in files.values()), markup=False)

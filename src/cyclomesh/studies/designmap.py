@@ -35,6 +35,7 @@ import numpy as np
 from cyclomesh.designspace.sweep import GEOMETRY, METRICS, Constraints, parameter_value
 from cyclomesh.exceptions import DesignError, StudyError
 from cyclomesh.results.dataset import resolve_disc_body
+from cyclomesh.studies.execute import StudyKind
 from cyclomesh.studyfile.schema import DesignSpaceSection, Study, load_study
 from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
@@ -420,3 +421,14 @@ def design_sections(result: DesignResult) -> list[Section]:
 
         sections.insert(0, checks_section({"optimum": s["checks"]}))
     return warning_sections(s.get("warnings", [])) + sections
+
+
+DESIGN = StudyKind(
+    command="design",
+    title="design map",
+    compute=lambda study, **kw: compute_design(study, **kw),
+    write=lambda result, out, options: write_design(result, out),
+    figures=lambda result, early: design_figures(result),
+    sections=lambda result: design_sections(result),
+)
+"""``cyclomesh design`` (:func:`cyclomesh.studies.execute.execute`)."""

@@ -35,6 +35,7 @@ import numpy as np
 from cyclomesh.exceptions import StudyError
 from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.results.metrics import FE_METRICS
+from cyclomesh.studies.execute import StudyKind
 from cyclomesh.studyfile.schema import FeSection, Study, folder_name
 from cyclomesh.units import ARCSEC_PER_RAD
 
@@ -112,7 +113,9 @@ def compute_fe(
     *,
     crank_angles_deg: list[float] | None = None,
     convergence: bool = True,
-    progress: Callable[[str], None] | None = None,
+    backend: Any = None,
+    progress: Callable[[int], None] | None = None,
+    log: Callable[[str], None] | None = None,
     cache_dir: str | None = None,
 ) -> FeResult:
     """Solve every case by FE and LTCA at the crank angles (nothing is written).
@@ -123,7 +126,11 @@ def compute_fe(
         Crank angles [deg]; default ``[fe] crank_angles_deg``.
     convergence : bool
         Also solve the first crank angle at half the contact mesh density.
+    backend : None
+        Not used: the FE solves run here, one after the other (one signature of every kind).
     progress : callable, optional
+        ``progress(1)`` after each case.
+    log : callable, optional
         Called with a line of text before each FE solve.
     cache_dir : str, optional
         Cache of the disc body's coefficients (``[analysis] disc_body = "fe"``).
@@ -150,8 +157,8 @@ def compute_fe(
         if inputs.disc_body == "fe":
             from cyclomesh.fe.influence import influence
 
-            if progress:
-                progress(f"{case.name}: influence coefficients of the disc body (bore)")
+            if log:
+                log(f"{case.name}: influence coefficients of the disc body (bore)")
             # the whole-disc FE holds the disc at its bore: compare with the same support
             body = influence(
                 inputs.design,
@@ -161,8 +168,8 @@ def compute_fe(
                 bore_radius=section.bore_radius_mm * 1e-3,
             )
         for phi in angles:
-            if progress:
-                progress(f"{case.name}: crank angle {phi:g}°")
+            if log:
+                log(f"{case.name}: crank angle {phi:g}°")
             solved.append(
                 _solve(inputs, section, float(phi), section.elements_per_half_width, body)
             )
@@ -181,12 +188,14 @@ def compute_fe(
         result.summaries[case.name] = _summary(ds)
         result.checks[case.name] = case_checks(study, case, inputs, result.summaries[case.name])
         if convergence:
-            if progress:
-                progress(f"{case.name}: crank angle {angles[0]:g}° at half the mesh density")
+            if log:
+                log(f"{case.name}: crank angle {angles[0]:g}° at half the mesh density")
             coarse = _solve(
                 inputs, section, float(angles[0]), section.elements_per_half_width / 2, body
             )
             result.convergence[case.name] = _convergence(section, coarse, solved[0])
+        if progress:
+            progress(1)
     result.seconds = time.perf_counter() - start
     return result
 
@@ -378,3 +387,14 @@ def fe_sections(result: FeResult) -> list[Section]:
         )
     sections.append(Section("FE against LTCA", ""))
     return sections
+
+
+FE = StudyKind(
+    command="fe",
+    title="FE check",
+    compute=lambda study, **kw: compute_fe(study, **kw),
+    write=lambda result, out, options: write_fe(result, out),
+    figures=lambda result, early: fe_figures(result),
+    sections=lambda result: fe_sections(result),
+)
+"""``cyclomesh fe`` (:func:`cyclomesh.studies.execute.execute`)."""

@@ -27,6 +27,7 @@ from cyclomesh.publish.pipeline import case_attrs, study_stamp, summary_document
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
 from cyclomesh.results.profile import profile_curves
 from cyclomesh.results.stage import STAGE_METRICS
+from cyclomesh.studies.execute import StudyKind
 from cyclomesh.studyfile.schema import CaseInputs, CaseSpec, Study, folder_name
 
 if TYPE_CHECKING:
@@ -120,11 +121,18 @@ def summary_record(summary: xr.Dataset) -> dict[str, Any]:
 
 
 def compute_run(
-    study: Study, on_start: Hook | None = None, on_done: Hook | None = None
+    study: Study,
+    on_start: Hook | None = None,
+    on_done: Hook | None = None,
+    *,
+    backend: Any = None,
+    progress: Callable[[int], None] | None = None,
 ) -> RunResult:
     """Analyse every case of ``study`` (nothing is written).
 
-    ``on_start(name)`` and ``on_done(name)`` are called around each case (progress).
+    ``on_start(name)`` and ``on_done(name)`` are called around each case, ``progress(1)``
+    after each. The cases run in this process (one vectorised core call each), so
+    ``backend`` is not used; it is there for the one signature of every kind.
     """
     from cyclomesh.exceptions import CyclomeshError
     from cyclomesh.results.dataset import analyse, summarize
@@ -157,6 +165,8 @@ def compute_run(
         run.checks[case.name] = case_checks(study, case, inputs, run.summaries[case.name], ds)
         if on_done:
             on_done(case.name)
+        if progress:
+            progress(1)
     return run
 
 
@@ -571,3 +581,15 @@ def run_study(study: Study, out: str | Path, options: OutputOptions | None = Non
         return publish(
             out, study.title, run_sections(run), jobs, files, options, study_stamp(study)
         ).files
+
+
+RUN = StudyKind(
+    command="run",
+    title="",
+    compute=lambda study, **kw: compute_run(study, **kw),
+    write=lambda result, out, options: write_run(result, out, options),
+    figures=lambda result, early: run_figures(result, early),
+    sections=lambda result: run_sections(result),
+    early_figures=lambda study: input_figures(study),
+)
+"""``cyclomesh run`` (:func:`cyclomesh.studies.execute.execute`)."""

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 from cyclomesh.exceptions import CyclomeshError, StudyError
 from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.results.metrics import STIFFNESS_METRICS
+from cyclomesh.studies.execute import StudyKind
 from cyclomesh.studyfile.schema import CaseSpec, StiffnessSection, Study, folder_name
 
 if TYPE_CHECKING:
@@ -100,11 +101,12 @@ def check_stiffness(study: Study) -> None:
 
 
 def compute_stiffness(
-    study: Study, *, progress: Callable[[int], None] | None = None
+    study: Study, *, backend: Any = None, progress: Callable[[int], None] | None = None
 ) -> StiffnessResult:
     """Compute the torsion curve of every case (nothing is written).
 
-    ``progress(1)`` is called after each case. One case is one vectorised core call per
+    ``progress(1)`` is called after each case; ``backend`` is not used (one signature
+    for every kind). One case is one vectorised core call per
     torque (0.4 s for 42 torques × 360 crank angles × 40 pins), so the cases run here.
     """
     from cyclomesh.output.writers import jsonable
@@ -353,3 +355,14 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
         checks_section(result.checks),
         Section("Summary", summary),
     ]
+
+
+STIFFNESS = StudyKind(
+    command="stiffness",
+    title="torsion curve",
+    compute=lambda study, **kw: compute_stiffness(study, **kw),
+    write=lambda result, out, options: write_stiffness(result, out),
+    figures=lambda result, early: stiffness_figures(result),
+    sections=lambda result: stiffness_sections(result),
+)
+"""``cyclomesh stiffness`` (:func:`cyclomesh.studies.execute.execute`)."""

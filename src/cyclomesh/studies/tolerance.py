@@ -38,6 +38,7 @@ import numpy as np
 from cyclomesh.exceptions import StudyError
 from cyclomesh.results.dataset import resolve_disc_body
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC
+from cyclomesh.studies.execute import StudyKind
 from cyclomesh.studyfile.schema import Study, ToleranceSection, load_study
 from cyclomesh.studyfile.usage import check_keys
 from cyclomesh.tolerance.allocation import Allocation
@@ -834,3 +835,25 @@ def run_allocation(
         )
     published = publish_allocation(result, out_dir, _options(study, figures, options))
     return StudyFiles(result, published.files)
+
+
+TOLERANCE = StudyKind(
+    command="tolerance",
+    title="tolerance study",
+    compute=lambda study, **kw: compute_tolerance(study, **kw),
+    write=lambda result, out, options: write_tolerance(result, out),
+    figures=lambda result, early: tolerance_figures(result),
+    sections=lambda result: tolerance_sections(result),
+)
+"""``cyclomesh tolerance`` (:func:`cyclomesh.studies.execute.execute`)."""
+
+ALLOCATE = StudyKind(
+    command="allocate",
+    title="tolerance allocation",
+    compute=lambda study, **kw: compute_allocation(study, **kw),
+    write=lambda result, out, options: write_allocation(result, out),
+    figures=lambda result, early: allocation_figures(result),
+    sections=lambda result: allocation_sections(result),
+    report_name="allocation_report.html",
+)
+"""``cyclomesh allocate`` (:func:`cyclomesh.studies.execute.execute`)."""

@@ -68,6 +68,7 @@ from cyclomesh.core.pair import (
     PairDesign,
     PinErrors,
     check_physical,
+    pin_errors_si,
 )
 from cyclomesh.core.profile import check_profile
 from cyclomesh.exceptions import DesignError, StudyError
@@ -143,22 +144,6 @@ def tangential_urad(tangential_um: Any, pin_circle_radius_mm: float) -> NDArray:
     µm over mm is 1e-3 rad, i.e. 1e3 µrad.
     """
     return np.asarray(tangential_um, dtype=float) / pin_circle_radius_mm * 1e3
-
-
-def pin_errors_si(
-    radial_um: Any, angular_urad: Any, pin_radius_um: Any, eccentricity_um: Any
-) -> PinErrors:
-    """Core errors (SI) from the study units µm, µrad, µm, µm (leading axes = rings).
-
-    The one conversion of study-file errors, shared with the tolerance studies so that a
-    ring written out as a study file reads back to bit-for-bit the same errors.
-    """
-    return PinErrors(
-        radial=np.asarray(radial_um, float) * UM,
-        angular=np.asarray(angular_urad, float) * URAD,
-        pin_radius=np.asarray(pin_radius_um, float) * UM,
-        eccentricity=np.asarray(eccentricity_um, float) * UM,
-    )
 
 
 class _Section(BaseModel):

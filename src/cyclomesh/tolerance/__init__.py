@@ -7,7 +7,6 @@ schema (:class:`cyclomesh.studyfile.schema.ToleranceSection`); the study itself 
 figures, report) is :mod:`cyclomesh.studies.tolerance`.
 """
 
-from cyclomesh.studyfile.schema import ToleranceSection
-from cyclomesh.tolerance.sampling import RingErrors, draw_ring_errors
+from cyclomesh.tolerance.sampling import RingErrors, ToleranceSpec, draw_ring_errors
 
-__all__ = ["RingErrors", "ToleranceSection", "draw_ring_errors"]
+__all__ = ["RingErrors", "ToleranceSpec", "draw_ring_errors"]

@@ -16,11 +16,29 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.studyfile.schema import Normal, ToleranceSection, Uniform
+
+class Distribution(Protocol):
+    """One error distribution of the ``[tolerance]`` section: ``distribution`` is
+    ``"uniform"`` (with ``half_range``) or ``"normal"`` (with ``sigma``), in the unit of
+    its key (:class:`cyclomesh.studyfile.schema.Uniform`, ``Normal`` are such objects)."""
+
+    distribution: str
+
+
+class ToleranceSpec(Protocol):
+    """What the sampling reads of the ``[tolerance]`` section: ``seed`` and the optional
+    distributions ``radial_um``, ``angular_urad``, ``tangential_um``, ``pin_radius_um``,
+    ``eccentricity_um`` and ``position`` (a true-position zone with ``zone_diameter_um``).
+    :class:`cyclomesh.studyfile.schema.ToleranceSection` is one; the numerics here do
+    not depend on the study-file schema."""
+
+    seed: int
+
 
 __all__ = ["RingErrors", "draw_ring_errors", "unit_disc"]
 
@@ -97,14 +115,16 @@ def unit_disc(rng: np.random.Generator, size: int) -> tuple[NDArray[np.float64],
     return r * np.cos(theta), r * np.sin(theta)
 
 
-def _standard(dist: Uniform | Normal, rng: np.random.Generator, size: int) -> NDArray[np.float64]:
-    if isinstance(dist, Uniform):
+def _standard(dist: Any, rng: np.random.Generator, size: int) -> NDArray[np.float64]:
+    if dist.distribution == "uniform":
         return rng.uniform(-1.0, 1.0, size) * dist.half_range
-    return rng.standard_normal(size) * dist.sigma
+    if dist.distribution == "normal":
+        return rng.standard_normal(size) * dist.sigma
+    raise ValueError(f"unknown distribution {dist.distribution!r}")
 
 
 def draw_ring_errors(
-    spec: ToleranceSection,
+    spec: ToleranceSpec | Any,
     pins: int,
     pin_circle_radius: float,
     rings: Sequence[int] | NDArray[np.integer],
@@ -113,8 +133,8 @@ def draw_ring_errors(
 
     Parameters
     ----------
-    spec : ToleranceSection
-        Distributions and seed.
+    spec : ToleranceSpec
+        Distributions and seed (the ``[tolerance]`` section).
     pins : int
         Number of pins n1 [-].
     pin_circle_radius : float

@@ -33,13 +33,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors, pin_errors_si
 from cyclomesh.drive.solve import solve_drive
 from cyclomesh.exceptions import CyclomeshError
 from cyclomesh.results.dataset import drive_metrics
 from cyclomesh.results.metrics import STRESS_METRIC
-from cyclomesh.studyfile.schema import ToleranceSection, pin_errors_si
-from cyclomesh.tolerance.sampling import RingErrors, draw_ring_errors
+from cyclomesh.tolerance.sampling import RingErrors, ToleranceSpec, draw_ring_errors
 
 __all__ = [
     "BLOCK_PIN_STEPS",
@@ -79,7 +78,7 @@ class RingModel:
         Crank angles φin [deg].
     groove_deformation : bool
         Pin-groove deformation on (the improved model of [1]).
-    spec : ToleranceSection
+    spec : ToleranceSpec
         Distributions and seed.
     contact_law : {"paper", "half_plane"}
         Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
@@ -99,7 +98,7 @@ class RingModel:
     torque_nm: float
     crank_angles_deg: NDArray[np.float64]
     groove_deformation: bool
-    spec: ToleranceSection
+    spec: ToleranceSpec
     contact_law: str = "half_plane"
     discs: int = 1
     crank_range: tuple[float, float, float] | None = None

@@ -21,7 +21,7 @@ from cyclomesh.core.pair import TABLE1, Modification
 from cyclomesh.core.profile import modified_profile
 from cyclomesh.exceptions import DesignError
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 TPM = Modification(pin_circle_radius=-5e-6, pin_radius=8e-6)
 
 

@@ -18,7 +18,7 @@ from cyclomesh.results.requirements import (
     peak_stress_warning,
 )
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 def test_margins_verdicts_and_what_is_not_computed():

@@ -1,0 +1,269 @@
+"""Options shared by the commands of ``cyclomesh``, and the progress display (stderr)."""
+
+from __future__ import annotations
+
+import functools
+import os
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from cyclomesh.exceptions import StudyError
+
+StudyArg = Annotated[
+    Path, typer.Argument(help="Study file (TOML).", show_default=False, metavar="STUDY.toml")
+]
+OutOption = Annotated[Path, typer.Option("--out", "-o", help="Output folder (created if needed).")]
+QuietOption = Annotated[
+    bool, typer.Option("--quiet", "-q", help="No progress and no summary table.")
+]
+StepOption = Annotated[
+    float | None,
+    typer.Option(
+        "--crank-step-deg",
+        help="Override analysis.crank_step_deg of every case [deg] (for a quick look).",
+        show_default=False,
+    ),
+]
+CacheDirOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--cache-dir",
+        help='Cache of the FE coefficients of [analysis] disc_body = "fe" (default: '
+        "$XDG_CACHE_HOME/cyclomesh or ~/.cache/cyclomesh).",
+        show_default=False,
+    ),
+]
+FiguresOption = Annotated[
+    str | None,
+    typer.Option(
+        "--figures",
+        help="Figure formats, comma-separated: png, svg, pdf; or none "
+        "(default: figures.formats of the study file, png).",
+        show_default=False,
+    ),
+]
+CsvOption = Annotated[
+    bool,
+    typer.Option(
+        "--csv",
+        help="Also write the full pin-level results.csv of every case (the same numbers "
+        "are in results.parquet and results.nc).",
+    ),
+]
+RingsOption = Annotated[
+    int | None,
+    typer.Option(
+        "--rings", min=1, help="Rings to draw (default: tolerance.rings).", show_default=False
+    ),
+]
+SchedulerOption = Annotated[
+    str | None,
+    typer.Option(
+        "--scheduler",
+        help="Dask scheduler address (tcp://HOST:PORT) of an existing cluster; "
+        "default: all local cores.",
+        show_default=False,
+    ),
+]
+WorkersOption = Annotated[
+    int | None,
+    typer.Option(
+        "--workers", min=1, help="Local worker processes (default: all cores).", show_default=False
+    ),
+]
+NoLimitOption = Annotated[
+    bool,
+    typer.Option(
+        "--no-work-limit",
+        help="Run even a study that asks for more than the work limits (docs/study-files.md).",
+    ),
+]
+ChunkOption = Annotated[
+    int | None,
+    typer.Option(
+        "--chunk-rings",
+        min=1,
+        help="Rings per chunk of work (default: one core call, 16 rings at 1°).",
+        show_default=False,
+    ),
+]
+
+
+def stderr_console(quiet: bool = False) -> Any:
+    """A Rich console on stderr for progress (silent when ``quiet``)."""
+    from rich.console import Console
+
+    return Console(stderr=True, quiet=quiet, highlight=False)
+
+
+@contextmanager
+def progress_bar(
+    total: int, label: str, quiet: bool, unit: str = "rings"
+) -> Iterator[Callable[[int], None]]:
+    """A progress bar on stderr (none when quiet or not a terminal); yields ``advance(n)``."""
+    console = stderr_console(quiet)
+    if quiet or not console.is_terminal:
+        yield lambda done: None
+        return
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TaskProgressColumn,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn() if unit else TaskProgressColumn(),
+        TimeElapsedColumn(),
+        TextColumn("left"),
+        TimeRemainingColumn(),
+        console=console,
+    ) as bar:
+        task = bar.add_task(label, total=total)
+        yield lambda done: bar.advance(task, done)
+
+
+def say(message: str, quiet: bool) -> None:
+    if not quiet:
+        stderr_console().print(message)
+
+
+def overrides(crank_step_deg: float | None) -> dict:
+    return {} if crank_step_deg is None else {"analysis": {"crank_step_deg": crank_step_deg}}
+
+
+def use_cache_dir(path: Path | None) -> None:
+    """Point the disc body's cache at ``path`` for this process and its workers."""
+    if path is not None:
+        os.environ["CYCLOMESH_CACHE_DIR"] = str(path)
+
+
+def check_workers(workers: int | None) -> None:
+    """Refuse ``--workers`` above 4 per usable CPU (each worker holds its own memory)."""
+    import os
+
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    most = 4 * max(1, cpus or 1)
+    if workers is not None and workers > most:
+        raise StudyError(f"--workers {workers}: at most {most} (4 per usable CPU, {cpus} here)")
+
+
+def output_options(study: Any, figures: str | None, csv: bool = False) -> Any:
+    """The pipeline's :class:`~cyclomesh.publish.pipeline.OutputOptions` from the CLI options."""
+    from cyclomesh.publish.pipeline import OutputOptions
+
+    return OutputOptions.from_study(study, figures, csv)
+
+
+TolStudyArg = Annotated[
+    Path,
+    typer.Argument(help="Study file (TOML) with a [tolerance] section.", metavar="STUDY.toml"),
+]
+
+
+DesignStudyArg = Annotated[
+    Path,
+    typer.Argument(help="Study file (TOML) with a [design_space] section.", metavar="STUDY.toml"),
+]
+TargetOption = Annotated[
+    float | None,
+    typer.Option(
+        "--target-probability",
+        help="Acceptable probability of exceeding the allowable contact stress "
+        "(default: tolerance.allocation.target_probability, 0.01).",
+        show_default=False,
+    ),
+]
+CrankAnglesOption = Annotated[
+    str | None,
+    typer.Option(
+        "--crank-angles",
+        help="Comma-separated crank angles [deg] (default: [fe] crank_angles_deg).",
+    ),
+]
+ConvergenceOption = Annotated[
+    bool, typer.Option(help="Also solve the first angle at half the contact mesh density.")
+]
+FormatOption = Annotated[str, typer.Option("--format", help="Comma-separated: dxf, svg, csv.")]
+ChordOption = Annotated[
+    float,
+    typer.Option(
+        "--chord-tolerance-um",
+        help="Largest distance between the exported polyline and the exact profile [µm].",
+    ),
+]
+
+
+def bar(total: int, label: str, quiet: bool) -> Callable[[], Any]:
+    """A progress bar to be started later (by :func:`cyclomesh.studies.execute.execute`)."""
+    return lambda: progress_bar(total, label, quiet)
+
+
+def run_backend(scheduler: str | None, workers: int | None, parallel: bool = True) -> Any:
+    """The execution backend of ``--scheduler``/``--workers`` (None unless ``parallel``)."""
+    from cyclomesh.execution.backends import make_backend
+
+    check_workers(workers)
+    return make_backend(scheduler, workers) if parallel else None
+
+
+def crank_angles_from(text: str | None) -> list[float] | None:
+    """The angles of ``--crank-angles`` [deg] (None: the study's)."""
+    if not text:
+        return None
+    from cyclomesh.studyfile.limits import MAX_ABS_CRANK_DEG
+
+    try:
+        angles = [float(a) for a in text.split(",")]
+    except ValueError:
+        raise StudyError(
+            f"--crank-angles: expected numbers separated by commas, got {text!r}"
+        ) from None
+    if not 1 <= len(angles) <= 24 or not all(abs(a) <= MAX_ABS_CRANK_DEG for a in angles):
+        raise StudyError(
+            f"--crank-angles: expected 1 to 24 angles within ±{MAX_ABS_CRANK_DEG:g} deg, "
+            f"got {text!r}"
+        )
+    return angles
+
+
+def require_fe_extra() -> None:
+    """Refuse ``cyclomesh fe`` in one line when the fe extra (scikit-fem, gmsh) cannot load."""
+    try:
+        import gmsh  # noqa: F401
+        import skfem  # noqa: F401
+    except (ImportError, OSError) as exc:  # gmsh's wheel also needs X11/OpenGL libraries
+        raise StudyError(
+            f"cyclomesh fe needs the fe extra: pip install -e '.[fe]' ({exc})".replace("\n", " ")
+        ) from None
+
+
+def show_version(value: bool) -> None:
+    if value:
+        from cyclomesh.publish.report import cyclomesh_version
+
+        typer.echo(f"cyclomesh {cyclomesh_version()}")
+        raise typer.Exit()
+
+
+def without_dask(command: Callable[..., Any]) -> Callable[..., Any]:
+    """Run ``command`` with dask hidden from xarray
+    (:func:`cyclomesh.execution.runtime.hidden_dask`) unless it was given a ``scheduler``."""
+
+    @functools.wraps(command)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        from cyclomesh.execution.runtime import hidden_dask
+
+        with hidden_dask(kwargs.get("scheduler") is None):
+            return command(*args, **kwargs)
+
+    return wrapper

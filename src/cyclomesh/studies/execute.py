@@ -1,0 +1,194 @@
+"""One path for every command: :func:`execute` runs a kind of study into a result folder.
+
+A kind of study is a :class:`StudyKind`: its command name, its compute function, its
+result-file writer, its figure jobs and report sections (see ``docs/pipeline.md``).
+:func:`execute` does the rest the same way for every kind:
+
+1. locks the output folder and removes its completion marker
+   (:class:`~cyclomesh.output.folder.ResultFolder`);
+2. starts the figure workers (forked before any thread starts) or, for a kind whose
+   items run on an execution backend, the backend and an import preload thread;
+3. computes, with the progress callback the caller gives;
+4. writes the result files, renders the figures and writes the report
+   (:func:`~cyclomesh.publish.pipeline.publish`); ``summary.json`` is written last.
+
+The runtime helpers that keep a command fast (figure workers forked early and warmed
+up, imports preloaded while the workers compute) live here too, so the command line
+(:mod:`cyclomesh.cli`) only parses options and prints.
+"""
+
+from __future__ import annotations
+
+import gc
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import AbstractContextManager, contextmanager, nullcontext
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+__all__ = ["StudyKind", "execute", "figure_pool", "running_backend"]
+
+Progress = Callable[[int], None]
+
+
+@dataclass(frozen=True)
+class StudyKind:
+    """A kind of study as every command runs it.
+
+    Attributes
+    ----------
+    command : str
+        The ``cyclomesh`` command (also the name the completion marker records).
+    title : str
+        Report title after the study's title ("" for none).
+    compute : callable
+        ``compute(study, *, backend, progress, **options) -> result``: no file written.
+    write : callable
+        ``write(result, out, options) -> list[Path]``: the result files.
+    figures : callable
+        ``figures(result, early) -> list[FigureJob]``, ``early`` the jobs of
+        ``early_figures`` already submitted (the same objects, so none is drawn twice).
+    sections : callable
+        ``sections(result) -> list[Section]``.
+    early_figures : callable, optional
+        ``early_figures(study) -> list[FigureJob]``: figures of the inputs, drawn while
+        the study computes.
+    report_name : str
+        File name of the report.
+    """
+
+    command: str
+    title: str
+    compute: Callable[..., Any]
+    write: Callable[[Any, Path, Any], list[Path]]
+    figures: Callable[[Any, list[Any]], list[Any]]
+    sections: Callable[[Any], list[Any]]
+    early_figures: Callable[[Any], list[Any]] | None = None
+    report_name: str = "report.html"
+
+
+def figure_pool(options: Any) -> AbstractContextManager[Any]:
+    """Figure workers, forked now (before any progress thread); none without figures."""
+    if not options.figures:
+        return nullcontext(None)
+    import xarray  # noqa: F401  (needed anyway: inherited by the forked workers)
+
+    from cyclomesh.figures.render import FigurePool
+
+    gc.freeze()  # the workers' collections then leave the inherited objects (and pages) alone
+    return FigurePool(options.figure_workers)
+
+
+def _preload(figures: bool) -> threading.Thread:
+    """Import xarray (and matplotlib) in a thread while the workers compute.
+
+    Started after the worker processes are forked; joined before anything else forks,
+    so the figure workers inherit the imported modules.
+    """
+
+    def work() -> None:
+        import numpy as np
+        import xarray as xr
+
+        xr.DataArray(np.zeros(1))  # the first array sets up xarray's array backends
+        if figures:
+            from cyclomesh.figures.render import warm_up
+
+            warm_up(draw=True)  # the figure workers forked later inherit it
+        gc.freeze()  # nor do their collections scan what they inherit
+
+    thread = threading.Thread(target=work, name="cyclomesh-preload", daemon=True)
+    thread.start()
+    return thread
+
+
+@contextmanager
+def running_backend(backend: Any, figures: bool) -> Iterator[Any]:
+    """``backend`` (an :mod:`cyclomesh.execution.backends` backend, or None) started,
+    with the import preload thread; closed on exit, the preload joined after success."""
+    try:
+        if backend is not None:
+            backend.start()
+        preload = _preload(figures)
+        yield backend
+    finally:
+        if backend is not None:
+            backend.close()
+    preload.join()
+
+
+def execute(
+    kind: StudyKind,
+    study: Any,
+    out: str | Path,
+    options: Any,
+    *,
+    backend: Any = None,
+    parallel: bool = False,
+    progress: Callable[[], AbstractContextManager[Progress]] | None = None,
+    **compute_options: Any,
+) -> Any:
+    """Run ``kind`` on ``study`` into the folder ``out``; return the computed result.
+
+    Parameters
+    ----------
+    kind : StudyKind
+        What to compute, write, draw and report.
+    study : Study
+        The loaded, validated study file.
+    out : path
+        Output folder: locked while the study runs, ``summary.json`` written last.
+    options : OutputOptions
+        Figure formats and the like (:class:`cyclomesh.publish.pipeline.OutputOptions`).
+    backend : Backend, optional
+        Where the items of a ``parallel`` kind run (local processes or Dask); started
+        here and closed before the figures are drawn.
+    parallel : bool
+        Whether the kind runs on a backend (then the figure workers are forked only
+        after it closed) or in this process (then they are forked first and draw
+        while the study computes).
+    progress : callable, optional
+        ``progress() -> context manager yielding advance(n)``, entered once the workers
+        are forked (a progress bar is a thread).
+    **compute_options
+        Passed on to ``kind.compute``.
+    """
+    from cyclomesh.output.folder import ResultFolder
+    from cyclomesh.publish.pipeline import publish, study_stamp
+
+    out = Path(out)
+    bar = progress or (lambda: nullcontext(lambda n: None))
+    with ResultFolder(out, kind.command):
+        early: list[Any] = []
+        if parallel:
+            pool_context: AbstractContextManager[Any] = nullcontext(None)
+            with running_backend(backend, bool(options.figures)) as started, bar() as advance:
+                result = kind.compute(study, backend=started, progress=advance, **compute_options)
+        else:
+            pool_context = figure_pool(options)
+        with pool_context as pool:
+            if not parallel:
+                if options.figures and kind.early_figures is not None:
+                    early = kind.early_figures(study)
+                    if pool is not None:  # drawn while the study computes
+                        pool.submit(early, options.figures, options.dpi)
+                with bar() as advance:
+                    result = kind.compute(study, backend=None, progress=advance, **compute_options)
+            jobs = kind.figures(result, early) if options.figures else []
+            if pool is not None:  # drawn while the result files are written
+                pool.submit(jobs, options.figures, options.dpi)
+            files = kind.write(result, out, options)
+            title = f"{study.title}: {kind.title}" if kind.title else study.title
+            publish(
+                out,
+                title,
+                kind.sections(result),
+                jobs,
+                files,
+                options,
+                study_stamp(study),
+                report_name=kind.report_name,
+                pool=pool,
+            )
+    return result
