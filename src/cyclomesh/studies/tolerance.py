@@ -71,8 +71,6 @@ __all__ = [
     "worst_ring_study",
     "run_tolerance",
     "run_allocation",
-    "publish_tolerance",
-    "publish_allocation",
 ]
 
 Progress = Callable[[int], None]
@@ -738,45 +736,18 @@ def _options(study: Study, figures: bool, options: OutputOptions | None) -> Outp
     return OutputOptions.from_study(study, None if figures else "none")
 
 
-def publish_tolerance(result: ToleranceResult, out: str | Path, options: OutputOptions) -> Any:
-    """Write the files of a tolerance study into ``out``, then its figures and
-    ``report.html``; returns :class:`cyclomesh.publish.pipeline.Published`."""
-    from cyclomesh.output.folder import ResultFolder
-    from cyclomesh.publish.pipeline import publish
+def _fixed(progress: Progress | None) -> Any:
+    """``progress`` as :func:`~cyclomesh.studies.execute.execute` takes it."""
+    from contextlib import nullcontext
 
-    out = Path(out)
-    with ResultFolder(out, "tolerance"):
-        files = write_tolerance(result, out)
-        return publish(
-            out,
-            f"{result.study.title}: tolerance study",
-            tolerance_sections(result),
-            tolerance_figures(result) if options.figures else [],
-            files,
-            options,
-            {"SHA-256 of the study file": result.study.sha256},
-        )
+    return lambda: nullcontext(progress or (lambda n: None))
 
 
-def publish_allocation(result: AllocationResult, out: str | Path, options: OutputOptions) -> Any:
-    """Write the files of a tolerance allocation into ``out``, then its figure and
-    ``allocation_report.html``; returns :class:`cyclomesh.publish.pipeline.Published`."""
-    from cyclomesh.output.folder import ResultFolder
-    from cyclomesh.publish.pipeline import publish
+def _listed(out: str | Path) -> list[Path]:
+    """The files the completion marker of ``out`` vouches for."""
+    from cyclomesh.output.folder import load_results
 
-    out = Path(out)
-    with ResultFolder(out, "allocate"):
-        files = write_allocation(result, out)
-        return publish(
-            out,
-            f"{result.study.title}: tolerance allocation",
-            allocation_sections(result),
-            allocation_figures(result) if options.figures else [],
-            files,
-            options,
-            {"SHA-256 of the study file": result.study.sha256},
-            report_name="allocation_report.html",
-        )
+    return list(load_results(out).files)
 
 
 def run_tolerance(
@@ -797,13 +768,22 @@ def run_tolerance(
     Runs on ``backend``, else on a Dask cluster at ``scheduler`` or on ``workers``
     local processes (closed at the end), else in this process.
     """
+    from cyclomesh.studies.execute import execute
+
     study, _ = load_tolerance_study(study_path)
     with _backend(backend, scheduler, workers) as where:
-        result = compute_tolerance(
-            study, rings=rings, backend=where, chunk_rings=chunk_rings, progress=progress
+        result = execute(
+            TOLERANCE,
+            study,
+            out_dir,
+            _options(study, figures, options),
+            backend=where,
+            parallel=True,
+            progress=_fixed(progress),
+            rings=rings,
+            chunk_rings=chunk_rings,
         )
-    published = publish_tolerance(result, out_dir, _options(study, figures, options))
-    return StudyFiles(result, published.files)
+    return StudyFiles(result, _listed(out_dir))
 
 
 def run_allocation(
@@ -823,18 +803,23 @@ def run_allocation(
     """A whole tolerance allocation: compute, write the files, the figure and
     ``allocation_report.html`` (``backend``, ``scheduler``, ``workers`` as for
     :func:`run_tolerance`)."""
+    from cyclomesh.studies.execute import execute
+
     study, _ = load_tolerance_study(study_path)
     with _backend(backend, scheduler, workers) as where:
-        result = compute_allocation(
+        result = execute(
+            ALLOCATE,
             study,
+            out_dir,
+            _options(study, figures, options),
+            backend=where,
+            parallel=True,
+            progress=_fixed(progress),
             target_probability=target_probability,
             rings=rings,
-            backend=where,
             chunk_rings=chunk_rings,
-            progress=progress,
         )
-    published = publish_allocation(result, out_dir, _options(study, figures, options))
-    return StudyFiles(result, published.files)
+    return StudyFiles(result, _listed(out_dir))
 
 
 TOLERANCE = StudyKind(
