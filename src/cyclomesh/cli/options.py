@@ -149,10 +149,10 @@ def use_cache_dir(path: Path | None) -> None:
 
 def check_workers(workers: int | None) -> None:
     """Refuse ``--workers`` above 4 per usable CPU (each worker holds its own memory)."""
-    import os
+    from cyclomesh.execution.runtime import usable_cpus
 
-    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    most = 4 * max(1, cpus or 1)
+    cpus = usable_cpus()
+    most = 4 * cpus
     if workers is not None and workers > most:
         raise StudyError(f"--workers {workers}: at most {most} (4 per usable CPU, {cpus} here)")
 
@@ -249,9 +249,9 @@ def require_fe_extra() -> None:
 
 def show_version(value: bool) -> None:
     if value:
-        from cyclomesh.publish.report import cyclomesh_version
+        from cyclomesh.execution.runtime import version
 
-        typer.echo(f"cyclomesh {cyclomesh_version()}")
+        typer.echo(f"cyclomesh {version()}")
         raise typer.Exit()
 
 

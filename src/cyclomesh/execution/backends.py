@@ -40,7 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cyclomesh.exceptions import CyclomeshError
-from cyclomesh.execution.runtime import start_worker, tune_allocator
+from cyclomesh.execution.runtime import start_worker, tune_allocator, usable_cpus
 
 __all__ = [
     "ExecutionError",
@@ -131,7 +131,7 @@ class ProcessBackend:
     def __init__(
         self, workers: int | None = None, in_flight_per_worker: int = 2, max_restarts: int = 3
     ) -> None:
-        self.workers = workers or _cpu_count()
+        self.workers = workers or usable_cpus()
         self.in_flight = max(1, in_flight_per_worker * self.workers)
         self.max_restarts = max_restarts
         self.restarts = 0
@@ -377,13 +377,6 @@ def _nothing() -> None:
 def _call(task: ChunkFunction, start: int, stop: int) -> Any:
     tune_allocator()
     return task(start, stop)
-
-
-def _cpu_count() -> int:
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # pragma: no cover - not Linux
-        return max(1, os.cpu_count() or 1)
 
 
 def make_backend(scheduler: str | None = None, workers: int | None = None) -> Backend:

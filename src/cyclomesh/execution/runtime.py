@@ -12,7 +12,14 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-__all__ = ["hidden_dask", "tune_allocator", "die_with_parent", "start_worker"]
+__all__ = [
+    "usable_cpus",
+    "version",
+    "hidden_dask",
+    "tune_allocator",
+    "die_with_parent",
+    "start_worker",
+]
 
 MMAP_THRESHOLD = 32 * 1024 * 1024
 """Arrays up to this size [bytes] come from the heap, not from a fresh mmap."""
@@ -127,3 +134,22 @@ def _forget_no_dask() -> None:
     ops = sys.modules.get("xarray.core.duck_array_ops")
     if getattr(ops, "dask_available", None) is False:
         ops.dask_available = utils.module_available("dask")  # type: ignore[union-attr]
+
+
+def usable_cpus() -> int:
+    """CPUs this process may run on (its affinity mask; at least 1)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def version() -> str:
+    """The installed cyclomesh version (``importlib.metadata``), or ``"unknown"``."""
+    from importlib.metadata import PackageNotFoundError
+    from importlib.metadata import version as installed
+
+    try:
+        return installed("cyclomesh")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "unknown"

@@ -25,10 +25,6 @@ __all__ = ["map_metrics", "plot_design_map", "plot_design_maps"]
 Marks = Mapping[str, Mapping[str, float]]
 
 
-def _figure(width: float, height: float) -> Figure:
-    return new_figure(width, height, layout="constrained")  # colour bars
-
-
 def map_metrics(ds: xr.Dataset) -> list[str]:
     """The metric variables of a design map, in the order of :data:`METRICS`."""
     return [var for var, *_ in METRICS.values() if var in ds]
@@ -149,7 +145,7 @@ def plot_design_map(ds: xr.Dataset, metric: str, marks: Marks | None = None) -> 
     """
     if metric not in ds:
         raise ValueError(f"{metric!r} is not in the map (one of {', '.join(map_metrics(ds))})")
-    fig = _figure(6.0, 4.6)
+    fig = new_figure(6.0, 4.6, layout="constrained")
     _draw(fig.subplots(), ds, metric, marks)
     return fig
 
@@ -159,7 +155,7 @@ def plot_design_maps(ds: xr.Dataset, marks: Marks | None = None) -> Figure:
     metrics = map_metrics(ds)
     cols = 2 if len(metrics) > 1 else 1
     rows = -(-len(metrics) // cols)
-    fig = _figure(6.0 * cols, 4.4 * rows)
+    fig = new_figure(6.0 * cols, 4.4 * rows, layout="constrained")
     axes = np.atleast_1d(fig.subplots(rows, cols, squeeze=False)).ravel()
     for ax, metric in zip(axes, metrics, strict=False):
         _draw(ax, ds, metric, marks)

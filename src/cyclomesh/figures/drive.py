@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import xarray as xr
 
-from cyclomesh.figures.render import new_figure
+from cyclomesh.figures.render import fixed_figure, new_figure
 from cyclomesh.figures.run import case_legend, case_results, case_width
 
 if TYPE_CHECKING:
@@ -32,24 +32,6 @@ __all__ = [
 Results = xr.Dataset | Mapping[str, xr.Dataset]
 
 
-def _figure(width: float, height: float) -> Figure:
-    return new_figure(width, height, layout="constrained")  # long labels, twin panels
-
-
-def _fixed(width: float, height: float, left: float = 0.9) -> Figure:
-    """A figure with fixed margins [in] (half the time of a constrained layout), for the
-    figures of every run."""
-    fig = new_figure(width, height)
-    fig.subplots_adjust(
-        left=left / width,
-        right=1 - 0.15 / width,
-        bottom=0.5 / height,
-        top=1 - 0.3 / height,
-        hspace=0.08,
-    )
-    return fig
-
-
 def plot_torsion_curve(results: Results) -> Figure:
     """Catalogue-style torsion curve: rotation [arcmin] against torque [% of rated].
 
@@ -62,7 +44,7 @@ def plot_torsion_curve(results: Results) -> Figure:
     kinds = [("rotation", "cycloid-pin mesh")]
     if any("drive_rotation" in ds for ds in cases.values()):
         kinds.append(("drive_rotation", "whole drive (mesh + series stiffness)"))
-    fig = _figure(6.0 * len(kinds), 4.6)
+    fig = new_figure(6.0 * len(kinds), 4.6, layout="constrained")
     axes = fig.subplots(1, len(kinds), squeeze=False)[0]
     for ax, (var, title) in zip(axes, kinds, strict=True):
         for i, (name, ds) in enumerate(cases.items()):
@@ -111,7 +93,7 @@ def plot_rigidity(results: Results) -> Figure:
     """Torsional rigidity [N·m/arcmin] over the crank angle; whole drive on its own axes."""
     cases = case_results(results, "torsional_rigidity")
     drive = any("drive_torsional_rigidity" in ds for ds in cases.values())
-    fig = _figure(8.5, 5.6 if drive else 3.6)
+    fig = new_figure(8.5, 5.6 if drive else 3.6, layout="constrained")
     axes = fig.subplots(2 if drive else 1, 1, sharex=True, squeeze=False)[:, 0]
     for i, (name, ds) in enumerate(cases.items()):
         crank = ds["crank_angle"].values
@@ -131,7 +113,7 @@ def plot_rigidity(results: Results) -> Figure:
 def plot_play(results: Results) -> Figure:
     """Play and lost motion [arcmin] over the crank angle."""
     cases = case_results(results, "play")
-    fig = _figure(9.0, 3.8)
+    fig = new_figure(9.0, 3.8, layout="constrained")
     ax = fig.add_subplot()
     for i, (name, ds) in enumerate(cases.items()):
         crank = ds["crank_angle"].values
@@ -172,7 +154,7 @@ def plot_torque_share(results: Results, torque_nm: float | None = None) -> Figur
     largest positive one).
     """
     cases = case_results(results, "torque_share")
-    fig = _fixed(7.0, 3.6)
+    fig = fixed_figure(7.0, 3.6, left=0.9, right=0.15, bottom=0.5, top=0.3, hspace=0.08)
     ax = fig.add_subplot()
     for i, (name, ds) in enumerate(cases.items()):
         share = ds["torque_share"]
@@ -200,7 +182,7 @@ def plot_torque_share(results: Results, torque_nm: float | None = None) -> Figur
 def plot_mesh_force(results: Results) -> Figure:
     """Mesh force (the crank bearing load) [N] and its direction [deg] over the crank angle."""
     cases = case_results(results, "mesh_force")
-    fig = _fixed(7.0, 5.0)
+    fig = fixed_figure(7.0, 5.0, left=0.9, right=0.15, bottom=0.5, top=0.3, hspace=0.08)
     top, bottom = fig.subplots(2, 1, sharex=True)
     for i, (name, ds) in enumerate(cases.items()):
         force, angle = ds["mesh_force"], ds["mesh_force_angle"]

@@ -27,6 +27,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.execution.runtime import usable_cpus
+
 __all__ = [
     "FORMATS",
     "FigureJob",
@@ -101,6 +103,32 @@ def new_figure(width: float, height: float, layout: str | None = None) -> Any:
 
     fig = Figure(figsize=(width, height), layout=layout)
     FigureCanvasAgg(fig)
+    return fig
+
+
+def fixed_figure(
+    width: float,
+    height: float,
+    *,
+    left: float,
+    right: float,
+    bottom: float,
+    top: float,
+    wspace: float | None = None,
+    hspace: float | None = None,
+) -> Any:
+    """A :func:`new_figure` with fixed subplot margins given in inches (a layout engine
+    costs more than the plot); ``wspace``/``hspace`` as in matplotlib (None: its
+    default)."""
+    fig = new_figure(width, height)
+    fig.subplots_adjust(
+        left=left / width,
+        right=1 - right / width,
+        bottom=bottom / height,
+        top=1 - top / height,
+        wspace=wspace,
+        hspace=hspace,
+    )
     return fig
 
 
@@ -234,7 +262,7 @@ class FigurePool:
     """
 
     def __init__(self, workers: int | None = None) -> None:
-        self.workers = _cpus() if workers is None else workers
+        self.workers = usable_cpus() if workers is None else workers
         self._pool: ProcessPoolExecutor | None = None
         self._pending: dict[tuple[int, tuple[str, ...], int], tuple[FigureJob, Any]] = {}
         if (
@@ -326,7 +354,7 @@ def render_figures(
     if pool is not None and pool.active and jobs:  # its workers are warm already
         return pool.map(jobs, folder, formats, dpi)
     if workers is None:
-        workers = _cpus() if len(jobs) >= POOL_MIN_FIGURES else 1
+        workers = usable_cpus() if len(jobs) >= POOL_MIN_FIGURES else 1
     workers = min(workers, len(jobs))
     if workers > 1:
         warm_up(draw=True)  # once here rather than in every forked worker
@@ -334,10 +362,3 @@ def render_figures(
             if own.active:
                 return own.map(jobs, folder, formats, dpi)
     return [_draw(job, folder, formats, dpi) for job in jobs]
-
-
-def _cpus() -> int:
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # pragma: no cover - not Linux
-        return max(1, os.cpu_count() or 1)

@@ -25,7 +25,7 @@ import numpy as np
 import xarray as xr
 
 from cyclomesh.core.pair import PinErrors
-from cyclomesh.figures.render import decimate, new_figure
+from cyclomesh.figures.render import decimate, fixed_figure, new_figure
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -47,20 +47,8 @@ __all__ = [
 Results = xr.Dataset | Mapping[str, xr.Dataset]
 
 
-def _figure(width: float, height: float, **adjust: float) -> Figure:
-    """A figure with fixed subplot margins (a layout engine costs more than the plot)."""
-    fig = new_figure(width, height)
-    margins = {"left": 0.8, "right": 0.25, "bottom": 0.55, "top": 0.4}
-    margins.update({k: v for k, v in adjust.items() if k in margins})
-    fig.subplots_adjust(
-        left=margins["left"] / width,
-        right=1 - margins["right"] / width,
-        bottom=margins["bottom"] / height,
-        top=1 - margins["top"] / height,
-        wspace=adjust.get("wspace", 0.25),
-        hspace=adjust.get("hspace", 0.45),
-    )
-    return fig
+_MARGINS = {"left": 0.8, "right": 0.25, "bottom": 0.55, "top": 0.4, "wspace": 0.25, "hspace": 0.45}
+"""Subplot margins [in] and spacing of the run figures (:func:`fixed_figure`)."""
 
 
 def case_results(results: Results, needs: str | None = None) -> dict[str, xr.Dataset]:
@@ -124,7 +112,7 @@ def plot_profile(curves: ProfileCurves) -> Figure:
     (0 = tooth-space bottom, ±180 = tips). The right axes has one line per case, then
     the zero line. The curves come from :func:`cyclomesh.results.profile.profile_curves`.
     """
-    fig = _figure(10.0, 4.2, left=0.7, wspace=0.3)
+    fig = fixed_figure(10.0, 4.2, **{**_MARGINS, "left": 0.7, "wspace": 0.3})
     ax_tooth, ax_mod = fig.subplots(1, 2, width_ratios=[1.0, 1.4])
     ax_tooth.plot(curves.standard_x_mm, curves.standard_y_mm, "k--", lw=1.0, label="standard")
     for name, (x, y, removed) in curves.modified.items():
@@ -155,7 +143,7 @@ def plot_pin_errors(errors: PinErrors | Mapping[str, PinErrors], pins: int) -> F
     """
     if isinstance(errors, PinErrors):
         errors = {"": errors}
-    fig = _figure(10.0, 7.0, left=0.9, hspace=0.15)
+    fig = fixed_figure(10.0, 7.0, **{**_MARGINS, "left": 0.9, "hspace": 0.15})
     axes = fig.subplots(3, 1, sharex=True)
     numbers = np.arange(1, pins + 1)
     width = 0.8 / len(errors)
@@ -185,7 +173,7 @@ def plot_loads(results: Results, crank_angles_deg: Sequence[float] = (0, 60, 120
     Fc [N], right the groove load Fp [N]; one line per case in each axes.
     """
     cases = case_results(results)
-    fig = _figure(10.0, 2.4 * len(crank_angles_deg) + 0.6, hspace=0.4)
+    fig = fixed_figure(10.0, 2.4 * len(crank_angles_deg) + 0.6, **{**_MARGINS, "hspace": 0.4})
     axes = np.atleast_2d(fig.subplots(len(crank_angles_deg), 2, sharex=True, squeeze=False))
     for row, angle in zip(axes, crank_angles_deg, strict=True):
         for i, (name, ds) in enumerate(cases.items()):
@@ -220,7 +208,7 @@ def plot_profile_stress(results: Results, pin: int = 20, x: str = "profile_angle
     if x not in ("profile_angle", "contact_radius"):
         raise ValueError(f"x must be 'profile_angle' or 'contact_radius', got {x!r}")
     cases = case_results(results)
-    fig = _figure(7.5, 4.5)
+    fig = fixed_figure(7.5, 4.5, **_MARGINS)
     ax = fig.subplots()
     for i, (name, ds) in enumerate(cases.items()):
         one = ds.sel(pin=pin)
@@ -307,7 +295,7 @@ def plot_transmission_error(results: Results) -> Figure:
     computed angles. One line per case; TE [arcsec], negative = the disc lags.
     """
     cases = case_results(results)
-    fig = _figure(11.0, 4.0, left=0.9, wspace=0.3)
+    fig = fixed_figure(11.0, 4.0, **{**_MARGINS, "left": 0.9, "wspace": 0.3})
     ax_mesh, ax_all = fig.subplots(1, 2, width_ratios=[1.0, 2.0])
     for i, (name, ds) in enumerate(cases.items()):
         crank = ds["crank_angle"].values
@@ -335,7 +323,7 @@ def plot_gear_ratio(results: Results) -> Figure:
     One line per case plus the ideal ratio n2.
     """
     cases = case_results(results)
-    fig = _figure(9.0, 4.0)
+    fig = fixed_figure(9.0, 4.0, **_MARGINS)
     ax = fig.subplots()
     for i, (name, ds) in enumerate(cases.items()):
         ax.plot(
@@ -360,7 +348,7 @@ def plot_gear_ratio(results: Results) -> Figure:
 def plot_contacts(results: Results) -> Figure:
     """Number of pins in contact over the crank angle; one step line per case."""
     cases = case_results(results)
-    fig = _figure(9.0, 3.6)
+    fig = fixed_figure(9.0, 3.6, **_MARGINS)
     ax = fig.subplots()
     for i, (name, ds) in enumerate(cases.items()):
         ax.step(
@@ -393,7 +381,7 @@ def plot_backlash(results: Results, crank_angles_deg: Sequence[float] = (0.0,)) 
     cases = case_results(results)
     plays = [float(np.nanmax(ds["play"].values)) for ds in cases.values() if "play" in ds]
     top = max([BACKLASH_SCALE_MIN, *(3.0 * p for p in plays if np.isfinite(p))])
-    fig = _figure(9.0, 2.4 * len(crank_angles_deg) + 0.6)
+    fig = fixed_figure(9.0, 2.4 * len(crank_angles_deg) + 0.6, **_MARGINS)
     axes = fig.subplots(len(crank_angles_deg), 1, sharex=True, squeeze=False)[:, 0]
     for ax, angle in zip(axes, crank_angles_deg, strict=True):
         above = 0

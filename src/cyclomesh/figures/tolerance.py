@@ -15,12 +15,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import xarray as xr
 
-from cyclomesh.figures.render import new_figure
+from cyclomesh.figures.render import fixed_figure
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC, metric_label
 
 if TYPE_CHECKING:
-    from matplotlib.figure import Figure
-
     from cyclomesh.tolerance.allocation import Allocation
 
 __all__ = [
@@ -33,17 +31,8 @@ __all__ = [
 ]
 
 
-def _figure(width: float, height: float, hspace: float = 0.55) -> Figure:
-    fig = new_figure(width, height)
-    fig.subplots_adjust(
-        left=0.75 / width,
-        right=1 - 0.2 / width,
-        bottom=0.6 / height,
-        top=1 - 0.5 / height,
-        wspace=0.35,
-        hspace=hspace,
-    )
-    return fig
+_MARGINS = {"left": 0.75, "right": 0.2, "bottom": 0.6, "top": 0.5, "wspace": 0.35, "hspace": 0.55}
+"""Subplot margins [in] and spacing of the tolerance figures (:func:`fixed_figure`)."""
 
 
 ECDF_POINTS = 2000
@@ -132,7 +121,7 @@ def plot_metric_histograms(
     names = list(dist.histograms)
     cols = 4
     rows = -(-len(names) // cols)
-    fig = _figure(3.2 * cols, 2.5 * rows)
+    fig = fixed_figure(3.2 * cols, 2.5 * rows, **_MARGINS)
     axes = fig.subplots(rows, cols, squeeze=False).ravel()
     for ax, name in zip(axes, names, strict=False):
         counts, edges, _ = dist.histograms[name]
@@ -157,7 +146,7 @@ def plot_metric_ecdfs(
     names = list(dist.ecdfs)
     cols = 4
     rows = -(-len(names) // cols)
-    fig = _figure(3.2 * cols, 2.5 * rows)
+    fig = fixed_figure(3.2 * cols, 2.5 * rows, **_MARGINS)
     axes = fig.subplots(rows, cols, squeeze=False).ravel()
     n = dist.rings
     for ax, name in zip(axes, names, strict=False):
@@ -192,7 +181,7 @@ def plot_stress_exceedance(
     lo, hi = clopper_pearson(counts, n, confidence)
     floor = 0.5 / n
     lo, hi = np.maximum(lo, floor), np.maximum(hi, floor)
-    fig = _figure(6.4, 4.2)
+    fig = fixed_figure(6.4, 4.2, **_MARGINS)
     ax = fig.add_subplot()
     ax.fill_between(
         levels,
@@ -222,7 +211,7 @@ def plot_allocation(allocation: Allocation):
     """
     a = allocation
     floor = 0.5 / a.rings
-    fig = _figure(6.4, 4.2)
+    fig = fixed_figure(6.4, 4.2, **_MARGINS)
     ax = fig.add_subplot()
     ax.fill_between(
         a.curve_factor,

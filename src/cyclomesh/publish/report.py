@@ -15,9 +15,10 @@ import io
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any, Literal
+
+from cyclomesh.execution.runtime import version
 
 __all__ = [
     "Section",
@@ -65,12 +66,9 @@ class Section:
     figures: Sequence[tuple[Any, str]] = field(default_factory=list)
 
 
-def cyclomesh_version() -> str:
-    """The installed cyclomesh version (``importlib.metadata``), or ``"unknown"``."""
-    try:
-        return version("cyclomesh")
-    except PackageNotFoundError:  # pragma: no cover - running from a source tree
-        return "unknown"
+cyclomesh_version = version
+"""The installed cyclomesh version, or ``"unknown"``
+(:func:`cyclomesh.execution.runtime.version`)."""
 
 
 def figure_html(

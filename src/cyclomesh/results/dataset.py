@@ -11,7 +11,6 @@ is built, so the variable tables below can be read by worker processes cheaply.
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -21,7 +20,7 @@ from cyclomesh.core.ltca import CONTACT_LOAD_FRACTION, LTCA
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.solve import Drive, check_torques, solve_drive
 from cyclomesh.exceptions import DesignError
-from cyclomesh.execution.runtime import tune_allocator
+from cyclomesh.execution.runtime import tune_allocator, version
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, summary_metrics
 from cyclomesh.units import ARCSEC_PER_RAD
 
@@ -83,13 +82,6 @@ _PER_DISC = {
 _PLAY = ("play", ARCSEC_PER_RAD, "arcsec", "angular play between the flanks at zero load")
 
 
-def _version() -> str:
-    try:
-        return version("cyclomesh")
-    except PackageNotFoundError:  # pragma: no cover - running from a source tree
-        return "unknown"
-
-
 def to_dataset(
     result: LTCA,
     design: PairDesign,
@@ -134,7 +126,7 @@ def result_attrs(
     attrs = {
         "title": "cyclomesh loaded tooth contact analysis",
         "source": "Li, Tang, He, Sun, Machines 2022, 10, 672, doi:10.3390/machines10080672",
-        "cyclomesh_version": _version(),
+        "cyclomesh_version": version(),
         "pins": design.pins,
         "teeth": design.teeth,
         "pin_circle_radius_mm": design.pin_circle_radius * 1e3,
