@@ -111,3 +111,27 @@ def test_moment_arm_is_the_derivative_of_the_contact_rotation():
     # the pin moves by dr along its radial line; the gap closes by |dr|·cos β
     expected = -abs(dr[i]) * base.cos_beta[0, i] / base.moment_arm[0, i]
     assert d_rot == pytest.approx(expected, rel=1e-4)
+
+
+@pytest.mark.parametrize("eccentricity_mm", [26.0, 26.5, 27.0])
+def test_two_teeth_the_unloaded_flank_is_at_most_a_pitch_behind(eccentricity_mm):
+    # 3 pins, 2 teeth (pitch half a turn), K1 up to 0.99: a pin at a tooth tip has its
+    # two flanks half a turn apart; the plain wrap to (−π, π] read that as an
+    # interference of 180° (issue 15). The gap lies within [0, pitch]: the unmodified
+    # pair has no interference at all.
+    from cyclomesh import PairDesign
+
+    design = PairDesign(
+        pins=3,
+        pin_circle_radius=82e-3,
+        pin_radius=3.5e-3,
+        groove_radius=3.505e-3,
+        eccentricity=eccentricity_mm * 1e-3,
+        width=12e-3,
+    )
+    phi = np.deg2rad(np.arange(0.0, 360.0, 0.1))
+    geo = unloaded_contact(design, Modification(), None, phi)
+    ok = np.isfinite(geo.rotation) & np.isfinite(geo.reverse_rotation)
+    gap = (geo.rotation - geo.reverse_rotation)[ok]
+    pitch = 2.0 * np.pi / design.teeth
+    assert np.all(gap > -1e-9) and np.all(gap <= pitch + 1e-9)

@@ -237,7 +237,9 @@ def unloaded_contact(
     lateral = phi_t + rotation + t + np.arctan2(ny, nx) - pin_angle
     rotation = rotation + modification.rotation
     # unloaded flank: the mirror image about the tooth-space bottom
-    reverse = _wrap(arg_w - (t_root - u / n2) + arg_z - phi_t) - modification.rotation
+    reverse = _behind(
+        rotation, _wrap(arg_w - (t_root - u / n2) + arg_z - phi_t) - modification.rotation, n2
+    )
 
     moment_arm = -a * e * n2 * sin_u / d
     rho_x, rho_y = a - e * c - rho_gen * nx, -e * sin_u - rho_gen * ny
@@ -354,9 +356,11 @@ def _deviated_contact(
                 f"{np.degrees(phi[flat[-2], 0]):.6g}°, pin {flat[-1] + 1}"
             )
     rev = deviated_geometry(u_rev, design, modification, r_pin, space)
-    reverse = (
+    reverse = _behind(
+        rotation,
         _wrap(arg_w - (t_root + u_rev / n2) - np.arctan2(rev.qy, rev.qx) - phi_t)
-        - modification.rotation
+        - modification.rotation,
+        n2,
     )
     # moment arm of the line of action (through Q along N) about the disc centre
     moment_arm = geo.qx * geo.ny - geo.qy * geo.nx
@@ -379,6 +383,23 @@ def _tip_radius(design: PairDesign, modification: Modification, space: FloatArra
     """Radius of the tip of the deviated profile (where unreachable pins are reported) [m]."""
     a, rho_gen = generating_radii(design, modification)
     return a + design.eccentricity - rho_gen - modification.profile.evaluate(-np.pi, space)
+
+
+def _behind(rotation: FloatArray, reverse: FloatArray, teeth: int) -> FloatArray:
+    """The unloaded-flank rotation ``reverse`` [rad] taken a whole turn up or down so that
+    its gap to the loaded flank, ``rotation − reverse``, lies in (p/2 − π, p/2 + π], p =
+    2π/n2 the tooth pitch (Eq. 11 of [1]).
+
+    The flanks of one tooth space are at most a pitch apart (the gap is a pitch at the
+    tooth tip, near 0 at the bottom, slightly negative where a pin interferes). Each
+    rotation alone is wrapped to (−π, π]; for many teeth the gap is far from ±π and this
+    changes nothing, but with n2 = 2 a pin at a tooth tip has a gap of half a turn,
+    which the plain wrap could read as −π: a spurious interference of 180°.
+    """
+    gap = rotation - reverse
+    centre = np.pi / teeth
+    turns = np.floor((centre + np.pi - gap) / (2.0 * np.pi))
+    return np.where(turns != 0.0, reverse - 2.0 * np.pi * turns, reverse)
 
 
 def _wrap(angle: FloatArray) -> FloatArray:
