@@ -297,3 +297,23 @@ def test_importing_cyclomesh_does_not_import_distributed():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_a_ring_that_jams_at_a_large_factor_counts_as_exceeding(tmp_path):
+    """At four times the example's tolerances some rings jam the disc (a pin overlaps it
+    at every rotation): such a ring exceeds the allowable at that factor, the allocation
+    goes on, and every ring's bracket is the one it has when solved alone."""
+    text = (
+        EXAMPLE.read_text(encoding="utf-8")
+        .replace("factor_max = 2.0 ", "factor_max = 4.0 ")
+        .replace("crank_step_deg = 1.0 ", "crank_step_deg = 5.0 ")
+    )
+    study = tmp_path / "jam.toml"
+    study.write_text(text, encoding="utf-8")
+    batched = run_allocation(study, tmp_path / "batched", rings=8, workers=1, figures=False)
+    alone = run_allocation(
+        study, tmp_path / "alone", rings=8, workers=1, chunk_rings=1, figures=False
+    )
+    for name in ("critical_factor_lower", "critical_factor_upper"):
+        assert np.array_equal(batched.rings[name].values, alone.rings[name].values), name
+    assert np.all(np.isfinite(batched.rings["critical_factor_upper"].values))

@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors, pin_errors_si
 from cyclomesh.drive.solve import solve_drive
-from cyclomesh.exceptions import CyclomeshError
+from cyclomesh.exceptions import CyclomeshError, DesignError
 from cyclomesh.results.dataset import drive_metrics
 from cyclomesh.results.metrics import STRESS_METRIC
 from cyclomesh.tolerance.sampling import RingErrors, ToleranceSpec, draw_ring_errors
@@ -215,7 +215,9 @@ class AllocationTask:
     within the step where it first exceeds. The result brackets it: ``lower < f* ≤
     upper`` (upper = +inf if the ring never exceeds up to the largest factor).
 
-    The nominal ring (f = 0) must not exceed the allowable (checked by the caller).
+    The nominal ring (f = 0) must not exceed the allowable (checked by the caller). A
+    ring whose scaled errors jam the disc (a pin overlaps it at every rotation) counts as
+    exceeding at that factor.
     Every step solves the whole batch (rings already settled ride along and their
     results are ignored). One more solve at the stated tolerances (f = 1) gives each
     ring's :data:`STATED_METRICS` (peak stress, the largest mesh force on a disc and, for
@@ -229,7 +231,21 @@ class AllocationTask:
     metric: str = field(default=STRESS_METRIC)
 
     def _exceeds(self, drawn: RingErrors, factor: NDArray[np.float64]) -> NDArray[np.bool_]:
-        stress = self.model.metrics(drawn.scaled(factor))[self.metric]
+        """Whether each ring, its errors scaled by ``factor``, exceeds the allowable.
+
+        A ring whose scaled errors jam the disc (a pin overlaps it at every rotation,
+        :class:`~cyclomesh.exceptions.DesignError`) cannot meet any allowable: it counts
+        as exceeding. The batch is then solved ring by ring, which gives the other rings
+        the same bits (a ring's result does not depend on its batch).
+        """
+        try:
+            stress = self.model.metrics(drawn.scaled(factor))[self.metric]
+        except DesignError:
+            if drawn.rings.size == 1:
+                return np.array([True])
+            return np.concatenate(
+                [self._exceeds(drawn.take([i]), factor[i : i + 1]) for i in range(factor.size)]
+            )
         return stress > self.allowable_contact_stress_mpa
 
     def _block(self, first: int, last: int) -> dict[str, NDArray[Any]]:
