@@ -261,8 +261,16 @@ class Drive:
 
 
 @dataclass(frozen=True)
-class _Mesh:
-    """Unloaded state of a stack on its forward flanks, in the (possibly mirrored) frame."""
+class StackMesh:
+    """Unloaded state of a stack on its forward flanks, in the (possibly mirrored) frame: the
+    steps of :func:`solve_drive` before the load sharing. Fields: ``design``; ``geo``
+    (:class:`~cyclomesh.core.contact.UnloadedContact`, arrays (..., A, N, n1)); ``rest`` and
+    ``reverse_rest`` (rest rotation on the loaded and the opposite flanks [rad], (..., A));
+    ``backlash`` (φbl from the stack's rest [rad], (..., A, N·n1)); ``alpha``, ``gamma``
+    (compliance of δ = F(α − γ ln F) [m/N], (..., A, N·n1)); ``normal_x``, ``normal_y``
+    (outward flank normal, fixed frame, (..., A, N, n1): the force of pin i on its disc is
+    −F_i·n, a counter-clockwise disc rotation θ closes the gap by l_i·θ, a translation u by
+    n·u); ``ring_shape``; ``phi`` (crank angles of disc 1 in this frame [rad])."""
 
     design: PairDesign
     geo: UnloadedContact  # arrays (..., A, N, n1)
@@ -350,7 +358,7 @@ def play(
     modification = modification or Modification()
     errors = errors or PinErrors()
     phi = check_crank_angles(crank_angles)
-    discs = _check_discs(discs)
+    discs = check_discs(discs)
     check_pair(design, modification, errors)
     rest, reverse_rest = _rests(
         _stacked_contact(design, modification, errors, phi, discs), design.pins, discs
@@ -358,7 +366,7 @@ def play(
     return rest - reverse_rest
 
 
-def _check_discs(discs: int) -> int:
+def check_discs(discs: int) -> int:
     """The number of discs of a stack as an int ≥ 1, else a one-line DesignError."""
     if isinstance(discs, bool) or not isinstance(discs, int | np.integer) or discs < 1:
         raise DesignError(f"discs must be a whole number of at least 1, got {discs!r}")
@@ -374,7 +382,7 @@ def _mesh(
     groove_deformation: bool,
     contact_law: str = "half_plane",
     body: DiscBody | None = None,
-) -> _Mesh:
+) -> StackMesh:
     """Unloaded contact, rest positions and compliance of a stack (forward flanks)."""
     ring_shape = errors.ring_shape(design.pins)
     geo = _stacked_contact(design, modification, errors, phi, discs)
@@ -382,7 +390,7 @@ def _mesh(
     rest, reverse_rest = _rests(geo, design.pins, discs)
     alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
     nx, ny = _normals(design, modification, errors, phi, discs, geo)
-    return _Mesh(
+    return StackMesh(
         design=design,
         geo=geo,
         rest=rest,
@@ -441,7 +449,7 @@ def _normals(
     return np.cos(angle), np.sin(angle)
 
 
-def _load(mesh: _Mesh, torque: float) -> dict[str, FloatArray]:
+def _load(mesh: StackMesh, torque: float) -> dict[str, FloatArray]:
     """Loaded state of a stack under a positive torque, in the mesh's frame."""
     design, geo = mesh.design, mesh.geo
     flat_arm = mesh.backlash.shape
@@ -485,7 +493,7 @@ def _load(mesh: _Mesh, torque: float) -> dict[str, FloatArray]:
     }
 
 
-def _directions(
+def stack_meshes(
     design: PairDesign,
     modification: Modification,
     errors: PinErrors,
@@ -496,8 +504,10 @@ def _directions(
     reverse: bool,
     contact_law: str = "half_plane",
     body: DiscBody | None = None,
-) -> tuple[_Mesh | None, _Mesh | None]:
-    """Meshes of the forward flanks and of the mirrored (reverse) problem, as needed.
+) -> tuple[StackMesh | None, StackMesh | None]:
+    """The unloaded meshes of the forward flanks and of the mirror problem (reverse flanks),
+    as needed; the mirror problem is solved on the crank angles −φ reversed, and
+    :func:`unmirror` maps its arrays back (Eqs. 5–23 of [1]).
 
     The mirrored problem uses the same body coefficients: the disc (profile, bore and
     the crank holes at 2πk/N) is symmetric about its x-axis.
@@ -513,7 +523,7 @@ def _directions(
     return fwd, rev
 
 
-def _unmirror(arr: FloatArray, angle_axis: int, disc_axis: int | None, pins: bool) -> FloatArray:
+def unmirror(arr: FloatArray, angle_axis: int, disc_axis: int | None, pins: bool) -> FloatArray:
     """Map an array of the mirrored problem back onto the reverse flanks.
 
     Crank angle −φ → φ (the mirrored problem is solved on the reversed angles), disc k at
@@ -583,12 +593,12 @@ def solve_drive(
     modification = modification or Modification()
     errors = errors or PinErrors()
     torques = check_torques(torque)
-    discs = _check_discs(discs)
+    discs = check_discs(discs)
     phi = check_crank_angles(crank_angles)
     check_contact_law(contact_law)
     body = check_disc_body(disc_body, contact_law, design)
     check_pair(design, modification, errors)
-    fwd, rev = _directions(
+    fwd, rev = stack_meshes(
         design,
         modification,
         errors,
@@ -603,7 +613,7 @@ def solve_drive(
     if fwd is not None:
         play = fwd.rest - fwd.reverse_rest
     else:
-        play = _unmirror(rev.rest - rev.reverse_rest, -1, None, False)
+        play = unmirror(rev.rest - rev.reverse_rest, -1, None, False)
 
     per_torque = []
     for value in torques:
@@ -678,11 +688,11 @@ def _reverse(fields: dict[str, FloatArray]) -> dict[str, FloatArray]:
     out = {}
     for name, value in fields.items():
         if _PIN.get(name, False):
-            arr = _unmirror(value, -3, -2, True)
+            arr = unmirror(value, -3, -2, True)
         elif name in _PER_DISC:
-            arr = _unmirror(value, -2, -1, False)
+            arr = unmirror(value, -2, -1, False)
         else:
-            arr = _unmirror(value, -1, None, False)
+            arr = unmirror(value, -1, None, False)
         if name in _ODD:
             arr = -arr
         out[name] = arr
@@ -857,7 +867,7 @@ def torsion_curve(
     modification = modification or Modification()
     errors = errors or PinErrors()
     torques = torsion_torques(rated_torque, points)
-    discs = _check_discs(discs)
+    discs = check_discs(discs)
     if series_stiffness is not None and not (
         isinstance(series_stiffness, int | float)
         and math.isfinite(series_stiffness)
@@ -868,7 +878,7 @@ def torsion_curve(
     check_contact_law(contact_law)
     body = check_disc_body(disc_body, contact_law, design)
     check_pair(design, modification, errors)
-    fwd, rev = _directions(
+    fwd, rev = stack_meshes(
         design, modification, errors, phi, discs, groove_deformation, True, True, contact_law, body
     )
     rotation, contacts, stress, share = [], [], [], []
@@ -908,55 +918,3 @@ def torsion_curve(
             drive_torsional_rigidity=drive_rigidity,
         )
     return TorsionCurve(**result)
-
-
-# --- public steps, for the solvers built on this module (the RV stage, cyclomesh.stage) ---
-
-StackMesh = _Mesh
-"""Unloaded state of a stack on its forward flanks, in the (possibly mirrored) frame: the
-steps of :func:`solve_drive` before the load sharing. Fields: ``design``; ``geo``
-(:class:`~cyclomesh.core.contact.UnloadedContact`, arrays (..., A, N, n1)); ``rest`` and
-``reverse_rest`` (rest rotation on the loaded and the opposite flanks [rad], (..., A));
-``backlash`` (φbl from the stack's rest [rad], (..., A, N·n1)); ``alpha``, ``gamma``
-(compliance of δ = F(α − γ ln F) [m/N], (..., A, N·n1)); ``normal_x``, ``normal_y``
-(outward flank normal, fixed frame, (..., A, N, n1): the force of pin i on its disc is
-−F_i·n, a counter-clockwise disc rotation θ closes the gap by l_i·θ, a translation u by
-n·u); ``ring_shape``; ``phi`` (crank angles of disc 1 in this frame [rad])."""
-
-
-def stack_meshes(
-    design: PairDesign,
-    modification: Modification,
-    errors: PinErrors,
-    phi: FloatArray,
-    discs: int,
-    groove_deformation: bool,
-    forward: bool,
-    reverse: bool,
-    contact_law: str = "half_plane",
-) -> tuple[StackMesh | None, StackMesh | None]:
-    """The unloaded meshes of the forward flanks and of the mirror problem (reverse flanks),
-    as needed; the mirror problem is solved on the crank angles −φ reversed, and
-    :func:`unmirror` maps its arrays back (Eqs. 5–23 of [1])."""
-    return _directions(
-        design,
-        modification,
-        errors,
-        phi,
-        discs,
-        groove_deformation,
-        forward,
-        reverse,
-        contact_law,
-    )
-
-
-def unmirror(arr: FloatArray, angle_axis: int, disc_axis: int | None, pins: bool) -> FloatArray:
-    """An array of the mirror problem mapped back onto the reverse flanks: crank angle −φ →
-    φ, disc k → (1 − k) mod N + 1, pin i → (n1 − i) mod n1 (values are not negated)."""
-    return _unmirror(arr, angle_axis, disc_axis, pins)
-
-
-def check_discs(discs: int) -> int:
-    """The number of discs of a stack as an int ≥ 1, else a one-line DesignError."""
-    return _check_discs(discs)
