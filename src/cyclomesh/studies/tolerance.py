@@ -736,6 +736,37 @@ def _options(study: Study, figures: bool, options: OutputOptions | None) -> Outp
     return OutputOptions.from_study(study, None if figures else "none")
 
 
+def _whole(
+    kind: Any,
+    study_path: str | Path,
+    out_dir: str | Path,
+    backend: Backend | None,
+    scheduler: str | None,
+    workers: int | None,
+    figures: bool,
+    options: OutputOptions | None,
+    progress: Progress | None,
+    **compute: Any,
+) -> StudyFiles:
+    """Load the study, then :func:`~cyclomesh.studies.execute.execute` ``kind`` on the
+    backend of :func:`_backend` into ``out_dir``."""
+    from cyclomesh.studies.execute import execute
+
+    study, _ = load_tolerance_study(study_path)
+    with _backend(backend, scheduler, workers) as where:
+        result = execute(
+            kind,
+            study,
+            out_dir,
+            _options(study, figures, options),
+            backend=where,
+            parallel=True,
+            progress=_fixed(progress),
+            **compute,
+        )
+    return StudyFiles(result, _listed(out_dir))
+
+
 def _fixed(progress: Progress | None) -> Any:
     """``progress`` as :func:`~cyclomesh.studies.execute.execute` takes it."""
     from contextlib import nullcontext
@@ -768,22 +799,19 @@ def run_tolerance(
     Runs on ``backend``, else on a Dask cluster at ``scheduler`` or on ``workers``
     local processes (closed at the end), else in this process.
     """
-    from cyclomesh.studies.execute import execute
-
-    study, _ = load_tolerance_study(study_path)
-    with _backend(backend, scheduler, workers) as where:
-        result = execute(
-            TOLERANCE,
-            study,
-            out_dir,
-            _options(study, figures, options),
-            backend=where,
-            parallel=True,
-            progress=_fixed(progress),
-            rings=rings,
-            chunk_rings=chunk_rings,
-        )
-    return StudyFiles(result, _listed(out_dir))
+    return _whole(
+        TOLERANCE,
+        study_path,
+        out_dir,
+        backend,
+        scheduler,
+        workers,
+        figures,
+        options,
+        progress,
+        rings=rings,
+        chunk_rings=chunk_rings,
+    )
 
 
 def run_allocation(
@@ -803,23 +831,20 @@ def run_allocation(
     """A whole tolerance allocation: compute, write the files, the figure and
     ``allocation_report.html`` (``backend``, ``scheduler``, ``workers`` as for
     :func:`run_tolerance`)."""
-    from cyclomesh.studies.execute import execute
-
-    study, _ = load_tolerance_study(study_path)
-    with _backend(backend, scheduler, workers) as where:
-        result = execute(
-            ALLOCATE,
-            study,
-            out_dir,
-            _options(study, figures, options),
-            backend=where,
-            parallel=True,
-            progress=_fixed(progress),
-            target_probability=target_probability,
-            rings=rings,
-            chunk_rings=chunk_rings,
-        )
-    return StudyFiles(result, _listed(out_dir))
+    return _whole(
+        ALLOCATE,
+        study_path,
+        out_dir,
+        backend,
+        scheduler,
+        workers,
+        figures,
+        options,
+        progress,
+        target_probability=target_probability,
+        rings=rings,
+        chunk_rings=chunk_rings,
+    )
 
 
 TOLERANCE = StudyKind(
