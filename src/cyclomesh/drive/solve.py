@@ -80,6 +80,8 @@ from cyclomesh.core.ltca import (
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.core.profile import generating_radii
 from cyclomesh.core.transmission import gear_ratio, transmission_error
+from cyclomesh.core.friction import Friction
+from cyclomesh.drive.friction import FRICTION_FIELDS, FrictionCoupling
 from cyclomesh.exceptions import ConvergenceError, DesignError
 
 __all__ = [
@@ -234,6 +236,11 @@ class Drive:
         Instantaneous ratio of the stack (Eq. 26) [-].
     play : ndarray
         TE of the reverse rest position minus TE of the forward one [rad], ≥ 0, (..., A).
+    friction : dict or None
+        With friction (:mod:`cyclomesh.drive.friction`): ``friction_force``,
+        ``sliding_velocity_tooth``, ``sliding_velocity_groove``, ``power_loss_tooth``,
+        ``power_loss_groove``, ``friction_coefficient`` per pin (..., Q, A, N, n1) [N, m/s,
+        m/s, W, W, -] and ``input_torque`` per disc (..., Q, A, N) [N·m]; None without.
     """
 
     crank_angle: FloatArray
@@ -258,6 +265,7 @@ class Drive:
     transmission_error: FloatArray
     gear_ratio: FloatArray
     play: FloatArray
+    friction: dict[str, FloatArray] | None = None
 
 
 @dataclass(frozen=True)
@@ -285,6 +293,7 @@ class StackMesh:
     phi: FloatArray
     body: DiscBody | None = None
     tooth: NDArray | None = None  # (A, N·n1): tooth space of every contact (compliant disc)
+    eccentricity: FloatArray | None = None  # (..., 1, 1, 1): e + εe of every ring [m]
 
 
 def _disc_angles(phi: FloatArray, discs: int) -> FloatArray:
@@ -403,6 +412,8 @@ def _mesh(
         ring_shape=ring_shape,
         phi=phi,
         body=body,
+        eccentricity=design.eccentricity
+        + np.broadcast_to(np.asarray(errors.eccentricity, float), ring_shape)[..., None, None, None],
         tooth=None
         if body is None
         else tooth_index(design.pins, design.pitch, _disc_angles(phi, discs))
@@ -449,12 +460,18 @@ def _normals(
     return np.cos(angle), np.sin(angle)
 
 
-def _load(mesh: StackMesh, torque: float) -> dict[str, FloatArray]:
-    """Loaded state of a stack under a positive torque, in the mesh's frame."""
+def _load(
+    mesh: StackMesh, torque: float, friction: FrictionCoupling | None = None
+) -> dict[str, FloatArray]:
+    """Loaded state of a stack under a positive torque, in the mesh's frame; with
+    ``friction`` (:mod:`cyclomesh.drive.friction`) the friction forces enter the torque
+    balance and the friction fields are added."""
     design, geo = mesh.design, mesh.geo
     flat_arm = mesh.backlash.shape
     try:
-        if mesh.body is None:
+        if friction is not None:
+            loaded, force, state = friction.share(torque)
+        elif mesh.body is None:
             loaded, force = share_load(
                 mesh.backlash, geo.moment_arm.reshape(flat_arm), mesh.alpha, mesh.gamma, torque
             )
@@ -478,7 +495,8 @@ def _load(mesh: StackMesh, torque: float) -> dict[str, FloatArray]:
     total = (mesh.rest + loaded)[..., None, None]
     fx = -np.sum(force * mesh.normal_x, axis=-1)
     fy = -np.sum(force * mesh.normal_y, axis=-1)
-    return {
+    extra = {} if friction is None else friction.fields(force, state)
+    return extra | {
         "pin_load": force,
         "groove_load": groove_force,
         "contact_stress": contact_stress,
@@ -548,6 +566,8 @@ def solve_drive(
     discs: int = 1,
     contact_law: str = "half_plane",
     disc_body: str | DiscBody = "rigid",
+    friction: Friction | None = None,
+    backdrive: bool = False,
 ) -> Drive:
     """Loaded contact of a stack of discs on both flanks over a list of torques.
 
@@ -577,6 +597,14 @@ def solve_drive(
     disc_body : "rigid" or DiscBody
         Rigid disc, or the compliant disc body (:func:`~cyclomesh.core.ltca.solve_ltca`);
         the discs of a stack share no body.
+    friction : Friction, optional
+        Friction at the pin contacts (:mod:`cyclomesh.core.friction`), in the torque
+        balance; None (or all coefficients 0): the paper's frictionless model, bit for bit.
+    backdrive : bool
+        The sense of the motion with friction: False, the crank drives every torque (it
+        turns counter-clockwise, φ increasing, against a positive torque and clockwise
+        against a negative one); True, every torque drives the crank back (the motion
+        reversed, the same flanks loaded).
 
     Returns
     -------
@@ -598,6 +626,13 @@ def solve_drive(
     check_contact_law(contact_law)
     body = check_disc_body(disc_body, contact_law, design)
     check_pair(design, modification, errors)
+    if friction is not None and friction.frictionless:
+        friction = None
+    if friction is not None and body is not None:
+        raise DesignError(
+            'friction: the compliant (FE) disc body is not coupled with friction yet; set '
+            'disc_body = "rigid" or remove [friction]'
+        )
     fwd, rev = stack_meshes(
         design,
         modification,
@@ -616,9 +651,13 @@ def solve_drive(
         play = unmirror(rev.rest - rev.reverse_rest, -1, None, False)
 
     per_torque = []
+    sense = -1.0 if backdrive else 1.0
     for value in torques:
         mesh = fwd if value > 0 else rev
-        fields = _load(mesh, abs(float(value)))
+        coupling = None
+        if friction is not None:  # a negative torque: the crank turns clockwise, which
+            coupling = FrictionCoupling(mesh, friction, sense)  # the mirror turns over
+        fields = _load(mesh, abs(float(value)), coupling)
         geo = mesh.geo
         fields.update(
             backlash=mesh.backlash.reshape(geo.rotation.shape),
@@ -633,10 +672,12 @@ def solve_drive(
         per_torque.append(fields)
 
     def stacked(name: str) -> FloatArray:
-        axis = -4 if _PIN[name] else -3 if name in _PER_DISC else -2
+        axis = -4 if _PIN.get(name, name in _FRICTION_PIN) else -3 if name in _PER_DISC else -2
         return np.stack([fields[name] for fields in per_torque], axis=axis)
 
     out = {name: stacked(name) for name in _PIN}
+    if friction is not None:
+        out["friction"] = {name: stacked(name) for name in FRICTION_FIELDS}
     te = transmission_error(out["rest_rotation"], out["loaded_rotation"])
     fx, fy = out.pop("mesh_force_x"), out.pop("mesh_force_y")
     return Drive(
@@ -681,13 +722,16 @@ _ODD = {
 }
 """Fields that change sign in the mirror image."""
 _PER_DISC = {"torque_share", "contacts", "mesh_force_x", "mesh_force_y", "max_contact_stress"}
+_FRICTION_PIN = {name for name, (pin, _) in FRICTION_FIELDS.items() if pin}
+_ODD |= {name for name, (_, odd) in FRICTION_FIELDS.items() if odd}
+_PER_DISC |= {name for name, (pin, _) in FRICTION_FIELDS.items() if not pin}
 
 
 def _reverse(fields: dict[str, FloatArray]) -> dict[str, FloatArray]:
     """Fields of the mirrored forward problem mapped back onto the reverse flanks."""
     out = {}
     for name, value in fields.items():
-        if _PIN.get(name, False):
+        if _PIN.get(name, name in _FRICTION_PIN):
             arr = unmirror(value, -3, -2, True)
         elif name in _PER_DISC:
             arr = unmirror(value, -2, -1, False)

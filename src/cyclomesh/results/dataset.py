@@ -264,6 +264,7 @@ def analyse(
     disc_body: Any = "rigid",
     crank_holes: Any = None,
     cache_dir: Any = None,
+    friction: Any = None,
 ) -> xr.Dataset:
     """Loaded tooth contact analysis of a cycloid-pin pair as a labelled Dataset.
 
@@ -298,6 +299,12 @@ def analyse(
         once per design, then loaded from ``cache_dir``, default the per-user cache), the
         disc held at its ``crank_holes`` (a :class:`~cyclomesh.core.pair.CrankHoles`) or,
         without them, at the bore. Recorded in the ``disc_body`` attribute.
+    friction : Friction, optional
+        Friction at the pin contacts (:class:`cyclomesh.core.friction.Friction`), in the
+        equilibrium: the loaded contact is that of the crank driving the torque, and the
+        Dataset gains the friction variables of :mod:`cyclomesh.results.efficiency` (the
+        back-driving efficiency from a second solve). None or all coefficients 0: the
+        frictionless model, bit for bit.
 
     Returns
     -------
@@ -319,18 +326,19 @@ def analyse(
     torque_dim = np.ndim(torque) > 0
     torques = check_torques(torque)
     body = resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir)
-    result = solve_drive(
-        design,
-        modification,
-        errors,
-        torques,
-        crank_angles,
-        groove_deformation,
-        discs,
-        contact_law,
-        body,
-    )
+    if friction is not None and friction.frictionless:
+        friction = None
+    args = (design, modification, errors, torques, crank_angles, groove_deformation, discs)
+    result = solve_drive(*args, contact_law, body, friction=friction)
     ds = drive_to_dataset(result, design, modification, groove_deformation, torque_dim)
+    if friction is not None:
+        from cyclomesh.results.efficiency import efficiency_variables, friction_attrs
+
+        back = solve_drive(*args, contact_law, body, friction=friction, backdrive=True)
+        ds = ds.assign(
+            efficiency_variables(result, back, design.teeth, friction.speed, torque_dim)
+        )
+        ds.attrs.update(friction_attrs(friction))
     ds.attrs["contact_law"] = contact_law
     ds.attrs["disc_body"] = "rigid" if isinstance(body, str) else "fe"
     if not isinstance(body, str):

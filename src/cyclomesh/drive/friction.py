@@ -1,0 +1,173 @@
+"""Friction in the loaded solve of a disc stack: the coupling of :mod:`cyclomesh.core.friction`
+with :func:`cyclomesh.drive.solve.solve_drive` (one narrow hook in its ``_load``).
+
+:class:`FrictionCoupling` takes a stack's unloaded mesh (:class:`~cyclomesh.drive.solve.StackMesh`,
+in its own, possibly mirrored, frame), the friction and the sense of the motion, and
+
+* solves the load sharing with the friction moment arms l + μ_eff·s·m
+  (:func:`cyclomesh.core.friction.torque_arm`; for a lubricated coefficient, which depends
+  on the pin loads, by a fixed-point iteration on μ to round-off);
+* returns the per-pin tangential forces, sliding velocities and power losses, and the
+  input (crank) torque from the moment balance of the crank.
+
+The motion: ``motion = +1`` for the crank turning counter-clockwise in the mesh's frame
+(φ increasing), −1 for the opposite; ``loading = ±1`` instead for a torsion test, the crank
+held and the disc turning counter-clockwise (+1, the torque rising on the forward flanks)
+or clockwise about its centre. The mirror problem of the reverse flanks turns each sense
+over (the caller passes it in that frame).
+
+References
+----------
+See :mod:`cyclomesh.core.friction`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cyclomesh.core.friction import (
+    Friction,
+    contact_losses,
+    effective_coefficient,
+    input_torque,
+    normal_moment,
+    tangential_velocity,
+    torque_arm,
+)
+from cyclomesh.core.loadsharing import share_load
+from cyclomesh.exceptions import ConvergenceError
+
+__all__ = ["FrictionCoupling", "FRICTION_FIELDS", "COEFFICIENT_TOLERANCE"]
+
+FloatArray = NDArray[np.float64]
+
+COEFFICIENT_TOLERANCE = 1e-14
+"""Change of the lubricated coefficients at which the fixed point is accepted."""
+_MAX_FIXED_POINT = 60
+
+FRICTION_FIELDS = {
+    # name: (per pin, odd in the mirror)
+    "friction_force": (True, False),
+    "sliding_velocity_tooth": (True, False),
+    "sliding_velocity_groove": (True, False),
+    "power_loss_tooth": (True, False),
+    "power_loss_groove": (True, False),
+    "friction_coefficient": (True, False),
+    "input_torque": (False, True),
+}
+"""The fields :meth:`FrictionCoupling.fields` adds to a loaded state (per disc when not
+per pin), and whether the mirror image changes their sign."""
+
+
+@dataclass(frozen=True)
+class FrictionCoupling:
+    """Friction of one loaded state of a stack (see the module doc).
+
+    Parameters
+    ----------
+    mesh : StackMesh
+        The unloaded stack, arrays (..., A, N, n1).
+    friction : Friction
+    motion : float
+        +1 or −1: sense of the crank's turn in the mesh's frame (drive); 0 for a torsion
+        test (crank held), with ``loading``.
+    loading : float
+        +1 or −1: sense of the disc's turn about its centre in a torsion test.
+    """
+
+    mesh: object
+    friction: Friction
+    motion: float = 1.0
+    loading: float = 0.0
+
+    def _velocity(self) -> FloatArray:
+        """Tangential velocity of the disc at each contact, per unit of the motion [m/rad]."""
+        mesh, geo = self.mesh, self.mesh.geo
+        discs = geo.rotation.shape[-2]
+        if self.motion == 0.0:  # torsion test: the disc turns about its centre, v·t = m
+            return self.loading * normal_moment(geo.contact_radius, geo.moment_arm)
+        crank = mesh.phi[:, None] + 2.0 * np.pi * np.arange(discs) / discs  # (A, N)
+        v = tangential_velocity(
+            mesh.eccentricity,
+            crank[..., None],
+            mesh.normal_x,
+            mesh.normal_y,
+            geo.contact_radius,
+            geo.moment_arm,
+            mesh.design.teeth,
+        )
+        return self.motion * v
+
+    def share(self, torque: float) -> tuple[FloatArray, FloatArray, dict[str, FloatArray]]:
+        """Load sharing with friction: (rotation (..., A), force (..., A, N·n1), state)."""
+        mesh, geo = self.mesh, self.mesh.geo
+        flat = mesh.backlash.shape
+        arm = geo.moment_arm.reshape(flat)
+        velocity = self._velocity()
+        sign = np.sign(velocity).reshape(flat)
+        m = normal_moment(geo.contact_radius, geo.moment_arm).reshape(flat)
+        lubricated = self.friction.lubricant is not None and self.motion != 0.0
+        mu, groove = effective_coefficient(self.friction, geo.cos_beta)
+        mu = mu.reshape(flat)
+        for _ in range(_MAX_FIXED_POINT):
+            loaded, force = share_load(
+                mesh.backlash, arm, mesh.alpha, mesh.gamma, torque, torque_arm(arm, m, mu, sign)
+            )
+            if not lubricated:
+                break
+            new, groove = effective_coefficient(
+                self.friction,
+                geo.cos_beta,
+                force.reshape(geo.rotation.shape),
+                velocity,
+                mesh.design.width,
+            )
+            new = new.reshape(flat)
+            if np.max(np.abs(new - mu)) <= COEFFICIENT_TOLERANCE:
+                break  # the solve used μ, within the tolerance of its own fixed point
+            mu = new
+        else:
+            raise ConvergenceError(
+                "lubricated friction coefficients did not settle to "
+                f"{COEFFICIENT_TOLERANCE:.0e} in {_MAX_FIXED_POINT} iterations"
+            )
+        shape = geo.rotation.shape
+        state = {
+            "mu": mu.reshape(shape),
+            "groove": np.broadcast_to(groove, shape),
+            "velocity": velocity,
+            "sign": sign.reshape(shape),
+        }
+        return loaded, force, state
+
+    def fields(self, force: FloatArray, state: dict[str, FloatArray]) -> dict[str, FloatArray]:
+        """Per-pin friction force [N], sliding velocities [m/s], power losses [W] and
+        coefficient [-], and the input torque per disc [N·m] (:data:`FRICTION_FIELDS`)."""
+        mesh = self.mesh
+        mu, groove, velocity, sign = state["mu"], state["groove"], state["velocity"], state["sign"]
+        speed = self.friction.speed if self.motion != 0.0 else 0.0
+        friction_force = mu * force
+        sliding = np.abs(velocity) * speed
+        loss = contact_losses(mu, force, velocity, speed)
+        discs = force.shape[-2]
+        crank = mesh.phi[:, None] + 2.0 * np.pi * np.arange(discs) / discs
+        t_in = input_torque(
+            force,
+            -sign * friction_force,
+            mesh.normal_x,
+            mesh.normal_y,
+            mesh.eccentricity[..., 0],
+            crank,
+        )
+        return {
+            "friction_force": friction_force,
+            "sliding_velocity_tooth": np.where(groove, 0.0, sliding),
+            "sliding_velocity_groove": np.where(groove, sliding, 0.0),
+            "power_loss_tooth": np.where(groove, 0.0, loss),
+            "power_loss_groove": np.where(groove, loss, 0.0),
+            "friction_coefficient": mu,
+            "input_torque": t_in,
+        }
