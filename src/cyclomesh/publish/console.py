@@ -47,6 +47,8 @@ RUN_ROWS: tuple[tuple[str, str, float], ...] = (
     ("stage_torsional_rigidity_nm_per_arcmin", "stage rigidity [N·m/arcmin]", 1.0),
     ("stage_max_crank_bearing_load_n", "max bearing load [N]", 1.0),
     ("stage_l10_h_min", "bearing L10h [h]", 1.0),
+    ("efficiency", "efficiency [%]", 100.0),
+    ("backdrive_efficiency", "back-drive eff. [%]", 100.0),
 )
 """Rows of the run summary: metric key, short label with unit, factor to that unit."""
 

@@ -24,6 +24,7 @@ import numpy as np
 
 from cyclomesh.core.pair import Modification
 from cyclomesh.publish.pipeline import case_attrs, study_stamp, summary_document
+from cyclomesh.results.efficiency import EFFICIENCY_METRICS
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
 from cyclomesh.results.profile import profile_curves
 from cyclomesh.results.stage import STAGE_METRICS
@@ -153,6 +154,7 @@ def compute_run(
             raise type(exc)(f"{case.label}: {exc}") from None
         ds = annotate(ds, case, inputs, study)
         run.summaries[case.name] = summary_record(summarize(ds))
+        run.summaries[case.name].update(efficiency_summary(ds, case))
         if inputs.stage is not None:
             ds, sheet = _with_stage(ds, case, inputs)
             run.summaries[case.name].update(sheet)
@@ -168,6 +170,16 @@ def compute_run(
         if progress:
             progress(1)
     return run
+
+
+def efficiency_summary(ds: xr.Dataset, case: CaseSpec) -> dict[str, Any]:
+    """The friction numbers of a case (:func:`cyclomesh.results.efficiency.efficiency_record`),
+    or with no friction the input speed alone."""
+    from cyclomesh.results.efficiency import efficiency_record
+
+    if "power_loss" in ds:
+        return efficiency_record(ds)
+    return {"input_speed_rpm": case.load.speed_rpm(case.design.pins - 1)}
 
 
 def _with_stage(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs) -> tuple[xr.Dataset, dict]:
@@ -235,7 +247,11 @@ def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
                 "warnings": run.warnings.get(case.name, []),
             }
         )
-    units = {name: m.unit for name, m in (METRICS | DRIVE_METRICS | STAGE_METRICS).items()}
+    units = {
+        name: m.unit
+        for name, m in (METRICS | DRIVE_METRICS | STAGE_METRICS | EFFICIENCY_METRICS).items()
+    }
+    units["power_loss_w"] = "W"
     document = summary_document(study, units, records, warnings=run.study_warnings())
     written.append(write_json(out / "summary.json", document))
     return written

@@ -59,6 +59,7 @@ from pydantic import (
 )
 
 from cyclomesh.core.deviation import ProfileDeviation
+from cyclomesh.core.friction import ISO_VG, Friction, Lubricant
 from cyclomesh.core.pair import (
     POISSON_RATIO_RANGE,
     YOUNGS_MODULUS_RANGE,
@@ -134,6 +135,7 @@ CASE_SECTIONS = (
     "analysis",
     "stiffness",
     "stage",
+    "friction",
 )
 """Sections that a case may override."""
 
@@ -374,6 +376,102 @@ class LoadSection(_Section):
         description="torque on the disc (stack) T [N·m], or a list; negative loads the "
         "reverse flanks; 0 is refused",
     )
+    input_speed_rpm: float | None = Field(
+        None,
+        gt=0,
+        le=1e5,
+        description="input (crank) speed [rpm]: friction powers, lubricated coefficients, the "
+        "stage's output speed (= input/n2); default 15·n2 (15 rpm at the output)",
+    )
+
+    def speed_rpm(self, teeth: int) -> float:
+        """The input speed [rpm]: the key, else 15 rpm at the output (15·n2)."""
+        return self.input_speed_rpm if self.input_speed_rpm is not None else 15.0 * teeth
+
+
+class LubricantSection(_Section):
+    """``[friction.lubricant]``: the oil of the lubricated (Benedict–Kelley) coefficient."""
+
+    grade: int | None = Field(
+        None, description=f"ISO VG viscosity grade, one of {', '.join(map(str, ISO_VG))}"
+    )
+    viscosity_40c_cst: float | None = Field(
+        None, gt=0, le=1e5, description="kinematic viscosity at 40 °C [cSt] (instead of grade)"
+    )
+    viscosity_100c_cst: float | None = Field(
+        None, gt=0, le=1e4, description="kinematic viscosity at 100 °C [cSt]"
+    )
+    temperature_c: float = Field(40.0, ge=-30, le=150, description="oil temperature [°C]")
+    roughness_um: float = Field(0.4, ge=0, lt=1, description="mean roughness Ra [µm]")
+
+    @model_validator(mode="after")
+    def _one_viscosity(self) -> LubricantSection:
+        if (self.grade is None) == (self.viscosity_40c_cst is None):
+            raise ValueError("give grade (ISO VG) or viscosity_40c_cst, one of them")
+        if self.grade is not None and self.grade not in ISO_VG:
+            raise ValueError(
+                f"grade: expected an ISO VG grade ({', '.join(map(str, ISO_VG))}), "
+                f"got {self.grade}"
+            )
+        if self.viscosity_40c_cst is not None and self.viscosity_100c_cst is None:
+            raise ValueError("viscosity_40c_cst needs viscosity_100c_cst")
+        return self
+
+    def to_core(self) -> Lubricant:
+        """The :class:`~cyclomesh.core.friction.Lubricant` (SI roughness)."""
+        nu40, nu100 = ISO_VG[self.grade] if self.grade is not None else (None, None)
+        return Lubricant(
+            viscosity_40=self.viscosity_40c_cst or nu40,
+            viscosity_100=self.viscosity_100c_cst or nu100,
+            temperature=self.temperature_c,
+            roughness=self.roughness_um * UM,
+        )
+
+
+class FrictionSection(_Section):
+    """``[friction]``: friction at the pin contacts, in the equilibrium (docs/efficiency.md)."""
+
+    mesh_coefficient: float = Field(
+        0.0, ge=0, lt=1, description="Coulomb coefficient pin-tooth (boundary value)"
+    )
+    groove_coefficient: float = Field(
+        0.0, ge=0, lt=1, description="Coulomb coefficient pin-groove (boundary value)"
+    )
+    bearing_coefficient: float = Field(
+        0.0, ge=0, lt=1, description="crank bearing coefficient (not modelled yet: refused > 0)"
+    )
+    pins: Literal["rolling", "fixed"] = Field(
+        "rolling", description="pins free to turn in their grooves, or fixed"
+    )
+    lubricant: LubricantSection | None = None
+
+    @model_validator(mode="after")
+    def _caps(self) -> FrictionSection:
+        if self.bearing_coefficient > 0:
+            raise ValueError(
+                "bearing_coefficient: the crank bearing losses are not modelled yet; "
+                "remove the key (docs/efficiency.md)"
+            )
+        if self.lubricant is not None and (
+            self.mesh_coefficient == 0
+            or (self.pins == "rolling" and self.groove_coefficient == 0)
+        ):
+            raise ValueError(
+                "lubricant: give mesh_coefficient (and groove_coefficient for rolling pins) > 0: "
+                "the boundary friction that caps the lubricated coefficient"
+            )
+        return self
+
+    def to_core(self, speed_rpm: float) -> Friction:
+        """The :class:`~cyclomesh.core.friction.Friction` at ``speed_rpm`` (input speed)."""
+        return Friction(
+            mesh=self.mesh_coefficient,
+            groove=self.groove_coefficient,
+            bearing=self.bearing_coefficient,
+            pins=self.pins,
+            lubricant=None if self.lubricant is None else self.lubricant.to_core(),
+            speed=speed_rpm * 2.0 * math.pi / 60.0,
+        )
 
 
 class StiffnessSection(_Section):
@@ -430,7 +528,12 @@ class StageSection(_Section):
     ``crank_hole_circle_radius_mm``, ``crank_hole_radius_mm``): one set of keys.
     """
 
-    output_speed_rpm: float = Field(15.0, gt=0, description="output speed for L10h [rpm]")
+    output_speed_rpm: float | None = Field(
+        None,
+        gt=0,
+        description="output speed for L10h [rpm]; default load.input_speed_rpm/n2 (15 rpm); "
+        "refused when it disagrees with load.input_speed_rpm",
+    )
     rated_torque_nm: float | None = Field(
         None, gt=0, description="rated torque of the data sheet [N·m] (default: the load)"
     )
@@ -460,8 +563,11 @@ class StageSection(_Section):
                     )
         return raw
 
-    def to_core(self, holes: CrankHoles | None, discs: int) -> StageDesign:
-        """The :class:`~cyclomesh.stage.solve.StageDesign` in SI units."""
+    def to_core(
+        self, holes: CrankHoles | None, discs: int, output_speed: float = 15.0
+    ) -> StageDesign:
+        """The :class:`~cyclomesh.stage.solve.StageDesign` in SI units; ``output_speed``
+        [rpm] from ``load.input_speed_rpm`` where ``output_speed_rpm`` is not given."""
         if holes is None:
             raise DesignError(
                 "stage: needs the crankshafts: set [design.disc] crank_holes (2 or 3), "
@@ -496,7 +602,9 @@ class StageSection(_Section):
             ),
             hole_error_radial=np.asarray(self.hole_error_radial_um, float) * UM,
             hole_error_tangential=np.asarray(self.hole_error_tangential_um, float) * UM,
-            output_speed=self.output_speed_rpm,
+            output_speed=(
+                self.output_speed_rpm if self.output_speed_rpm is not None else output_speed
+            ),
         )
         stage.hole_errors(discs)  # the shapes, checked here
         return stage
@@ -962,6 +1070,9 @@ class RequirementsSection(_Section):
         None, gt=0, description="smallest torsional rigidity [N·m/arcmin] (cyclomesh stiffness)"
     )
     max_mesh_force_n: float | None = Field(None, gt=0, description="largest mesh force [N]")
+    min_efficiency: float | None = Field(
+        None, gt=0, le=1, description="smallest forward efficiency [-] (with [friction])"
+    )
     min_bearing_life_h: float | None = Field(
         None, gt=0, description="L10h of the weakest crank bearing [h] (RV stage, [stage])"
     )
@@ -1020,6 +1131,8 @@ class CaseInputs:
     """``[analysis] disc_body``: "rigid" or "fe" (held at the crank holes if any)."""
     stage: StageDesign | None = None
     """The RV stage (``[stage]``: crank bearings on the crank holes), or None: mesh alone."""
+    friction: Friction | None = None
+    """``[friction]`` at the input speed, or None: frictionless (the paper's model)."""
 
     def kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`cyclomesh.analyse`."""
@@ -1037,6 +1150,7 @@ class CaseInputs:
                 if self.disc_body != "rigid"
                 else {}
             ),
+            **({"friction": self.friction} if self.friction is not None else {}),
         }
 
 
@@ -1053,6 +1167,7 @@ class CaseSpec(_Section):
     analysis: AnalysisSection = AnalysisSection()
     stiffness: StiffnessSection | None = None
     stage: StageSection | None = None
+    friction: FrictionSection | None = None
 
     _base_dir: Path = PrivateAttr(default_factory=Path)
 
@@ -1167,9 +1282,32 @@ class CaseSpec(_Section):
             crank_holes = d.disc.to_core()
             if crank_holes is not None:
                 crank_holes.check_fits(design)
-            stage = None if self.stage is None else self.stage.to_core(crank_holes, d.discs)
+            speed = self.load.speed_rpm(d.pins - 1)
+            stage = None
+            if self.stage is not None:
+                given = self.stage.output_speed_rpm
+                if (
+                    given is not None
+                    and self.load.input_speed_rpm is not None
+                    and abs(given * (d.pins - 1) - speed) > 1e-9 * speed
+                ):
+                    raise DesignError(
+                        f"stage.output_speed_rpm = {given:g} disagrees with load.input_speed_rpm "
+                        f"= {speed:g} (output = input/n2 = {speed / (d.pins - 1):.6g} rpm): "
+                        "give load.input_speed_rpm alone"
+                    )
+                stage = self.stage.to_core(crank_holes, d.discs, speed / (d.pins - 1))
+            friction = None
+            if self.friction is not None:
+                friction = self.friction.to_core(speed)
+                friction = None if friction.frictionless else friction
         except DesignError as exc:
             raise StudyError(f"{self.label}: {exc}") from None
+        if friction is not None and self.analysis.disc_body != "rigid":
+            raise StudyError(
+                f'{self.label}: [friction] is not coupled with disc_body = "fe" yet: set '
+                'disc_body = "rigid" or remove [friction]'
+            )
         if stage is not None and self.analysis.disc_body != "rigid":
             raise StudyError(
                 f'{self.label}: [analysis] disc_body = "fe" is not coupled with the [stage] '
@@ -1192,6 +1330,7 @@ class CaseSpec(_Section):
             crank_holes=crank_holes,
             disc_body=self.analysis.disc_body,
             stage=stage,
+            friction=friction,
         )
 
 
@@ -1216,6 +1355,7 @@ class StudyFile(_Section):
     tolerance: ToleranceSection | None = None
     stiffness: StiffnessSection | None = None  # also per case: cases may override it
     stage: StageSection | None = None  # the RV stage (crank bearings); per case too
+    friction: FrictionSection | None = None  # friction at the pins; per case too
     design_space: DesignSpaceSection | None = None
     fe: FeSection | None = None  # cyclomesh fe (the FE model needs the fe extra)
     requirements: RequirementsSection = RequirementsSection()  # checked by every kind
