@@ -79,6 +79,11 @@ def _geometry_power(drive, design, friction, backdrive=False, errors=None):
     vn = vx * nx + vy * ny
     tangential = -f["friction_coefficient"] * force * np.sign(vt)
     losses = np.sum(-tangential * vt, axis=(-2, -1))  # Σ μF|v| ≥ 0
+    # crank bearing: SKF M = μ·|R|·d/2, R the resultant of the pin forces, at ω(1 + 1/n2)
+    rx = np.sum(-force * nx - tangential * ny, axis=-1)
+    ry = np.sum(-force * ny + tangential * nx, axis=-1)
+    moment = 0.5 * friction.bearing * friction.bearing_diameter * np.hypot(rx, ry)
+    losses = losses + np.sum(moment, axis=-1) * friction.speed * (1 + 1 / design.teeth)
     approach = np.sum(force * vn, axis=(-2, -1))
     p_out = np.abs(drive.torque)[:, None] * friction.speed / design.teeth
     return p_out, losses, approach, np.abs(omega[..., 0, 0])
@@ -86,17 +91,21 @@ def _geometry_power(drive, design, friction, backdrive=False, errors=None):
 
 @pytest.mark.parametrize("pins", ["fixed", "rolling"])
 @pytest.mark.parametrize("backdrive", [False, True])
-def test_power_balance_closes(pins, backdrive):
+@pytest.mark.parametrize("bearing", [0.0, 0.004])
+def test_power_balance_closes(pins, backdrive, bearing):
     """T_in·ω − P_out = Σ losses (conjugate profile) to 1e-9 of P_out; the losses from
     forces × velocities computed here equal the solver's."""
-    friction = Friction(mesh=0.06, groove=0.05, pins=pins, speed=SPEED)
+    friction = Friction(
+        mesh=0.06, groove=0.05, pins=pins, speed=SPEED, bearing=bearing, bearing_diameter=0.04
+    )
     drive = solve_drive(
         TABLE1, None, None, [-180.0, 250.0], REV, discs=2, friction=friction, backdrive=backdrive
     )
     p_out, losses, approach, omega = _geometry_power(drive, TABLE1, friction, backdrive)
     f = drive.friction
     solver_losses = np.sum(f["power_loss_tooth"] + f["power_loss_groove"], axis=(-2, -1))
-    np.testing.assert_allclose(solver_losses, losses, rtol=1e-12)
+    solver_losses = solver_losses + np.sum(f["power_loss_bearing"], axis=-1)
+    np.testing.assert_allclose(solver_losses, losses, rtol=1e-11)
     t_in = np.sum(f["input_torque"], axis=-1)
     p_in = t_in * np.sign(drive.torque)[:, None] * (-1.0 if backdrive else 1.0) * omega
     if backdrive:  # the output supplies P_out, the input receives −P_in
@@ -209,3 +218,38 @@ def test_friction_is_refused_with_the_fe_disc_body_and_bad_coefficients():
         Friction(mesh=1.5)
     with pytest.raises(DesignError, match="pins"):
         Friction(pins="floating")
+
+
+def test_loop_hysteresis_grows_linearly_with_the_coefficient():
+    from cyclomesh.drive.solve import torsion_curve
+
+    phi = np.deg2rad(np.arange(0.0, 9.0, 3.0))
+    widths = []
+    for mu in (0.0, 0.002, 0.004, 0.008):
+        curve = torsion_curve(TABLE1, TPM, None, 250.0, phi, points=5, friction=Friction(mu, mu))
+        if mu == 0.0:
+            plain = torsion_curve(TABLE1, TPM, None, 250.0, phi, points=5)
+            np.testing.assert_array_equal(curve.rotation, plain.rotation)
+            assert curve.hysteresis is None
+            continue
+        assert np.all(curve.hysteresis > 0)
+        widths.append(curve.hysteresis)
+    np.testing.assert_allclose(widths[1] / widths[0], 2.0, rtol=2e-3)
+    np.testing.assert_allclose(widths[2] / widths[0], 4.0, rtol=5e-3)
+
+
+def test_backdriving_is_less_efficient_when_the_input_side_loses_most():
+    """Friction on the input side (the crank bearing) is the classic case: η_b < η_f
+    (η_b = 2 − 1/η_f for a loss independent of the sense); pins alone are the reverse."""
+    friction = Friction(mesh=0.01, groove=0.01, bearing=0.02, bearing_diameter=0.04, speed=SPEED)
+    eff = []
+    for back in (False, True):
+        d = solve_drive(TABLE1, TPM, None, 250.0, REV, friction=friction, backdrive=back)
+        f = d.friction
+        loss = np.sum(f["power_loss_tooth"] + f["power_loss_groove"]) + np.sum(
+            f["power_loss_bearing"]
+        )
+        p_out = 250.0 * SPEED / TABLE1.teeth * REV.size
+        eff.append(p_out / (p_out + loss) if not back else (p_out - loss) / p_out)
+    forward, backward = eff
+    assert backward < forward < 1.0

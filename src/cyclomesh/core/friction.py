@@ -79,6 +79,8 @@ References
 [4] C. Benedict, B. W. Kelley, "Instantaneous coefficients of gear tooth friction",
     ASLE Trans. 4 (1961) 59–70 (as used in AGMA 925 and ISO/TR 14179-2 style models).
 [5] ASTM D341: viscosity–temperature relation of petroleum oils (Walther's equation).
+[6] SKF, Rolling bearings catalogue (2018), "Friction: estimating the frictional moment",
+    M = 0.5·μ·P·d, μ ≈ 0.0025 for needle roller bearings.
 """
 
 from __future__ import annotations
@@ -104,6 +106,7 @@ __all__ = [
     "torque_arm",
     "input_torque",
     "contact_losses",
+    "bearing_moment",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -223,9 +226,15 @@ class Friction:
 
     Parameters
     ----------
-    mesh, groove, bearing : float
-        Coulomb coefficients of the pin–tooth, pin–groove and crank bearing interfaces
-        [-] (with a lubricant: the boundary values that cap Benedict–Kelley's).
+    mesh, groove : float
+        Coulomb coefficients of the pin–tooth and pin–groove interfaces [-] (with a
+        lubricant: the boundary values that cap Benedict–Kelley's).
+    bearing : float
+        Friction coefficient of the crank bearing (the disc's bearing on the eccentric),
+        SKF's constant-coefficient model [6]: moment M = μ_b·|R|·d/2 with R the bearing
+        load (the resultant of the pin forces on the disc) and d the bore diameter.
+    bearing_diameter : float
+        d [m], > 0 when ``bearing`` > 0.
     pins : {"rolling", "fixed"}
         Pins free to turn in their grooves, or fixed.
     lubricant : Lubricant, optional
@@ -240,8 +249,16 @@ class Friction:
     pins: str = "rolling"
     lubricant: Lubricant | None = None
     speed: float = 2.0 * math.pi * 1500.0 / 60.0
+    bearing_diameter: float = 0.0
 
     def __post_init__(self) -> None:
+        if self.bearing > 0 and not (
+            math.isfinite(self.bearing_diameter) and self.bearing_diameter > 0
+        ):
+            raise DesignError(
+                "friction.bearing_diameter_mm: a crank bearing coefficient needs the bore "
+                "diameter of the crank bearing"
+            )
         for name in ("mesh", "groove", "bearing"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and 0 <= value < 1):
@@ -362,6 +379,11 @@ def input_torque(
     e = np.asarray(eccentricity, float)
     phi = np.asarray(crank_angle, float)
     return -e * (np.cos(phi) * ry - np.sin(phi) * rx)
+
+
+def bearing_moment(friction: Friction, load: ArrayLike) -> FloatArray:
+    """Friction moment of the crank bearing [N·m]: 0.5·μ_b·|R|·d (SKF [6])."""
+    return 0.5 * friction.bearing * friction.bearing_diameter * np.asarray(load, float)
 
 
 def contact_losses(

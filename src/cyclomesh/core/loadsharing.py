@@ -174,7 +174,7 @@ def _share_load_friction(
     arm: FloatArray,
     alpha: ArrayLike,
     gamma: ArrayLike,
-    torque: float,
+    torque: float | FloatArray,
     torque_arm: ArrayLike,
 ) -> tuple[FloatArray, FloatArray]:
     """:func:`share_load` with a torque-balance arm l' apart from the compatibility arm l.
@@ -184,7 +184,8 @@ def _share_load_friction(
     tooth-space bottom, where l < μ·m) subtract loads that are small because their l is.
     Newton's method starts at the smallest rotation at which one pin with l' > 0 alone
     carries T; all usable pins are candidates (the locked ones move the root right of that
-    start), and the result is checked to a torque residual of 1e-12·T.
+    start), and the result is checked to a torque residual of 1e-12·T. ``torque`` may be
+    an array of the leading shape (a friction moment of the crank bearing per case).
     """
     bl, arm, t_arm, alpha, gamma = np.broadcast_arrays(
         bl,
@@ -198,6 +199,11 @@ def _share_load_friction(
     bl, arm, t_arm, alpha, gamma = (
         v.reshape(-1, n_pins) for v in (bl, arm, t_arm, alpha, gamma)
     )
+    torque = np.broadcast_to(np.asarray(torque, float), lead).reshape(-1)
+    if not np.all(torque > 0):
+        err = ConvergenceError("the torque on the pins is not positive: friction too large")
+        err.case_index = int(np.argmin(torque > 0))
+        raise err
     usable = np.isfinite(bl) & (arm > 0)
     drives = usable & (t_arm > 0)
     if not np.all(np.any(drives, axis=-1)):
@@ -207,7 +213,7 @@ def _share_load_friction(
         err.case_index = int(np.argmin(np.any(drives, axis=-1)))
         raise err
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        single_force = np.where(drives, torque / np.where(drives, t_arm, 1.0), 0.0)
+        single_force = np.where(drives, torque[:, None] / np.where(drives, t_arm, 1.0), 0.0)
         log_single = np.log(np.where(drives, single_force, 1.0))
         valid = drives & ((gamma == 0) | (log_single < alpha / gamma - 1.0))
         single_delta = single_force * (alpha - gamma * log_single)
@@ -228,13 +234,13 @@ def _share_load_friction(
         delta = np.maximum(xa[:, None] - c_bl[active], 0.0) * arm[active]
         f = force_from_approach(delta, alpha[active], gamma[active])
         force[active] = f
-        resid = _column_sum(f * t_arm[active]) - torque
+        resid = _column_sum(f * t_arm[active]) - torque[active]
         engaged = f > 0
         with np.errstate(divide="ignore"):
             log_f = np.log(np.where(engaged, f, 1.0))
         dddf = alpha[active] - gamma[active] * (1.0 + log_f)
         slope = _column_sum(np.where(engaged, arm[active] * t_arm[active] / dddf, 0.0))
-        done = np.abs(resid) <= tol
+        done = np.abs(resid) <= tol[active]
         step = np.where(done, 0.0, resid / np.where(slope > 0, slope, np.inf))
         idx = np.flatnonzero(active)
         x[idx] = xa - step

@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from cyclomesh.core.friction import (
     Friction,
+    bearing_moment,
     contact_losses,
     effective_coefficient,
     input_torque,
@@ -57,6 +58,7 @@ FRICTION_FIELDS = {
     "power_loss_groove": (True, False),
     "friction_coefficient": (True, False),
     "input_torque": (False, True),
+    "power_loss_bearing": (False, False),
 }
 """The fields :meth:`FrictionCoupling.fields` adds to a loaded state (per disc when not
 per pin), and whether the mirror image changes their sign."""
@@ -101,46 +103,75 @@ class FrictionCoupling:
         )
         return self.motion * v
 
+    def _resultant(self, force: FloatArray, tangential: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Resultant R of the pin forces on each disc, −F·n + T·t summed [N], (..., A, N)."""
+        nx, ny = self.mesh.normal_x, self.mesh.normal_y
+        return (
+            np.sum(-force * nx - tangential * ny, axis=-1),
+            np.sum(-force * ny + tangential * nx, axis=-1),
+        )
+
+    def _bearing_sense(self) -> float:
+        """Sense of the crank bearing's friction moment on the disc (module doc): with the
+        crank's turn in a drive, against the disc's turn in a torsion test."""
+        return self.motion if self.motion != 0.0 else -self.loading
+
     def share(self, torque: float) -> tuple[FloatArray, FloatArray, dict[str, FloatArray]]:
-        """Load sharing with friction: (rotation (..., A), force (..., A, N·n1), state)."""
+        """Load sharing with friction: (rotation (..., A), force (..., A, N·n1), state).
+
+        The lubricated coefficients (which depend on the pin loads) and the crank bearing's
+        friction moment (on the bearing load, the resultant of the pin forces) are found by
+        a fixed-point iteration, each step an exact load sharing, until they change by less
+        than :data:`COEFFICIENT_TOLERANCE` (relative to T for the moment)."""
         mesh, geo = self.mesh, self.mesh.geo
         flat = mesh.backlash.shape
+        shape = geo.rotation.shape
         arm = geo.moment_arm.reshape(flat)
         velocity = self._velocity()
         sign = np.sign(velocity).reshape(flat)
         m = normal_moment(geo.contact_radius, geo.moment_arm).reshape(flat)
         lubricated = self.friction.lubricant is not None and self.motion != 0.0
+        bearing = self.friction.bearing > 0
         mu, groove = effective_coefficient(self.friction, geo.cos_beta)
         mu = mu.reshape(flat)
+        moment = np.zeros(shape[:-1])  # (..., A, N): bearing friction moment on each disc
+        total: float | FloatArray = torque
         for _ in range(_MAX_FIXED_POINT):
             loaded, force = share_load(
-                mesh.backlash, arm, mesh.alpha, mesh.gamma, torque, torque_arm(arm, m, mu, sign)
+                mesh.backlash, arm, mesh.alpha, mesh.gamma, total, torque_arm(arm, m, mu, sign)
             )
-            if not lubricated:
+            if not (lubricated or bearing):
                 break
-            new, groove = effective_coefficient(
-                self.friction,
-                geo.cos_beta,
-                force.reshape(geo.rotation.shape),
-                velocity,
-                mesh.design.width,
-            )
-            new = new.reshape(flat)
-            if np.max(np.abs(new - mu)) <= COEFFICIENT_TOLERANCE:
-                break  # the solve used μ, within the tolerance of its own fixed point
-            mu = new
+            change = 0.0
+            new_mu = mu
+            if lubricated:
+                new_mu, groove = effective_coefficient(
+                    self.friction, geo.cos_beta, force.reshape(shape), velocity, mesh.design.width
+                )
+                new_mu = new_mu.reshape(flat)
+                change = np.max(np.abs(new_mu - mu))
+            if bearing:
+                f = force.reshape(shape)
+                rx, ry = self._resultant(f, -sign.reshape(shape) * new_mu.reshape(shape) * f)
+                new_moment = bearing_moment(self.friction, np.hypot(rx, ry))
+                change = max(change, np.max(np.abs(new_moment - moment)) / torque)
+                moment = new_moment
+                total = torque + self._bearing_sense() * np.sum(moment, axis=-1)
+            if change <= COEFFICIENT_TOLERANCE:
+                break  # the last solve used values within the tolerance of the fixed point
+            mu = new_mu
         else:
             raise ConvergenceError(
-                "lubricated friction coefficients did not settle to "
+                "friction coefficients and bearing moments did not settle to "
                 f"{COEFFICIENT_TOLERANCE:.0e} in {_MAX_FIXED_POINT} iterations"
             )
-        shape = geo.rotation.shape
         state = {
             "mu": mu.reshape(shape),
             "groove": np.broadcast_to(groove, shape),
             "velocity": velocity,
             "sign": sign.reshape(shape),
         }
+        state["bearing_moment"] = moment  # within the tolerance of the one the solve used
         return loaded, force, state
 
     def fields(self, force: FloatArray, state: dict[str, FloatArray]) -> dict[str, FloatArray]:
@@ -162,6 +193,10 @@ class FrictionCoupling:
             mesh.eccentricity[..., 0],
             crank,
         )
+        moment = state["bearing_moment"]
+        if self.motion != 0.0:  # the crank overcomes the bearing's drag too
+            t_in = t_in + self.motion * moment
+        relative = speed * (1.0 + 1.0 / mesh.design.teeth)  # crank against disc
         return {
             "friction_force": friction_force,
             "sliding_velocity_tooth": np.where(groove, 0.0, sliding),
@@ -170,4 +205,5 @@ class FrictionCoupling:
             "power_loss_groove": np.where(groove, loss, 0.0),
             "friction_coefficient": mu,
             "input_torque": t_in,
+            "power_loss_bearing": moment * relative,
         }

@@ -200,6 +200,7 @@ STIFFNESS_ROWS = (
     ("lost_motion_arcmin_max", "max lost motion [arcmin]", 1.0),
     ("torsional_rigidity_nm_per_arcmin_mean", "rigidity [N·m/arcmin]", 1.0),
     ("torsional_rigidity_nm_per_arcmin_min", "min rigidity [N·m/arcmin]", 1.0),
+    ("hysteresis_arcmin_max", "max hysteresis [arcmin]", 1.0),
     ("drive_lost_motion_arcmin_max", "drive lost motion [arcmin]", 1.0),
     ("drive_torsional_rigidity_nm_per_arcmin_min", "drive rigidity [N·m/arcmin]", 1.0),
     ("stage_lost_motion_arcmin_max", "stage lost motion [arcmin]", 1.0),

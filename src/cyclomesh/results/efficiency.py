@@ -53,9 +53,10 @@ EFFICIENCY_METRICS: dict[str, Metric] = {
 LOSS_PATHS = {
     "pin_tooth": "power_loss_tooth",
     "pin_groove": "power_loss_groove",
+    "crank_bearings": "power_loss_bearing",
 }
-"""Loss paths modelled → per-pin variable. Crank bearings and output mechanism: not
-modelled (reported as null in ``power_loss_w``)."""
+"""Loss paths modelled → variable (per pin, per disc for the bearings). The output
+mechanism is not modelled (``null`` in ``power_loss_w``)."""
 
 _PIN_VARS = {
     "friction_force": (1.0, "N", "tangential (friction) force at the pin contact"),
@@ -107,7 +108,15 @@ def efficiency_variables(
     sign = np.sign(forward.torque)[:, None]
     p_out = np.abs(forward.torque)[:, None] * speed / teeth * np.ones_like(forward.loaded_rotation)
     loss = np.sum(f["power_loss_tooth"] + f["power_loss_groove"], axis=(-2, -1))
+    loss = loss + np.sum(f["power_loss_bearing"], axis=-1)
     loss_b = np.sum(b["power_loss_tooth"] + b["power_loss_groove"], axis=(-2, -1))
+    loss_b = loss_b + np.sum(b["power_loss_bearing"], axis=-1)
+    bearing = f["power_loss_bearing"] if torque_dim else f["power_loss_bearing"][..., 0, :, :]
+    data["power_loss_bearing"] = (
+        (*ring, *keep, "crank_angle", *stack),
+        bearing if discs > 1 else bearing[..., 0],
+        {"units": "W", "long_name": "friction power loss of the crank bearing"},
+    )
     t_in = np.sum(f["input_torque"], axis=-1)
     t_in_b = np.sum(b["input_torque"], axis=-1)
     angle_dims = (*ring, *keep, "crank_angle")
@@ -115,8 +124,8 @@ def efficiency_variables(
         ("input_torque", t_in, "N m", "input torque, moment balance of the crank (forward)"),
         ("backdrive_input_torque", t_in_b, "N m", "input torque, moment balance (back-driving)"),
         ("output_power", p_out, "W", "output power |T|·ω/n2"),
-        ("power_loss", loss, "W", "friction power loss of the pins (forward)"),
-        ("backdrive_power_loss", loss_b, "W", "friction power loss of the pins (back-driving)"),
+        ("power_loss", loss, "W", "friction power loss, all paths (forward)"),
+        ("backdrive_power_loss", loss_b, "W", "friction power loss, all paths (back-driving)"),
         ("input_power", p_out + loss, "W", "input power P_out + P_loss (forward)"),
         ("moment_input_power", t_in * sign * speed, "W", "T_in·ω from the moment balance"),
         ("instantaneous_efficiency", p_out / (p_out + loss), "1", "forward efficiency"),
@@ -141,7 +150,10 @@ def efficiency_record(ds: xr.Dataset) -> dict[str, Any]:
     p_out, loss, loss_b = (
         np.asarray(mean(n)) for n in ("output_power", "power_loss", "backdrive_power_loss")
     )
-    pin_sum = ("disc", "pin") if "disc" in ds.dims else ("pin",)
+    def path(var: str) -> Any:
+        over = [d for d in ("disc", "pin") if d in ds[var].dims]
+        return _plain(ds[var].sum(over).mean("crank_angle").values)
+
     record = {
         "efficiency": _plain(p_out / (p_out + loss)),
         "backdrive_efficiency": _plain((p_out - loss_b) / p_out),
@@ -149,11 +161,7 @@ def efficiency_record(ds: xr.Dataset) -> dict[str, Any]:
         "output_power_w": _plain(p_out),
         "input_speed_rpm": ds.attrs["input_speed_rpm"],
         "power_loss_w": {
-            **{
-                path: _plain(ds[var].sum(pin_sum).mean("crank_angle").values)
-                for path, var in LOSS_PATHS.items()
-            },
-            "crank_bearings": None,
+            **{name: path(var) for name, var in LOSS_PATHS.items()},
             "output_mechanism": None,
         },
     }
@@ -171,6 +179,7 @@ def friction_attrs(friction: Any) -> dict[str, Any]:
         "friction_mesh_coefficient": float(friction.mesh),
         "friction_groove_coefficient": float(friction.groove),
         "friction_bearing_coefficient": float(friction.bearing),
+        "friction_bearing_diameter_mm": float(friction.bearing_diameter * 1e3),
         "friction_pins": friction.pins,
         "input_speed_rpm": float(friction.speed * 60.0 / (2.0 * np.pi)),
     }

@@ -54,6 +54,7 @@ def stiffness(
     disc_body: Any = "rigid",
     crank_holes: Any = None,
     cache_dir: Any = None,
+    friction: Any = None,
 ) -> xr.Dataset:
     """Torsion curve, play, lost motion and torsional rigidity of the mesh (Eqs. 5–26 of [1]).
 
@@ -81,6 +82,10 @@ def stiffness(
         ``drive_torsional_rigidity``.
     contact_law : {"paper", "half_plane"}
         Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
+    friction : Friction, optional
+        Friction at the pins (:func:`cyclomesh.drive.solve.torsion_curve`): adds the loop's
+        ``rotation_ascending``, ``rotation_descending`` [arcsec] and ``hysteresis``
+        [arcmin]; ``rotation`` is then the loop's mid curve.
 
     Returns
     -------
@@ -120,6 +125,7 @@ def stiffness(
         series,
         contact_law,
         resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir),
+        friction=friction,
     )
     lead = curve.play.ndim - 1
     if lead > 1:
@@ -165,6 +171,21 @@ def stiffness(
             {"units": "N m/arcmin", "long_name": "torsional rigidity, 50-100 % of rated"},
         ),
     }
+    if curve.hysteresis is not None:
+        for name, long_name in (
+            ("rotation_ascending", "disc rotation, rising torque (friction loop)"),
+            ("rotation_descending", "disc rotation, falling torque (friction loop)"),
+        ):
+            data[name] = (
+                curve_dims,
+                getattr(curve, name) / RAD_PER_ARCSEC,
+                {"units": "arcsec", "long_name": long_name},
+            )
+        data["hysteresis"] = (
+            angle_dims,
+            curve.hysteresis / RAD_PER_ARCMIN,
+            {"units": "arcmin", "long_name": "largest width of the friction loop"},
+        )
     if stack:
         data["torque_share"] = (
             (*curve_dims, "disc"),
@@ -222,6 +243,8 @@ _SUMMARY = {
     "lost_motion_arcmin_max": ("lost_motion", "max", "arcmin"),
     "torsional_rigidity_nm_per_arcmin_mean": ("torsional_rigidity", "mean", "N m/arcmin"),
     "torsional_rigidity_nm_per_arcmin_min": ("torsional_rigidity", "min", "N m/arcmin"),
+    "hysteresis_arcmin_mean": ("hysteresis", "mean", "arcmin"),
+    "hysteresis_arcmin_max": ("hysteresis", "max", "arcmin"),
 }
 
 

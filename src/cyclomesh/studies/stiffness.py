@@ -135,6 +135,7 @@ def compute_stiffness(
                 contact_law=inputs.contact_law,
                 disc_body=inputs.disc_body,
                 crank_holes=inputs.crank_holes,
+                friction=inputs.friction,
             )
         except CyclomeshError as exc:  # name the case
             raise type(exc)(f"{case.label}: {exc}") from None

@@ -438,7 +438,10 @@ class FrictionSection(_Section):
         0.0, ge=0, lt=1, description="Coulomb coefficient pin-groove (boundary value)"
     )
     bearing_coefficient: float = Field(
-        0.0, ge=0, lt=1, description="crank bearing coefficient (not modelled yet: refused > 0)"
+        0.0, ge=0, lt=1, description="crank bearing friction coefficient μ (SKF: M = μ·P·d/2)"
+    )
+    bearing_diameter_mm: float | None = Field(
+        None, gt=0, le=1e4, description="bore diameter d of the crank bearing [mm]"
     )
     pins: Literal["rolling", "fixed"] = Field(
         "rolling", description="pins free to turn in their grooves, or fixed"
@@ -447,10 +450,9 @@ class FrictionSection(_Section):
 
     @model_validator(mode="after")
     def _caps(self) -> FrictionSection:
-        if self.bearing_coefficient > 0:
+        if self.bearing_coefficient > 0 and self.bearing_diameter_mm is None:
             raise ValueError(
-                "bearing_coefficient: the crank bearing losses are not modelled yet; "
-                "remove the key (docs/efficiency.md)"
+                "bearing_coefficient needs bearing_diameter_mm (the crank bearing's bore)"
             )
         if self.lubricant is not None and (
             self.mesh_coefficient == 0
@@ -471,6 +473,7 @@ class FrictionSection(_Section):
             pins=self.pins,
             lubricant=None if self.lubricant is None else self.lubricant.to_core(),
             speed=speed_rpm * 2.0 * math.pi / 60.0,
+            bearing_diameter=(self.bearing_diameter_mm or 0.0) * MM,
         )
 
 
@@ -1303,6 +1306,11 @@ class CaseSpec(_Section):
                 friction = None if friction.frictionless else friction
         except DesignError as exc:
             raise StudyError(f"{self.label}: {exc}") from None
+        if friction is not None and stage is not None:
+            raise StudyError(
+                f"{self.label}: [friction] is not coupled with the [stage] equilibrium yet: "
+                "remove [stage] to see the mesh's friction, or [friction] for the stage"
+            )
         if friction is not None and self.analysis.disc_body != "rigid":
             raise StudyError(
                 f'{self.label}: [friction] is not coupled with disc_body = "fe" yet: set '
