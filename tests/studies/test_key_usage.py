@@ -243,6 +243,39 @@ CHANGE.update(
         "design_space.width_mm": _range(11.0, 12.0),
     }
 )
+# issue 25: friction, the input speed, efficiency requirement
+CHANGE.update(
+    {
+        "load.input_speed_rpm": 1000.0,
+        "friction.mesh_coefficient": 0.05,
+        "friction.groove_coefficient": 0.06,
+        "friction.bearing_coefficient": 0.004,
+        "friction.bearing_diameter_mm": 50.0,
+        "friction.pins": "fixed",
+        "friction.lubricant.grade": 320,
+        "friction.lubricant.viscosity_40c_cst": 200.0,
+        "friction.lubricant.viscosity_100c_cst": 25.0,
+        "friction.lubricant.temperature_c": 70.0,
+        "friction.lubricant.roughness_um": 0.2,
+        "requirements.min_efficiency": 0.9,
+    }
+)
+FRICTION = {
+    "friction": {
+        "mesh_coefficient": 0.03,
+        "groove_coefficient": 0.04,
+        "bearing_coefficient": 0.002,
+        "bearing_diameter_mm": 40.0,
+    }
+}
+LUBRICATED = {  # boundary caps above Benedict–Kelley's value at this speed
+    "load": {"input_speed_rpm": 3000.0},
+    "friction": {
+        "mesh_coefficient": 0.2,
+        "groove_coefficient": 0.2,
+        "lubricant": {"grade": 220, "temperature_c": 60.0},
+    },
+}
 CHANGE["design.disc.crank_holes"] = 2
 CHANGE["design.disc.crank_hole_circle_radius_mm"] = 44.0
 CHANGE["design.disc.crank_hole_radius_mm"] = 11.0
@@ -259,6 +292,12 @@ CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
         for k in schema_keys()
         if k.startswith(("stage.", "design.disc."))
     },
+    **{
+        (kind, k): LUBRICATED if k.startswith("friction.lubricant.") else FRICTION
+        for kind in ("run", "stiffness")
+        for k in schema_keys()
+        if k.startswith("friction.")
+    },
 }
 
 
@@ -270,6 +309,14 @@ def change_table(key: str, kind: str = "run") -> dict[str, Any]:
         return merge(STAGE, _nested(key, CHANGE[key]))
     if key == "tolerance.tangential_um":  # instead of angular_urad (not both)
         return {"tolerance": {"angular_urad": DELETE, "tangential_um": CHANGE[key]}}
+    if key == "friction.lubricant.viscosity_40c_cst":  # instead of the grade (not both)
+        oil = {"viscosity_40c_cst": 200.0, "viscosity_100c_cst": 18.0}
+        if kind in ("run", "stiffness"):
+            return {"friction": {"lubricant": {"grade": DELETE, **oil}}}
+        return {"friction": {**FRICTION["friction"], "lubricant": oil}}
+    if key.startswith("friction.") and kind not in ("run", "stiffness"):  # a valid table
+        context = LUBRICATED if key.startswith("friction.lubricant.") else FRICTION
+        return merge({"friction": context["friction"]}, _nested(key, CHANGE[key]))
     if key == "errors.random.tangential_um":  # instead of angular_urad (not both)
         return {"errors": {"random": {"angular_urad": DELETE, "tangential_um": CHANGE[key]}}}
     if key == "tolerance.position":

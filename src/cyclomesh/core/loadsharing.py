@@ -196,9 +196,7 @@ def _share_load_friction(
     )
     lead = bl.shape[:-1]
     n_pins = bl.shape[-1]
-    bl, arm, t_arm, alpha, gamma = (
-        v.reshape(-1, n_pins) for v in (bl, arm, t_arm, alpha, gamma)
-    )
+    bl, arm, t_arm, alpha, gamma = (v.reshape(-1, n_pins) for v in (bl, arm, t_arm, alpha, gamma))
     torque = np.broadcast_to(np.asarray(torque, float), lead).reshape(-1)
     if not np.all(torque > 0):
         err = ConvergenceError("the torque on the pins is not positive: friction too large")

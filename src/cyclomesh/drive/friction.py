@@ -45,8 +45,9 @@ __all__ = ["FrictionCoupling", "FRICTION_FIELDS", "COEFFICIENT_TOLERANCE"]
 
 FloatArray = NDArray[np.float64]
 
-COEFFICIENT_TOLERANCE = 1e-14
-"""Change of the lubricated coefficients at which the fixed point is accepted."""
+COEFFICIENT_TOLERANCE = 1e-12
+"""Change of the lubricated coefficients (and of the bearing moments, relative to T) at which
+the fixed point is accepted: that of the load sharing's torque residual, 1e-12·T."""
 _MAX_FIXED_POINT = 60
 
 FRICTION_FIELDS = {
@@ -103,7 +104,9 @@ class FrictionCoupling:
         )
         return self.motion * v
 
-    def _resultant(self, force: FloatArray, tangential: FloatArray) -> tuple[FloatArray, FloatArray]:
+    def _resultant(
+        self, force: FloatArray, tangential: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
         """Resultant R of the pin forces on each disc, −F·n + T·t summed [N], (..., A, N)."""
         nx, ny = self.mesh.normal_x, self.mesh.normal_y
         return (

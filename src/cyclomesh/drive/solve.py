@@ -413,7 +413,9 @@ def _mesh(
         phi=phi,
         body=body,
         eccentricity=design.eccentricity
-        + np.broadcast_to(np.asarray(errors.eccentricity, float), ring_shape)[..., None, None, None],
+        + np.broadcast_to(np.asarray(errors.eccentricity, float), ring_shape)[
+            ..., None, None, None
+        ],
         tooth=None
         if body is None
         else tooth_index(design.pins, design.pitch, _disc_angles(phi, discs))
@@ -630,7 +632,7 @@ def solve_drive(
         friction = None
     if friction is not None and body is not None:
         raise DesignError(
-            'friction: the compliant (FE) disc body is not coupled with friction yet; set '
+            "friction: the compliant (FE) disc body is not coupled with friction yet; set "
             'disc_body = "rigid" or remove [friction]'
         )
     fwd, rev = stack_meshes(
@@ -946,7 +948,7 @@ def torsion_curve(
         friction = None
     if friction is not None and body is not None:
         raise DesignError(
-            'friction: the compliant (FE) disc body is not coupled with friction yet; set '
+            "friction: the compliant (FE) disc body is not coupled with friction yet; set "
             'disc_body = "rigid" or remove [friction]'
         )
     branches = {}

@@ -335,9 +335,7 @@ def analyse(
         from cyclomesh.results.efficiency import efficiency_variables, friction_attrs
 
         back = solve_drive(*args, contact_law, body, friction=friction, backdrive=True)
-        ds = ds.assign(
-            efficiency_variables(result, back, design.teeth, friction.speed, torque_dim)
-        )
+        ds = ds.assign(efficiency_variables(result, back, design.teeth, friction.speed, torque_dim))
         ds.attrs.update(friction_attrs(friction))
     ds.attrs["contact_law"] = contact_law
     ds.attrs["disc_body"] = "rigid" if isinstance(body, str) else "fe"

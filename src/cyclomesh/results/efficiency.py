@@ -40,9 +40,7 @@ EFFICIENCY_METRICS: dict[str, Metric] = {
     m.name: m
     for m in (
         Metric("efficiency", "1", "forward efficiency, P_out/P_in over the angles", "η"),
-        Metric(
-            "backdrive_efficiency", "1", "back-driving efficiency over the angles", "η back"
-        ),
+        Metric("backdrive_efficiency", "1", "back-driving efficiency over the angles", "η back"),
         Metric("input_power_w", "W", "mean input power (forward)", "P in"),
         Metric("output_power_w", "W", "mean output power (forward)", "P out"),
         Metric("input_speed_rpm", "rpm", "input (crank) speed", "n in"),
@@ -144,12 +142,14 @@ def efficiency_record(ds: xr.Dataset) -> dict[str, Any]:
     """The ``summary.json`` numbers of a run with friction (a list per torque for a
     ``torque`` dimension): :data:`EFFICIENCY_METRICS` and ``power_loss_w`` (path → W;
     ``null`` for a path not modelled)."""
+
     def mean(name: str) -> Any:
         return _plain(ds[name].mean("crank_angle").values)
 
     p_out, loss, loss_b = (
         np.asarray(mean(n)) for n in ("output_power", "power_loss", "backdrive_power_loss")
     )
+
     def path(var: str) -> Any:
         over = [d for d in ("disc", "pin") if d in ds[var].dims]
         return _plain(ds[var].sum(over).mean("crank_angle").values)

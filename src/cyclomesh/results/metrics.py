@@ -119,7 +119,10 @@ STIFFNESS_METRICS: dict[str, Metric] = {
             "hysteresis",
         ),
         Metric(
-            "hysteresis_arcmin_max", "arcmin", "largest width of the friction loop", "max hysteresis"
+            "hysteresis_arcmin_max",
+            "arcmin",
+            "largest width of the friction loop",
+            "max hysteresis",
         ),
         Metric(
             "torsional_rigidity_nm_per_arcmin_mean",

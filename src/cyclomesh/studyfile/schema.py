@@ -410,8 +410,7 @@ class LubricantSection(_Section):
             raise ValueError("give grade (ISO VG) or viscosity_40c_cst, one of them")
         if self.grade is not None and self.grade not in ISO_VG:
             raise ValueError(
-                f"grade: expected an ISO VG grade ({', '.join(map(str, ISO_VG))}), "
-                f"got {self.grade}"
+                f"grade: expected an ISO VG grade ({', '.join(map(str, ISO_VG))}), got {self.grade}"
             )
         if self.viscosity_40c_cst is not None and self.viscosity_100c_cst is None:
             raise ValueError("viscosity_40c_cst needs viscosity_100c_cst")
@@ -455,8 +454,7 @@ class FrictionSection(_Section):
                 "bearing_coefficient needs bearing_diameter_mm (the crank bearing's bore)"
             )
         if self.lubricant is not None and (
-            self.mesh_coefficient == 0
-            or (self.pins == "rolling" and self.groove_coefficient == 0)
+            self.mesh_coefficient == 0 or (self.pins == "rolling" and self.groove_coefficient == 0)
         ):
             raise ValueError(
                 "lubricant: give mesh_coefficient (and groove_coefficient for rolling pins) > 0: "

@@ -56,6 +56,7 @@ OWN_SECTIONS: dict[str, tuple[str, ...]] = {
     "fe": ("fe",),
     "run": (
         "load.torque_nm",
+        "load.input_speed_rpm",
         "stage.rated_torque_nm",
         "requirements",
         *_ALLOWABLES,
@@ -98,7 +99,16 @@ _CHECKED = ("requirements", *_ALLOWABLES)
 """What the kinds that check requirements use besides their own keys."""
 
 USED: dict[str, tuple[str, ...]] = {
-    "run": (*_LTCA, *_RUN_FIGURES, "cases", "stage", "design.disc", *_CHECKED),
+    "run": (
+        *_LTCA,
+        *_RUN_FIGURES,
+        "cases",
+        "stage",
+        "design.disc",
+        "friction",
+        "load.input_speed_rpm",
+        *_CHECKED,
+    ),
     "stiffness": (
         *_PAIR,
         *_OUTPUT,
@@ -109,6 +119,7 @@ USED: dict[str, tuple[str, ...]] = {
         "stiffness",
         "stage",
         "design.disc",
+        "friction",
         *_CHECKED,
     ),
     "tolerance": (
@@ -159,6 +170,16 @@ NEEDS: dict[str, dict[str, tuple[str, str]]] = {
     for kind in ("run", "stiffness")
 }
 """Keys a kind uses only together with another (key → (needed key, refusal))."""
+
+
+def _friction(kind: str) -> str:
+    return (
+        f"friction: [friction] is not taken by cyclomesh {kind} yet; use cyclomesh run or "
+        "cyclomesh stiffness for friction and efficiency, or remove [friction] "
+        "(docs/efficiency.md)"
+    )
+
+
 _BASE_ONLY = (
     "cases: this kind of study analyses the base description only; remove [[cases]] "
     "(cyclomesh run runs them)"
@@ -169,28 +190,34 @@ REFUSED: dict[str, dict[str, str]] = {
     "run": {},
     "stiffness": {
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
+        "friction.lubricant": "the torsion test is at rest, where the boundary coefficients "
+        "apply; remove [friction.lubricant] (cyclomesh run uses it)",
     },
     "tolerance": {
         "design.disc": _HOLES,
         "stage": _stage("tolerance"),
+        "friction": _friction("tolerance"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "allocate": {
         "design.disc": _HOLES,
         "stage": _stage("allocate"),
+        "friction": _friction("allocate"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "design": {
         "design.disc": _HOLES,
         "stage": _stage("design"),
+        "friction": _friction("design"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "fe": {
         "design.disc": _HOLES,
         "stage": _stage("fe"),
+        "friction": _friction("fe"),
         "design.discs": "the FE model solves one disc; remove [design] discs",
         "errors": "the FE model takes no pin errors yet; remove [errors] (cyclomesh run "
         "handles them)",
