@@ -65,6 +65,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.contact import UnloadedContact, unloaded_contact
 from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
+from cyclomesh.core.friction import Friction
 from cyclomesh.core.loadsharing import share_load
 from cyclomesh.core.ltca import (
     check_contact_law,
@@ -80,7 +81,6 @@ from cyclomesh.core.ltca import (
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.core.profile import generating_radii
 from cyclomesh.core.transmission import gear_ratio, transmission_error
-from cyclomesh.core.friction import Friction
 from cyclomesh.drive.friction import FRICTION_FIELDS, FrictionCoupling
 from cyclomesh.exceptions import ConvergenceError, DesignError
 
