@@ -218,6 +218,32 @@ def stiffness(
 @app.command()
 @cli_errors()
 @without_dask
+def efficiency(
+    study: StudyArg,
+    out: OutOption,
+    quiet: QuietOption = False,
+    crank_step_deg: StepOption = None,
+    figures: FiguresOption = None,
+) -> None:
+    """Efficiency map of every case ([efficiency] and [friction]): forward and back-driving
+    efficiency over torque × input speed, the loss breakdown at the rated point."""
+    from cyclomesh.publish.console import print_efficiency
+    from cyclomesh.studies import efficiency as kind
+    from cyclomesh.studies.execute import execute
+    from cyclomesh.studyfile import load_study
+
+    loaded = load_study(study, overrides(crank_step_deg))
+    kind.check_efficiency(loaded)
+    options = output_options(loaded, figures)
+    progress = bar(len(loaded.cases), "cases", quiet)
+    result = execute(kind.EFFICIENCY, loaded, out, options, progress=progress)
+    if not quiet:
+        print_efficiency(result.summaries, out, result.checks)
+
+
+@app.command()
+@cli_errors()
+@without_dask
 def tolerance(
     study: TolStudyArg,
     out: OutOption,

@@ -224,6 +224,27 @@ def print_stiffness(summaries: dict, out: Path, checks: dict | None = None) -> N
     console.print(f"report: {out / 'report.html'}")
 
 
+EFFICIENCY_ROWS = (
+    ("peak_efficiency", "peak efficiency [%]", 100.0),
+    ("peak_torque_nm", "at torque [N·m]", 1.0),
+    ("peak_speed_rpm", "at input speed [rpm]", 1.0),
+    ("rated_efficiency", "rated efficiency [%]", 100.0),
+    ("rated_backdrive_efficiency", "rated back-driving [%]", 100.0),
+    ("rated_input_power_w", "rated input power [W]", 1.0),
+)
+
+
+def print_efficiency(summaries: dict, out: Path, checks: dict | None = None) -> None:
+    from rich.console import Console
+
+    console = Console(highlight=False)
+    print_metrics(console, summaries, EFFICIENCY_ROWS)
+    if checks:
+        print_checks(console, checks)
+    console.print("losses: pin contacts and crank bearings; churning, seals not modelled")
+    console.print(f"report: {out / 'report.html'}")
+
+
 def print_tolerance(stats: dict[str, Any], out: Path) -> None:
     from rich.console import Console
     from rich.markup import escape

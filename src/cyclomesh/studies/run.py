@@ -142,6 +142,7 @@ def compute_run(
     from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
 
     check_keys(study.raw, "run")
+    refuse_friction_with_stage(study)
     run = RunResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
         if on_start:
@@ -170,6 +171,19 @@ def compute_run(
         if progress:
             progress(1)
     return run
+
+
+def refuse_friction_with_stage(study: Study) -> None:
+    """One-line :class:`StudyError` for a case with both ``[friction]`` and ``[stage]``:
+    the stage's equilibrium is not coupled with friction yet."""
+    from cyclomesh.exceptions import StudyError
+
+    for case, inputs in zip(study.cases, study.inputs, strict=True):
+        if inputs.friction is not None and inputs.stage is not None:
+            raise StudyError(
+                f"{case.label}: [friction] is not coupled with the [stage] equilibrium yet: "
+                "remove [stage] to see the mesh's friction, or [friction] for the stage"
+            )
 
 
 def efficiency_summary(ds: xr.Dataset, case: CaseSpec) -> dict[str, Any]:

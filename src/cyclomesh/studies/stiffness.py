@@ -117,6 +117,9 @@ def compute_stiffness(
 
     check_stiffness(study)
     check_keys(study.raw, "stiffness")
+    from cyclomesh.studies.run import refuse_friction_with_stage
+
+    refuse_friction_with_stage(study)
     start = time.perf_counter()
     result = StiffnessResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):

@@ -941,6 +941,37 @@ class RangeSection(_Section):
         return np.linspace(self.start, self.stop, self.points)
 
 
+class EfficiencySection(_Section):
+    """``[efficiency]``: the efficiency map of ``cyclomesh efficiency`` (docs/efficiency.md)."""
+
+    torque_nm: RangeSection = Field(description="output torques [N·m], > 0")
+    input_speed_rpm: RangeSection = Field(description="input (crank) speeds [rpm], > 0")
+    rated_torque_nm: float | None = Field(
+        None, gt=0, description="rated torque of the loss breakdown [N·m] (default: largest)"
+    )
+    rated_speed_rpm: float | None = Field(
+        None, gt=0, description="rated input speed of the loss breakdown [rpm] (default: largest)"
+    )
+
+    @model_validator(mode="after")
+    def _positive(self) -> EfficiencySection:
+        for name in ("torque_nm", "input_speed_rpm"):
+            grid = getattr(self, name)
+            if min(grid.start, grid.stop) <= 0:
+                raise ValueError(f"{name}: start and stop must be positive")
+            if grid.points > 1 and grid.start == grid.stop:
+                raise ValueError(f"{name}: start and stop must differ for several points")
+        return self
+
+    def rated(self) -> tuple[float, float]:
+        """The rated point (torque [N·m], input speed [rpm])."""
+        torques, speeds = self.torque_nm.values(), self.input_speed_rpm.values()
+        return (
+            self.rated_torque_nm if self.rated_torque_nm is not None else float(torques.max()),
+            self.rated_speed_rpm if self.rated_speed_rpm is not None else float(speeds.max()),
+        )
+
+
 class FeSection(_Section):
     """``[fe]``: the whole-disc finite-element model of ``cyclomesh fe`` (docs/contact-law.md).
 
@@ -1304,16 +1335,6 @@ class CaseSpec(_Section):
                 friction = None if friction.frictionless else friction
         except DesignError as exc:
             raise StudyError(f"{self.label}: {exc}") from None
-        if friction is not None and stage is not None:
-            raise StudyError(
-                f"{self.label}: [friction] is not coupled with the [stage] equilibrium yet: "
-                "remove [stage] to see the mesh's friction, or [friction] for the stage"
-            )
-        if friction is not None and self.analysis.disc_body != "rigid":
-            raise StudyError(
-                f'{self.label}: [friction] is not coupled with disc_body = "fe" yet: set '
-                'disc_body = "rigid" or remove [friction]'
-            )
         if stage is not None and self.analysis.disc_body != "rigid":
             raise StudyError(
                 f'{self.label}: [analysis] disc_body = "fe" is not coupled with the [stage] '
@@ -1364,6 +1385,7 @@ class StudyFile(_Section):
     friction: FrictionSection | None = None  # friction at the pins; per case too
     design_space: DesignSpaceSection | None = None
     fe: FeSection | None = None  # cyclomesh fe (the FE model needs the fe extra)
+    efficiency: EfficiencySection | None = None  # cyclomesh efficiency (needs [friction])
     requirements: RequirementsSection = RequirementsSection()  # checked by every kind
 
 

@@ -40,7 +40,7 @@ __all__ = [
     "check_keys",
 ]
 
-KINDS = ("run", "stiffness", "tolerance", "allocate", "design", "fe")
+KINDS = ("run", "stiffness", "tolerance", "allocate", "design", "fe", "efficiency")
 
 _ALLOWABLES = tuple(
     f"material.{part}allowable_contact_stress_mpa" for part in ("", "pin.", "disc.", "ring.")
@@ -54,6 +54,7 @@ OWN_SECTIONS: dict[str, tuple[str, ...]] = {
     "allocate": ("tolerance",),
     "design": ("design_space",),
     "fe": ("fe",),
+    "efficiency": ("efficiency",),
     "run": (
         "load.torque_nm",
         "load.input_speed_rpm",
@@ -144,6 +145,17 @@ USED: dict[str, tuple[str, ...]] = {
         *_CHECKED,
     ),
 }
+USED["efficiency"] = (
+    *_PAIR,
+    *_OUTPUT,
+    "design.discs",
+    "errors",
+    "analysis",
+    "cases",
+    "friction",
+    "efficiency",
+    *_CHECKED,
+)
 """Keys (or whole tables) each kind of study uses."""
 
 _HOLES = (
@@ -226,6 +238,13 @@ REFUSED: dict[str, dict[str, str]] = {
         "analysis.crank_step_deg": "cyclomesh fe solves at fe.crank_angles_deg; remove it",
         "analysis.groove_deformation": "the FE model always has the pin-groove contact "
         "(the improved model); remove it",
+        **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
+    },
+    "efficiency": {
+        "design.disc": _HOLES,
+        "stage": _stage("efficiency"),
+        "analysis.disc_body": "the efficiency map solves the rigid disc (friction is not "
+        "coupled with the FE disc body yet); remove disc_body",
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
 }
