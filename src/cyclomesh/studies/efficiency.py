@@ -96,9 +96,6 @@ def compute_efficiency(
     """Map the efficiency of every case (nothing is written); ``progress(1)`` per case."""
     import xarray as xr
 
-    from cyclomesh.exceptions import CyclomeshError
-    from cyclomesh.results.dataset import analyse
-    from cyclomesh.results.efficiency import efficiency_record
     from cyclomesh.studies.checks import case_checks
     from cyclomesh.studyfile.usage import check_keys
 
@@ -116,20 +113,19 @@ def compute_efficiency(
         friction = kwargs.pop("friction")
         angles = case.analysis.crank_angles_deg()
 
-        def record(torque: Any, rpm: float) -> dict[str, Any]:
-            at = dataclasses.replace(friction, speed=rpm * 2.0 * math.pi / 60.0)
-            try:
-                ds = analyse(**{**kwargs, "torque": torque}, crank_angles_deg=angles, friction=at)
-            except CyclomeshError as exc:  # name the case and the point
-                raise type(exc)(f"{case.label}, {rpm:g} rpm: {exc}") from None
-            return efficiency_record(ds)
-
         table: dict[str, list[Any]] = {
             k: [] for k in ("efficiency", "backdrive_efficiency", "input_power_w", "output_power_w")
         }
         losses: list[list[list[float]]] = []
         for rpm in speeds:
-            rec = record(list(torques) if torques.size > 1 else float(torques[0]), float(rpm))
+            rec = _point(
+                case,
+                kwargs,
+                friction,
+                angles,
+                list(torques) if torques.size > 1 else float(torques[0]),
+                float(rpm),
+            )
             for name in table:
                 table[name].append(np.atleast_1d(rec[name]))
             losses.append([np.atleast_1d(rec["power_loss_w"][p]) for p in PATHS])
@@ -152,7 +148,7 @@ def compute_efficiency(
         }
         ds = xr.Dataset(data, coords=coords, attrs=case_attrs(study, case))
         ds = ds.transpose("torque", "input_speed", "path")
-        rated = record(float(rated_torque), float(rated_speed))
+        rated = _point(case, kwargs, friction, angles, float(rated_torque), float(rated_speed))
         eff = ds["efficiency"].values
         peak = np.unravel_index(int(np.argmax(eff)), eff.shape)
         summary = {
@@ -174,6 +170,22 @@ def compute_efficiency(
             progress(1)
     result.seconds = time.perf_counter() - start
     return result
+
+
+def _point(
+    case: Any, kwargs: dict[str, Any], friction: Any, angles: Any, torque: Any, rpm: float
+) -> dict[str, Any]:
+    """The efficiency record of one speed (every torque of ``torque`` in one solve)."""
+    from cyclomesh.exceptions import CyclomeshError
+    from cyclomesh.results.dataset import analyse
+    from cyclomesh.results.efficiency import efficiency_record
+
+    at = dataclasses.replace(friction, speed=rpm * 2.0 * math.pi / 60.0)
+    try:
+        ds = analyse(**{**kwargs, "torque": torque}, crank_angles_deg=angles, friction=at)
+    except CyclomeshError as exc:  # name the case and the point
+        raise type(exc)(f"{case.label}, {rpm:g} rpm: {exc}") from None
+    return efficiency_record(ds)
 
 
 def write_efficiency(result: EfficiencyResult, out: Path) -> list[Path]:
