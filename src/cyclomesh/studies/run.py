@@ -191,9 +191,8 @@ def efficiency_summary(ds: xr.Dataset, case: CaseSpec) -> dict[str, Any]:
     or with no friction the input speed alone."""
     from cyclomesh.results.efficiency import efficiency_record
 
-    if "power_loss" in ds:
-        return efficiency_record(ds)
-    return {"input_speed_rpm": case.load.speed_rpm(case.design.pins - 1)}
+    record = efficiency_record(ds) if "power_loss" in ds else {}
+    return record | {"input_speed_rpm": case.load.speed_rpm(case.design.pins - 1)}
 
 
 def _with_stage(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs) -> tuple[xr.Dataset, dict]:
