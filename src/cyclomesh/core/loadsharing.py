@@ -55,6 +55,7 @@ def share_load(
     gamma: ArrayLike,
     torque: float,
     torque_arm: ArrayLike | None = None,
+    start: ArrayLike | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Solve the statically indeterminate load sharing (Eqs. 15–18 of [1]).
 
@@ -75,6 +76,10 @@ def share_load(
         :func:`cyclomesh.core.friction.torque_arm`); None: l' = l (Eq. 18 of [1]), solved
         exactly as without the argument. A pin with l' ≤ 0 (friction-locked) still takes
         its load from compatibility but bounds nothing.
+    start : array_like, optional
+        With ``torque_arm``: Newton's start Δφc, shape (...) [rad] (a nearby solution, as
+        in a fixed-point iteration on the friction); from the left of the root the first
+        tangent step of the convex M lands right of it, from where it descends as usual.
 
     Returns
     -------
@@ -92,7 +97,7 @@ def share_load(
     bl = np.asarray(backlash, float)
     arm = np.asarray(moment_arm, float)
     if torque_arm is not None:
-        return _share_load_friction(bl, arm, alpha, gamma, torque, torque_arm)
+        return _share_load_friction(bl, arm, alpha, gamma, torque, torque_arm, start)
     bl, arm, alpha, gamma = np.broadcast_arrays(
         bl, arm, np.asarray(alpha, float), np.asarray(gamma, float)
     )
@@ -176,6 +181,7 @@ def _share_load_friction(
     gamma: ArrayLike,
     torque: float | FloatArray,
     torque_arm: ArrayLike,
+    start: ArrayLike | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """:func:`share_load` with a torque-balance arm l' apart from the compatibility arm l.
 
@@ -223,6 +229,8 @@ def _share_load_friction(
         )
         err.case_index = int(np.argmax(~np.isfinite(x)))
         raise err
+    if start is not None:
+        x = np.broadcast_to(np.asarray(start, float), lead).reshape(-1).copy()
     c_bl = np.where(usable, bl, np.inf)
     tol = TORQUE_TOLERANCE * torque
     active = np.ones(x.shape, bool)

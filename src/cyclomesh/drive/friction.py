@@ -139,9 +139,17 @@ class FrictionCoupling:
         mu = mu.reshape(flat)
         moment = np.zeros(shape[:-1])  # (..., A, N): bearing friction moment on each disc
         total: float | FloatArray = torque
+        loaded = None
+        previous = None
         for _ in range(_MAX_FIXED_POINT):
             loaded, force = share_load(
-                mesh.backlash, arm, mesh.alpha, mesh.gamma, total, torque_arm(arm, m, mu, sign)
+                mesh.backlash,
+                arm,
+                mesh.alpha,
+                mesh.gamma,
+                total,
+                torque_arm(arm, m, mu, sign),
+                loaded,  # Newton from the last solution (the values move little)
             )
             if not (lubricated or bearing):
                 break
@@ -153,13 +161,21 @@ class FrictionCoupling:
                 )
                 new_mu = new_mu.reshape(flat)
                 change = np.max(np.abs(new_mu - mu))
-            if bearing:
+            if bearing:  # the fixed point t = T + s·ΣM(t) of the torque on the pins, by secant
                 f = force.reshape(shape)
                 rx, ry = self._resultant(f, -sign.reshape(shape) * new_mu.reshape(shape) * f)
-                new_moment = bearing_moment(self.friction, np.hypot(rx, ry))
-                change = max(change, np.max(np.abs(new_moment - moment)) / torque)
-                moment = new_moment
-                total = torque + self._bearing_sense() * np.sum(moment, axis=-1)
+                moment = bearing_moment(self.friction, np.hypot(rx, ry))
+                used = np.broadcast_to(np.asarray(total, float), moment.shape[:-1])
+                residual = torque + self._bearing_sense() * np.sum(moment, axis=-1) - used
+                change = max(change, np.max(np.abs(residual)) / torque)
+                step = residual  # plain iteration: g(t) = T + s·ΣM(t) − t has slope ≈ −1
+                if previous is not None:
+                    moved = used != previous[0]
+                    slope = (residual - previous[1]) / np.where(moved, used - previous[0], 1.0)
+                    secant = moved & (slope < -0.5)
+                    step = np.where(secant, -residual / np.where(secant, slope, -1.0), step)
+                previous = (used, residual)
+                total = used + step
             if change <= COEFFICIENT_TOLERANCE:
                 break  # the last solve used values within the tolerance of the fixed point
             mu = new_mu
