@@ -113,6 +113,10 @@ def check(
         more += "; [design_space] OK"
     if loaded.file.fe is not None:
         more += "; [fe] OK"
+    if any(inputs.friction is not None for inputs in loaded.inputs):
+        more += "; [friction] OK"
+    if loaded.file.efficiency is not None:
+        more += "; [efficiency] OK"
     if loaded.file.requirements != type(loaded.file.requirements)():
         more += "; [requirements] OK"
     typer.echo(f"{study}: {len(loaded.cases)} case(s) OK: {names}{more}")
