@@ -35,26 +35,31 @@ Parameswaran [3] for the rolling pin).
 Torque balance
 --------------
 The force of pin i on the disc is −F_i·n_i + T_i·t_i with T_i = −μ_eff,i·F_i·s_i,
-s_i = sgn(v_d·t). Its moment about O2 is F_i·l_i − T_i·m_i... with the sign convention of
-:mod:`cyclomesh.core.loadsharing` (Σ F·l = T balances the load T) the equilibrium becomes
+s_i = sgn(v_d·t). About O2 the normal force has the moment −F_i·l_i (clockwise: the pins
+turn the disc against the load T, which acts counter-clockwise, Σ F·l = T in
+:mod:`cyclomesh.core.loadsharing`) and the tangential one T_i·m_i (r×t = r·n = m). The
+disc's balance Σ(−F_i·l_i + T_i·m_i) + T = 0 becomes
 
     Σ F_i·(l_i + μ_eff,i·s_i·m_i) = T,
 
 a load-sharing problem with the compatibility of Eq. 15 (δ_i = l_i·(Δφ − φbl,i)) and the
-friction moment arm l_i + μ_eff·s_i·m_i in the balance: :func:`torque_arm`.
+friction moment arm l_i + μ_eff·s_i·m_i in the balance: :func:`torque_arm`. In forward
+drive s = −1 at every loaded pin (the sliding comes mostly from the disc's spin, −m/n2):
+friction resists the disc's turn, the pins carry more.
 
 Input torque and power
 ----------------------
 The output acts on the disc as a couple, so the crank carries the resultant R of the pin
-forces at O2: T_in = −(O2 × R)·ẑ... (:func:`input_torque`). The virtual power of the
+forces at O2 and T_in = −(O2 × R)·ẑ (:func:`input_torque`). The virtual power of the
 theoretical motion gives, exactly,
 
     T_in·ω = T·ω/n2 + Σ μ_eff·F·|v_d·t| + Σ F·(v_d·n),
 
 the last term the power of the normal approach of a non-conjugate (modified) profile,
 the rate of the elastic energy and of the rest rotation, whose mean over a revolution
-vanishes. The efficiency is taken from the losses, η = P_out/(P_out + P_loss): exactly 1
-without friction.
+nearly vanishes. The efficiency is taken from the losses, η = P_out/(P_out + P_loss):
+exactly 1 without friction. The crank bearing (:func:`bearing_moment`) adds its moment to
+the disc's balance and to T_in (:mod:`cyclomesh.drive.friction`).
 
 Lubricated coefficient
 ----------------------
