@@ -271,6 +271,7 @@ CHANGE.update(
         "efficiency.input_speed_rpm": _range(500.0, 2000.0),
         "efficiency.rated_torque_nm": 120.0,
         "efficiency.rated_speed_rpm": 700.0,
+        "design_space.min_efficiency": 0.999,
     }
 )
 FRICTION = {
@@ -307,10 +308,11 @@ CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
     },
     **{
         (kind, k): LUBRICATED if k.startswith("friction.lubricant.") else FRICTION
-        for kind in ("run", "stiffness", "efficiency")
+        for kind in ("run", "stiffness", "efficiency", "design")
         for k in schema_keys()
         if k.startswith("friction.")
     },
+    ("design", "design_space.min_efficiency"): FRICTION,
 }
 
 
@@ -324,10 +326,10 @@ def change_table(key: str, kind: str = "run") -> dict[str, Any]:
         return {"tolerance": {"angular_urad": DELETE, "tangential_um": CHANGE[key]}}
     if key == "friction.lubricant.viscosity_40c_cst":  # instead of the grade (not both)
         oil = {"viscosity_40c_cst": 200.0, "viscosity_100c_cst": 18.0}
-        if kind in ("run", "stiffness", "efficiency"):
+        if kind in ("run", "stiffness", "efficiency", "design"):
             return {"friction": {"lubricant": {"grade": DELETE, **oil}}}
         return {"friction": {**FRICTION["friction"], "lubricant": oil}}
-    if key.startswith("friction.") and kind not in ("run", "stiffness", "efficiency"):
+    if key.startswith("friction.") and kind not in ("run", "stiffness", "efficiency", "design"):
         context = LUBRICATED if key.startswith("friction.lubricant.") else FRICTION
         return merge({"friction": context["friction"]}, _nested(key, CHANGE[key]))
     if key == "errors.random.tangential_um":  # instead of angular_urad (not both)

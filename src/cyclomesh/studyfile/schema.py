@@ -1011,8 +1011,11 @@ class DesignSpaceSection(_Section):
     max_lost_motion_arcmin: float | None = Field(
         None, gt=0, description="largest allowed lost motion [arcmin] (computes it)"
     )
-    objective: Literal["max_contact_stress", "te_pp", "lost_motion", "play"] = Field(
-        "max_contact_stress", description="metric minimised"
+    min_efficiency: float | None = Field(
+        None, gt=0, le=1, description="smallest forward efficiency allowed (needs [friction])"
+    )
+    objective: Literal["max_contact_stress", "te_pp", "lost_motion", "play", "efficiency"] = Field(
+        "max_contact_stress", description="metric minimised (efficiency: maximised)"
     )
     rings: int = Field(
         0, ge=0, le=MAX_RINGS, description="rings drawn from [tolerance] (0: nominal map)"
@@ -1071,6 +1074,7 @@ class DesignSpaceSection(_Section):
             "max_te_pp_arcsec",
             "min_contacts",
             "max_lost_motion_arcmin",
+            "min_efficiency",
         )
         return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}
 

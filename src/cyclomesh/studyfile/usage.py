@@ -133,7 +133,7 @@ USED: dict[str, tuple[str, ...]] = {
         "requirements.tolerance_percentile",
     ),
     "allocate": (*_LTCA, "tolerance"),
-    "design": (*_LTCA, *_RINGS, "design_space", *_CHECKED),
+    "design": (*_LTCA, *_RINGS, "design_space", "friction", *_CHECKED),
     "fe": (
         *_PAIR,
         *_OUTPUT,
@@ -222,7 +222,6 @@ REFUSED: dict[str, dict[str, str]] = {
     "design": {
         "design.disc": _HOLES,
         "stage": _stage("design"),
-        "friction": _friction("design"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
