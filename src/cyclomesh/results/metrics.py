@@ -113,18 +113,6 @@ STIFFNESS_METRICS: dict[str, Metric] = {
         ),
         Metric("lost_motion_arcmin_max", "arcmin", "largest lost motion", "max lost motion"),
         Metric(
-            "hysteresis_arcmin_mean",
-            "arcmin",
-            "mean width of the friction loop (with [friction])",
-            "hysteresis",
-        ),
-        Metric(
-            "hysteresis_arcmin_max",
-            "arcmin",
-            "largest width of the friction loop",
-            "max hysteresis",
-        ),
-        Metric(
             "torsional_rigidity_nm_per_arcmin_mean",
             "N m/arcmin",
             "mean torsional rigidity of the mesh, secant 50-100 % of rated",
@@ -159,6 +147,18 @@ STIFFNESS_METRICS: dict[str, Metric] = {
             "N m/arcmin",
             "smallest torsional rigidity of the whole drive",
             "min drive rigidity",
+        ),
+        Metric(
+            "hysteresis_arcmin_mean",
+            "arcmin",
+            "mean width of the friction loop (with [friction])",
+            "hysteresis",
+        ),
+        Metric(
+            "hysteresis_arcmin_max",
+            "arcmin",
+            "largest width of the friction loop",
+            "max hysteresis",
         ),
     )
 }
