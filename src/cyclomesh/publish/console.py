@@ -251,12 +251,20 @@ def print_tolerance(stats: dict[str, Any], out: Path) -> None:
         f"{ex['probability']:.4g}, {conf:.0%} Clopper-Pearson [{ex['lower']:.4g}, "
         f"{ex['upper']:.4g}] ({ex['count']} of {ex['rings']} rings)"
     )
+    jam = stats.get("jam")
+    if jam and jam["count"]:
+        console.print(
+            f"[bold red]jam[/]: P(the pins jam the disc) = {jam['probability']:.4g}, {conf:.0%} "
+            f"Clopper-Pearson [{jam['lower']:.4g}, {jam['upper']:.4g}] ({jam['count']} of "
+            f"{jam['rings']} rings; counted as exceeding) -> {escape(str(out / jam['file']))}"
+        )
     print_warnings(stats.get("warnings", []))
     worst = stats["worst_ring"]
-    console.print(
-        f"worst ring {worst['ring']}: {worst['max_contact_stress_mpa']:.5g} MPa -> "
-        f"{out / 'worst_ring.toml'}"
-    )
+    if worst is not None:
+        console.print(
+            f"worst ring {worst['ring']}: {worst['max_contact_stress_mpa']:.5g} MPa -> "
+            f"{escape(str(out / 'worst_ring.toml'))}"
+        )
     console.print(
         f"percentile intervals: {out / 'tolerance_summary.json'}; "
         f"report: {out / 'report.html'} ({stats['rings_per_second']:.1f} rings/s)"
