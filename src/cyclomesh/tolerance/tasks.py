@@ -216,7 +216,9 @@ class ToleranceTask:
         like = solved[0] if solved else self.model.metrics(drawn.take([0]).scaled(np.zeros(1)))
         out = {}
         for name, ref in like.items():
-            filler = np.full_like(ref, False) if ref.dtype == np.bool_ else np.full(ref.shape, np.nan)
+            filler = (
+                np.full_like(ref, False) if ref.dtype == np.bool_ else np.full(ref.shape, np.nan)
+            )
             out[name] = np.concatenate([filler if p is None else p[name] for p in parts])
         out["jammed"] = np.array([p is None for p in parts])
         return out
