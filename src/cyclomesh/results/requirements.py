@@ -43,6 +43,9 @@ __all__ = [
     "check_requirements",
     "design_warnings",
     "peak_stress_warning",
+    "jam_row",
+    "jam_warning",
+    "min_play_arcmin",
     "verdict_counts",
     "SHORT",
     "short_label",
@@ -293,6 +296,49 @@ def peak_stress_warning(ds: Any, pin_radius_mm: float) -> dict[str, Any] | None:
     return row
 
 
+def min_play_arcmin(ds: Any) -> float | None:
+    """Smallest play at zero load of a result with a ``play`` variable [arcmin] (its
+    ``units`` attribute: arcsec or arcmin); None without one."""
+    if ds is None or "play" not in ds:
+        return None
+    values = np.asarray(ds["play"].values, dtype=float)
+    if not np.any(np.isfinite(values)):
+        return None
+    factor = {"arcsec": 1.0 / 60.0, "arcmin": 1.0}[ds["play"].attrs.get("units", "arcsec")]
+    return float(np.nanmin(values)) * factor
+
+
+def jam_row(play_arcmin: float) -> dict[str, Any]:
+    """Verdict row of the smallest play at zero load: negative fails (the pins jam the
+    disc: at rest the disc overlaps the pins of the other flank, so the loaded results
+    describe a pair that cannot be assembled or turned)."""
+    row = _row(
+        "jam",
+        "smallest play at zero load (negative: the pins jam the disc)",
+        "arcmin",
+        "min",
+        0.0,
+        play_arcmin,
+        "negative play: the pins jam the disc; enlarge the clearance of [modification] "
+        "or reduce [errors]"
+        if play_arcmin < 0
+        else "the pins do not jam the disc",
+    )
+    row["margin_pct"] = None  # of a zero limit
+    return row
+
+
+def jam_warning(play_arcmin: float | None) -> str | None:
+    """The warning of a negative play at zero load (None if it is not negative)."""
+    if play_arcmin is None or play_arcmin >= 0:
+        return None
+    return (
+        f"negative play at zero load ({play_arcmin:.4g} arcmin): the pins jam the disc, "
+        "the loaded results are of a pair that cannot turn (enlarge the clearance of "
+        "[modification] or reduce [errors])"
+    )
+
+
 SHORT = {
     "max_contact_stress_mpa": "σH tooth [MPa]",
     "max_groove_stress_mpa": "σH groove [MPa]",
@@ -307,6 +353,7 @@ SHORT = {
     "k1": "K1 = e·n1/a",
     "undercut_margin": "undercut margin",
     "peak_stress_curvature": "ρc at peak σH [mm]",
+    "jam": "jam: play [arcmin]",
 }
 """Short names of the checks with their units, for tables that must fit 80 columns."""
 
