@@ -110,8 +110,8 @@ def compute_stiffness(
     torque (0.4 s for 42 torques × 360 crank angles × 40 pins), so the cases run here.
     """
     from cyclomesh.output.writers import jsonable
-    from cyclomesh.results.torsion import stiffness, summarize_stiffness
     from cyclomesh.results.requirements import jam_warning, min_play_arcmin
+    from cyclomesh.results.torsion import stiffness, summarize_stiffness
     from cyclomesh.studies.checks import case_checks
     from cyclomesh.studyfile.usage import check_keys
     from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
