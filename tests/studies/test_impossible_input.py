@@ -140,3 +140,40 @@ def test_hole_errors_a_disc_takes_up_by_moving_are_accepted(tmp_path):
         )
         result = invoke("check", study)
         assert result.exit_code == 0, result.output
+
+
+def test_run_and_stiffness_check_the_stage_by_one_definition(tmp_path):
+    """Issue 23: with [stage], `run` checked the mean lost motion and rigidity over the
+    crank angles, `stiffness` the largest and smallest (docs/requirements.md): two
+    verdicts for one design. Now both check the same numbers; the rigidity row says what
+    was checked and that the reducer's is lower."""
+    text = (EXAMPLES / "rv_stage.toml").read_text(encoding="utf-8")
+    text = text.replace("crank_step_deg = 1.0 ", "crank_step_deg = 12.0 ")
+    text = text.replace(
+        "[stage]\n",
+        "[requirements]\nmax_lost_motion_arcmin = 1.1\n"
+        "min_torsional_rigidity_nm_per_arcmin = 468.0\n\n[stage]\n",
+        1,
+    )
+    study = tmp_path / "stage.toml"
+    study.write_text(text, encoding="utf-8")
+    rows = {}
+    for command in ("run", "stiffness"):
+        out = tmp_path / command
+        result = invoke(command, study, "--out", out, "--figures", "none")
+        assert result.exit_code == 0, result.output
+        summary = json.loads((out / "summary.json").read_text())
+        cases = summary["cases"]
+        cases = cases if isinstance(cases, dict) else {c["name"]: c for c in cases}
+        rows[command] = {
+            name: {row["check"]: row for row in case["checks"]["rows"]}
+            for name, case in cases.items()
+        }
+    assert rows["run"].keys() == rows["stiffness"].keys()
+    for case in rows["run"]:
+        for key in ("max_lost_motion_arcmin", "min_torsional_rigidity_nm_per_arcmin"):
+            a, b = rows["run"][case][key], rows["stiffness"][case][key]
+            assert a["value"] == pytest.approx(b["value"], rel=1e-9), (case, key)
+            assert a["verdict"] == b["verdict"]
+            assert "stage: mesh + crank bearings" in a["note"]
+            assert "the reducer's is worse" in a["note"]

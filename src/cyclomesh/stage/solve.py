@@ -281,6 +281,9 @@ class Stage:
         TE of the mesh alone (rigid bearings) at the same torque [rad], (Q, A).
     residual : ndarray
         Largest equilibrium residual of each solve [N] (moments over r_c), (Q, A).
+    groove_load, groove_stress : ndarray
+        Groove force Fc·cos β [N] and its Hertzian pressure [Pa] of the loaded-flank pins
+        (Eq. 24), (Q, A, D, n1).
     """
 
     crank_angle: FloatArray
@@ -302,6 +305,8 @@ class Stage:
     transmission_error: FloatArray
     mesh_transmission_error: FloatArray
     residual: FloatArray
+    groove_load: FloatArray
+    groove_stress: FloatArray
 
 
 # --- the bearing law with its optional series spring ---------------------------------
@@ -753,7 +758,7 @@ def _solve_direction(
             np.abs(_evaluate(prob, None, x, D, True, hessian=False)[1] @ _reducer(D)), -1
         )
     c, theta, ux, uy = _unpack(x, D)
-    groove, stress, _ = contact_stresses(mesh.geo, mesh.design, F[..., :n1])
+    groove, stress, groove_stress = contact_stresses(mesh.geo, mesh.design, F[..., :n1])
     mfx = -np.sum(F * prob.nx, axis=-1)
     mfy = -np.sum(F * prob.ny, axis=-1)
     rollers = (
@@ -765,6 +770,8 @@ def _solve_direction(
         "pin_load": F[..., :n1],
         "opposite_pin_load": F[..., n1:],
         "contact_stress": stress,
+        "groove_load": groove,
+        "groove_stress": groove_stress,
         "contacts": count_contacts(F[..., :n1], axes=2),  # per disc, against the stack
         "torque_share": np.sum(F * prob.arm, axis=-1),
         "mesh_fx": mfx,
@@ -817,7 +824,7 @@ def _deflection(law: _Law, force: FloatArray) -> FloatArray:
 
 
 # fields: (angle axis, disc axis, crank/pin axis) for the mirror
-_PER_PIN = {"pin_load", "opposite_pin_load", "contact_stress"}
+_PER_PIN = {"pin_load", "opposite_pin_load", "contact_stress", "groove_load", "groove_stress"}
 _PER_CRANK = {"bearing_fx", "bearing_fy", "bearing_deflection", "max_roller_load"}
 _PER_DISC = {
     "contacts",
@@ -960,6 +967,8 @@ def solve_stage(
         transmission_error=te,
         mesh_transmission_error=out["mesh_te"],
         residual=out["residual"],
+        groove_load=out["groove_load"],
+        groove_stress=out["groove_stress"],
     )
 
 

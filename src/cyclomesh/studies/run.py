@@ -153,9 +153,11 @@ def compute_run(
         except CyclomeshError as exc:  # name the case
             raise type(exc)(f"{case.label}: {exc}") from None
         ds = annotate(ds, case, inputs, study)
-        run.summaries[case.name] = summary_record(summarize(ds))
+        sheet = None
         if inputs.stage is not None:
             ds, sheet = _with_stage(ds, case, inputs)
+        run.summaries[case.name] = summary_record(summarize(ds))
+        if sheet is not None:
             run.summaries[case.name].update(sheet)
         run.results[case.name] = ds
         run.warnings[case.name] = study_warnings(
@@ -173,9 +175,12 @@ def compute_run(
 
 def _with_stage(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs) -> tuple[xr.Dataset, dict]:
     """The case's Dataset with the RV stage's variables, and its data sheet (``[stage]``)."""
-    from cyclomesh.results.stage import data_sheet, solve_case, stage_dataset
+    from cyclomesh.results.stage import data_sheet, solve_case, stage_dataset, stage_mesh
 
-    stage = stage_dataset(solve_case(inputs), inputs.stage, inputs.design.pins)
+    result = solve_case(inputs)
+    # the reported mesh (summary, verdict, figures) is the stage's, not the rigid bearings'
+    ds = stage_mesh(ds, result, inputs.design.teeth)
+    stage = stage_dataset(result, inputs.stage, inputs.design.pins)
     if "disc" not in ds.dims:  # one disc: no disc dimension, as the mesh variables
         stage = stage.isel(disc=0, drop=True)
     # the same angles (and torques) as the mesh's, bit for bit: no alignment
