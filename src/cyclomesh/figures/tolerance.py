@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import xarray as xr
 
-from cyclomesh.figures.render import fixed_figure
+from cyclomesh.figures.render import fixed_figure, plain_log_axis
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC, metric_label
 
 if TYPE_CHECKING:
@@ -206,6 +206,7 @@ def plot_stress_exceedance(
     ax.set_xlabel("peak tooth contact stress level [MPa]")
     ax.set_ylabel("exceedance probability [-] (log)")
     ax.set_yscale("log")
+    plain_log_axis(ax.yaxis)
     ax.set_ylim(floor * 0.8, 1.05)
     ax.legend()
     return fig
@@ -247,6 +248,7 @@ def plot_allocation(allocation: Allocation):
         )
     ax.axvline(1.0, color="0.5", linewidth=0.8, label="stated tolerances")
     ax.set_yscale("log")
+    plain_log_axis(ax.yaxis)
     ax.set_xlabel("scale factor on the stated tolerances [-]")
     ax.set_ylabel("P(peak tooth contact stress > allowable) [-]")
     ax.set_title(f"{a.rings} rings; below {floor:.2g} means no ring", fontsize="small")

@@ -238,13 +238,13 @@ def print_tolerance(stats: dict[str, Any], out: Path) -> None:
     from rich.markup import escape
     from rich.table import Table
 
-    from cyclomesh.results.metrics import METRICS
+    from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
 
     table = Table(title=f"{stats['rings']} rings (seed {stats['seed']})")
     for col in ("metric", "mean", "std", "P5", "P50", "P95", "P99"):
         table.add_column(col, justify="left" if col == "metric" else "right")
     for name, s in stats["metrics"].items():
-        m = METRICS.get(name)
+        m = METRICS.get(name) or DRIVE_METRICS.get(name)
         label = name if m is None else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
         table.add_row(
             escape(label),

@@ -266,17 +266,20 @@ def design_warnings(design: PairDesign, modification: Modification | None) -> li
     convex = locus_radius[locus_radius > 0]
     if len(convex):
         margin = float(convex.min()) / rho - 1.0
-        rows.append(
-            _warning(
-                "undercut_margin",
-                "undercut margin R_min/ρ' − 1",
-                "1",
-                "min",
-                UNDERCUT_MARGIN_WARNING,
-                margin,
-                f"smallest convex curvature radius ρc = {(convex.min() - rho) * 1e3:.3g} mm",
-            )
+        row = _warning(
+            "undercut_margin",
+            "undercut margin R_min/ρ' − 1",
+            "1",
+            "min",
+            UNDERCUT_MARGIN_WARNING,
+            margin,
+            f"R_min = {convex.min() * 1e3:.4g} mm is {100.0 * margin:.3g} % above the "
+            f"generating pin radius ρ' = {rho * 1e3:.4g} mm (0: undercut); smallest convex "
+            f"curvature radius ρc = {(convex.min() - rho) * 1e3:.3g} mm",
         )
+        # the margin is itself relative: a % of the rule-of-thumb threshold means nothing
+        row["margin_pct"] = None
+        rows.append(row)
     return rows
 
 

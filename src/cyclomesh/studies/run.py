@@ -24,7 +24,7 @@ import numpy as np
 
 from cyclomesh.core.pair import Modification
 from cyclomesh.publish.pipeline import case_attrs, study_stamp, summary_document
-from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STIFFNESS_METRICS
 from cyclomesh.results.profile import profile_curves
 from cyclomesh.results.stage import STAGE_METRICS
 from cyclomesh.studies.execute import StudyKind
@@ -491,6 +491,23 @@ def metrics_table(records: dict[str, dict[str, Any]], metrics: dict[str, Any]) -
     return table
 
 
+def _play_in_arcmin(record: dict[str, Any]) -> dict[str, Any]:
+    """The record with its play in arcmin (``play_arcmin_*``), the unit of the terminal,
+    the verdict and ``cyclomesh stiffness``; summary.json keeps ``play_arcsec_*``."""
+
+    def arcmin(value: Any) -> Any:
+        if isinstance(value, list):
+            return [arcmin(v) for v in value]
+        return None if value is None else value / 60.0
+
+    return {
+        (k.replace("play_arcsec", "play_arcmin") if k.startswith("play_arcsec") else k): (
+            arcmin(v) if k.startswith("play_arcsec") else v
+        )
+        for k, v in record.items()
+    }
+
+
 def run_sections(run: RunResult) -> list[Section]:
     """Report sections of a run study: study, inputs, summary (figures come after)."""
     from cyclomesh.publish.report import Section, table_html
@@ -523,8 +540,13 @@ def run_sections(run: RunResult) -> list[Section]:
         f"<pre>{html.escape(study.text)}</pre></details>"
     )
     summary = metrics_table(
-        {n: {k: v for k, v in run.summaries[n].items() if k not in STAGE_METRICS} for n in names},
-        METRICS | DRIVE_METRICS,
+        {
+            n: _play_in_arcmin(
+                {k: v for k, v in run.summaries[n].items() if k not in STAGE_METRICS}
+            )
+            for n in names
+        },
+        METRICS | DRIVE_METRICS | STIFFNESS_METRICS,
     )
     from cyclomesh.studies.checks import checks_section
 

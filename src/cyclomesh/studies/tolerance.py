@@ -519,7 +519,7 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
             f"{_fmt(p['estimate'])} [{_fmt(p['lower'])}, {_fmt(p['upper'])}]"
             for p in s["percentiles"]
         ]
-        m = METRICS.get(name)
+        m = METRICS.get(name) or DRIVE_METRICS.get(name)
         label = name if m is None else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
         rows.append([label, _fmt(s["mean"]), _fmt(s["std"]), *pct])
     header = ["metric", "mean", "std"] + [f"P{p:g} [{conf:.0%} CI]" for p in stats["percentiles"]]
