@@ -1333,6 +1333,7 @@ class CaseSpec(_Section):
                         "give load.input_speed_rpm alone"
                     )
                 stage = self.stage.to_core(crank_holes, d.discs, speed / (d.pins - 1))
+                stage.check_fits(design, d.discs)
             friction = None
             if self.friction is not None:
                 friction = self.friction.to_core(speed)
