@@ -172,8 +172,9 @@ def export(
             f"--chord-tolerance-um: expected a number of at least 0.001, got {chord_tolerance_um}"
         )
     loaded = load_study(study)
-    with ResultFolder(out, "export"):  # locked; summary.json (files, sizes) written last
-        written = export_study(loaded, out, formats, chord_tolerance_um * 1e-6)
+    with ResultFolder(out, "export") as folder:  # locked; staged; summary.json written last
+        staged = export_study(loaded, folder.path, formats, chord_tolerance_um * 1e-6)
+    written = {case: {k: folder.final(p) for k, p in f.items()} for case, f in staged.items()}
     if not quiet:
         from cyclomesh.publish.console import print_export
 

@@ -81,6 +81,7 @@ from cyclomesh.studyfile.limits import (
     MAX_DISCS,
     MAX_PINS,
     MAX_RINGS,
+    MAX_SEED,
     MAX_STIFFNESS_POINTS,
     MAX_STUDY_FILE_BYTES,
     MIN_CRANK_STEP_DEG,
@@ -522,7 +523,7 @@ class RandomErrorsSection(_Section):
     others' draws unchanged.
     """
 
-    seed: int = Field(ge=0, description="seed of numpy.random.default_rng")
+    seed: int = Field(ge=0, le=MAX_SEED, description="seed of numpy.random.default_rng")
     radial_um: float = Field(0.0, ge=0, description="half-range of εa,i [µm]")
     angular_urad: float = Field(0.0, ge=0, description="half-range of εψ,i [µrad]")
     pin_radius_um: float = Field(0.0, ge=0, description="half-range of ερ,i [µm]")
@@ -738,7 +739,9 @@ class ToleranceSection(_Section):
     ``[errors]``.
     """
 
-    seed: int = Field(ge=0, description="ring k's errors depend only on (seed, k)")
+    seed: int = Field(
+        ge=0, le=MAX_SEED, description="ring k's errors depend only on (seed, k)"
+    )
     rings: int = Field(
         1000, ge=1, le=MAX_RINGS, description="how many rings to draw (--rings overrides)"
     )
@@ -826,6 +829,15 @@ class RangeSection(_Section):
     start: float = Field(description="first value [unit of the key]")
     stop: float = Field(description="last value, included [unit of the key]")
     points: int = Field(ge=1, le=1001, description="number of values")
+
+    @model_validator(mode="after")
+    def _distinct(self) -> RangeSection:
+        if self.points > 1 and self.start == self.stop:
+            raise ValueError(
+                f"start = stop = {self.start:g} with points = {self.points}: the values "
+                "repeat; give a stop other than the start, or points = 1"
+            )
+        return self
 
     def values(self) -> NDArray:
         """The grid values [unit of the key]."""
@@ -1490,7 +1502,8 @@ def one_line(exc: ValidationError, model: type[BaseModel], prefix: str = "") -> 
         what = f"expected {_EXPECTED[kind]}, got {_show(value)}"
     elif kind in _BOUNDS:
         bound = next(iter(ctx.values()))
-        what = f"expected a number {_BOUNDS[kind]} {bound:g}, got {_show(value)}"
+        shown = f"{bound}" if isinstance(bound, int) else f"{bound:g}"
+        what = f"expected a number {_BOUNDS[kind]} {shown}, got {_show(value)}"
     elif kind == "finite_number":
         what = f"expected a finite number, got {_show(value)}"
     elif kind == "literal_error":
