@@ -213,7 +213,13 @@ def run_backend(scheduler: str | None, workers: int | None, parallel: bool = Tru
     from cyclomesh.execution.backends import make_backend
 
     check_workers(workers)
-    return make_backend(scheduler, workers) if parallel else None
+    if not parallel:
+        return None
+    if scheduler is not None:
+        from cyclomesh.cli.errors import quiet_logs
+
+        quiet_logs()
+    return make_backend(scheduler, workers)
 
 
 def crank_angles_from(text: str | None) -> list[float] | None:

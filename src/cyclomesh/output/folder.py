@@ -51,6 +51,7 @@ __all__ = [
     "write_text",
     "ResultFolder",
     "active_folder",
+    "abandon_active",
     "Results",
     "load_results",
 ]
@@ -75,16 +76,30 @@ def active_folder() -> ResultFolder | None:
     return _ACTIVE[-1] if _ACTIVE else None
 
 
+def abandon_active() -> None:
+    """Discard what the folders this process writes have staged (their ``--out`` left as
+    found, a folder they created removed): for a process about to end at once (Ctrl-C)."""
+    while _ACTIVE:
+        _ACTIVE.pop()._discard()
+
+
 def _reason(exc: BaseException, folder: Path) -> str:
-    """A short reason for a failed write (disk full named as such)."""
+    """A short reason for a failed write (disk full and read-only named as such)."""
     code = getattr(exc, "errno", None)
     if code in (errno.ENOSPC, errno.EDQUOT):
         return "no space left on the device"
-    try:
-        if shutil.disk_usage(folder).free < 1 << 20:
-            return f"no space left on the device ({exc})"
-    except OSError:
-        pass
+    if code == errno.EROFS:
+        return "read-only file system"
+    if code in (errno.EACCES, errno.EPERM):
+        return "permission denied"
+    if code is None or code == errno.EIO:  # HDF5 says only "HDF error"
+        try:
+            if not os.access(folder, os.W_OK):
+                return f"no permission to write (or read-only file system) ({exc})"
+            if shutil.disk_usage(folder).free < 1 << 20:
+                return f"no space left on the device ({exc})"
+        except OSError:
+            pass
     text = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
     return " ".join(str(text).split())
 

@@ -11,7 +11,8 @@ result-file writer, its figure jobs and report sections (see ``docs/pipeline.md`
    items run on an execution backend, the backend and an import preload thread;
 3. computes, with the progress callback the caller gives;
 4. writes the result files, renders the figures and writes the report
-   (:func:`~cyclomesh.publish.pipeline.publish`); ``summary.json`` is written last, then everything is moved into ``out``.
+   (:func:`~cyclomesh.publish.pipeline.publish`); ``summary.json`` is written last,
+   then everything is moved into ``out``.
 
 The runtime helpers that keep a command fast (figure workers forked early and warmed
 up, imports preloaded while the workers compute) live here too, so the command line
@@ -113,6 +114,10 @@ def running_backend(backend: Any, figures: bool) -> Iterator[Any]:
             backend.start()
         preload = _preload(figures)
         yield backend
+    except BaseException:  # Ctrl-C or a failure: the workers' chunks are not wanted
+        if backend is not None and hasattr(backend, "terminate"):
+            backend.terminate()
+        raise
     finally:
         if backend is not None:
             backend.close()

@@ -739,9 +739,7 @@ class ToleranceSection(_Section):
     ``[errors]``.
     """
 
-    seed: int = Field(
-        ge=0, le=MAX_SEED, description="ring k's errors depend only on (seed, k)"
-    )
+    seed: int = Field(ge=0, le=MAX_SEED, description="ring k's errors depend only on (seed, k)")
     rings: int = Field(
         1000, ge=1, le=MAX_RINGS, description="how many rings to draw (--rings overrides)"
     )
@@ -1175,7 +1173,14 @@ class CaseSpec(_Section):
             )
             errors.ring_shape(design.pins)
             check_physical(design, modification, errors)
-            check_profile(design, modification)
+            try:
+                with np.errstate(over="ignore", invalid="ignore"):  # huge tables: inf, refused
+                    check_profile(design, modification)
+            except DesignError as exc:
+                if m.profile_file is None:
+                    raise
+                what = str(exc).removeprefix("profile deviation: ")
+                raise DesignError(f"modification.profile_file {m.profile_file}: {what}") from None
             crank_holes = d.disc.to_core()
             if crank_holes is not None:
                 crank_holes.check_fits(design)
