@@ -293,6 +293,16 @@ class DaskBackend:
         pass
 
     def run(self, task: ChunkFunction, chunks: Iterable[Chunk]) -> Iterator[tuple[Chunk, Any]]:
+        """Run the chunks on the cluster; a scheduler lost at any step (submitting,
+        counting workers, gathering) is one :class:`ClusterError` naming its address."""
+        try:
+            yield from self._run(task, chunks)
+        except CyclomeshError:
+            raise
+        except Exception as exc:  # the scheduler went away between two steps
+            raise self._lost(exc) from None
+
+    def _run(self, task: ChunkFunction, chunks: Iterable[Chunk]) -> Iterator[tuple[Chunk, Any]]:
         distributed = self._distributed
         client = self.client
         token = os.urandom(6).hex()
