@@ -120,3 +120,29 @@ def test_read_only_folder_is_named_read_only(tmp_path, monkeypatch):
     )
     assert result.exit_code == 2
     assert result.output == f"error: --out {out}: read-only file system\n"
+
+
+def test_a_key_or_table_given_twice_is_named(tmp_path):
+    cases = [
+        ("title = 'x'\n[design]\npins = 40\npins = 41\n", "key design.pins given twice (line 4"),
+        ("title = 'x'\n[design]\npins = 40\n[design]\n", "table [design] declared twice (line 4)"),
+        (
+            "title = 'x'\n[[cases]]\nmodification = {pin_radius_um = 1.0}\n"
+            "modification.pin_radius_um = 2.0\n",
+            "key modification.pin_radius_um of a [[cases]] entry given twice (line 4",
+        ),
+    ]
+    for text, expected in cases:
+        (tmp_path / "s.toml").write_text(text)
+        line = only_error_line(cyclomesh("check", "s.toml", cwd=tmp_path))
+        assert line.startswith(f"error: s.toml: {expected}"), line
+
+
+def test_an_overlapping_pin_names_the_key_and_the_amount(tmp_path):
+    text = (EXAMPLES / "table2.toml").read_text()
+    (tmp_path / "s.toml").write_text(
+        text + '\n[[cases]]\nname = "tight"\nmodification.pin_radius_um = -8.0\n'
+    )
+    done = cyclomesh("run", "s.toml", "--out", "o", "-q", "--figures", "none", cwd=tmp_path)
+    line = only_error_line(done)
+    assert "by 8 µm" in line and "raise modification.pin_radius_um (Δρ) by at least 8 µm" in line
