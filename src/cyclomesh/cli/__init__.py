@@ -103,7 +103,7 @@ def check(
     commands would refuse before computing: with --kind that command's refusals, else
     those of every command the file is written for (run, and stiffness, tolerance,
     allocate, design or fe when it has their section)."""
-    from cyclomesh.studies.preflight import kinds_of
+    from cyclomesh.studies.preflight import check_kinds
     from cyclomesh.studyfile import load_study
     from cyclomesh.studyfile.limits import check_study_work
 
@@ -114,20 +114,7 @@ def check(
 
         if not fe_extra_available():
             raise StudyError(f"{study}: [analysis] {FE_EXTRA_MESSAGE}")
-    kinds = [kind] if kind else kinds_of(loaded)
-    refused: list[tuple[str, str]] = []
-    for name in kinds:
-        try:
-            preflight(loaded, name, allow_work=no_work_limit)
-        except StudyError as exc:
-            if kind:
-                raise
-            refused.append((name, str(exc)))
-    if refused:
-        first, why = refused[0]
-        also = [name for name, _ in refused[1:]]
-        more = f" (also refused by: {', '.join(also)}; see check --kind)" if also else ""
-        raise StudyError(f"cyclomesh {first} would refuse it: {why}{more}")
+    kinds = check_kinds(loaded, kind, allow_work=no_work_limit)
     names = ", ".join(case.name for case in loaded.cases)
     more = "; [tolerance] OK" if loaded.tolerance is not None else ""
     if any(case.stiffness is not None for case in loaded.cases):

@@ -17,7 +17,7 @@ from cyclomesh.exceptions import StudyError
 if TYPE_CHECKING:
     from cyclomesh.studyfile.schema import Study
 
-__all__ = ["COMMANDS", "preflight", "kinds_of"]
+__all__ = ["COMMANDS", "preflight", "kinds_of", "check_kinds"]
 
 COMMANDS = ("run", "stiffness", "tolerance", "allocate", "design", "fe", "export")
 """The commands a study file can be given to."""
@@ -85,3 +85,31 @@ def preflight(study: Study, kind: str, *, allow_work: bool = False, work: bool =
                 raise StudyError(f"{case.label}: {exc}") from None
     if work and kind in ("run", "stiffness", "tolerance", "allocate", "design"):
         check_study_work(study, kind, allow=allow_work)
+
+
+def check_kinds(study: Study, kind: str | None, *, allow_work: bool = False) -> list[str]:
+    """``cyclomesh check [--kind KIND]``: :func:`preflight` for ``kind``, or for every
+    command of :func:`kinds_of`; returns the commands checked.
+
+    Raises
+    ------
+    StudyError
+        ``kind``'s refusal as the command gives it; without ``kind``, the first
+        command's that refuses (``cyclomesh run would refuse it: ...``), naming the
+        others that would refuse it too.
+    """
+    kinds = [kind] if kind else kinds_of(study)
+    refused: list[tuple[str, str]] = []
+    for name in kinds:
+        try:
+            preflight(study, name, allow_work=allow_work)
+        except StudyError as exc:
+            if kind:
+                raise
+            refused.append((name, str(exc)))
+    if refused:
+        first, why = refused[0]
+        also = [name for name, _ in refused[1:]]
+        more = f" (also refused by: {', '.join(also)}; see check --kind)" if also else ""
+        raise StudyError(f"cyclomesh {first} would refuse it: {why}{more}")
+    return kinds
