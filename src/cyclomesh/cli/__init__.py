@@ -208,7 +208,9 @@ def stiffness(
     """Torsion curve of every case ([stiffness] section): play, lost motion, rigidity.
 
     Writes <case>/stiffness.nc, summary.json, the figures and report.html. The numbers
-    are those of the cycloid-pin mesh alone (see docs/drive.md).
+    are those of the cycloid-pin mesh alone (docs/drive.md); with [stage], also those
+    of the RV stage (mesh + crank bearings, docs/stage.md), which the requirements
+    check. The whole reducer is softer than both.
     """
     use_cache_dir(cache_dir)
     from cyclomesh.publish.console import print_stiffness, print_warnings
