@@ -71,10 +71,10 @@ CASES = {
             (r"^rated_torque_nm = .*$", "rated_torque_nm = 1e300"),
         ),
     ),
-    "tolerance": (
+    "tolerance": (  # jammed rings are counted (issue 23): a failure after the files
         ("tolerance", "--workers", "1"),
         _edit(*TOLERANCE),
-        _edit(*TOLERANCE, (r"half_range = 4\.0", "half_range = 3000.0")),
+        None,
     ),
     "allocate": (
         ("allocate", "--workers", "1"),
