@@ -631,13 +631,14 @@ def run_study(study: Study, out: str | Path, options: OutputOptions | None = Non
 
     options = options or OutputOptions.from_study(study)
     out = Path(out)
-    with ResultFolder(out, "run"):
+    with ResultFolder(out, "run") as folder:
         run = compute_run(study)
-        files = write_run(run, out, options)
+        files = write_run(run, folder.path, options)
         jobs = run_figures(run) if options.figures else []
-        return publish(
-            out, study.title, run_sections(run), jobs, files, options, study_stamp(study)
+        written = publish(
+            folder.path, study.title, run_sections(run), jobs, files, options, study_stamp(study)
         ).files
+    return [folder.final(p) for p in written]
 
 
 RUN = StudyKind(
