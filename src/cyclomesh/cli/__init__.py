@@ -394,3 +394,21 @@ def fe(
     )
     if not quiet:
         print_fe(result.summaries, out, result.checks)
+
+
+@app.command()
+@cli_errors()
+def explore(
+    study: StudyArg,
+    port: Annotated[
+        int, typer.Option(min=0, max=65535, help="Port on 127.0.0.1 (0: any free).")
+    ] = 8050,
+    no_browser: Annotated[
+        bool, typer.Option("--no-browser", help="Do not open a browser.")
+    ] = False,
+) -> None:
+    """Explore a study in the browser: change the modification, load or pin errors and see
+    loads, stresses and TE at once (needs the explore extra; docs/explore.md)."""
+    from cyclomesh.explore.app import serve
+
+    serve(study, port=port, open_browser=not no_browser, echo=typer.echo)
