@@ -352,6 +352,8 @@ class Session:
         from cyclomesh.studies.stiffness import compute_stiffness
 
         table = tomllib.loads(text)
+        for section in ("figures", "tolerance", "design_space", "fe"):  # not the curve's
+            table.pop(section, None)
         if "stiffness" not in table:
             torque = abs(float(study.inputs[0].torque))
             table["stiffness"] = {"rated_torque_nm": torque, "points": 21}
@@ -415,10 +417,12 @@ def _plots(ds: Any, study: Study) -> dict[str, Any]:
 def _scene(solved: dict[str, Any], outline: Any, angle_deg: float, scale: float) -> dict[str, Any]:
     """The disc and the pin ring to scale at the crank angle nearest ``angle_deg`` [mm].
 
-    Fixed frame (the pin wheel): disc centre at (e + εe)(cos φ, sin φ), the disc turned
-    by φt + TE = −φ/n2 + TE (Eq. 25; docs/drive.md); pin i at (a + εa,i) and angle
-    ψi + εψ,i with radius ρp + ερ,i (Eq. 5). ``scale`` multiplies TE and the pin errors
-    (1: to scale; larger: the deformation and the errors exaggerated).
+    Fixed frame (the pin wheel, counter-clockwise positive; :mod:`cyclomesh.core.contact`):
+    disc centre at (e + εe)(cos φ, sin φ); the disc turned by φt + (φc − φt) + Δφc =
+    −φ/n2 + rest + loaded rotation (so TE = −(rest + loaded), Eq. 25); pin i at radius
+    a + εa,i and angle ψi + εψ,i with radius ρp + ερ,i (Eq. 5). ``scale`` multiplies
+    the loaded rotation Δφc, the deformation (1: to scale; larger: the loaded pins cut
+    into the disc by about ``scale`` times their contact approach).
     """
     ds, study = solved["ds"], solved["study"]
     inputs = study.inputs[0]
@@ -429,18 +433,20 @@ def _scene(solved: dict[str, Any], outline: Any, angle_deg: float, scale: float)
     j = int(np.argmin(np.abs(diff)))
     phi = np.deg2rad(angles[j])
     te = float(ds["transmission_error"].values[j])
-    te_rad = np.deg2rad(te / 3600.0) if math.isfinite(te) else 0.0
-    theta = -phi / design.teeth + scale * te_rad
-    ecc = design.eccentricity + scale * study.cases[0].errors.eccentricity_um * 1e-6
+    rest = float(ds["rest_rotation"].values[j])
+    loaded = float(ds["loaded_rotation"].values[j])
+    turn = rest + scale * loaded if math.isfinite(rest + loaded) else 0.0  # arcsec
+    theta = -phi / design.teeth + np.deg2rad(turn / 3600.0)
+    ecc = design.eccentricity + study.cases[0].errors.eccentricity_um * 1e-6
     cx, cy = ecc * math.cos(phi), ecc * math.sin(phi)
     x, y = outline
     c, s = math.cos(theta), math.sin(theta)
     disc_x = (c * x - s * y + cx) * 1e3
     disc_y = (s * x + c * y + cy) * 1e3
     n1 = design.pins
-    psi = 2 * np.pi * np.arange(n1) / n1 + scale * errors["angular_urad"] * 1e-6
-    radius = design.pin_circle_radius + scale * errors["radial_um"] * 1e-6
-    rho = design.pin_radius + scale * errors["pin_radius_um"] * 1e-6
+    psi = 2 * np.pi * np.arange(n1) / n1 + errors["angular_urad"] * 1e-6
+    radius = design.pin_circle_radius + errors["radial_um"] * 1e-6
+    rho = design.pin_radius + errors["pin_radius_um"] * 1e-6
     return {
         "crank_angle_deg": float(angles[j]),
         "index": j,

@@ -169,7 +169,7 @@ function drawScene(d) {
       colorbar: { title: { text: "pin load [N]", side: "right" }, thickness: 12, len: 0.8 } },
     hoverinfo: "text", text: "disc centre",
   });
-  const ex = d.exaggeration !== 1 ? `, TE and pin errors ×${fmt(d.exaggeration)}` : " (to scale)";
+  const ex = d.exaggeration !== 1 ? `, deformation ×${fmt(d.exaggeration)}` : " (to scale)";
   const lim = s.pin_circle_radius_mm + 2 * Math.max(...s.pin_radius_mm);
   Plotly.react("scene", traces, layout(
     `Disc and pin ring at φ = ${fmt(d.crank_angle_deg)}°${ex}`,
