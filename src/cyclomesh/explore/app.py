@@ -190,6 +190,7 @@ def serve(
     try:
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         sock.bind(("127.0.0.1", port))
+        sock.listen(128)  # connections wait from now on, while uvicorn starts
     except OSError:
         sock.close()
         session.close()
@@ -204,6 +205,8 @@ def serve(
         threading.Timer(0.5, webbrowser.open, (address,)).start()
     try:
         server.run(sockets=[sock])
+    except KeyboardInterrupt:  # uvicorn hands Ctrl-C back once it has shut down
+        pass
     finally:
         sock.close()
         session.close()

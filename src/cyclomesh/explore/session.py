@@ -154,10 +154,13 @@ class Session:
             sections = deep_merge(sections, own)
             case = self.study.cases[index]
             raw["title"] = case.name
-            if case.description:
-                raw["description"] = case.description
+            raw["description"] = case.description
         else:
             raw["title"] = self.study.title
+        where = f'{self.path.name}, case "{self.cases[index]}"'
+        raw["description"] = (
+            (raw.get("description") or "") + f" (changed in cyclomesh explore from {where})"
+        ).strip()
         table = {**raw, **sections}
         for key in _FILE_KEYS:
             name = _get(table, key)
@@ -240,7 +243,7 @@ class Session:
                 f"pin_errors.seed: expected a whole number, got {seed:g}", "pin_errors.seed"
             )
         text = toml_dumps(table)
-        if mode == "own" and factor == 1.0:
+        if mode == "own" or (mode == "scaled" and factor == 1.0):
             self._load(text)  # validated: the one line of load_study
             return text
         study = self._load(text)
