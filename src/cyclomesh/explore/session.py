@@ -371,6 +371,7 @@ class Session:
             "units": {n: m.unit for n, m in STIFFNESS_METRICS.items()},
             "labels": {n: m.label for n, m in STIFFNESS_METRICS.items()},
             "rated_torque_nm": result.summaries[name].get("rated_torque_nm"),
+            "checks": result.checks[name],
         }
 
     def _outline(self, study: Study) -> Any:

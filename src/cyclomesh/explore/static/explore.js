@@ -193,8 +193,8 @@ function draw(d) {
     { type: "bar", x: pins, y: a.groove_load_n, name: "pin-groove Fp", marker: { color: "#2f6db5" } },
   ], layout(`Pin loads at φ = ${fmt(d.crank_angle_deg)}° (${a.contacts} pins in contact)`,
     axis("pin"), axis("load [N]"),
-    { showlegend: true, legend: { orientation: "h", x: 0.5, xanchor: "center", y: -0.16 }, barmode: "group",
-      margin: { l: 60, r: 20, t: 36, b: 70 } }), CONFIG);
+    { showlegend: true, legend: { orientation: "h", x: 0.5, xanchor: "center", y: -0.14 }, barmode: "group",
+      margin: { l: 60, r: 20, t: 36, b: 80 } }), CONFIG);
   Plotly.react("te", [
     { x: p.crank_angle_deg, y: p.te_arcsec, mode: "lines", line: { color: "#2f6db5", width: 1.5 } },
   ], layout(`Loaded transmission error (Eq. 25), p-p ${fmt(d.summary.te_pp_arcsec)} arcsec`,
@@ -218,8 +218,8 @@ function draw(d) {
       marker: { size: 8, color: "#bd0026", line: { color: "#fff", width: 1 } } },
   ], layout(`Contact stress over the tooth profile, peak ${fmt(d.summary.max_contact_stress_mpa)} MPa`,
     axis("profile angle φ1 [deg]"), axis("contact stress σH [MPa]"),
-    { showlegend: true, legend: { orientation: "h", x: 0.5, xanchor: "center", y: -0.2 },
-      margin: { l: 60, r: 20, t: 36, b: 74 } }), CONFIG);
+    { showlegend: true, legend: { orientation: "h", x: 0.5, xanchor: "center", y: -0.3 },
+      margin: { l: 60, r: 20, t: 36, b: 84 } }), CONFIG);
   const tp = $("torsion-plot");
   if (d.torsion) {
     tp.hidden = false;
@@ -265,15 +265,20 @@ function tables(d) {
   }
   const checks = $("checks").querySelector("tbody");
   checks.replaceChildren();
-  (d.checks.rows || []).forEach((r) => {
+  // the torsion curve checks what the run cannot (lost motion, rigidity)
+  const extra = d.torsion ? (d.torsion.checks.rows || []).filter(
+    (r) => (d.checks.not_checked || []).includes(r.check)) : [];
+  const notChecked = (d.checks.not_checked || []).filter((k) => !extra.some((r) => r.check === k));
+  [...(d.checks.rows || []), ...extra].forEach((r) => {
     const unit = r.unit === "1" ? "" : ` ${r.unit}`;
     const margin = r.margin_pct === null || r.margin_pct === undefined ? "—" : `${fmt(r.margin_pct)} %`;
     const tr = row([[r.label, ""], [fmt(r.limit) + unit, "v"], [fmt(r.value) + unit, "v"], [margin, "v"],
       [r.verdict, r.verdict]], { id: `check-${r.check}`, title: r.note || "" });
     checks.appendChild(tr);
   });
-  if ((d.checks.not_checked || []).length) {
-    checks.appendChild(row([[`not computed here: ${d.checks.not_checked.join(", ")}`, "n"]]));
+  if (notChecked.length) {
+    const hint = d.torsion ? "" : " (tick torsion curve)";
+    checks.appendChild(row([[`not computed here${hint}: ${notChecked.join(", ")}`, "n"]]));
   }
   const warn = $("warnings");
   warn.replaceChildren();
