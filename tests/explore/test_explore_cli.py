@@ -51,3 +51,16 @@ def test_a_port_in_use_is_refused_in_one_line():
     assert out.returncode == 2
     assert out.stderr.startswith("error: ") and out.stderr.count("\n") == 1
     assert "in use" in out.stderr
+
+
+def test_without_the_explore_extra_the_command_says_how_to_install_it():
+    code = (
+        "import sys; sys.modules['uvicorn'] = None; from cyclomesh.cli import app; "
+        f"app(['explore', {str(EXAMPLES / 'table2.toml')!r}, '--no-browser'])"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 2
+    assert out.stderr.strip() == (
+        "error: cyclomesh explore needs the explore extra (starlette, uvicorn, plotly): "
+        "pip install -e '.[explore]'"
+    )

@@ -54,6 +54,7 @@ from cyclomesh.cli.options import (
     without_dask,
 )
 from cyclomesh.exceptions import StudyError
+from cyclomesh.explore.options import NoBrowserOption, PortOption
 
 __all__ = [
     "app",
@@ -398,15 +399,7 @@ def fe(
 
 @app.command()
 @cli_errors()
-def explore(
-    study: StudyArg,
-    port: Annotated[
-        int, typer.Option(min=0, max=65535, help="Port on 127.0.0.1 (0: any free).")
-    ] = 8050,
-    no_browser: Annotated[
-        bool, typer.Option("--no-browser", help="Do not open a browser.")
-    ] = False,
-) -> None:
+def explore(study: StudyArg, port: PortOption = 8050, no_browser: NoBrowserOption = False) -> None:
     """Explore a study in the browser: change the modification, load or pin errors and see
     loads, stresses and TE at once (needs the explore extra; docs/explore.md)."""
     from cyclomesh.explore.app import serve

@@ -224,6 +224,10 @@ class Session:
         StudyError
             The one line of :func:`load_study` (or of the explorer's own keys).
         """
+        with self._lock:  # one temporary study file: one state at a time
+            return self._study_text(request)
+
+    def _study_text(self, request: dict[str, Any]) -> str:
         from cyclomesh.output.writers import toml_dumps
 
         table = self._table(request)
@@ -294,7 +298,7 @@ class Session:
         scale = _number(request, "exaggeration", 1.0, 0.0, MAX_EXAGGERATION)
         torsion = bool(request.get("torsion", False))
         with self._lock:
-            text = self.study_text(request)
+            text = self._study_text(request)
             solved = self._solved(text, torsion)
             outline = self._outline(solved["study"])
         return {
