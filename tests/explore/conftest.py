@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+import urllib.error
 import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
@@ -77,3 +78,66 @@ def server() -> Iterator[Server]:
     yield running
     if running.proc.poll() is None:
         running.stop()
+
+
+class Answer:
+    """An HTTP answer: ``status_code``, ``content``, ``text``, ``json()``."""
+
+    def __init__(self, status_code: int, content: bytes) -> None:
+        self.status_code = status_code
+        self.content = content
+        self.text = content.decode("utf-8")
+
+    def json(self):
+        return json.loads(self.content)
+
+
+class LiveApp:
+    """The explorer's app of a :class:`~cyclomesh.explore.session.Session` on uvicorn in
+    a thread of this process, on a free loopback port, spoken to over real HTTP."""
+
+    def __init__(self, study: Path) -> None:
+        import socket
+        import threading
+
+        import uvicorn
+
+        from cyclomesh.explore.app import create_app
+        from cyclomesh.explore.session import Session
+
+        self.session = Session(study)
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen(16)
+        self.url = f"http://127.0.0.1:{self.sock.getsockname()[1]}"
+        config = uvicorn.Config(create_app(self.session), log_level="warning", lifespan="off")
+        self.server = uvicorn.Server(config)
+        self.server.install_signal_handlers = lambda: None  # not the main thread
+        self.thread = threading.Thread(target=self.server.run, kwargs={"sockets": [self.sock]})
+        self.thread.start()
+
+    def _call(self, method: str, path: str, data: bytes | None = None) -> Answer:
+        request = urllib.request.Request(self.url + path, data=data, method=method)
+        request.add_header("Content-Type", "application/json")
+        try:
+            with urllib.request.urlopen(request, timeout=120) as response:
+                return Answer(response.status, response.read())
+        except urllib.error.HTTPError as exc:
+            return Answer(exc.code, exc.read())
+
+    def get(self, path: str) -> Answer:
+        return self._call("GET", path)
+
+    def post(self, path: str, json: dict | None = None, content: bytes | None = None) -> Answer:
+        data = content if content is not None else _json_bytes(json or {})
+        return self._call("POST", path, data)
+
+    def close(self) -> None:
+        self.server.should_exit = True
+        self.thread.join(timeout=30)
+        self.sock.close()
+        self.session.close()
+
+
+def _json_bytes(body: dict) -> bytes:
+    return json.dumps(body).encode()

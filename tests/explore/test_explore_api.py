@@ -12,13 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-pytest.importorskip("starlette", reason="the explore extra (starlette) is not installed")
-pytest.importorskip("httpx", reason="httpx (starlette's TestClient) is not installed")
+pytest.importorskip("uvicorn", reason="the explore extra (uvicorn) is not installed")
 
-from starlette.testclient import TestClient  # noqa: E402
-
-from cyclomesh.explore.app import create_app  # noqa: E402
 from cyclomesh.explore.session import Session  # noqa: E402
+
+from .conftest import LiveApp  # noqa: E402
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 STEP = {"analysis.crank_step_deg": 2.0}
@@ -26,18 +24,16 @@ STEP = {"analysis.crank_step_deg": 2.0}
 
 @pytest.fixture(scope="module")
 def table2():
-    session = Session(EXAMPLES / "table2.toml")
-    with TestClient(create_app(session)) as client:
-        yield client
-    session.close()
+    app = LiveApp(EXAMPLES / "table2.toml")
+    yield app
+    app.close()
 
 
 @pytest.fixture(scope="module")
 def requirements():
-    session = Session(EXAMPLES / "requirements.toml")
-    with TestClient(create_app(session)) as client:
-        yield client
-    session.close()
+    app = LiveApp(EXAMPLES / "requirements.toml")
+    yield app
+    app.close()
 
 
 def _analyse(client, **body):
