@@ -403,21 +403,26 @@ def _plots(ds: Any, study: Study) -> dict[str, Any]:
     """The arrays of the curves over the crank angle (one torque, disc 1)."""
     load = ds["pin_load"].values
     stress = ds["contact_stress"].values
-    loaded = load > 0
-    angle = np.broadcast_to(ds["crank_angle"].values[:, None], load.shape)
     profile = ds["profile_angle"].values
+    # the stress of every pin over the profile through its mesh cycles: one polyline,
+    # a break (None) wherever the pin is out of contact
+    xs: list[float | None] = []
+    ys: list[float | None] = []
+    for i in range(load.shape[1]):
+        on = load[:, i] > 0
+        if not on.any():
+            continue
+        x = np.where(on, profile[:, i], np.nan)
+        y = np.where(on, stress[:, i], np.nan)
+        xs += [*_json_array(x), None]
+        ys += [*_json_array(y), None]
     return {
         "crank_angle_deg": _json_array(ds["crank_angle"].values),
         "te_arcsec": _json_array(ds["transmission_error"].values),
         "gear_ratio": _json_array(ds["gear_ratio"].values),
         "contacts": [int(v) for v in ds["contacts"].values],
         "max_stress_mpa": _json_array(stress.max(axis=1)),
-        "stress_profile": {
-            "profile_angle_deg": _json_array(profile[loaded]),
-            "stress_mpa": _json_array(stress[loaded]),
-            "crank_angle_deg": _json_array(angle[loaded]),
-            "pin": [int(p) for p in np.broadcast_to(ds["pin"].values, load.shape)[loaded]],
-        },
+        "stress_profile": {"profile_angle_deg": xs, "stress_mpa": ys},
         "ideal_ratio": int(study.inputs[0].design.teeth),
     }
 

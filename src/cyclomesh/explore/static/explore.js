@@ -123,7 +123,7 @@ function colour(t) {
 }
 
 function axis(title, extra) {
-  return Object.assign({ title: { text: title }, zeroline: false, automargin: true,
+  return Object.assign({ title: { text: title }, zeroline: false, automargin: false,
     gridcolor: "#e6e8ec", linecolor: "#9aa3af", showline: true, mirror: true }, extra || {});
 }
 
@@ -148,6 +148,7 @@ function drawScene(d) {
     rx.push(s.pin_circle_radius_mm * Math.cos(t)); ry.push(s.pin_circle_radius_mm * Math.sin(t));
   }
   traces.push({ x: rx, y: ry, mode: "lines", line: { color: "#9aa3af", width: 1, dash: "dot" }, hoverinfo: "skip" });
+  const idle = { x: [], y: [] };
   for (let i = 0; i < s.pin_x_mm.length; i++) {
     const px = [], py = [], r = s.pin_radius_mm[i];
     for (let k = 0; k <= 24; k++) {
@@ -155,14 +156,18 @@ function drawScene(d) {
       px.push(s.pin_x_mm[i] + r * Math.cos(t)); py.push(s.pin_y_mm[i] + r * Math.sin(t));
     }
     const load = loads[i] || 0;
-    traces.push({
-      x: px, y: py, mode: "lines", fill: "toself",
-      fillcolor: load > 0 ? colour(load / peak) : "#eef0f3",
-      line: { color: load > 0 ? "#7a0019" : "#8a93a0", width: load > 0 ? 1.2 : 0.8 },
-      hoveron: "fills", hoverinfo: "text",
-      text: `pin ${i + 1}: ${fmt(load)} N, ${fmt(d.at_angle.contact_stress_mpa[i])} MPa`,
-    });
+    if (load > 0) {
+      traces.push({
+        x: px, y: py, mode: "lines", fill: "toself", fillcolor: colour(load / peak),
+        line: { color: "#7a0019", width: 1.2 }, hoveron: "fills", hoverinfo: "text",
+        text: `pin ${i + 1}: ${fmt(load)} N, ${fmt(d.at_angle.contact_stress_mpa[i])} MPa`,
+      });
+    } else { // the unloaded pins: one trace, a gap between pins
+      idle.x.push(...px, null); idle.y.push(...py, null);
+    }
   }
+  traces.push({ x: idle.x, y: idle.y, mode: "lines", fill: "toself", fillcolor: "#eef0f3",
+    line: { color: "#8a93a0", width: 0.8 }, hoverinfo: "skip", connectgaps: false });
   traces.push({ // the colour bar of the pin loads
     x: [s.disc_centre_mm[0]], y: [s.disc_centre_mm[1]], mode: "markers",
     marker: { size: 6, color: [0], cmin: 0, cmax: peak, colorscale: SCALE, showscale: true,
@@ -212,8 +217,8 @@ function draw(d) {
     if (a.pin_load_n[i] > 0) { nowX.push(a.profile_angle_deg[i]); nowY.push(v); nowT.push(`pin ${i + 1}`); }
   });
   Plotly.react("stress", [
-    { x: sp.profile_angle_deg, y: sp.stress_mpa, mode: "markers", name: "all crank angles",
-      marker: { size: 3, color: "rgba(47,109,181,0.4)" }, hoverinfo: "skip" },
+    { x: sp.profile_angle_deg, y: sp.stress_mpa, mode: "lines", name: "every pin, every crank angle",
+      line: { width: 1, color: "rgba(47,109,181,0.45)" }, connectgaps: false, hoverinfo: "skip" },
     { x: nowX, y: nowY, mode: "markers", name: `at φ = ${fmt(d.crank_angle_deg)}°`, text: nowT,
       marker: { size: 8, color: "#bd0026", line: { color: "#fff", width: 1 } } },
   ], layout(`Contact stress over the tooth profile, peak ${fmt(d.summary.max_contact_stress_mpa)} MPa`,
