@@ -97,6 +97,14 @@ def test_changing_the_pin_radius_modification_changes_the_peak_stress(page):
     assert float(shown) == pytest.approx(after, rel=1e-4)
     assert f"peak {shown} MPa" in page.inner_text("#stress")
     assert page.inner_text("#status").startswith("answered in")
+    # the crank angle moves the drawing and the pin loads, not the metrics
+    page.fill("#crank", "90")
+    page.dispatch_event("#crank", "input")
+    page.wait_for_function(
+        "() => document.getElementById('loads').textContent.includes('φ = 90°')", timeout=30_000
+    )
+    assert "φ = 90°" in page.text_content("#scene")
+    assert _value(page, "max_contact_stress_mpa") == after
 
 
 def test_a_bad_value_shows_its_one_line_message_beside_the_control(page, server):

@@ -73,7 +73,22 @@ function schedule(key, delay) {
   timer = setTimeout(update, delay || 0);
 }
 
+let inFlight = false;
+let pending = false;
+
 async function update() {
+  // one request at a time: changes made meanwhile are sent together when it answers
+  if (inFlight) { pending = true; return; }
+  inFlight = true;
+  try {
+    await ask();
+  } finally {
+    inFlight = false;
+    if (pending) { pending = false; update(); }
+  }
+}
+
+async function ask() {
   const mine = ++seq;
   const start = performance.now();
   document.body.classList.add("busy");
@@ -83,6 +98,7 @@ async function update() {
       method: "POST", headers: { "Content-Type": "application/json" }, body: JSON.stringify(state()),
     });
   } catch (err) {
+    document.body.classList.remove("busy");
     showError(`no answer from the server (${err})`, "");
     return;
   }
