@@ -4,7 +4,8 @@ per kind of study, tables out.
 ``cyclomesh run STUDY.toml --out DIR`` runs the cases of a study file, ``stiffness`` the
 torsion curve of every case, ``tolerance`` and ``allocate`` its ``[tolerance]`` section,
 ``design`` its ``[design_space]``, ``fe`` the finite-element check, ``export`` writes the
-disc profile for manufacturing and ``check`` validates every section without running
+disc profile for manufacturing, ``explore`` serves the explorer in the browser
+(``docs/explore.md``) and ``check`` validates every section without running
 anything (``docs/study-files.md``, ``docs/pipeline.md``). Every refused input comes out
 as ``error: <one line>`` on stderr with exit status 2 (:mod:`cyclomesh.cli.errors`);
 options and the progress display are in :mod:`cyclomesh.cli.options`, the tables in
