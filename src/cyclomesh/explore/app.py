@@ -21,6 +21,7 @@ Needs the ``explore`` extra (starlette, uvicorn, plotly).
 from __future__ import annotations
 
 import json
+import signal
 import socket
 import threading
 from importlib import resources
@@ -203,10 +204,17 @@ def serve(
         import webbrowser
 
         threading.Timer(0.5, webbrowser.open, (address,)).start()
+    # Ctrl-C is the way to stop: uvicorn shuts down, then hands the signal back to the
+    # handler it found, here Python's own (a KeyboardInterrupt, caught: exit status 0)
+    # rather than the one-line "interrupted" of a command that was cut short
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler) if main else None
     try:
         server.run(sockets=[sock])
-    except KeyboardInterrupt:  # uvicorn hands Ctrl-C back once it has shut down
+    except KeyboardInterrupt:
         pass
     finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
         sock.close()
         session.close()

@@ -248,7 +248,7 @@ class Session:
             )
         text = toml_dumps(table)
         if mode == "own" or (mode == "scaled" and factor == 1.0):
-            self._load(text)  # validated: the one line of load_study
+            self._checked(text)  # validated: the one line of load_study
             return text
         study = self._load(text)
         case, inputs = study.cases[0], study.inputs[0]
@@ -276,8 +276,19 @@ class Session:
             **{k: _floats(new[k]) for k in _ERROR_KEYS},
         }
         text = toml_dumps(table)
-        self._load(text)
+        self._checked(text)
         return text
+
+    def _checked(self, text: str) -> Study:
+        """The state's study, loaded and refused as ``cyclomesh run`` refuses it (work
+        limit, keys the run cannot honour): what the page accepts, the command runs."""
+        from cyclomesh.studies.preflight import preflight
+        from cyclomesh.studyfile.limits import check_study_work
+
+        study = self._load(text)
+        check_study_work(study, "run")
+        preflight(study, "run", work=False)
+        return study
 
     def _load(self, text: str) -> Study:
         path = Path(self._tmp.name) / "explore.toml"
