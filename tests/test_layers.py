@@ -31,6 +31,7 @@ LAYERS = {
     "publish": 6,
     "studies": 7,
     "cli": 8,
+    "explore": 8,  # the explorer in the browser: a front end beside the command line
     "__main__": 8,
     "__init__": 8,
 }

@@ -4,7 +4,8 @@ per kind of study, tables out.
 ``cyclomesh run STUDY.toml --out DIR`` runs the cases of a study file, ``stiffness`` the
 torsion curve of every case, ``tolerance`` and ``allocate`` its ``[tolerance]`` section,
 ``design`` its ``[design_space]``, ``fe`` the finite-element check, ``export`` writes the
-disc profile for manufacturing and ``check`` validates every section without running
+disc profile for manufacturing, ``explore`` serves the explorer in the browser
+(``docs/explore.md``) and ``check`` validates every section without running
 anything (``docs/study-files.md``, ``docs/pipeline.md``). Every refused input comes out
 as ``error: <one line>`` on stderr with exit status 2 (:mod:`cyclomesh.cli.errors`);
 options and the progress display are in :mod:`cyclomesh.cli.options`, the tables in
@@ -55,6 +56,7 @@ from cyclomesh.cli.options import (
     without_dask,
 )
 from cyclomesh.exceptions import StudyError
+from cyclomesh.explore.options import NoBrowserOption, PortOption
 from cyclomesh.studies.preflight import preflight
 
 __all__ = [
@@ -414,3 +416,13 @@ def fe(
     )
     if not quiet:
         print_fe(result.summaries, out, result.checks)
+
+
+@app.command()
+@cli_errors()
+def explore(study: StudyArg, port: PortOption = 8050, no_browser: NoBrowserOption = False) -> None:
+    """Explore a study in the browser: change the modification, load or pin errors and see
+    loads, stresses and TE at once (needs the explore extra; docs/explore.md)."""
+    from cyclomesh.explore.app import serve
+
+    serve(study, port=port, open_browser=not no_browser, echo=typer.echo)
