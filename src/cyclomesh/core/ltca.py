@@ -21,14 +21,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.contact import UnloadedContact, unloaded_contact
 from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
-from cyclomesh.core.hertz import (
-    CONTACT_LAWS,
-    compliance_coefficients,
-    effective_modulus,
-    max_pressure,
-    pin_groove_radius,
-    pin_tooth_radius,
+from cyclomesh.core.fields import (
+    CONTACT_LOAD_FRACTION,
+    contact_fields,
+    contact_stresses,
+    count_contacts,
 )
+from cyclomesh.core.hertz import CONTACT_LAWS, compliance_coefficients
 from cyclomesh.core.loadsharing import share_load
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors, check_physical
 from cyclomesh.core.profile import check_profile
@@ -40,7 +39,14 @@ __all__ = [
     "solve_ltca",
     "rest_position",
     "check_disc_body",
+    "check_contact_law",
+    "check_crank_angles",
+    "check_pair",
+    "pin_compliance",
+    "locate_failure",
+    # re-exported from cyclomesh.core.fields (their home since issue 24)
     "count_contacts",
+    "contact_stresses",
     "CONTACT_LOAD_FRACTION",
 ]
 
@@ -98,13 +104,6 @@ class LTCA:
     gear_ratio: FloatArray
     contacts: NDArray[np.int64]
 
-
-CONTACT_LOAD_FRACTION = 1e-3
-"""A pin is counted in contact when its load exceeds this fraction of the largest pin load
-at the same crank angle (over all discs of a stack). Pins at a tip or a tooth-space bottom
-(moment arm ≈ 0) touch the disc but carry about 1e-8 of the peak load; 0.1 % leaves them
-out and no pin that carries load (the lightest loaded pins of the examples carry 0.3 % to
-5 % of the peak)."""
 
 CONDITIONED_ARM = 1e-4
 """Smallest moment arm [m] of a pin that can set the rest position of the disc."""
@@ -210,20 +209,22 @@ def solve_ltca(
             )
     except ConvergenceError as exc:
         raise locate_failure(exc, (*ring_shape, phi.size), phi) from None
-    groove_force, contact_stress, groove_stress = contact_stresses(geo, design, force)
-
-    # unloaded flank: interference when the loaded disc sits clockwise of its contact angle
-    overlap = np.maximum(geo.reverse_rotation - (rest + loaded)[..., None], 0.0)
-
+    fields = contact_fields(
+        ("groove_load", "contact_stress", "groove_stress", "overlap", "contacts"),
+        design,
+        geo,
+        force,
+        rotation=(rest + loaded)[..., None],
+    )
     te = transmission_error(rest, loaded)
     return LTCA(
         crank_angle=phi,
         pin_load=force,
-        groove_load=groove_force,
-        contact_stress=contact_stress,
-        groove_stress=groove_stress,
+        groove_load=fields["groove_load"],
+        contact_stress=fields["contact_stress"],
+        groove_stress=fields["groove_stress"],
         backlash=backlash,
-        overlap=overlap,
+        overlap=fields["overlap"],
         profile_angle=geo.profile_angle,
         contact_radius=geo.contact_radius,
         moment_arm=geo.moment_arm,
@@ -232,29 +233,8 @@ def solve_ltca(
         loaded_rotation=loaded,
         transmission_error=te,
         gear_ratio=gear_ratio(te, phi, design.teeth),
-        contacts=count_contacts(force),
+        contacts=fields["contacts"],
     )
-
-
-def count_contacts(force: FloatArray, axes: int = 1) -> NDArray[np.int64]:
-    """Pins in contact: load above :data:`CONTACT_LOAD_FRACTION` of the largest pin load.
-
-    Parameters
-    ----------
-    force : ndarray
-        Pin loads [N], the last ``axes`` axes are the pins of one crank angle (``axes=2``
-        for the discs × pins of a stack: the reference is the stack's largest pin load).
-    axes : int
-        Trailing axes that make up the reference set; the count is per last axis
-        (per disc).
-
-    Returns
-    -------
-    ndarray
-        Counts, ``force.shape[:-1]``.
-    """
-    reference = np.max(force, axis=tuple(range(-axes, 0)), keepdims=True)
-    return np.sum(force > CONTACT_LOAD_FRACTION * reference, axis=-1)
 
 
 def check_crank_angles(crank_angles: ArrayLike) -> FloatArray:
@@ -350,22 +330,6 @@ def pin_compliance(
             geo.contact_radius,
             design.disc_material.poisson_ratio,
         )
-
-
-def contact_stresses(
-    geo: UnloadedContact, design: PairDesign, force: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Groove force Fc·cos β [N] and the Hertzian pressures of tooth and groove (Eq. 24) [Pa]."""
-    pin_c = design.pin_material.compliance
-    groove_force = force * geo.cos_beta
-    tooth_modulus = effective_modulus(pin_c, design.disc_material.compliance)
-    groove_modulus = effective_modulus(pin_c, design.ring_material.compliance)
-    with np.errstate(invalid="ignore"):  # unreachable pins have ρc = inf and no load
-        rho_pc = np.where(force > 0, pin_tooth_radius(geo.pin_radius, geo.curvature_radius), 1.0)
-    rho_pg = pin_groove_radius(geo.pin_radius, design.groove_radius)
-    contact_stress = max_pressure(force, rho_pc, tooth_modulus, design.width)
-    groove_stress = max_pressure(groove_force, rho_pg, groove_modulus, design.width)
-    return groove_force, contact_stress, groove_stress
 
 
 def locate_failure(exc: ConvergenceError, shape: tuple, phi: FloatArray) -> ConvergenceError:

@@ -63,22 +63,20 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.core.contact import UnloadedContact, unloaded_contact
+from cyclomesh.core.contact import UnloadedContact, contact_normal, unloaded_contact
 from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
+from cyclomesh.core.fields import CONTACT_FIELDS, contact_fields
 from cyclomesh.core.loadsharing import share_load
 from cyclomesh.core.ltca import (
     check_contact_law,
     check_crank_angles,
     check_disc_body,
     check_pair,
-    contact_stresses,
-    count_contacts,
     locate_failure,
     pin_compliance,
     rest_position,
 )
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
-from cyclomesh.core.profile import generating_radii
 from cyclomesh.core.transmission import gear_ratio, transmission_error
 from cyclomesh.exceptions import ConvergenceError, DesignError
 
@@ -389,7 +387,15 @@ def _mesh(
     flat = (*geo.rotation.shape[:-2], discs * design.pins)
     rest, reverse_rest = _rests(geo, design.pins, discs)
     alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
-    nx, ny = _normals(design, modification, errors, phi, discs, geo)
+    offsets = 2.0 * np.pi * np.arange(discs) / discs
+    nx, ny = contact_normal(
+        design,
+        modification,
+        errors,
+        phi[:, None] + offsets[None, :],
+        geo.profile_angle,
+        geo.pin_radius,
+    )
     return StackMesh(
         design=design,
         geo=geo,
@@ -412,46 +418,9 @@ def _mesh(
     )
 
 
-def _normals(
-    design: PairDesign,
-    modification: Modification,
-    errors: PinErrors,
-    phi: FloatArray,
-    discs: int,
-    geo: UnloadedContact,
-) -> tuple[FloatArray, FloatArray]:
-    """Outward flank normal at every contact, in the fixed frame (unit vector)."""
-    n1 = design.pins
-    ring_shape = errors.ring_shape(n1)
-    a, rho_gen = generating_radii(design, modification)
-    e = design.eccentricity
-
-    def per_pin(x: ArrayLike) -> FloatArray:  # (..., 1, 1, n1)
-        return np.broadcast_to(np.asarray(x, float), (*ring_shape, n1))[..., None, None, :]
-
-    offsets = 2.0 * np.pi * np.arange(discs) / discs
-    crank = (phi[:, None] + offsets[None, :])[..., None]  # (A, N, 1)
-    pin_angle = np.arange(n1) * design.pitch + per_pin(errors.angular)
-    pin_r = design.pin_circle_radius + per_pin(errors.radial)
-    ecc = e + np.broadcast_to(errors.eccentricity, ring_shape)[..., None, None, None]
-    arg_w = np.arctan2(
-        pin_r * np.sin(pin_angle) - ecc * np.sin(crank),
-        pin_r * np.cos(pin_angle) - ecc * np.cos(crank),
-    )
-    # tooth frame of the contact (see cyclomesh.core.contact): normal n and pin centre P_s
-    u = geo.profile_angle
-    c, sin_u = np.cos(u), np.sin(u)
-    d = np.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
-    nx, ny = (a - e * n1 * c) / d, -e * n1 * sin_u / d
-    s = geo.pin_radius - rho_gen
-    zx, zy = a - e * c + s * nx, -e * sin_u + s * ny
-    angle = arg_w + np.arctan2(ny, nx) - np.arctan2(zy, zx)
-    return np.cos(angle), np.sin(angle)
-
-
 def _load(mesh: StackMesh, torque: float) -> dict[str, FloatArray]:
     """Loaded state of a stack under a positive torque, in the mesh's frame."""
-    design, geo = mesh.design, mesh.geo
+    geo = mesh.geo
     flat_arm = mesh.backlash.shape
     try:
         if mesh.body is None:
@@ -474,23 +443,16 @@ def _load(mesh: StackMesh, torque: float) -> dict[str, FloatArray]:
         err = locate_failure(exc, (*mesh.ring_shape, mesh.phi.size), mesh.phi)
         raise ConvergenceError(f"torque {torque:g} N·m: {err}") from None
     force = force.reshape(geo.rotation.shape)
-    groove_force, contact_stress, groove_stress = contact_stresses(geo, design, force)
-    total = (mesh.rest + loaded)[..., None, None]
-    fx = -np.sum(force * mesh.normal_x, axis=-1)
-    fy = -np.sum(force * mesh.normal_y, axis=-1)
-    return {
-        "pin_load": force,
-        "groove_load": groove_force,
-        "contact_stress": contact_stress,
-        "groove_stress": groove_stress,
-        "overlap": np.maximum(geo.reverse_rotation - total, 0.0),
-        "force_angle": np.arctan2(-mesh.normal_y, -mesh.normal_x),
-        "torque_share": np.sum(force * geo.moment_arm, axis=-1),
-        "contacts": count_contacts(force, axes=2),
-        "mesh_force_x": fx,
-        "mesh_force_y": fy,
-        "loaded_rotation": loaded,
-    }
+    fields = contact_fields(
+        CONTACT_FIELDS,
+        mesh.design,
+        geo,
+        force,
+        rotation=(mesh.rest + loaded)[..., None, None],
+        normal=(mesh.normal_x, mesh.normal_y),
+        stack_axes=2,
+    )
+    return {"pin_load": force, **fields, "loaded_rotation": loaded}
 
 
 def stack_meshes(

@@ -113,7 +113,8 @@ def stage_dataset(result: Stage, stage: StageDesign, pins: int) -> xr.Dataset:
     Variables: ``crank_bearing_load`` [N], ``crank_bearing_load_angle`` [deg] (force of the
     disc on the crank pin, counter-clockwise from x), ``crank_bearing_deflection`` [um],
     ``max_roller_load`` [N] (crank_angle, disc, crank); ``disc_translation_x/_y`` [um],
-    ``stage_pin_load`` [N] (…, pin); ``stage_transmission_error`` [arcsec] (the output's);
+    ``stage_pin_load`` [N], ``stage_groove_stress`` [MPa] (…, pin);
+    ``stage_transmission_error`` [arcsec] (the output's);
     ``crank_bearing_equivalent_load`` [N] and ``crank_bearing_l10`` [h] (disc, crank).
     """
     import xarray as xr
@@ -157,6 +158,12 @@ def stage_dataset(result: Stage, stage: StageDesign, pins: int) -> xr.Dataset:
         ),
         "stage_pin_load": var(
             result.pin_load, ("crank_angle", "disc", "pin"), "N", "pin load in the stage"
+        ),
+        "stage_groove_stress": var(
+            result.groove_stress * 1e-6,
+            ("crank_angle", "disc", "pin"),
+            "MPa",
+            "pin-groove contact stress in the stage (loaded flank, Eq. 24)",
         ),
         "stage_opposite_pin_load": var(
             result.opposite_pin_load,

@@ -59,14 +59,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.core.fields import contact_fields
 from cyclomesh.core.hertz import force_from_approach
-from cyclomesh.core.ltca import (
-    check_contact_law,
-    check_crank_angles,
-    check_pair,
-    contact_stresses,
-    count_contacts,
-)
+from cyclomesh.core.ltca import check_contact_law, check_crank_angles, check_pair
 from cyclomesh.core.pair import CrankHoles, Modification, PairDesign, PinErrors
 from cyclomesh.core.transmission import transmission_error
 from cyclomesh.drive.solve import (
@@ -200,6 +195,10 @@ class Stage:
     pin_load, contact_stress : ndarray
         Pin–tooth force on the loaded flank [N] and its Hertzian pressure [Pa],
         (Q, A, D, n1).
+    groove_load, groove_stress : ndarray
+        Load Fc·cos β of each pin's loaded-flank contact on its groove [N] and its
+        Hertzian pressure (Eq. 24 of [1]) [Pa], (Q, A, D, n1); the opposite-flank force,
+        0 unless a translation closes it, is not added.
     opposite_pin_load : ndarray
         Force of each pin on the opposite flank of its tooth space [N] (0 unless a
         translation of the disc closes it), (Q, A, D, n1).
@@ -247,6 +246,8 @@ class Stage:
     transmission_error: FloatArray
     mesh_transmission_error: FloatArray
     residual: FloatArray
+    groove_load: FloatArray | None = None
+    groove_stress: FloatArray | None = None
 
 
 # --- the bearing law with its optional series spring ---------------------------------
@@ -643,11 +644,11 @@ def _solve_direction(
     _, _, _, st = _evaluate(prob, None, x, D, True, hessian=False)
     F = st["pin_force"]
     mesh_te = transmission_error(mesh.rest, x[:, 0])
-    mfx = -np.sum(F * prob.nx, axis=-1)  # pins on disc
-    mfy = -np.sum(F * prob.ny, axis=-1)
-    share = np.sum(F * prob.arm, axis=-1)
+    rigid = _disc_loads(mesh, prob, F)  # pins on disc
     # bearings carry the pins' resultant to the crank pins and the moment Σ F·l
-    bfx, bfy = _distribution(prob, mfx, mfy, -share)
+    bfx, bfy = _distribution(
+        prob, rigid["mesh_force_x"], rigid["mesh_force_y"], -rigid["torque_share"]
+    )
     if stage.bearing is not None:
         law = _Law(stage.bearing, stage.crankshaft_stiffness)
         B = np.hypot(bfx, bfy)
@@ -685,9 +686,14 @@ def _solve_direction(
             np.abs(_evaluate(prob, None, x, D, True, hessian=False)[1] @ _reducer(D)), -1
         )
     c, theta, ux, uy = _unpack(x, D)
-    groove, stress, _ = contact_stresses(mesh.geo, mesh.design, F[..., :n1])
-    mfx = -np.sum(F * prob.nx, axis=-1)
-    mfy = -np.sum(F * prob.ny, axis=-1)
+    loaded = contact_fields(
+        ("groove_load", "contact_stress", "groove_stress", "contacts"),
+        mesh.design,
+        mesh.geo,
+        F[..., :n1],
+        stack_axes=2,  # per disc, against the stack
+    )
+    disc = _disc_loads(mesh, prob, F)
     rollers = (
         np.max(roller_loads(stage.bearing, sb), axis=-1)
         if stage.bearing is not None
@@ -696,11 +702,13 @@ def _solve_direction(
     return {
         "pin_load": F[..., :n1],
         "opposite_pin_load": F[..., n1:],
-        "contact_stress": stress,
-        "contacts": count_contacts(F[..., :n1], axes=2),  # per disc, against the stack
-        "torque_share": np.sum(F * prob.arm, axis=-1),
-        "mesh_fx": mfx,
-        "mesh_fy": mfy,
+        "groove_load": loaded["groove_load"],
+        "contact_stress": loaded["contact_stress"],
+        "groove_stress": loaded["groove_stress"],
+        "contacts": loaded["contacts"],
+        "torque_share": disc["torque_share"],
+        "mesh_fx": disc["mesh_force_x"],
+        "mesh_fy": disc["mesh_force_y"],
         "bearing_fx": bfx,
         "bearing_fy": bfy,
         "bearing_deflection": deflection,
@@ -712,6 +720,18 @@ def _solve_direction(
         "mesh_te": mesh_te,
         "residual": residual,
     }
+
+
+def _disc_loads(mesh: StackMesh, prob: _Problem, force: FloatArray) -> dict[str, FloatArray]:
+    """Torque share and mesh force of every disc from the forces on both flanks (A, D, 2·n1)."""
+    return contact_fields(
+        ("torque_share", "mesh_force"),
+        mesh.design,
+        mesh.geo,
+        force,
+        normal=(prob.nx, prob.ny),
+        moment_arm=prob.arm,
+    )
 
 
 def _ring_mesh(mesh: StackMesh, ring: tuple[int, ...]) -> StackMesh:
@@ -749,7 +769,7 @@ def _deflection(law: _Law, force: FloatArray) -> FloatArray:
 
 
 # fields: (angle axis, disc axis, crank/pin axis) for the mirror
-_PER_PIN = {"pin_load", "opposite_pin_load", "contact_stress"}
+_PER_PIN = {"pin_load", "opposite_pin_load", "groove_load", "contact_stress", "groove_stress"}
 _PER_CRANK = {"bearing_fx", "bearing_fy", "bearing_deflection", "max_roller_load"}
 _PER_DISC = {
     "contacts",
@@ -878,6 +898,8 @@ def solve_stage(
         pin_load=out["pin_load"],
         opposite_pin_load=out["opposite_pin_load"],
         contact_stress=out["contact_stress"],
+        groove_load=out["groove_load"],
+        groove_stress=out["groove_stress"],
         contacts=out["contacts"],
         torque_share=out["torque_share"],
         mesh_force=np.hypot(mfx, mfy),
