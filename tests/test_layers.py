@@ -17,6 +17,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "cyclomesh"
 LAYERS = {
     "exceptions": 0,
     "units": 0,
+    "quantities": 0,  # the registry of result quantities (names, units, labels)
     "execution": 0,  # generic: chunks of work on this process, local processes or Dask
     "core": 1,  # the paper's model, NumPy/SciPy only
     "drive": 2,

@@ -181,9 +181,9 @@ def test_result_files_helpers(tmp_path, cases):
     header = path.read_text().splitlines()[0].split(",")
     assert header[:3] == ["crank_angle_deg", "pin", "pin_load_n"]
     record = summary_record(
-        xr.Dataset({"te_pp_arcsec": math.inf, "contacts_min": np.int64(3), "overlap": False})
+        xr.Dataset({"te_pp_arcsec": math.inf, "min_contacts": np.int64(3), "any_overlap": False})
     )
-    assert record == {"te_pp_arcsec": None, "contacts_min": 3, "overlap": False}
+    assert record == {"te_pp_arcsec": None, "min_contacts": 3, "any_overlap": False}
     json.dumps(record, allow_nan=False)
 
 

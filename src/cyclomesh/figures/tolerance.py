@@ -105,7 +105,7 @@ def reduce_rings(
 
 def _metrics(ds: xr.Dataset) -> list[str]:
     names = (*METRICS, *DRIVE_METRICS)  # the mesh force and a stack's torque split too
-    return [name for name in names if name in ds and name != "overlap"]
+    return [name for name in names if name in ds and name != "any_overlap"]
 
 
 def _label(name: str) -> str:

@@ -64,7 +64,7 @@ def cell(value: Any, factor: float = 1.0) -> str:
 
 def _value(record: dict[str, Any], key: str, factor: float) -> str:
     if key == "contacts":  # fewest–most pins in contact
-        low, high = record.get("contacts_min"), record.get("contacts_max")
+        low, high = record.get("min_contacts"), record.get("max_contacts")
         if isinstance(low, list):
             return " / ".join(f"{a}–{b}" for a, b in zip(low, high, strict=True))
         return "–" if low is None else f"{low}–{high}"
@@ -102,7 +102,7 @@ def print_metrics(
 
 def _has(record: dict[str, Any], key: str) -> bool:
     if key == "contacts":
-        return record.get("contacts_min") is not None
+        return record.get("min_contacts") is not None
     return record.get(key) is not None
 
 
@@ -182,7 +182,7 @@ def print_run(
     print_metrics(console, records, RUN_ROWS)
     if checks:
         print_checks(console, checks)
-    overlap = [record.get("overlap") for record in summaries.values()]
+    overlap = [record.get("any_overlap") for record in summaries.values()]
     if any(any(v) if isinstance(v, list) else v for v in overlap):
         console.print(
             "warning: the disc interferes with unloaded-side pins (see max_overlap_arcsec)"

@@ -27,6 +27,7 @@ from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.solve import torsion_curve
 from cyclomesh.exceptions import DesignError
 from cyclomesh.execution.runtime import tune_allocator
+from cyclomesh.quantities import QUANTITIES
 from cyclomesh.results.dataset import resolve_crank_angles, resolve_disc_body, result_attrs
 from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
@@ -137,58 +138,59 @@ def stiffness(
         "rotation": (
             curve_dims,
             curve.rotation / RAD_PER_ARCSEC,
-            {"units": "arcsec", "long_name": "disc rotation from theoretical (TE sign)"},
+            _attrs("rotation"),
         ),
         "contacts": (
             (*curve_dims, *stack),
             per_disc(curve.contacts),
-            {"units": "1", "long_name": "number of pins in contact"},
+            _attrs("contacts"),
         ),
         "max_contact_stress": (
             (*curve_dims, *stack),
             per_disc(curve.max_contact_stress) * 1e-6,
-            {"units": "MPa", "long_name": "max. Hertzian pressure, pin-tooth"},
+            _attrs("max_contact_stress"),
         ),
         "play": (
             angle_dims,
             curve.play / RAD_PER_ARCMIN,
+            # the run's ``play`` is in arcsec: here arcmin, as the torsion curve's metrics
             {"units": "arcmin", "long_name": "angular play between the flanks at zero load"},
         ),
         "lost_motion": (
             angle_dims,
             curve.lost_motion / RAD_PER_ARCMIN,
-            {"units": "arcmin", "long_name": "lost motion TE(-3 %) - TE(+3 %) of rated"},
+            _attrs("lost_motion"),
         ),
         "torsional_rigidity": (
             angle_dims,
             curve.torsional_rigidity * RAD_PER_ARCMIN,
-            {"units": "N m/arcmin", "long_name": "torsional rigidity, 50-100 % of rated"},
+            _attrs("torsional_rigidity"),
         ),
     }
     if stack:
         data["torque_share"] = (
             (*curve_dims, "disc"),
             curve.torque_share,
-            {"units": "N m", "long_name": "torque carried by the disc"},
+            _attrs("torque_share"),
         )
     if series is not None:
         data["drive_rotation"] = (
             curve_dims,
             curve.drive_rotation / RAD_PER_ARCSEC,
-            {"units": "arcsec", "long_name": "whole-drive rotation (mesh + series stiffness)"},
+            _attrs("drive_rotation"),
         )
         data["drive_lost_motion"] = (
             angle_dims,
             curve.drive_lost_motion / RAD_PER_ARCMIN,
-            {"units": "arcmin", "long_name": "whole-drive lost motion"},
+            _attrs("drive_lost_motion"),
         )
         data["drive_torsional_rigidity"] = (
             angle_dims,
             curve.drive_torsional_rigidity * RAD_PER_ARCMIN,
-            {"units": "N m/arcmin", "long_name": "whole-drive torsional rigidity"},
+            _attrs("drive_torsional_rigidity"),
         )
     coords = {
-        "torque": ("torque", curve.torque, {"units": "N m", "long_name": "torque"}),
+        "torque": ("torque", curve.torque, {"units": "N·m", "long_name": "torque"}),
         "crank_angle": ("crank_angle", degrees, {"units": "deg"}),
     }
     if stack:
@@ -216,13 +218,18 @@ def stiffness(
 
 
 _SUMMARY = {
-    "play_arcmin_mean": ("play", "mean", "arcmin"),
-    "play_arcmin_max": ("play", "max", "arcmin"),
-    "lost_motion_arcmin_mean": ("lost_motion", "mean", "arcmin"),
-    "lost_motion_arcmin_max": ("lost_motion", "max", "arcmin"),
-    "torsional_rigidity_nm_per_arcmin_mean": ("torsional_rigidity", "mean", "N m/arcmin"),
-    "torsional_rigidity_nm_per_arcmin_min": ("torsional_rigidity", "min", "N m/arcmin"),
+    "play_arcmin_mean": ("play", "mean"),
+    "play_arcmin_max": ("play", "max"),
+    "lost_motion_arcmin_mean": ("lost_motion", "mean"),
+    "lost_motion_arcmin_max": ("lost_motion", "max"),
+    "torsional_rigidity_nm_per_arcmin_mean": ("torsional_rigidity", "mean"),
+    "torsional_rigidity_nm_per_arcmin_min": ("torsional_rigidity", "min"),
 }
+
+
+def _attrs(name: str) -> dict[str, str]:
+    """``units`` and ``long_name`` of a variable, from :data:`cyclomesh.quantities.QUANTITIES`."""
+    return {"units": QUANTITIES[name].unit, "long_name": QUANTITIES[name].long_name}
 
 
 def summarize_stiffness(ds: xr.Dataset) -> xr.Dataset:
@@ -235,13 +242,13 @@ def summarize_stiffness(ds: xr.Dataset) -> xr.Dataset:
     """
     out = {}
     for prefix in ("", "drive_"):
-        for key, (name, how, units) in _SUMMARY.items():
+        for key, (name, how) in _SUMMARY.items():
             if name == "play" and prefix:
                 continue
             if prefix + name not in ds:
                 continue
             value = getattr(ds[prefix + name], how)("crank_angle")
-            out[prefix + key] = value.assign_attrs(units=units)
+            out[prefix + key] = value.assign_attrs(units=QUANTITIES[prefix + key].unit)
     import xarray as xr
 
     summary = xr.Dataset(out)

@@ -24,6 +24,7 @@ import numpy as np
 
 from cyclomesh.core.pair import Modification
 from cyclomesh.publish.pipeline import case_attrs, study_stamp, summary_document
+from cyclomesh.quantities import QUANTITIES
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
 from cyclomesh.results.profile import profile_curves
 from cyclomesh.results.stage import STAGE_METRICS
@@ -84,9 +85,15 @@ def annotate(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs, study: Study) -
     """Add the case's per-pin errors [µm, µrad] and its inputs (attributes) to ``ds``."""
     errors = inputs.errors_um
     out = ds.assign(
-        pin_radial_error=("pin", errors["radial_um"], {"units": "um", "long_name": "εa,i"}),
-        pin_angular_error=("pin", errors["angular_urad"], {"units": "urad", "long_name": "εψ,i"}),
-        pin_radius_error=("pin", errors["pin_radius_um"], {"units": "um", "long_name": "ερ,i"}),
+        {
+            name: ("pin", errors[key], {"units": q.unit, "long_name": q.long_name})
+            for name, key in (
+                ("pin_radial_error", "radial_um"),
+                ("pin_angular_error", "angular_urad"),
+                ("pin_radius_error", "pin_radius_um"),
+            )
+            for q in (QUANTITIES[name],)
+        }
     )
     out.attrs.update(case_attrs(study, case))
     return out
