@@ -13,12 +13,20 @@ References
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.core.case import (
+    Case,
+    Model,
+    check,
+    check_contact_law,
+    check_crank_angles,
+    check_disc_body,
+    check_pair,
+)
 from cyclomesh.core.contact import UnloadedContact, unloaded_contact
 from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
 from cyclomesh.core.fields import (
@@ -27,16 +35,16 @@ from cyclomesh.core.fields import (
     contact_stresses,
     count_contacts,
 )
-from cyclomesh.core.hertz import CONTACT_LAWS, compliance_coefficients
+from cyclomesh.core.hertz import compliance_coefficients
 from cyclomesh.core.loadsharing import share_load
-from cyclomesh.core.pair import Modification, PairDesign, PinErrors, check_physical
-from cyclomesh.core.profile import check_profile
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.core.transmission import gear_ratio, transmission_error
 from cyclomesh.exceptions import ConvergenceError, DesignError
 
 __all__ = [
     "LTCA",
     "solve_ltca",
+    "ltca",
     "rest_position",
     "check_disc_body",
     "check_contact_law",
@@ -44,7 +52,7 @@ __all__ = [
     "check_pair",
     "pin_compliance",
     "locate_failure",
-    # re-exported from cyclomesh.core.fields (their home since issue 24)
+    # re-exported from cyclomesh.core.case and cyclomesh.core.fields (issue 24)
     "count_contacts",
     "contact_stresses",
     "CONTACT_LOAD_FRACTION",
@@ -186,19 +194,26 @@ def solve_ltca(
     ConvergenceError
         If a solver fails; the message names the crank angle (and ring).
     """
-    modification = modification or Modification()
-    errors = errors or PinErrors()
-    if not (isinstance(torque, int | float) and math.isfinite(torque) and torque > 0):
-        raise DesignError(f"torque must be a positive number of N·m, got {torque!r}")
-    phi = check_crank_angles(crank_angles)
-    check_contact_law(contact_law)
-    body = check_disc_body(disc_body, contact_law, design)
-    ring_shape = check_pair(design, modification, errors)
+    return ltca(
+        Case(design, modification, errors, torque, crank_angles),
+        Model(contact_law, groove_deformation, disc_body),
+    )
 
+
+def ltca(case: Case, model: Model) -> LTCA:
+    """:func:`solve_ltca` of a :class:`~cyclomesh.core.case.Case` and a
+    :class:`~cyclomesh.core.case.Model` (one disc, one positive torque, no stage)."""
+    if model.discs != 1 or model.stage is not None:
+        raise DesignError(
+            "ltca: one disc and no stage (a stack or a stage: cyclomesh.results.chain.run)"
+        )
+    c = check(case, model, torque="positive")
+    design, modification, errors, phi = c.design, c.modification, c.errors, c.phi
+    body, ring_shape, torque = c.body, c.ring_shape, case.torque
     geo = unloaded_contact(design, modification, errors, phi)
     rest = rest_position(geo.rotation, geo.moment_arm)
     backlash = geo.rotation - rest[..., None]
-    alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
+    alpha, gamma = pin_compliance(geo, design, c.groove_deformation, c.contact_law)
     try:
         if body is None:
             loaded, force = share_load(backlash, geo.moment_arm, alpha, gamma, torque)
@@ -235,73 +250,6 @@ def solve_ltca(
         gear_ratio=gear_ratio(te, phi, design.teeth),
         contacts=fields["contacts"],
     )
-
-
-def check_crank_angles(crank_angles: ArrayLike) -> FloatArray:
-    """Crank angles [rad] as a one-dimensional increasing array, or a :class:`DesignError`."""
-    phi = np.atleast_1d(np.asarray(crank_angles, float))
-    if phi.ndim != 1 or phi.size == 0 or not np.all(np.isfinite(phi)):
-        raise DesignError("crank angles must be a non-empty one-dimensional list of numbers")
-    if phi.size > 1 and not np.all(np.diff(phi) > 0):
-        raise DesignError("crank angles must increase")
-    return phi
-
-
-def check_pair(design: PairDesign, modification: Modification, errors: PinErrors) -> tuple:
-    """Check profile and pin radii; return the ring shape of the errors.
-
-    Raises
-    ------
-    DesignError
-        For an undercut profile or a pin that does not fit its groove.
-    """
-    check_profile(design, modification)
-    ring_shape = errors.ring_shape(design.pins)
-    check_physical(design, modification, errors)
-    pin_radii = design.pin_radius + np.broadcast_to(errors.pin_radius, (*ring_shape, design.pins))
-    if not np.all((pin_radii > 0) & (pin_radii < design.groove_radius)):
-        pin = int(np.argmax(~((pin_radii > 0) & (pin_radii < design.groove_radius))) % design.pins)
-        raise DesignError(
-            f"errors.pin_radius: pin {pin + 1} radius must stay between 0 and the groove "
-            f"radius {design.groove_radius * 1e3:.4g} mm"
-        )
-    return ring_shape
-
-
-def check_contact_law(contact_law: str) -> str:
-    """``contact_law`` if it is one of :data:`~cyclomesh.core.hertz.CONTACT_LAWS`, else a
-    one-line :class:`DesignError` naming the choices."""
-    if contact_law not in CONTACT_LAWS:
-        raise DesignError(
-            f"contact_law must be one of {', '.join(CONTACT_LAWS)}, got {contact_law!r}"
-        )
-    return contact_law
-
-
-def check_disc_body(
-    disc_body: str | DiscBody, contact_law: str, design: PairDesign
-) -> DiscBody | None:
-    """None for the rigid disc, the :class:`DiscBody` for a compliant one, else a
-    one-line :class:`DesignError`."""
-    if isinstance(disc_body, str) and disc_body == "rigid":
-        return None
-    if isinstance(disc_body, DiscBody):
-        if contact_law != "half_plane":
-            raise DesignError(
-                "disc_body: the FE disc body leaves the near field to the half-plane law; "
-                f'set contact_law = "half_plane" (got {contact_law!r})'
-            )
-        if disc_body.teeth != design.teeth:
-            raise DesignError(
-                f"disc_body: coefficients for {disc_body.teeth} teeth, design has {design.teeth}"
-            )
-        return disc_body
-    if disc_body == "fe":
-        raise DesignError(
-            'disc_body = "fe" is resolved by cyclomesh.analyse (or pass the DiscBody of '
-            "cyclomesh.fe.influence.influence)"
-        )
-    raise DesignError(f'disc_body must be "rigid" or "fe", got {disc_body!r}')
 
 
 def pin_compliance(

@@ -63,15 +63,20 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.core.case import (
+    Case,
+    Model,
+    check,
+    check_crank_angles,
+    check_discs,
+    check_pair,
+    check_torques,
+)
 from cyclomesh.core.contact import UnloadedContact, contact_normal, unloaded_contact
 from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
 from cyclomesh.core.fields import CONTACT_FIELDS, contact_fields
 from cyclomesh.core.loadsharing import share_load
 from cyclomesh.core.ltca import (
-    check_contact_law,
-    check_crank_angles,
-    check_disc_body,
-    check_pair,
     locate_failure,
     pin_compliance,
     rest_position,
@@ -88,6 +93,8 @@ __all__ = [
     "mirror_problem",
     "play",
     "solve_drive",
+    "drive",
+    "torsion",
     "StackMesh",
     "stack_meshes",
     "unmirror",
@@ -154,35 +161,6 @@ def mirror_problem(
     """
     mirrored = getattr(modification, "mirrored", None)
     return (mirrored() if callable(mirrored) else modification), mirror_errors(errors, pins)
-
-
-def check_torques(torque: ArrayLike) -> FloatArray:
-    """Torques [N·m] as a one-dimensional array of finite non-zero numbers.
-
-    Raises
-    ------
-    DesignError
-        For an empty list, a non-finite value, a repeated torque or a torque of exactly 0
-        (with no load the disc can sit anywhere in the play; the play itself is a result).
-    """
-    try:
-        values = np.atleast_1d(np.asarray(torque, dtype=float))
-    except (TypeError, ValueError):
-        raise DesignError(
-            f"torque must be a number of N·m or a list of them, got {torque!r}"
-        ) from None
-    if values.ndim != 1 or values.size == 0 or not np.all(np.isfinite(values)):
-        raise DesignError(
-            f"torque must be a finite number of N·m or a list of them, got {torque!r}"
-        )
-    if np.any(values == 0.0):
-        raise DesignError(
-            "torque 0 N·m: with no load the disc can sit anywhere in the play; give a "
-            "positive (forward flanks) or negative (reverse flanks) torque; the play is a result"
-        )
-    if np.unique(values).size != values.size:
-        raise DesignError("torque: the torques of a list must differ from each other")
-    return values
 
 
 @dataclass(frozen=True)
@@ -362,13 +340,6 @@ def play(
         _stacked_contact(design, modification, errors, phi, discs), design.pins, discs
     )
     return rest - reverse_rest
-
-
-def check_discs(discs: int) -> int:
-    """The number of discs of a stack as an int ≥ 1, else a one-line DesignError."""
-    if isinstance(discs, bool) or not isinstance(discs, int | np.integer) or discs < 1:
-        raise DesignError(f"discs must be a whole number of at least 1, got {discs!r}")
-    return int(discs)
 
 
 def _mesh(
@@ -552,25 +523,28 @@ def solve_drive(
     ConvergenceError
         If a solver fails; the message names the torque and crank angle.
     """
-    modification = modification or Modification()
-    errors = errors or PinErrors()
-    torques = check_torques(torque)
-    discs = check_discs(discs)
-    phi = check_crank_angles(crank_angles)
-    check_contact_law(contact_law)
-    body = check_disc_body(disc_body, contact_law, design)
-    check_pair(design, modification, errors)
+    return drive(
+        Case(design, modification, errors, torque, crank_angles),
+        Model(contact_law, groove_deformation, disc_body, discs),
+    )
+
+
+def drive(case: Case, model: Model) -> Drive:
+    """:func:`solve_drive` of a :class:`~cyclomesh.core.case.Case` and a
+    :class:`~cyclomesh.core.case.Model` (the mesh alone: ``model.stage`` is not read)."""
+    c = check(case, model)
+    design, phi, torques = c.design, c.phi, c.torques
     fwd, rev = stack_meshes(
         design,
-        modification,
-        errors,
+        c.modification,
+        c.errors,
         phi,
-        discs,
-        groove_deformation,
+        c.discs,
+        c.groove_deformation,
         bool(np.any(torques > 0)),
         bool(np.any(torques < 0)),
-        contact_law,
-        body,
+        c.contact_law,
+        c.body,
     )
     if fwd is not None:
         play = fwd.rest - fwd.reverse_rest
@@ -826,22 +800,41 @@ def torsion_curve(
     -------
     TorsionCurve
     """
-    modification = modification or Modification()
-    errors = errors or PinErrors()
+    return torsion(
+        Case(design, modification, errors, rated_torque, crank_angles),
+        Model(contact_law, groove_deformation, disc_body, discs),
+        points,
+        series_stiffness,
+    )
+
+
+def torsion(
+    case: Case, model: Model, points: int = 41, series_stiffness: float | None = None
+) -> TorsionCurve:
+    """:func:`torsion_curve` of a :class:`~cyclomesh.core.case.Case` (``torque``: the rated
+    torque T_r) and a :class:`~cyclomesh.core.case.Model` (the mesh alone)."""
+    rated_torque = case.torque
     torques = torsion_torques(rated_torque, points)
-    discs = check_discs(discs)
+    check_discs(model.discs)
     if series_stiffness is not None and not (
         isinstance(series_stiffness, int | float)
         and math.isfinite(series_stiffness)
         and series_stiffness > 0
     ):
         raise DesignError(f"series_stiffness must be a positive number, got {series_stiffness!r}")
-    phi = check_crank_angles(crank_angles)
-    check_contact_law(contact_law)
-    body = check_disc_body(disc_body, contact_law, design)
-    check_pair(design, modification, errors)
+    c = check(case, model, torque="rated")
+    phi = c.phi
     fwd, rev = stack_meshes(
-        design, modification, errors, phi, discs, groove_deformation, True, True, contact_law, body
+        c.design,
+        c.modification,
+        c.errors,
+        phi,
+        c.discs,
+        c.groove_deformation,
+        True,
+        True,
+        c.contact_law,
+        c.body,
     )
     rotation, contacts, stress, share = [], [], [], []
     for value in torques:

@@ -16,9 +16,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.core.case import Case, Model
 from cyclomesh.core.ltca import CONTACT_LOAD_FRACTION, LTCA
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
-from cyclomesh.drive.solve import Drive, check_torques, solve_drive
+from cyclomesh.drive.solve import Drive, check_torques, drive
 from cyclomesh.exceptions import DesignError
 from cyclomesh.execution.runtime import tune_allocator, version
 from cyclomesh.quantities import QUANTITIES
@@ -29,6 +30,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "analyse",
+    "drive_dataset",
     "to_dataset",
     "drive_to_dataset",
     "summarize",
@@ -313,19 +315,25 @@ def analyse(
     torque_dim = np.ndim(torque) > 0
     torques = check_torques(torque)
     body = resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir)
-    result = solve_drive(
-        design,
-        modification,
-        errors,
-        torques,
-        crank_angles,
-        groove_deformation,
-        discs,
-        contact_law,
-        body,
-    )
-    ds = drive_to_dataset(result, design, modification, groove_deformation, torque_dim)
-    ds.attrs["contact_law"] = contact_law
+    case = Case(design, modification, errors, torques, crank_angles)
+    model = Model(contact_law, groove_deformation, body, discs)
+    return drive_dataset(drive(case, model), case, model, torque_dim, degrees)
+
+
+def drive_dataset(
+    result: Drive,
+    case: Case,
+    model: Model,
+    torque_dim: bool,
+    degrees: ArrayLike | None = None,
+) -> xr.Dataset:
+    """The Dataset of :func:`analyse` from a :class:`~cyclomesh.drive.solve.Drive` of ``case``
+    and ``model`` (its disc body resolved): :func:`drive_to_dataset` with the model's
+    ``contact_law`` and ``disc_body`` attributes, and the crank angles in [deg] as given."""
+    modification = case.modification or Modification()
+    ds = drive_to_dataset(result, case.design, modification, model.groove_deformation, torque_dim)
+    ds.attrs["contact_law"] = model.contact_law
+    body = model.disc_body
     ds.attrs["disc_body"] = "rigid" if isinstance(body, str) else "fe"
     if not isinstance(body, str):
         ds.attrs["disc_body_key"] = body.key

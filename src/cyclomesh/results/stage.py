@@ -21,8 +21,8 @@ from cyclomesh.stage.solve import (
     Stage,
     StageDesign,
     bearing_life,
-    solve_stage,
-    stage_torsion_curve,
+    solve,
+    stage_torsion,
 )
 from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
@@ -161,17 +161,8 @@ def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
     """
     stage = inputs.stage
     phi = sheet_angles(np.asarray(inputs.crank_angles, float))
-    curve = stage_torsion_curve(
-        inputs.design,
-        stage,
-        inputs.modification,
-        inputs.errors,
-        rated_torque,
-        phi,
-        inputs.groove_deformation,
-        inputs.discs,
-        points=2,
-        contact_law=inputs.contact_law,
+    curve = stage_torsion(
+        inputs.case().replace(torque=rated_torque, crank_angles=phi), inputs.model(), points=2
     )
     result = curve.stage
     at = int(np.flatnonzero(result.torque == rated_torque)[0])
@@ -200,17 +191,7 @@ def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
 
 def solve_case(inputs: Any) -> Stage:
     """The stage of a run case at its torque(s) and crank angles."""
-    return solve_stage(
-        inputs.design,
-        inputs.stage,
-        inputs.modification,
-        inputs.errors,
-        inputs.torque,
-        inputs.crank_angles,
-        inputs.groove_deformation,
-        inputs.discs,
-        inputs.contact_law,
-    )
+    return solve(inputs.case(), inputs.model())
 
 
 def stage_torsion_variables(
@@ -224,17 +205,10 @@ def stage_torsion_variables(
     ``stage_lost_motion_arcmin_mean``/``_max``, ``stage_torsional_rigidity_nm_per_arcmin_
     mean``/``_min`` and, with a bearing, ``stage_l10_h_min`` at +T_r.
     """
-    curve = stage_torsion_curve(
-        inputs.design,
-        inputs.stage,
-        inputs.modification,
-        inputs.errors,
-        rated_torque,
-        crank_angles,
-        inputs.groove_deformation,
-        inputs.discs,
+    curve = stage_torsion(
+        inputs.case().replace(torque=rated_torque, crank_angles=crank_angles),
+        inputs.model(),
         points=points,
-        contact_law=inputs.contact_law,
     )
     data: dict[str, Any] = {
         "stage_rotation": (

@@ -23,8 +23,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from cyclomesh.core.case import Case, Model
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
-from cyclomesh.drive.solve import torsion_curve
+from cyclomesh.drive.solve import TorsionCurve, torsion
 from cyclomesh.exceptions import DesignError
 from cyclomesh.execution.runtime import tune_allocator
 from cyclomesh.quantities import QUANTITIES
@@ -34,7 +35,7 @@ from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["stiffness", "summarize_stiffness"]
+__all__ = ["stiffness", "summarize_stiffness", "torsion_dataset"]
 
 """One minute of arc [rad]."""
 
@@ -109,19 +110,30 @@ def stiffness(
                 f"series_stiffness_nm_per_arcmin must be a positive number, got {k!r}"
             )
         series = float(k) / RAD_PER_ARCMIN
-    curve = torsion_curve(
-        design,
-        modification,
-        errors,
-        rated_torque,
-        phi,
-        groove_deformation,
-        discs,
-        points,
-        series,
-        contact_law,
-        resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir),
-    )
+    body = resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir)
+    case = Case(design, modification, errors, rated_torque, phi)
+    model = Model(contact_law, groove_deformation, body, discs)
+    curve = torsion(case, model, points, series)
+    return torsion_dataset(curve, case, model, points, degrees, series_stiffness_nm_per_arcmin)
+
+
+def torsion_dataset(
+    curve: TorsionCurve,
+    case: Case,
+    model: Model,
+    points: int,
+    degrees: ArrayLike | None = None,
+    series_stiffness_nm_per_arcmin: float | None = None,
+) -> xr.Dataset:
+    """The Dataset of :func:`stiffness` from a :class:`~cyclomesh.drive.solve.TorsionCurve`
+    of ``case`` (``torque``: the rated torque) and ``model`` (its disc body resolved)."""
+    design = case.design
+    modification = case.modification or Modification()
+    phi = np.asarray(case.crank_angles, float)
+    degrees = np.degrees(phi) if degrees is None else degrees
+    rated_torque, groove_deformation = case.torque, model.groove_deformation
+    contact_law, disc_body = model.contact_law, model.disc_body
+    series = curve.series_stiffness
     lead = curve.play.ndim - 1
     if lead > 1:
         raise ValueError("stiffness supports at most one ring axis")

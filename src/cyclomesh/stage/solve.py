@@ -59,15 +59,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.core.case import Case, Model, check
 from cyclomesh.core.fields import contact_fields
 from cyclomesh.core.hertz import force_from_approach
-from cyclomesh.core.ltca import check_contact_law, check_crank_angles, check_pair
 from cyclomesh.core.pair import CrankHoles, Modification, PairDesign, PinErrors
 from cyclomesh.core.transmission import transmission_error
 from cyclomesh.drive.solve import (
     StackMesh,
-    check_discs,
-    check_torques,
     mirror_index,
     stack_meshes,
     torsion_metrics,
@@ -92,6 +90,8 @@ __all__ = [
     "Stage",
     "StageTorsion",
     "solve_stage",
+    "solve",
+    "stage_torsion",
     "stage_torsion_curve",
     "bearing_life",
     "FORCE_TOLERANCE",
@@ -842,24 +842,42 @@ def solve_stage(
     ConvergenceError
         If the equilibrium cannot be solved to round-off; names the crank angle.
     """
-    modification = modification or Modification()
-    errors = errors or PinErrors()
-    torques = check_torques(torque)
-    discs = check_discs(discs)
-    phi = check_crank_angles(crank_angles)
-    check_contact_law(contact_law)
-    ring_shape = check_pair(design, modification, errors)
+    return solve(
+        Case(design, modification, errors, torque, crank_angles),
+        Model(contact_law, groove_deformation, "rigid", discs, stage),
+    )
+
+
+def solve(case: Case, model: Model) -> Stage:
+    """:func:`solve_stage` of a :class:`~cyclomesh.core.case.Case` and a
+    :class:`~cyclomesh.core.case.Model` whose ``stage`` is a :class:`StageDesign`.
+
+    The model's disc body is carried to the stage like its other options; the coupling of
+    the compliant (FE) disc body with the crank bearings is the RV-stage model's to
+    specify, and until then a :class:`~cyclomesh.core.discbody.DiscBody` is refused here
+    in one line.
+    """
+    stage = model.stage
+    if not isinstance(stage, StageDesign):
+        raise DesignError("stage: the model has no StageDesign (Model(stage=...))")
+    c = check(case, model)
+    if c.body is not None:
+        raise DesignError(
+            'stage: the compliant disc body (disc_body = "fe") is not coupled with the crank '
+            'bearings yet; use disc_body = "rigid" with [stage]'
+        )
+    torques, discs, phi, ring_shape = c.torques, c.discs, c.phi, c.ring_shape
     rad, tan = stage.hole_errors(discs)
     fwd, rev = stack_meshes(
-        design,
-        modification,
-        errors,
+        c.design,
+        c.modification,
+        c.errors,
         phi,
         discs,
-        groove_deformation,
+        c.groove_deformation,
         True,  # both: the opposite flanks of one direction are the mirror's loaded flanks
         True,
-        contact_law,
+        c.contact_law,
     )
     N = stage.holes.count
     mirror_errs = (
@@ -973,18 +991,19 @@ def stage_torsion_curve(
     :func:`~cyclomesh.drive.solve.torsion_curve`; the output rotation is the carrier's TE from
     :func:`solve_stage`, beside the mesh alone (rigid bearings) at the same torques.
     """
-    torques = torsion_torques(rated_torque, points)
-    result = solve_stage(
-        design,
-        stage,
-        modification,
-        errors,
-        torques,
-        crank_angles,
-        groove_deformation,
-        discs,
-        contact_law,
+    return stage_torsion(
+        Case(design, modification, errors, rated_torque, crank_angles),
+        Model(contact_law, groove_deformation, "rigid", discs, stage),
+        points,
     )
+
+
+def stage_torsion(case: Case, model: Model, points: int = 41) -> StageTorsion:
+    """:func:`stage_torsion_curve` of a :class:`~cyclomesh.core.case.Case` (``torque``: the
+    rated torque T_r) and a :class:`~cyclomesh.core.case.Model` with a stage."""
+    rated_torque = case.torque
+    torques = torsion_torques(rated_torque, points)
+    result = solve(case.replace(torque=torques), model)
     lost, rigidity = torsion_metrics(result.transmission_error, torques, rated_torque)
     mesh_lost, mesh_rigidity = torsion_metrics(
         result.mesh_transmission_error, torques, rated_torque

@@ -58,6 +58,7 @@ from pydantic import (
     model_validator,
 )
 
+from cyclomesh.core.case import Case, Model
 from cyclomesh.core.deviation import ProfileDeviation
 from cyclomesh.core.pair import (
     POISSON_RATIO_RANGE,
@@ -1020,6 +1021,16 @@ class CaseInputs:
     """``[analysis] disc_body``: "rigid" or "fe" (held at the crank holes if any)."""
     stage: StageDesign | None = None
     """The RV stage (``[stage]``: crank bearings on the crank holes), or None: mesh alone."""
+
+    def case(self) -> Case:
+        """The case: design, modification, errors, torque, crank angles (SI)."""
+        return Case(self.design, self.modification, self.errors, self.torque, self.crank_angles)
+
+    def model(self) -> Model:
+        """The model: contact law, groove deformation, disc body, discs, stage."""
+        return Model(
+            self.contact_law, self.groove_deformation, self.disc_body, self.discs, self.stage
+        )
 
     def kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`cyclomesh.analyse`."""
