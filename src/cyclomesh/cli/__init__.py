@@ -51,7 +51,6 @@ from cyclomesh.cli.options import (
     show_version,
     stderr_console,
     use_cache_dir,
-    without_dask,
 )
 from cyclomesh.exceptions import StudyError
 
@@ -120,7 +119,6 @@ def check(
 
 @app.command()
 @cli_errors()
-@without_dask
 def run(
     study: StudyArg,
     out: OutOption,
@@ -162,8 +160,10 @@ def export(
     Writes <case>/profile.dxf (polyline and splines, mm), profile.svg, profile.csv (points
     with outward unit normals) and export.json. Datum: disc centre, tooth space 1 on +x.
     """
-    from cyclomesh.output.export import export_study, parse_formats
-    from cyclomesh.output.folder import ResultFolder
+    from cyclomesh.output.export import parse_formats
+    from cyclomesh.publish.pipeline import OutputOptions
+    from cyclomesh.studies.execute import execute
+    from cyclomesh.studies.export import EXPORT
     from cyclomesh.studyfile import load_study
 
     formats = parse_formats(format)
@@ -172,17 +172,22 @@ def export(
             f"--chord-tolerance-um: expected a number of at least 0.001, got {chord_tolerance_um}"
         )
     loaded = load_study(study)
-    with ResultFolder(out, "export"):  # locked; summary.json (files, sizes) written last
-        written = export_study(loaded, out, formats, chord_tolerance_um * 1e-6)
+    result = execute(
+        EXPORT,
+        loaded,
+        out,
+        OutputOptions(figures=()),
+        formats=formats,
+        chord_tolerance=chord_tolerance_um * 1e-6,
+    )
     if not quiet:
         from cyclomesh.publish.console import print_export
 
-        print_export(written, chord_tolerance_um)
+        print_export(result.written, chord_tolerance_um)
 
 
 @app.command()
 @cli_errors()
-@without_dask
 def stiffness(
     study: StudyArg,
     out: OutOption,
@@ -217,7 +222,6 @@ def stiffness(
 
 @app.command()
 @cli_errors()
-@without_dask
 def tolerance(
     study: TolStudyArg,
     out: OutOption,
@@ -261,7 +265,6 @@ def tolerance(
 
 @app.command()
 @cli_errors()
-@without_dask
 def allocate(
     study: TolStudyArg,
     out: OutOption,
@@ -312,7 +315,6 @@ def allocate(
 
 @app.command()
 @cli_errors()
-@without_dask
 def design(
     study: DesignStudyArg,
     out: OutOption,

@@ -57,7 +57,6 @@ from cyclomesh.core.ltca import check_contact_law
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.solve import LOST_MOTION_FRACTION, solve_drive
 from cyclomesh.exceptions import CyclomeshError, DesignError
-from cyclomesh.execution.runtime import tune_allocator
 from cyclomesh.quantities import QUANTITIES
 from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
@@ -535,7 +534,6 @@ def design_map(
         variable with ``units`` (NaN only where ``reason`` says the candidate failed);
         ``feasible`` and ``reason``; attributes give the optimum and the inputs.
     """
-    tune_allocator()  # once per process: the solver's temporaries stay on the heap
     import xarray as xr
 
     if not axes:

@@ -84,6 +84,7 @@ from cyclomesh.core.ltca import (
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.core.transmission import gear_ratio, transmission_error
 from cyclomesh.exceptions import ConvergenceError, DesignError
+from cyclomesh.quantities import QUANTITIES
 
 __all__ = [
     "Drive",
@@ -607,15 +608,11 @@ _PIN = {
     "rest_rotation": False,
     "loaded_rotation": False,
 }
-_ODD = {
-    "profile_angle",
-    "force_angle",
-    "torque_share",
-    "rest_rotation",
-    "loaded_rotation",
-    "mesh_force_y",
+_ODD = {name for name in _PIN if name in QUANTITIES and QUANTITIES[name].parity < 0} | {
+    "mesh_force_y"
 }
-"""Fields that change sign in the mirror image."""
+"""Fields that change sign in the mirror image: the registry's parity
+(:data:`cyclomesh.quantities.QUANTITIES`), and the y component of the mesh force."""
 _PER_DISC = {"torque_share", "contacts", "mesh_force_x", "mesh_force_y", "max_contact_stress"}
 
 

@@ -21,7 +21,7 @@ from cyclomesh.core.ltca import CONTACT_LOAD_FRACTION, LTCA
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.solve import Drive, check_torques, drive
 from cyclomesh.exceptions import DesignError
-from cyclomesh.execution.runtime import tune_allocator, version
+from cyclomesh.execution.runtime import version
 from cyclomesh.quantities import QUANTITIES
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, summary_metrics
 
@@ -309,7 +309,6 @@ def analyse(
     ----------
     [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672.
     """
-    tune_allocator()  # once per process: the solver's temporaries stay on the heap
     modification = modification or Modification()
     crank_angles, degrees = resolve_crank_angles(crank_angles, crank_angles_deg)
     torque_dim = np.ndim(torque) > 0

@@ -27,7 +27,6 @@ from cyclomesh.core.case import Case, Model
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.solve import TorsionCurve, torsion
 from cyclomesh.exceptions import DesignError
-from cyclomesh.execution.runtime import tune_allocator
 from cyclomesh.quantities import QUANTITIES
 from cyclomesh.results.dataset import resolve_crank_angles, resolve_disc_body, result_attrs
 from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
@@ -97,7 +96,6 @@ def stiffness(
     ----------
     [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672.
     """
-    tune_allocator()  # once per process: the solver's temporaries stay on the heap
     modification = modification or Modification()
     phi, degrees = resolve_crank_angles(crank_angles, crank_angles_deg)
     if degrees is None:
