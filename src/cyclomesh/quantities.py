@@ -374,6 +374,7 @@ _ROWS = (
         "min_torque_share_nm", "N·m", "smallest torque carried by one disc", "min disc torque"
     ),
     Quantity("max_torque_share_nm", "N·m", "largest torque carried by one disc", "max disc torque"),
+    Quantity("rated_torque_nm", "N·m", "rated torque T_r of the torsion curve", "rated torque"),
     Quantity("gear_ratio_step_deg", "deg", "crank step of the gear ratio (Eq. 26)", "ratio step"),
     # --- metrics of a torsion curve (cyclomesh stiffness) ------------------------------------
     Quantity("play_arcmin_mean", "arcmin", "mean play at zero load", "play"),
@@ -424,7 +425,7 @@ _ROWS = (
     # --- metrics of the RV stage -------------------------------------------------------------
     Quantity("stage_rated_torque_nm", "N·m", "rated torque of the data sheet", "rated torque"),
     Quantity("stage_output_speed_rpm", "rpm", "output speed of the rated life", "speed"),
-    Quantity("stage_l10_h_min", "h", "L10h of the weakest crank bearing (ISO 281)", "L10h min"),
+    Quantity("stage_l10_h_min", "h", "L10h of the weakest crank bearing (ISO 281)", "bearing L10h"),
     Quantity(
         "stage_equivalent_load_n_max",
         "N",
@@ -441,7 +442,7 @@ _ROWS = (
         "stage_torsional_rigidity_nm_per_arcmin",
         "N·m/arcmin",
         "torsional rigidity of the stage (mesh, bearings, springs), secant 50-100 %",
-        "rigidity",
+        "stage rigidity",
     ),
     Quantity(
         "mesh_torsional_rigidity_nm_per_arcmin",
@@ -453,7 +454,7 @@ _ROWS = (
         "stage_lost_motion_arcmin",
         "arcmin",
         "lost motion of the stage, TE(-3 %) - TE(+3 %)",
-        "lost motion",
+        "stage lost motion",
     ),
     Quantity("mesh_lost_motion_arcmin", "arcmin", "lost motion of the mesh alone", "mesh LM"),
     Quantity(
@@ -472,7 +473,12 @@ _ROWS = (
     Quantity(
         "stage_lost_motion_arcmin_mean", "arcmin", "mean lost motion of the stage", "stage LM"
     ),
-    Quantity("stage_lost_motion_arcmin_max", "arcmin", "largest lost motion of the stage", "max"),
+    Quantity(
+        "stage_lost_motion_arcmin_max",
+        "arcmin",
+        "largest lost motion of the stage",
+        "max stage lost motion",
+    ),
     Quantity(
         "stage_torsional_rigidity_nm_per_arcmin_mean",
         "N·m/arcmin",
@@ -483,7 +489,7 @@ _ROWS = (
         "stage_torsional_rigidity_nm_per_arcmin_min",
         "N·m/arcmin",
         "smallest torsional rigidity of the stage",
-        "min",
+        "min stage rigidity",
     ),
     # --- metrics of a design map (cyclomesh design) -------------------------------------------
     Quantity("play_arcmin", "arcmin", "largest unloaded play", "max play"),

@@ -13,6 +13,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from cyclomesh.quantities import QUANTITIES
+
 __all__ = [
     "CASES_PER_TABLE",
     "cell",
@@ -27,26 +29,37 @@ __all__ = [
     "print_fe",
     "print_export",
     "RUN_ROWS",
+    "row",
     "STIFFNESS_ROWS",
 ]
+
 
 CASES_PER_TABLE = 4
 """Cases side by side in one table (4 × 13 columns + labels fit 80 columns)."""
 
+
+def row(name: str, unit: str | None = None, factor: float = 1.0) -> tuple[str, str, float]:
+    """A table row of the metric ``name``: its label and unit from the quantity registry
+    (:mod:`cyclomesh.quantities`), or ``unit`` with the ``factor`` to it."""
+    q = QUANTITIES[name]
+    unit = q.unit if unit is None else unit
+    return name, q.label if unit == "1" else f"{q.label} [{unit}]", factor
+
+
 RUN_ROWS: tuple[tuple[str, str, float], ...] = (
-    ("te_pp_arcsec", "TE p-p [arcsec]", 1.0),
-    ("te_mean_arcsec", "TE mean [arcsec]", 1.0),
-    ("max_pin_load_n", "max pin load [N]", 1.0),
-    ("max_contact_stress_mpa", "max σH tooth [MPa]", 1.0),
-    ("max_groove_stress_mpa", "max σH groove [MPa]", 1.0),
-    ("contacts", "pins in contact", 1.0),
-    ("gear_ratio_ripple_pct", "ratio ripple [%]", 1.0),
-    ("play_arcsec_max", "max play [arcmin]", 1.0 / 60.0),
-    ("max_mesh_force_n", "max mesh force [N]", 1.0),
-    ("stage_lost_motion_arcmin", "stage lost motion [arcmin]", 1.0),
-    ("stage_torsional_rigidity_nm_per_arcmin", "stage rigidity [N·m/arcmin]", 1.0),
-    ("stage_max_crank_bearing_load_n", "max bearing load [N]", 1.0),
-    ("stage_l10_h_min", "bearing L10h [h]", 1.0),
+    row("te_pp_arcsec"),
+    row("te_mean_arcsec"),
+    row("max_pin_load_n"),
+    row("max_contact_stress_mpa"),
+    row("max_groove_stress_mpa"),
+    row("contacts"),
+    row("gear_ratio_ripple_pct"),
+    row("play_arcsec_max", "arcmin", 1.0 / 60.0),
+    row("max_mesh_force_n"),
+    row("stage_lost_motion_arcmin"),
+    row("stage_torsional_rigidity_nm_per_arcmin"),
+    row("stage_max_crank_bearing_load_n"),
+    row("stage_l10_h_min"),
 )
 """Rows of the run summary: metric key, short label with unit, factor to that unit."""
 
@@ -192,18 +205,19 @@ def print_run(
 
 
 STIFFNESS_ROWS = (
-    ("rated_torque_nm", "rated torque [N·m]", 1.0),
-    ("play_arcmin_max", "max play [arcmin]", 1.0),
-    ("lost_motion_arcmin_mean", "lost motion [arcmin]", 1.0),
-    ("lost_motion_arcmin_max", "max lost motion [arcmin]", 1.0),
-    ("torsional_rigidity_nm_per_arcmin_mean", "rigidity [N·m/arcmin]", 1.0),
-    ("torsional_rigidity_nm_per_arcmin_min", "min rigidity [N·m/arcmin]", 1.0),
-    ("drive_lost_motion_arcmin_max", "drive lost motion [arcmin]", 1.0),
-    ("drive_torsional_rigidity_nm_per_arcmin_min", "drive rigidity [N·m/arcmin]", 1.0),
-    ("stage_lost_motion_arcmin_max", "stage lost motion [arcmin]", 1.0),
-    ("stage_torsional_rigidity_nm_per_arcmin_min", "stage rigidity [N·m/arcmin]", 1.0),
-    ("stage_l10_h_min", "bearing L10h [h]", 1.0),
+    row("rated_torque_nm"),
+    row("play_arcmin_max"),
+    row("lost_motion_arcmin_mean"),
+    row("lost_motion_arcmin_max"),
+    row("torsional_rigidity_nm_per_arcmin_mean"),
+    row("torsional_rigidity_nm_per_arcmin_min"),
+    row("drive_lost_motion_arcmin_max"),
+    row("drive_torsional_rigidity_nm_per_arcmin_min"),
+    row("stage_lost_motion_arcmin_max"),
+    row("stage_torsional_rigidity_nm_per_arcmin_min"),
+    row("stage_l10_h_min"),
 )
+"""Rows of the stiffness summary (labels and units from the quantity registry)."""
 
 
 def print_stiffness(summaries: dict, out: Path, checks: dict | None = None) -> None:

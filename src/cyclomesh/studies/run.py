@@ -9,7 +9,7 @@ Stages (see ``docs/pipeline.md``):
    ``csv=True``, ``<case>/results.csv`` (pin-level, long format); ``summary.json``.
 3. :func:`run_figures`: the figure jobs; :func:`run_sections`: the report sections.
 
-:func:`run_study` chains them with :func:`cyclomesh.publish.pipeline.publish`.
+:data:`RUN` is the kind that :func:`cyclomesh.studies.execute.execute` runs.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cyclomesh.core.pair import Modification
-from cyclomesh.publish.pipeline import case_attrs, study_stamp, summary_document
+from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.quantities import QUANTITIES
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
 from cyclomesh.results.profile import profile_curves
@@ -48,7 +48,6 @@ __all__ = [
     "input_figures",
     "run_figures",
     "run_sections",
-    "run_study",
     "case_folder",
 ]
 
@@ -571,23 +570,6 @@ def warning_sections(warnings: list[str]) -> list[Section]:
         return []
     items = "".join(f"<li>{html.escape(w)}</li>" for w in warnings)
     return [Section("Warnings", f"<ul>{items}</ul>")]
-
-
-def run_study(study: Study, out: str | Path, options: OutputOptions | None = None) -> list[Path]:
-    """Compute every case of ``study``, then write its files, figures and report into
-    ``out``. Returns the paths written. Nothing is written if a case fails."""
-    from cyclomesh.output.folder import ResultFolder
-    from cyclomesh.publish.pipeline import OutputOptions, publish
-
-    options = options or OutputOptions.from_study(study)
-    out = Path(out)
-    with ResultFolder(out, "run"):
-        run = compute_run(study)
-        files = write_run(run, out, options)
-        jobs = run_figures(run) if options.figures else []
-        return publish(
-            out, study.title, run_sections(run), jobs, files, options, study_stamp(study)
-        ).files
 
 
 RUN = StudyKind(
