@@ -74,3 +74,20 @@ def test_the_stage_goes_through_the_same_chain_and_reports_the_groove_stress():
     assert ds["stage_groove_stress"].attrs["units"] == "MPa"
     with pytest.raises(DesignError, match="what must be one of"):
         run(case, Model(), what="efficiency")
+
+
+def test_the_stage_takes_the_disc_body_through_the_model_and_names_what_is_missing():
+    """Nothing in the chain stops a DiscBody on its way to the stage: Model carries it,
+    check() accepts it (half-plane law, teeth match), and the stage refuses it in one
+    line until the coupling with the crank bearings is specified (the RV-stage issue)."""
+    from cyclomesh.core.discbody import DiscBody
+
+    body = DiscBody(np.linspace(-np.pi, 0.0, 5), np.zeros((1, TABLE1.teeth, 5, 5)), TABLE1.teeth)
+    stage = StageDesign(CrankHoles(count=3, circle_radius=36e-3, radius=13e-3))
+    with pytest.raises(DesignError, match=r"^stage: the compliant disc body .* not coupled"):
+        run(CASE, Model(disc_body=body, discs=2, stage=stage))
+    # the same body and model without the stage: the mesh takes it (zero compliance: the
+    # rigid disc's loads)
+    coupled = run(CASE, Model(disc_body=body)).solution
+    rigid = run(CASE, Model()).solution
+    np.testing.assert_allclose(coupled.pin_load, rigid.pin_load, rtol=1e-9, atol=1e-9)
