@@ -17,7 +17,7 @@ from cyclomesh.quantities import QUANTITIES, REDUCTIONS, label, quantity
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 UNITS = {
     "1", "N", "MPa", "kN", "arcsec", "arcmin", "deg", "mm", "um", "h", "rpm", "%",
-    "N·m", "N·m/arcmin", "urad",
+    "N·m", "N·m/arcmin", "urad", "",
 }  # fmt: skip
 """The spellings of units in every output (one per unit: ``N·m``, never ``N m``)."""
 NOT_QUANTITIES = {"name", "results", "checks", "warnings", "disc", "torque_nm", "crank_angle"}
@@ -46,7 +46,7 @@ def test_every_row_is_well_formed():
 def assert_rows(ds, kind: str) -> None:
     for name in ds.data_vars:
         assert name in QUANTITIES, f"{kind}: variable {name!r} is not a registry row"
-        unit = ds[name].attrs.get("units")
+        unit = ds[name].attrs.get("units", "")
         if (kind, name) not in OTHER_UNIT:
             assert unit == QUANTITIES[name].unit, f"{kind}: {name} in {unit!r}"
 
@@ -76,6 +76,13 @@ def test_every_variable_of_a_torsion_curve_is_a_row():
         series_stiffness_nm_per_arcmin=100.0,
     )
     assert_rows(ds, "stiffness")
+
+
+def test_every_variable_of_a_design_map_is_a_row():
+    from cyclomesh import design_map
+
+    ds = design_map(TABLE1, {"pin_radius_um": [0.0, 4.0]}, crank_angles_deg=[0.0, 4.5])
+    assert_rows(ds, "design")
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ A quantity has
 * ``name``: the variable or key as written (a metric carries its unit suffix,
   ``max_contact_stress_mpa``);
 * ``unit``: the unit as written in files, one spelling per unit (``N·m``,
-  ``N·m/arcmin``, ``arcsec``, ``MPa``; ``1`` for a count or a ratio);
+  ``N·m/arcmin``, ``arcsec``, ``MPa``; ``1`` for a count or a ratio; ``""`` for text);
 * ``long_name`` (files, report) and ``label`` (tables, axes);
 * ``scale``: the factor from SI to ``unit`` (a Dataset variable is the core's SI field
   times ``scale``);
@@ -492,6 +492,8 @@ _ROWS = (
         "min stage rigidity",
     ),
     # --- metrics of a design map (cyclomesh design) -------------------------------------------
+    Quantity("feasible", "1", "feasible", "feasible"),
+    Quantity("reason", "", "why the candidate is infeasible (text)", "reason"),
     Quantity("play_arcmin", "arcmin", "largest unloaded play", "max play"),
     Quantity("min_play_arcmin", "arcmin", "smallest unloaded play", "min play"),
     Quantity("lost_motion_arcmin", "arcmin", "lost motion TE(-3 % T) - TE(+3 % T)", "lost motion"),
