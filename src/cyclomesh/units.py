@@ -10,6 +10,10 @@ from __future__ import annotations
 import math
 
 __all__ = [
+    "M_PER_MM",
+    "M_PER_UM",
+    "RAD_PER_URAD",
+    "PA_PER_GPA",
     "RAD_PER_ARCSEC",
     "RAD_PER_ARCMIN",
     "ARCSEC_PER_RAD",
@@ -39,3 +43,15 @@ MM_PER_M = 1e3
 
 UM_PER_M = 1e6
 """One metre in micrometres."""
+
+M_PER_MM = 1e-3
+"""One millimetre in metres (study-file keys ``_mm``)."""
+
+M_PER_UM = 1e-6
+"""One micrometre in metres (study-file keys ``_um``)."""
+
+RAD_PER_URAD = 1e-6
+"""One microradian in radians (study-file keys ``_urad``)."""
+
+PA_PER_GPA = 1e9
+"""One gigapascal in pascals (study-file keys ``_gpa``)."""
