@@ -230,6 +230,15 @@ _ROWS = (
         STAGE_PIN,
     ),
     Quantity(
+        "rigid_bearing_transmission_error",
+        "arcsec",
+        "loaded TE of the mesh on rigid bearings",
+        "TE, rigid bearings",
+        ARCSEC_PER_RAD,
+        ANGLE,
+        parity=-1,
+    ),
+    Quantity(
         "stage_transmission_error",
         "arcsec",
         "TE of the output (carrier), mesh, bearings and springs",
@@ -383,9 +392,9 @@ _ROWS = (
         "lost_motion_arcmin_mean",
         "arcmin",
         "mean lost motion, TE(-3 %) - TE(+3 %) of rated",
-        "lost motion",
+        "mesh lost motion",
     ),
-    Quantity("lost_motion_arcmin_max", "arcmin", "largest lost motion", "max lost motion"),
+    Quantity("lost_motion_arcmin_max", "arcmin", "largest lost motion", "max mesh lost motion"),
     Quantity(
         "torsional_rigidity_nm_per_arcmin_mean",
         "N·m/arcmin",

@@ -181,9 +181,16 @@ def export(
         chord_tolerance=chord_tolerance_um * 1e-6,
     )
     if not quiet:
+        from pathlib import Path
+
         from cyclomesh.publish.console import print_export
 
-        print_export(result.written, chord_tolerance_um)
+        # the kind records the files relative to its (staged) folder: here in ``out``
+        written = {
+            case: {key: Path(out) / rel for key, rel in files.items()}
+            for case, files in result.written.items()
+        }
+        print_export(written, chord_tolerance_um)
 
 
 @app.command()
@@ -200,7 +207,9 @@ def stiffness(
     """Torsion curve of every case ([stiffness] section): play, lost motion, rigidity.
 
     Writes <case>/stiffness.nc, summary.json, the figures and report.html. The numbers
-    are those of the cycloid-pin mesh alone (see docs/drive.md).
+    are those of the cycloid-pin mesh alone (docs/drive.md); with [stage], also those
+    of the RV stage (mesh + crank bearings, docs/stage.md), which the requirements
+    check. The whole reducer is softer than both.
     """
     use_cache_dir(cache_dir)
     from cyclomesh.publish.console import print_stiffness, print_warnings

@@ -446,8 +446,9 @@ def run_chunks(
                 )
             if name not in out:
                 out[name] = np.zeros((items, *arr.shape[1:]), dtype=arr.dtype)
-            elif arr.dtype.kind == "U" and arr.dtype.itemsize > out[name].dtype.itemsize:
-                out[name] = out[name].astype(arr.dtype)  # text of a later chunk: keep it whole
+            elif np.result_type(out[name].dtype, arr.dtype) != out[name].dtype:
+                # longer text, or NaN where earlier chunks had integers: keep it whole
+                out[name] = out[name].astype(np.result_type(out[name].dtype, arr.dtype))
             out[name][rows] = arr
         stored[rows] += 1
         if progress is not None:

@@ -56,8 +56,8 @@ RUN_ROWS: tuple[tuple[str, str, float], ...] = (
     row("gear_ratio_ripple_pct"),
     row("play_arcsec_max", "arcmin", 1.0 / 60.0),
     row("max_mesh_force_n"),
-    row("stage_lost_motion_arcmin"),
-    row("stage_torsional_rigidity_nm_per_arcmin"),
+    row("stage_lost_motion_arcmin_max"),
+    row("stage_torsional_rigidity_nm_per_arcmin_min"),
     row("stage_max_crank_bearing_load_n"),
     row("stage_l10_h_min"),
 )
@@ -201,6 +201,12 @@ def print_run(
             "warning: the disc interferes with unloaded-side pins (see max_overlap_arcsec)"
         )
     print_warnings(list(warnings))
+    if any("stage_l10_h_min" in r or "stage_rated_torque_nm" in r for r in summaries.values()):
+        console.print(
+            "with \\[stage]: loads, stresses, TE and contacts are those of the RV stage "
+            "(discs on their crank bearings); lost motion and rigidity of the stage, without "
+            "main bearings, housing and first stage"
+        )
     console.print(f"report: {out / 'report.html'}")
 
 
@@ -227,11 +233,17 @@ def print_stiffness(summaries: dict, out: Path, checks: dict | None = None) -> N
     print_metrics(console, summaries, STIFFNESS_ROWS)
     if checks:
         print_checks(console, checks)
-    console.print(
-        "the mesh alone: crank bearings, crankshafts and the first stage are not included"
-    )
     if any("stage_lost_motion_arcmin_max" in record for record in summaries.values()):
-        console.print("stage: the RV stage of [stage] (mesh + crank bearings), beside the mesh")
+        console.print(
+            "stage rows: the RV stage of \\[stage] (mesh + crank bearings), which the "
+            "requirements check; the other rows: the mesh alone. Main bearings, housing and "
+            "the first stage are not included: the reducer is softer"
+        )
+    else:
+        console.print(
+            "the mesh alone: crank bearings, crankshafts and the first stage are not "
+            "included: the reducer is softer"
+        )
     console.print(f"report: {out / 'report.html'}")
 
 
@@ -240,13 +252,13 @@ def print_tolerance(stats: dict[str, Any], out: Path) -> None:
     from rich.markup import escape
     from rich.table import Table
 
-    from cyclomesh.results.metrics import METRICS
+    from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
 
     table = Table(title=f"{stats['rings']} rings (seed {stats['seed']})")
     for col in ("metric", "mean", "std", "P5", "P50", "P95", "P99"):
         table.add_column(col, justify="left" if col == "metric" else "right")
     for name, s in stats["metrics"].items():
-        m = METRICS.get(name)
+        m = METRICS.get(name) or DRIVE_METRICS.get(name)
         label = name if m is None else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
         table.add_row(
             escape(label),
@@ -265,12 +277,20 @@ def print_tolerance(stats: dict[str, Any], out: Path) -> None:
         f"{ex['probability']:.4g}, {conf:.0%} Clopper-Pearson [{ex['lower']:.4g}, "
         f"{ex['upper']:.4g}] ({ex['count']} of {ex['rings']} rings)"
     )
+    jam = stats.get("jam")
+    if jam and jam["count"]:
+        console.print(
+            f"[bold red]jam[/]: P(the pins jam the disc) = {jam['probability']:.4g}, {conf:.0%} "
+            f"Clopper-Pearson [{jam['lower']:.4g}, {jam['upper']:.4g}] ({jam['count']} of "
+            f"{jam['rings']} rings; counted as exceeding) -> {escape(str(out / jam['file']))}"
+        )
     print_warnings(stats.get("warnings", []))
     worst = stats["worst_ring"]
-    console.print(
-        f"worst ring {worst['ring']}: {worst['max_contact_stress_mpa']:.5g} MPa -> "
-        f"{out / 'worst_ring.toml'}"
-    )
+    if worst is not None:
+        console.print(
+            f"worst ring {worst['ring']}: {worst['max_contact_stress_mpa']:.5g} MPa -> "
+            f"{escape(str(out / 'worst_ring.toml'))}"
+        )
     console.print(
         f"percentile intervals: {out / 'tolerance_summary.json'}; "
         f"report: {out / 'report.html'} ({stats['rings_per_second']:.1f} rings/s)"

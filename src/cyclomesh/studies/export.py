@@ -22,7 +22,8 @@ __all__ = ["ExportResult", "EXPORT", "compute_export"]
 @dataclass
 class ExportResult:
     """What to export (``study``, ``formats``, ``chord_tolerance`` [m]) and, once
-    written, the files per case and format (``written``)."""
+    written, the files per case and format (``written``, relative to the output folder:
+    the files are written into a staging folder and moved into it at the end)."""
 
     study: Any
     formats: tuple[str, ...]
@@ -44,8 +45,14 @@ def compute_export(
 
 def write_export(result: ExportResult, out: Path) -> list[Path]:
     """Write the profile files of every case; the paths written."""
-    result.written.update(export_study(result.study, out, result.formats, result.chord_tolerance))
-    return [path for files in result.written.values() for path in files.values()]
+    staged = export_study(result.study, out, result.formats, result.chord_tolerance)
+    result.written.update(
+        {
+            case: {k: path.relative_to(out) for k, path in files.items()}
+            for case, files in staged.items()
+        }
+    )
+    return [path for files in staged.values() for path in files.values()]
 
 
 EXPORT = StudyKind(

@@ -323,6 +323,8 @@ class CaseSpec(StrictSection):
             if crank_holes is not None:
                 crank_holes.check_fits(design)
             stage = None if self.stage is None else self.stage.to_core(crank_holes, d.discs)
+            if stage is not None:
+                stage.check_fits(design, d.discs)
         except DesignError as exc:
             raise StudyError(f"{self.label}: {exc}") from None
         if stage is not None and self.analysis.disc_body != "rigid":
