@@ -22,6 +22,7 @@ from cyclomesh.studyfile.limits import (
     MAX_CANDIDATES,
     MAX_CRANK_ANGLES,
     MAX_RINGS,
+    MAX_SEED,
     MIN_CRANK_STEP_DEG,
     count_crank_angles,
 )
@@ -101,7 +102,7 @@ class ToleranceSection(StrictSection):
     ``[errors]``.
     """
 
-    seed: int = Field(ge=0, description="ring k's errors depend only on (seed, k)")
+    seed: int = Field(ge=0, le=MAX_SEED, description="ring k's errors depend only on (seed, k)")
     rings: int = Field(
         1000, ge=1, le=MAX_RINGS, description="how many rings to draw (--rings overrides)"
     )
@@ -189,6 +190,15 @@ class RangeSection(StrictSection):
     start: float = Field(description="first value [unit of the key]")
     stop: float = Field(description="last value, included [unit of the key]")
     points: int = Field(ge=1, le=1001, description="number of values")
+
+    @model_validator(mode="after")
+    def _distinct(self) -> RangeSection:
+        if self.points > 1 and self.start == self.stop:
+            raise ValueError(
+                f"start = stop = {self.start:g} with points = {self.points}: the values "
+                "repeat; give a stop other than the start, or points = 1"
+            )
+        return self
 
     def values(self) -> NDArray:
         """The grid values [unit of the key]."""

@@ -120,7 +120,8 @@ def one_line(exc: ValidationError, model: type[BaseModel], prefix: str = "") -> 
         what = f"expected {_EXPECTED[kind]}, got {show(value)}"
     elif kind in _BOUNDS:
         bound = next(iter(ctx.values()))
-        what = f"expected a number {_BOUNDS[kind]} {bound:g}, got {show(value)}"
+        shown = f"{bound}" if isinstance(bound, int) else f"{bound:g}"
+        what = f"expected a number {_BOUNDS[kind]} {shown}, got {show(value)}"
     elif kind == "finite_number":
         what = f"expected a finite number, got {show(value)}"
     elif kind == "literal_error":

@@ -318,7 +318,14 @@ class CaseSpec(StrictSection):
             )
             errors.ring_shape(design.pins)
             check_physical(design, modification, errors)
-            check_profile(design, modification)
+            try:
+                with np.errstate(over="ignore", invalid="ignore"):  # huge tables: inf, refused
+                    check_profile(design, modification)
+            except DesignError as exc:
+                if m.profile_file is None:
+                    raise
+                what = str(exc).removeprefix("profile deviation: ")
+                raise DesignError(f"modification.profile_file {m.profile_file}: {what}") from None
             crank_holes = d.disc.to_core()
             if crank_holes is not None:
                 crank_holes.check_fits(design)
@@ -438,6 +445,41 @@ def folder_name(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", name).strip("._-")
 
 
+def _toml_error(text: str, exc: Exception) -> str:
+    """``invalid TOML: ...``, naming the key (and its table) of a key or table given
+    twice, which tomllib reports by line and column only."""
+    message = str(exc)
+    where = re.search(r"\(at line (\d+), column \d+\)", message)
+    twice = any(
+        what in message
+        for what in ("Cannot overwrite a value", "Cannot declare", "Cannot mutate immutable")
+    )
+    if not (where and twice):
+        return f"invalid TOML: {message}"
+    number = int(where.group(1))
+    lines = text.splitlines()
+    line = lines[number - 1].strip() if number <= len(lines) else ""
+    header = re.match(r"^\[\[?\s*([^\]]+?)\s*\]\]?", line)
+    if header:
+        return (
+            f"table [{header.group(1)}] declared twice (line {number}): "
+            "give each table once, with all its keys"
+        )
+    table = ""
+    for previous in reversed(lines[: number - 1]):
+        found = re.match(r"^\s*(\[\[?)\s*([^\]]+?)\s*\]\]?", previous)
+        if found:
+            table = f"[[{found.group(2)}]]" if found.group(1) == "[[" else found.group(2)
+            break
+    key = line.split("=", 1)[0].strip().strip('"')
+    dotted = key if not table or table.startswith("[[") else f"{table}.{key}"
+    within = f" of a {table} entry" if table.startswith("[[") else ""
+    return (
+        f"key {dotted}{within} given twice (line {number}, or set already by a table or "
+        "a dotted key above): give each key once"
+    )
+
+
 def load_study(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Study:
     """Read, merge and validate a study file.
 
@@ -468,7 +510,7 @@ def load_study(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     except UnicodeDecodeError:
         raise StudyError(f"{path.name}: not a UTF-8 text file") from None
     except tomllib.TOMLDecodeError as exc:
-        raise StudyError(f"{path.name}: invalid TOML: {exc}") from None
+        raise StudyError(f"{path.name}: {_toml_error(text, exc)}") from None
     except RecursionError:
         raise StudyError(f"{path.name}: arrays or tables nested too deeply") from None
     overrides = dict(overrides or {})

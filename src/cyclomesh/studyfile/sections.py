@@ -34,6 +34,7 @@ from cyclomesh.studyfile.limits import (
     MAX_CRANK_ANGLES,
     MAX_DISCS,
     MAX_PINS,
+    MAX_SEED,
     MAX_STIFFNESS_POINTS,
     MIN_CRANK_STEP_DEG,
     count_crank_angles,
@@ -448,7 +449,7 @@ class RandomErrorsSection(StrictSection):
     others' draws unchanged.
     """
 
-    seed: int = Field(ge=0, description="seed of numpy.random.default_rng")
+    seed: int = Field(ge=0, le=MAX_SEED, description="seed of numpy.random.default_rng")
     radial_um: float = Field(0.0, ge=0, description="half-range of εa,i [µm]")
     angular_urad: float = Field(0.0, ge=0, description="half-range of εψ,i [µrad]")
     pin_radius_um: float = Field(0.0, ge=0, description="half-range of ερ,i [µm]")
