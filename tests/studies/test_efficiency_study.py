@@ -99,6 +99,13 @@ min_efficiency = 0.99
     ds = xr.open_dataset(out / case["results"])
     assert ds["efficiency"].dims == ("torque", "input_speed")
     assert ds["power_loss"].sizes["path"] == 3
+    from cyclomesh.quantities import QUANTITIES  # every number a registry row, its unit
+
+    units = json.loads((out / "summary.json").read_text())["units"]
+    for key in case.keys() - {"name", "results", "checks"}:
+        assert key in QUANTITIES and units[key] == QUANTITIES[key].unit, key
+    for name in ds.data_vars:
+        assert ds[name].attrs["units"] == QUANTITIES[name].unit, name
 
 
 def test_efficiency_needs_friction_and_its_section(tmp_path):

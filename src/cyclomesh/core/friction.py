@@ -96,6 +96,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.core.contact import contact_tangent
 from cyclomesh.exceptions import DesignError
 
 __all__ = [
@@ -110,6 +111,7 @@ __all__ = [
     "effective_coefficient",
     "torque_arm",
     "input_torque",
+    "pin_resultant",
     "contact_losses",
     "bearing_moment",
 ]
@@ -363,6 +365,19 @@ def torque_arm(
     return np.asarray(moment_arm, float) + np.asarray(mu, float) * sign * normal_moment_arm
 
 
+def pin_resultant(
+    force: ArrayLike, tangential: ArrayLike, normal_x: ArrayLike, normal_y: ArrayLike
+) -> tuple[FloatArray, FloatArray]:
+    """Resultant R = Σ(−F·n + T·t) of the pin forces on a disc [N], summed over the last
+    axis (the pins): normal load F along the outward flank normal n
+    (:func:`cyclomesh.core.contact.contact_normal`), tangential force T along
+    t = ẑ×n (:func:`cyclomesh.core.contact.contact_tangent`)."""
+    f = np.asarray(force, float)
+    tf = np.asarray(tangential, float)
+    tx, ty = contact_tangent(normal_x, normal_y)
+    return np.sum(-f * normal_x + tf * tx, axis=-1), np.sum(-f * normal_y + tf * ty, axis=-1)
+
+
 def input_torque(
     force: ArrayLike,
     tangential: ArrayLike,
@@ -377,10 +392,7 @@ def input_torque(
     ``force`` and ``tangential`` (the tangential force T on the disc, along t = ẑ×n) are
     (..., n1) per disc; ``eccentricity`` and ``crank_angle`` broadcast against (...).
     """
-    f = np.asarray(force, float)
-    tf = np.asarray(tangential, float)
-    rx = np.sum(-f * normal_x - tf * normal_y, axis=-1)
-    ry = np.sum(-f * normal_y + tf * normal_x, axis=-1)
+    rx, ry = pin_resultant(force, tangential, normal_x, normal_y)
     e = np.asarray(eccentricity, float)
     phi = np.asarray(crank_angle, float)
     return -e * (np.cos(phi) * ry - np.sin(phi) * rx)

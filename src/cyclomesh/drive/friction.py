@@ -1,7 +1,7 @@
 """Friction in the loaded solve of a disc stack: the coupling of :mod:`cyclomesh.core.friction`
-with :func:`cyclomesh.drive.solve.solve_drive` (one narrow hook in its ``_load``).
+with :func:`cyclomesh.drive.mesh.load_stack` (one narrow hook: its ``friction`` argument).
 
-:class:`FrictionCoupling` takes a stack's unloaded mesh (:class:`~cyclomesh.drive.solve.StackMesh`,
+:class:`FrictionCoupling` takes a stack's unloaded mesh (:class:`~cyclomesh.drive.mesh.StackMesh`,
 in its own, possibly mirrored, frame), the friction and the sense of the motion, and
 
 * solves the load sharing with the friction moment arms l + μ_eff·s·m
@@ -35,6 +35,7 @@ from cyclomesh.core.friction import (
     effective_coefficient,
     input_torque,
     normal_moment,
+    pin_resultant,
     tangential_velocity,
     torque_arm,
 )
@@ -51,18 +52,19 @@ the fixed point is accepted: that of the load sharing's torque residual, 1e-12·
 _MAX_FIXED_POINT = 60
 
 FRICTION_FIELDS = {
-    # name: (per pin, odd in the mirror)
-    "friction_force": (True, False),
-    "sliding_velocity_tooth": (True, False),
-    "sliding_velocity_groove": (True, False),
-    "power_loss_tooth": (True, False),
-    "power_loss_groove": (True, False),
-    "friction_coefficient": (True, False),
-    "input_torque": (False, True),
-    "power_loss_bearing": (False, False),
+    # name: per pin (else per disc)
+    "friction_force": True,
+    "sliding_velocity_tooth": True,
+    "sliding_velocity_groove": True,
+    "power_loss_tooth": True,
+    "power_loss_groove": True,
+    "friction_coefficient": True,
+    "input_torque": False,
+    "power_loss_bearing": False,
 }
-"""The fields :meth:`FrictionCoupling.fields` adds to a loaded state (per disc when not
-per pin), and whether the mirror image changes their sign."""
+"""The fields :meth:`FrictionCoupling.fields` adds to a loaded state, per pin or per disc;
+the sign each takes in the mirror image is its row's parity in
+:data:`cyclomesh.quantities.QUANTITIES`."""
 
 
 @dataclass(frozen=True)
@@ -108,11 +110,7 @@ class FrictionCoupling:
         self, force: FloatArray, tangential: FloatArray
     ) -> tuple[FloatArray, FloatArray]:
         """Resultant R of the pin forces on each disc, −F·n + T·t summed [N], (..., A, N)."""
-        nx, ny = self.mesh.normal_x, self.mesh.normal_y
-        return (
-            np.sum(-force * nx - tangential * ny, axis=-1),
-            np.sum(-force * ny + tangential * nx, axis=-1),
-        )
+        return pin_resultant(force, tangential, self.mesh.normal_x, self.mesh.normal_y)
 
     def _bearing_sense(self) -> float:
         """Sense of the crank bearing's friction moment on the disc (module doc): with the

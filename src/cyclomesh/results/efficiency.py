@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from cyclomesh.quantities import QUANTITIES, select
 from cyclomesh.results.metrics import Metric
 
 if TYPE_CHECKING:
@@ -36,17 +37,16 @@ __all__ = [
     "friction_attrs",
 ]
 
-EFFICIENCY_METRICS: dict[str, Metric] = {
-    m.name: m
-    for m in (
-        Metric("efficiency", "1", "forward efficiency, P_out/P_in over the angles", "η"),
-        Metric("backdrive_efficiency", "1", "back-driving efficiency over the angles", "η back"),
-        Metric("input_power_w", "W", "mean input power (forward)", "P in"),
-        Metric("output_power_w", "W", "mean output power (forward)", "P out"),
-        Metric("input_speed_rpm", "rpm", "input (crank) speed", "n in"),
-    )
-}
-"""Headline numbers of a run with ``[friction]``; ``power_loss_w`` (a table) beside them."""
+EFFICIENCY_METRICS: dict[str, Metric] = select(
+    "efficiency",
+    "backdrive_efficiency",
+    "input_power_w",
+    "output_power_w",
+    "input_speed_rpm",
+    "power_loss_w",
+)
+"""Headline numbers of a run with ``[friction]`` (rows of :data:`cyclomesh.quantities.QUANTITIES`);
+``power_loss_w`` is a table path → W."""
 
 LOSS_PATHS = {
     "pin_tooth": "power_loss_tooth",
@@ -56,14 +56,19 @@ LOSS_PATHS = {
 """Loss paths modelled → variable (per pin, per disc for the bearings). The output
 mechanism is not modelled (``null`` in ``power_loss_w``)."""
 
-_PIN_VARS = {
-    "friction_force": (1.0, "N", "tangential (friction) force at the pin contact"),
-    "sliding_velocity_tooth": (1.0, "m s-1", "sliding velocity, pin-tooth"),
-    "sliding_velocity_groove": (1.0, "m s-1", "sliding velocity, pin-groove"),
-    "power_loss_tooth": (1.0, "W", "friction power loss, pin-tooth"),
-    "power_loss_groove": (1.0, "W", "friction power loss, pin-groove"),
-    "friction_coefficient": (1.0, "1", "friction coefficient acting on the disc"),
-}
+_PIN_VARS = (
+    "friction_force",
+    "sliding_velocity_tooth",
+    "sliding_velocity_groove",
+    "power_loss_tooth",
+    "power_loss_groove",
+    "friction_coefficient",
+)
+
+
+def _attrs(name: str) -> dict[str, str]:
+    """``units`` and ``long_name`` from the registry (:data:`cyclomesh.quantities.QUANTITIES`)."""
+    return {"units": QUANTITIES[name].unit, "long_name": QUANTITIES[name].long_name}
 
 
 def efficiency_variables(
@@ -97,11 +102,11 @@ def efficiency_variables(
         return value[..., 0, :] if discs == 1 else value
 
     data: dict[str, tuple] = {}
-    for name, (scale, units, long_name) in _PIN_VARS.items():
+    for name in _PIN_VARS:
         data[name] = (
             (*ring, *keep, "crank_angle", *stack, "pin"),
-            pin(f[name]) * scale,
-            {"units": units, "long_name": long_name},
+            pin(f[name]) * QUANTITIES[name].scale,
+            _attrs(name),
         )
     sign = np.sign(forward.torque)[:, None]
     p_out = np.abs(forward.torque)[:, None] * speed / teeth * np.ones_like(forward.loaded_rotation)
@@ -113,28 +118,23 @@ def efficiency_variables(
     data["power_loss_bearing"] = (
         (*ring, *keep, "crank_angle", *stack),
         bearing if discs > 1 else bearing[..., 0],
-        {"units": "W", "long_name": "friction power loss of the crank bearing"},
+        _attrs("power_loss_bearing"),
     )
     t_in = np.sum(f["input_torque"], axis=-1)
     t_in_b = np.sum(b["input_torque"], axis=-1)
     angle_dims = (*ring, *keep, "crank_angle")
-    for name, value, units, long_name in (
-        ("input_torque", t_in, "N m", "input torque, moment balance of the crank (forward)"),
-        ("backdrive_input_torque", t_in_b, "N m", "input torque, moment balance (back-driving)"),
-        ("output_power", p_out, "W", "output power |T|·ω/n2"),
-        ("power_loss", loss, "W", "friction power loss, all paths (forward)"),
-        ("backdrive_power_loss", loss_b, "W", "friction power loss, all paths (back-driving)"),
-        ("input_power", p_out + loss, "W", "input power P_out + P_loss (forward)"),
-        ("moment_input_power", t_in * sign * speed, "W", "T_in·ω from the moment balance"),
-        ("instantaneous_efficiency", p_out / (p_out + loss), "1", "forward efficiency"),
-        (
-            "instantaneous_backdrive_efficiency",
-            (p_out - loss_b) / p_out,
-            "1",
-            "back-driving efficiency",
-        ),
+    for name, value in (
+        ("input_torque", t_in),
+        ("backdrive_input_torque", t_in_b),
+        ("output_power", p_out),
+        ("power_loss", loss),
+        ("backdrive_power_loss", loss_b),
+        ("input_power", p_out + loss),
+        ("moment_input_power", t_in * sign * speed),
+        ("instantaneous_efficiency", p_out / (p_out + loss)),
+        ("instantaneous_backdrive_efficiency", (p_out - loss_b) / p_out),
     ):
-        data[name] = (angle_dims, angle(value), {"units": units, "long_name": long_name})
+        data[name] = (angle_dims, angle(value), _attrs(name))
     return data
 
 

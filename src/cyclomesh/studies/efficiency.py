@@ -24,6 +24,7 @@ import numpy as np
 
 from cyclomesh.exceptions import StudyError
 from cyclomesh.publish.pipeline import case_attrs, summary_document
+from cyclomesh.quantities import QUANTITIES, select
 from cyclomesh.studies.execute import StudyKind
 from cyclomesh.studyfile.schema import Study, folder_name
 
@@ -47,17 +48,27 @@ __all__ = [
 PATHS = ("pin_tooth", "pin_groove", "crank_bearings")
 
 MAP_METRICS = {
-    "peak_efficiency": "1",
-    "peak_torque_nm": "N m",
-    "peak_speed_rpm": "rpm",
-    "rated_torque_nm": "N m",
-    "rated_speed_rpm": "rpm",
-    "rated_efficiency": "1",
-    "rated_backdrive_efficiency": "1",
-    "rated_input_power_w": "W",
-    "rated_power_loss_w": "W",
+    name: q.unit
+    for name, q in select(
+        "peak_efficiency",
+        "peak_torque_nm",
+        "peak_speed_rpm",
+        "rated_torque_nm",
+        "rated_speed_rpm",
+        "rated_efficiency",
+        "rated_backdrive_efficiency",
+        "rated_input_power_w",
+        "rated_power_loss_w",
+        "efficiency_min",
+    ).items()
 }
-"""Numbers of each case in ``summary.json`` with their units."""
+"""Numbers of each case in ``summary.json`` with their units (rows of
+:data:`cyclomesh.quantities.QUANTITIES`)."""
+
+
+def _attrs(name: str) -> dict[str, str]:
+    """``units`` and ``long_name`` of a map variable, from the registry."""
+    return {"units": QUANTITIES[name].unit, "long_name": QUANTITIES[name].long_name}
 
 
 @dataclass
@@ -131,10 +142,14 @@ def compute_efficiency(
             losses.append([np.atleast_1d(rec["power_loss_w"][p]) for p in PATHS])
         dims = ("input_speed", "torque")
         data = {
-            "efficiency": (dims, np.array(table["efficiency"]), {"units": "1"}),
-            "backdrive_efficiency": (dims, np.array(table["backdrive_efficiency"]), {"units": "1"}),
-            "input_power": (dims, np.array(table["input_power_w"]), {"units": "W"}),
-            "output_power": (dims, np.array(table["output_power_w"]), {"units": "W"}),
+            "efficiency": (dims, np.array(table["efficiency"]), _attrs("efficiency")),
+            "backdrive_efficiency": (
+                dims,
+                np.array(table["backdrive_efficiency"]),
+                _attrs("backdrive_efficiency"),
+            ),
+            "input_power": (dims, np.array(table["input_power_w"]), _attrs("input_power")),
+            "output_power": (dims, np.array(table["output_power_w"]), _attrs("output_power")),
             "power_loss": (
                 (*dims, "path"),
                 np.moveaxis(np.array(losses), 1, -1),
@@ -143,7 +158,7 @@ def compute_efficiency(
         }
         coords = {
             "input_speed": ("input_speed", speeds, {"units": "rpm"}),
-            "torque": ("torque", torques, {"units": "N m"}),
+            "torque": ("torque", torques, {"units": "N·m"}),
             "path": ("path", list(PATHS)),
         }
         ds = xr.Dataset(data, coords=coords, attrs=case_attrs(study, case))
@@ -209,7 +224,7 @@ def write_efficiency(result: EfficiencyResult, out: Path) -> list[Path]:
                 "checks": result.checks[case.name],
             }
         )
-    document = summary_document(study, dict(MAP_METRICS, efficiency_min="1"), records)
+    document = summary_document(study, MAP_METRICS, records)
     written.append(write_json(out / "summary.json", document))
     return written
 
