@@ -78,9 +78,9 @@ def test_defaults_take_a_revolution_of_360_steps(table2):
 def test_a_larger_pin_radius_modification_loads_fewer_pins_harder(table2):
     small = _analyse(table2, overrides={"modification.pin_radius_um": 4.0})
     large = _analyse(table2, overrides={"modification.pin_radius_um": 16.0})
-    assert large["summary"]["contacts_max"] < small["summary"]["contacts_max"]
+    assert large["summary"]["max_contacts"] < small["summary"]["max_contacts"]
     assert large["summary"]["max_contact_stress_mpa"] > small["summary"]["max_contact_stress_mpa"]
-    assert set(small["summary"]) >= {"max_contact_stress_mpa", "te_pp_arcsec", "contacts_min"}
+    assert set(small["summary"]) >= {"max_contact_stress_mpa", "te_pp_arcsec", "min_contacts"}
     assert small["units"]["max_contact_stress_mpa"] == "MPa"
 
 
@@ -206,7 +206,7 @@ def test_pin_errors_drawn_from_tolerance_with_a_seed():
 def test_cases_are_explored_one_at_a_time(table2):
     one = _analyse(table2, case="Case 1")
     three = _analyse(table2, case="Case 3")  # no TPM: every loaded-side pin touches at once
-    assert three["summary"]["contacts_max"] > one["summary"]["contacts_max"]
+    assert three["summary"]["max_contacts"] > one["summary"]["max_contacts"]
     table = tomllib.loads(three["study_toml"])
     assert "cases" not in table and table["modification"]["pin_radius_um"] == 0.0
 

@@ -70,11 +70,13 @@ function showError(message, key) {
 function schedule(key, delay) {
   if (key !== undefined) lastKey = key;
   clearTimeout(timer);
-  timer = setTimeout(update, delay || 0);
+  timer = setTimeout(() => { timer = null; update(); }, delay || 0);
 }
 
 let inFlight = false;
 let pending = false;
+// true when no change waits to be sent and no answer is awaited (the page shows its state)
+window.exploreIdle = () => timer === null && !inFlight && !pending;
 
 async function update() {
   // one request at a time: changes made meanwhile are sent together when it answers
