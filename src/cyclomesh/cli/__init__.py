@@ -173,7 +173,7 @@ def export(
     Writes <case>/profile.dxf (polyline and splines, mm), profile.svg, profile.csv (points
     with outward unit normals) and export.json. Datum: disc centre, tooth space 1 on +x.
     """
-    from cyclomesh.output.export import export_study, parse_formats
+    from cyclomesh.output.export import export_study, export_summary, parse_formats
     from cyclomesh.output.folder import ResultFolder
     from cyclomesh.studyfile import load_study
 
@@ -185,12 +185,13 @@ def export(
     loaded = load_study(study)
     preflight(loaded, "export", work=False)  # what check --kind export refuses
     with ResultFolder(out, "export") as folder:  # locked; staged; summary.json written last
-        staged = export_study(loaded, folder.path, formats, chord_tolerance_um * 1e-6)
+        staged, same = export_study(loaded, folder.path, formats, chord_tolerance_um * 1e-6)
+        folder.defer_marker(export_summary(loaded, same))
     written = {case: {k: folder.final(p) for k, p in f.items()} for case, f in staged.items()}
     if not quiet:
         from cyclomesh.publish.console import print_export
 
-        print_export(written, chord_tolerance_um)
+        print_export(written, chord_tolerance_um, same)
 
 
 @app.command()

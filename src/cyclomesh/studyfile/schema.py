@@ -67,6 +67,7 @@ from cyclomesh.core.pair import (
     Modification,
     PairDesign,
     PinErrors,
+    check_bore,
     check_physical,
     pin_errors_si,
 )
@@ -88,7 +89,11 @@ from cyclomesh.studyfile.limits import (
     count_crank_angles,
     read_regular_file,
 )
-from cyclomesh.studyfile.measurements import PIN_ERROR_COLUMNS, read_pin_errors_csv
+from cyclomesh.studyfile.measurements import (
+    PIN_ERROR_COLUMNS,
+    name_measured_row,
+    read_pin_errors_csv,
+)
 from cyclomesh.studyfile.profile_csv import read_profile_csv
 from cyclomesh.units import RAD_PER_ARCMIN
 
@@ -186,6 +191,9 @@ class DiscSection(_Section):
     )
     crank_hole_radius_mm: float | None = Field(
         None, gt=0, description="radius of each crank hole [mm]"
+    )
+    bore_radius_mm: float | None = Field(
+        None, gt=0, description="radius of the disc's central bore [mm] (drawn by export)"
     )
 
     @model_validator(mode="after")
@@ -1172,7 +1180,13 @@ class CaseSpec(_Section):
                 self.errors.eccentricity_um,
             )
             errors.ring_shape(design.pins)
-            check_physical(design, modification, errors)
+            try:
+                check_physical(design, modification, errors)
+            except DesignError as exc:  # a bound on a measured pin: name the file's row
+                if self.errors.file is None:
+                    raise
+                path = self._base_dir / self.errors.file
+                raise DesignError(name_measured_row(exc, path, d.pins)) from None
             try:
                 with np.errstate(over="ignore", invalid="ignore"):  # huge tables: inf, refused
                     check_profile(design, modification)
@@ -1184,6 +1198,8 @@ class CaseSpec(_Section):
             crank_holes = d.disc.to_core()
             if crank_holes is not None:
                 crank_holes.check_fits(design)
+            if d.disc.bore_radius_mm is not None:
+                check_bore(design, crank_holes, d.disc.bore_radius_mm * MM)
             stage = None if self.stage is None else self.stage.to_core(crank_holes, d.discs)
             if stage is not None:
                 stage.check_fits(design, d.discs)

@@ -54,6 +54,7 @@ OWN_SECTIONS: dict[str, tuple[str, ...]] = {
     "allocate": ("tolerance",),
     "design": ("design_space",),
     "fe": ("fe",),
+    "export": ("design.disc.bore_radius_mm",),
     "run": (
         "load.torque_nm",
         "stage.rated_torque_nm",
@@ -67,7 +68,8 @@ run's load and the stage's data-sheet rating are the run's: ``cyclomesh stiffnes
 ``[requirements]`` is checked by every kind that computes a quantity (run, stiffness,
 tolerance, design, fe); ``cyclomesh allocate`` reports no metric and leaves it, as it
 leaves the allowables of ``[material]`` (the default limits) and the tolerance study's
-percentile."""
+percentile. The disc's bore is drawn by ``cyclomesh export`` (which takes every key) and
+computed by no other kind."""
 
 _PAIR = (
     "design.pins",
