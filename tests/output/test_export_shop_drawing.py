@@ -101,3 +101,25 @@ def test_cases_with_the_same_drawing_are_written_once_and_said_so(tmp_path):
     assert set(summary["same_profile"]) == {"Case 2", "Case 4"}
     meta = json.loads((out / "Case_1" / "export.json").read_text())
     assert meta["title"].endswith(": Case 1, Case 2")
+
+
+def test_a_bore_alone_is_the_exports_key_and_every_kind_leaves_it(tmp_path):
+    """[design.disc] bore_radius_mm without crank holes or [stage]: drawn by export,
+    validated and left alone by run, tolerance and allocate (not a crank hole)."""
+    text = (EXAMPLES / "tolerance.toml").read_text()
+    text = text.replace("[modification]", "[design.disc]\nbore_radius_mm = 20.0\n\n[modification]")
+    study = tmp_path / "bore.toml"
+    study.write_text(text)
+    for kind in ("run", "tolerance", "allocate", "export"):
+        result = CliRunner().invoke(app, ["check", "--kind", kind, str(study)])
+        assert result.exit_code == 0, (kind, result.output)
+    out = tmp_path / "out"
+    assert _export(study, out, "--format", "dxf", "-q").exit_code == 0
+    (folder,) = [p for p in out.iterdir() if p.is_dir()]
+    msp = ezdxf.readfile(folder / "profile.dxf").modelspace()
+    assert [c.dxf.radius for c in msp.query('CIRCLE[layer=="BORE"]')] == [20.0]
+    assert not msp.query('CIRCLE[layer=="CRANK_HOLES"]')
+    too_big = text.replace("bore_radius_mm = 20.0", "bore_radius_mm = 77.0")  # root 77 mm
+    study.write_text(too_big)
+    result = CliRunner().invoke(app, ["check", str(study)])
+    assert result.exit_code == 2 and "the bore reaches the tooth root" in result.output
