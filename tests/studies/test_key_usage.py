@@ -293,6 +293,7 @@ LUBRICATED = {  # boundary caps above Benedict–Kelley's value at this speed
 CHANGE["design.disc.crank_holes"] = 2
 CHANGE["design.disc.crank_hole_circle_radius_mm"] = 44.0
 CHANGE["design.disc.crank_hole_radius_mm"] = 11.0
+CHANGE["design.disc.bore_radius_mm"] = 20.0  # drawn by export, another kind's key
 
 # keys whose change needs something else in both studies (kind, key) or (None, key)
 CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
