@@ -73,6 +73,8 @@ from cyclomesh.core.pair import (
 from cyclomesh.core.profile import check_profile
 from cyclomesh.exceptions import DesignError, StudyError
 from cyclomesh.stage.bearing import RollerSet
+from cyclomesh.stage.carrier import Carrier
+from cyclomesh.stage.crankshaft import Crankshaft
 from cyclomesh.stage.solve import StageDesign
 from cyclomesh.studyfile.limits import (
     MAX_ABS_CRANK_DEG,
@@ -423,6 +425,29 @@ class CrankBearingSection(_Section):
     rating_factor: float = Field(1.1, gt=0, description="b_m of ISO 281 (1.1 machined raceways)")
 
 
+class CrankshaftSection(_Section):
+    """``[stage.crankshaft]``: every crankshaft as a beam on two support bearings."""
+
+    support_span_mm: float = Field(
+        gt=0, description="distance between the crankshaft's two support bearings [mm]"
+    )
+    disc_pitch_mm: float = Field(
+        gt=0, description="axial distance between neighbouring discs' mid-planes [mm]"
+    )
+    support_bearing_stiffness_n_per_um: float | None = Field(
+        None, gt=0, description="radial stiffness of each support bearing [N/µm] (omitted: rigid)"
+    )
+
+
+class CarrierSection(_Section):
+    """``[stage.carrier]``: the pillars joining the output flange and the end plate."""
+
+    pillars: int = Field(ge=2, description="number of pillars")
+    pillar_diameter_mm: float = Field(gt=0, description="pillar diameter [mm]")
+    pillar_length_mm: float = Field(gt=0, description="free length between the flanges [mm]")
+    pillar_circle_radius_mm: float = Field(gt=0, description="radius of the pillars' circle [mm]")
+
+
 class StageSection(_Section):
     """``[stage]``: the RV stage around the mesh: crank bearings, springs, hole errors.
 
@@ -435,6 +460,8 @@ class StageSection(_Section):
         None, gt=0, description="rated torque of the data sheet [N·m] (default: the load)"
     )
     crank_bearing: CrankBearingSection | None = None
+    crankshaft: CrankshaftSection | None = None
+    carrier: CarrierSection | None = None
     crankshaft_stiffness_n_per_um: float | None = Field(
         None, gt=0, description="radial stiffness of a crank pin, in series with its bearing"
     )
@@ -481,9 +508,37 @@ class StageSection(_Section):
                 ),
                 rating_factor=b.rating_factor,
             )
+        crankshaft = carrier = None
+        if self.crankshaft is not None:
+            if b is None:
+                raise DesignError(
+                    "stage.crankshaft: needs [stage.crank_bearing] (the crank pin's diameter "
+                    "is the crank hole's less two rollers)"
+                )
+            crankshaft = Crankshaft(
+                support_span=self.crankshaft.support_span_mm * MM,
+                disc_pitch=self.crankshaft.disc_pitch_mm * MM,
+                pin_diameter=2.0 * holes.radius - 2.0 * b.roller_diameter_mm * MM,
+                support_stiffness=(
+                    None
+                    if self.crankshaft.support_bearing_stiffness_n_per_um is None
+                    else self.crankshaft.support_bearing_stiffness_n_per_um / UM
+                ),
+            )
+            crankshaft.positions(discs)  # the stack fits between the supports
+        if self.carrier is not None:
+            c = self.carrier
+            carrier = Carrier(
+                pillars=c.pillars,
+                pillar_diameter=c.pillar_diameter_mm * MM,
+                pillar_length=c.pillar_length_mm * MM,
+                pillar_circle_radius=c.pillar_circle_radius_mm * MM,
+            )
         stage = StageDesign(
             holes=holes,
             bearing=bearing,
+            crankshaft=crankshaft,
+            carrier=carrier,
             crankshaft_stiffness=(
                 None
                 if self.crankshaft_stiffness_n_per_um is None
