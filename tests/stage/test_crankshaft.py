@@ -129,3 +129,35 @@ def test_keys_exclude_each_other():
         StageDesign(HOLES, ROLLERS, carrier=CARRIER)
     with pytest.raises(DesignError, match="do not fit"):
         Crankshaft(0.01, 0.012, 0.018).positions(2)
+
+
+def test_data_sheet_backlash_and_budget():
+    """Backlash of the mesh alone is its play 2Δρ/(e·n2) (docs/drive.md); the stage adds
+    the bearings' free travel; the compliance shares add up to 1."""
+    from types import SimpleNamespace
+
+    from cyclomesh.results.stage import data_sheet
+
+    inputs = SimpleNamespace(
+        design=RV40,
+        stage=StageDesign(HOLES, ROLLERS, crankshaft=SHAFT, carrier=CARRIER),
+        modification=MOD,
+        errors=None,
+        crank_angles=PHI,
+        groove_deformation=True,
+        discs=2,
+        contact_law="half_plane",
+    )
+    sheet = data_sheet(inputs, 412.0)
+    arcmin = np.radians(1 / 60)
+    play = 2 * 3e-6 / (1.3e-3 * 39) / arcmin
+    assert sheet["mesh_backlash_arcmin"] == pytest.approx(play, rel=0.02)
+    assert (
+        sheet["stage_backlash_arcmin"] > sheet["mesh_backlash_arcmin"] + 0.5 * 5e-6 / 36e-3 / arcmin
+    )
+    # the width at ±0.1 % is below the lost motion at ±3 %
+    assert sheet["stage_backlash_arcmin"] < sheet["stage_lost_motion_arcmin"]
+    shares = sheet["compliance_share"]
+    assert sum(shares.values()) == pytest.approx(1.0, abs=1e-9)
+    assert shares["disc_body"] == 0.0 and shares["hole_errors"] == 0.0
+    assert all(shares[p] > 0.01 for p in ("mesh", "crank_bearings", "crankshafts", "carrier"))

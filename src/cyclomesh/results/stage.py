@@ -66,7 +66,8 @@ STAGE_METRICS: dict[str, Metric] = {
         Metric(
             "stage_torsional_rigidity_nm_per_arcmin",
             "N·m/arcmin",
-            "torsional rigidity of the stage (mesh, bearings, springs), secant 50-100 %",
+            "torsional rigidity of the stage (mesh, bearings, crankshafts, carrier), b/a "
+            "50-100 % of rated (catalogue)",
             "rigidity",
         ),
         Metric(
@@ -78,10 +79,17 @@ STAGE_METRICS: dict[str, Metric] = {
         Metric(
             "stage_lost_motion_arcmin",
             "arcmin",
-            "lost motion of the stage, TE(-3 %) - TE(+3 %)",
+            "lost motion of the stage: twist between the loop's mid-points at -3 % and +3 %",
             "lost motion",
         ),
         Metric("mesh_lost_motion_arcmin", "arcmin", "lost motion of the mesh alone", "mesh LM"),
+        Metric(
+            "stage_backlash_arcmin",
+            "arcmin",
+            "backlash of the stage: width of the loop at zero torque (at ±0.1 %)",
+            "backlash",
+        ),
+        Metric("mesh_backlash_arcmin", "arcmin", "backlash of the mesh alone", "mesh backlash"),
         Metric(
             "stage_max_contact_stress_mpa",
             "MPa",
@@ -246,7 +254,38 @@ def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
             stage_dynamic_load_rating_kn=float(stage.bearing.rating() / 1e3),
             stage_max_roller_load_n=float(np.max(result.max_roller_load[at])),
         )
-    return {name: sheet[name] for name in STAGE_METRICS if name in sheet}
+    sheet.update(_catalogue_extras(inputs, rated_torque, phi, curve))
+    out = {name: sheet[name] for name in STAGE_METRICS if name in sheet}
+    out["compliance_share"] = sheet["compliance_share"]
+    return out
+
+
+def _catalogue_extras(inputs: Any, rated_torque: float, phi: np.ndarray, curve: Any) -> dict:
+    """Backlash of stage and mesh (width at ±0.1 % of T_r) and the compliance budget at
+    +T_r (:mod:`cyclomesh.results.datasheet`)."""
+    from cyclomesh.results.datasheet import BACKLASH_FRACTION, compliance_share
+
+    small = solve_stage(
+        inputs.design,
+        inputs.stage,
+        inputs.modification,
+        inputs.errors,
+        [-BACKLASH_FRACTION * rated_torque, BACKLASH_FRACTION * rated_torque],
+        phi,
+        inputs.groove_deformation,
+        inputs.discs,
+        inputs.contact_law,
+    )
+    result = curve.stage
+    at = int(np.flatnonzero(result.torque == rated_torque)[0])
+    te, mesh = small.transmission_error, small.mesh_transmission_error
+    return {
+        "stage_backlash_arcmin": float(np.mean(te[0] - te[1]) / ARCMIN),
+        "mesh_backlash_arcmin": float(np.mean(mesh[0] - mesh[1]) / ARCMIN),
+        "compliance_share": compliance_share(
+            {k: v[at] for k, v in result.work.items()}, rated_torque, result.twist[at]
+        ),
+    }
 
 
 def solve_case(inputs: Any) -> Stage:
@@ -346,5 +385,35 @@ STAGE_STIFFNESS_METRICS: dict[str, Metric] = {
             "min",
         ),
         Metric("stage_l10_h_min", "h", "L10h of the weakest crank bearing at +T_r", "L10h"),
+        Metric(
+            "measured_torsional_rigidity_nm_per_arcmin",
+            "N·m/arcmin",
+            "measured torsional rigidity (b/a, 50-100 % of rated)",
+            "measured rigidity",
+        ),
+        Metric(
+            "measured_lost_motion_arcmin", "arcmin", "measured lost motion (±3 %)", "measured LM"
+        ),
+        Metric(
+            "measured_backlash_arcmin", "arcmin", "measured backlash (width at 0)", "measured BL"
+        ),
+        Metric(
+            "reconciling_compliance_arcmin_per_knm",
+            "arcmin/kN·m",
+            "series compliance that would take the model to the measured rigidity (not applied)",
+            "reconciling compliance",
+        ),
+        Metric(
+            "reconciling_stiffness_nm_per_arcmin",
+            "N·m/arcmin",
+            "its stiffness (not applied)",
+            "reconciling stiffness",
+        ),
+        Metric(
+            "lost_motion_difference_arcmin",
+            "arcmin",
+            "measured lost motion less the model's",
+            "LM difference",
+        ),
     )
 }

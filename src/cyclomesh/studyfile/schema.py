@@ -393,6 +393,11 @@ class StiffnessSection(_Section):
         gt=0,
         description="torsional stiffness of the rest of the drive, in series [N·m/arcmin]",
     )
+    measured_file: str | None = Field(
+        None,
+        description="measured hysteresis loop (CSV torque_nm, twist_arcmin), read back by "
+        "the catalogue definitions beside the model (docs/stage.md)",
+    )
 
 
 def _per_crank(value: Any) -> float | list[float] | list[list[float]]:
