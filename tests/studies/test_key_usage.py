@@ -265,8 +265,12 @@ CHANGE.update(
         "stage.carrier.pillar_length_mm": 20.0,
         "stage.carrier.pillar_circle_radius_mm": 40.0,
         "stiffness.measured_file": str(EXAMPLES / "rv_stage_measured_loop.csv"),
+        "stage.duty_cycle.torque_nm": [250.0, -100.0],
+        "stage.duty_cycle.output_speed_rpm": [10.0, 30.0],
+        "stage.duty_cycle.time_share": [0.3, 0.7],
     }
 )
+DUTY = {"torque_nm": [200.0, -150.0], "output_speed_rpm": [15.0, 15.0], "time_share": [0.5, 0.5]}
 
 # keys whose change needs something else in both studies (kind, key) or (None, key)
 CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
@@ -291,6 +295,7 @@ def change_table(key: str, kind: str = "run") -> dict[str, Any]:
         whole = {  # a valid [stage.crankshaft] / [stage.carrier] around the key
             "stage.crankshaft.": {"stage": {"crankshaft": SHAFT}},
             "stage.carrier.": {"stage": {"crankshaft": SHAFT, "carrier": PILLARS}},
+            "stage.duty_cycle.": {"stage": {"duty_cycle": DUTY}},
         }
         extra = next((v for k, v in whole.items() if key.startswith(k)), {})
         return merge(merge(STAGE, extra), _nested(key, CHANGE[key]))
@@ -330,6 +335,8 @@ for _kind in ("run", "stiffness"):
             CONTEXT[(_kind, _key)] = merge(
                 STAGE, {"design": {"discs": 2}, "stage": {"crankshaft": SHAFT}}
             )
+        elif _key.startswith("stage.duty_cycle."):
+            CONTEXT[(_kind, _key)] = merge(STAGE, {"stage": {"duty_cycle": DUTY}})
         elif _key.startswith("stage.carrier."):
             CONTEXT[(_kind, _key)] = merge(
                 STAGE, {"stage": {"crankshaft": SHAFT, "carrier": PILLARS}}

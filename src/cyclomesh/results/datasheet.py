@@ -224,3 +224,25 @@ def measured_loop_variables(
         "lost_motion_difference_arcmin": rec["lost_motion"] / arcmin,
     }
     return data, summary
+
+
+def order_spectrum(values: ArrayLike, axis: int = 0, orders: int | None = None) -> FloatArray:
+    """Amplitude of each order of a signal sampled evenly over one revolution.
+
+    Order k: k periods per revolution; amplitude 2·|X_k|/A (the mean at k = 0), X the
+    discrete Fourier transform over the A samples on ``axis``, which moves to the front.
+    ``orders``: keep orders 0 … orders (default A//2).
+    """
+    x = np.moveaxis(np.asarray(values, float), axis, 0)
+    count = x.shape[0]
+    spectrum = np.abs(np.fft.rfft(x, axis=0)) / count
+    spectrum[1:] *= 2.0
+    if count % 2 == 0:
+        spectrum[-1] /= 2.0  # the Nyquist order is not doubled
+    return spectrum[: (orders + 1) if orders is not None else None]
+
+
+def top_orders(amplitude: FloatArray, count: int, scale: int) -> list[list[float]]:
+    """The ``count`` largest orders ≥ 1 as [crank order, output order, amplitude]."""
+    order = np.argsort(amplitude[1:])[::-1][:count] + 1
+    return [[int(k), int(k * scale), float(amplitude[k])] for k in order]

@@ -91,6 +91,27 @@ STAGE_METRICS: dict[str, Metric] = {
         ),
         Metric("mesh_backlash_arcmin", "arcmin", "backlash of the mesh alone", "mesh backlash"),
         Metric(
+            "stage_duty_equivalent_torque_nm",
+            "N·m",
+            "equivalent torque of the duty cycle (cubic mean, exponent 10/3)",
+            "T_eq",
+        ),
+        Metric(
+            "stage_duty_equivalent_speed_rpm", "rpm", "mean output speed of the duty cycle", "n_eq"
+        ),
+        Metric(
+            "stage_duty_l10_h_min",
+            "h",
+            "L10h of the weakest crank bearing over the duty cycle (ISO 281, variable load)",
+            "L10h cycle",
+        ),
+        Metric(
+            "stage_l10_h_at_equivalent_torque",
+            "h",
+            "L10h of the weakest crank bearing at T_eq and n_eq",
+            "L10h at T_eq",
+        ),
+        Metric(
             "stage_max_contact_stress_mpa",
             "MPa",
             "peak pin-tooth contact stress at rated torque",
@@ -193,6 +214,26 @@ def stage_dataset(result: Stage, stage: StageDesign, pins: int) -> xr.Dataset:
         data["crank_bearing_l10"] = var(
             hours, ("disc", "crank"), "h", "basic rating life L10h (ISO 281) at the output speed"
         )
+    from cyclomesh.core.transmission import is_full_revolution
+
+    orders = None
+    if is_full_revolution(result.crank_angle):  # the output's ripple by orders
+        from cyclomesh.results.datasheet import order_spectrum
+
+        top = 3 * pins
+        te = np.moveaxis(order_spectrum(result.transmission_error, -1, top), 0, -1)
+        share = np.moveaxis(order_spectrum(result.torque_share, -2, top), 0, -2)
+        orders = np.arange(te.shape[-1])
+        data["stage_te_order_amplitude"] = var(
+            te / ARCSEC,
+            ("crank_order",),
+            "arcsec",
+            "amplitude of the output's TE by order of the crank revolution "
+            "(output order = crank order x (n1 - 1))",
+        )
+        data["torque_share_order_amplitude"] = var(
+            share, ("crank_order", "disc"), "N m", "amplitude of each disc's torque share by order"
+        )
     coords = {
         "crank_angle": ("crank_angle", deg, {"units": "deg"}),
         "disc": np.arange(1, result.pin_load.shape[-2] + 1),
@@ -201,6 +242,13 @@ def stage_dataset(result: Stage, stage: StageDesign, pins: int) -> xr.Dataset:
     }
     if not squeeze:
         coords["torque"] = ("torque", result.torque, {"units": "N m"})
+    if orders is not None:
+        coords["crank_order"] = ("crank_order", orders, {"long_name": "order of the crank speed"})
+        coords["output_order"] = (
+            "crank_order",
+            orders * (pins - 1),
+            {"long_name": "order of the output speed"},
+        )
     ds = xr.Dataset(data, coords=coords)
     ds.attrs["stage_output_speed_rpm"] = float(stage.output_speed)
     return ds
@@ -256,8 +304,45 @@ def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
         )
     sheet.update(_catalogue_extras(inputs, rated_torque, phi, curve))
     out = {name: sheet[name] for name in STAGE_METRICS if name in sheet}
-    out["compliance_share"] = sheet["compliance_share"]
+    for key in ("compliance_share", "stage_te_orders", "torque_share_orders"):
+        if key in sheet:
+            out[key] = sheet[key]
     return out
+
+
+def _duty_sheet(inputs: Any, phi: np.ndarray) -> dict[str, Any]:
+    """L10h of the weakest crank bearing over the duty cycle, the catalogue's equivalent
+    torque and speed, and the life at that single point (:mod:`cyclomesh.stage.duty`)."""
+    import dataclasses
+
+    from cyclomesh.stage.duty import cycle_life
+
+    stage = inputs.stage
+    cycle = stage.duty_cycle
+    t_eq, n_eq = cycle.equivalent()
+    torques = sorted(set(cycle.torque) | {t_eq})
+    result = solve_stage(
+        inputs.design,
+        stage,
+        inputs.modification,
+        inputs.errors,
+        torques,
+        phi,
+        inputs.groove_deformation,
+        inputs.discs,
+        inputs.contact_law,
+    )
+    loads = {t: result.bearing_load[i] for i, t in enumerate(torques)}
+    rating = stage.bearing.rating()
+    _, hours = cycle_life(cycle, [loads[t] for t in cycle.torque], rating, inputs.design.pins)
+    point = dataclasses.replace(stage, output_speed=n_eq)
+    _, _, at_eq = bearing_life(result, point, inputs.design.pins)
+    return {
+        "stage_duty_equivalent_torque_nm": t_eq,
+        "stage_duty_equivalent_speed_rpm": n_eq,
+        "stage_duty_l10_h_min": float(np.min(hours)),
+        "stage_l10_h_at_equivalent_torque": float(np.min(at_eq[torques.index(t_eq)])),
+    }
 
 
 def _catalogue_extras(inputs: Any, rated_torque: float, phi: np.ndarray, curve: Any) -> dict:
@@ -279,7 +364,19 @@ def _catalogue_extras(inputs: Any, rated_torque: float, phi: np.ndarray, curve: 
     result = curve.stage
     at = int(np.flatnonzero(result.torque == rated_torque)[0])
     te, mesh = small.transmission_error, small.mesh_transmission_error
-    return {
+    extra: dict[str, Any] = {}
+    if inputs.stage.duty_cycle is not None:
+        extra.update(_duty_sheet(inputs, phi))
+    from cyclomesh.core.transmission import is_full_revolution
+    from cyclomesh.results.datasheet import order_spectrum, top_orders
+
+    if is_full_revolution(phi):  # the output's ripple by orders at the rated torque
+        teeth = inputs.design.pins - 1
+        amp = order_spectrum(result.transmission_error[at], orders=3 * inputs.design.pins)
+        extra["stage_te_orders"] = top_orders(amp / ARCSEC, 3, teeth)
+        share = order_spectrum(result.torque_share[at], orders=3 * inputs.design.pins)
+        extra["torque_share_orders"] = top_orders(np.max(share, axis=-1), 3, teeth)
+    return extra | {
         "stage_backlash_arcmin": float(np.mean(te[0] - te[1]) / ARCMIN),
         "mesh_backlash_arcmin": float(np.mean(mesh[0] - mesh[1]) / ARCMIN),
         "compliance_share": compliance_share(

@@ -94,6 +94,7 @@ from cyclomesh.stage.bearing import (
 )
 from cyclomesh.stage.carrier import Carrier
 from cyclomesh.stage.crankshaft import Crankshaft
+from cyclomesh.stage.duty import DutyCycle
 
 __all__ = [
     "StageDesign",
@@ -142,6 +143,8 @@ class StageDesign:
         The carrier's pillars (:mod:`cyclomesh.stage.carrier`): the end plate turns against
         the output flange; needs ``crankshaft`` (the axial places); excludes
         ``carrier_stiffness``.
+    duty_cycle : DutyCycle, optional
+        A load spectrum for the life over a cycle (:mod:`cyclomesh.stage.duty`).
     """
 
     holes: CrankHoles
@@ -153,8 +156,13 @@ class StageDesign:
     output_speed: float = 15.0
     crankshaft: Crankshaft | None = None
     carrier: Carrier | None = None
+    duty_cycle: DutyCycle | None = None
 
     def __post_init__(self) -> None:
+        if self.duty_cycle is not None and self.bearing is None:
+            raise DesignError(
+                "stage.duty_cycle: the life needs a crank bearing ([stage.crank_bearing])"
+            )
         if self.crankshaft is not None and self.crankshaft_stiffness is not None:
             raise DesignError(
                 "stage: give the crankshaft either by its geometry ([stage.crankshaft]) or by "

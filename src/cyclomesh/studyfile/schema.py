@@ -75,6 +75,7 @@ from cyclomesh.exceptions import DesignError, StudyError
 from cyclomesh.stage.bearing import RollerSet
 from cyclomesh.stage.carrier import Carrier
 from cyclomesh.stage.crankshaft import Crankshaft
+from cyclomesh.stage.duty import DutyCycle
 from cyclomesh.stage.solve import StageDesign
 from cyclomesh.studyfile.limits import (
     MAX_ABS_CRANK_DEG,
@@ -453,6 +454,16 @@ class CarrierSection(_Section):
     pillar_circle_radius_mm: float = Field(gt=0, description="radius of the pillars' circle [mm]")
 
 
+class DutyCycleSection(_Section):
+    """``[stage.duty_cycle]``: a load spectrum of the output, one value per step."""
+
+    torque_nm: list[float] = Field(min_length=1, description="output torque of each step")
+    output_speed_rpm: list[float] = Field(min_length=1, description="output speed of each step")
+    time_share: list[float] = Field(
+        min_length=1, description="share of the time of each step (normalised)"
+    )
+
+
 class StageSection(_Section):
     """``[stage]``: the RV stage around the mesh: crank bearings, springs, hole errors.
 
@@ -467,6 +478,7 @@ class StageSection(_Section):
     crank_bearing: CrankBearingSection | None = None
     crankshaft: CrankshaftSection | None = None
     carrier: CarrierSection | None = None
+    duty_cycle: DutyCycleSection | None = None
     crankshaft_stiffness_n_per_um: float | None = Field(
         None, gt=0, description="radial stiffness of a crank pin, in series with its bearing"
     )
@@ -539,11 +551,19 @@ class StageSection(_Section):
                 pillar_length=c.pillar_length_mm * MM,
                 pillar_circle_radius=c.pillar_circle_radius_mm * MM,
             )
+        duty = None
+        if self.duty_cycle is not None:
+            duty = DutyCycle(
+                tuple(self.duty_cycle.torque_nm),
+                tuple(self.duty_cycle.output_speed_rpm),
+                tuple(self.duty_cycle.time_share),
+            )
         stage = StageDesign(
             holes=holes,
             bearing=bearing,
             crankshaft=crankshaft,
             carrier=carrier,
+            duty_cycle=duty,
             crankshaft_stiffness=(
                 None
                 if self.crankshaft_stiffness_n_per_um is None
