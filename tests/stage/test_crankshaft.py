@@ -161,3 +161,31 @@ def test_data_sheet_backlash_and_budget():
     assert sum(shares.values()) == pytest.approx(1.0, abs=1e-9)
     assert shares["disc_body"] == 0.0 and shares["hole_errors"] == 0.0
     assert all(shares[p] > 0.01 for p in ("mesh", "crank_bearings", "crankshafts", "carrier"))
+
+
+def test_one_disc_crankshaft_and_carrier_are_series_springs():
+    """With one disc at mid-span each crankshaft is a radial spring 1/C in series with its
+    bearing and the end plate turns the crank pins by β/2 (the output by T/(4K_β)): the
+    geometric stage equals the override springs' stage (another code path), and each
+    part's share is its compliance alone."""
+    shaft = Crankshaft(
+        support_span=0.05, disc_pitch=0.012, pin_diameter=0.018, support_stiffness=1e9
+    )
+    geometric = StageDesign(HOLES, ROLLERS, crankshaft=shaft, carrier=CARRIER)
+    springs = StageDesign(
+        HOLES,
+        ROLLERS,
+        crankshaft_stiffness=1.0 / shaft.compliance(1)[0, 0],
+        carrier_stiffness=4.0 * CARRIER.torsional_stiffness(),
+    )
+    a, b = (
+        solve_stage(RV40, s, MOD, None, (-300.0, 300.0), PHI, discs=1) for s in (geometric, springs)
+    )
+    scale = np.max(np.abs(b.twist))
+    assert np.max(np.abs(a.twist - b.twist)) <= 1e-9 * scale
+    assert np.max(np.abs(a.bearing_load - b.bearing_load)) <= 1e-8 * np.max(b.bearing_load)
+    T = a.torque[:, None]
+    for part in ("mesh", "crank_bearings", "crankshafts", "carrier"):
+        assert np.allclose(a.work[part], b.work[part], rtol=1e-8, atol=1e-12 * np.max(T * b.twist))
+    # the carrier's share is its series compliance
+    assert np.allclose(a.work["carrier"] / T, T / (4.0 * CARRIER.torsional_stiffness()), rtol=1e-9)
