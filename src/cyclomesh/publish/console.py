@@ -203,6 +203,10 @@ STIFFNESS_ROWS = (
     ("stage_lost_motion_arcmin_max", "stage lost motion [arcmin]", 1.0),
     ("stage_torsional_rigidity_nm_per_arcmin_min", "stage rigidity [N·m/arcmin]", 1.0),
     ("stage_l10_h_min", "bearing L10h [h]", 1.0),
+    ("measured_torsional_rigidity_nm_per_arcmin", "measured rigidity [N·m/arcmin]", 1.0),
+    ("measured_lost_motion_arcmin", "measured lost motion [arcmin]", 1.0),
+    ("measured_backlash_arcmin", "measured backlash [arcmin]", 1.0),
+    ("reconciling_compliance_arcmin_per_knm", "reconciling compliance [arcmin/kN·m]", 1.0),
 )
 
 
@@ -217,7 +221,15 @@ def print_stiffness(summaries: dict, out: Path, checks: dict | None = None) -> N
         "the mesh alone: crank bearings, crankshafts and the first stage are not included"
     )
     if any("stage_lost_motion_arcmin_max" in record for record in summaries.values()):
-        console.print("stage: the RV stage of [stage] (mesh + crank bearings), beside the mesh")
+        console.print(
+            "stage: the RV stage of \\[stage] (mesh, crank bearings and, when given, "
+            "crankshafts and carrier), beside the mesh"
+        )
+    if any("measured_lost_motion_arcmin" in record for record in summaries.values()):
+        console.print(
+            "measured: the loop of \\[stiffness] measured_file by the same definitions; the "
+            "reconciling compliance is reported, not applied"
+        )
     console.print(f"report: {out / 'report.html'}")
 
 
