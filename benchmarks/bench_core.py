@@ -3,7 +3,7 @@
 Example design of Table 1 (Li et al., Machines 2022), Δρ = 8 µm, groove deformation on,
 250 N·m, one revolution at 0.1° (3600 crank angles × 40 pins), on one core.
 
-    python benchmarks/bench_core.py [--repeat 7] [--profile] [--disc-body fe]
+    .venv/bin/python benchmarks/bench_core.py [--repeat 7] [--profile] [--disc-body fe]
 
 ``--disc-body fe`` (the fe extra; implies ``--contact-law half_plane``) solves with the
 compliant disc: the influence coefficients are computed once (timed, unless already in

@@ -8,9 +8,9 @@
   same mesh cycle, on local processes and on a 2-worker Dask ``LocalCluster``; the two
   results are compared bit for bit (and with a serial run of a few candidates).
 
-    python benchmarks/bench_design.py
-    python benchmarks/bench_design.py --only nominal --repeat 5
-    python benchmarks/bench_design.py --only robust --rings 200
+    .venv/bin/python benchmarks/bench_design.py
+    .venv/bin/python benchmarks/bench_design.py --only nominal --repeat 5
+    .venv/bin/python benchmarks/bench_design.py --only robust --rings 200
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Table 1 pair of Li et al. (Machines 2022), Δρ = 8 µm: ``disc_outline`` at 1, 
 0.01 µm (vertices, seconds), with a rotation modification δ = 100 µrad at 0.1 µm, then
 ``export_profile`` (DXF with polyline and splines, SVG, CSV) at 0.1 µm.
 
-    python benchmarks/bench_export.py [--repeat 3]
+    .venv/bin/python benchmarks/bench_export.py [--repeat 3]
 """
 
 from __future__ import annotations

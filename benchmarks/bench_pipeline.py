@@ -14,8 +14,8 @@ run in one process miss the imports that the first paid; the machine is shared, 
 take best-of-N. Targets (issue 7, on a 2-core machine): run 3600 < 1.5 s and less
 than 0.15 s above run 36; run 36 < 2 s; --help < 0.3 s; tolerance of 200 rings < 3 s.
 
-    python benchmarks/bench_pipeline.py --repeat 3
-    python benchmarks/bench_pipeline.py --rings 40000 --ring-step 10 --only tolerance
+    .venv/bin/python benchmarks/bench_pipeline.py --repeat 3
+    .venv/bin/python benchmarks/bench_pipeline.py --rings 40000 --ring-step 10 --only tolerance
 """
 
 from __future__ import annotations

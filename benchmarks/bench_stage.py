@@ -7,7 +7,7 @@ unloaded geometry, the rigid start, and the equilibrium of both discs and the ca
 (1 + 3·2 unknowns per crank angle) to round-off. Target: under 1 s. Also the torsion
 curve of the stage (±3 %, ±50 %, ±100 % of 412 N·m: 6 torques). Prints best and median.
 
-    python benchmarks/bench_stage.py [--repeat 5]
+    .venv/bin/python benchmarks/bench_stage.py [--repeat 5]
 """
 
 from __future__ import annotations

@@ -12,8 +12,8 @@ radial and ±50 µrad angular pin errors) at a 1° crank step (360 crank angles)
 
 Target: 10,000 rings in under 5 minutes on a 2-core machine.
 
-    python benchmarks/bench_tolerance.py --rings 2000
-    python benchmarks/bench_tolerance.py --rings 10000 --only local
+    .venv/bin/python benchmarks/bench_tolerance.py --rings 2000
+    .venv/bin/python benchmarks/bench_tolerance.py --rings 10000 --only local
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ rated torque 250 N·m, 41 evenly spaced torques from −250 to +250 N·m (0 left
 added: 42 loaded states), one revolution at 1°, one disc (and a two-disc stack), on one
 core. Prints the best and median over the repeats.
 
-    python benchmarks/bench_torsion.py [--repeat 5] [--discs 1]
+    .venv/bin/python benchmarks/bench_torsion.py [--repeat 5] [--discs 1]
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ Solves the whole-disc FE (bore support, b/10 contact mesh, far mesh 2 mm, as
 rigid and with the FE-condensed disc body beside it; prints the table of
 ``docs/compliant-disc.md`` (needs the fe extra; about 6–10 min on 2 cores).
 
-    python benchmarks/compliant_disc_fe.py [--cache-dir DIR]
+    .venv/bin/python benchmarks/compliant_disc_fe.py [--cache-dir DIR]
 """
 
 from __future__ import annotations

@@ -6,8 +6,8 @@ one revolution of the forward flank (:func:`solve_ltca`), both flanks (:func:`so
 ±250 N·m), a two-disc stack, a torsion curve, and rings with pin errors; every array of
 every result is saved to (``--save``) or compared with (``--compare``) an ``.npz`` file.
 
-    python benchmarks/discbody_regression.py --save /tmp/before.npz     # old code
-    python benchmarks/discbody_regression.py --compare /tmp/before.npz  # new code
+    .venv/bin/python benchmarks/discbody_regression.py --save /tmp/before.npz     # old code
+    .venv/bin/python benchmarks/discbody_regression.py --compare /tmp/before.npz  # new code
 
 Used to show that a change to :mod:`cyclomesh.core.discbody` that only makes it faster
 computes the same results to round-off (it prints the largest relative difference of

@@ -1,7 +1,7 @@
 """Summarise ``cyclomesh fe`` results: FE against the LTCA with both contact laws.
 
 Run: ``cyclomesh fe examples/fe_table1.toml --out fe-table1``, then
-``python benchmarks/fe_compare.py fe-table1 [--pins]`` (``--pins``: per-pin tables too).
+``.venv/bin/python benchmarks/fe_compare.py fe-table1 [--pins]`` (``--pins``: per-pin tables too).
 Prints, per case and crank angle, the largest pin load and contact stress and the disc's
 loaded position in the TE convention −(φc − φt + Δφc) (the same rest position in all
 three), FE and LTCA, and the RMS

@@ -1,6 +1,6 @@
 """Mesh convergence of the FE contact solver on the Hertz classics (needs the ``fe`` extra).
 
-Run: ``python benchmarks/fe_hertz_convergence.py`` — prints a Markdown table of the
+Run: ``.venv/bin/python benchmarks/fe_hertz_convergence.py`` — prints a Markdown table of the
 half-width and peak-pressure errors against Hertz for a cylinder (R = 3.5 mm, steel,
 P = 250 N/mm) on a flat and in a seat of radius 1.5 R, at 5 … 40 elements per half-width.
 """

@@ -1,6 +1,6 @@
 """Tooth compliance along the profile of Table 1 by FE, against the contact laws.
 
-Run: ``python benchmarks/fe_tooth_compliance.py [--far-size-mm 1.0]`` (needs the ``fe``
+Run: ``.venv/bin/python benchmarks/fe_tooth_compliance.py [--far-size-mm 1.0]`` (needs the ``fe``
 extra; about 20 s an angle here). One steel pin pressed with 4e4 N/m (480 N on the
 12 mm face) onto the disc of Table 1 with its TPM (Δρ = 8 µm), bore of 30 mm fixed; the
 disc's approach at the contact centre over the load, per unit face width, against the

@@ -1,6 +1,6 @@
 """LTCA of Table 1 with both contact laws (docs/contact-law.md, Evidence 2).
 
-Run: ``python benchmarks/ltca_laws.py`` — 250 N·m, improved model, crank angles 0–18° at
+Run: ``.venv/bin/python benchmarks/ltca_laws.py`` — 250 N·m, improved model, crank angles 0–18° at
 0.05° (two pin pitches), without and with the TPM (Δρ = 8 µm); prints a Markdown table.
 """
 

@@ -1,6 +1,6 @@
 """Headline metrics against the crank step, under both contact laws (docs/contact-law.md).
 
-Run: ``python benchmarks/step_convergence.py`` — the Table 1 pair with its TPM
+Run: ``.venv/bin/python benchmarks/step_convergence.py`` — the Table 1 pair with its TPM
 (Δρ = 8 µm), 250 N·m, improved model, one mesh cycle (crank angles 0–9°, 360°/n1), at
 crank steps of 1°, 0.1°, 0.01°, 0.005° and 0.002°. Prints a Markdown table of the
 gear-ratio ripple (peak-to-peak of Eq. 26 in % of n2), the TE peak-to-peak (Eq. 25) and

@@ -3,7 +3,9 @@
 For every mutated file and every command that takes it, the outcome must be either
 exit 0 with a complete result folder (``cyclomesh.load_results``) whose NetCDF numbers
 are finite (except in variables that document what a non-finite value means, in their
-``nonfinite`` attribute), or exit 2 with one line ``error: ...`` and nothing written.
+``nonfinite`` attribute), or exit 2 with one line ``error: ...`` and nothing written:
+the folder (one per example and command, so each mutant runs into the complete result
+of an earlier one) holds that earlier result byte for byte, or nothing if there was none.
 No traceback, no "internal error", no NumPy RuntimeWarning (overflow, invalid value),
 no hang. ``CYCLOMESH_FUZZ_SEED`` picks other mutations.
 
@@ -154,6 +156,19 @@ def _finite_or_documented(folder: Path) -> None:
                 assert "nonfinite" in var.attrs, f"{nc.name}: {name} has undocumented inf/NaN"
 
 
+def _complete_snapshot(folder: Path) -> dict[str, bytes] | None:
+    """Every file of a complete result folder (None if there is none)."""
+    try:
+        load_results(folder)
+    except Exception:
+        return None
+    return {
+        p.relative_to(folder).as_posix(): p.read_bytes()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file() and p.name != ".cyclomesh.lock"
+    }
+
+
 @pytest.mark.filterwarnings("error::RuntimeWarning")  # an overflow is a bug, not a result
 def test_fuzz_examples(tmp_path):
     rng = random.Random(SEED)
@@ -176,7 +191,10 @@ def test_fuzz_examples(tmp_path):
             except TypeError:
                 continue
             for command in COMMANDS[example]:
-                out = folder / f"out-{command}"
+                # one folder per example and command: each mutant runs into the complete
+                # result of an earlier one (the unchanged file's first)
+                out = tmp_path / f"{example}-out-{command}"
+                before = _complete_snapshot(out)
                 args = [command, str(study)]
                 if command != "check":
                     args += ["--out", str(out), "-q", *EXTRA[command]]
@@ -192,9 +210,14 @@ def test_fuzz_examples(tmp_path):
                 assert result.exit_code == 2, (label, result.exit_code, result.output)
                 assert len(lines) == 1 and lines[0].startswith("error: "), (label, result.output)
                 assert "internal error" not in lines[0], (label, lines[0])
-                assert not out.exists(), (label, sorted(out.rglob("*")))
+                if before is None:
+                    assert not out.exists(), (label, sorted(out.rglob("*")))
+                else:  # refused: the earlier complete result is kept, byte for byte
+                    assert _complete_snapshot(out) == before, label
+                    counts["data kept on error"] += 1
                 counts["exit 2"] += 1
     seconds = time.perf_counter() - start
     print(f"\nfuzz: {dict(counts)} in {seconds:.1f} s")
     assert counts["cases"] >= 300 and counts["exit 0"] >= 50 and counts["exit 2"] >= 100
+    assert counts["data kept on error"] >= 50
     assert counts["exit 0"] + counts["exit 2"] == counts["cases"]

@@ -268,3 +268,28 @@ def test_reciprocal_matrix_is_the_symmetrised_matrix(period):
         own = body.self_compliance(k, ang)
         assert np.array_equal(np.diagonal(fast, axis1=-2, axis2=-1), own)
         assert np.array_equal(body.reciprocal_matrix(k, ang, own), fast)
+
+
+def test_risky_pin_check_masks_the_padding_before_multiplying():
+    """Issue 23: when the cases of a batch add different numbers of risky pins (pins that
+    a negative body coefficient could bring into contact), the padding entries of the
+    shorter cases (pins that cannot touch: φbl = inf, l = 0) entered l·(Δφc − φbl) before
+    the mask: 0·inf, a raw `invalid value encountered in multiply` RuntimeWarning that
+    `cyclomesh tolerance` printed with disc_body = "fe" (RV-40E-size pair, ±3 µm)."""
+    import warnings
+
+    inf = np.inf
+    bl = np.array([[0.0, 1e-3, 1e-3, 1e-3], [0.0, 1e-3, inf, inf]])
+    arm = np.array([[0.04, 0.04, 0.04, 0.04], [0.04, 0.04, 0.0, 0.0]])
+    alpha, gamma = np.full((2, 4), 2e-9), np.full((2, 4), 1e-10)
+    table = np.zeros((1, 39, 5, 5))
+    table[0, 0] = 1e-10  # the pins' own tooth: a positive block
+    table[0, 5] = -1e-6  # a negative coefficient elsewhere: every far pin is risky
+    body = DiscBody(np.linspace(-np.pi, 0, 5), table, 39)
+    tooth, angle = np.zeros((2, 4), int), np.full((2, 4), -1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        x, f = share_load_coupled(bl, arm, alpha, gamma, 200.0, body, tooth, angle)
+    # one pin carries the torque; the far pins stay clear
+    np.testing.assert_allclose(f[:, 0] * 0.04, 200.0, rtol=1e-12)
+    assert np.all(f[:, 1:] == 0.0) and np.all(x < 1e-3)

@@ -72,3 +72,22 @@ def test_concave_contact_is_conforming():
     """Signed ρc: a concave flank gives a larger equivalent radius than a convex one."""
     assert pin_tooth_radius(RP, -3.7e-3) > 10 * pin_tooth_radius(RP, 3.7e-3)
     assert pin_groove_radius(RP, RG) == pytest.approx(RP * RG / 5e-6)
+
+
+def test_inversion_of_a_tiny_approach_converges_to_round_off():
+    """Issue 23: the RV-40E-size stage with ±2 µm / ±50 µrad pin errors met an approach of
+    2e-23 m at 3 % of the rated torque, where |ln F| ≈ 35: 2e-15·δ lies below what one
+    unit in the last place of ln F resolves, so Newton stalled at 2.4e-15·δ and the whole
+    stage failed ("inversion of the contact law (Eq. 20) did not converge"). The
+    inversion now accepts a residual at the resolution of its unknown."""
+    import numpy as np
+
+    from cyclomesh.core.hertz import force_from_approach
+
+    d, a, g = 1.9852334701272664e-23, 7.455829532665755e-09, 4.54654566497379e-10
+    f = float(force_from_approach(d, a, g))
+    assert f > 0
+    assert abs(f * (a - g * np.log(f)) - d) <= 1e-14 * d
+    # the same element in a batch with ordinary ones: the others' bits are unchanged
+    batch = force_from_approach([d, 1e-6, 2e-6], a, g)
+    np.testing.assert_array_equal(batch[1:], force_from_approach([1e-6, 2e-6], a, g))

@@ -173,7 +173,10 @@ def test_design_map_figures_show_feasible_region_and_optimum():
     fig = plot_design_map(ds, "max_contact_stress_mpa", marks={"paper": {"pin_radius_um": 8.0}})
     ax = fig.axes[0]
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
-    assert labels == ["optimum", "paper"]
+    assert labels[:2] == ["optimum", "paper"]
+    # the hatched (infeasible) region has its legend entry; failed candidates too if any
+    feasible = ds["feasible"].values.astype(bool)
+    assert ("infeasible (constraint)" in labels) == bool((~feasible).any())
     assert "Δρ" in ax.get_xlabel() and "Δa" in ax.get_ylabel()
     assert ax.get_xlabel().endswith("[µm]") and "um]" not in ax.get_ylabel()
     assert ax.get_title() == ds["max_contact_stress_mpa"].attrs["long_name"]

@@ -116,3 +116,28 @@ def test_lost_scheduler_is_one_line_naming_the_address(cluster):
         assert time.perf_counter() - start < 60
     finally:
         backend.close()
+
+
+def test_lost_scheduler_mid_study_prints_only_the_error_line(cluster, tmp_path):
+    """``cyclomesh tolerance --scheduler``: the scheduler killed once the study computes
+    (its staging folder exists): exit 2 and one line on stderr, no logged tracebacks."""
+    address, scheduler, _ = cluster
+    examples = TESTS.parents[1] / "examples"
+    text = (examples / "tolerance.toml").read_text().replace("rings = 1000", "rings = 400")
+    (tmp_path / "s.toml").write_text(text)
+    out = tmp_path / "out"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "cyclomesh", "tolerance", "s.toml", "--out", str(out), "-q"]
+        + ["--figures", "none", "--scheduler", address, "--chunk-rings", "1"],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    while not (out / ".cyclomesh.staging").exists() and process.poll() is None:
+        time.sleep(0.01)  # polls an observable state; no timing is asserted
+    scheduler.kill()
+    _, stderr = process.communicate(timeout=300)
+    assert process.returncode == 2, stderr
+    assert stderr.count("\n") == 1 and stderr.startswith("error: "), stderr
+    assert address in stderr and not out.exists()

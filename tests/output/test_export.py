@@ -249,3 +249,27 @@ def test_cli_export(tmp_path):
         app, ["export", str(EXAMPLES / "table2.toml"), "-o", str(out), "--format", "step"]
     )
     assert bad.exit_code == 2 and "--format" in bad.output and "Traceback" not in bad.output
+
+
+def test_export_is_byte_reproducible(tmp_path):
+    """Two exports of one study, in two processes with different string hashing and at
+    two moments: every file byte-identical (no clock, no random GUID, no set order)."""
+    import os
+    import subprocess
+    import sys
+
+    study = Path(__file__).resolve().parents[2] / "examples" / "table2.toml"
+    folders = []
+    for seed in ("1", "2"):
+        out = tmp_path / f"out{seed}"
+        subprocess.run(
+            [sys.executable, "-m", "cyclomesh", "export", str(study), "--out", str(out), "-q"],
+            check=True,
+            env=dict(os.environ, PYTHONHASHSEED=seed),
+        )
+        folders.append(out)
+    files = sorted(p.relative_to(folders[0]) for p in folders[0].rglob("*") if p.is_file())
+    assert any(p.suffix == ".dxf" for p in files)
+    for rel in files:
+        if rel.name != ".cyclomesh.lock":
+            assert (folders[0] / rel).read_bytes() == (folders[1] / rel).read_bytes(), rel

@@ -175,6 +175,7 @@ def test_stage_results_are_checked_before_the_mesh_alone():
     }
     rows = {r["check"]: r for r in check_requirements(limits, summary)[0]}
     assert rows["max_lost_motion_arcmin"]["value"] == 0.9
-    assert "RV stage" in rows["max_lost_motion_arcmin"]["note"]
+    assert "stage: mesh + crank bearings" in rows["max_lost_motion_arcmin"]["note"]
+    assert "reducer" in rows["min_torsional_rigidity_nm_per_arcmin"]["note"]
     assert rows["min_torsional_rigidity_nm_per_arcmin"]["verdict"] == "fail"
     assert rows["min_bearing_life_h"]["margin"] == -2000.0

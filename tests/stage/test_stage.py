@@ -219,3 +219,33 @@ def test_rings_are_solved_one_by_one_with_the_same_result():
         np.testing.assert_array_equal(both.transmission_error[ring], one.transmission_error)
     _, _, hours = bearing_life(both, sd, RV40.pins)
     assert hours.shape == (2, 2, 2, 3)
+
+
+@pytest.mark.parametrize("bearing", [None, 5e-6])
+def test_a_disc_the_pin_errors_unload_gets_no_bearing_load(bearing):
+    """Issue 23: with pin errors one disc of a stack can be out of contact at some crank
+    angles (the other carries the whole torque); its stiff-limit bearing split is B = 0
+    exactly, not a singular Newton system. The ring is examples/rv_stage.toml's with
+    [errors.random] seed = 1, radial_um = 3, whose disc 1 is unloaded near 138°."""
+    radial = np.random.default_rng(1).uniform(-3.0, 3.0, 40) * 1e-6
+    sd = StageDesign(HOLES, None if bearing is None else _bearing(bearing))
+    mod = Modification(pin_radius=3e-6)
+    phi = np.radians([41.0, 42.0, 138.0, 139.0, 221.0, 222.0, 318.0, 319.0])
+    # 3 % of the rated torque: the lost-motion point of the stage's torsion curve
+    res = solve_stage(RV40, sd, mod, PinErrors(radial=radial), [-12.36, 12.36], phi, discs=2)
+    total = np.sum(res.pin_load, -1) + np.sum(res.opposite_pin_load, -1)  # (T, A, D)
+    unloaded = total == 0
+    # the case the issue met: a disc without a loaded pin in the rigid stage (which also
+    # starts the solve with compliant bearings, where the disc then translates into contact)
+    assert unloaded.any() or bearing is not None
+    assert np.all(np.isfinite(res.bearing_load)) and np.all(np.isfinite(res.pin_load))
+    # the carrier balances the torque through the cranks of the loaded disc alone
+    ang = HOLES.angles[None, :] - res.crank_angle[:, None] / RV40.teeth  # (A, N)
+    hx, hy = HOLES.circle_radius * np.cos(ang), HOLES.circle_radius * np.sin(ang)
+    bx = res.bearing_load * np.cos(res.bearing_load_angle)
+    by = res.bearing_load * np.sin(res.bearing_load_angle)
+    moment = np.sum(hx[None, :, None] * by - hy[None, :, None] * bx, -1)  # (T, A, D)
+    carrier = np.abs(moment.sum(-1) + res.torque[:, None]) / np.abs(res.torque).max()
+    assert carrier.max() < 1e-10
+    if bearing is None:  # rigid bearings: an unloaded disc passes nothing to its cranks
+        assert np.all(res.bearing_load[unloaded] == 0.0)

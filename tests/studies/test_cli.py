@@ -357,7 +357,9 @@ def test_check_command(tmp_path):
     result = invoke("check", str(EXAMPLES / "section42.toml"))
     assert result.exit_code == 0
     assert "3 case(s) OK: Case 1, Case 2, Case 3" in result.stdout
-    assert invoke("check", str(EXAMPLES / "tolerance.toml")).stdout.endswith("[tolerance] OK\n")
+    assert invoke("check", str(EXAMPLES / "tolerance.toml")).stdout.endswith(
+        "[tolerance] OK; for run, tolerance, allocate\n"
+    )
 
 
 TOLERANCE = (EXAMPLES / "tolerance.toml").read_text(encoding="utf-8")

@@ -317,3 +317,46 @@ def test_a_ring_that_jams_at_a_large_factor_counts_as_exceeding(tmp_path):
     for name in ("critical_factor_lower", "critical_factor_upper"):
         assert np.array_equal(batched.rings[name].values, alone.rings[name].values), name
     assert np.all(np.isfinite(batched.rings["critical_factor_upper"].values))
+
+
+def test_rings_that_jam_the_disc_are_an_outcome_not_an_error(cli, tmp_path):
+    """Issue 23: at ±9 µm radial pin errors on the 8 µm modification of the example some
+    rings jam the disc (a pin overlaps it at every rotation). The study counts them: P(jam)
+    with its interval, jammed rings exceed the allowable, the first one is written as a
+    study file that `cyclomesh run` refuses, and the batching does not change a bit."""
+    text = (
+        EXAMPLE.read_text(encoding="utf-8")
+        .replace("half_range = 4.0 }", "half_range = 9.0 }")
+        .replace("crank_step_deg = 1.0 ", "crank_step_deg = 10.0 ")
+    )
+    study = tmp_path / "jam.toml"
+    study.write_text(text, encoding="utf-8")
+    outs = {}
+    for chunk in ("16", "1"):
+        out = tmp_path / f"out{chunk}"
+        args = ("--rings", "16", "--workers", "1", "--chunk-rings", chunk, "--figures", "png")
+        result = invoke(cli, "tolerance", study, "--out", out, *args)
+        assert result.exit_code == 0, result.output
+        outs[chunk] = out
+    ds = rings_nc(outs["16"])
+    alone = rings_nc(outs["1"])
+    for name in ds.data_vars:
+        np.testing.assert_array_equal(ds[name].values, alone[name].values)
+    jammed = ds["jammed"].values.astype(bool)
+    assert 0 < jammed.sum() < jammed.size
+    stress = ds["max_contact_stress_mpa"].values
+    assert np.all(np.isnan(stress[jammed])) and np.all(np.isfinite(stress[~jammed]))
+    assert "nonfinite" in ds["max_contact_stress_mpa"].attrs
+    summary = json.loads((outs["16"] / "tolerance_summary.json").read_text())
+    jam = summary["jam"]
+    assert jam["count"] == jammed.sum() and jam["rings"] == 16
+    assert jam["lower"] < jam["probability"] == jammed.sum() / 16 < jam["upper"]
+    ex = summary["exceedance"]["max_contact_stress_mpa"]
+    assert ex["count"] == np.count_nonzero(stress[~jammed] > 2000.0) + jammed.sum()
+    assert summary["metrics"]["max_contact_stress_mpa"]["count"] == (~jammed).sum()
+    first = int(ds["ring"].values[jammed][0])
+    assert jam["first_ring"] == first
+    assert summary["worst_ring"]["ring"] == int(ds["ring"].values[np.nanargmax(stress)])
+    refused = invoke(cli, "run", outs["16"] / "jammed_ring.toml", "--out", tmp_path / "r")
+    assert refused.exit_code == 2 and "overlaps the disc" in refused.output
+    assert "jam" in (outs["16"] / "report.html").read_text()

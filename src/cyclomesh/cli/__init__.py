@@ -30,6 +30,7 @@ from cyclomesh.cli.options import (
     DesignStudyArg,
     FiguresOption,
     FormatOption,
+    KindOption,
     NoLimitOption,
     OutOption,
     QuietOption,
@@ -54,6 +55,7 @@ from cyclomesh.cli.options import (
     without_dask,
 )
 from cyclomesh.exceptions import StudyError
+from cyclomesh.studies.preflight import preflight
 
 __all__ = [
     "app",
@@ -92,9 +94,16 @@ def main(
 @app.command()
 @cli_errors()
 def check(
-    study: StudyArg, crank_step_deg: StepOption = None, no_work_limit: NoLimitOption = False
+    study: StudyArg,
+    crank_step_deg: StepOption = None,
+    no_work_limit: NoLimitOption = False,
+    kind: KindOption = None,
 ) -> None:
-    """Validate a study file (every section) without running it."""
+    """Validate a study file (every section) without running it, and refuse what the
+    commands would refuse before computing: with --kind that command's refusals, else
+    those of every command the file is written for (run, and stiffness, tolerance,
+    allocate, design or fe when it has their section)."""
+    from cyclomesh.studies.preflight import check_kinds
     from cyclomesh.studyfile import load_study
     from cyclomesh.studyfile.limits import check_study_work
 
@@ -105,6 +114,7 @@ def check(
 
         if not fe_extra_available():
             raise StudyError(f"{study}: [analysis] {FE_EXTRA_MESSAGE}")
+    kinds = check_kinds(loaded, kind, allow_work=no_work_limit)
     names = ", ".join(case.name for case in loaded.cases)
     more = "; [tolerance] OK" if loaded.tolerance is not None else ""
     if any(case.stiffness is not None for case in loaded.cases):
@@ -115,7 +125,7 @@ def check(
         more += "; [fe] OK"
     if loaded.file.requirements != type(loaded.file.requirements)():
         more += "; [requirements] OK"
-    typer.echo(f"{study}: {len(loaded.cases)} case(s) OK: {names}{more}")
+    typer.echo(f"{study}: {len(loaded.cases)} case(s) OK: {names}{more}; for {', '.join(kinds)}")
 
 
 @app.command()
@@ -141,6 +151,7 @@ def run(
 
     loaded = load_study(study, overrides(crank_step_deg))
     check_study_work(loaded, "run", allow=no_work_limit)
+    preflight(loaded, "run", work=False)  # what check --kind run refuses
     options = output_options(loaded, figures, csv)
     progress = bar(len(loaded.cases), "cases", quiet)
     result = execute(kind.RUN, loaded, out, options, progress=progress)
@@ -172,8 +183,10 @@ def export(
             f"--chord-tolerance-um: expected a number of at least 0.001, got {chord_tolerance_um}"
         )
     loaded = load_study(study)
-    with ResultFolder(out, "export"):  # locked; summary.json (files, sizes) written last
-        written = export_study(loaded, out, formats, chord_tolerance_um * 1e-6)
+    preflight(loaded, "export", work=False)  # what check --kind export refuses
+    with ResultFolder(out, "export") as folder:  # locked; staged; summary.json written last
+        staged = export_study(loaded, folder.path, formats, chord_tolerance_um * 1e-6)
+    written = {case: {k: folder.final(p) for k, p in f.items()} for case, f in staged.items()}
     if not quiet:
         from cyclomesh.publish.console import print_export
 
@@ -195,7 +208,9 @@ def stiffness(
     """Torsion curve of every case ([stiffness] section): play, lost motion, rigidity.
 
     Writes <case>/stiffness.nc, summary.json, the figures and report.html. The numbers
-    are those of the cycloid-pin mesh alone (see docs/drive.md).
+    are those of the cycloid-pin mesh alone (docs/drive.md); with [stage], also those
+    of the RV stage (mesh + crank bearings, docs/stage.md), which the requirements
+    check. The whole reducer is softer than both.
     """
     use_cache_dir(cache_dir)
     from cyclomesh.publish.console import print_stiffness, print_warnings
@@ -205,8 +220,8 @@ def stiffness(
     from cyclomesh.studyfile.limits import check_study_work
 
     loaded = load_study(study, overrides(crank_step_deg))
-    kind.check_stiffness(loaded)
     check_study_work(loaded, "stiffness", allow=no_work_limit)
+    preflight(loaded, "stiffness", work=False)  # what check --kind stiffness refuses
     options = output_options(loaded, figures)
     progress = bar(len(loaded.cases), "cases", quiet)
     result = execute(kind.STIFFNESS, loaded, out, options, progress=progress)
@@ -239,6 +254,7 @@ def tolerance(
 
     loaded, spec = kind.load_tolerance_study(study)
     check_study_work(loaded, "tolerance", rings=rings, allow=no_work_limit)
+    preflight(loaded, "tolerance", work=False)  # what check --kind tolerance refuses
     backend = run_backend(scheduler, workers)
     options = output_options(loaded, figures)
     n = spec.rings if rings is None else rings
@@ -284,6 +300,9 @@ def allocate(
 
     loaded, spec = kind.load_tolerance_study(study)
     check_study_work(loaded, "allocate", rings=rings, allow=no_work_limit)
+    preflight(loaded, "allocate", work=False)  # what check --kind allocate refuses
+    if target_probability is not None and not 0.0 < target_probability < 1.0:
+        raise StudyError(f"--target-probability must lie in (0, 1), got {target_probability:g}")
     backend = run_backend(scheduler, workers)
     options = output_options(loaded, figures)
     n = spec.rings if rings is None else rings
@@ -336,6 +355,7 @@ def design(
 
     loaded, space = kind.load_design_study(study)
     check_study_work(loaded, "design", allow=no_work_limit)
+    preflight(loaded, "design", work=False)  # what check --kind design refuses
     parallel = scheduler is not None or workers not in (None, 1) or (space.rings and workers != 1)
     backend = run_backend(scheduler, workers, bool(parallel))
     options = output_options(loaded, figures)
@@ -386,7 +406,7 @@ def fe(
 
     angles = crank_angles_from(crank_angles)
     loaded = load_study(study)
-    kind.check_fe(loaded)
+    preflight(loaded, "fe", work=False)  # what check --kind fe refuses
     options = output_options(loaded, figures)
     log = stderr_console(quiet).print
     result = execute(

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from typing import Any
 
 import typer
@@ -17,10 +17,20 @@ import typer.core
 
 from cyclomesh.exceptions import CyclomeshError
 
-__all__ = ["EXIT_INPUT_ERROR", "OneLineUsage", "cli_errors", "fail"]
+__all__ = [
+    "EXIT_INPUT_ERROR",
+    "EXIT_INTERRUPTED",
+    "OneLineUsage",
+    "cli_errors",
+    "fail",
+    "quiet_logs",
+]
 
 EXIT_INPUT_ERROR = 2
 """Exit status for an input that cyclomesh refuses (as for a usage error)."""
+
+EXIT_INTERRUPTED = 130
+"""Exit status after Ctrl-C (128 + SIGINT, as a shell reports it)."""
 
 
 class OneLineUsage(typer.core.TyperGroup):
@@ -64,13 +74,84 @@ def _pydantic_error(exc: BaseException) -> str | None:
 
 
 @contextmanager
+def _held_warnings() -> Iterator[None]:
+    """Hold the warnings (NumPy's RuntimeWarnings among them) raised by the block: shown
+    as usual when it succeeds, dropped when it fails, so that nothing precedes the one
+    error line. Filters that turn a warning into an error still do."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as held:
+        yield
+    for w in held:  # success
+        warnings.showwarning(w.message, w.category, w.filename, w.lineno, w.file, w.line)
+
+
+def quiet_logs() -> None:
+    """Silence the log records of Dask ``distributed`` (and of tornado and asyncio under
+    it) on the terminal: a scheduler that dies mid-study is reported as one error line
+    (:class:`~cyclomesh.execution.backends.ClusterError`), not as logged tracebacks."""
+    import logging
+
+    with suppress(ImportError):
+        import distributed  # noqa: F401  (sets its logging up on import: silenced after)
+    for name in ("distributed", "tornado", "asyncio"):
+        logger = logging.getLogger(name)
+        logger.setLevel(logging.CRITICAL + 1)
+        for handler in logger.handlers:
+            handler.setLevel(logging.CRITICAL + 1)
+    for name, logger in list(logging.root.manager.loggerDict.items()):
+        if isinstance(logger, logging.Logger) and name.startswith(("distributed.", "tornado.")):
+            logger.setLevel(logging.CRITICAL + 1)
+
+
+INTERRUPTED = "error: interrupted (Ctrl-C): --out is left as it was\n"
+
+
+def _interrupted(signum: int, frame: Any) -> None:
+    """Ctrl-C: discard the staged files, say so in one line, end with status 130 at once.
+
+    Not a ``KeyboardInterrupt``: raised in the middle of an import that another thread
+    waits for (the import preload), that can leave the import lock held and the command
+    hung. Worker processes die with this one (``PR_SET_PDEATHSIG``)."""
+    import os
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C does not cut this short
+    from cyclomesh.output.folder import abandon_active
+
+    with suppress(Exception):
+        abandon_active()
+    with suppress(OSError):
+        sys.stderr.flush()
+        os.write(2, INTERRUPTED.encode())
+    os._exit(EXIT_INTERRUPTED)
+
+
+@contextmanager
+def _one_line_interrupt() -> Iterator[None]:
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, _interrupted)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+@contextmanager
 def cli_errors() -> Iterator[None]:
     """Turn refused inputs into ``error: <one line>`` on stderr and exit status 2.
 
     Catches :class:`~cyclomesh.exceptions.CyclomeshError` (which includes
     ``StudyError``, ``DesignError`` and ``ConvergenceError``), pydantic validation
     errors, TOML syntax errors and operating-system errors (missing file, no
-    permission). Use it as a context manager or as a decorator of a command.
+    permission). Use it as a context manager or as a decorator of a command. Warnings
+    raised on the way are shown only if the command succeeds; Ctrl-C ends it with one
+    line, ``error: interrupted``, and exit status 130.
     """
     import os
     import tomllib
@@ -79,7 +160,8 @@ def cli_errors() -> Iterator[None]:
         yield
         return
     try:
-        yield
+        with _one_line_interrupt(), _held_warnings():
+            yield
     except CyclomeshError as exc:
         raise fail(str(exc)) from None
     except tomllib.TOMLDecodeError as exc:
@@ -98,7 +180,10 @@ def cli_errors() -> Iterator[None]:
         if message is None:
             raise fail(_internal(exc)) from None
         raise fail(message) from None
-    except (typer.Exit, typer.Abort, KeyboardInterrupt, SystemExit):
+    except KeyboardInterrupt:
+        typer.echo(INTERRUPTED, err=True, nl=False)
+        raise typer.Exit(EXIT_INTERRUPTED) from None
+    except (typer.Exit, typer.Abort, SystemExit):
         raise
     except Exception as exc:  # a bug: still one line, never a traceback
         raise fail(_internal(exc)) from None

@@ -208,12 +208,28 @@ def bar(total: int, label: str, quiet: bool) -> Callable[[], Any]:
     return lambda: progress_bar(total, label, quiet)
 
 
+KindOption = Annotated[
+    str | None,
+    typer.Option(
+        "--kind",
+        help="Check for this command only: run, stiffness, tolerance, allocate, design, "
+        "fe or export (default: every command the file is written for).",
+    ),
+]
+
+
 def run_backend(scheduler: str | None, workers: int | None, parallel: bool = True) -> Any:
     """The execution backend of ``--scheduler``/``--workers`` (None unless ``parallel``)."""
     from cyclomesh.execution.backends import make_backend
 
     check_workers(workers)
-    return make_backend(scheduler, workers) if parallel else None
+    if not parallel:
+        return None
+    if scheduler is not None:
+        from cyclomesh.cli.errors import quiet_logs
+
+        quiet_logs()
+    return make_backend(scheduler, workers)
 
 
 def crank_angles_from(text: str | None) -> list[float] | None:

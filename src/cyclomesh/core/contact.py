@@ -209,10 +209,13 @@ def unloaded_contact(
     jammed = np.sqrt(w2) < a - e + s - CONTACT_TOLERANCE
     if np.any(jammed):
         where = np.unravel_index(np.argmax(jammed), jammed.shape)
+        depth = float(np.max(a - e + s - np.sqrt(w2))) * 1e6  # deepest overlap [µm]
         raise DesignError(
-            f"pin {where[-1] + 1} overlaps the disc at its tooth-space bottom at crank angle "
-            f"{np.degrees(phi[where[-2], 0]):.6g}° whatever the disc rotation: its radius or "
-            "negative radial error exceeds the clearance of the modification"
+            f"pin {where[-1] + 1} overlaps the disc at its tooth-space bottom by {depth:.3g} µm "
+            f"at crank angle {np.degrees(phi[where[-2], 0]):.6g}° whatever the disc rotation: "
+            "its radius or negative radial error exceeds the clearance of the modification; "
+            f"raise modification.pin_radius_um (Δρ) by at least {depth:.3g} µm or reduce the "
+            "pin's radius or negative radial error"
         )
     c, residual, reach = contact_phase(w2, a, e, n1, s)
     if not np.all(residual <= CONTACT_TOLERANCE):

@@ -361,7 +361,11 @@ def share_load_coupled(
         disc = order // (n // groups)
         cmat = np.where(ok[:, None, :] & (disc[:, :, None] == disc[:, None, :]), cmat, 0.0)
         w = np.einsum("bij,bj->bi", cmat, take(full[cases], order, -1))
-        gap = take(arm[cases], order, -1) * (x[cases, None] - take(bl[cases], order, -1)) - w
+        # padding entries (cases with fewer pins than the widest) may be pins that cannot
+        # touch (φbl = inf, l ≤ 0): masked before the product, as in _solve_set
+        c_arm = np.where(ok, take(arm[cases], order, -1), 0.0)
+        c_bl = np.where(ok, take(bl[cases], order, -1), 0.0)
+        gap = c_arm * (x[cases, None] - c_bl) - w
         scale = np.max(np.where(ok, gap, 0.0), axis=-1, keepdims=True)
         bad = ok & take(risky[cases], order, -1) & (gap > COMPATIBILITY_TOLERANCE * scale)
         if not np.any(bad):

@@ -109,6 +109,13 @@ def _check(design: PairDesign, modification: Modification) -> None:
     check_profile(design, modification)
 
 
+def check_exportable(design: PairDesign, modification: Modification) -> None:
+    """Raise the :class:`DesignError` :func:`disc_outline` would raise for this pair
+    (a negative or too large rotation modification δ, an invalid profile), without
+    sampling the outline."""
+    _check(design, modification)
+
+
 def _polar(x: FloatArray, y: FloatArray, centre: float) -> FloatArray:
     """Polar angle of (x, y) relative to the ray at ``centre``, in (−π, π] [rad]."""
     return np.angle((x + 1j * y) * np.exp(-1j * centre))

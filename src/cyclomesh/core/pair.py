@@ -160,6 +160,13 @@ class PairDesign:
             )
         if self.groove_radius <= self.pin_radius:
             raise DesignError("groove_radius must exceed pin_radius (the groove seats the pin)")
+        if self.groove_radius >= half_pitch_chord:
+            raise DesignError(
+                f"groove_radius {self.groove_radius * 1e3:.4g} mm: neighbouring pin grooves "
+                f"overlap in the ring; it must be below a·sin(π/n1) = "
+                f"{half_pitch_chord * 1e3:.4g} mm (the groove seats the pin with a small "
+                "clearance)"
+            )
         if self.eccentricity >= self.pin_circle_radius:
             raise DesignError("eccentricity must be smaller than pin_circle_radius")
 
@@ -412,6 +419,15 @@ def check_physical(design: PairDesign, modification: Modification, errors: PinEr
         raise DesignError(
             f"errors.angular_urad: |εψ| up to {np.max(np.abs(angular)) * 1e6:.6g} µrad; it "
             f"must stay below a tenth of the pin pitch, {limit * 1e6:.6g} µrad"
+        )
+    radius = np.asarray(errors.pin_radius, float)
+    # (relative margin: ερ = −ρp written in µm converts to a hair below ρp in metres)
+    if radius.size and not np.max(np.abs(radius)) < design.pin_radius * (1.0 - 1e-9):
+        worst = float(radius.flat[int(np.argmax(np.abs(radius)))])
+        raise DesignError(
+            f"errors.pin_radius_um: ερ = {worst * 1e6:.6g} µm; |ερ| must stay below the pin "
+            f"radius, {design.pin_radius * 1e6:.6g} µm (a pin of radius ρp + ερ ≤ 0 does "
+            "not exist)"
         )
     radial = np.asarray(errors.radial, float)
     if radial.size and not np.max(np.abs(radial)) < design.pin_radius:

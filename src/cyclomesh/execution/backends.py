@@ -213,6 +213,17 @@ class ProcessBackend:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
 
+    def terminate(self) -> None:
+        """Stop the workers at once, without waiting for their chunks (after Ctrl-C or
+        a failure: nothing they compute would be used)."""
+        pool, self._pool = self._pool, None
+        if pool is None:
+            return
+        for process in list((getattr(pool, "_processes", None) or {}).values()):
+            with contextlib.suppress(OSError, ValueError):
+                process.kill()
+        pool.shutdown(wait=False, cancel_futures=True)
+
 
 _ADDRESS = re.compile(r"inproc://\S+|(?:(?:tcp|tls|ucx|ws|wss)://)?[\w.\-\[\]:]+:\d{1,5}")
 """A Dask scheduler address: ``[scheme://]host:port``."""
@@ -282,6 +293,16 @@ class DaskBackend:
         pass
 
     def run(self, task: ChunkFunction, chunks: Iterable[Chunk]) -> Iterator[tuple[Chunk, Any]]:
+        """Run the chunks on the cluster; a scheduler lost at any step (submitting,
+        counting workers, gathering) is one :class:`ClusterError` naming its address."""
+        try:
+            yield from self._run(task, chunks)
+        except CyclomeshError:
+            raise
+        except Exception as exc:  # the scheduler went away between two steps
+            raise self._lost(exc) from None
+
+    def _run(self, task: ChunkFunction, chunks: Iterable[Chunk]) -> Iterator[tuple[Chunk, Any]]:
         distributed = self._distributed
         client = self.client
         token = os.urandom(6).hex()
@@ -446,8 +467,9 @@ def run_chunks(
                 )
             if name not in out:
                 out[name] = np.zeros((items, *arr.shape[1:]), dtype=arr.dtype)
-            elif arr.dtype.kind == "U" and arr.dtype.itemsize > out[name].dtype.itemsize:
-                out[name] = out[name].astype(arr.dtype)  # text of a later chunk: keep it whole
+            elif np.result_type(out[name].dtype, arr.dtype) != out[name].dtype:
+                # longer text, or NaN where earlier chunks had integers: keep it whole
+                out[name] = out[name].astype(np.result_type(out[name].dtype, arr.dtype))
             out[name][rows] = arr
         stored[rows] += 1
         if progress is not None:

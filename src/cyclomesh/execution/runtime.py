@@ -93,7 +93,12 @@ def die_with_parent(parent: int) -> None:
 
 def start_worker(parent: int) -> None:
     """Initializer of a local worker process: it dies with ``parent``
-    (:func:`die_with_parent`) and tunes its allocator (:func:`tune_allocator`)."""
+    (:func:`die_with_parent`), leaves Ctrl-C (SIGINT, sent by a terminal to every
+    process of the command) to its parent, which stops it, and tunes its allocator
+    (:func:`tune_allocator`)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     die_with_parent(parent)
     tune_allocator()
 

@@ -58,6 +58,9 @@ def _plane(ds: xr.Dataset, dims: Sequence[str]) -> xr.Dataset:
 
 
 def _draw(ax, ds: xr.Dataset, metric: str, marks: Marks | None) -> None:
+    from matplotlib.patches import Patch
+
+    legend: list = []
     dims = list(ds["feasible"].dims)[:2]
     plane = _plane(ds, dims)
     best = _optimum(ds)
@@ -91,12 +94,34 @@ def _draw(ax, ds: xr.Dataset, metric: str, marks: Marks | None) -> None:
             ax.figure.colorbar(cs, ax=ax, label=_label(plane, metric))
         else:
             ax.pcolormesh(x, y, np.where(finite, z, np.nan), shading="nearest", cmap="viridis")
-        bad = (~feasible.reshape(z.shape)).astype(float)
+        failed = ~finite
+        if failed.any():  # no solution there (refused or not converged): grey, not blank
+            from matplotlib.colors import ListedColormap
+
+            ax.pcolormesh(
+                x,
+                y,
+                np.where(failed, 1.0, np.nan),
+                shading="nearest",
+                cmap=ListedColormap(["0.55"]),
+                vmin=0.0,
+                vmax=1.0,
+            )
+            legend.append(Patch(facecolor="0.55", label="failed: no solution"))
+        bad = (~feasible.reshape(z.shape) & finite).astype(float)
         if bad.any() and not bad.all():
             ax.contourf(x, y, bad, levels=[0.5, 1.5], colors="none", hatches=["///"])
             ax.contour(x, y, bad, levels=[0.5], colors="k", linewidths=0.8)
         elif bad.all():
             ax.contourf(x, y, bad, levels=[0.5, 1.5], colors="none", hatches=["///"])
+        if bad.any():
+            legend.append(
+                Patch(facecolor="none", edgecolor="k", hatch="///", label="infeasible (constraint)")
+            )
+        # half a step of room around the candidates: the optimum on an edge is seen whole
+        dx, dy = 0.5 * _step(x), 0.5 * _step(y)
+        ax.set_xlim(x.min() - dx, x.max() + dx)
+        ax.set_ylim(y.min() - dy, y.max() + dy)
         if best:
             ax.plot(
                 best[dims[1]],
@@ -120,8 +145,15 @@ def _draw(ax, ds: xr.Dataset, metric: str, marks: Marks | None) -> None:
             xv, yv = where.get(dims[1], 0.0), where.get(dims[0], 0.0)
             ax.plot(xv, yv, "X", ms=10, color="C1", mec="k", label=name)
     ax.set_title(ds[metric].attrs.get("long_name", metric), fontsize="medium")
-    if best or marks:
-        ax.legend(fontsize="small", loc="best")
+    handles = ax.get_legend_handles_labels()[0] + legend
+    if handles:  # below the map, where it hides no candidate
+        ax.legend(
+            handles=handles,
+            fontsize="small",
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.16),
+            ncol=2,
+        )
 
 
 def _step(x: np.ndarray) -> float:

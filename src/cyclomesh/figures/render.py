@@ -35,6 +35,9 @@ __all__ = [
     "RenderedFigure",
     "new_figure",
     "decimate",
+    "plain_log_axis",
+    "steady_axis",
+    "legend_outside",
     "render_figures",
     "FigurePool",
     "MAX_POINTS",
@@ -130,6 +133,41 @@ def fixed_figure(
         hspace=hspace,
     )
     return fig
+
+
+def plain_log_axis(axis: Any) -> None:
+    """Label a log-scaled axis in plain text ("0.01", "1e-05"): the figures are drawn with
+    ``text.parse_math`` off (a case name is never mathtext), under which matplotlib's
+    default log labels would print as raw ``$\\mathdefault{10^{-2}}$``."""
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    axis.set_major_formatter(FuncFormatter(lambda value, _pos: f"{value:g}"))
+    axis.set_minor_formatter(NullFormatter())
+
+
+def steady_axis(ax: Any, values: ArrayLike, rtol: float = 1e-3, zero: bool = False) -> None:
+    """Keep the y axis of a nearly constant quantity honest: no offset notation, and a span
+    of at least ``rtol`` of its magnitude around the values (round-off is not drawn as a
+    swing); with ``zero``, the axis starts at 0 (a magnitude: a small ripple is shown at
+    its true size)."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    ax.ticklabel_format(axis="y", useOffset=False, style="plain")
+    if not v.size:
+        return
+    lo, hi = float(v.min()), float(v.max())
+    if zero and lo >= 0:
+        ax.set_ylim(0.0, hi * 1.08 if hi > 0 else 1.0)
+        return
+    half = 0.5 * max(hi - lo, rtol * max(abs(lo), abs(hi)), 1e-300)
+    mid = 0.5 * (lo + hi)
+    ax.set_ylim(mid - 1.3 * half, mid + 1.3 * half)
+
+
+def legend_outside(ax: Any, **kwargs: Any) -> Any:
+    """A legend to the right of the axes, where it cannot hide a curve (the figure's
+    right margin must leave room for it)."""
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, **kwargs)
 
 
 def decimate(

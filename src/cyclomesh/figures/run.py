@@ -73,6 +73,13 @@ def case_legend(ax, cases: Mapping[str, object], outside: bool = False) -> None:
         ax.legend(fontsize="small", **where)
 
 
+def legend_room(labels: Sequence[str]) -> float:
+    """Right margin [in] that holds a small-font legend of ``labels`` beside the axes
+    (where it hides no curve): a line sample and about 0.075 in per character."""
+    longest = max((len(label) for label in labels), default=0)
+    return 0.25 if not longest else 0.85 + 0.075 * longest
+
+
 _DASHES = ("-", "--", "-.", ":")
 
 
@@ -295,7 +302,10 @@ def plot_transmission_error(results: Results) -> Figure:
     computed angles. One line per case; TE [arcsec], negative = the disc lags.
     """
     cases = case_results(results)
-    fig = fixed_figure(11.0, 4.0, **{**_MARGINS, "left": 0.9, "wspace": 0.3})
+    labels = [f"{name} (mean -00.0000″)" for name in cases]
+    fig = fixed_figure(
+        11.0, 4.0, **{**_MARGINS, "left": 0.9, "wspace": 0.3, "right": legend_room(labels)}
+    )
     ax_mesh, ax_all = fig.subplots(1, 2, width_ratios=[1.0, 2.0])
     for i, (name, ds) in enumerate(cases.items()):
         crank = ds["crank_angle"].values
@@ -313,7 +323,7 @@ def plot_transmission_error(results: Results) -> Figure:
     ax_all.set_ylabel("loaded transmission error [arcsec]")
     for ax in (ax_mesh, ax_all):
         ax.set_xlabel("crank angle [deg]")
-    ax_all.legend(fontsize="small")
+    ax_all.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return fig
 
 
@@ -323,7 +333,7 @@ def plot_gear_ratio(results: Results) -> Figure:
     One line per case plus the ideal ratio n2.
     """
     cases = case_results(results)
-    fig = fixed_figure(9.0, 4.0, **_MARGINS)
+    fig = fixed_figure(9.0, 4.0, **{**_MARGINS, "right": legend_room([*cases, "ideal n2 = 00"])})
     ax = fig.subplots()
     for i, (name, ds) in enumerate(cases.items()):
         ax.plot(
@@ -341,26 +351,35 @@ def plot_gear_ratio(results: Results) -> Figure:
     )
     ax.set_xlabel("crank angle [deg]")
     ax.set_ylabel("instantaneous gear ratio [-]")
-    ax.legend(fontsize="small")
+    ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return fig
 
 
 def plot_contacts(results: Results) -> Figure:
-    """Number of pins in contact over the crank angle; one step line per case."""
+    """Number of pins in contact over the crank angle: one marker per computed angle and
+    case (a count that alternates between two values from one angle to the next reads
+    as two rows of dots, not as a solid block of vertical lines); cases side by side
+    are offset by a fraction of a pin so that equal counts do not hide each other."""
     cases = case_results(results)
-    fig = fixed_figure(9.0, 3.6, **_MARGINS)
+    fig = fixed_figure(9.0, 3.6, **{**_MARGINS, "right": legend_room(list(cases))})
     ax = fig.subplots()
+    markers = ("o", "s", "^", "D", "v", "P")
+    count = len(cases)
     for i, (name, ds) in enumerate(cases.items()):
-        ax.step(
-            *decimate(ds["crank_angle"].values, ds["contacts"].values),
-            where="mid",
+        shift = 0.0 if count == 1 else 0.25 * (i / (count - 1) - 0.5)
+        ax.plot(
+            ds["crank_angle"].values,
+            ds["contacts"].values + shift,
+            linestyle="none",
+            marker=markers[i % len(markers)],
+            markersize=2.5,
             label=name,
-            **case_style(i, len(cases)),
+            color=f"C{i}",
         )
     ax.set_xlabel("crank angle [deg]")
     ax.set_ylabel("pins in contact [-]")
     ax.yaxis.get_major_locator().set_params(integer=True)
-    case_legend(ax, cases)
+    case_legend(ax, cases, outside=True)
     return fig
 
 
@@ -381,7 +400,9 @@ def plot_backlash(results: Results, crank_angles_deg: Sequence[float] = (0.0,)) 
     cases = case_results(results)
     plays = [float(np.nanmax(ds["play"].values)) for ds in cases.values() if "play" in ds]
     top = max([BACKLASH_SCALE_MIN, *(3.0 * p for p in plays if np.isfinite(p))])
-    fig = fixed_figure(9.0, 2.4 * len(crank_angles_deg) + 0.6, **_MARGINS)
+    fig = fixed_figure(
+        9.0, 2.4 * len(crank_angles_deg) + 0.6, **{**_MARGINS, "right": legend_room(list(cases))}
+    )
     axes = fig.subplots(len(crank_angles_deg), 1, sharex=True, squeeze=False)[:, 0]
     for ax, angle in zip(axes, crank_angles_deg, strict=True):
         above = 0
@@ -405,5 +426,5 @@ def plot_backlash(results: Results, crank_angles_deg: Sequence[float] = (0.0,)) 
         ax.set_title(f"crank angle {at:g}°{note}", fontsize="medium")
         ax.set_ylabel("backlash [arcsec]")
     axes[-1].set_xlabel("pin")
-    case_legend(axes[0], cases)
+    case_legend(axes[0], cases, outside=True)
     return fig

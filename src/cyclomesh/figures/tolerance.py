@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import xarray as xr
 
-from cyclomesh.figures.render import fixed_figure
+from cyclomesh.figures.render import fixed_figure, plain_log_axis
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC, metric_label
 
 if TYPE_CHECKING:
@@ -81,8 +81,11 @@ def reduce_rings(
     take = np.unique(np.linspace(0, n - 1, min(n, ECDF_POINTS)).round().astype(np.int64))
     for name in _metrics(ds):
         values = np.sort(np.asarray(ds[name].values, dtype=float))
-        integer = bool(np.issubdtype(ds[name].dtype, np.integer))
         finite = values[np.isfinite(values)]
+        # counts stay integers when jammed rings (NaN) made them floats
+        integer = bool(np.issubdtype(ds[name].dtype, np.integer)) or (
+            name.startswith("contacts") and bool(np.all(finite == np.rint(finite)))
+        )
         if integer and finite.size:
             bins: Any = np.arange(finite.min() - 0.5, finite.max() + 1.5)
         else:
@@ -90,12 +93,16 @@ def reduce_rings(
         counts, edges = np.histogram(finite, bins=bins)
         histograms[name] = (counts, edges, integer)
         ecdfs[name] = (values[take], (take + 1) / n)
-    stress = np.sort(np.asarray(ds[STRESS_METRIC].values, dtype=float))
-    allowable = stress[-1] if allowable_contact_stress_mpa is None else allowable_contact_stress_mpa
-    span = max(stress[-1] - stress[0], 1.0)
+    # a ring that jams the disc (NaN metrics) exceeds every stress level
+    stress = np.asarray(ds[STRESS_METRIC].values, dtype=float)
+    stress = np.sort(np.where(np.isnan(stress), np.inf, stress))
+    finite = stress[np.isfinite(stress)]
+    lo, hi = (finite[0], finite[-1]) if finite.size else (0.0, 0.0)
+    allowable = hi if allowable_contact_stress_mpa is None else allowable_contact_stress_mpa
+    span = max(hi - lo, 1.0)
     levels = np.linspace(
-        min(stress[0], allowable) - 0.05 * span,
-        max(stress[-1], allowable) + 0.05 * span,
+        min(lo, allowable) - 0.05 * span,
+        max(hi, allowable) + 0.05 * span,
         EXCEEDANCE_LEVELS,
     )
     counts = n - np.searchsorted(stress, levels, side="right")  # #{σ > level}
@@ -105,7 +112,7 @@ def reduce_rings(
 
 def _metrics(ds: xr.Dataset) -> list[str]:
     names = (*METRICS, *DRIVE_METRICS)  # the mesh force and a stack's torque split too
-    return [name for name in names if name in ds and name != "overlap"]
+    return [name for name in names if name in ds and name not in ("overlap", "jammed")]
 
 
 def _label(name: str) -> str:
@@ -199,6 +206,7 @@ def plot_stress_exceedance(
     ax.set_xlabel("peak tooth contact stress level [MPa]")
     ax.set_ylabel("exceedance probability [-] (log)")
     ax.set_yscale("log")
+    plain_log_axis(ax.yaxis)
     ax.set_ylim(floor * 0.8, 1.05)
     ax.legend()
     return fig
@@ -240,6 +248,7 @@ def plot_allocation(allocation: Allocation):
         )
     ax.axvline(1.0, color="0.5", linewidth=0.8, label="stated tolerances")
     ax.set_yscale("log")
+    plain_log_axis(ax.yaxis)
     ax.set_xlabel("scale factor on the stated tolerances [-]")
     ax.set_ylabel("P(peak tooth contact stress > allowable) [-]")
     ax.set_title(f"{a.rings} rings; below {floor:.2g} means no ring", fontsize="small")

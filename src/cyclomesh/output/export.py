@@ -19,6 +19,7 @@ disc frame: the disc centre at the origin, tooth space 1's bottom on the +x axis
 from __future__ import annotations
 
 import csv
+import io
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -87,9 +88,22 @@ def _spaces(outline: Outline) -> Iterable[tuple[np.ndarray, np.ndarray | None]]:
 
 
 def write_dxf(outline: Outline, pins: PinLayout, path: Path) -> Path:
-    """Write the profile (polyline and splines) and the pins as a DXF file (mm)."""
+    """Write the profile (polyline and splines) and the pins as a DXF file (mm).
+
+    The file is a pure function of the geometry: ezdxf's fixed header dates (2000-01-01)
+    and GUIDs are written instead of the clock and random GUIDs, so two exports of one
+    study are byte-identical."""
     import ezdxf
 
+    fixed = ezdxf.options.write_fixed_meta_data_for_testing
+    ezdxf.options.write_fixed_meta_data_for_testing = True  # no clock, no random GUID
+    try:
+        return _write_dxf(ezdxf, outline, pins, path)
+    finally:
+        ezdxf.options.write_fixed_meta_data_for_testing = fixed
+
+
+def _write_dxf(ezdxf: Any, outline: Outline, pins: PinLayout, path: Path) -> Path:
     doc = ezdxf.new("R2013", units=ezdxf.units.MM)
     doc.header["$MEASUREMENT"] = 1  # metric
     for name, color in (("PROFILE", 7), ("PROFILE_SPLINE", 5), ("PINS", 1)):
@@ -107,9 +121,40 @@ def write_dxf(outline: Outline, pins: PinLayout, path: Path) -> Path:
     msp.add_circle((cx * MM, cy * MM), pins.circle_radius * MM, dxfattribs={"layer": "PINS"})
     for x, y in pins.centres:
         msp.add_circle((x * MM, y * MM), pins.pin_radius * MM, dxfattribs={"layer": "PINS"})
+    stream = io.StringIO()
+    doc.write(stream)
     with atomic_write(path) as tmp:
-        doc.saveas(tmp)
+        tmp.write_bytes(doc.encode(_classes_by_name(stream.getvalue())))
     return path
+
+
+def _classes_by_name(text: str) -> str:
+    """The DXF text with its CLASSES section sorted by class name.
+
+    ezdxf adds the classes a drawing needs from a set, in an order that follows Python's
+    string hashing and so changes from one process to the next. Nothing in this file
+    refers to a class by its position (no proxy objects), so sorting changes nothing a
+    reader sees and makes the file a pure function of the geometry."""
+    head = "  0\nSECTION\n  2\nCLASSES\n"
+    start = text.find(head)
+    if start < 0:
+        return text
+    body_start = start + len(head)
+    end = text.find("  0\nENDSEC\n", body_start)
+    lines = text[body_start:end].split("\n")[:-1]  # the body ends with a newline
+    records: list[list[str]] = []
+    for k in range(0, len(lines), 2):
+        if lines[k].strip() == "0":
+            records.append([])
+        records[-1] += lines[k : k + 2]
+
+    def name(record: list[str]) -> str:
+        codes = [c.strip() for c in record[0::2]]
+        return record[2 * codes.index("1") + 1] if "1" in codes else ""
+
+    records.sort(key=name)
+    body = "".join(line + "\n" for record in records for line in record)
+    return text[:body_start] + body + text[end:]
 
 
 def write_svg(outline: Outline, pins: PinLayout, path: Path, title: str = "") -> Path:

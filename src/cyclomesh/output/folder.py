@@ -10,10 +10,16 @@ A command that writes a folder holds a :class:`ResultFolder` while it runs:
 
 - an exclusive lock on ``<out>/.cyclomesh.lock`` (``fcntl.flock``; the file holds the
   PID of the holder): a second command into the same folder fails at once, naming it;
-- ``summary.json``, the **completion marker**, is removed first and written last, with
-  ``"status": "complete"`` and the list of files it vouches for (path and size in
-  bytes); a folder without it is incomplete (the run failed, was killed or is running);
-- if the command fails before it wrote anything, the folder it created is removed.
+- it writes every file into the staging folder ``<out>/.cyclomesh.staging`` (its
+  :attr:`ResultFolder.path`), never into ``<out>`` itself while it computes;
+- ``summary.json``, the **completion marker**, is written last, with ``"status":
+  "complete"`` and the list of files it vouches for (path and size in bytes); only then
+  are the staged files moved into ``<out>``: the earlier marker removed first, the
+  files renamed over those of the same name, the new marker last. A folder without a
+  marker is incomplete (a command was killed while it moved its files in);
+- a command that fails (or is interrupted) removes its staging folder and leaves
+  ``<out>`` exactly as it found it: an earlier complete result stays complete and
+  byte-identical, a folder the command created is removed (also on a full disk).
 
 :func:`load_results` is the reader that refuses a folder without a complete marker, or
 whose files no longer match it.
@@ -39,11 +45,13 @@ if TYPE_CHECKING:
 __all__ = [
     "MARKER",
     "LOCK",
+    "STAGING",
     "atomic_write",
     "write_bytes",
     "write_text",
     "ResultFolder",
     "active_folder",
+    "abandon_active",
     "Results",
     "load_results",
 ]
@@ -53,6 +61,10 @@ MARKER = "summary.json"
 
 LOCK = ".cyclomesh.lock"
 """File name of the lock file in an output folder."""
+
+STAGING = ".cyclomesh.staging"
+"""Folder (inside the output folder) a command writes into before its result is moved
+into place."""
 
 _TMP_SUFFIX = ".tmp"
 
@@ -64,16 +76,30 @@ def active_folder() -> ResultFolder | None:
     return _ACTIVE[-1] if _ACTIVE else None
 
 
+def abandon_active() -> None:
+    """Discard what the folders this process writes have staged (their ``--out`` left as
+    found, a folder they created removed): for a process about to end at once (Ctrl-C)."""
+    while _ACTIVE:
+        _ACTIVE.pop()._discard()
+
+
 def _reason(exc: BaseException, folder: Path) -> str:
-    """A short reason for a failed write (disk full named as such)."""
+    """A short reason for a failed write (disk full and read-only named as such)."""
     code = getattr(exc, "errno", None)
     if code in (errno.ENOSPC, errno.EDQUOT):
         return "no space left on the device"
-    try:
-        if shutil.disk_usage(folder).free < 1 << 20:
-            return f"no space left on the device ({exc})"
-    except OSError:
-        pass
+    if code == errno.EROFS:
+        return "read-only file system"
+    if code in (errno.EACCES, errno.EPERM):
+        return "permission denied"
+    if code is None or code == errno.EIO:  # HDF5 says only "HDF error"
+        try:
+            if not os.access(folder, os.W_OK):
+                return f"no permission to write (or read-only file system) ({exc})"
+            if shutil.disk_usage(folder).free < 1 << 20:
+                return f"no space left on the device ({exc})"
+        except OSError:
+            pass
     text = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
     return " ".join(str(text).split())
 
@@ -101,7 +127,8 @@ def atomic_write(path: str | Path) -> Iterator[Path]:
     except (OSError, RuntimeError) as exc:  # netCDF4 reports HDF errors as RuntimeError
         with suppress(OSError):
             tmp.unlink()
-        raise OutputError(f"cannot write {path}: {_reason(exc, path.parent)}") from None
+        shown = folder.final(path) if (folder := active_folder()) is not None else path
+        raise OutputError(f"cannot write {shown}: {_reason(exc, path.parent)}") from None
     except BaseException:
         with suppress(OSError):
             tmp.unlink()
@@ -147,27 +174,38 @@ class ResultFolder:
     def __init__(self, out: str | Path, command: str) -> None:
         self.out = Path(out)
         self.command = command
-        self.marker = self.out / MARKER
+        self.path = self.out / STAGING
+        self.marker = self.path / MARKER
         self._fd: int | None = None
-        self._created = False
+        self._created: Path | None = None  # the topmost folder this command created
         self._files: dict[Path, None] = {}
         self._pending: dict[str, Any] | None = None
         self._nested = False
+
+    def final(self, path: str | Path) -> Path:
+        """Where ``path``, written in the staging folder, lies once the result is in place."""
+        path = Path(path)
+        return self.out / path.relative_to(self.path) if path.is_relative_to(self.path) else path
 
     # --- lock -----------------------------------------------------------------------
 
     def __enter__(self) -> ResultFolder:
         out = self.out
-        if any(f.out.resolve() == out.resolve() for f in _ACTIVE):  # already held here
-            self._nested = True
-            return self
+        for held in _ACTIVE:
+            if held.out.resolve() == out.resolve():  # already held here
+                self._nested = True
+                self.path, self.marker = held.path, held.marker
+                return self
         if out.exists() and not out.is_dir():
             raise OutputError(f"--out {out}: exists and is not a folder")
-        self._created = not out.exists()
+        self._created = next((p for p in (out, *out.parents) if p.parent.exists()), None)
+        if self._created is not None and self._created.exists():
+            self._created = None
         try:
             out.mkdir(parents=True, exist_ok=True)
             fd = os.open(out / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
         except OSError as exc:
+            self._remove_created()
             raise OutputError(f"--out {out}: {_reason(exc, out.parent)}") from None
         try:
             import fcntl
@@ -186,11 +224,14 @@ class ResultFolder:
         try:
             os.ftruncate(fd, 0)
             os.write(fd, f"{os.getpid()}\n".encode("ascii"))
-            self.marker.unlink(missing_ok=True)  # the folder is incomplete from now on
-            for stale in out.rglob(f".*{_TMP_SUFFIX}"):  # left by a killed run
+            if self.path.exists():  # left by a killed command
+                shutil.rmtree(self.path)
+            for stale in out.rglob(f".*{_TMP_SUFFIX}"):  # left by a killed command
                 stale.unlink(missing_ok=True)
+            self.path.mkdir()
         except OSError as exc:
             self._release()
+            self._remove_created()
             raise OutputError(f"--out {out}: {_reason(exc, out)}") from None
         _ACTIVE.append(self)
         return self
@@ -203,8 +244,13 @@ class ResultFolder:
                 _ACTIVE.remove(self)
             if kind is None:
                 self._write_marker()
-            elif self._created and not self._files:
-                self._remove_empty()
+                self._swap()
+        except BaseException:
+            self._discard()
+            raise
+        else:
+            if kind is not None:
+                self._discard()
         finally:
             self._release()
 
@@ -218,23 +264,40 @@ class ResultFolder:
         os.close(self._fd)
         self._fd = None
 
-    def _remove_empty(self) -> None:
-        """Remove the folder this command created when it wrote nothing into it."""
-        with suppress(OSError):
-            (self.out / LOCK).unlink()
-            for stale in self.out.glob(f".*{_TMP_SUFFIX}"):
-                stale.unlink()
-            for sub in sorted(self.out.rglob("*"), reverse=True):
-                if sub.is_dir():
-                    sub.rmdir()  # empty case folders; fails (and stops) on any file
-            self.out.rmdir()
+    def _discard(self) -> None:
+        """After a failure: remove the staging folder, and the folder itself if this
+        command created it; an earlier result in ``out`` is left as it was."""
+        shutil.rmtree(self.path, ignore_errors=True)
+        self._remove_created()
+
+    def _remove_created(self) -> None:
+        if self._created is not None:
+            shutil.rmtree(self._created, ignore_errors=True)
+
+    def _swap(self) -> None:
+        """Move the staged files into ``out`` (replacing those of the same name), the
+        marker last. The earlier marker is removed first: a command killed in between
+        leaves an incomplete folder, never a marker vouching for a mix."""
+        staged = sorted(p for p in self.path.rglob("*") if p.is_file() and p != self.marker)
+        try:
+            (self.out / MARKER).unlink(missing_ok=True)
+            for path in staged:
+                target = self.final(path)
+                if target.is_dir() and not target.is_symlink():
+                    shutil.rmtree(target)
+                target.parent.mkdir(parents=True, exist_ok=True)
+                os.replace(path, target)
+            os.replace(self.marker, self.out / MARKER)
+        except OSError as exc:
+            raise OutputError(f"--out {self.out}: {_reason(exc, self.out)}") from None
+        shutil.rmtree(self.path, ignore_errors=True)
 
     # --- files and marker -----------------------------------------------------------
 
     def record(self, path: Path) -> None:
         """Note a file written in the folder (by :func:`atomic_write`)."""
         path = Path(path)
-        if path != self.marker and path.is_relative_to(self.out):
+        if path != self.marker and path.is_relative_to(self.path):
             self._files[path] = None
 
     def defer_marker(self, document: Mapping[str, Any]) -> None:
@@ -244,7 +307,7 @@ class ResultFolder:
 
     def _write_marker(self) -> None:
         files = [
-            {"path": p.relative_to(self.out).as_posix(), "bytes": p.stat().st_size}
+            {"path": p.relative_to(self.path).as_posix(), "bytes": p.stat().st_size}
             for p in self._files
             if p.exists()
         ]

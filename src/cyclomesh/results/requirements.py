@@ -43,6 +43,9 @@ __all__ = [
     "check_requirements",
     "design_warnings",
     "peak_stress_warning",
+    "jam_row",
+    "jam_warning",
+    "min_play_arcmin",
     "verdict_counts",
     "SHORT",
     "short_label",
@@ -114,7 +117,6 @@ REQUIREMENTS: dict[str, Requirement] = {
             (
                 ("drive_lost_motion_arcmin_max", 1.0),
                 ("stage_lost_motion_arcmin_max", 1.0),
-                ("stage_lost_motion_arcmin", 1.0),
                 ("lost_motion_arcmin_max", 1.0),
             ),
         ),
@@ -126,7 +128,6 @@ REQUIREMENTS: dict[str, Requirement] = {
             (
                 ("drive_torsional_rigidity_nm_per_arcmin_min", 1.0),
                 ("stage_torsional_rigidity_nm_per_arcmin_min", 1.0),
-                ("stage_torsional_rigidity_nm_per_arcmin", 1.0),
                 ("torsional_rigidity_nm_per_arcmin_min", 1.0),
             ),
         ),
@@ -143,6 +144,10 @@ REQUIREMENTS: dict[str, Requirement] = {
     )
 }
 """Every requirement key of ``[requirements]``, with the metrics that check it."""
+
+
+_COMPLIANCE = ("max_lost_motion_arcmin", "min_torsional_rigidity_nm_per_arcmin")
+"""Requirements a designer writes for the whole reducer, checked on a part of it."""
 
 
 def _worst(value: Any, kind: str) -> float | None:
@@ -201,12 +206,22 @@ def check_requirements(
             worst = _worst(summary.get(source), req.kind)
             if worst is not None:
                 value = worst * factor
+                what = ""
                 if source.startswith("drive_"):
-                    note = (note + "; " if note else "") + "whole drive (mesh + series stiffness)"
+                    what = "whole drive (mesh + series stiffness)"
                 elif source.startswith("stage_"):
-                    note = (note + "; " if note else "") + "RV stage (mesh, crank bearings)"
+                    what = "stage: mesh + crank bearings"
                 elif source.startswith("fe_"):
-                    note = (note + "; " if note else "") + "FE model, at its crank angles"
+                    what = "FE model, at its crank angles"
+                elif key in _COMPLIANCE:
+                    what = "mesh alone"
+                if key in _COMPLIANCE and not source.startswith("drive_"):
+                    what += (
+                        "; the reducer's is worse (main bearings, housing, first stage and "
+                        "crankshafts not included)"
+                    )
+                if what:
+                    note = (note + "; " if note else "") + what
                 break
         if value is None or not math.isfinite(value):
             unchecked.append(key)
@@ -251,17 +266,20 @@ def design_warnings(design: PairDesign, modification: Modification | None) -> li
     convex = locus_radius[locus_radius > 0]
     if len(convex):
         margin = float(convex.min()) / rho - 1.0
-        rows.append(
-            _warning(
-                "undercut_margin",
-                "undercut margin R_min/ρ' − 1",
-                "1",
-                "min",
-                UNDERCUT_MARGIN_WARNING,
-                margin,
-                f"smallest convex curvature radius ρc = {(convex.min() - rho) * 1e3:.3g} mm",
-            )
+        row = _warning(
+            "undercut_margin",
+            "undercut margin R_min/ρ' − 1",
+            "1",
+            "min",
+            UNDERCUT_MARGIN_WARNING,
+            margin,
+            f"R_min = {convex.min() * 1e3:.4g} mm is {100.0 * margin:.3g} % above the "
+            f"generating pin radius ρ' = {rho * 1e3:.4g} mm (0: undercut); smallest convex "
+            f"curvature radius ρc = {(convex.min() - rho) * 1e3:.3g} mm",
         )
+        # the margin is itself relative: a % of the rule-of-thumb threshold means nothing
+        row["margin_pct"] = None
+        rows.append(row)
     return rows
 
 
@@ -293,6 +311,49 @@ def peak_stress_warning(ds: Any, pin_radius_mm: float) -> dict[str, Any] | None:
     return row
 
 
+def min_play_arcmin(ds: Any) -> float | None:
+    """Smallest play at zero load of a result with a ``play`` variable [arcmin] (its
+    ``units`` attribute: arcsec or arcmin); None without one."""
+    if ds is None or "play" not in ds:
+        return None
+    values = np.asarray(ds["play"].values, dtype=float)
+    if not np.any(np.isfinite(values)):
+        return None
+    factor = {"arcsec": 1.0 / 60.0, "arcmin": 1.0}[ds["play"].attrs.get("units", "arcsec")]
+    return float(np.nanmin(values)) * factor
+
+
+def jam_row(play_arcmin: float) -> dict[str, Any]:
+    """Verdict row of the smallest play at zero load: negative fails (the pins jam the
+    disc: at rest the disc overlaps the pins of the other flank, so the loaded results
+    describe a pair that cannot be assembled or turned)."""
+    row = _row(
+        "jam",
+        "smallest play at zero load (negative: the pins jam the disc)",
+        "arcmin",
+        "min",
+        0.0,
+        play_arcmin,
+        "negative play: the pins jam the disc; enlarge the clearance of [modification] "
+        "or reduce [errors]"
+        if play_arcmin < 0
+        else "the pins do not jam the disc",
+    )
+    row["margin_pct"] = None  # of a zero limit
+    return row
+
+
+def jam_warning(play_arcmin: float | None) -> str | None:
+    """The warning of a negative play at zero load (None if it is not negative)."""
+    if play_arcmin is None or play_arcmin >= 0:
+        return None
+    return (
+        f"negative play at zero load ({play_arcmin:.4g} arcmin): the pins jam the disc, "
+        "the loaded results are of a pair that cannot turn (enlarge the clearance of "
+        "[modification] or reduce [errors])"
+    )
+
+
 SHORT = {
     "max_contact_stress_mpa": "σH tooth [MPa]",
     "max_groove_stress_mpa": "σH groove [MPa]",
@@ -307,6 +368,7 @@ SHORT = {
     "k1": "K1 = e·n1/a",
     "undercut_margin": "undercut margin",
     "peak_stress_curvature": "ρc at peak σH [mm]",
+    "jam": "jam: play [arcmin]",
 }
 """Short names of the checks with their units, for tables that must fit 80 columns."""
 
@@ -314,10 +376,13 @@ SHORT = {
 def short_label(row: dict[str, Any]) -> str:
     """The short name of a row's check ("drive ..." when the whole drive was checked)."""
     name = SHORT.get(row["check"], row["check"])
-    if "whole drive" in row.get("note", ""):
+    note = row.get("note", "")
+    if "whole drive" in note:
         name = "drive " + name
-    elif "RV stage" in row.get("note", ""):
+    elif "stage: mesh + crank bearings" in note:
         name = "stage " + name
+    elif "mesh alone" in note:
+        name = "mesh " + name
     return name
 
 

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from cyclomesh.core.transmission import gear_ratio
 from cyclomesh.results.metrics import Metric
 from cyclomesh.stage.solve import (
     Stage,
@@ -37,6 +38,8 @@ __all__ = [
     "sheet_angles",
     "solve_case",
     "stage_torsion_variables",
+    "stage_mesh",
+    "STAGE_MESH_VARIABLES",
 ]
 
 ARCSEC = RAD_PER_ARCSEC
@@ -110,6 +113,18 @@ STAGE_METRICS: dict[str, Metric] = {
             "h",
             "L10h of the weakest crank bearing at T_eq and n_eq",
             "L10h at T_eq",
+        ),
+        Metric(
+            "stage_lost_motion_arcmin_max",
+            "arcmin",
+            "largest lost motion of the stage over the crank angles (the requirement's)",
+            "max lost motion",
+        ),
+        Metric(
+            "stage_torsional_rigidity_nm_per_arcmin_min",
+            "N·m/arcmin",
+            "smallest torsional rigidity of the stage over the crank angles (the requirement's)",
+            "min rigidity",
         ),
         Metric(
             "stage_max_contact_stress_mpa",
@@ -262,7 +277,9 @@ def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
 
     One :func:`~cyclomesh.stage.solve.stage_torsion_curve` (±3 %, ±50 %, ±100 % of the
     rated torque) on at most :data:`SHEET_ANGLES` of the case's crank angles gives the
-    rigidity and lost motion of the stage and of the mesh alone (means over the angles);
+    rigidity and lost motion of the stage and of the mesh alone (means over the angles,
+    and the largest stage lost motion and smallest stage rigidity that the requirements
+    check, as ``cyclomesh stiffness`` does);
     the +100 % solve gives the bearing loads, L10h of the weakest bearing and the peak
     contact stress.
     """
@@ -290,6 +307,11 @@ def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
             np.mean(curve.mesh_torsional_rigidity) * ARCMIN
         ),
         "stage_lost_motion_arcmin": float(np.mean(curve.lost_motion) / ARCMIN),
+        # the requirements' definitions (docs/requirements.md), as cyclomesh stiffness
+        "stage_lost_motion_arcmin_max": float(np.max(curve.lost_motion) / ARCMIN),
+        "stage_torsional_rigidity_nm_per_arcmin_min": float(
+            np.min(curve.torsional_rigidity) * ARCMIN
+        ),
         "mesh_lost_motion_arcmin": float(np.mean(curve.mesh_lost_motion) / ARCMIN),
         "stage_max_contact_stress_mpa": float(np.max(result.contact_stress[at]) / 1e6),
         "stage_max_crank_bearing_load_n": float(np.max(result.bearing_load[at])),
@@ -383,6 +405,65 @@ def _catalogue_extras(inputs: Any, rated_torque: float, phi: np.ndarray, curve: 
             {k: v[at] for k, v in result.work.items()}, rated_torque, result.twist[at]
         ),
     }
+
+
+STAGE_MESH_VARIABLES = (
+    "pin_load",
+    "groove_load",
+    "contact_stress",
+    "groove_stress",
+    "transmission_error",
+    "gear_ratio",
+    "contacts",
+    "mesh_force",
+    "mesh_force_angle",
+    "torque_share",
+)
+"""The mesh variables of a run that, with ``[stage]``, are the stage solve's (discs on
+their crank bearings) instead of the mesh on rigid bearings."""
+
+
+def stage_mesh(ds: xr.Dataset, result: Stage, teeth: int) -> xr.Dataset:
+    """``ds`` (a run's mesh on rigid bearings) with :data:`STAGE_MESH_VARIABLES` replaced by
+    those of the stage solve ``result`` (same dims, units and names; the long name says
+    "RV stage"): loads and stresses of the loaded flanks, the output's TE (Eq. 25 sign)
+    and its gear ratio (Eq. 26), contacts, mesh force and torque split. The mesh on
+    rigid bearings keeps its TE as ``rigid_bearing_transmission_error`` [arcsec]."""
+    import xarray as xr
+
+    te = result.transmission_error  # (Q, A) [rad]
+    values = {
+        "pin_load": (result.pin_load, 1.0),
+        "groove_load": (result.groove_load, 1.0),
+        "contact_stress": (result.contact_stress, 1e-6),
+        "groove_stress": (result.groove_stress, 1e-6),
+        "transmission_error": (te, 1.0 / ARCSEC),
+        "gear_ratio": (gear_ratio(te, result.crank_angle, teeth), 1.0),
+        "contacts": (result.contacts, 1),
+        "mesh_force": (result.mesh_force, 1.0),
+        "mesh_force_angle": (np.degrees(result.mesh_force_angle), 1.0),
+        "torque_share": (result.torque_share, 1.0),
+    }
+    names = {4: ("torque", "crank_angle", "disc", "pin"), 3: ("torque", "crank_angle", "disc")}
+    out = ds.assign(
+        rigid_bearing_transmission_error=ds["transmission_error"].assign_attrs(
+            long_name="loaded TE of the mesh on rigid bearings"
+        )
+    )
+    for name in STAGE_MESH_VARIABLES:
+        if name not in ds:
+            continue
+        value, scale = values[name]
+        dims = names.get(value.ndim, ("torque", "crank_angle"))
+        arr = xr.DataArray(value * scale, dims=dims)
+        for dim in ("torque", "disc"):
+            if dim in arr.dims and dim not in ds[name].dims:
+                arr = arr.isel({dim: 0}, drop=True)
+        arr = arr.transpose(*ds[name].dims)
+        attrs = dict(ds[name].attrs)
+        attrs["long_name"] = f"{attrs.get('long_name', name)} (RV stage)"
+        out[name] = (ds[name].dims, arr.values.astype(ds[name].dtype), attrs)
+    return out
 
 
 def solve_case(inputs: Any) -> Stage:

@@ -84,6 +84,7 @@ from cyclomesh.exceptions import ConvergenceError, DesignError
 from cyclomesh.stage.bearing import (
     LOAD_EXPONENT,
     RollerSet,
+    deflection_for_force,
     equivalent_load,
     life_hours,
     radial_energy,
@@ -210,6 +211,60 @@ class StageDesign:
                     "roller diameter"
                 )
 
+    def check_fits(self, design: PairDesign, discs: int) -> None:
+        """Refuse a stage that cannot be built or turned.
+
+        * The rollers must fit the disc width (``roller_length`` ≤ B); their pitch circle
+          and count around it are checked by :class:`RollerSet`.
+        * Crank hole errors beyond what the bearings can take: per disc, the hole errors
+          that no rigid motion of the disc (translation u, rotation ω) takes up, rms over
+          its N holes, r = min_(u, ω) √(Σ_k |ε_k + u + ω·J·h_k|² / N) (least squares,
+          J·h = (−h_y, h_x)), bound the largest bearing displacement from below for
+          every position of the disc (max ≥ rms). If r exceeds the displacement at which
+          one bearing carries its dynamic load rating C (ISO 281: a life of 10⁶
+          revolutions), the hole errors alone overload a bearing at zero torque: the
+          holes jam the stage.
+
+        Raises
+        ------
+        DesignError
+            One line naming the key and the limit.
+        """
+        if self.bearing is None:
+            return
+        if self.bearing.length > design.width * (1.0 + 1e-12):
+            raise DesignError(
+                f"stage.crank_bearing.roller_length_mm = {self.bearing.length * 1e3:.6g}: the "
+                f"rollers must fit the disc width, design.width_mm = {design.width * 1e3:.6g}"
+            )
+        er, et = self.hole_errors(discs)  # (D, N)
+        if not (np.any(er) or np.any(et)):
+            return
+        a = self.holes.angles
+        hx, hy = self.holes.circle_radius * np.cos(a), self.holes.circle_radius * np.sin(a)
+        ex = er * np.cos(a) - et * np.sin(a)
+        ey = er * np.sin(a) + et * np.cos(a)
+        n = a.size
+        # columns (ux, uy, ω) of the 2N equations ε + u + ω·J·h = 0
+        M = np.zeros((2 * n, 3))
+        M[:n, 0], M[n:, 1] = 1.0, 1.0
+        M[:n, 2], M[n:, 2] = -hy, hx
+        rhs = -np.concatenate([ex, ey], axis=-1)  # (D, 2N)
+        pose, *_ = np.linalg.lstsq(M, rhs.T, rcond=None)
+        residual = ((M @ pose).T - rhs).reshape(discs, 2, n)  # (D, x/y, N)
+        misfit = np.sqrt(np.sum(residual**2, axis=(-2, -1)) / n)
+        # displacement of one bearing at its dynamic load rating
+        limit = float(deflection_for_force(self.bearing, self.bearing.rating()))
+        if np.max(misfit) > limit:
+            d = int(np.argmax(misfit))
+            raise DesignError(
+                f"stage.hole_error_radial_um / hole_error_tangential_um: the crank hole errors "
+                f"of disc {d + 1} leave {np.max(misfit) * 1e6:.4g} µm (rms over its holes) "
+                "that no position of the disc takes up, more than a crank bearing's "
+                f"displacement at its dynamic load rating ({limit * 1e6:.4g} µm with "
+                f"{self.bearing.clearance * 1e6:.4g} µm clearance): the holes jam the stage"
+            )
+
     def hole_errors(self, discs: int) -> tuple[FloatArray, FloatArray]:
         """Radial and tangential hole errors as (D, N) arrays [m]."""
         shape = (discs, self.holes.count)
@@ -264,6 +319,9 @@ class Stage:
         TE of the mesh alone (rigid bearings) at the same torque [rad], (Q, A).
     residual : ndarray
         Largest equilibrium residual of each solve [N] (moments over r_c), (Q, A).
+    groove_load, groove_stress : ndarray
+        Groove force Fc·cos β [N] and its Hertzian pressure [Pa] of the loaded-flank pins
+        (Eq. 24), (Q, A, D, n1).
     work : dict of ndarray
         Work of every part of the stage on its own deformation [J], (Q, A) each, keys
         :data:`WORK_PARTS`: they add up to T·twist to round-off (virtual work).
@@ -292,6 +350,8 @@ class Stage:
     transmission_error: FloatArray
     mesh_transmission_error: FloatArray
     residual: FloatArray
+    groove_load: FloatArray
+    groove_stress: FloatArray
     work: dict[str, FloatArray] | None = None
     twist: FloatArray | None = None
 
@@ -687,26 +747,39 @@ def _distribution(p: _Problem, mesh_fx: FloatArray, mesh_fy: FloatArray, moment:
     )  # (ω·L, ux, uy)
     scale = np.maximum(np.max(np.abs(target), axis=-1, keepdims=True), 1e-300)
     cols = [(jx / L, jy / L), (1.0, 0.0), (0.0, 1.0)]
+    fx, fy = np.zeros((A, D, N)), np.zeros((A, D, N))
+    # a disc that carries nothing (all its pins out of contact: pin errors, the other disc
+    # takes the torque) has the exact split B = 0 (y = 0, where the Hessian of the
+    # s^(19/9) potential vanishes, so Newton is not applied to it)
+    active = np.argwhere(np.any(target != 0.0, axis=-1))  # (k, 2) of (angle, disc)
+    ia, idisc = active[:, 0], active[:, 1]
     for _ in range(_MAX_ITERATIONS):
-        dx = y[..., 1, None] + y[..., 0, None] * jx / L
-        dy = y[..., 2, None] + y[..., 0, None] * jy / L
+        if ia.size == 0:
+            return fx, fy
+        yk, tk = y[ia, idisc], target[ia, idisc]
+        jxk, jyk = jx[ia, idisc], jy[ia, idisc]
+        dx = yk[:, 1, None] + yk[:, 0, None] * jxk / L
+        dy = yk[:, 2, None] + yk[:, 0, None] * jyk / L
         s = np.hypot(dx, dy)
         B, kb, _U, _ = law.evaluate(s)
         with np.errstate(divide="ignore", invalid="ignore"):
             cx, cy = np.where(s > 0, dx / s, 1.0), np.where(s > 0, dy / s, 0.0)
             sec = np.where(s > 0, B / s, 0.0)
-        fx, fy = B * cx, B * cy
-        vec = [(np.broadcast_to(a, s.shape), np.broadcast_to(b, s.shape)) for a, b in cols]
-        g = np.stack([np.sum(fx * a + fy * b, -1) for a, b in vec], -1) - target
-        if np.all(np.abs(g) <= 1e-13 * scale):
-            return fx, fy
+        fx[ia, idisc], fy[ia, idisc] = B * cx, B * cy
+        vec = [
+            (np.broadcast_to(a, s.shape), np.broadcast_to(b, s.shape))
+            for a, b in ((jxk / L, jyk / L), *cols[1:])
+        ]
+        g = np.stack([np.sum(B * cx * a + B * cy * b, -1) for a, b in vec], -1) - tk
+        keep = ~np.all(np.abs(g) <= 1e-13 * scale[ia, idisc], axis=-1)
         kxx, kyy = kb * cx * cx + sec * cy * cy, kb * cy * cy + sec * cx * cx
         kxy = (kb - sec) * cx * cy
-        H = np.empty((A, D, 3, 3))
+        H = np.empty((ia.size, 3, 3))
         for i, (ax, ay) in enumerate(vec):
             for j, (bx, by) in enumerate(vec):
-                H[..., i, j] = np.sum((kxx * ax + kxy * ay) * bx + (kxy * ax + kyy * ay) * by, -1)
-        y = y - np.linalg.solve(H, g[..., None])[..., 0]
+                H[:, i, j] = np.sum((kxx * ax + kxy * ay) * bx + (kxy * ax + kyy * ay) * by, -1)
+        ia, idisc, g, H = ia[keep], idisc[keep], g[keep], H[keep]
+        y[ia, idisc] = y[ia, idisc] - np.linalg.solve(H, g[..., None])[..., 0]
     raise ConvergenceError("stage: the stiff-limit bearing load split did not converge")
 
 
@@ -862,7 +935,7 @@ def _solve_direction(
             np.abs(_evaluate(prob, None, x, D, True, hessian=False)[1] @ _reducer(D)), -1
         )
     c, theta, ux, uy = _unpack(x, D)
-    groove, stress, _ = contact_stresses(mesh.geo, mesh.design, F[..., :n1])
+    groove, stress, groove_stress = contact_stresses(mesh.geo, mesh.design, F[..., :n1])
     mfx = -np.sum(F * prob.nx, axis=-1)
     mfy = -np.sum(F * prob.ny, axis=-1)
     rollers = (
@@ -874,6 +947,8 @@ def _solve_direction(
         "pin_load": F[..., :n1],
         "opposite_pin_load": F[..., n1:],
         "contact_stress": stress,
+        "groove_load": groove,
+        "groove_stress": groove_stress,
         "contacts": count_contacts(F[..., :n1], axes=2),  # per disc, against the stack
         "torque_share": np.sum(F * prob.arm, axis=-1),
         "mesh_fx": mfx,
@@ -985,7 +1060,7 @@ def _deflection(law: _Law, force: FloatArray) -> FloatArray:
 
 
 # fields: (angle axis, disc axis, crank/pin axis) for the mirror
-_PER_PIN = {"pin_load", "opposite_pin_load", "contact_stress"}
+_PER_PIN = {"pin_load", "opposite_pin_load", "contact_stress", "groove_load", "groove_stress"}
 _PER_CRANK = {"bearing_fx", "bearing_fy", "bearing_deflection", "max_roller_load"}
 _PER_DISC = {
     "contacts",
@@ -1139,6 +1214,8 @@ def solve_stage(
         transmission_error=te,
         mesh_transmission_error=out["mesh_te"],
         residual=out["residual"],
+        groove_load=out["groove_load"],
+        groove_stress=out["groove_stress"],
         work=work,
         twist=twist,
     )

@@ -17,6 +17,8 @@ from cyclomesh.results.requirements import (
     check_requirements,
     checks_rows,
     design_warnings,
+    jam_row,
+    min_play_arcmin,
     peak_stress_warning,
     verdict_counts,
 )
@@ -44,7 +46,8 @@ def case_checks(
         The case's metrics (summary record of the kind of study).
     ds : xarray.Dataset, optional
         The case's :func:`cyclomesh.analyse` results, for the warning on the contact
-        curvature at the peak stress.
+        curvature at the peak stress, and any result with a ``play`` variable for the
+        jam row (negative play at zero load fails).
     where : str
         How the values were taken (e.g. ``"P95 of 1000 rings"``), shown with the table.
     """
@@ -55,6 +58,9 @@ def case_checks(
         row = peak_stress_warning(ds, inputs.design.pin_radius * 1e3)
         if row is not None:
             rows.append(row)
+    play = min_play_arcmin(ds)
+    if play is not None and play < 0:  # the pins jam the disc: a failing row
+        rows.append(jam_row(play))
     return {
         "rows": rows,
         "not_checked": unchecked,

@@ -4,13 +4,15 @@ A kind of study is a :class:`StudyKind`: its command name, its compute function,
 result-file writer, its figure jobs and report sections (see ``docs/pipeline.md``).
 :func:`execute` does the rest the same way for every kind:
 
-1. locks the output folder and removes its completion marker
-   (:class:`~cyclomesh.output.folder.ResultFolder`);
+1. locks the output folder (:class:`~cyclomesh.output.folder.ResultFolder`), whose
+   files are written into its staging folder and moved into place only at the end, so
+   a command that fails leaves an earlier result as it was;
 2. starts the figure workers (forked before any thread starts) or, for a kind whose
    items run on an execution backend, the backend and an import preload thread;
 3. computes, with the progress callback the caller gives;
 4. writes the result files, renders the figures and writes the report
-   (:func:`~cyclomesh.publish.pipeline.publish`); ``summary.json`` is written last.
+   (:func:`~cyclomesh.publish.pipeline.publish`); ``summary.json`` is written last,
+   then everything is moved into ``out``.
 
 The runtime helpers that keep a command fast (figure workers forked early and warmed
 up, imports preloaded while the workers compute) live here too, so the command line
@@ -112,6 +114,10 @@ def running_backend(backend: Any, figures: bool) -> Iterator[Any]:
             backend.start()
         preload = _preload(figures)
         yield backend
+    except BaseException:  # Ctrl-C or a failure: the workers' chunks are not wanted
+        if backend is not None and hasattr(backend, "terminate"):
+            backend.terminate()
+        raise
     finally:
         if backend is not None:
             backend.close()
@@ -159,7 +165,7 @@ def execute(
 
     out = Path(out)
     bar = progress or (lambda: nullcontext(lambda n: None))
-    with ResultFolder(out, kind.command):
+    with ResultFolder(out, kind.command) as folder:
         early: list[Any] = []
         if parallel:
             pool_context: AbstractContextManager[Any] = nullcontext(None)
@@ -178,10 +184,10 @@ def execute(
             jobs = kind.figures(result, early) if options.figures else []
             if pool is not None:  # drawn while the result files are written
                 pool.submit(jobs, options.figures, options.dpi)
-            files = kind.write(result, out, options)
+            files = kind.write(result, folder.path, options)  # moved into out at the end
             title = f"{study.title}: {kind.title}" if kind.title else study.title
             publish(
-                out,
+                folder.path,
                 title,
                 kind.sections(result),
                 jobs,

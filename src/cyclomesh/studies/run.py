@@ -24,7 +24,7 @@ import numpy as np
 
 from cyclomesh.core.pair import Modification
 from cyclomesh.publish.pipeline import case_attrs, study_stamp, summary_document
-from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STIFFNESS_METRICS
 from cyclomesh.results.profile import profile_curves
 from cyclomesh.results.stage import STAGE_METRICS
 from cyclomesh.studies.execute import StudyKind
@@ -136,6 +136,7 @@ def compute_run(
     """
     from cyclomesh.exceptions import CyclomeshError
     from cyclomesh.results.dataset import analyse, summarize
+    from cyclomesh.results.requirements import jam_warning, min_play_arcmin
     from cyclomesh.studies.checks import case_checks
     from cyclomesh.studyfile.usage import check_keys
     from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
@@ -152,16 +153,18 @@ def compute_run(
         except CyclomeshError as exc:  # name the case
             raise type(exc)(f"{case.label}: {exc}") from None
         ds = annotate(ds, case, inputs, study)
-        run.summaries[case.name] = summary_record(summarize(ds))
+        sheet = None
         if inputs.stage is not None:
             ds, sheet = _with_stage(ds, case, inputs)
+        run.summaries[case.name] = summary_record(summarize(ds))
+        if sheet is not None:
             run.summaries[case.name].update(sheet)
         run.results[case.name] = ds
         run.warnings[case.name] = study_warnings(
             inputs.contact_law,
             case.analysis.crank_angles_deg(),
             has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
-        )
+        ) + [w for w in (jam_warning(min_play_arcmin(ds)),) if w]
         run.checks[case.name] = case_checks(study, case, inputs, run.summaries[case.name], ds)
         if on_done:
             on_done(case.name)
@@ -172,9 +175,12 @@ def compute_run(
 
 def _with_stage(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs) -> tuple[xr.Dataset, dict]:
     """The case's Dataset with the RV stage's variables, and its data sheet (``[stage]``)."""
-    from cyclomesh.results.stage import data_sheet, solve_case, stage_dataset
+    from cyclomesh.results.stage import data_sheet, solve_case, stage_dataset, stage_mesh
 
-    stage = stage_dataset(solve_case(inputs), inputs.stage, inputs.design.pins)
+    result = solve_case(inputs)
+    # the reported mesh (summary, verdict, figures) is the stage's, not the rigid bearings'
+    ds = stage_mesh(ds, result, inputs.design.teeth)
+    stage = stage_dataset(result, inputs.stage, inputs.design.pins)
     if "disc" not in ds.dims:  # one disc: no disc dimension, as the mesh variables
         stage = stage.isel(disc=0, drop=True)
     # the same angles (and torques) as the mesh's, bit for bit: no alignment
@@ -502,6 +508,23 @@ def metrics_table(records: dict[str, dict[str, Any]], metrics: dict[str, Any]) -
     return table
 
 
+def _play_in_arcmin(record: dict[str, Any]) -> dict[str, Any]:
+    """The record with its play in arcmin (``play_arcmin_*``), the unit of the terminal,
+    the verdict and ``cyclomesh stiffness``; summary.json keeps ``play_arcsec_*``."""
+
+    def arcmin(value: Any) -> Any:
+        if isinstance(value, list):
+            return [arcmin(v) for v in value]
+        return None if value is None else value / 60.0
+
+    return {
+        (k.replace("play_arcsec", "play_arcmin") if k.startswith("play_arcsec") else k): (
+            arcmin(v) if k.startswith("play_arcsec") else v
+        )
+        for k, v in record.items()
+    }
+
+
 def run_sections(run: RunResult) -> list[Section]:
     """Report sections of a run study: study, inputs, summary (figures come after)."""
     from cyclomesh.publish.report import Section, table_html
@@ -534,8 +557,13 @@ def run_sections(run: RunResult) -> list[Section]:
         f"<pre>{html.escape(study.text)}</pre></details>"
     )
     summary = metrics_table(
-        {n: {k: v for k, v in run.summaries[n].items() if k not in STAGE_METRICS} for n in names},
-        METRICS | DRIVE_METRICS,
+        {
+            n: _play_in_arcmin(
+                {k: v for k, v in run.summaries[n].items() if k not in STAGE_METRICS}
+            )
+            for n in names
+        },
+        METRICS | DRIVE_METRICS | STIFFNESS_METRICS,
     )
     from cyclomesh.studies.checks import checks_section
 
@@ -607,13 +635,14 @@ def run_study(study: Study, out: str | Path, options: OutputOptions | None = Non
 
     options = options or OutputOptions.from_study(study)
     out = Path(out)
-    with ResultFolder(out, "run"):
+    with ResultFolder(out, "run") as folder:
         run = compute_run(study)
-        files = write_run(run, out, options)
+        files = write_run(run, folder.path, options)
         jobs = run_figures(run) if options.figures else []
-        return publish(
-            out, study.title, run_sections(run), jobs, files, options, study_stamp(study)
+        written = publish(
+            folder.path, study.title, run_sections(run), jobs, files, options, study_stamp(study)
         ).files
+    return [folder.final(p) for p in written]
 
 
 RUN = StudyKind(

@@ -110,6 +110,7 @@ def compute_stiffness(
     torque (0.4 s for 42 torques × 360 crank angles × 40 pins), so the cases run here.
     """
     from cyclomesh.output.writers import jsonable
+    from cyclomesh.results.requirements import jam_warning, min_play_arcmin
     from cyclomesh.results.torsion import stiffness, summarize_stiffness
     from cyclomesh.studies.checks import case_checks
     from cyclomesh.studyfile.usage import check_keys
@@ -167,8 +168,8 @@ def compute_stiffness(
             inputs.contact_law,
             case.analysis.crank_angles_deg(),
             has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
-        )
-        result.checks[case.name] = case_checks(study, case, inputs, record)
+        ) + [w for w in (jam_warning(min_play_arcmin(ds)),) if w]
+        result.checks[case.name] = case_checks(study, case, inputs, record, ds[["play"]])
         if progress:
             progress(1)
     result.seconds = time.perf_counter() - start

@@ -68,6 +68,7 @@ __all__ = [
     "metrics_dataset",
     "ring_statistics",
     "worst_ring",
+    "jammed_rings",
     "worst_ring_study",
     "run_tolerance",
     "run_allocation",
@@ -180,6 +181,10 @@ def metrics_dataset(
             if metric
             else {"units": "1", "long_name": name.replace("_", " ")}
         )
+        if name == "jammed":
+            attrs_["long_name"] = "1: the ring's errors jam the disc (a pin overlaps it)"
+        elif arr.dtype.kind == "f" and np.any(np.isnan(arr)):
+            attrs_["nonfinite"] = "NaN: the ring jams the disc (jammed = 1), no contact"
         data[name] = xr.DataArray(arr, dims=("ring",), attrs=attrs_)
     ds = xr.Dataset(data, coords={"ring": ("ring", ring, {"units": "1"})})
     ds.attrs.update(
@@ -194,9 +199,20 @@ def metrics_dataset(
     return ds
 
 
-def worst_ring(ds: xr.Dataset, metric: str = STRESS_METRIC) -> int:
-    """Index k of the ring with the largest ``metric`` (the first one if tied)."""
-    return int(ds["ring"].values[int(np.argmax(ds[metric].values))])
+def worst_ring(ds: xr.Dataset, metric: str = STRESS_METRIC) -> int | None:
+    """Index k of the ring with the largest ``metric`` (the first one if tied) among the
+    rings that do not jam the disc; None if every ring jams."""
+    values = np.asarray(ds[metric].values, dtype=float)
+    if not np.any(np.isfinite(values)):
+        return None
+    return int(ds["ring"].values[int(np.nanargmax(values))])
+
+
+def jammed_rings(ds: xr.Dataset) -> np.ndarray:
+    """Indices k of the rings whose errors jam the disc (``jammed`` of a tolerance study)."""
+    if "jammed" not in ds:
+        return np.zeros(0, dtype=np.int64)
+    return np.asarray(ds["ring"].values[np.asarray(ds["jammed"].values) != 0], dtype=np.int64)
 
 
 def ring_statistics(
@@ -207,19 +223,22 @@ def ring_statistics(
     from cyclomesh.tolerance.statistics import PERCENTILES, describe, exceedance_probability
 
     n = ds.sizes["ring"]
+    jammed = jammed_rings(ds)
+    runs = np.asarray(ds["jammed"].values) == 0 if "jammed" in ds else np.ones(n, dtype=bool)
     stats = {}
     for name, metric in (METRICS | DRIVE_METRICS).items():
         if name in ds and name != "overlap":
             stats[name] = {
                 "unit": metric.unit,
                 "description": metric.long_name,
-                **describe(ds[name].values),
+                **describe(np.asarray(ds[name].values)[runs]),
             }
     allowable = spec.allowable_contact_stress_mpa
     exceed = {}
     for name in ("max_contact_stress_mpa", "max_groove_stress_mpa"):
         if name in ds:
-            count = int(np.count_nonzero(ds[name].values > allowable))
+            # a ring that jams the disc meets no allowable: it counts as exceeding
+            count = int(np.count_nonzero(ds[name].values[runs] > allowable)) + jammed.size
             p = exceedance_probability(count, n, confidence)
             exceed[name] = {
                 "count": p.count,
@@ -229,6 +248,7 @@ def ring_statistics(
                 "upper": p.upper,
             }
     k = worst_ring(ds)
+    jam = exceedance_probability(jammed.size, n, confidence)
     return {
         "rings": n,
         "seed": spec.seed,
@@ -236,11 +256,26 @@ def ring_statistics(
         "allowable_contact_stress_mpa": allowable,
         "metrics": stats,
         "exceedance": exceed,
-        "worst_ring": {
-            "ring": k,
-            STRESS_METRIC: float(ds[STRESS_METRIC].sel(ring=k)),
-            "file": "worst_ring.toml",
+        "jam": {
+            "count": jam.count,
+            "rings": jam.total,
+            "probability": jam.estimate,
+            "lower": jam.lower,
+            "upper": jam.upper,
+            "first_ring": int(jammed[0]) if jammed.size else None,
+            "file": "jammed_ring.toml" if jammed.size else None,
+            "meaning": "a pin overlaps the disc at every rotation (the pins jam the disc): "
+            "the ring cannot be assembled; its metrics are NaN and it counts as exceeding",
         },
+        "worst_ring": (
+            None
+            if k is None
+            else {
+                "ring": k,
+                STRESS_METRIC: float(ds[STRESS_METRIC].sel(ring=k)),
+                "file": "worst_ring.toml",
+            }
+        ),
         "overlap_rings": int(np.count_nonzero(ds["overlap"].values)) if "overlap" in ds else None,
         "methods": {
             "percentile": "linear interpolation between order statistics (numpy, type 7)",
@@ -407,16 +442,30 @@ def write_tolerance(result: ToleranceResult, out: Path) -> list[Path]:
         write_json(out / "tolerance_summary.json", result.summary),
     ]
     k = worst_ring(ds)
-    note = (
-        f"Worst ring of the tolerance study {study.title!r} ({study.path.name}): ring {k} of "
-        f"seed {spec.seed},\npeak tooth contact stress "
-        f"{float(ds[STRESS_METRIC].sel(ring=k)):.6g} MPa. "
-        "Reproduce with: cyclomesh run worst_ring.toml --out DIR"
-    )
-    text = worst_ring_study(
-        result.model, study.base.model_dump(), k, f"{study.title}: worst ring {k}", note
-    )
-    files.append(write_text(out / "worst_ring.toml", text))
+    if k is not None:
+        note = (
+            f"Worst ring of the tolerance study {study.title!r} ({study.path.name}): ring {k} "
+            f"of seed {spec.seed},\npeak tooth contact stress "
+            f"{float(ds[STRESS_METRIC].sel(ring=k)):.6g} MPa. "
+            "Reproduce with: cyclomesh run worst_ring.toml --out DIR"
+        )
+        text = worst_ring_study(
+            result.model, study.base.model_dump(), k, f"{study.title}: worst ring {k}", note
+        )
+        files.append(write_text(out / "worst_ring.toml", text))
+    jammed = jammed_rings(ds)
+    if jammed.size:
+        j = int(jammed[0])
+        note = (
+            f"First ring of the tolerance study {study.title!r} ({study.path.name}) whose "
+            f"errors jam the disc: ring {j} of seed {spec.seed} ({jammed.size} of "
+            f"{ds.sizes['ring']} rings jam).\n"
+            "cyclomesh run jammed_ring.toml refuses it, naming the pin that overlaps the disc."
+        )
+        text = worst_ring_study(
+            result.model, study.base.model_dump(), j, f"{study.title}: jammed ring {j}", note
+        )
+        files.append(write_text(out / "jammed_ring.toml", text))
     return files
 
 
@@ -470,21 +519,39 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
             f"{_fmt(p['estimate'])} [{_fmt(p['lower'])}, {_fmt(p['upper'])}]"
             for p in s["percentiles"]
         ]
-        m = METRICS.get(name)
+        m = METRICS.get(name) or DRIVE_METRICS.get(name)
         label = name if m is None else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
         rows.append([label, _fmt(s["mean"]), _fmt(s["std"]), *pct])
     header = ["metric", "mean", "std"] + [f"P{p:g} [{conf:.0%} CI]" for p in stats["percentiles"]]
     ex = stats["exceedance"][STRESS_METRIC]
     worst = stats["worst_ring"]
+    jam = stats["jam"]
     from cyclomesh.studies.run import description_html
 
+    worst_text = (
+        "every ring jams the disc"
+        if worst is None
+        else f"Worst ring: {worst['ring']} ({worst[STRESS_METRIC]:.5g} MPa), written to "
+        f"<code>{html.escape(worst['file'])}</code>"
+    )
+    jam_text = (
+        f" Probability that the pins jam the disc (a pin overlaps it at every rotation): "
+        f"<b>{jam['probability']:.4g}</b> ({jam['count']} of {jam['rings']} rings; "
+        f"{conf:.0%} Clopper–Pearson interval [{jam['lower']:.4g}, {jam['upper']:.4g}]); "
+        + (
+            f"first jammed ring {jam['first_ring']} written to "
+            f"<code>{html.escape(jam['file'])}</code>; jammed rings count as exceeding and "
+            "are left out of the statistics below."
+            if jam["count"]
+            else "no ring jams."
+        )
+    )
     text = description_html(result.study) + (
         f"<p>{stats['rings']} rings, seed {stats['seed']}. Probability that the peak tooth "
         f"contact stress exceeds {stats['allowable_contact_stress_mpa']:g} MPa: "
         f"<b>{ex['probability']:.4g}</b> ({ex['count']} of {ex['rings']} rings; {conf:.0%} "
-        f"Clopper–Pearson interval [{ex['lower']:.4g}, {ex['upper']:.4g}]). Worst ring: "
-        f"{worst['ring']} ({worst[STRESS_METRIC]:.5g} MPa), written to "
-        f"<code>{html.escape(worst['file'])}</code>.</p>"
+        f"Clopper–Pearson interval [{ex['lower']:.4g}, {ex['upper']:.4g}]).{jam_text} "
+        f"{worst_text}.</p>"
         + table_html(header, rows)
         + "<p>Methods: "
         + html.escape("; ".join(f"{k}: {v}" for k, v in stats["methods"].items()))

@@ -67,6 +67,9 @@ MAX_CANDIDATES = 100_000
 MAX_RINGS = 10_000_000
 """Most rings of a tolerance study (or a robust design map)."""
 
+MAX_SEED = 2**63 - 1
+"""Largest random seed: it is stored as a signed 64-bit NetCDF attribute."""
+
 MAX_SOLVED_PIN_STEPS = 2e10
 """Most pin-steps (one pin at one crank angle) a study solves: about an hour on a few
 cores. ``--no-work-limit`` lifts it."""

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -133,25 +134,32 @@ def read_csv_table(
     return where, header, rows()
 
 
+_DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?", re.ASCII)
+"""A plain decimal number (optional exponent): no digit separators ``1_0``, no ``inf``,
+``nan`` or hexadecimal, which Python's ``float``/``int`` would also read."""
+_INTEGER = re.compile(r"[+-]?\d+", re.ASCII)
+
+
 def number_cell(where: str, line: int, name: str, cell: str) -> float:
-    """The finite number in a CSV cell, else a one-line StudyError naming the line."""
+    """The finite plain decimal number in a CSV cell, else a one-line StudyError naming
+    the line."""
     cell = cell.strip()
-    try:
-        value = float(cell)
-    except ValueError:
-        value = math.nan
+    value = float(cell) if _DECIMAL.fullmatch(cell) else math.nan
     if not math.isfinite(value):
-        raise StudyError(f"{where} line {line}: {name} {cell!r} is not a finite number")
+        raise StudyError(
+            f"{where} line {line}: {name} {cell!r} is not a finite number (write plain "
+            "decimals such as -1.5 or 2e-3)"
+        )
     return value
 
 
 def integer_cell(where: str, line: int, name: str, cell: str, stop: int) -> int:
-    """The whole number 1 … ``stop`` in a CSV cell, else a one-line StudyError."""
+    """The whole number 1 … ``stop`` (plain digits) in a CSV cell, else a one-line
+    StudyError."""
     cell = cell.strip()
-    try:
-        value = int(cell)
-    except ValueError:
-        raise StudyError(f"{where} line {line}: {name} {cell!r} is not an integer") from None
+    if not _INTEGER.fullmatch(cell):
+        raise StudyError(f"{where} line {line}: {name} {cell!r} is not an integer")
+    value = int(cell)
     if not 1 <= value <= stop:
         raise StudyError(f"{where} line {line}: {name} {value} is not in 1..{stop}")
     return value

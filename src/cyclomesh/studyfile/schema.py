@@ -84,6 +84,7 @@ from cyclomesh.studyfile.limits import (
     MAX_DISCS,
     MAX_PINS,
     MAX_RINGS,
+    MAX_SEED,
     MAX_STIFFNESS_POINTS,
     MAX_STUDY_FILE_BYTES,
     MIN_CRANK_STEP_DEG,
@@ -602,7 +603,7 @@ class RandomErrorsSection(_Section):
     others' draws unchanged.
     """
 
-    seed: int = Field(ge=0, description="seed of numpy.random.default_rng")
+    seed: int = Field(ge=0, le=MAX_SEED, description="seed of numpy.random.default_rng")
     radial_um: float = Field(0.0, ge=0, description="half-range of εa,i [µm]")
     angular_urad: float = Field(0.0, ge=0, description="half-range of εψ,i [µrad]")
     pin_radius_um: float = Field(0.0, ge=0, description="half-range of ερ,i [µm]")
@@ -818,7 +819,7 @@ class ToleranceSection(_Section):
     ``[errors]``.
     """
 
-    seed: int = Field(ge=0, description="ring k's errors depend only on (seed, k)")
+    seed: int = Field(ge=0, le=MAX_SEED, description="ring k's errors depend only on (seed, k)")
     rings: int = Field(
         1000, ge=1, le=MAX_RINGS, description="how many rings to draw (--rings overrides)"
     )
@@ -906,6 +907,15 @@ class RangeSection(_Section):
     start: float = Field(description="first value [unit of the key]")
     stop: float = Field(description="last value, included [unit of the key]")
     points: int = Field(ge=1, le=1001, description="number of values")
+
+    @model_validator(mode="after")
+    def _distinct(self) -> RangeSection:
+        if self.points > 1 and self.start == self.stop:
+            raise ValueError(
+                f"start = stop = {self.start:g} with points = {self.points}: the values "
+                "repeat; give a stop other than the start, or points = 1"
+            )
+        return self
 
     def values(self) -> NDArray:
         """The grid values [unit of the key]."""
@@ -1243,11 +1253,20 @@ class CaseSpec(_Section):
             )
             errors.ring_shape(design.pins)
             check_physical(design, modification, errors)
-            check_profile(design, modification)
+            try:
+                with np.errstate(over="ignore", invalid="ignore"):  # huge tables: inf, refused
+                    check_profile(design, modification)
+            except DesignError as exc:
+                if m.profile_file is None:
+                    raise
+                what = str(exc).removeprefix("profile deviation: ")
+                raise DesignError(f"modification.profile_file {m.profile_file}: {what}") from None
             crank_holes = d.disc.to_core()
             if crank_holes is not None:
                 crank_holes.check_fits(design)
             stage = None if self.stage is None else self.stage.to_core(crank_holes, d.discs)
+            if stage is not None:
+                stage.check_fits(design, d.discs)
         except DesignError as exc:
             raise StudyError(f"{self.label}: {exc}") from None
         if stage is not None and self.analysis.disc_body != "rigid":
@@ -1361,6 +1380,41 @@ def folder_name(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", name).strip("._-")
 
 
+def _toml_error(text: str, exc: Exception) -> str:
+    """``invalid TOML: ...``, naming the key (and its table) of a key or table given
+    twice, which tomllib reports by line and column only."""
+    message = str(exc)
+    where = re.search(r"\(at line (\d+), column \d+\)", message)
+    twice = any(
+        what in message
+        for what in ("Cannot overwrite a value", "Cannot declare", "Cannot mutate immutable")
+    )
+    if not (where and twice):
+        return f"invalid TOML: {message}"
+    number = int(where.group(1))
+    lines = text.splitlines()
+    line = lines[number - 1].strip() if number <= len(lines) else ""
+    header = re.match(r"^\[\[?\s*([^\]]+?)\s*\]\]?", line)
+    if header:
+        return (
+            f"table [{header.group(1)}] declared twice (line {number}): "
+            "give each table once, with all its keys"
+        )
+    table = ""
+    for previous in reversed(lines[: number - 1]):
+        found = re.match(r"^\s*(\[\[?)\s*([^\]]+?)\s*\]\]?", previous)
+        if found:
+            table = f"[[{found.group(2)}]]" if found.group(1) == "[[" else found.group(2)
+            break
+    key = line.split("=", 1)[0].strip().strip('"')
+    dotted = key if not table or table.startswith("[[") else f"{table}.{key}"
+    within = f" of a {table} entry" if table.startswith("[[") else ""
+    return (
+        f"key {dotted}{within} given twice (line {number}, or set already by a table or "
+        "a dotted key above): give each key once"
+    )
+
+
 def load_study(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Study:
     """Read, merge and validate a study file.
 
@@ -1391,7 +1445,7 @@ def load_study(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     except UnicodeDecodeError:
         raise StudyError(f"{path.name}: not a UTF-8 text file") from None
     except tomllib.TOMLDecodeError as exc:
-        raise StudyError(f"{path.name}: invalid TOML: {exc}") from None
+        raise StudyError(f"{path.name}: {_toml_error(text, exc)}") from None
     except RecursionError:
         raise StudyError(f"{path.name}: arrays or tables nested too deeply") from None
     overrides = dict(overrides or {})
@@ -1570,7 +1624,8 @@ def one_line(exc: ValidationError, model: type[BaseModel], prefix: str = "") -> 
         what = f"expected {_EXPECTED[kind]}, got {_show(value)}"
     elif kind in _BOUNDS:
         bound = next(iter(ctx.values()))
-        what = f"expected a number {_BOUNDS[kind]} {bound:g}, got {_show(value)}"
+        shown = f"{bound}" if isinstance(bound, int) else f"{bound:g}"
+        what = f"expected a number {_BOUNDS[kind]} {shown}, got {_show(value)}"
     elif kind == "finite_number":
         what = f"expected a finite number, got {_show(value)}"
     elif kind == "literal_error":

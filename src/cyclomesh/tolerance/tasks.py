@@ -181,14 +181,46 @@ def _by_blocks(start: int, stop: int, solve: Any, size: int) -> dict[str, NDArra
 
 @dataclass(frozen=True)
 class ToleranceTask:
-    """Chunk function: per-ring metrics of rings start .. stop − 1 at the stated tolerances."""
+    """Chunk function: per-ring metrics of rings start .. stop − 1 at the stated tolerances.
+
+    ``jammed`` (bool per ring): the ring's errors jam the disc (a pin overlaps it at every
+    rotation); its metrics are NaN (there is no contact to analyse). A batch with such a
+    ring is solved ring by ring, which gives the other rings the same bits.
+    """
 
     model: RingModel
 
     def _block(self, first: int, last: int) -> dict[str, NDArray[Any]]:
         drawn = self.model.draw(np.arange(first, last))
-        out = self.model.metrics(drawn)
+        try:
+            out = self.model.metrics(drawn)
+            out["jammed"] = np.zeros(drawn.rings.size, dtype=bool)
+        except DesignError:
+            out = self._one_by_one(drawn)
         out["ring"] = drawn.rings
+        return out
+
+    def _one_by_one(self, drawn: RingErrors) -> dict[str, NDArray[Any]]:
+        """Ring by ring (a ring's bits do not depend on its batch): a ring whose errors jam
+        the disc (a pin overlaps it at every rotation, :class:`DesignError`) is an outcome,
+        ``jammed`` = True with NaN metrics; every other error still names its ring."""
+        parts: list[dict[str, NDArray[Any]] | None] = []
+        for i in range(drawn.rings.size):
+            try:
+                parts.append(self.model.metrics(drawn.take([i])))
+            except DesignError:
+                parts.append(None)
+        solved = [p for p in parts if p is not None]
+        # the metric names and shapes of a ring that runs (the base case's own if none:
+        # it is checked to run before the study starts)
+        like = solved[0] if solved else self.model.metrics(drawn.take([0]).scaled(np.zeros(1)))
+        out = {}
+        for name, ref in like.items():
+            filler = (
+                np.full_like(ref, False) if ref.dtype == np.bool_ else np.full(ref.shape, np.nan)
+            )
+            out[name] = np.concatenate([filler if p is None else p[name] for p in parts])
+        out["jammed"] = np.array([p is None for p in parts])
         return out
 
     def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
