@@ -351,7 +351,7 @@ def test_tolerance_figures_get_reduced_statistics_only():
             {
                 STRESS_METRIC: ("ring", rng.normal(1800, 100, n)),
                 "te_pp_arcsec": ("ring", rng.normal(10, 1, n)),
-                "contacts_min": ("ring", rng.integers(5, 9, n)),
+                "min_contacts": ("ring", rng.integers(5, 9, n)),
             },
             coords={"ring": np.arange(n)},
         )

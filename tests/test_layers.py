@@ -17,13 +17,14 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "cyclomesh"
 LAYERS = {
     "exceptions": 0,
     "units": 0,
+    "quantities": 0,  # the registry of result quantities (names, units, labels)
     "execution": 0,  # generic: chunks of work on this process, local processes or Dask
     "core": 1,  # the paper's model, NumPy/SciPy only
     "drive": 2,
     "fe": 3,
     "stage": 3,
     "designspace": 3,
-    "results": 4,  # labelled results (xarray, imported where a Dataset is built)
+    "results": 4,  # labelled results (xarray, imported where a Dataset is built); the chain
     "tolerance": 4,  # beside results: its chunk functions reduce rings to the metrics table
     "studyfile": 5,
     "output": 6,
@@ -31,6 +32,7 @@ LAYERS = {
     "publish": 6,
     "studies": 7,
     "cli": 8,
+    "explore": 8,  # the explorer in the browser: a front end beside the command line
     "__main__": 8,
     "__init__": 8,
 }
@@ -137,3 +139,56 @@ def test_no_import_cycle():
         if node not in state:
             visit(node, [node])
     assert not cycles, cycles
+
+
+ALLOCATOR_CALLERS = {"cyclomesh.cli", "cyclomesh.execution.runtime", "cyclomesh.execution.backends"}
+"""Where the process-wide allocator may be tuned: the command's entry and the worker
+initializers (local processes, Dask workers); never inside a library call."""
+
+
+@pytest.mark.parametrize("module", sorted(MODULES))
+def test_no_library_call_changes_the_process(module):
+    """No ``sys.modules`` assignment, no write into another library's private state (a
+    private attribute of an imported module or object, or of an object the module does not
+    define), and ``tune_allocator()`` called only at process entry (issue 24)."""
+    source = MODULES[module].read_text()
+    tree = ast.parse(source, str(MODULES[module]))
+    imported = {
+        (alias.asname or alias.name).split(".")[0]
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Import | ast.ImportFrom)
+        for alias in node.names
+    }
+    wrong = []
+    for node in ast.walk(tree):
+        targets = []
+        if isinstance(node, ast.Assign | ast.Delete):
+            targets = node.targets
+        elif isinstance(node, ast.AugAssign | ast.AnnAssign):
+            targets = [node.target]
+        for target in targets:
+            if not isinstance(target, ast.Attribute | ast.Subscript):
+                continue
+            root = target
+            while isinstance(root, ast.Attribute | ast.Subscript):
+                root = root.value
+            text = ast.unparse(target)
+            name = root.id if isinstance(root, ast.Name) else ""
+            entry = module.startswith("cyclomesh.cli")  # the process entry may set os.environ
+            private = any(part.startswith("_") for part in text.split(".")[1:])
+            if text.startswith("sys.modules") or (name in imported and private and not entry):
+                wrong.append(f"line {node.lineno}: {text} written")
+            elif (
+                isinstance(target, ast.Attribute)
+                and target.attr.startswith("_")
+                and name not in ("self", "cls")
+                and f"{target.attr}:" not in source
+            ):
+                wrong.append(f"line {node.lineno}: private state {text} written")
+        if (
+            isinstance(node, ast.Call)
+            and ast.unparse(node.func).endswith("tune_allocator")
+            and module not in ALLOCATOR_CALLERS
+        ):
+            wrong.append(f"line {node.lineno}: tune_allocator() in a library call")
+    assert not wrong, f"{module}: {wrong}"

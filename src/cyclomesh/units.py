@@ -9,7 +9,19 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["RAD_PER_ARCSEC", "RAD_PER_ARCMIN", "ARCSEC_PER_RAD"]
+__all__ = [
+    "M_PER_MM",
+    "M_PER_UM",
+    "RAD_PER_URAD",
+    "PA_PER_GPA",
+    "RAD_PER_ARCSEC",
+    "RAD_PER_ARCMIN",
+    "ARCSEC_PER_RAD",
+    "DEG_PER_RAD",
+    "MPA_PER_PA",
+    "MM_PER_M",
+    "UM_PER_M",
+]
 
 RAD_PER_ARCSEC = math.pi / (180.0 * 3600.0)
 """One arcsecond in radians."""
@@ -19,3 +31,27 @@ RAD_PER_ARCMIN = math.pi / (180.0 * 60.0)
 
 ARCSEC_PER_RAD = 1.0 / RAD_PER_ARCSEC
 """One radian in arcseconds (= 180/π · 3600 to the last bit)."""
+
+DEG_PER_RAD = 180.0 / math.pi
+"""One radian in degrees (the value of ``180.0 / np.pi``, bit for bit)."""
+
+MPA_PER_PA = 1e-6
+"""One pascal in megapascals."""
+
+MM_PER_M = 1e3
+"""One metre in millimetres."""
+
+UM_PER_M = 1e6
+"""One metre in micrometres."""
+
+M_PER_MM = 1e-3
+"""One millimetre in metres (study-file keys ``_mm``)."""
+
+M_PER_UM = 1e-6
+"""One micrometre in metres (study-file keys ``_um``)."""
+
+RAD_PER_URAD = 1e-6
+"""One microradian in radians (study-file keys ``_urad``)."""
+
+PA_PER_GPA = 1e9
+"""One gigapascal in pascals (study-file keys ``_gpa``)."""

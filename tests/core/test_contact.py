@@ -135,3 +135,28 @@ def test_two_teeth_the_unloaded_flank_is_at_most_a_pitch_behind(eccentricity_mm)
     gap = (geo.rotation - geo.reverse_rotation)[ok]
     pitch = 2.0 * np.pi / design.teeth
     assert np.all(gap > -1e-9) and np.all(gap <= pitch + 1e-9)
+
+
+def test_the_contact_normal_is_a_unit_vector_whose_line_through_the_pin_gives_the_moment_arm():
+    """The line of action (through the pin centre C_i along n, Eq. 10 of [1]) passes at the
+    moment arm l_i of Eq. 17 from the disc centre, with errors and a stack of two discs."""
+    from cyclomesh.core.contact import contact_normal, contact_tangent
+
+    errors = random_errors(3)
+    phi = np.deg2rad(np.arange(0.0, 30.0, 2.9))
+    crank = phi[:, None] + np.array([0.0, np.pi])[None, :]  # two discs, (A, 2)
+    geo = unloaded_contact(TABLE1, TPM, errors, crank.ravel())
+    shape = (phi.size, 2, TABLE1.pins)
+    u, r_pin = geo.profile_angle.reshape(shape), geo.pin_radius.reshape(shape)
+    nx, ny = contact_normal(TABLE1, TPM, errors, crank, u, r_pin)
+    np.testing.assert_allclose(np.hypot(nx, ny), 1.0, rtol=0, atol=1e-15)
+    tx, ty = contact_tangent(nx, ny)
+    np.testing.assert_allclose(nx * tx + ny * ty, 0.0, atol=1e-15)
+    ang = np.arange(TABLE1.pins) * PSI + errors.angular
+    r = TABLE1.pin_circle_radius + errors.radial
+    ecc = TABLE1.eccentricity + errors.eccentricity
+    wx = r * np.cos(ang) - ecc * np.cos(crank)[..., None]
+    wy = r * np.sin(ang) - ecc * np.sin(crank)[..., None]
+    arm = geo.moment_arm.reshape(shape)
+    reach = np.isfinite(geo.rotation.reshape(shape))
+    np.testing.assert_allclose(np.abs(wx * ny - wy * nx)[reach], arm[reach], rtol=0, atol=1e-12)

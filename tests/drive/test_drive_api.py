@@ -38,7 +38,7 @@ def test_analyse_torque_list_and_stack_dimensions():
     assert ds["torque_share"].dims == ("torque", "crank_angle", "disc")
     assert ds["transmission_error"].dims == ("torque", "crank_angle")
     assert ds["play"].dims == ("crank_angle",)
-    assert ds["torque"].attrs["units"] == "N m" and list(ds["disc"].values) == [1, 2]
+    assert ds["torque"].attrs["units"] == "N·m" and list(ds["disc"].values) == [1, 2]
     te = ds["transmission_error"]
     assert np.all(te.sel(torque=-250.0) > 0) and np.all(te.sel(torque=250.0) < 0)
     total = ds["torque_share"].sum("disc").transpose("torque", "crank_angle")
@@ -66,7 +66,7 @@ def test_stiffness_dataset_and_summary():
     assert ds["rotation"].dims == ("torque", "crank_angle")
     assert ds["rotation"].attrs["units"] == "arcsec"
     assert ds["lost_motion"].attrs["units"] == "arcmin"
-    assert ds["torsional_rigidity"].attrs["units"] == "N m/arcmin"
+    assert ds["torsional_rigidity"].attrs["units"] == "N·m/arcmin"
     assert 0.0 not in ds["torque"].values
     assert np.all(ds["rotation"].sel(torque=250.0) < 0)
     summary = summarize_stiffness(ds)

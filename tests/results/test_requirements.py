@@ -24,7 +24,7 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 def test_margins_verdicts_and_what_is_not_computed():
     summary = {
         "max_contact_stress_mpa": [1200.0, 1600.0],  # a torque list: the worst counts
-        "contacts_min": [7, 5],
+        "min_contacts": [7, 5],
         "te_pp_arcsec": 3.0,
         "play_arcsec_max": 45.0,
         "lost_motion_arcmin_max": 0.5,
@@ -153,7 +153,7 @@ def test_tolerance_study_checks_at_the_stated_percentile(tmp_path):
     checks = result.summary["checks"]
     rows = {r["check"]: r for r in checks["rows"]}
     te = result.rings["te_pp_arcsec"].values
-    contacts = result.rings["contacts_min"].values
+    contacts = result.rings["min_contacts"].values
     assert rows["max_te_pp_arcsec"]["value"] == pytest.approx(np.percentile(te, 90))
     assert rows["min_contacts"]["value"] == pytest.approx(np.percentile(contacts, 10))
     assert "P90 of 12 rings" in checks["values"]

@@ -11,6 +11,7 @@ from cyclomesh.stage import RollerSet, StageDesign, solve_stage
 from cyclomesh.stage import solve as stage_solve
 from cyclomesh.stage.carrier import Carrier, pillar_stiffness
 from cyclomesh.stage.crankshaft import Crankshaft, beam_compliance, shear_coefficient
+from cyclomesh.stage.equilibrium import Supports
 
 RV40 = PairDesign(
     pins=40,
@@ -70,17 +71,13 @@ def _solve(stage, torque=(-412.0, 412.0), phi=PHI):
     return solve_stage(RV40, stage, MOD, None, torque, phi, discs=2)
 
 
-def test_general_assembly_reproduces_the_stage():
+def test_general_assembly_reproduces_the_stage(monkeypatch):
     """The assembly of crankshafts and carrier, with both rigid, is today's stage."""
     plain = StageDesign(HOLES, ROLLERS)
     ref = _solve(plain)
-    rigid = stage_solve._Supports(stiffness=None, fraction=np.array([0.4, 0.6]), carrier=None)
-    orig = stage_solve._supports
-    try:
-        stage_solve._supports = lambda stage, discs, order: rigid
-        got = _solve(plain)
-    finally:
-        stage_solve._supports = orig
+    rigid = Supports(stiffness=None, fraction=np.array([0.4, 0.6]), carrier=None)
+    monkeypatch.setattr(stage_solve, "stage_supports", lambda stage, discs, order: rigid)
+    got = _solve(plain)
     scale = np.max(np.abs(ref.transmission_error))
     assert np.max(np.abs(got.transmission_error - ref.transmission_error)) <= 1e-10 * scale
     assert np.max(np.abs(got.bearing_load - ref.bearing_load)) <= 1e-9 * np.max(ref.bearing_load)

@@ -101,8 +101,8 @@ def test_summary_matches_the_netcdf_results(table2):
         }
         for key, value in expected.items():
             assert record[key] == pytest.approx(value, rel=1e-12), key
-        assert record["contacts_min"] == int(ds["contacts"].min())
-        assert record["contacts_max"] == int(ds["contacts"].max())
+        assert record["min_contacts"] == int(ds["contacts"].min())
+        assert record["max_contacts"] == int(ds["contacts"].max())
         recomputed = summarize(ds)
         assert record["gear_ratio_ripple_pct"] == pytest.approx(
             float(recomputed["gear_ratio_ripple_pct"]), rel=1e-12
@@ -125,7 +125,7 @@ def test_table2_behaves_like_the_paper(table2):
         assert ds.attrs["modification_pin_radius_um"] == 8.0
     # TPM cuts the number of loaded pins and raises the peak load and stress (Section 4.1)
     for tpm, plain in (("Case 1", "Case 3"), ("Case 2", "Case 4")):
-        assert cases[tpm]["contacts_max"] < cases[plain]["contacts_min"]
+        assert cases[tpm]["max_contacts"] < cases[plain]["min_contacts"]
         assert cases[tpm]["max_pin_load_n"] > cases[plain]["max_pin_load_n"]
         assert cases[tpm]["max_contact_stress_mpa"] > cases[plain]["max_contact_stress_mpa"]
 
@@ -242,7 +242,7 @@ def test_section42_random_errors_and_their_figure(section42):
         assert ds["pin_radial_error"].attrs["units"] == "um"
     # random pin errors make the contact irregular and raise the peak stress (Section 4.2)
     assert cases["Case 3"]["max_contact_stress_mpa"] > cases["Case 2"]["max_contact_stress_mpa"]
-    assert cases["Case 1"]["contacts_min"] > cases["Case 2"]["contacts_max"]
+    assert cases["Case 1"]["min_contacts"] > cases["Case 2"]["max_contacts"]
     assert (section42 / "figures" / "pin_errors.png").exists()
     assert not (section42 / "figures" / "pin_errors.svg").exists()  # PNG only by default
     assert not (section42 / "Case_3" / "results.csv").exists()  # the pin CSV is opt-in

@@ -84,7 +84,7 @@ def test_design_writes_the_map_summary_figures_report_and_best(tmp_path):
         optimum["max_contact_stress_mpa"], rel=1e-12
     )
     assert case["te_pp_arcsec"] == pytest.approx(optimum["te_pp_arcsec"], rel=1e-9, abs=1e-9)
-    assert case["contacts_min"] == optimum["min_contacts"]
+    assert case["min_contacts"] == optimum["min_contacts"]
 
 
 def test_robust_design_is_the_same_on_one_and_two_processes(tmp_path):

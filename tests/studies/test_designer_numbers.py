@@ -29,9 +29,18 @@ def headline(law: str, step_deg: float) -> np.ndarray:
     phi = np.deg2rad(np.arange(0.0, 9.0, step_deg))
     r = solve_ltca(TABLE1, TPM, None, 250.0, phi, contact_law=law)
     m = summary_metrics(
-        r.transmission_error / ARCSEC, r.gear_ratio, r.contacts, r.pin_load, r.groove_load,
-        r.contact_stress * 1e-6, r.groove_stress * 1e-6, r.overlap / ARCSEC, TABLE1.teeth,
-    )  # fmt: skip
+        {
+            "transmission_error": r.transmission_error / ARCSEC,
+            "gear_ratio": r.gear_ratio,
+            "contacts": r.contacts,
+            "pin_load": r.pin_load,
+            "groove_load": r.groove_load,
+            "contact_stress": r.contact_stress * 1e-6,
+            "groove_stress": r.groove_stress * 1e-6,
+            "overlap": r.overlap / ARCSEC,
+        },
+        TABLE1.teeth,
+    )
     return np.array(
         [m["gear_ratio_ripple_pct"], m["te_pp_arcsec"], m["max_contact_stress_mpa"]], float
     )
@@ -266,12 +275,12 @@ def test_two_disc_tolerance_study_reports_the_torque_split(tmp_path):
     result = compute_tolerance(load_study(two_disc_study(tmp_path, 4.0, 50.0)))
     rings = result.rings
     assert result.summary["discs"] == 2
-    low, high = rings["torque_share_min_nm"].values, rings["torque_share_max_nm"].values
+    low, high = rings["min_torque_share_nm"].values, rings["max_torque_share_nm"].values
     assert np.all(low < 125.0 - 1.0) and np.all(high > 125.0 + 1.0)  # not T/2
     assert np.all(low + high < 250.0 + 1e-6 + (high - low))  # shares of one total
-    for name in ("torque_share_min_nm", "torque_share_max_nm", "max_mesh_force_n"):
+    for name in ("min_torque_share_nm", "max_torque_share_nm", "max_mesh_force_n"):
         assert name in result.summary["metrics"]
-        assert rings[name].attrs["units"] in ("N m", "N")
+        assert rings[name].attrs["units"] in ("N·m", "N")
     # the ring as a study file reruns (cyclomesh run) to the same numbers
     from cyclomesh.studies.run import compute_run
     from cyclomesh.studies.tolerance import worst_ring, worst_ring_study
@@ -280,7 +289,7 @@ def test_two_disc_tolerance_study_reports_the_torque_split(tmp_path):
     text = worst_ring_study(result.model, result.study.base.model_dump(), k, "worst")
     run = compute_run(load_study(study_file(tmp_path, text, "worst.toml")))
     record = next(iter(run.summaries.values()))
-    for name in ("max_contact_stress_mpa", "torque_share_min_nm", "torque_share_max_nm",
+    for name in ("max_contact_stress_mpa", "min_torque_share_nm", "max_torque_share_nm",
                  "max_mesh_force_n"):  # fmt: skip
         assert record[name] == float(rings[name].sel(ring=k)), name
 
@@ -289,8 +298,8 @@ def test_two_disc_tolerance_without_errors_shares_half_each(tmp_path):
     from cyclomesh.studies.tolerance import compute_tolerance
 
     result = compute_tolerance(load_study(two_disc_study(tmp_path, 0.0, 0.0)))
-    np.testing.assert_allclose(result.rings["torque_share_min_nm"].values, 125.0, rtol=1e-9)
-    np.testing.assert_allclose(result.rings["torque_share_max_nm"].values, 125.0, rtol=1e-9)
+    np.testing.assert_allclose(result.rings["min_torque_share_nm"].values, 125.0, rtol=1e-9)
+    np.testing.assert_allclose(result.rings["max_torque_share_nm"].values, 125.0, rtol=1e-9)
 
 
 def test_two_disc_allocation_runs_on_the_stack(tmp_path):
@@ -303,12 +312,12 @@ def test_two_disc_allocation_runs_on_the_stack(tmp_path):
     assert 0.0 <= result.allocation.factor <= 1.5
     # the split and the mesh force at the stated tolerances, per ring and as statistics
     stats = result.record["at_stated_tolerances"]
-    assert stats["torque_share_min_nm"]["max"] < 125.0 < stats["torque_share_max_nm"]["min"]
+    assert stats["min_torque_share_nm"]["max"] < 125.0 < stats["max_torque_share_nm"]["min"]
     assert stats["max_mesh_force_n"]["unit"] == "N"
     from cyclomesh.studies.tolerance import compute_tolerance
 
     same = compute_tolerance(study).rings  # the same rings, drawn once each
-    for name in ("torque_share_max_nm", "max_mesh_force_n", "max_contact_stress_mpa"):
+    for name in ("max_torque_share_nm", "max_mesh_force_n", "max_contact_stress_mpa"):
         np.testing.assert_array_equal(result.rings[name].values, same[name].values)
 
 

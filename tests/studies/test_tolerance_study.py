@@ -186,7 +186,7 @@ def test_worst_ring_round_trip_through_cyclomesh_run(cli, tmp_path):
     # bit for bit: the core's result for a ring does not depend on its batch
     assert case["max_contact_stress_mpa"] == worst["max_contact_stress_mpa"]
     ring = rings_nc(out).sel(ring=worst["ring"])
-    for name in ("te_pp_arcsec", "max_pin_load_n", "gear_ratio_ripple_pct", "contacts_min"):
+    for name in ("te_pp_arcsec", "max_pin_load_n", "gear_ratio_ripple_pct", "min_contacts"):
         assert case[name] == float(ring[name]), name
 
 

@@ -4,7 +4,8 @@ per kind of study, tables out.
 ``cyclomesh run STUDY.toml --out DIR`` runs the cases of a study file, ``stiffness`` the
 torsion curve of every case, ``tolerance`` and ``allocate`` its ``[tolerance]`` section,
 ``design`` its ``[design_space]``, ``fe`` the finite-element check, ``export`` writes the
-disc profile for manufacturing and ``check`` validates every section without running
+disc profile for manufacturing, ``explore`` serves the explorer in the browser
+(``docs/explore.md``) and ``check`` validates every section without running
 anything (``docs/study-files.md``, ``docs/pipeline.md``). Every refused input comes out
 as ``error: <one line>`` on stderr with exit status 2 (:mod:`cyclomesh.cli.errors`);
 options and the progress display are in :mod:`cyclomesh.cli.options`, the tables in
@@ -52,9 +53,9 @@ from cyclomesh.cli.options import (
     show_version,
     stderr_console,
     use_cache_dir,
-    without_dask,
 )
 from cyclomesh.exceptions import StudyError
+from cyclomesh.explore.options import NoBrowserOption, PortOption
 from cyclomesh.studies.preflight import preflight
 
 __all__ = [
@@ -130,7 +131,6 @@ def check(
 
 @app.command()
 @cli_errors()
-@without_dask
 def run(
     study: StudyArg,
     out: OutOption,
@@ -173,8 +173,10 @@ def export(
     Writes <case>/profile.dxf (polyline and splines, mm), profile.svg, profile.csv (points
     with outward unit normals) and export.json. Datum: disc centre, tooth space 1 on +x.
     """
-    from cyclomesh.output.export import export_study, parse_formats
-    from cyclomesh.output.folder import ResultFolder
+    from cyclomesh.output.export import parse_formats
+    from cyclomesh.publish.pipeline import OutputOptions
+    from cyclomesh.studies.execute import execute
+    from cyclomesh.studies.export import EXPORT
     from cyclomesh.studyfile import load_study
 
     formats = parse_formats(format)
@@ -184,18 +186,29 @@ def export(
         )
     loaded = load_study(study)
     preflight(loaded, "export", work=False)  # what check --kind export refuses
-    with ResultFolder(out, "export") as folder:  # locked; staged; summary.json written last
-        staged = export_study(loaded, folder.path, formats, chord_tolerance_um * 1e-6)
-    written = {case: {k: folder.final(p) for k, p in f.items()} for case, f in staged.items()}
+    result = execute(
+        EXPORT,
+        loaded,
+        out,
+        OutputOptions(figures=()),
+        formats=formats,
+        chord_tolerance=chord_tolerance_um * 1e-6,
+    )
     if not quiet:
+        from pathlib import Path
+
         from cyclomesh.publish.console import print_export
 
+        # the kind records the files relative to its (staged) folder: here in ``out``
+        written = {
+            case: {key: Path(out) / rel for key, rel in files.items()}
+            for case, files in result.written.items()
+        }
         print_export(written, chord_tolerance_um)
 
 
 @app.command()
 @cli_errors()
-@without_dask
 def stiffness(
     study: StudyArg,
     out: OutOption,
@@ -232,7 +245,6 @@ def stiffness(
 
 @app.command()
 @cli_errors()
-@without_dask
 def tolerance(
     study: TolStudyArg,
     out: OutOption,
@@ -277,7 +289,6 @@ def tolerance(
 
 @app.command()
 @cli_errors()
-@without_dask
 def allocate(
     study: TolStudyArg,
     out: OutOption,
@@ -331,7 +342,6 @@ def allocate(
 
 @app.command()
 @cli_errors()
-@without_dask
 def design(
     study: DesignStudyArg,
     out: OutOption,
@@ -414,3 +424,13 @@ def fe(
     )
     if not quiet:
         print_fe(result.summaries, out, result.checks)
+
+
+@app.command()
+@cli_errors()
+def explore(study: StudyArg, port: PortOption = 8050, no_browser: NoBrowserOption = False) -> None:
+    """Explore a study in the browser: change the modification, load or pin errors and see
+    loads, stresses and TE at once (needs the explore extra; docs/explore.md)."""
+    from cyclomesh.explore.app import serve
+
+    serve(study, port=port, open_browser=not no_browser, echo=typer.echo)

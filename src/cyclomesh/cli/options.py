@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -269,17 +268,3 @@ def show_version(value: bool) -> None:
 
         typer.echo(f"cyclomesh {version()}")
         raise typer.Exit()
-
-
-def without_dask(command: Callable[..., Any]) -> Callable[..., Any]:
-    """Run ``command`` with dask hidden from xarray
-    (:func:`cyclomesh.execution.runtime.hidden_dask`) unless it was given a ``scheduler``."""
-
-    @functools.wraps(command)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        from cyclomesh.execution.runtime import hidden_dask
-
-        with hidden_dask(kwargs.get("scheduler") is None):
-            return command(*args, **kwargs)
-
-    return wrapper

@@ -45,7 +45,13 @@ from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.core.profile import curvature_radius, deviated_geometry, generating_radii
 from cyclomesh.exceptions import ConvergenceError, DesignError
 
-__all__ = ["UnloadedContact", "unloaded_contact", "contact_phase"]
+__all__ = [
+    "UnloadedContact",
+    "unloaded_contact",
+    "contact_phase",
+    "contact_normal",
+    "contact_tangent",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -257,6 +263,87 @@ def unloaded_contact(
         pin_radius=np.broadcast_to(r_pin, w2.shape),
         residual=residual,
     )
+
+
+def contact_normal(
+    design: PairDesign,
+    modification: Modification | None,
+    errors: PinErrors | None,
+    crank_angles: ArrayLike,
+    profile_angle: FloatArray,
+    pin_radius: FloatArray,
+) -> tuple[FloatArray, FloatArray]:
+    """Outward flank normal n at every contact, in the fixed frame (unit vector).
+
+    The pin presses on the disc along −n (the common normal through the pin centre C_i,
+    Eq. 10 of [1]); a counter-clockwise disc rotation θ closes the gap by l_i·θ (the
+    moment arm of :class:`UnloadedContact`), a disc translation u by n·u. With w = C_i − O2
+    the normal makes the angle θ_n = arg n − arg P_s with w, both taken in the tooth frame
+    of the contact (module doc), so n = (cos(arg w + θ_n), sin(arg w + θ_n)).
+
+    The normal is that of the undeviated cycloid at the contact's generating angle
+    (Eqs. 1–2 of [1]); a tabulated profile deviation (:mod:`cyclomesh.core.profile`) moves
+    the contact point, and through it φ1, but its own slope does not enter here.
+
+    Parameters
+    ----------
+    design : PairDesign
+    modification : Modification or None
+        Δa and Δρ (Eq. 3) set the generating radii.
+    errors : PinErrors or None
+        Pin position and eccentricity errors (Eq. 5); leading axes are rings.
+    crank_angles : array_like
+        Eccentric angle of the disc at every contact [rad], shape ``(A,)`` or ``(A, N)``
+        (N discs of a stack, each at its own eccentric angle).
+    profile_angle, pin_radius : ndarray
+        φ1 [rad] and the actual pin radius [m] of :class:`UnloadedContact`, shape
+        ``(..., A, n1)`` or ``(..., A, N, n1)``.
+
+    Returns
+    -------
+    nx, ny : ndarray
+        Components of the unit normal, shape of ``profile_angle``.
+    """
+    modification = modification or Modification()
+    errors = errors or PinErrors()
+    n1 = design.pins
+    ring_shape = errors.ring_shape(n1)
+    a, rho_gen = generating_radii(design, modification)
+    e = design.eccentricity
+    crank = np.asarray(crank_angles, dtype=float)[..., None]  # (A, [N,] 1)
+    lead = (1,) * (crank.ndim - 1)
+
+    def per_pin(x: ArrayLike) -> FloatArray:  # (..., 1, [1,] n1)
+        return np.broadcast_to(np.asarray(x, float), (*ring_shape, n1)).reshape(
+            *ring_shape, *lead, n1
+        )
+
+    pin_angle = np.arange(n1) * design.pitch + per_pin(errors.angular)
+    pin_r = design.pin_circle_radius + per_pin(errors.radial)
+    ecc = e + np.broadcast_to(errors.eccentricity, ring_shape).reshape(*ring_shape, *lead, 1)
+    arg_w = np.arctan2(
+        pin_r * np.sin(pin_angle) - ecc * np.sin(crank),
+        pin_r * np.cos(pin_angle) - ecc * np.cos(crank),
+    )
+    # tooth frame of the contact: normal n and pin centre P_s (module doc)
+    u = profile_angle
+    c, sin_u = np.cos(u), np.sin(u)
+    d = np.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
+    nx, ny = (a - e * n1 * c) / d, -e * n1 * sin_u / d
+    s = pin_radius - rho_gen
+    zx, zy = a - e * c + s * nx, -e * sin_u + s * ny
+    angle = arg_w + np.arctan2(ny, nx) - np.arctan2(zy, zx)
+    return np.cos(angle), np.sin(angle)
+
+
+def contact_tangent(normal_x: FloatArray, normal_y: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Unit tangent t = ẑ × n of the flank at the contact, fixed frame.
+
+    With the outward normal n of :func:`contact_normal`, t points along the flank in the
+    counter-clockwise sense about the disc centre for a loaded-flank contact; a sliding
+    (friction) force on the disc is ±F_t·t.
+    """
+    return -normal_y, normal_x
 
 
 def _flank_phase(

@@ -13,34 +13,48 @@ References
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.core.case import (
+    Case,
+    Model,
+    check,
+    check_contact_law,
+    check_crank_angles,
+    check_disc_body,
+    check_pair,
+)
 from cyclomesh.core.contact import UnloadedContact, unloaded_contact
 from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
-from cyclomesh.core.hertz import (
-    CONTACT_LAWS,
-    compliance_coefficients,
-    effective_modulus,
-    max_pressure,
-    pin_groove_radius,
-    pin_tooth_radius,
+from cyclomesh.core.fields import (
+    CONTACT_LOAD_FRACTION,
+    contact_fields,
+    contact_stresses,
+    count_contacts,
 )
+from cyclomesh.core.hertz import compliance_coefficients
 from cyclomesh.core.loadsharing import share_load
-from cyclomesh.core.pair import Modification, PairDesign, PinErrors, check_physical
-from cyclomesh.core.profile import check_profile
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.core.transmission import gear_ratio, transmission_error
 from cyclomesh.exceptions import ConvergenceError, DesignError
 
 __all__ = [
     "LTCA",
     "solve_ltca",
+    "ltca",
     "rest_position",
     "check_disc_body",
+    "check_contact_law",
+    "check_crank_angles",
+    "check_pair",
+    "pin_compliance",
+    "locate_failure",
+    # re-exported from cyclomesh.core.case and cyclomesh.core.fields (issue 24)
     "count_contacts",
+    "contact_stresses",
     "CONTACT_LOAD_FRACTION",
 ]
 
@@ -98,13 +112,6 @@ class LTCA:
     gear_ratio: FloatArray
     contacts: NDArray[np.int64]
 
-
-CONTACT_LOAD_FRACTION = 1e-3
-"""A pin is counted in contact when its load exceeds this fraction of the largest pin load
-at the same crank angle (over all discs of a stack). Pins at a tip or a tooth-space bottom
-(moment arm ≈ 0) touch the disc but carry about 1e-8 of the peak load; 0.1 % leaves them
-out and no pin that carries load (the lightest loaded pins of the examples carry 0.3 % to
-5 % of the peak)."""
 
 CONDITIONED_ARM = 1e-4
 """Smallest moment arm [m] of a pin that can set the rest position of the disc."""
@@ -187,19 +194,26 @@ def solve_ltca(
     ConvergenceError
         If a solver fails; the message names the crank angle (and ring).
     """
-    modification = modification or Modification()
-    errors = errors or PinErrors()
-    if not (isinstance(torque, int | float) and math.isfinite(torque) and torque > 0):
-        raise DesignError(f"torque must be a positive number of N·m, got {torque!r}")
-    phi = check_crank_angles(crank_angles)
-    check_contact_law(contact_law)
-    body = check_disc_body(disc_body, contact_law, design)
-    ring_shape = check_pair(design, modification, errors)
+    return ltca(
+        Case(design, modification, errors, torque, crank_angles),
+        Model(contact_law, groove_deformation, disc_body),
+    )
 
+
+def ltca(case: Case, model: Model) -> LTCA:
+    """:func:`solve_ltca` of a :class:`~cyclomesh.core.case.Case` and a
+    :class:`~cyclomesh.core.case.Model` (one disc, one positive torque, no stage)."""
+    if model.discs != 1 or model.stage is not None:
+        raise DesignError(
+            "ltca: one disc and no stage (a stack or a stage: cyclomesh.results.chain.run)"
+        )
+    c = check(case, model, torque="positive")
+    design, modification, errors, phi = c.design, c.modification, c.errors, c.phi
+    body, ring_shape, torque = c.body, c.ring_shape, case.torque
     geo = unloaded_contact(design, modification, errors, phi)
     rest = rest_position(geo.rotation, geo.moment_arm)
     backlash = geo.rotation - rest[..., None]
-    alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
+    alpha, gamma = pin_compliance(geo, design, c.groove_deformation, c.contact_law)
     try:
         if body is None:
             loaded, force = share_load(backlash, geo.moment_arm, alpha, gamma, torque)
@@ -210,20 +224,22 @@ def solve_ltca(
             )
     except ConvergenceError as exc:
         raise locate_failure(exc, (*ring_shape, phi.size), phi) from None
-    groove_force, contact_stress, groove_stress = contact_stresses(geo, design, force)
-
-    # unloaded flank: interference when the loaded disc sits clockwise of its contact angle
-    overlap = np.maximum(geo.reverse_rotation - (rest + loaded)[..., None], 0.0)
-
+    fields = contact_fields(
+        ("groove_load", "contact_stress", "groove_stress", "overlap", "contacts"),
+        design,
+        geo,
+        force,
+        rotation=(rest + loaded)[..., None],
+    )
     te = transmission_error(rest, loaded)
     return LTCA(
         crank_angle=phi,
         pin_load=force,
-        groove_load=groove_force,
-        contact_stress=contact_stress,
-        groove_stress=groove_stress,
+        groove_load=fields["groove_load"],
+        contact_stress=fields["contact_stress"],
+        groove_stress=fields["groove_stress"],
         backlash=backlash,
-        overlap=overlap,
+        overlap=fields["overlap"],
         profile_angle=geo.profile_angle,
         contact_radius=geo.contact_radius,
         moment_arm=geo.moment_arm,
@@ -232,96 +248,8 @@ def solve_ltca(
         loaded_rotation=loaded,
         transmission_error=te,
         gear_ratio=gear_ratio(te, phi, design.teeth),
-        contacts=count_contacts(force),
+        contacts=fields["contacts"],
     )
-
-
-def count_contacts(force: FloatArray, axes: int = 1) -> NDArray[np.int64]:
-    """Pins in contact: load above :data:`CONTACT_LOAD_FRACTION` of the largest pin load.
-
-    Parameters
-    ----------
-    force : ndarray
-        Pin loads [N], the last ``axes`` axes are the pins of one crank angle (``axes=2``
-        for the discs × pins of a stack: the reference is the stack's largest pin load).
-    axes : int
-        Trailing axes that make up the reference set; the count is per last axis
-        (per disc).
-
-    Returns
-    -------
-    ndarray
-        Counts, ``force.shape[:-1]``.
-    """
-    reference = np.max(force, axis=tuple(range(-axes, 0)), keepdims=True)
-    return np.sum(force > CONTACT_LOAD_FRACTION * reference, axis=-1)
-
-
-def check_crank_angles(crank_angles: ArrayLike) -> FloatArray:
-    """Crank angles [rad] as a one-dimensional increasing array, or a :class:`DesignError`."""
-    phi = np.atleast_1d(np.asarray(crank_angles, float))
-    if phi.ndim != 1 or phi.size == 0 or not np.all(np.isfinite(phi)):
-        raise DesignError("crank angles must be a non-empty one-dimensional list of numbers")
-    if phi.size > 1 and not np.all(np.diff(phi) > 0):
-        raise DesignError("crank angles must increase")
-    return phi
-
-
-def check_pair(design: PairDesign, modification: Modification, errors: PinErrors) -> tuple:
-    """Check profile and pin radii; return the ring shape of the errors.
-
-    Raises
-    ------
-    DesignError
-        For an undercut profile or a pin that does not fit its groove.
-    """
-    check_profile(design, modification)
-    ring_shape = errors.ring_shape(design.pins)
-    check_physical(design, modification, errors)
-    pin_radii = design.pin_radius + np.broadcast_to(errors.pin_radius, (*ring_shape, design.pins))
-    if not np.all((pin_radii > 0) & (pin_radii < design.groove_radius)):
-        pin = int(np.argmax(~((pin_radii > 0) & (pin_radii < design.groove_radius))) % design.pins)
-        raise DesignError(
-            f"errors.pin_radius: pin {pin + 1} radius must stay between 0 and the groove "
-            f"radius {design.groove_radius * 1e3:.4g} mm"
-        )
-    return ring_shape
-
-
-def check_contact_law(contact_law: str) -> str:
-    """``contact_law`` if it is one of :data:`~cyclomesh.core.hertz.CONTACT_LAWS`, else a
-    one-line :class:`DesignError` naming the choices."""
-    if contact_law not in CONTACT_LAWS:
-        raise DesignError(
-            f"contact_law must be one of {', '.join(CONTACT_LAWS)}, got {contact_law!r}"
-        )
-    return contact_law
-
-
-def check_disc_body(
-    disc_body: str | DiscBody, contact_law: str, design: PairDesign
-) -> DiscBody | None:
-    """None for the rigid disc, the :class:`DiscBody` for a compliant one, else a
-    one-line :class:`DesignError`."""
-    if isinstance(disc_body, str) and disc_body == "rigid":
-        return None
-    if isinstance(disc_body, DiscBody):
-        if contact_law != "half_plane":
-            raise DesignError(
-                "disc_body: the FE disc body leaves the near field to the half-plane law; "
-                f'set contact_law = "half_plane" (got {contact_law!r})'
-            )
-        if disc_body.teeth != design.teeth:
-            raise DesignError(
-                f"disc_body: coefficients for {disc_body.teeth} teeth, design has {design.teeth}"
-            )
-        return disc_body
-    if disc_body == "fe":
-        raise DesignError(
-            'disc_body = "fe" is resolved by cyclomesh.analyse (or pass the DiscBody of '
-            "cyclomesh.fe.influence.influence)"
-        )
-    raise DesignError(f'disc_body must be "rigid" or "fe", got {disc_body!r}')
 
 
 def pin_compliance(
@@ -350,22 +278,6 @@ def pin_compliance(
             geo.contact_radius,
             design.disc_material.poisson_ratio,
         )
-
-
-def contact_stresses(
-    geo: UnloadedContact, design: PairDesign, force: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Groove force Fc·cos β [N] and the Hertzian pressures of tooth and groove (Eq. 24) [Pa]."""
-    pin_c = design.pin_material.compliance
-    groove_force = force * geo.cos_beta
-    tooth_modulus = effective_modulus(pin_c, design.disc_material.compliance)
-    groove_modulus = effective_modulus(pin_c, design.ring_material.compliance)
-    with np.errstate(invalid="ignore"):  # unreachable pins have ρc = inf and no load
-        rho_pc = np.where(force > 0, pin_tooth_radius(geo.pin_radius, geo.curvature_radius), 1.0)
-    rho_pg = pin_groove_radius(geo.pin_radius, design.groove_radius)
-    contact_stress = max_pressure(force, rho_pc, tooth_modulus, design.width)
-    groove_stress = max_pressure(groove_force, rho_pg, groove_modulus, design.width)
-    return groove_force, contact_stress, groove_stress
 
 
 def locate_failure(exc: ConvergenceError, shape: tuple, phi: FloatArray) -> ConvergenceError:

@@ -57,7 +57,7 @@ from cyclomesh.core.ltca import check_contact_law
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.solve import LOST_MOTION_FRACTION, solve_drive
 from cyclomesh.exceptions import CyclomeshError, DesignError
-from cyclomesh.execution.runtime import tune_allocator
+from cyclomesh.quantities import QUANTITIES
 from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
@@ -142,8 +142,8 @@ METRICS: dict[str, tuple[str, float, str, str, bool]] = {
         "largest mesh force on a disc (crank bearing load)",
         True,
     ),
-    "max_torque_share": ("max_torque_share_nm", 1.0, "N m", "largest torque on one disc", True),
-    "min_torque_share": ("min_torque_share_nm", 1.0, "N m", "smallest torque on one disc", False),
+    "max_torque_share": ("max_torque_share_nm", 1.0, "N·m", "largest torque on one disc", True),
+    "min_torque_share": ("min_torque_share_nm", 1.0, "N·m", "smallest torque on one disc", False),
     "max_play": ("play_arcmin", RAD_PER_ARCMIN, "arcmin", "largest unloaded play", True),
     "min_play": ("min_play_arcmin", RAD_PER_ARCMIN, "arcmin", "smallest unloaded play", False),
     "lost_motion": (
@@ -154,7 +154,12 @@ METRICS: dict[str, tuple[str, float, str, str, bool]] = {
         True,
     ),
 }
-"""Metrics: core name → (Dataset variable, SI per unit, units, long name, larger is worse)."""
+METRICS = {
+    key: (var, si, QUANTITIES[var].unit, QUANTITIES[var].long_name, worse)
+    for key, (var, si, _, _, worse) in METRICS.items()
+}
+"""Metrics: core name → (Dataset variable, SI per unit, units, long name, larger is worse);
+units and long names are those of the variable's row of :data:`cyclomesh.quantities.QUANTITIES`."""
 
 OBJECTIVES: dict[str, str] = {
     "max_contact_stress": "max_contact_stress",
@@ -529,7 +534,6 @@ def design_map(
         variable with ``units`` (NaN only where ``reason`` says the candidate failed);
         ``feasible`` and ``reason``; attributes give the optimum and the inputs.
     """
-    tune_allocator()  # once per process: the solver's temporaries stay on the heap
     import xarray as xr
 
     if not axes:

@@ -57,30 +57,43 @@ References
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.core.contact import UnloadedContact, unloaded_contact
-from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
-from cyclomesh.core.loadsharing import share_load
-from cyclomesh.core.ltca import (
-    check_contact_law,
+from cyclomesh.core.case import (
+    Case,
+    Model,
+    check,
     check_crank_angles,
-    check_disc_body,
+    check_discs,
     check_pair,
-    contact_stresses,
-    count_contacts,
-    locate_failure,
-    pin_compliance,
-    rest_position,
+    check_torques,
 )
+from cyclomesh.core.discbody import DiscBody
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
-from cyclomesh.core.profile import generating_radii
 from cyclomesh.core.transmission import gear_ratio, transmission_error
-from cyclomesh.exceptions import ConvergenceError, DesignError
+from cyclomesh.drive.mesh import (
+    PER_DISC,
+    PER_PIN,
+    StackMesh,
+    load_stack,
+    rest_positions,
+    reverse_fields,
+    stack_meshes,
+    stacked_contact,
+)
+from cyclomesh.drive.mirror import mirror_errors, mirror_index, mirror_problem, unmirror
+from cyclomesh.drive.torsion import (
+    LOST_MOTION_FRACTION,
+    RIGIDITY_FRACTIONS,
+    TorsionCurve,
+    torsion,
+    torsion_curve,
+    torsion_metrics,
+    torsion_torques,
+)
 
 __all__ = [
     "Drive",
@@ -90,6 +103,8 @@ __all__ = [
     "mirror_problem",
     "play",
     "solve_drive",
+    "drive",
+    "torsion",
     "StackMesh",
     "stack_meshes",
     "unmirror",
@@ -103,88 +118,6 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-
-LOST_MOTION_FRACTION = 0.03
-"""Lost motion is measured at ±3 % of the rated torque."""
-RIGIDITY_FRACTIONS = (0.5, 1.0)
-"""Torsional rigidity is the secant between 50 % and 100 % of the rated torque."""
-
-
-def mirror_index(pins: int) -> NDArray[np.int64]:
-    """Index of the mirror image of every pin: pin i ↔ pin (n1 − i) mod n1 (0-based)."""
-    return (-np.arange(pins)) % pins
-
-
-def mirror_errors(errors: PinErrors, pins: int) -> PinErrors:
-    """The pin ring reflected about the x-axis of the fixed frame.
-
-    Pin i at angle iψ + εψ,i becomes pin (n1 − i) mod n1 at angle −iψ − εψ,i, i.e. with
-    angular error −εψ,i; its radial and radius errors go with it; the eccentricity error
-    is unchanged. The mapping is an involution.
-
-    Parameters
-    ----------
-    errors : PinErrors
-        Errors of the ring (SI), leading axes are rings.
-    pins : int
-        n1.
-    """
-    shape = (*errors.ring_shape(pins), pins)
-    index = mirror_index(pins)
-
-    def per_pin(value: ArrayLike) -> FloatArray:
-        return np.broadcast_to(np.asarray(value, float), shape)[..., index]
-
-    return PinErrors(
-        radial=per_pin(errors.radial),
-        angular=-per_pin(errors.angular),
-        pin_radius=per_pin(errors.pin_radius),
-        eccentricity=errors.eccentricity,
-    )
-
-
-def mirror_problem(
-    modification: Modification, errors: PinErrors, pins: int
-) -> tuple[Modification, PinErrors]:
-    """The gear pair reflected about the x-axis: the one place that maps a problem to its
-    mirror image (used for the reverse flanks).
-
-    Δa, Δρ and the rotation modification δ are symmetric about a tooth-space bottom, so a
-    modification made of them is its own mirror image; a modification that is not (a
-    tabulated profile deviation, per tooth or not) must provide ``mirrored()``, which
-    is used when present. The ring goes through :func:`mirror_errors`.
-    """
-    mirrored = getattr(modification, "mirrored", None)
-    return (mirrored() if callable(mirrored) else modification), mirror_errors(errors, pins)
-
-
-def check_torques(torque: ArrayLike) -> FloatArray:
-    """Torques [N·m] as a one-dimensional array of finite non-zero numbers.
-
-    Raises
-    ------
-    DesignError
-        For an empty list, a non-finite value, a repeated torque or a torque of exactly 0
-        (with no load the disc can sit anywhere in the play; the play itself is a result).
-    """
-    try:
-        values = np.atleast_1d(np.asarray(torque, dtype=float))
-    except (TypeError, ValueError):
-        raise DesignError(
-            f"torque must be a number of N·m or a list of them, got {torque!r}"
-        ) from None
-    if values.ndim != 1 or values.size == 0 or not np.all(np.isfinite(values)):
-        raise DesignError(
-            f"torque must be a finite number of N·m or a list of them, got {torque!r}"
-        )
-    if np.any(values == 0.0):
-        raise DesignError(
-            "torque 0 N·m: with no load the disc can sit anywhere in the play; give a "
-            "positive (forward flanks) or negative (reverse flanks) torque; the play is a result"
-        )
-    if np.unique(values).size != values.size:
-        raise DesignError("torque: the torques of a list must differ from each other")
-    return values
 
 
 @dataclass(frozen=True)
@@ -260,75 +193,6 @@ class Drive:
     play: FloatArray
 
 
-@dataclass(frozen=True)
-class StackMesh:
-    """Unloaded state of a stack on its forward flanks, in the (possibly mirrored) frame: the
-    steps of :func:`solve_drive` before the load sharing. Fields: ``design``; ``geo``
-    (:class:`~cyclomesh.core.contact.UnloadedContact`, arrays (..., A, N, n1)); ``rest`` and
-    ``reverse_rest`` (rest rotation on the loaded and the opposite flanks [rad], (..., A));
-    ``backlash`` (φbl from the stack's rest [rad], (..., A, N·n1)); ``alpha``, ``gamma``
-    (compliance of δ = F(α − γ ln F) [m/N], (..., A, N·n1)); ``normal_x``, ``normal_y``
-    (outward flank normal, fixed frame, (..., A, N, n1): the force of pin i on its disc is
-    −F_i·n, a counter-clockwise disc rotation θ closes the gap by l_i·θ, a translation u by
-    n·u); ``ring_shape``; ``phi`` (crank angles of disc 1 in this frame [rad])."""
-
-    design: PairDesign
-    geo: UnloadedContact  # arrays (..., A, N, n1)
-    rest: FloatArray  # (..., A)
-    reverse_rest: FloatArray  # (..., A), rest on the opposite flanks
-    backlash: FloatArray  # (..., A, N·n1)
-    alpha: FloatArray
-    gamma: FloatArray
-    normal_x: FloatArray  # (..., A, N, n1): outward normal of the contact, fixed frame
-    normal_y: FloatArray
-    ring_shape: tuple
-    phi: FloatArray
-    body: DiscBody | None = None
-    tooth: NDArray | None = None  # (A, N·n1): tooth space of every contact (compliant disc)
-
-
-def _disc_angles(phi: FloatArray, discs: int) -> FloatArray:
-    """Eccentric angles of the discs, shape (N·A,), disc after disc [rad]."""
-    offsets = 2.0 * np.pi * np.arange(discs) / discs
-    return (offsets[:, None] + phi[None, :]).ravel()
-
-
-def _stack(arr: FloatArray, discs: int, n_angles: int) -> FloatArray:
-    """(..., N·A, n1) → (..., A, N, n1)."""
-    shaped = arr.reshape(*arr.shape[:-2], discs, n_angles, arr.shape[-1])
-    return np.moveaxis(shaped, -3, -2)
-
-
-def _stacked_contact(
-    design: PairDesign,
-    modification: Modification,
-    errors: PinErrors,
-    phi: FloatArray,
-    discs: int,
-) -> UnloadedContact:
-    """Unloaded contact of every disc of a stack, arrays (..., A, N, n1) (Eqs. 5–11)."""
-    raw = unloaded_contact(design, modification, errors, _disc_angles(phi, discs))
-    return UnloadedContact(
-        **{
-            name: _stack(getattr(raw, name), discs, phi.size)
-            for name in UnloadedContact.__dataclass_fields__
-        }
-    )
-
-
-def _rests(geo: UnloadedContact, pins: int, discs: int) -> tuple[FloatArray, FloatArray]:
-    """Rest positions of a stack on the forward and on the opposite flanks [rad], (..., A).
-
-    Forward: the smallest conditioned contact rotation (:func:`~cyclomesh.core.ltca.rest_position`,
-    Eq. 11); opposite: the largest conditioned reverse-flank contact rotation.
-    """
-    flat = (*geo.rotation.shape[:-2], discs * pins)
-    arm = geo.moment_arm.reshape(flat)
-    rest = rest_position(geo.rotation.reshape(flat), arm)
-    reverse_rest = -rest_position(-geo.reverse_rotation.reshape(flat), arm)
-    return rest, reverse_rest
-
-
 def play(
     design: PairDesign,
     modification: Modification | None = None,
@@ -360,182 +224,10 @@ def play(
     phi = check_crank_angles(crank_angles)
     discs = check_discs(discs)
     check_pair(design, modification, errors)
-    rest, reverse_rest = _rests(
-        _stacked_contact(design, modification, errors, phi, discs), design.pins, discs
+    rest, reverse_rest = rest_positions(
+        stacked_contact(design, modification, errors, phi, discs), design.pins, discs
     )
     return rest - reverse_rest
-
-
-def check_discs(discs: int) -> int:
-    """The number of discs of a stack as an int ≥ 1, else a one-line DesignError."""
-    if isinstance(discs, bool) or not isinstance(discs, int | np.integer) or discs < 1:
-        raise DesignError(f"discs must be a whole number of at least 1, got {discs!r}")
-    return int(discs)
-
-
-def _mesh(
-    design: PairDesign,
-    modification: Modification,
-    errors: PinErrors,
-    phi: FloatArray,
-    discs: int,
-    groove_deformation: bool,
-    contact_law: str = "half_plane",
-    body: DiscBody | None = None,
-) -> StackMesh:
-    """Unloaded contact, rest positions and compliance of a stack (forward flanks)."""
-    ring_shape = errors.ring_shape(design.pins)
-    geo = _stacked_contact(design, modification, errors, phi, discs)
-    flat = (*geo.rotation.shape[:-2], discs * design.pins)
-    rest, reverse_rest = _rests(geo, design.pins, discs)
-    alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
-    nx, ny = _normals(design, modification, errors, phi, discs, geo)
-    return StackMesh(
-        design=design,
-        geo=geo,
-        rest=rest,
-        reverse_rest=reverse_rest,
-        backlash=geo.rotation.reshape(flat) - rest[..., None],
-        alpha=alpha.reshape(flat),
-        gamma=gamma.reshape(flat),
-        normal_x=nx,
-        normal_y=ny,
-        ring_shape=ring_shape,
-        phi=phi,
-        body=body,
-        tooth=None
-        if body is None
-        else tooth_index(design.pins, design.pitch, _disc_angles(phi, discs))
-        .reshape(discs, phi.size, design.pins)
-        .transpose(1, 0, 2)
-        .reshape(phi.size, discs * design.pins),
-    )
-
-
-def _normals(
-    design: PairDesign,
-    modification: Modification,
-    errors: PinErrors,
-    phi: FloatArray,
-    discs: int,
-    geo: UnloadedContact,
-) -> tuple[FloatArray, FloatArray]:
-    """Outward flank normal at every contact, in the fixed frame (unit vector)."""
-    n1 = design.pins
-    ring_shape = errors.ring_shape(n1)
-    a, rho_gen = generating_radii(design, modification)
-    e = design.eccentricity
-
-    def per_pin(x: ArrayLike) -> FloatArray:  # (..., 1, 1, n1)
-        return np.broadcast_to(np.asarray(x, float), (*ring_shape, n1))[..., None, None, :]
-
-    offsets = 2.0 * np.pi * np.arange(discs) / discs
-    crank = (phi[:, None] + offsets[None, :])[..., None]  # (A, N, 1)
-    pin_angle = np.arange(n1) * design.pitch + per_pin(errors.angular)
-    pin_r = design.pin_circle_radius + per_pin(errors.radial)
-    ecc = e + np.broadcast_to(errors.eccentricity, ring_shape)[..., None, None, None]
-    arg_w = np.arctan2(
-        pin_r * np.sin(pin_angle) - ecc * np.sin(crank),
-        pin_r * np.cos(pin_angle) - ecc * np.cos(crank),
-    )
-    # tooth frame of the contact (see cyclomesh.core.contact): normal n and pin centre P_s
-    u = geo.profile_angle
-    c, sin_u = np.cos(u), np.sin(u)
-    d = np.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
-    nx, ny = (a - e * n1 * c) / d, -e * n1 * sin_u / d
-    s = geo.pin_radius - rho_gen
-    zx, zy = a - e * c + s * nx, -e * sin_u + s * ny
-    angle = arg_w + np.arctan2(ny, nx) - np.arctan2(zy, zx)
-    return np.cos(angle), np.sin(angle)
-
-
-def _load(mesh: StackMesh, torque: float) -> dict[str, FloatArray]:
-    """Loaded state of a stack under a positive torque, in the mesh's frame."""
-    design, geo = mesh.design, mesh.geo
-    flat_arm = mesh.backlash.shape
-    try:
-        if mesh.body is None:
-            loaded, force = share_load(
-                mesh.backlash, geo.moment_arm.reshape(flat_arm), mesh.alpha, mesh.gamma, torque
-            )
-        else:
-            loaded, force = share_load_coupled(
-                mesh.backlash,
-                geo.moment_arm.reshape(flat_arm),
-                mesh.alpha,
-                mesh.gamma,
-                torque,
-                mesh.body,
-                mesh.tooth,
-                geo.profile_angle.reshape(flat_arm),
-                groups=geo.rotation.shape[-2],
-            )
-    except ConvergenceError as exc:
-        err = locate_failure(exc, (*mesh.ring_shape, mesh.phi.size), mesh.phi)
-        raise ConvergenceError(f"torque {torque:g} N·m: {err}") from None
-    force = force.reshape(geo.rotation.shape)
-    groove_force, contact_stress, groove_stress = contact_stresses(geo, design, force)
-    total = (mesh.rest + loaded)[..., None, None]
-    fx = -np.sum(force * mesh.normal_x, axis=-1)
-    fy = -np.sum(force * mesh.normal_y, axis=-1)
-    return {
-        "pin_load": force,
-        "groove_load": groove_force,
-        "contact_stress": contact_stress,
-        "groove_stress": groove_stress,
-        "overlap": np.maximum(geo.reverse_rotation - total, 0.0),
-        "force_angle": np.arctan2(-mesh.normal_y, -mesh.normal_x),
-        "torque_share": np.sum(force * geo.moment_arm, axis=-1),
-        "contacts": count_contacts(force, axes=2),
-        "mesh_force_x": fx,
-        "mesh_force_y": fy,
-        "loaded_rotation": loaded,
-    }
-
-
-def stack_meshes(
-    design: PairDesign,
-    modification: Modification,
-    errors: PinErrors,
-    phi: FloatArray,
-    discs: int,
-    groove_deformation: bool,
-    forward: bool,
-    reverse: bool,
-    contact_law: str = "half_plane",
-    body: DiscBody | None = None,
-) -> tuple[StackMesh | None, StackMesh | None]:
-    """The unloaded meshes of the forward flanks and of the mirror problem (reverse flanks),
-    as needed; the mirror problem is solved on the crank angles −φ reversed, and
-    :func:`unmirror` maps its arrays back (Eqs. 5–23 of [1]).
-
-    The mirrored problem uses the same body coefficients: the disc (profile, bore and
-    the crank holes at 2πk/N) is symmetric about its x-axis.
-    """
-    fwd = rev = None
-    args = (discs, groove_deformation, contact_law, body)
-    if forward:
-        fwd = _mesh(design, modification, errors, phi, *args)
-    if reverse:
-        mod_m, errors_m = mirror_problem(modification, errors, design.pins)
-        # the mirror of crank angle φ is −φ; solve increasing angles and flip back below
-        rev = _mesh(design, mod_m, errors_m, -phi[::-1], *args)
-    return fwd, rev
-
-
-def unmirror(arr: FloatArray, angle_axis: int, disc_axis: int | None, pins: bool) -> FloatArray:
-    """Map an array of the mirrored problem back onto the reverse flanks.
-
-    Crank angle −φ → φ (the mirrored problem is solved on the reversed angles), disc k at
-    −φ − (k − 1)·2π/N is disc (1 − k) mod N + 1 of the mirrored stack, pin i is pin
-    (n1 − i) mod n1.
-    """
-    out = np.flip(arr, axis=angle_axis)
-    if disc_axis is not None:
-        out = np.take(out, mirror_index(out.shape[disc_axis]), axis=disc_axis)
-    if pins:
-        out = out[..., mirror_index(out.shape[-1])]
-    return out
 
 
 def solve_drive(
@@ -590,25 +282,28 @@ def solve_drive(
     ConvergenceError
         If a solver fails; the message names the torque and crank angle.
     """
-    modification = modification or Modification()
-    errors = errors or PinErrors()
-    torques = check_torques(torque)
-    discs = check_discs(discs)
-    phi = check_crank_angles(crank_angles)
-    check_contact_law(contact_law)
-    body = check_disc_body(disc_body, contact_law, design)
-    check_pair(design, modification, errors)
+    return drive(
+        Case(design, modification, errors, torque, crank_angles),
+        Model(contact_law, groove_deformation, disc_body, discs),
+    )
+
+
+def drive(case: Case, model: Model) -> Drive:
+    """:func:`solve_drive` of a :class:`~cyclomesh.core.case.Case` and a
+    :class:`~cyclomesh.core.case.Model` (the mesh alone: ``model.stage`` is not read)."""
+    c = check(case, model)
+    design, phi, torques = c.design, c.phi, c.torques
     fwd, rev = stack_meshes(
         design,
-        modification,
-        errors,
+        c.modification,
+        c.errors,
         phi,
-        discs,
-        groove_deformation,
+        c.discs,
+        c.groove_deformation,
         bool(np.any(torques > 0)),
         bool(np.any(torques < 0)),
-        contact_law,
-        body,
+        c.contact_law,
+        c.body,
     )
     if fwd is not None:
         play = fwd.rest - fwd.reverse_rest
@@ -618,7 +313,7 @@ def solve_drive(
     per_torque = []
     for value in torques:
         mesh = fwd if value > 0 else rev
-        fields = _load(mesh, abs(float(value)))
+        fields = load_stack(mesh, abs(float(value)))
         geo = mesh.geo
         fields.update(
             backlash=mesh.backlash.reshape(geo.rotation.shape),
@@ -629,14 +324,14 @@ def solve_drive(
             rest_rotation=mesh.rest,
         )
         if value < 0:
-            fields = _reverse(fields)
+            fields = reverse_fields(fields)
         per_torque.append(fields)
 
     def stacked(name: str) -> FloatArray:
-        axis = -4 if _PIN[name] else -3 if name in _PER_DISC else -2
+        axis = -4 if PER_PIN[name] else -3 if name in PER_DISC else -2
         return np.stack([fields[name] for fields in per_torque], axis=axis)
 
-    out = {name: stacked(name) for name in _PIN}
+    out = {name: stacked(name) for name in PER_PIN}
     te = transmission_error(out["rest_rotation"], out["loaded_rotation"])
     fx, fy = out.pop("mesh_force_x"), out.pop("mesh_force_y")
     return Drive(
@@ -649,272 +344,3 @@ def solve_drive(
         play=play,
         **out,
     )
-
-
-# field: per pin (True: (..., A, N, n1)) or per disc/angle (False: (..., A, N) or (..., A))
-_PIN = {
-    "pin_load": True,
-    "groove_load": True,
-    "contact_stress": True,
-    "groove_stress": True,
-    "backlash": True,
-    "overlap": True,
-    "profile_angle": True,
-    "contact_radius": True,
-    "moment_arm": True,
-    "curvature_radius": True,
-    "force_angle": True,
-    "torque_share": False,
-    "contacts": False,
-    "mesh_force_x": False,
-    "mesh_force_y": False,
-    "rest_rotation": False,
-    "loaded_rotation": False,
-}
-_ODD = {
-    "profile_angle",
-    "force_angle",
-    "torque_share",
-    "rest_rotation",
-    "loaded_rotation",
-    "mesh_force_y",
-}
-"""Fields that change sign in the mirror image."""
-_PER_DISC = {"torque_share", "contacts", "mesh_force_x", "mesh_force_y", "max_contact_stress"}
-
-
-def _reverse(fields: dict[str, FloatArray]) -> dict[str, FloatArray]:
-    """Fields of the mirrored forward problem mapped back onto the reverse flanks."""
-    out = {}
-    for name, value in fields.items():
-        if _PIN.get(name, False):
-            arr = unmirror(value, -3, -2, True)
-        elif name in _PER_DISC:
-            arr = unmirror(value, -2, -1, False)
-        else:
-            arr = unmirror(value, -1, None, False)
-        if name in _ODD:
-            arr = -arr
-        out[name] = arr
-    return out
-
-
-# --- torsion curve -------------------------------------------------------------------
-
-
-def torsion_torques(rated_torque: float, points: int = 41) -> FloatArray:
-    """Torques of a torsion curve, symmetric from −T_r to +T_r [N·m].
-
-    ``points`` torques evenly spaced from −T_r to +T_r, 0 left out, with ±3 %, ±50 % and
-    ±100 % of T_r always included exactly (an evenly spaced torque within 1e-9·T_r of one
-    of them is replaced by it), sorted.
-
-    Raises
-    ------
-    DesignError
-        For a rated torque that is not a positive number, or fewer than 2 points.
-    """
-    if not (isinstance(rated_torque, int | float) and math.isfinite(rated_torque)) or (
-        rated_torque <= 0
-    ):
-        raise DesignError(f"rated_torque_nm must be a positive number, got {rated_torque!r}")
-    if isinstance(points, bool) or not isinstance(points, int | np.integer) or points < 2:
-        raise DesignError(f"points must be a whole number of at least 2, got {points!r}")
-    fractions = (LOST_MOTION_FRACTION, *RIGIDITY_FRACTIONS)
-    required = np.array([sign * f * rated_torque for f in fractions for sign in (-1.0, 1.0)])
-    even = np.linspace(-rated_torque, rated_torque, int(points))
-    near = np.min(np.abs(even[:, None] - required[None, :]), axis=1) <= 1e-9 * rated_torque
-    keep = even[~near & (np.abs(even) > 1e-9 * rated_torque)]
-    return np.sort(np.concatenate([keep, required]))
-
-
-def _at(torques: FloatArray, value: float) -> int:
-    hit = np.flatnonzero(torques == value)
-    if hit.size == 0:
-        raise DesignError(f"the torsion curve needs the torque {value:g} N·m")
-    return int(hit[0])
-
-
-def torsion_metrics(
-    rotation: FloatArray, torques: FloatArray, rated_torque: float
-) -> tuple[FloatArray, FloatArray]:
-    """Lost motion and torsional rigidity from a torsion curve.
-
-    lost motion(φ) = TE(−0.03·T_r, φ) − TE(+0.03·T_r, φ);
-    torsional rigidity(φ) = mean over the two directions of 0.5·T_r/|TE(±T_r, φ) − TE(±0.5·T_r, φ)|.
-
-    Parameters
-    ----------
-    rotation : ndarray
-        TE (disc rotation from its theoretical position) [rad], torque on axis −2.
-    torques : ndarray
-        The torques [N·m], containing ±0.03, ±0.5, ±1 times ``rated_torque`` exactly.
-    rated_torque : float
-        T_r [N·m].
-
-    Returns
-    -------
-    lost_motion : ndarray
-        [rad], shape of ``rotation`` without the torque axis.
-    rigidity : ndarray
-        [N·m/rad], same shape.
-    """
-
-    def te(fraction: float) -> FloatArray:
-        return rotation[..., _at(torques, fraction * rated_torque), :]
-
-    lost = te(-LOST_MOTION_FRACTION) - te(LOST_MOTION_FRACTION)
-    half, full = RIGIDITY_FRACTIONS
-    rigidity = 0.0
-    for sign in (-1.0, 1.0):
-        rigidity = rigidity + 0.5 * (
-            (full - half) * rated_torque / np.abs(te(sign * full) - te(sign * half))
-        )
-    return lost, rigidity
-
-
-@dataclass(frozen=True)
-class TorsionCurve:
-    """Result of :func:`torsion_curve`, SI units; ``...`` ring axes, Q torques, A angles.
-
-    Attributes
-    ----------
-    crank_angle : ndarray
-        φin [rad], (A,).
-    torque : ndarray
-        Torque on the stack [N·m], (Q,).
-    rated_torque : float
-        T_r [N·m].
-    rotation : ndarray
-        TE of the stack (rotation from its theoretical position) [rad], (..., Q, A).
-    contacts : ndarray
-        Loaded pins per disc, (..., Q, A, N).
-    max_contact_stress : ndarray
-        Largest pin-tooth pressure per disc [Pa], (..., Q, A, N).
-    torque_share : ndarray
-        Torque per disc [N·m], (..., Q, A, N).
-    play, lost_motion : ndarray
-        [rad], (..., A).
-    torsional_rigidity : ndarray
-        [N·m/rad], (..., A).
-    series_stiffness : float or None
-        Stiffness of the rest of the drive in series [N·m/rad].
-    drive_rotation, drive_lost_motion, drive_torsional_rigidity : ndarray or None
-        The same for the whole drive (mesh in series with ``series_stiffness``).
-    """
-
-    crank_angle: FloatArray
-    torque: FloatArray
-    rated_torque: float
-    rotation: FloatArray
-    contacts: NDArray[np.int64]
-    max_contact_stress: FloatArray
-    torque_share: FloatArray
-    play: FloatArray
-    lost_motion: FloatArray
-    torsional_rigidity: FloatArray
-    series_stiffness: float | None = None
-    drive_rotation: FloatArray | None = None
-    drive_lost_motion: FloatArray | None = None
-    drive_torsional_rigidity: FloatArray | None = None
-
-
-def torsion_curve(
-    design: PairDesign,
-    modification: Modification | None,
-    errors: PinErrors | None,
-    rated_torque: float,
-    crank_angles: ArrayLike,
-    groove_deformation: bool = True,
-    discs: int = 1,
-    points: int = 41,
-    series_stiffness: float | None = None,
-    contact_law: str = "half_plane",
-    disc_body: str | DiscBody = "rigid",
-) -> TorsionCurve:
-    """Torsion curve of the cycloid-pin mesh: rotation against torque, both directions.
-
-    Torques from :func:`torsion_torques`; lost motion and rigidity from
-    :func:`torsion_metrics`; the play as in :func:`solve_drive`. Everything is solved
-    with Eqs. 5–26 of [1] on both flanks (see :mod:`cyclomesh.drive.solve`). This is the mesh
-    alone; ``series_stiffness`` adds the rest of the drive (crank bearings, crankshafts,
-    first stage) as a linear torsional spring in series: whole-drive rotation =
-    mesh rotation − T/k_series.
-
-    Parameters
-    ----------
-    design, modification, errors
-        As in :func:`solve_drive`.
-    rated_torque : float
-        T_r [N·m] of the stack.
-    crank_angles : array_like
-        φin [rad], increasing.
-    groove_deformation : bool
-    discs : int
-    points : int
-        Evenly spaced torques from −T_r to +T_r (see :func:`torsion_torques`).
-    series_stiffness : float, optional
-        k_series [N·m/rad], > 0.
-    contact_law : {"paper", "half_plane"}
-        Tooth term of the contact law (:func:`~cyclomesh.core.ltca.solve_ltca`).
-    disc_body : "rigid" or DiscBody
-        Rigid or compliant disc body (:func:`solve_drive`).
-
-    Returns
-    -------
-    TorsionCurve
-    """
-    modification = modification or Modification()
-    errors = errors or PinErrors()
-    torques = torsion_torques(rated_torque, points)
-    discs = check_discs(discs)
-    if series_stiffness is not None and not (
-        isinstance(series_stiffness, int | float)
-        and math.isfinite(series_stiffness)
-        and series_stiffness > 0
-    ):
-        raise DesignError(f"series_stiffness must be a positive number, got {series_stiffness!r}")
-    phi = check_crank_angles(crank_angles)
-    check_contact_law(contact_law)
-    body = check_disc_body(disc_body, contact_law, design)
-    check_pair(design, modification, errors)
-    fwd, rev = stack_meshes(
-        design, modification, errors, phi, discs, groove_deformation, True, True, contact_law, body
-    )
-    rotation, contacts, stress, share = [], [], [], []
-    for value in torques:
-        fields = _load(fwd if value > 0 else rev, abs(float(value)))
-        fields["rest_rotation"] = (fwd if value > 0 else rev).rest
-        fields["max_contact_stress"] = np.max(fields["contact_stress"], axis=-1)
-        keep = ("torque_share", "contacts", "rest_rotation", "loaded_rotation")
-        fields = {name: fields[name] for name in (*keep, "max_contact_stress")}
-        if value < 0:
-            fields = _reverse(fields)
-        rotation.append(transmission_error(fields["rest_rotation"], fields["loaded_rotation"]))
-        contacts.append(fields["contacts"])
-        stress.append(fields["max_contact_stress"])
-        share.append(fields["torque_share"])
-    rotation = np.stack(rotation, axis=-2)
-    lost, rigidity = torsion_metrics(rotation, torques, rated_torque)
-    result = {
-        "crank_angle": phi,
-        "torque": torques,
-        "rated_torque": float(rated_torque),
-        "rotation": rotation,
-        "contacts": np.stack(contacts, axis=-3),
-        "max_contact_stress": np.stack(stress, axis=-3),
-        "torque_share": np.stack(share, axis=-3),
-        "play": fwd.rest - fwd.reverse_rest,
-        "lost_motion": lost,
-        "torsional_rigidity": rigidity,
-    }
-    if series_stiffness is not None:
-        drive = rotation - torques[:, None] / series_stiffness
-        drive_lost, drive_rigidity = torsion_metrics(drive, torques, rated_torque)
-        result.update(
-            series_stiffness=float(series_stiffness),
-            drive_rotation=drive,
-            drive_lost_motion=drive_lost,
-            drive_torsional_rigidity=drive_rigidity,
-        )
-    return TorsionCurve(**result)

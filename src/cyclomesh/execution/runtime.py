@@ -1,6 +1,9 @@
-"""Process-wide settings that make the solver fast, applied once in every process that
-solves: the command, its local worker processes, Dask workers and the Python API's
-entry points (:func:`cyclomesh.analyse`, :func:`cyclomesh.stiffness`, ...).
+"""Process-wide settings that make the solver fast, applied where a process starts and
+nowhere else: the ``cyclomesh`` command's entry (``cli.main``), the initializer of its
+local worker processes (:func:`start_worker`) and of Dask workers
+(:mod:`cyclomesh.execution.backends`). Library calls (:func:`cyclomesh.analyse`,
+:func:`cyclomesh.stiffness`, ...) leave the process alone: a script or notebook that
+wants the faster allocator calls :func:`tune_allocator` itself, once, first thing.
 """
 
 from __future__ import annotations
@@ -9,13 +12,10 @@ import os
 import sys
 import threading
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 
 __all__ = [
     "usable_cpus",
     "version",
-    "hidden_dask",
     "tune_allocator",
     "die_with_parent",
     "start_worker",
@@ -101,44 +101,6 @@ def start_worker(parent: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     die_with_parent(parent)
     tune_allocator()
-
-
-@contextmanager
-def hidden_dask(hide: bool = True) -> Iterator[None]:
-    """Hide an installed dask from xarray while a command runs.
-
-    xarray checks every new array and index for dask arrays, and imports ``dask`` and
-    ``dask.array`` to do so when they are installed (the ``cluster`` extra): 0.5 s,
-    more than the solve of a run. A command without ``--scheduler`` never gives xarray
-    a dask array, so if neither is imported yet, ``sys.modules["dask"] = None`` makes
-    xarray (and the forked figure workers) see dask as absent. Undone on exit, with
-    xarray's cached answers, so that the rest of a process (tests) sees dask again.
-    """
-    if not hide or "dask" in sys.modules or "xarray" in sys.modules:
-        yield
-        return
-    sys.modules["dask"] = None  # type: ignore[assignment]
-    try:
-        yield
-    finally:
-        if "dask" in sys.modules and sys.modules["dask"] is None:
-            del sys.modules["dask"]
-        _forget_no_dask()
-
-
-def _forget_no_dask() -> None:
-    """Drop xarray's cached "dask is not installed" (see :func:`hidden_dask`)."""
-    utils = sys.modules.get("xarray.namedarray.utils")
-    clear = getattr(getattr(utils, "module_available", None), "cache_clear", None)
-    if clear is not None:
-        clear()
-    pycompat = sys.modules.get("xarray.namedarray.pycompat")
-    cached = getattr(pycompat, "_cached_duck_array_modules", None)
-    if isinstance(cached, dict) and not getattr(cached.get("dask"), "available", True):
-        del cached["dask"]
-    ops = sys.modules.get("xarray.core.duck_array_ops")
-    if getattr(ops, "dask_available", None) is False:
-        ops.dask_available = utils.module_available("dask")  # type: ignore[union-attr]
 
 
 def usable_cpus() -> int:

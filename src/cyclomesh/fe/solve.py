@@ -14,7 +14,7 @@ a rigid centre) are Lagrange multipliers too.
 
 The problem is condensed on the contact forces. The zero-energy modes R that the
 equalities leave (a floating body pressed by a load, a rigid centre free to rotate under
-a torque) are found from the bodies' rigid motions (``_free_modes``) and grounded at one
+a torque) are found from the bodies' rigid motions (``free_modes``) and grounded at one
 dof each; with A the grounded system, u = A⁻¹(f + Gᵀλ) + R·a and the gaps are
 
     g = q + Wλ + Ha,   W = G A⁻¹ Gᵀ (symmetric positive definite),   H = G R,
@@ -25,7 +25,7 @@ min ½λᵀWλ + qᵀλ subject to λ ≥ 0, Hᵀλ = −Rᵀf, solved by the me
 with every subproblem solved exactly and finitely by non-negative least squares
 (Lawson–Hanson on a Cholesky factor of W + ρHHᵀ: no cycling), and the KKT system of
 its active set solved exactly and accepted when it satisfies every condition to
-round-off (``_contact_qp``). The projection is then recomputed in the deformed
+round-off (``contact_qp``). The projection is then recomputed in the deformed
 configuration and the programme solved again until no force and no gap changes by more
 than a tolerance (a geometrically consistent small-sliding contact). The final solution
 is checked: no penetration and closed gaps closed to 1e-8 of the closure, compressive
@@ -40,14 +40,20 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
-from scipy.linalg import LinAlgError, cholesky, qr, solve_triangular
-from scipy.optimize import nnls
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import splu
 from skfem import Basis, ElementTriP1, ElementVector, MeshTri, asm
 from skfem.models.elasticity import lame_parameters, linear_elasticity
 
 from cyclomesh.exceptions import ConvergenceError
+from cyclomesh.fe.contact_qp import (
+    check_solution,
+    contact_qp,
+    free_modes,
+    grounding_dofs,
+    linearised_gaps,
+    nodal,
+)
 
 __all__ = ["Body", "ContactPair", "Solution", "solve_contact", "boundary_chain"]
 
@@ -206,36 +212,6 @@ class Solution:
     projections: int = 1
 
 
-def _project(
-    xs: FloatArray, xm: FloatArray, previous: NDArray | None = None, hold: float = 1e-3
-) -> tuple[NDArray, FloatArray, FloatArray, FloatArray]:
-    """Closest segment of the master polyline xm (2, K) to every slave point xs (2, n).
-
-    With ``previous`` segments, a node keeps its segment while its foot stays within
-    ``hold`` (of the segment length) of it: a node facing a master node would otherwise
-    switch between the two segments there on round-off, and with them the normal.
-    """
-    a = xm[:, :-1]
-    d = xm[:, 1:] - a
-    ll = np.sum(d * d, axis=0)
-    rel = xs[:, :, None] - a[:, None, :]
-    t_free = np.einsum("inj,ij->nj", rel, d) / ll
-    t = np.clip(t_free, 0.0, 1.0)
-    foot = a[:, None, :] + t[None] * d[:, None, :]
-    dist = np.hypot(*(xs[:, :, None] - foot))
-    seg = np.argmin(dist, axis=1)
-    n_idx = np.arange(xs.shape[1])
-    if previous is not None:
-        tp = t_free[n_idx, previous]
-        keep = (tp >= -hold) & (tp <= 1.0 + hold)
-        seg = np.where(keep, previous, seg)
-    tt = t[n_idx, seg]
-    dd = d[:, seg]
-    normal = np.stack([dd[1], -dd[0]]) / np.sqrt(ll[seg])  # tangent turned clockwise
-    gap = np.sum((xs - foot[:, n_idx, seg]) * normal, axis=0)
-    return seg, tt, normal, gap
-
-
 def solve_contact(
     bodies: list[Body],
     pairs: list[ContactPair],
@@ -316,8 +292,8 @@ def solve_contact(
 
     # zero-energy modes left by the constraints (floating bodies, free rigid centres):
     # grounded at a few dofs for the factorisation, their amplitudes solved for exactly
-    modes = _free_modes(bodies, offsets, c_mat, k_extra)
-    grounded = _grounding_dofs(modes)
+    modes = free_modes(bodies, offsets, c_mat, k_extra)
+    grounded = grounding_dofs(modes)
     e_mat = sp.csr_matrix(
         (np.ones(grounded.size), (np.arange(grounded.size), grounded)), shape=(grounded.size, n_u)
     )
@@ -420,13 +396,13 @@ def solve_contact(
             load_resp = u0[dofs] - (phi[:, n_d:] * delta[None, :]) @ corr[:, -1]
         else:
             comp, load_resp, corr = phi, u0[dofs], None
-        g_mat, g_const, geom = _linearised_gaps(bodies, pairs, offsets, gdof, u, n_u, geom)
+        g_mat, g_const, geom = linearised_gaps(bodies, pairs, offsets, gdof, u, n_u, geom)
         g_d = g_mat[:, contact_dofs].toarray()
         gc = g_d @ comp[:n_d]  # (n_s, |dofs|): response at the dofs to unit contact force
         w = 0.5 * ((gc[:, :n_d] @ g_d.T) + (gc[:, :n_d] @ g_d.T).T)
         q = g_const + g_d @ load_resp[:n_d]
         h = g_d @ modes[contact_dofs]
-        new_lam, amp, iters = _contact_qp(w, q, h, -modal_force, amp)
+        new_lam, amp, iters = contact_qp(w, q, h, -modal_force, amp)
         total_iter += iters
         u_new = u.copy()
         u_new[dofs] = load_resp + gc.T @ new_lam + modes_d @ amp
@@ -465,7 +441,7 @@ def solve_contact(
             f"FE contact: projections did not settle in {max_projection} steps "
             f"(last change {change:.2g})"
         )
-    _check(lam, gap_now, closure, h, modal_force)
+    check_solution(lam, gap_now, closure, h, modal_force)
     # the whole displacement field, with the stiffness of the last solution
     x = solve(f + g_mat.T @ lam, -rhs_c)
     if corr is not None:
@@ -478,7 +454,7 @@ def solve_contact(
     counts = [p.slave_nodes.size for p in pairs]
     split = np.cumsum(counts)[:-1]
     return Solution(
-        displacements=[_nodal(u, offsets, i, b) for i, b in enumerate(bodies)],
+        displacements=[nodal(u, offsets, i, b) for i, b in enumerate(bodies)],
         extra=u[n_b:].copy(),
         contact_force=np.split(lam, split),
         gap=np.split(np.where(act, 0.0, gap_now), split),
@@ -489,199 +465,6 @@ def solve_contact(
         active=np.split(act, split),
         projections=projection,
     )
-
-
-def _nodal(u: FloatArray, offsets: NDArray, i: int, body: Body) -> FloatArray:
-    ub = u[offsets[i] : offsets[i + 1]]
-    return np.stack([ub[body.basis.nodal_dofs[0]], ub[body.basis.nodal_dofs[1]]])
-
-
-def _linearised_gaps(bodies, pairs, offsets, gdof, u, n_u, previous=None):
-    """Node-to-segment gaps projected in the configuration ``u``, linearised about it.
-
-    Returns (G, g0, geometry) with g(u') = g0 + G u' and geometry the (segment, t,
-    normal) of each pair.
-    """
-    g_rows, g0, geom = [], [], []
-    for k, p in enumerate(pairs):
-        sb, mb = bodies[p.slave_body], bodies[p.master_body]
-        us = _nodal(u, offsets, p.slave_body, sb)
-        um = _nodal(u, offsets, p.master_body, mb)
-        xs = sb.mesh.p[:, p.slave_nodes] + us[:, p.slave_nodes]
-        xm = mb.mesh.p[:, p.master_nodes] + um[:, p.master_nodes]
-        seg, t, normal, gap = _project(xs, xm, None if previous is None else previous[k][0])
-        n = p.slave_nodes.size
-        r = np.repeat(np.arange(n), 6)
-        m1, m2 = p.master_nodes[seg], p.master_nodes[seg + 1]
-        cc = np.stack(
-            [
-                gdof(p.slave_body, sb.dof(p.slave_nodes, 0)),
-                gdof(p.slave_body, sb.dof(p.slave_nodes, 1)),
-                gdof(p.master_body, mb.dof(m1, 0)),
-                gdof(p.master_body, mb.dof(m1, 1)),
-                gdof(p.master_body, mb.dof(m2, 0)),
-                gdof(p.master_body, mb.dof(m2, 1)),
-            ],
-            axis=1,
-        ).ravel()
-        vv = np.stack(
-            [
-                normal[0],
-                normal[1],
-                -(1 - t) * normal[0],
-                -(1 - t) * normal[1],
-                -t * normal[0],
-                -t * normal[1],
-            ],
-            axis=1,
-        ).ravel()
-        g_pair = sp.csr_matrix((vv, (r, cc)), shape=(n, n_u))
-        g_rows.append(g_pair)
-        g0.append(gap - g_pair @ u)  # so that g(u') = g0 + G u'
-        geom.append((seg, t, normal))
-    return sp.vstack(g_rows, format="csr"), np.concatenate(g0), geom
-
-
-def _free_modes(bodies, offsets, c_mat, k_extra) -> FloatArray:
-    """Zero-energy modes of the constrained structure (n_u, r), columns of unit max.
-
-    They lie in the span of the bodies' rigid motions (two translations and the
-    infinitesimal rotation of each) and the extra unknowns without stiffness; the modes
-    are the combinations of these that satisfy the homogeneous equalities.
-    """
-    n_b = int(offsets[-1])
-    n_u = n_b + k_extra.size
-    cols = []
-    for i, b in enumerate(bodies):
-        x, y = b.mesh.p
-        xc, yc = x.mean(), y.mean()
-        dx = offsets[i] + b.basis.nodal_dofs[0]
-        dy = offsets[i] + b.basis.nodal_dofs[1]
-        for vx, vy in ((np.ones_like(x), 0 * x), (0 * x, np.ones_like(x)), (-(y - yc), x - xc)):
-            z = np.zeros(n_u)
-            z[dx], z[dy] = vx, vy
-            cols.append(z / np.abs(z).max())
-    for j in np.flatnonzero(k_extra == 0):
-        z = np.zeros(n_u)
-        z[n_b + j] = 1.0
-        cols.append(z)
-    z_mat = np.stack(cols, axis=1)
-    if c_mat.shape[0] == 0:
-        null = np.eye(z_mat.shape[1])
-    else:
-        cz = np.asarray(c_mat @ z_mat)
-        _, sv, vt = np.linalg.svd(cz)
-        sv = np.concatenate([sv, np.zeros(vt.shape[0] - sv.size)])
-        null = vt[sv <= 1e-9 * max(sv.max(), 1e-300)].T
-    modes = z_mat @ null
-    if modes.shape[1]:
-        modes /= np.abs(modes).max(axis=0)
-    return modes
-
-
-def _grounding_dofs(modes: FloatArray) -> NDArray:
-    """Dofs at which the modes are independent (pivoted QR), one per mode."""
-    if modes.shape[1] == 0:
-        return np.zeros(0, int)
-    _, piv = qr(modes.T, mode="r", pivoting=True)
-    return np.sort(piv[: modes.shape[1]])
-
-
-def _least_squares_factor(m: FloatArray):
-    """F with FᵀF = m and the map p ↦ d with Fᵀd = −p (so ½λᵀmλ + pᵀλ = ½‖Fλ − d‖² + c)."""
-    try:
-        low = cholesky(m, lower=True)
-        return low.T, lambda p: -solve_triangular(low, p, lower=True)
-    except LinAlgError:  # semi-definite up to round-off: drop the null directions
-        eig, vec = np.linalg.eigh(m)
-        keep = eig > 1e-13 * eig.max()
-        root = np.sqrt(eig[keep])
-        return root[:, None] * vec[:, keep].T, lambda p: -(vec[:, keep].T @ p) / root
-
-
-def _contact_qp(w, q, h, c, amp0, max_iter: int = 200):
-    """Solve min ½λᵀWλ + qᵀλ subject to λ ≥ 0, Hᵀλ = c (W symmetric positive definite).
-
-    The KKT conditions are the contact conditions g = Wλ + q + Ha ≥ 0, λ ≥ 0, λ·g = 0
-    with the amplitudes a of the free modes and their equilibrium Hᵀλ = c. The
-    multipliers a are found by the augmented-Lagrangian (method of multipliers) update,
-    each subproblem min over λ ≥ 0 a strictly convex QP solved exactly and finitely by
-    non-negative least squares (Lawson–Hanson, no cycling); after each, the KKT system of
-    its active set is solved exactly and accepted when it satisfies every condition to
-    round-off. Returns (λ, a, subproblems).
-    """
-    n, r = q.size, h.shape[1]
-    s = float(np.mean(np.diag(w)))
-    ws, qs, hs, cs = w / s, q / s, h / s, np.asarray(c, float) / s
-    h_norm = float(np.linalg.norm(hs, 2)) if r else 0.0
-    rho = 1e3 / h_norm**2 if h_norm > 0 else 0.0  # ρ‖H‖² ≫ diag W: fast multipliers
-    f_mat, rhs = _least_squares_factor(ws + rho * (hs @ hs.T))
-    a = np.asarray(amp0, float).copy()
-    lam = np.zeros(n)
-    for k in range(1, max_iter + 1):
-        lam, _ = nnls(f_mat, rhs(qs + hs @ a - rho * (hs @ cs)), maxiter=50 * n)
-        ok, lam_p, a_p = _polish(ws, qs, hs, cs, lam > 0)
-        if ok:
-            return lam_p, a_p, k
-        if r == 0:
-            break
-        a = a + rho * (hs.T @ lam - cs)
-    if r == 0:  # NNLS is exact for this problem; its solution stands if it satisfies KKT
-        g = ws @ lam + qs
-        tol = 1e-7 * max(float(np.abs(ws @ lam).max()), 1e-300)
-        if g.min() >= -tol and np.abs(g[lam > 0]).max(initial=0.0) <= tol:
-            return lam, a, 1
-    raise ConvergenceError(
-        "FE contact: the condensed contact problem did not converge (no equilibrium with "
-        "compressive contact forces: a load pulls a body away?)"
-    )
-
-
-def _polish(ws, qs, hs, c, act):
-    """Solve the KKT system of the active set exactly; (ok, λ, a)."""
-    idx = np.flatnonzero(act)
-    n_a, r = idx.size, hs.shape[1]
-    if n_a == 0:
-        return False, None, None
-    kkt = np.zeros((n_a + r, n_a + r))
-    kkt[:n_a, :n_a] = ws[np.ix_(idx, idx)]
-    kkt[:n_a, n_a:] = hs[idx]
-    kkt[n_a:, :n_a] = hs[idx].T
-    try:
-        x = np.linalg.solve(kkt, np.concatenate([-qs[idx], c]))
-    except LinAlgError:
-        return False, None, None
-    lam = np.zeros(qs.size)
-    lam[idx] = x[:n_a]
-    a = x[n_a:]
-    closure = np.abs(ws @ lam)
-    if r:
-        closure = np.maximum(closure, np.abs(hs @ a))
-    g = ws @ lam + qs + hs @ a
-    lam_tol = 1e-9 * max(float(np.abs(lam).max()), 1e-300)
-    gap_tol = 1e-9 * max(float(closure.max()), 1e-300)
-    ok = lam[idx].min() >= -lam_tol and (act.all() or g[~act].min() >= -gap_tol)
-    return ok, np.maximum(lam, 0.0), a
-
-
-def _check(lam, gap, closure, h, modal_force) -> None:
-    """Verify the final solution: no penetration, compression only, modal equilibrium."""
-    act = lam > 0
-    tol = 1e-8 * closure
-    if lam.min() < 0 or (~act).any() and gap[~act].min() < -tol:
-        raise ConvergenceError(
-            f"FE contact: the solution penetrates by {-gap[~act].min() / closure:.2g} "
-            "of the closure"
-        )
-    if act.any() and np.abs(gap[act]).max() > tol:
-        raise ConvergenceError("FE contact: closed gaps are not closed (ill-conditioned)")
-    if h.shape[1]:
-        resid = np.abs(h.T @ lam + modal_force)
-        ref = np.abs(h).T @ lam + np.abs(modal_force)
-        if np.any(resid > 1e-8 * ref):
-            raise ConvergenceError(
-                f"FE contact: free modes not in equilibrium ({(resid / ref).max():.2g})"
-            )
 
 
 @dataclass(frozen=True)

@@ -112,7 +112,7 @@ def reduce_rings(
 
 def _metrics(ds: xr.Dataset) -> list[str]:
     names = (*METRICS, *DRIVE_METRICS)  # the mesh force and a stack's torque split too
-    return [name for name in names if name in ds and name not in ("overlap", "jammed")]
+    return [name for name in names if name in ds and name not in ("any_overlap", "jammed")]
 
 
 def _label(name: str) -> str:

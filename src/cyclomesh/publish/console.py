@@ -13,6 +13,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from cyclomesh.quantities import QUANTITIES
+
 __all__ = [
     "CASES_PER_TABLE",
     "cell",
@@ -27,26 +29,37 @@ __all__ = [
     "print_fe",
     "print_export",
     "RUN_ROWS",
+    "row",
     "STIFFNESS_ROWS",
 ]
+
 
 CASES_PER_TABLE = 4
 """Cases side by side in one table (4 × 13 columns + labels fit 80 columns)."""
 
+
+def row(name: str, unit: str | None = None, factor: float = 1.0) -> tuple[str, str, float]:
+    """A table row of the metric ``name``: its label and unit from the quantity registry
+    (:mod:`cyclomesh.quantities`), or ``unit`` with the ``factor`` to it."""
+    q = QUANTITIES[name]
+    unit = q.unit if unit is None else unit
+    return name, q.label if unit == "1" else f"{q.label} [{unit}]", factor
+
+
 RUN_ROWS: tuple[tuple[str, str, float], ...] = (
-    ("te_pp_arcsec", "TE p-p [arcsec]", 1.0),
-    ("te_mean_arcsec", "TE mean [arcsec]", 1.0),
-    ("max_pin_load_n", "max pin load [N]", 1.0),
-    ("max_contact_stress_mpa", "max σH tooth [MPa]", 1.0),
-    ("max_groove_stress_mpa", "max σH groove [MPa]", 1.0),
-    ("contacts", "pins in contact", 1.0),
-    ("gear_ratio_ripple_pct", "ratio ripple [%]", 1.0),
-    ("play_arcsec_max", "max play [arcmin]", 1.0 / 60.0),
-    ("max_mesh_force_n", "max mesh force [N]", 1.0),
-    ("stage_lost_motion_arcmin_max", "max stage lost motion [arcmin]", 1.0),
-    ("stage_torsional_rigidity_nm_per_arcmin_min", "min stage rigidity [N·m/arcmin]", 1.0),
-    ("stage_max_crank_bearing_load_n", "max bearing load [N]", 1.0),
-    ("stage_l10_h_min", "bearing L10h [h]", 1.0),
+    row("te_pp_arcsec"),
+    row("te_mean_arcsec"),
+    row("max_pin_load_n"),
+    row("max_contact_stress_mpa"),
+    row("max_groove_stress_mpa"),
+    row("contacts"),
+    row("gear_ratio_ripple_pct"),
+    row("play_arcsec_max", "arcmin", 1.0 / 60.0),
+    row("max_mesh_force_n"),
+    row("stage_lost_motion_arcmin_max"),
+    row("stage_torsional_rigidity_nm_per_arcmin_min"),
+    row("stage_max_crank_bearing_load_n"),
+    row("stage_l10_h_min"),
 )
 """Rows of the run summary: metric key, short label with unit, factor to that unit."""
 
@@ -64,7 +77,7 @@ def cell(value: Any, factor: float = 1.0) -> str:
 
 def _value(record: dict[str, Any], key: str, factor: float) -> str:
     if key == "contacts":  # fewest–most pins in contact
-        low, high = record.get("contacts_min"), record.get("contacts_max")
+        low, high = record.get("min_contacts"), record.get("max_contacts")
         if isinstance(low, list):
             return " / ".join(f"{a}–{b}" for a, b in zip(low, high, strict=True))
         return "–" if low is None else f"{low}–{high}"
@@ -102,7 +115,7 @@ def print_metrics(
 
 def _has(record: dict[str, Any], key: str) -> bool:
     if key == "contacts":
-        return record.get("contacts_min") is not None
+        return record.get("min_contacts") is not None
     return record.get(key) is not None
 
 
@@ -182,7 +195,7 @@ def print_run(
     print_metrics(console, records, RUN_ROWS)
     if checks:
         print_checks(console, checks)
-    overlap = [record.get("overlap") for record in summaries.values()]
+    overlap = [record.get("any_overlap") for record in summaries.values()]
     if any(any(v) if isinstance(v, list) else v for v in overlap):
         console.print(
             "warning: the disc interferes with unloaded-side pins (see max_overlap_arcsec)"
@@ -198,22 +211,23 @@ def print_run(
 
 
 STIFFNESS_ROWS = (
-    ("rated_torque_nm", "rated torque [N·m]", 1.0),
-    ("play_arcmin_max", "max play [arcmin]", 1.0),
-    ("lost_motion_arcmin_mean", "mesh lost motion [arcmin]", 1.0),
-    ("lost_motion_arcmin_max", "max mesh lost motion [arcmin]", 1.0),
-    ("torsional_rigidity_nm_per_arcmin_mean", "mesh rigidity [N·m/arcmin]", 1.0),
-    ("torsional_rigidity_nm_per_arcmin_min", "min mesh rigidity [N·m/arcmin]", 1.0),
-    ("drive_lost_motion_arcmin_max", "max drive lost motion [arcmin]", 1.0),
-    ("drive_torsional_rigidity_nm_per_arcmin_min", "min drive rigidity [N·m/arcmin]", 1.0),
-    ("stage_lost_motion_arcmin_max", "max stage lost motion [arcmin]", 1.0),
-    ("stage_torsional_rigidity_nm_per_arcmin_min", "min stage rigidity [N·m/arcmin]", 1.0),
-    ("stage_l10_h_min", "bearing L10h [h]", 1.0),
-    ("measured_torsional_rigidity_nm_per_arcmin", "measured rigidity [N·m/arcmin]", 1.0),
-    ("measured_lost_motion_arcmin", "measured lost motion [arcmin]", 1.0),
-    ("measured_backlash_arcmin", "measured backlash [arcmin]", 1.0),
-    ("reconciling_compliance_arcmin_per_knm", "reconciling compliance [arcmin/kN·m]", 1.0),
+    row("rated_torque_nm"),
+    row("play_arcmin_max"),
+    row("lost_motion_arcmin_mean"),
+    row("lost_motion_arcmin_max"),
+    row("torsional_rigidity_nm_per_arcmin_mean"),
+    row("torsional_rigidity_nm_per_arcmin_min"),
+    row("drive_lost_motion_arcmin_max"),
+    row("drive_torsional_rigidity_nm_per_arcmin_min"),
+    row("stage_lost_motion_arcmin_max"),
+    row("stage_torsional_rigidity_nm_per_arcmin_min"),
+    row("stage_l10_h_min"),
+    row("measured_torsional_rigidity_nm_per_arcmin"),
+    row("measured_lost_motion_arcmin"),
+    row("measured_backlash_arcmin"),
+    row("reconciling_compliance_arcmin_per_knm"),
 )
+"""Rows of the stiffness summary (labels and units from the quantity registry)."""
 
 
 def print_stiffness(summaries: dict, out: Path, checks: dict | None = None) -> None:

@@ -16,19 +16,21 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.core.case import Case, Model
 from cyclomesh.core.ltca import CONTACT_LOAD_FRACTION, LTCA
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
-from cyclomesh.drive.solve import Drive, check_torques, solve_drive
+from cyclomesh.drive.solve import Drive, check_torques, drive
 from cyclomesh.exceptions import DesignError
-from cyclomesh.execution.runtime import tune_allocator, version
+from cyclomesh.execution.runtime import version
+from cyclomesh.quantities import QUANTITIES
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, summary_metrics
-from cyclomesh.units import ARCSEC_PER_RAD
 
 if TYPE_CHECKING:
     import xarray as xr
 
 __all__ = [
     "analyse",
+    "drive_dataset",
     "to_dataset",
     "drive_to_dataset",
     "summarize",
@@ -36,21 +38,24 @@ __all__ = [
     "drive_metrics",
 ]
 
-"""One second of arc [rad]."""
 
-# name (an LTCA field): (scale from SI, units, long name)
-_PER_PIN = {
-    "pin_load": (1.0, "N", "pin-tooth contact force Fc"),
-    "groove_load": (1.0, "N", "pin-groove contact force Fp"),
-    "contact_stress": (1e-6, "MPa", "max. Hertzian pressure, pin-tooth"),
-    "groove_stress": (1e-6, "MPa", "max. Hertzian pressure, pin-groove"),
-    "backlash": (ARCSEC_PER_RAD, "arcsec", "unloaded backlash φbl (inf: unreachable)"),
-    "overlap": (ARCSEC_PER_RAD, "arcsec", "interference with the unloaded flank"),
-    "profile_angle": (180.0 / np.pi, "deg", "generating angle φ1 of contact"),
-    "contact_radius": (1e3, "mm", "radius of the contact point on the disc"),
-    "moment_arm": (1e3, "mm", "moment arm of the line of action"),
-    "curvature_radius": (1e3, "mm", "signed profile curvature radius ρc"),
-}
+def _table(*names: str) -> dict[str, tuple[float, str, str]]:
+    """name (a core field) → (scale from SI, units, long name), from the quantity registry."""
+    return {n: (QUANTITIES[n].scale, QUANTITIES[n].unit, QUANTITIES[n].long_name) for n in names}
+
+
+_PER_PIN = _table(
+    "pin_load",
+    "groove_load",
+    "contact_stress",
+    "groove_stress",
+    "backlash",
+    "overlap",
+    "profile_angle",
+    "contact_radius",
+    "moment_arm",
+    "curvature_radius",
+)
 NONFINITE = {
     "backlash": "inf: the pin lies above the tip circle of the modified profile and cannot "
     "touch the loaded flank",
@@ -59,27 +64,18 @@ NONFINITE = {
 }
 """What a non-finite value means in a variable (its ``nonfinite`` attribute); no other
 variable holds one."""
-_PER_ANGLE = {
-    "transmission_error": (ARCSEC_PER_RAD, "arcsec", "loaded TE"),
-    "gear_ratio": (1.0, "1", "instantaneous gear ratio"),
-    "contacts": (
-        1,
-        "1",
-        "number of pins in contact: load above 0.1 % of the largest pin load at the angle",
-    ),
-    "loaded_rotation": (ARCSEC_PER_RAD, "arcsec", "disc rotation under load Δφc"),
-    "rest_rotation": (ARCSEC_PER_RAD, "arcsec", "unloaded rest position φc − φt"),
-}
+_PER_ANGLE = _table(
+    "transmission_error", "gear_ratio", "contacts", "loaded_rotation", "rest_rotation"
+)
 # drive-level results (cyclomesh.drive.solve): per pin, per disc, per crank angle only
-_DRIVE_PER_PIN = {
-    "force_angle": (180.0 / np.pi, "deg", "direction of the pin force on the disc, from x"),
-}
-_PER_DISC = {
-    "mesh_force": (1.0, "N", "resultant of the pin forces on the disc (crank bearing load)"),
-    "mesh_force_angle": (180.0 / np.pi, "deg", "direction of the mesh force, from x"),
-    "torque_share": (1.0, "N m", "torque carried by the disc"),
-}
-_PLAY = ("play", ARCSEC_PER_RAD, "arcsec", "angular play between the flanks at zero load")
+_DRIVE_PER_PIN = _table("force_angle")
+_PER_DISC = _table("mesh_force", "mesh_force_angle", "torque_share")
+_PLAY = ("play", *_table("play")["play"])
+
+
+_METRIC_SOURCES = {metric.reduce[0] for metric in METRICS.values()}
+"""The variables :data:`METRICS` reduce."""
+_METRIC_PIN_SOURCES = tuple(name for name in _PER_PIN if name in _METRIC_SOURCES)
 
 
 def to_dataset(
@@ -219,7 +215,7 @@ def drive_to_dataset(
         "pin": ("pin", np.arange(1, design.pins + 1), {"units": "1"}),
     }
     if torque_dim:
-        coords["torque"] = ("torque", result.torque, {"units": "N m", "long_name": "torque"})
+        coords["torque"] = ("torque", result.torque, {"units": "N·m", "long_name": "torque"})
     if stack:
         coords["disc"] = ("disc", np.arange(1, discs + 1), {"units": "1"})
     if ring:
@@ -313,25 +309,30 @@ def analyse(
     ----------
     [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672.
     """
-    tune_allocator()  # once per process: the solver's temporaries stay on the heap
     modification = modification or Modification()
     crank_angles, degrees = resolve_crank_angles(crank_angles, crank_angles_deg)
     torque_dim = np.ndim(torque) > 0
     torques = check_torques(torque)
     body = resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir)
-    result = solve_drive(
-        design,
-        modification,
-        errors,
-        torques,
-        crank_angles,
-        groove_deformation,
-        discs,
-        contact_law,
-        body,
-    )
-    ds = drive_to_dataset(result, design, modification, groove_deformation, torque_dim)
-    ds.attrs["contact_law"] = contact_law
+    case = Case(design, modification, errors, torques, crank_angles)
+    model = Model(contact_law, groove_deformation, body, discs)
+    return drive_dataset(drive(case, model), case, model, torque_dim, degrees)
+
+
+def drive_dataset(
+    result: Drive,
+    case: Case,
+    model: Model,
+    torque_dim: bool,
+    degrees: ArrayLike | None = None,
+) -> xr.Dataset:
+    """The Dataset of :func:`analyse` from a :class:`~cyclomesh.drive.solve.Drive` of ``case``
+    and ``model`` (its disc body resolved): :func:`drive_to_dataset` with the model's
+    ``contact_law`` and ``disc_body`` attributes, and the crank angles in [deg] as given."""
+    modification = case.modification or Modification()
+    ds = drive_to_dataset(result, case.design, modification, model.groove_deformation, torque_dim)
+    ds.attrs["contact_law"] = model.contact_law
+    body = model.disc_body
     ds.attrs["disc_body"] = "rigid" if isinstance(body, str) else "fe"
     if not isinstance(body, str):
         ds.attrs["disc_body_key"] = body.key
@@ -345,10 +346,10 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
 
     Returns a Dataset with the metrics of :data:`cyclomesh.results.metrics.METRICS`
     (``te_mean_arcsec``, ``te_pp_arcsec``, ``max_pin_load_n``, ``max_groove_load_n``,
-    ``max_contact_stress_mpa``, ``max_groove_stress_mpa``, ``contacts_min``,
-    ``contacts_max``, ``gear_ratio_ripple_pct`` (peak-to-peak of the instantaneous ratio
+    ``max_contact_stress_mpa``, ``max_groove_stress_mpa``, ``min_contacts``,
+    ``max_contacts``, ``gear_ratio_ripple_pct`` (peak-to-peak of the instantaneous ratio
     in % of n2, over the step ``gear_ratio_step_deg``), ``max_overlap_arcsec`` and
-    ``overlap``), each with its ``units`` and ``long_name``, and those of
+    ``any_overlap``), each with its ``units`` and ``long_name``, and those of
     :data:`cyclomesh.results.metrics.DRIVE_METRICS` the result has (``play_arcsec_mean``,
     ``play_arcsec_max``, ``max_mesh_force_n``). A ``torque`` dimension (a list of
     torques) is kept; a ``disc`` dimension (a stack) is reduced with the pins (per-disc
@@ -367,14 +368,13 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
         return values.reshape(*values.shape[: values.ndim - extra - 1], -1) if extra else values
 
     values = summary_metrics(
-        transmission_error=merged("transmission_error", ("crank_angle",)),
-        gear_ratio=merged("gear_ratio", ("crank_angle",)),
-        contacts=merged("contacts", ("crank_angle", *stack)),
-        **{
-            name: merged(name, ("crank_angle", *stack, "pin"))
-            for name in ("pin_load", "groove_load", "contact_stress", "groove_stress", "overlap")
+        {
+            "transmission_error": merged("transmission_error", ("crank_angle",)),
+            "gear_ratio": merged("gear_ratio", ("crank_angle",)),
+            "contacts": merged("contacts", ("crank_angle", *stack)),
+            **{name: merged(name, ("crank_angle", *stack, "pin")) for name in _METRIC_PIN_SOURCES},
         },
-        teeth=ds.attrs["teeth"],
+        ds.attrs["teeth"],
     )
     coords = {d: ds[d] for d in order if d in ds.coords}
     data = {name: (tuple(order), values[name]) for name in METRICS}
@@ -384,8 +384,8 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
     if "mesh_force" in ds:
         data["max_mesh_force_n"] = ds["mesh_force"].max(("crank_angle", *stack))
     if "torque_share" in ds:
-        data["torque_share_min_nm"] = ds["torque_share"].min(("crank_angle", *stack))
-        data["torque_share_max_nm"] = ds["torque_share"].max(("crank_angle", *stack))
+        data["min_torque_share_nm"] = ds["torque_share"].min(("crank_angle", *stack))
+        data["max_torque_share_nm"] = ds["torque_share"].max(("crank_angle", *stack))
     summary = xr.Dataset(data, coords=coords)
     for name in summary.data_vars:
         metric = METRICS.get(name) or DRIVE_METRICS[name]
@@ -404,19 +404,9 @@ def ltca_metrics(result: LTCA, teeth: int) -> dict[str, NDArray]:
         name: getattr(result, name) * table[name][0]
         for table in (_PER_PIN, _PER_ANGLE)
         for name in table
-        if name
-        in (
-            "transmission_error",
-            "gear_ratio",
-            "contacts",
-            "pin_load",
-            "groove_load",
-            "contact_stress",
-            "groove_stress",
-            "overlap",
-        )
+        if name in _METRIC_SOURCES
     }
-    return summary_metrics(**scaled, teeth=teeth)
+    return summary_metrics(scaled, teeth)
 
 
 def drive_metrics(result: Drive, teeth: int) -> dict[str, NDArray]:
@@ -424,7 +414,7 @@ def drive_metrics(result: Drive, teeth: int) -> dict[str, NDArray]:
 
     :data:`cyclomesh.results.metrics.METRICS` (per-pin ones reduced over the discs and pins,
     contacts per disc), ``max_mesh_force_n`` (largest mesh force on a disc [N]) and, for a
-    stack, ``torque_share_min_nm`` / ``torque_share_max_nm`` (range of the torque one
+    stack, ``min_torque_share_nm`` / ``max_torque_share_nm`` (range of the torque one
     disc carries [N·m]); bit for bit those of :func:`summarize`, leading ring axes kept.
     """
     angles, discs, pins = result.pin_load.shape[-3:]
@@ -434,21 +424,20 @@ def drive_metrics(result: Drive, teeth: int) -> dict[str, NDArray]:
         return value.reshape(*value.shape[:-2], discs * pins)
 
     out = summary_metrics(
-        transmission_error=result.transmission_error[..., 0, :]
-        * _PER_ANGLE["transmission_error"][0],
-        gear_ratio=result.gear_ratio[..., 0, :],
-        contacts=result.contacts[..., 0, :, :].reshape(*result.contacts.shape[:-3], -1),
-        **{
-            name: per_pin(name)
-            for name in ("pin_load", "groove_load", "contact_stress", "groove_stress", "overlap")
+        {
+            "transmission_error": result.transmission_error[..., 0, :]
+            * _PER_ANGLE["transmission_error"][0],
+            "gear_ratio": result.gear_ratio[..., 0, :],
+            "contacts": result.contacts[..., 0, :, :].reshape(*result.contacts.shape[:-3], -1),
+            **{name: per_pin(name) for name in _METRIC_PIN_SOURCES},
         },
-        teeth=teeth,
+        teeth,
     )
     out["max_mesh_force_n"] = np.max(result.mesh_force[..., 0, :, :], axis=(-2, -1))
     if discs > 1:
         share = result.torque_share[..., 0, :, :]
-        out["torque_share_min_nm"] = np.min(share, axis=(-2, -1))
-        out["torque_share_max_nm"] = np.max(share, axis=(-2, -1))
+        out["min_torque_share_nm"] = np.min(share, axis=(-2, -1))
+        out["max_torque_share_nm"] = np.max(share, axis=(-2, -1))
     return out
 
 

@@ -94,7 +94,7 @@ REQUIREMENTS: dict[str, Requirement] = {
         Requirement(
             "max_te_pp_arcsec", "max", "arcsec", "TE peak-to-peak", (("te_pp_arcsec", 1.0),)
         ),
-        Requirement("min_contacts", "min", "1", "fewest pins in contact", (("contacts_min", 1.0),)),
+        Requirement("min_contacts", "min", "1", "fewest pins in contact", (("min_contacts", 1.0),)),
         Requirement(
             "max_gear_ratio_ripple_pct",
             "max",
@@ -123,7 +123,7 @@ REQUIREMENTS: dict[str, Requirement] = {
         Requirement(
             "min_torsional_rigidity_nm_per_arcmin",
             "min",
-            "N m/arcmin",
+            "N·m/arcmin",
             "smallest torsional rigidity",
             (
                 ("drive_torsional_rigidity_nm_per_arcmin_min", 1.0),

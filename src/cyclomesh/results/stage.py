@@ -16,13 +16,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cyclomesh.core.transmission import gear_ratio
+from cyclomesh.quantities import QUANTITIES, select
 from cyclomesh.results.metrics import Metric
 from cyclomesh.stage.solve import (
     Stage,
     StageDesign,
     bearing_life,
-    solve_stage,
-    stage_torsion_curve,
+    solve,
+    stage_torsion,
 )
 from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
@@ -48,101 +49,28 @@ ARCMIN = RAD_PER_ARCMIN
 SHEET_ANGLES = 360
 """At most this many crank angles (evenly subsampled from the case's) for the data sheet."""
 
-STAGE_METRICS: dict[str, Metric] = {
-    m.name: m
-    for m in (
-        Metric("stage_rated_torque_nm", "N·m", "rated torque of the data sheet", "rated torque"),
-        Metric("stage_output_speed_rpm", "rpm", "output speed of the rated life", "speed"),
-        Metric("stage_l10_h_min", "h", "L10h of the weakest crank bearing (ISO 281)", "L10h min"),
-        Metric(
-            "stage_equivalent_load_n_max",
-            "N",
-            "largest equivalent dynamic load of a crank bearing over the revolution",
-            "P max",
-        ),
-        Metric(
-            "stage_dynamic_load_rating_kn",
-            "kN",
-            "basic dynamic load rating C_r of a crank bearing",
-            "C_r",
-        ),
-        Metric(
-            "stage_torsional_rigidity_nm_per_arcmin",
-            "N·m/arcmin",
-            "torsional rigidity of the stage (mesh, bearings, crankshafts, carrier), b/a "
-            "50-100 % of rated (catalogue)",
-            "rigidity",
-        ),
-        Metric(
-            "mesh_torsional_rigidity_nm_per_arcmin",
-            "N·m/arcmin",
-            "torsional rigidity of the mesh alone (rigid bearings)",
-            "mesh rigidity",
-        ),
-        Metric(
-            "stage_lost_motion_arcmin",
-            "arcmin",
-            "lost motion of the stage: twist between the loop's mid-points at -3 % and +3 %",
-            "lost motion",
-        ),
-        Metric("mesh_lost_motion_arcmin", "arcmin", "lost motion of the mesh alone", "mesh LM"),
-        Metric(
-            "stage_backlash_arcmin",
-            "arcmin",
-            "backlash of the stage: width of the loop at zero torque (at ±0.1 %)",
-            "backlash",
-        ),
-        Metric("mesh_backlash_arcmin", "arcmin", "backlash of the mesh alone", "mesh backlash"),
-        Metric(
-            "stage_duty_equivalent_torque_nm",
-            "N·m",
-            "equivalent torque of the duty cycle (cubic mean, exponent 10/3)",
-            "T_eq",
-        ),
-        Metric(
-            "stage_duty_equivalent_speed_rpm", "rpm", "mean output speed of the duty cycle", "n_eq"
-        ),
-        Metric(
-            "stage_duty_l10_h_min",
-            "h",
-            "L10h of the weakest crank bearing over the duty cycle (ISO 281, variable load)",
-            "L10h cycle",
-        ),
-        Metric(
-            "stage_l10_h_at_equivalent_torque",
-            "h",
-            "L10h of the weakest crank bearing at T_eq and n_eq",
-            "L10h at T_eq",
-        ),
-        Metric(
-            "stage_lost_motion_arcmin_max",
-            "arcmin",
-            "largest lost motion of the stage over the crank angles (the requirement's)",
-            "max lost motion",
-        ),
-        Metric(
-            "stage_torsional_rigidity_nm_per_arcmin_min",
-            "N·m/arcmin",
-            "smallest torsional rigidity of the stage over the crank angles (the requirement's)",
-            "min rigidity",
-        ),
-        Metric(
-            "stage_max_contact_stress_mpa",
-            "MPa",
-            "peak pin-tooth contact stress at rated torque",
-            "max σH",
-        ),
-        Metric(
-            "stage_max_crank_bearing_load_n",
-            "N",
-            "largest crank bearing load at rated torque",
-            "max bearing load",
-        ),
-        Metric(
-            "stage_max_roller_load_n", "N", "largest needle roller load at rated torque", "max Q"
-        ),
-    )
-}
+STAGE_METRICS: dict[str, Metric] = select(
+    "stage_rated_torque_nm",
+    "stage_output_speed_rpm",
+    "stage_l10_h_min",
+    "stage_equivalent_load_n_max",
+    "stage_dynamic_load_rating_kn",
+    "stage_torsional_rigidity_nm_per_arcmin",
+    "mesh_torsional_rigidity_nm_per_arcmin",
+    "stage_lost_motion_arcmin",
+    "mesh_lost_motion_arcmin",
+    "stage_backlash_arcmin",
+    "mesh_backlash_arcmin",
+    "stage_duty_equivalent_torque_nm",
+    "stage_duty_equivalent_speed_rpm",
+    "stage_duty_l10_h_min",
+    "stage_l10_h_at_equivalent_torque",
+    "stage_lost_motion_arcmin_max",
+    "stage_torsional_rigidity_nm_per_arcmin_min",
+    "stage_max_contact_stress_mpa",
+    "stage_max_crank_bearing_load_n",
+    "stage_max_roller_load_n",
+)
 
 
 def sheet_angles(crank_angles: np.ndarray) -> np.ndarray:
@@ -157,7 +85,8 @@ def stage_dataset(result: Stage, stage: StageDesign, pins: int) -> xr.Dataset:
     Variables: ``crank_bearing_load`` [N], ``crank_bearing_load_angle`` [deg] (force of the
     disc on the crank pin, counter-clockwise from x), ``crank_bearing_deflection`` [um],
     ``max_roller_load`` [N] (crank_angle, disc, crank); ``disc_translation_x/_y`` [um],
-    ``stage_pin_load`` [N] (…, pin); ``stage_transmission_error`` [arcsec] (the output's);
+    ``stage_pin_load`` [N], ``stage_groove_stress`` [MPa] (…, pin);
+    ``stage_transmission_error`` [arcsec] (the output's);
     ``crank_bearing_equivalent_load`` [N] and ``crank_bearing_l10`` [h] (disc, crank).
     """
     import xarray as xr
@@ -166,69 +95,56 @@ def stage_dataset(result: Stage, stage: StageDesign, pins: int) -> xr.Dataset:
     squeeze = q == 1
     deg = np.degrees(result.crank_angle)
 
-    def var(values: np.ndarray, dims: tuple[str, ...], units: str, long_name: str):
+    def var(values: np.ndarray, dims: tuple[str, ...], name: str):
+        """The variable ``name`` (units and long name from the quantity registry)."""
         values = values[0] if squeeze else values
+        q = QUANTITIES[name]
         return (
             (dims if squeeze else ("torque", *dims)),
             values,
-            {
-                "units": units,
-                "long_name": long_name,
-            },
+            {"units": q.unit, "long_name": q.long_name},
         )
 
     data = {
         "crank_bearing_load": var(
-            result.bearing_load, ("crank_angle", "disc", "crank"), "N", "crank bearing load"
+            result.bearing_load, ("crank_angle", "disc", "crank"), "crank_bearing_load"
         ),
         "crank_bearing_load_angle": var(
             np.degrees(result.bearing_load_angle),
             ("crank_angle", "disc", "crank"),
-            "deg",
-            "direction of the disc's force on the crank pin, from x",
+            "crank_bearing_load_angle",
         ),
         "crank_bearing_deflection": var(
             result.bearing_deflection * 1e6,
             ("crank_angle", "disc", "crank"),
-            "um",
-            "displacement of the crank hole against its crank pin (clearance included)",
+            "crank_bearing_deflection",
         ),
         "disc_translation_x": var(
-            result.disc_translation_x * 1e6, ("crank_angle", "disc"), "um", "disc translation x"
+            result.disc_translation_x * 1e6, ("crank_angle", "disc"), "disc_translation_x"
         ),
         "disc_translation_y": var(
-            result.disc_translation_y * 1e6, ("crank_angle", "disc"), "um", "disc translation y"
+            result.disc_translation_y * 1e6, ("crank_angle", "disc"), "disc_translation_y"
         ),
-        "stage_pin_load": var(
-            result.pin_load, ("crank_angle", "disc", "pin"), "N", "pin load in the stage"
+        "stage_pin_load": var(result.pin_load, ("crank_angle", "disc", "pin"), "stage_pin_load"),
+        "stage_groove_stress": var(
+            result.groove_stress * 1e-6, ("crank_angle", "disc", "pin"), "stage_groove_stress"
         ),
         "stage_opposite_pin_load": var(
-            result.opposite_pin_load,
-            ("crank_angle", "disc", "pin"),
-            "N",
-            "pin load on the opposite flank (closed by the disc's translation)",
+            result.opposite_pin_load, ("crank_angle", "disc", "pin"), "stage_opposite_pin_load"
         ),
         "stage_transmission_error": var(
-            result.transmission_error / ARCSEC,
-            ("crank_angle",),
-            "arcsec",
-            "TE of the output (carrier), mesh, bearings and springs",
+            result.transmission_error / ARCSEC, ("crank_angle",), "stage_transmission_error"
         ),
     }
     if stage.bearing is not None:
         data["max_roller_load"] = var(
-            result.max_roller_load,
-            ("crank_angle", "disc", "crank"),
-            "N",
-            "load of the most loaded needle roller",
+            result.max_roller_load, ("crank_angle", "disc", "crank"), "max_roller_load"
         )
         p, _, hours = bearing_life(result, stage, pins)
         data["crank_bearing_equivalent_load"] = var(
-            p, ("disc", "crank"), "N", "equivalent dynamic load over the crank angles (p = 10/3)"
+            p, ("disc", "crank"), "crank_bearing_equivalent_load"
         )
-        data["crank_bearing_l10"] = var(
-            hours, ("disc", "crank"), "h", "basic rating life L10h (ISO 281) at the output speed"
-        )
+        data["crank_bearing_l10"] = var(hours, ("disc", "crank"), "crank_bearing_l10")
     from cyclomesh.core.transmission import is_full_revolution
 
     orders = None
@@ -240,14 +156,10 @@ def stage_dataset(result: Stage, stage: StageDesign, pins: int) -> xr.Dataset:
         share = np.moveaxis(order_spectrum(result.torque_share, -2, top), 0, -2)
         orders = np.arange(te.shape[-1])
         data["stage_te_order_amplitude"] = var(
-            te / ARCSEC,
-            ("crank_order",),
-            "arcsec",
-            "amplitude of the output's TE by order of the crank revolution "
-            "(output order = crank order x (n1 - 1))",
+            te / ARCSEC, ("crank_order",), "stage_te_order_amplitude"
         )
         data["torque_share_order_amplitude"] = var(
-            share, ("crank_order", "disc"), "N m", "amplitude of each disc's torque share by order"
+            share, ("crank_order", "disc"), "torque_share_order_amplitude"
         )
     coords = {
         "crank_angle": ("crank_angle", deg, {"units": "deg"}),
@@ -256,7 +168,7 @@ def stage_dataset(result: Stage, stage: StageDesign, pins: int) -> xr.Dataset:
         "pin": np.arange(1, result.pin_load.shape[-1] + 1),
     }
     if not squeeze:
-        coords["torque"] = ("torque", result.torque, {"units": "N m"})
+        coords["torque"] = ("torque", result.torque, {"units": "N·m"})
     if orders is not None:
         coords["crank_order"] = ("crank_order", orders, {"long_name": "order of the crank speed"})
         coords["output_order"] = (
@@ -285,17 +197,8 @@ def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
     """
     stage = inputs.stage
     phi = sheet_angles(np.asarray(inputs.crank_angles, float))
-    curve = stage_torsion_curve(
-        inputs.design,
-        stage,
-        inputs.modification,
-        inputs.errors,
-        rated_torque,
-        phi,
-        inputs.groove_deformation,
-        inputs.discs,
-        points=2,
-        contact_law=inputs.contact_law,
+    curve = stage_torsion(
+        inputs.case().replace(torque=rated_torque, crank_angles=phi), inputs.model(), points=2
     )
     result = curve.stage
     at = int(np.flatnonzero(result.torque == rated_torque)[0])
@@ -343,17 +246,7 @@ def _duty_sheet(inputs: Any, phi: np.ndarray) -> dict[str, Any]:
     cycle = stage.duty_cycle
     t_eq, n_eq = cycle.equivalent()
     torques = sorted(set(cycle.torque) | {t_eq})
-    result = solve_stage(
-        inputs.design,
-        stage,
-        inputs.modification,
-        inputs.errors,
-        torques,
-        phi,
-        inputs.groove_deformation,
-        inputs.discs,
-        inputs.contact_law,
-    )
+    result = solve(inputs.case().replace(torque=torques, crank_angles=phi), inputs.model())
     loads = {t: result.bearing_load[i] for i, t in enumerate(torques)}
     rating = stage.bearing.rating()
     _, hours = cycle_life(cycle, [loads[t] for t in cycle.torque], rating, inputs.design.pins)
@@ -372,16 +265,12 @@ def _catalogue_extras(inputs: Any, rated_torque: float, phi: np.ndarray, curve: 
     +T_r (:mod:`cyclomesh.results.datasheet`)."""
     from cyclomesh.results.datasheet import BACKLASH_FRACTION, compliance_share
 
-    small = solve_stage(
-        inputs.design,
-        inputs.stage,
-        inputs.modification,
-        inputs.errors,
-        [-BACKLASH_FRACTION * rated_torque, BACKLASH_FRACTION * rated_torque],
-        phi,
-        inputs.groove_deformation,
-        inputs.discs,
-        inputs.contact_law,
+    small = solve(
+        inputs.case().replace(
+            torque=[-BACKLASH_FRACTION * rated_torque, BACKLASH_FRACTION * rated_torque],
+            crank_angles=phi,
+        ),
+        inputs.model(),
     )
     result = curve.stage
     at = int(np.flatnonzero(result.torque == rated_torque)[0])
@@ -468,17 +357,7 @@ def stage_mesh(ds: xr.Dataset, result: Stage, teeth: int) -> xr.Dataset:
 
 def solve_case(inputs: Any) -> Stage:
     """The stage of a run case at its torque(s) and crank angles."""
-    return solve_stage(
-        inputs.design,
-        inputs.stage,
-        inputs.modification,
-        inputs.errors,
-        inputs.torque,
-        inputs.crank_angles,
-        inputs.groove_deformation,
-        inputs.discs,
-        inputs.contact_law,
-    )
+    return solve(inputs.case(), inputs.model())
 
 
 def stage_torsion_variables(
@@ -492,17 +371,10 @@ def stage_torsion_variables(
     ``stage_lost_motion_arcmin_mean``/``_max``, ``stage_torsional_rigidity_nm_per_arcmin_
     mean``/``_min`` and, with a bearing, ``stage_l10_h_min`` at +T_r.
     """
-    curve = stage_torsion_curve(
-        inputs.design,
-        inputs.stage,
-        inputs.modification,
-        inputs.errors,
-        rated_torque,
-        crank_angles,
-        inputs.groove_deformation,
-        inputs.discs,
+    curve = stage_torsion(
+        inputs.case().replace(torque=rated_torque, crank_angles=crank_angles),
+        inputs.model(),
         points=points,
-        contact_law=inputs.contact_law,
     )
     data: dict[str, Any] = {
         "stage_rotation": (
@@ -518,7 +390,7 @@ def stage_torsion_variables(
         "stage_torsional_rigidity": (
             ("crank_angle",),
             curve.torsional_rigidity * ARCMIN,
-            {"units": "N m/arcmin", "long_name": "torsional rigidity of the RV stage"},
+            {"units": "N·m/arcmin", "long_name": "torsional rigidity of the RV stage"},
         ),
         "crank_bearing_load": (
             ("torque", "crank_angle", "stage_disc", "crank"),
@@ -543,55 +415,16 @@ def stage_torsion_variables(
     return data, summary
 
 
-STAGE_STIFFNESS_METRICS: dict[str, Metric] = {
-    m.name: m
-    for m in (
-        Metric(
-            "stage_lost_motion_arcmin_mean", "arcmin", "mean lost motion of the stage", "stage LM"
-        ),
-        Metric("stage_lost_motion_arcmin_max", "arcmin", "largest lost motion of the stage", "max"),
-        Metric(
-            "stage_torsional_rigidity_nm_per_arcmin_mean",
-            "N·m/arcmin",
-            "mean torsional rigidity of the stage",
-            "stage rigidity",
-        ),
-        Metric(
-            "stage_torsional_rigidity_nm_per_arcmin_min",
-            "N·m/arcmin",
-            "smallest torsional rigidity of the stage",
-            "min",
-        ),
-        Metric("stage_l10_h_min", "h", "L10h of the weakest crank bearing at +T_r", "L10h"),
-        Metric(
-            "measured_torsional_rigidity_nm_per_arcmin",
-            "N·m/arcmin",
-            "measured torsional rigidity (b/a, 50-100 % of rated)",
-            "measured rigidity",
-        ),
-        Metric(
-            "measured_lost_motion_arcmin", "arcmin", "measured lost motion (±3 %)", "measured LM"
-        ),
-        Metric(
-            "measured_backlash_arcmin", "arcmin", "measured backlash (width at 0)", "measured BL"
-        ),
-        Metric(
-            "reconciling_compliance_arcmin_per_knm",
-            "arcmin/kN·m",
-            "series compliance that would take the model to the measured rigidity (not applied)",
-            "reconciling compliance",
-        ),
-        Metric(
-            "reconciling_stiffness_nm_per_arcmin",
-            "N·m/arcmin",
-            "its stiffness (not applied)",
-            "reconciling stiffness",
-        ),
-        Metric(
-            "lost_motion_difference_arcmin",
-            "arcmin",
-            "measured lost motion less the model's",
-            "LM difference",
-        ),
-    )
-}
+STAGE_STIFFNESS_METRICS: dict[str, Metric] = select(
+    "stage_lost_motion_arcmin_mean",
+    "stage_lost_motion_arcmin_max",
+    "stage_torsional_rigidity_nm_per_arcmin_mean",
+    "stage_torsional_rigidity_nm_per_arcmin_min",
+    "stage_l10_h_min",
+    "measured_torsional_rigidity_nm_per_arcmin",
+    "measured_lost_motion_arcmin",
+    "measured_backlash_arcmin",
+    "reconciling_compliance_arcmin_per_knm",
+    "reconciling_stiffness_nm_per_arcmin",
+    "lost_motion_difference_arcmin",
+)

@@ -23,17 +23,18 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from cyclomesh.core.case import Case, Model
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
-from cyclomesh.drive.solve import torsion_curve
+from cyclomesh.drive.solve import TorsionCurve, torsion
 from cyclomesh.exceptions import DesignError
-from cyclomesh.execution.runtime import tune_allocator
+from cyclomesh.quantities import QUANTITIES
 from cyclomesh.results.dataset import resolve_crank_angles, resolve_disc_body, result_attrs
 from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["stiffness", "summarize_stiffness"]
+__all__ = ["stiffness", "summarize_stiffness", "torsion_dataset"]
 
 """One minute of arc [rad]."""
 
@@ -95,7 +96,6 @@ def stiffness(
     ----------
     [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672.
     """
-    tune_allocator()  # once per process: the solver's temporaries stay on the heap
     modification = modification or Modification()
     phi, degrees = resolve_crank_angles(crank_angles, crank_angles_deg)
     if degrees is None:
@@ -108,19 +108,30 @@ def stiffness(
                 f"series_stiffness_nm_per_arcmin must be a positive number, got {k!r}"
             )
         series = float(k) / RAD_PER_ARCMIN
-    curve = torsion_curve(
-        design,
-        modification,
-        errors,
-        rated_torque,
-        phi,
-        groove_deformation,
-        discs,
-        points,
-        series,
-        contact_law,
-        resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir),
-    )
+    body = resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir)
+    case = Case(design, modification, errors, rated_torque, phi)
+    model = Model(contact_law, groove_deformation, body, discs)
+    curve = torsion(case, model, points, series)
+    return torsion_dataset(curve, case, model, points, degrees, series_stiffness_nm_per_arcmin)
+
+
+def torsion_dataset(
+    curve: TorsionCurve,
+    case: Case,
+    model: Model,
+    points: int,
+    degrees: ArrayLike | None = None,
+    series_stiffness_nm_per_arcmin: float | None = None,
+) -> xr.Dataset:
+    """The Dataset of :func:`stiffness` from a :class:`~cyclomesh.drive.solve.TorsionCurve`
+    of ``case`` (``torque``: the rated torque) and ``model`` (its disc body resolved)."""
+    design = case.design
+    modification = case.modification or Modification()
+    phi = np.asarray(case.crank_angles, float)
+    degrees = np.degrees(phi) if degrees is None else degrees
+    rated_torque, groove_deformation = case.torque, model.groove_deformation
+    contact_law, disc_body = model.contact_law, model.disc_body
+    series = curve.series_stiffness
     lead = curve.play.ndim - 1
     if lead > 1:
         raise ValueError("stiffness supports at most one ring axis")
@@ -137,58 +148,59 @@ def stiffness(
         "rotation": (
             curve_dims,
             curve.rotation / RAD_PER_ARCSEC,
-            {"units": "arcsec", "long_name": "disc rotation from theoretical (TE sign)"},
+            _attrs("rotation"),
         ),
         "contacts": (
             (*curve_dims, *stack),
             per_disc(curve.contacts),
-            {"units": "1", "long_name": "number of pins in contact"},
+            _attrs("contacts"),
         ),
         "max_contact_stress": (
             (*curve_dims, *stack),
             per_disc(curve.max_contact_stress) * 1e-6,
-            {"units": "MPa", "long_name": "max. Hertzian pressure, pin-tooth"},
+            _attrs("max_contact_stress"),
         ),
         "play": (
             angle_dims,
             curve.play / RAD_PER_ARCMIN,
+            # the run's ``play`` is in arcsec: here arcmin, as the torsion curve's metrics
             {"units": "arcmin", "long_name": "angular play between the flanks at zero load"},
         ),
         "lost_motion": (
             angle_dims,
             curve.lost_motion / RAD_PER_ARCMIN,
-            {"units": "arcmin", "long_name": "lost motion TE(-3 %) - TE(+3 %) of rated"},
+            _attrs("lost_motion"),
         ),
         "torsional_rigidity": (
             angle_dims,
             curve.torsional_rigidity * RAD_PER_ARCMIN,
-            {"units": "N m/arcmin", "long_name": "torsional rigidity, 50-100 % of rated"},
+            _attrs("torsional_rigidity"),
         ),
     }
     if stack:
         data["torque_share"] = (
             (*curve_dims, "disc"),
             curve.torque_share,
-            {"units": "N m", "long_name": "torque carried by the disc"},
+            _attrs("torque_share"),
         )
     if series is not None:
         data["drive_rotation"] = (
             curve_dims,
             curve.drive_rotation / RAD_PER_ARCSEC,
-            {"units": "arcsec", "long_name": "whole-drive rotation (mesh + series stiffness)"},
+            _attrs("drive_rotation"),
         )
         data["drive_lost_motion"] = (
             angle_dims,
             curve.drive_lost_motion / RAD_PER_ARCMIN,
-            {"units": "arcmin", "long_name": "whole-drive lost motion"},
+            _attrs("drive_lost_motion"),
         )
         data["drive_torsional_rigidity"] = (
             angle_dims,
             curve.drive_torsional_rigidity * RAD_PER_ARCMIN,
-            {"units": "N m/arcmin", "long_name": "whole-drive torsional rigidity"},
+            _attrs("drive_torsional_rigidity"),
         )
     coords = {
-        "torque": ("torque", curve.torque, {"units": "N m", "long_name": "torque"}),
+        "torque": ("torque", curve.torque, {"units": "N·m", "long_name": "torque"}),
         "crank_angle": ("crank_angle", degrees, {"units": "deg"}),
     }
     if stack:
@@ -216,13 +228,18 @@ def stiffness(
 
 
 _SUMMARY = {
-    "play_arcmin_mean": ("play", "mean", "arcmin"),
-    "play_arcmin_max": ("play", "max", "arcmin"),
-    "lost_motion_arcmin_mean": ("lost_motion", "mean", "arcmin"),
-    "lost_motion_arcmin_max": ("lost_motion", "max", "arcmin"),
-    "torsional_rigidity_nm_per_arcmin_mean": ("torsional_rigidity", "mean", "N m/arcmin"),
-    "torsional_rigidity_nm_per_arcmin_min": ("torsional_rigidity", "min", "N m/arcmin"),
+    "play_arcmin_mean": ("play", "mean"),
+    "play_arcmin_max": ("play", "max"),
+    "lost_motion_arcmin_mean": ("lost_motion", "mean"),
+    "lost_motion_arcmin_max": ("lost_motion", "max"),
+    "torsional_rigidity_nm_per_arcmin_mean": ("torsional_rigidity", "mean"),
+    "torsional_rigidity_nm_per_arcmin_min": ("torsional_rigidity", "min"),
 }
+
+
+def _attrs(name: str) -> dict[str, str]:
+    """``units`` and ``long_name`` of a variable, from :data:`cyclomesh.quantities.QUANTITIES`."""
+    return {"units": QUANTITIES[name].unit, "long_name": QUANTITIES[name].long_name}
 
 
 def summarize_stiffness(ds: xr.Dataset) -> xr.Dataset:
@@ -235,13 +252,13 @@ def summarize_stiffness(ds: xr.Dataset) -> xr.Dataset:
     """
     out = {}
     for prefix in ("", "drive_"):
-        for key, (name, how, units) in _SUMMARY.items():
+        for key, (name, how) in _SUMMARY.items():
             if name == "play" and prefix:
                 continue
             if prefix + name not in ds:
                 continue
             value = getattr(ds[prefix + name], how)("crank_angle")
-            out[prefix + key] = value.assign_attrs(units=units)
+            out[prefix + key] = value.assign_attrs(units=QUANTITIES[prefix + key].unit)
     import xarray as xr
 
     summary = xr.Dataset(out)

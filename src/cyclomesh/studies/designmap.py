@@ -208,7 +208,7 @@ def compute_design(
 _AS_SUMMARY = {  # design-map variable -> the summary metric the requirements read
     "max_contact_stress_mpa": "max_contact_stress_mpa",
     "te_pp_arcsec": "te_pp_arcsec",
-    "min_contacts": "contacts_min",
+    "min_contacts": "min_contacts",
     "play_arcmin": "play_arcmin_max",
     "lost_motion_arcmin": "lost_motion_arcmin_max",
 }

@@ -56,8 +56,9 @@ class StudyKind:
     early_figures : callable, optional
         ``early_figures(study) -> list[FigureJob]``: figures of the inputs, drawn while
         the study computes.
-    report_name : str
-        File name of the report.
+    report_name : str or None
+        File name of the report; None: the kind writes its files only (no figures,
+        no report), as ``export`` does.
     """
 
     command: str
@@ -67,7 +68,7 @@ class StudyKind:
     figures: Callable[[Any, list[Any]], list[Any]]
     sections: Callable[[Any], list[Any]]
     early_figures: Callable[[Any], list[Any]] | None = None
-    report_name: str = "report.html"
+    report_name: str | None = "report.html"
 
 
 def figure_pool(options: Any) -> AbstractContextManager[Any]:
@@ -185,6 +186,8 @@ def execute(
             if pool is not None:  # drawn while the result files are written
                 pool.submit(jobs, options.figures, options.dpi)
             files = kind.write(result, folder.path, options)  # moved into out at the end
+            if kind.report_name is None:
+                return result
             title = f"{study.title}: {kind.title}" if kind.title else study.title
             publish(
                 folder.path,

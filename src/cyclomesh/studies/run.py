@@ -9,7 +9,7 @@ Stages (see ``docs/pipeline.md``):
    ``csv=True``, ``<case>/results.csv`` (pin-level, long format); ``summary.json``.
 3. :func:`run_figures`: the figure jobs; :func:`run_sections`: the report sections.
 
-:func:`run_study` chains them with :func:`cyclomesh.publish.pipeline.publish`.
+:data:`RUN` is the kind that :func:`cyclomesh.studies.execute.execute` runs.
 """
 
 from __future__ import annotations
@@ -23,7 +23,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cyclomesh.core.pair import Modification
-from cyclomesh.publish.pipeline import case_attrs, study_stamp, summary_document
+from cyclomesh.publish.pipeline import case_attrs, summary_document
+from cyclomesh.quantities import QUANTITIES
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STIFFNESS_METRICS
 from cyclomesh.results.profile import profile_curves
 from cyclomesh.results.stage import STAGE_METRICS
@@ -47,7 +48,6 @@ __all__ = [
     "input_figures",
     "run_figures",
     "run_sections",
-    "run_study",
     "case_folder",
 ]
 
@@ -84,9 +84,15 @@ def annotate(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs, study: Study) -
     """Add the case's per-pin errors [µm, µrad] and its inputs (attributes) to ``ds``."""
     errors = inputs.errors_um
     out = ds.assign(
-        pin_radial_error=("pin", errors["radial_um"], {"units": "um", "long_name": "εa,i"}),
-        pin_angular_error=("pin", errors["angular_urad"], {"units": "urad", "long_name": "εψ,i"}),
-        pin_radius_error=("pin", errors["pin_radius_um"], {"units": "um", "long_name": "ερ,i"}),
+        {
+            name: ("pin", errors[key], {"units": q.unit, "long_name": q.long_name})
+            for name, key in (
+                ("pin_radial_error", "radial_um"),
+                ("pin_angular_error", "angular_urad"),
+                ("pin_radius_error", "pin_radius_um"),
+            )
+            for q in (QUANTITIES[name],)
+        }
     )
     out.attrs.update(case_attrs(study, case))
     return out
@@ -625,24 +631,6 @@ def warning_sections(warnings: list[str]) -> list[Section]:
         return []
     items = "".join(f"<li>{html.escape(w)}</li>" for w in warnings)
     return [Section("Warnings", f"<ul>{items}</ul>")]
-
-
-def run_study(study: Study, out: str | Path, options: OutputOptions | None = None) -> list[Path]:
-    """Compute every case of ``study``, then write its files, figures and report into
-    ``out``. Returns the paths written. Nothing is written if a case fails."""
-    from cyclomesh.output.folder import ResultFolder
-    from cyclomesh.publish.pipeline import OutputOptions, publish
-
-    options = options or OutputOptions.from_study(study)
-    out = Path(out)
-    with ResultFolder(out, "run") as folder:
-        run = compute_run(study)
-        files = write_run(run, folder.path, options)
-        jobs = run_figures(run) if options.figures else []
-        written = publish(
-            folder.path, study.title, run_sections(run), jobs, files, options, study_stamp(study)
-        ).files
-    return [folder.final(p) for p in written]
 
 
 RUN = StudyKind(

@@ -227,7 +227,7 @@ def ring_statistics(
     runs = np.asarray(ds["jammed"].values) == 0 if "jammed" in ds else np.ones(n, dtype=bool)
     stats = {}
     for name, metric in (METRICS | DRIVE_METRICS).items():
-        if name in ds and name != "overlap":
+        if name in ds and name != "any_overlap":
             stats[name] = {
                 "unit": metric.unit,
                 "description": metric.long_name,
@@ -276,7 +276,9 @@ def ring_statistics(
                 "file": "worst_ring.toml",
             }
         ),
-        "overlap_rings": int(np.count_nonzero(ds["overlap"].values)) if "overlap" in ds else None,
+        "overlap_rings": int(np.count_nonzero(ds["any_overlap"].values))
+        if "any_overlap" in ds
+        else None,
         "methods": {
             "percentile": "linear interpolation between order statistics (numpy, type 7)",
             "percentile_interval": (

@@ -21,7 +21,7 @@ alone. The metrics come straight from the core's arrays
 Stacks: each ring is drawn once for the pin ring and the whole stack of discs is analysed
 on it (:func:`cyclomesh.drive.solve.solve_drive`; one disc is bit for bit
 :func:`cyclomesh.core.ltca.solve_ltca`), so the pin errors change the split of the torque
-between the discs (``torque_share_min_nm``, ``torque_share_max_nm``) and the mesh force
+between the discs (``min_torque_share_nm``, ``max_torque_share_nm``) and the mesh force
 of each disc (``max_mesh_force_n``).
 """
 
@@ -230,8 +230,8 @@ class ToleranceTask:
 STATED_METRICS = (
     "max_contact_stress_mpa",
     "max_mesh_force_n",
-    "torque_share_min_nm",
-    "torque_share_max_nm",
+    "min_torque_share_nm",
+    "max_torque_share_nm",
 )
 """Per-ring metrics an allocation also reports at the stated tolerances (f = 1)."""
 

@@ -1,0 +1,273 @@
+"""The unloaded and the loaded state of a stack of discs on one flank (Eqs. 5–24 of [1]).
+
+:func:`stack_meshes` builds the unloaded state of every disc of a stack on the forward
+flanks and on the mirror problem (:class:`StackMesh`: contact geometry, rest positions,
+backlash, compliance, contact normals), shared by :func:`cyclomesh.drive.solve.solve_drive`,
+the torsion curve (:mod:`cyclomesh.drive.torsion`) and the RV stage
+(:mod:`cyclomesh.stage.solve`); :func:`load_stack` solves the load sharing of one torque
+and asks :func:`cyclomesh.core.fields.contact_fields` for the post-contact fields;
+:func:`reverse_fields` maps the fields of the mirror problem back onto the reverse flanks.
+See :mod:`cyclomesh.drive.solve` for the model (stacks, mesh force).
+
+References
+----------
+[1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672, doi:10.3390/machines10080672.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cyclomesh.core.contact import UnloadedContact, contact_normal, unloaded_contact
+from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
+from cyclomesh.core.fields import CONTACT_FIELDS, contact_fields
+from cyclomesh.core.loadsharing import share_load
+from cyclomesh.core.ltca import locate_failure, pin_compliance, rest_position
+from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.drive.mirror import mirror_problem, unmirror
+from cyclomesh.exceptions import ConvergenceError
+from cyclomesh.quantities import QUANTITIES
+
+__all__ = [
+    "StackMesh",
+    "stack_meshes",
+    "stacked_contact",
+    "rest_positions",
+    "disc_angles",
+    "load_stack",
+    "reverse_fields",
+    "PER_PIN",
+    "PER_DISC",
+    "ODD",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class StackMesh:
+    """Unloaded state of a stack on its forward flanks, in the (possibly mirrored) frame: the
+    steps of :func:`solve_drive` before the load sharing. Fields: ``design``; ``geo``
+    (:class:`~cyclomesh.core.contact.UnloadedContact`, arrays (..., A, N, n1)); ``rest`` and
+    ``reverse_rest`` (rest rotation on the loaded and the opposite flanks [rad], (..., A));
+    ``backlash`` (φbl from the stack's rest [rad], (..., A, N·n1)); ``alpha``, ``gamma``
+    (compliance of δ = F(α − γ ln F) [m/N], (..., A, N·n1)); ``normal_x``, ``normal_y``
+    (outward flank normal, fixed frame, (..., A, N, n1): the force of pin i on its disc is
+    −F_i·n, a counter-clockwise disc rotation θ closes the gap by l_i·θ, a translation u by
+    n·u); ``ring_shape``; ``phi`` (crank angles of disc 1 in this frame [rad])."""
+
+    design: PairDesign
+    geo: UnloadedContact  # arrays (..., A, N, n1)
+    rest: FloatArray  # (..., A)
+    reverse_rest: FloatArray  # (..., A), rest on the opposite flanks
+    backlash: FloatArray  # (..., A, N·n1)
+    alpha: FloatArray
+    gamma: FloatArray
+    normal_x: FloatArray  # (..., A, N, n1): outward normal of the contact, fixed frame
+    normal_y: FloatArray
+    ring_shape: tuple
+    phi: FloatArray
+    body: DiscBody | None = None
+    tooth: NDArray | None = None  # (A, N·n1): tooth space of every contact (compliant disc)
+
+
+def disc_angles(phi: FloatArray, discs: int) -> FloatArray:
+    """Eccentric angles of the discs, shape (N·A,), disc after disc [rad]."""
+    offsets = 2.0 * np.pi * np.arange(discs) / discs
+    return (offsets[:, None] + phi[None, :]).ravel()
+
+
+def _stack(arr: FloatArray, discs: int, n_angles: int) -> FloatArray:
+    """(..., N·A, n1) → (..., A, N, n1)."""
+    shaped = arr.reshape(*arr.shape[:-2], discs, n_angles, arr.shape[-1])
+    return np.moveaxis(shaped, -3, -2)
+
+
+def stacked_contact(
+    design: PairDesign,
+    modification: Modification,
+    errors: PinErrors,
+    phi: FloatArray,
+    discs: int,
+) -> UnloadedContact:
+    """Unloaded contact of every disc of a stack, arrays (..., A, N, n1) (Eqs. 5–11)."""
+    raw = unloaded_contact(design, modification, errors, disc_angles(phi, discs))
+    return UnloadedContact(
+        **{
+            name: _stack(getattr(raw, name), discs, phi.size)
+            for name in UnloadedContact.__dataclass_fields__
+        }
+    )
+
+
+def rest_positions(geo: UnloadedContact, pins: int, discs: int) -> tuple[FloatArray, FloatArray]:
+    """Rest positions of a stack on the forward and on the opposite flanks [rad], (..., A).
+
+    Forward: the smallest conditioned contact rotation (:func:`~cyclomesh.core.ltca.rest_position`,
+    Eq. 11); opposite: the largest conditioned reverse-flank contact rotation.
+    """
+    flat = (*geo.rotation.shape[:-2], discs * pins)
+    arm = geo.moment_arm.reshape(flat)
+    rest = rest_position(geo.rotation.reshape(flat), arm)
+    reverse_rest = -rest_position(-geo.reverse_rotation.reshape(flat), arm)
+    return rest, reverse_rest
+
+
+def _mesh(
+    design: PairDesign,
+    modification: Modification,
+    errors: PinErrors,
+    phi: FloatArray,
+    discs: int,
+    groove_deformation: bool,
+    contact_law: str = "half_plane",
+    body: DiscBody | None = None,
+) -> StackMesh:
+    """Unloaded contact, rest positions and compliance of a stack (forward flanks)."""
+    ring_shape = errors.ring_shape(design.pins)
+    geo = stacked_contact(design, modification, errors, phi, discs)
+    flat = (*geo.rotation.shape[:-2], discs * design.pins)
+    rest, reverse_rest = rest_positions(geo, design.pins, discs)
+    alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
+    offsets = 2.0 * np.pi * np.arange(discs) / discs
+    nx, ny = contact_normal(
+        design,
+        modification,
+        errors,
+        phi[:, None] + offsets[None, :],
+        geo.profile_angle,
+        geo.pin_radius,
+    )
+    return StackMesh(
+        design=design,
+        geo=geo,
+        rest=rest,
+        reverse_rest=reverse_rest,
+        backlash=geo.rotation.reshape(flat) - rest[..., None],
+        alpha=alpha.reshape(flat),
+        gamma=gamma.reshape(flat),
+        normal_x=nx,
+        normal_y=ny,
+        ring_shape=ring_shape,
+        phi=phi,
+        body=body,
+        tooth=None
+        if body is None
+        else tooth_index(design.pins, design.pitch, disc_angles(phi, discs))
+        .reshape(discs, phi.size, design.pins)
+        .transpose(1, 0, 2)
+        .reshape(phi.size, discs * design.pins),
+    )
+
+
+def load_stack(mesh: StackMesh, torque: float) -> dict[str, FloatArray]:
+    """Loaded state of a stack under a positive torque, in the mesh's frame."""
+    geo = mesh.geo
+    flat_arm = mesh.backlash.shape
+    try:
+        if mesh.body is None:
+            loaded, force = share_load(
+                mesh.backlash, geo.moment_arm.reshape(flat_arm), mesh.alpha, mesh.gamma, torque
+            )
+        else:
+            loaded, force = share_load_coupled(
+                mesh.backlash,
+                geo.moment_arm.reshape(flat_arm),
+                mesh.alpha,
+                mesh.gamma,
+                torque,
+                mesh.body,
+                mesh.tooth,
+                geo.profile_angle.reshape(flat_arm),
+                groups=geo.rotation.shape[-2],
+            )
+    except ConvergenceError as exc:
+        err = locate_failure(exc, (*mesh.ring_shape, mesh.phi.size), mesh.phi)
+        raise ConvergenceError(f"torque {torque:g} N·m: {err}") from None
+    force = force.reshape(geo.rotation.shape)
+    fields = contact_fields(
+        CONTACT_FIELDS,
+        mesh.design,
+        geo,
+        force,
+        rotation=(mesh.rest + loaded)[..., None, None],
+        normal=(mesh.normal_x, mesh.normal_y),
+        stack_axes=2,
+    )
+    return {"pin_load": force, **fields, "loaded_rotation": loaded}
+
+
+def stack_meshes(
+    design: PairDesign,
+    modification: Modification,
+    errors: PinErrors,
+    phi: FloatArray,
+    discs: int,
+    groove_deformation: bool,
+    forward: bool,
+    reverse: bool,
+    contact_law: str = "half_plane",
+    body: DiscBody | None = None,
+) -> tuple[StackMesh | None, StackMesh | None]:
+    """The unloaded meshes of the forward flanks and of the mirror problem (reverse flanks),
+    as needed; the mirror problem is solved on the crank angles −φ reversed, and
+    :func:`unmirror` maps its arrays back (Eqs. 5–23 of [1]).
+
+    The mirrored problem uses the same body coefficients: the disc (profile, bore and
+    the crank holes at 2πk/N) is symmetric about its x-axis.
+    """
+    fwd = rev = None
+    args = (discs, groove_deformation, contact_law, body)
+    if forward:
+        fwd = _mesh(design, modification, errors, phi, *args)
+    if reverse:
+        mod_m, errors_m = mirror_problem(modification, errors, design.pins)
+        # the mirror of crank angle φ is −φ; solve increasing angles and flip back below
+        rev = _mesh(design, mod_m, errors_m, -phi[::-1], *args)
+    return fwd, rev
+
+
+PER_PIN = {
+    "pin_load": True,
+    "groove_load": True,
+    "contact_stress": True,
+    "groove_stress": True,
+    "backlash": True,
+    "overlap": True,
+    "profile_angle": True,
+    "contact_radius": True,
+    "moment_arm": True,
+    "curvature_radius": True,
+    "force_angle": True,
+    "torque_share": False,
+    "contacts": False,
+    "mesh_force_x": False,
+    "mesh_force_y": False,
+    "rest_rotation": False,
+    "loaded_rotation": False,
+}
+ODD = {name for name in PER_PIN if name in QUANTITIES and QUANTITIES[name].parity < 0} | {
+    "mesh_force_y"
+}
+"""Fields that change sign in the mirror image: the registry's parity
+(:data:`cyclomesh.quantities.QUANTITIES`), and the y component of the mesh force."""
+PER_DISC = {"torque_share", "contacts", "mesh_force_x", "mesh_force_y", "max_contact_stress"}
+
+
+def reverse_fields(fields: dict[str, FloatArray]) -> dict[str, FloatArray]:
+    """Fields of the mirrored forward problem mapped back onto the reverse flanks."""
+    out = {}
+    for name, value in fields.items():
+        if PER_PIN.get(name, False):
+            arr = unmirror(value, -3, -2, True)
+        elif name in PER_DISC:
+            arr = unmirror(value, -2, -1, False)
+        else:
+            arr = unmirror(value, -1, None, False)
+        if name in ODD:
+            arr = -arr
+        out[name] = arr
+    return out

@@ -1,0 +1,781 @@
+"""Equilibrium of one direction of the RV stage at one torque (the model of
+:mod:`cyclomesh.stage.solve`): the problem of every crank angle (pins on both flanks,
+crank holes, hole errors), Newton's method with a backtracking line search on the
+potential, and the stiff-limit split of the bearing loads.
+
+:func:`solve_direction` solves the stage under a positive torque in the frame of a
+:class:`~cyclomesh.drive.mesh.StackMesh` (the reverse flanks go through the mirror);
+:func:`ring_mesh` takes one ring of a many-ring mesh.
+
+References
+----------
+[1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672, doi:10.3390/machines10080672.
+[2] T. A. Harris, M. N. Kotzalas, Rolling Bearing Analysis, 5th ed., CRC Press 2007, Ch. 7.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cyclomesh.core.fields import contact_fields
+from cyclomesh.core.hertz import force_from_approach
+from cyclomesh.core.pair import CrankHoles
+from cyclomesh.core.transmission import transmission_error
+from cyclomesh.drive.solve import (
+    StackMesh,
+    mirror_index,
+)
+from cyclomesh.exceptions import ConvergenceError
+from cyclomesh.stage.bearing import (
+    LOAD_EXPONENT,
+    RollerSet,
+    radial_energy,
+    radial_force,
+    radial_stiffness,
+    roller_loads,
+)
+from cyclomesh.stage.design import StageDesign
+
+__all__ = [
+    "solve_direction",
+    "ring_mesh",
+    "FORCE_TOLERANCE",
+    "Supports",
+    "stage_supports",
+    "WORK_PARTS",
+]
+
+FloatArray = NDArray[np.float64]
+
+FORCE_TOLERANCE = 1e-12
+"""Accepted residual of every equilibrium equation, relative to T/r_c (moments /r_c)."""
+_MAX_ITERATIONS = 200
+_MAX_HALVINGS = 60
+
+
+# --- the bearing law with its optional series spring ---------------------------------
+
+
+class _Law:
+    """Isotropic force B(s), stiffness B'(s), energy U(s) of a crank bearing (+ spring)."""
+
+    def __init__(self, bearing: RollerSet, spring: float | None):
+        self.rs, self.k = bearing, spring
+
+    def _split(self, s: FloatArray) -> FloatArray:
+        """Bearing part s_b of the displacement s = s_b + B(s_b)/k (Newton, monotone)."""
+        if self.k is None:
+            return s
+        sb = s.copy()
+        for _ in range(100):
+            f = radial_force(self.rs, sb)
+            resid = sb + f / self.k - s
+            if np.all(np.abs(resid) <= 1e-14 * np.maximum(s, 1e-300)):
+                return sb
+            sb = sb - resid / (1.0 + radial_stiffness(self.rs, sb) / self.k)
+        raise ConvergenceError("stage: the crank bearing and crankshaft spring split failed")
+
+    def evaluate(self, s: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """(B, dB/ds, U, s_b) at the displacements s [m]."""
+        sb = self._split(s)
+        force = radial_force(self.rs, sb)
+        stiff = radial_stiffness(self.rs, sb)
+        energy = radial_energy(self.rs, sb)
+        if self.k is not None:
+            stiff = stiff / (1.0 + stiff / self.k)
+            energy = energy + 0.5 * force * force / self.k
+        return force, stiff, energy, sb
+
+
+class _Power:
+    """The stiff limit of a roller set without clearance: B = s^(10/9) (any scale)."""
+
+    def evaluate(self, s: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        p = LOAD_EXPONENT
+        return s**p, p * s ** (p - 1.0), s ** (p + 1.0) / (p + 1.0), s
+
+
+# --- the crankshafts and the carrier from their geometry ----------------------------
+
+
+@dataclass(frozen=True)
+class Supports:
+    """Elastic crankshafts and end plate in the equilibrium (extra unknowns after 1 + 3D).
+
+    ``stiffness``: inverse of the crankshaft's flexibility at the discs' planes (D, D) or
+    None (rigid crankshaft): unknowns w'_dk (x, y), the beam's own deflection of crank pin k
+    at disc d, energy ½·Σ_k w'_kᵀ·K·w'_k per direction. ``fraction``: x_d/S of every disc
+    (D,); ``carrier``: K_β [N·m/rad] or None: unknown β, the end plate's rotation against
+    the output flange, moving the crank pin at disc d by x_d/S·β·ẑ×h_k, energy ½K_β·β².
+    """
+
+    stiffness: FloatArray | None
+    fraction: FloatArray
+    carrier: float | None
+
+    def extra(self, discs: int, cranks: int) -> int:
+        return (2 * discs * cranks if self.stiffness is not None else 0) + (
+            1 if self.carrier is not None else 0
+        )
+
+
+def stage_supports(stage: StageDesign, discs: int, order: NDArray[np.int64]) -> Supports | None:
+    """The supports of ``stage`` for the discs in ``order`` (the mirror's disc order)."""
+    if stage.crankshaft is None:
+        return None
+    shaft = stage.crankshaft
+    flexibility = shaft.compliance(discs)[np.ix_(order, order)]
+    fraction = (shaft.positions(discs) / shaft.support_span)[order]
+    return Supports(
+        stiffness=np.linalg.inv(flexibility),
+        fraction=fraction,
+        carrier=None if stage.carrier is None else stage.carrier.torsional_stiffness(),
+    )
+
+
+# --- the per-direction problem -------------------------------------------------------
+
+
+@dataclass
+class _Problem:
+    """Arrays of one direction at one torque, leading axis the crank angles (A, ...)."""
+
+    bl: FloatArray  # (A, D, n1)
+    arm: FloatArray
+    nx: FloatArray
+    ny: FloatArray
+    alpha: FloatArray
+    gamma: FloatArray
+    dmax: FloatArray  # largest approach of the contact law, (A, D, n1)
+    hx: FloatArray  # (A, N) hole centres from the disc centre, fixed frame
+    hy: FloatArray
+    ex: FloatArray  # (A, D, N) hole errors, fixed frame
+    ey: FloatArray
+    torque: float
+    scale: float  # r_c
+    supports: Supports | None = None
+
+    def take(self, idx: NDArray[np.int64]) -> _Problem:
+        kw = {
+            name: (
+                getattr(self, name)[idx]
+                if isinstance(getattr(self, name), np.ndarray)
+                else getattr(self, name)
+            )
+            for name in self.__dataclass_fields__
+        }
+        return _Problem(**kw)
+
+
+def _pins(p: _Problem, theta: FloatArray, ux: FloatArray, uy: FloatArray):
+    """Pin approach, force, stiffness, energy; None where an approach leaves the law."""
+    usable = np.isfinite(p.bl)
+    delta = np.where(
+        usable,
+        p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
+        + p.nx * ux[..., None]
+        + p.ny * uy[..., None],
+        -1.0,
+    )
+    delta = np.maximum(delta, 0.0)
+    bad = np.any(delta >= p.dmax, axis=(-2, -1))
+    safe = np.where(delta < p.dmax, delta, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        force = force_from_approach(safe, p.alpha, p.gamma)
+        logf = np.log(np.where(force > 0, force, 1.0))
+        dd = p.alpha - p.gamma * (1.0 + logf)
+        stiff = np.where(force > 0, 1.0 / dd, 0.0)
+        energy = np.where(
+            force > 0, 0.5 * force * force * (p.alpha - 0.5 * p.gamma - p.gamma * logf), 0.0
+        )
+    return force, stiff, energy, bad
+
+
+def _unpack(x: FloatArray, discs: int):
+    c = x[:, 0]
+    rest = x[:, 1 : 1 + 3 * discs].reshape(-1, discs, 3)
+    return c, rest[..., 0], rest[..., 1], rest[..., 2]
+
+
+def _evaluate(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, hessian: bool = True):
+    """Potential, gradient, Hessian (scaled: rotations × r_c) and the parts of the state."""
+    c, theta, ux, uy = _unpack(x, discs)
+    n, m = x.shape
+    F, k, U, bad = _pins(p, theta, ux, uy)
+    energy = np.sum(U, axis=(-2, -1)) - p.torque * c
+    L = p.scale
+    g = np.zeros((n, m))
+    H = np.zeros((n, m, m)) if hessian else None
+    # pins: a = (θ_d: l/L, ux: nx, uy: ny) in scaled unknowns
+    cols = [p.arm / L, p.nx, p.ny]
+    for d in range(discs):
+        base = 1 + 3 * d
+        for a_i, col in enumerate(cols):
+            g[:, base + a_i] += np.sum(F[:, d] * col[:, d], axis=-1)
+            if hessian:
+                for b_i in range(a_i, 3):
+                    v = np.sum(k[:, d] * col[:, d] * cols[b_i][:, d], axis=-1)
+                    H[:, base + a_i, base + b_i] += v
+                    if b_i != a_i:
+                        H[:, base + b_i, base + a_i] += v
+    g[:, 0] -= p.torque / L
+    state = {"pin_force": F, "bad": bad}
+    if rigid:
+        return energy, g, H, state
+    if p.supports is not None:
+        return _evaluate_supported(p, law, x, discs, hessian, energy, g, H, state)
+    # bearings: d = u + (θ − c)·Jh + ε, Jh = (−hy, hx)
+    jx, jy = -p.hy[:, None, :], p.hx[:, None, :]  # (n, 1, N)
+    rot = (theta - c[:, None])[..., None]
+    dx = ux[..., None] + rot * jx + p.ex
+    dy = uy[..., None] + rot * jy + p.ey
+    s = np.hypot(dx, dy)
+    B, kb, Ub, sb = law.evaluate(s)
+    energy = energy + np.sum(Ub, axis=(-2, -1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cx = np.where(s > 0, dx / s, 1.0)
+        cy = np.where(s > 0, dy / s, 0.0)
+        secant = np.where(s > 0, B / s, kb)
+    fx, fy = B * cx, B * cy  # force of the disc on the crank pin
+    # columns of ∂d/∂(c, θ_d, ux_d, uy_d), scaled (c, θ by L)
+    gc = [(-jx / L, -jy / L), (jx / L, jy / L), (1.0, 0.0), (0.0, 1.0)]
+    kxx = kb * cx * cx + secant * cy * cy
+    kyy = kb * cy * cy + secant * cx * cx
+    kxy = (kb - secant) * cx * cy
+    for d in range(discs):
+        idx = [0, 1 + 3 * d, 2 + 3 * d, 3 + 3 * d]
+        vec = [
+            (np.broadcast_to(a, s.shape)[:, d], np.broadcast_to(b, s.shape)[:, d]) for a, b in gc
+        ]
+        for ia, (ax, ay) in zip(idx, vec, strict=True):
+            g[:, ia] += np.sum(fx[:, d] * ax + fy[:, d] * ay, axis=-1)
+            if hessian:
+                kax = kxx[:, d] * ax + kxy[:, d] * ay
+                kay = kxy[:, d] * ax + kyy[:, d] * ay
+                for ib, (bx, by) in zip(idx, vec, strict=True):
+                    H[:, ia, ib] += np.sum(kax * bx + kay * by, axis=-1)
+    state.update(bearing_fx=fx, bearing_fy=fy, deflection=s, bearing_part=sb)
+    return energy, g, H, state
+
+
+def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state):
+    """Bearings, crankshafts and end plate of :func:`_evaluate` with :class:`Supports`.
+
+    d_dk = u_d + (θ_d − c)·Jh_k + ε_dk − w'_dk − (x_d/S)·β·Jh_k (hole against crank pin);
+    the gradient and Hessian are assembled from ∂d/∂x (n, D, N, 2, m) in one contraction.
+    """
+    sup = p.supports
+    c, theta, ux, uy = _unpack(x, discs)
+    n, m = x.shape
+    N = p.hx.shape[-1]
+    L = p.scale
+    jx, jy = -p.hy[:, None, :], p.hx[:, None, :]  # (n, 1, N)
+    base = 1 + 3 * discs
+    nw = 2 * discs * N if sup.stiffness is not None else 0
+    w = x[:, base : base + nw].reshape(n, discs, N, 2) if nw else np.zeros((n, discs, N, 2))
+    beta = x[:, base + nw] if sup.carrier is not None else np.zeros(n)
+    a = sup.fraction[None, :, None]  # (1, D, 1)
+    rot = (theta - c[:, None])[..., None] - a * beta[:, None, None]
+    dx = ux[..., None] + rot * jx + p.ex - w[..., 0]
+    dy = uy[..., None] + rot * jy + p.ey - w[..., 1]
+    s = np.hypot(dx, dy)
+    B, kb, Ub, sb = law.evaluate(s)
+    energy = energy + np.sum(Ub, axis=(-2, -1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cx = np.where(s > 0, dx / s, 1.0)
+        cy = np.where(s > 0, dy / s, 0.0)
+        secant = np.where(s > 0, B / s, kb)
+    fx, fy = B * cx, B * cy
+    # ∂d/∂x, scaled unknowns (rotations × L)
+    G = np.zeros((n, discs, N, 2, m))
+    jxb = np.broadcast_to(jx, (n, discs, N)) / L
+    jyb = np.broadcast_to(jy, (n, discs, N)) / L
+    G[..., 0, 0], G[..., 1, 0] = -jxb, -jyb
+    for d in range(discs):
+        G[:, d, :, 0, 1 + 3 * d], G[:, d, :, 1, 1 + 3 * d] = jxb[:, d], jyb[:, d]
+        G[:, d, :, 0, 2 + 3 * d] = 1.0
+        G[:, d, :, 1, 3 + 3 * d] = 1.0
+    if nw:
+        idx = base + np.arange(nw).reshape(discs, N, 2)
+        for d in range(discs):
+            for k in range(N):
+                G[:, d, k, 0, idx[d, k, 0]] = -1.0
+                G[:, d, k, 1, idx[d, k, 1]] = -1.0
+    if sup.carrier is not None:
+        G[..., 0, base + nw] = -a * jxb
+        G[..., 1, base + nw] = -a * jyb
+    f = np.stack([fx, fy], axis=-1)
+    g = g + np.einsum("ndkc,ndkcm->nm", f, G)
+    if nw:
+        Kw = np.einsum("de,nekc->ndkc", sup.stiffness, w)
+        energy = energy + 0.5 * np.sum(w * Kw, axis=(1, 2, 3))
+        g[:, base : base + nw] += Kw.reshape(n, nw)
+    if sup.carrier is not None:
+        energy = energy + 0.5 * sup.carrier * beta * beta
+        g[:, base + nw] += sup.carrier * beta / L
+    if hessian:
+        kxx = kb * cx * cx + secant * cy * cy
+        kyy = kb * cy * cy + secant * cx * cx
+        kxy = (kb - secant) * cx * cy
+        kmat = np.stack([np.stack([kxx, kxy], -1), np.stack([kxy, kyy], -1)], -2)
+        H = H + np.einsum("ndkcm,ndkce,ndkep->nmp", G, kmat, G, optimize=True)
+        if nw:
+            H[:, base : base + nw, base : base + nw] += np.kron(sup.stiffness, np.eye(2 * N))
+        if sup.carrier is not None:
+            H[:, base + nw, base + nw] += sup.carrier / (L * L)
+    state.update(
+        bearing_fx=fx,
+        bearing_fy=fy,
+        deflection=s,
+        bearing_part=sb,
+        shaft_deflection=w,
+        end_plate=beta,
+    )
+    return energy, g, H, state
+
+
+def _rotation_index(m: int, discs: int, supports: Supports | None) -> list[int]:
+    """Unknowns that are rotations (scaled by r_c in the Newton step)."""
+    idx = [0, *range(1, 1 + 3 * discs, 3)]
+    if supports is not None and supports.carrier is not None:
+        idx.append(m - 1)
+    return idx
+
+
+def _newton(
+    p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray
+) -> FloatArray:
+    """Newton's method with a backtracking line search on the potential, per crank angle."""
+    tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
+    reduce = np.zeros((1 + 3 * discs, 1))
+    reduce[[0, *range(1, 1 + 3 * discs, 3)], 0] = 1.0  # rigid: θ_d = c, u = 0
+    active = np.arange(x.shape[0])
+    for _ in range(_MAX_ITERATIONS):
+        sub = p.take(active)
+        xa = x[active]
+        energy, g, H, _state = _evaluate(sub, law, xa, discs, rigid)
+        if rigid:
+            g = g @ reduce
+            H = np.einsum("im,nij,jk->nmk", reduce, H, reduce)
+        # converged: every residual below tol, or at the round-off of the unknowns
+        # themselves (stiff bearings: a residual of H·ulp(x) cannot be resolved)
+        rot_idx = _rotation_index(xa.shape[1], discs, None if rigid else p.supports)
+        xs = np.abs(_scale(xa, 1.0 / p.scale, rot_idx))
+        if rigid:
+            xs = xs @ reduce
+        noise = 16.0 * np.finfo(float).eps * np.einsum("nij,nj->ni", np.abs(H), xs)
+        done = np.all(np.abs(g) <= np.maximum(tol, noise), axis=-1)
+        keep = ~done
+        active = active[keep]
+        if active.size == 0:
+            return x
+        xa, g, H, energy = xa[keep], g[keep], H[keep], energy[keep]
+        sub = sub.take(np.flatnonzero(keep))
+        diag = np.maximum(np.max(np.abs(np.diagonal(H, axis1=1, axis2=2)), axis=-1), 1e-300)
+        eye = np.eye(H.shape[-1])
+        step = np.linalg.solve(H + 1e-14 * diag[:, None, None] * eye, -g[..., None])[..., 0]
+        slope = np.sum(g * step, axis=-1)
+        # not a descent direction (flat directions): steepest descent, scaled
+        flip = ~(slope < 0)
+        step[flip] = -g[flip] / diag[flip, None]
+        slope = np.sum(g * step, axis=-1)
+        t = np.ones(xa.shape[0])
+        todo = np.arange(xa.shape[0])
+        new = xa.copy()
+        tiny = -slope <= 1e-13 * np.maximum(np.abs(energy), 1e-300)
+        for _h in range(_MAX_HALVINGS):
+            full = _expand(step[todo] * t[todo, None], reduce if rigid else None)
+            trial = xa[todo] + _scale(full, p.scale, rot_idx)
+            e_t, _g, _H, st = _evaluate(sub.take(todo), law, trial, discs, rigid, hessian=False)
+            ok = ~st["bad"] & ((e_t <= energy[todo] + 1e-4 * t[todo] * slope[todo]) | tiny[todo])
+            new[todo[ok]] = trial[ok]
+            todo = todo[~ok]
+            if todo.size == 0:
+                break
+            t[todo] *= 0.5
+        else:
+            raise ConvergenceError(
+                f"stage: no descent at crank angle {np.degrees(phi[active[todo[0]]]):.6g}° "
+                f"(line search failed after {_MAX_HALVINGS} halvings)"
+            )
+        x[active] = new
+    raise ConvergenceError(
+        f"stage equilibrium did not converge at crank angle {np.degrees(phi[active[0]]):.6g}°: "
+        f"residual above {FORCE_TOLERANCE:.0e}·T/r_c after {_MAX_ITERATIONS} Newton steps"
+    )
+
+
+def _expand(step: FloatArray, reduce: FloatArray | None) -> FloatArray:
+    return step if reduce is None else step @ reduce.T
+
+
+def _scale(step: FloatArray, L: float, rot_idx: list[int]) -> FloatArray:
+    """Scaled step (rotations × L) → unknowns (rad, m)."""
+    out = step.copy()
+    out[:, rot_idx] /= L
+    return out
+
+
+def _distribution(p: _Problem, mesh_fx: FloatArray, mesh_fy: FloatArray, moment: FloatArray):
+    """Stiff-limit split of each disc's load over its bearings (power law, no clearance).
+
+    Finds per disc (u, ω) with Σ_k B(d_k)·d̂_k = (mesh_fx, mesh_fy) (the pins' resultant,
+    passed to the crank pins) and Σ_k h_k × B_k = moment, d_k = u + ω·Jh_k, B = s^(10/9),
+    by Newton's method on the convex potential. Returns the forces on the crank pins,
+    (A, D, N) each.
+    """
+    law = _Power()
+    A, D = mesh_fx.shape
+    N = p.hx.shape[-1]
+    L = p.scale
+    jx = np.broadcast_to(-p.hy[:, None, :], (A, D, N))
+    jy = np.broadcast_to(p.hx[:, None, :], (A, D, N))
+    target = np.stack([moment / L, mesh_fx, mesh_fy], axis=-1)  # (A, D, 3)
+    # start: the linear (least-norm) split, its magnitude through the power law
+    lin_x = mesh_fx[..., None] / N + moment[..., None] * jx / (N * L * L)
+    lin_y = mesh_fy[..., None] / N + moment[..., None] * jy / (N * L * L)
+    mag = np.hypot(lin_x, lin_y)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s0 = mag ** (1.0 / LOAD_EXPONENT)
+        dx0 = np.where(mag > 0, lin_x / mag * s0, 0.0)
+        dy0 = np.where(mag > 0, lin_y / mag * s0, 0.0)
+    y = np.stack(
+        [np.sum(dx0 * jx + dy0 * jy, -1) / (N * L), dx0.mean(-1), dy0.mean(-1)], axis=-1
+    )  # (ω·L, ux, uy)
+    scale = np.maximum(np.max(np.abs(target), axis=-1, keepdims=True), 1e-300)
+    cols = [(jx / L, jy / L), (1.0, 0.0), (0.0, 1.0)]
+    fx, fy = np.zeros((A, D, N)), np.zeros((A, D, N))
+    # a disc that carries nothing (all its pins out of contact: pin errors, the other disc
+    # takes the torque) has the exact split B = 0 (y = 0, where the Hessian of the
+    # s^(19/9) potential vanishes, so Newton is not applied to it)
+    active = np.argwhere(np.any(target != 0.0, axis=-1))  # (k, 2) of (angle, disc)
+    ia, idisc = active[:, 0], active[:, 1]
+    for _ in range(_MAX_ITERATIONS):
+        if ia.size == 0:
+            return fx, fy
+        yk, tk = y[ia, idisc], target[ia, idisc]
+        jxk, jyk = jx[ia, idisc], jy[ia, idisc]
+        dx = yk[:, 1, None] + yk[:, 0, None] * jxk / L
+        dy = yk[:, 2, None] + yk[:, 0, None] * jyk / L
+        s = np.hypot(dx, dy)
+        B, kb, _U, _ = law.evaluate(s)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cx, cy = np.where(s > 0, dx / s, 1.0), np.where(s > 0, dy / s, 0.0)
+            sec = np.where(s > 0, B / s, 0.0)
+        fx[ia, idisc], fy[ia, idisc] = B * cx, B * cy
+        vec = [
+            (np.broadcast_to(a, s.shape), np.broadcast_to(b, s.shape))
+            for a, b in ((jxk / L, jyk / L), *cols[1:])
+        ]
+        g = np.stack([np.sum(B * cx * a + B * cy * b, -1) for a, b in vec], -1) - tk
+        keep = ~np.all(np.abs(g) <= 1e-13 * scale[ia, idisc], axis=-1)
+        kxx, kyy = kb * cx * cx + sec * cy * cy, kb * cy * cy + sec * cx * cx
+        kxy = (kb - sec) * cx * cy
+        H = np.empty((ia.size, 3, 3))
+        for i, (ax, ay) in enumerate(vec):
+            for j, (bx, by) in enumerate(vec):
+                H[:, i, j] = np.sum((kxx * ax + kxy * ay) * bx + (kxy * ax + kyy * ay) * by, -1)
+        ia, idisc, g, H = ia[keep], idisc[keep], g[keep], H[keep]
+        y[ia, idisc] = y[ia, idisc] - np.linalg.solve(H, g[..., None])[..., 0]
+    raise ConvergenceError("stage: the stiff-limit bearing load split did not converge")
+
+
+def _mirrored(arr: FloatArray) -> FloatArray:
+    """(A, D, n1) of the mirror problem → this problem's frame (angles, discs, pins)."""
+    out = np.flip(arr, axis=0)
+    out = np.take(out, mirror_index(out.shape[1]), axis=1)
+    return out[..., mirror_index(out.shape[-1])]
+
+
+def _problem(
+    mesh: StackMesh,
+    other: StackMesh,
+    holes: CrankHoles,
+    errs: tuple[FloatArray, FloatArray],
+    torque: float,
+) -> _Problem:
+    """The arrays of one direction: pins (A, D, 2·n1), holes (A, N), hole errors (A, D, N).
+
+    Pins 0 … n1 − 1 are the loaded flanks (arm l > 0, backlash φbl from the stack's rest);
+    pins n1 … 2n1 − 1 the opposite flanks of the same tooth spaces, which a translation of
+    the disc may close: their geometry and compliance are those of the forward flanks of
+    the mirror problem ``other`` (pin (n1 − i) mod n1 at −φ, y reflected), their contact
+    rotation the unloaded opposite-flank rotation of this mesh, and a counter-clockwise
+    rotation opens them (signed arm −l').
+    """
+    design, geo = mesh.design, mesh.geo
+    A, D, n1 = geo.rotation.shape
+    phi_t = -mesh.phi / design.teeth
+    ang = holes.angles[None, :] + phi_t[:, None]  # (A, N)
+    hx, hy = holes.circle_radius * np.cos(ang), holes.circle_radius * np.sin(ang)
+    # hole errors (radial, tangential) of the disc frame → fixed frame
+    cr, sr = np.cos(ang)[:, None, :], np.sin(ang)[:, None, :]
+    ex = errs[0][None] * cr - errs[1][None] * sr
+    ey = errs[0][None] * sr + errs[1][None] * cr
+    alpha = mesh.alpha.reshape(A, D, n1)
+    gamma = mesh.gamma.reshape(A, D, n1)
+    # the opposite flanks
+    arm_o = _mirrored(other.geo.moment_arm)
+    alpha_o = _mirrored(other.alpha.reshape(A, D, n1))
+    gamma_o = _mirrored(other.gamma.reshape(A, D, n1))
+    with np.errstate(invalid="ignore"):
+        bl_o = geo.reverse_rotation - mesh.rest[:, None, None]
+    usable_o = (
+        np.isfinite(bl_o)
+        & np.isfinite(arm_o)
+        & (arm_o >= 0)
+        & np.isfinite(alpha_o)
+        & np.isfinite(gamma_o)
+    )
+    bl = np.concatenate([mesh.backlash.reshape(A, D, n1), np.where(usable_o, bl_o, np.inf)], -1)
+    alpha = np.concatenate([alpha, np.where(usable_o, alpha_o, 1.0)], -1)
+    gamma = np.concatenate([gamma, np.where(usable_o, gamma_o, 0.0)], -1)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        dmax = np.where(gamma > 0, gamma * np.exp(alpha / gamma - 1.0), np.inf)
+    return _Problem(
+        bl=bl,
+        arm=np.concatenate([geo.moment_arm, -np.where(usable_o, arm_o, 0.0)], -1),
+        nx=np.concatenate([mesh.normal_x, np.where(usable_o, _mirrored(other.normal_x), 0)], -1),
+        ny=np.concatenate([mesh.normal_y, np.where(usable_o, -_mirrored(other.normal_y), 0)], -1),
+        alpha=alpha,
+        gamma=gamma,
+        dmax=np.where(np.isfinite(dmax), dmax * (1.0 - 1e-9), np.inf),
+        hx=hx,
+        hy=hy,
+        ex=ex,
+        ey=ey,
+        torque=torque,
+        scale=holes.circle_radius,
+    )
+
+
+def solve_direction(
+    mesh: StackMesh,
+    other: StackMesh,
+    stage: StageDesign,
+    errs: tuple[FloatArray, FloatArray],
+    torque: float,
+    supports: Supports | None = None,
+) -> dict[str, FloatArray]:
+    """Stage under a positive torque in the mesh's frame (``other``: the mirror problem).
+
+    ``supports``: the crankshafts and carrier from their geometry (:func:`stage_supports`
+    in this direction's disc order), None: rigid (or the override springs of ``stage``).
+    """
+    D, n1 = mesh.geo.rotation.shape[-2:]
+    prob = _problem(mesh, other, stage.holes, errs, torque)
+    A = prob.bl.shape[0]
+    m = 1 + 3 * D
+    # rigid stage (θ_d = c, u = 0) from the rotation at which the stiffest pin alone
+    # would carry T (an upper bound of the root, as in cyclomesh.loadsharing)
+    x = np.zeros((A, m))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        ok = np.isfinite(prob.bl) & (prob.arm > 0)
+        f1 = np.where(ok, torque / np.where(ok, prob.arm, 1.0), 1.0)
+        log1 = np.log(f1)
+        # on the stiffening branch of the law only (as cyclomesh.core.loadsharing)
+        ok &= (prob.gamma == 0) | (log1 < prob.alpha / prob.gamma - 1.0)
+        d1 = f1 * (prob.alpha - prob.gamma * log1)
+        single = np.where(ok, prob.bl + d1 / np.where(ok, prob.arm, 1.0), np.inf)
+    x[:, 0] = np.min(single.reshape(A, -1), axis=-1)
+    if not np.all(np.isfinite(x[:, 0])):
+        bad = int(np.argmin(np.isfinite(x[:, 0])))
+        raise ConvergenceError(
+            f"crank angle {np.degrees(mesh.phi[bad]):.6g}°: no pin can carry the torque "
+            "alone within the line-contact law (Eq. 20)"
+        )
+    x[:, 1::3] = x[:, [0]]
+    x = _newton(prob, None, x, D, True, mesh.phi)
+    _, _, _, st = _evaluate(prob, None, x, D, True, hessian=False)
+    F = st["pin_force"]
+    mesh_te = transmission_error(mesh.rest, x[:, 0])
+    rigid = _disc_loads(mesh, prob, F)  # pins on disc
+    # bearings carry the pins' resultant to the crank pins and the moment Σ F·l
+    bfx, bfy = _distribution(
+        prob, rigid["mesh_force_x"], rigid["mesh_force_y"], -rigid["torque_share"]
+    )
+    if stage.bearing is not None:
+        law = _Law(stage.bearing, stage.crankshaft_stiffness)
+        B = np.hypot(bfx, bfy)
+        s = _deflection(law, B)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dx = np.where(B > 0, bfx / B * s, 0.0) - prob.ex
+            dy = np.where(B > 0, bfy / B * s, 0.0) - prob.ey
+        N = stage.holes.count
+        L = prob.scale
+        jx, jy = -prob.hy[:, None, :], prob.hx[:, None, :]
+        omega = np.sum(dx * jx + dy * jy, -1) / (N * L * L)  # (A, D)
+        ux, uy = dx.mean(-1), dy.mean(-1)
+        # turn each disc so that its pins keep (in the least-squares sense, weighted by
+        # their stiffness) the approach of the rigid solution despite the translation
+        _, k_pin, _, _ = _pins(prob, x[:, 1::3], np.zeros_like(ux), np.zeros_like(uy))
+        shift = prob.nx * ux[..., None] + prob.ny * uy[..., None]
+        weight = np.sum(k_pin * prob.arm * prob.arm, -1)
+        turn = -np.sum(k_pin * prob.arm * shift, -1) / np.where(weight > 0, weight, np.inf)
+        theta = x[:, 1::3] + turn
+        x[:, 0] = np.mean(theta - omega, -1)
+        x[:, 1::3] = x[:, [0]] + omega
+        x[:, 2::3] = ux
+        x[:, 3::3] = uy
+        if supports is not None:
+            prob = dataclasses.replace(prob, supports=supports)
+            x = np.concatenate([x, np.zeros((A, supports.extra(D, N)))], axis=-1)
+        x = _newton(prob, law, x, D, False, mesh.phi)
+        energy, g, _, st = _evaluate(prob, law, x, D, False, hessian=False)
+        F = st["pin_force"]
+        bfx, bfy = st["bearing_fx"], st["bearing_fy"]
+        deflection = st["deflection"]
+        sb = st["bearing_part"]
+        residual = np.max(np.abs(g), axis=-1)
+        work = _work(prob, stage, x, D, st)
+    else:
+        deflection = np.zeros_like(bfx)
+        sb = deflection
+        work = _work(prob, stage, x, D, {"pin_force": F})
+        residual = np.max(
+            np.abs(_evaluate(prob, None, x, D, True, hessian=False)[1] @ _reducer(D)), -1
+        )
+    c, theta, ux, uy = _unpack(x, D)
+    loaded = contact_fields(
+        ("groove_load", "contact_stress", "groove_stress", "contacts"),
+        mesh.design,
+        mesh.geo,
+        F[..., :n1],
+        stack_axes=2,  # per disc, against the stack
+    )
+    disc = _disc_loads(mesh, prob, F)
+    rollers = (
+        np.max(roller_loads(stage.bearing, sb), axis=-1)
+        if stage.bearing is not None
+        else np.full(deflection.shape, np.nan)
+    )
+    return {
+        "pin_load": F[..., :n1],
+        "opposite_pin_load": F[..., n1:],
+        "groove_load": loaded["groove_load"],
+        "contact_stress": loaded["contact_stress"],
+        "groove_stress": loaded["groove_stress"],
+        "contacts": loaded["contacts"],
+        "torque_share": disc["torque_share"],
+        "mesh_fx": disc["mesh_force_x"],
+        "mesh_fy": disc["mesh_force_y"],
+        "bearing_fx": bfx,
+        "bearing_fy": bfy,
+        "bearing_deflection": deflection,
+        "max_roller_load": rollers,
+        "disc_translation_x": ux,
+        "disc_translation_y": uy,
+        "disc_te": transmission_error(mesh.rest[:, None], theta),
+        "carrier_te": transmission_error(mesh.rest, c),
+        "twist": c,
+        "mesh_te": mesh_te,
+        "residual": residual,
+        **work,
+    }
+
+
+WORK_PARTS = ("mesh", "crank_bearings", "crankshafts", "carrier", "hole_errors")
+"""Parts of the output twist (:func:`_work`; the carrier's override spring adds T²/k_c)."""
+
+
+def _work(p: _Problem, stage: StageDesign, x: FloatArray, discs: int, st: dict):
+    """Work of every part on its own deformation at equilibrium [J], (A,) each.
+
+    Virtual work (Clapeyron's identity for an affine compatibility, exact for any
+    constitutive law): at the stationary point of Π, x·∇Π = 0, i.e.
+
+        T·c = Σ_pins F·(δ − δ(0)) + Σ_bearings f·(d − ε) + Σ w'ᵀKw' + K_β·β²,
+
+    so the output twist splits into the mesh (pin approaches and the closing of the
+    modification gaps), the crank bearings (their clearance included; a series spring
+    ``crankshaft_stiffness`` is counted with the crankshafts, B²/k), the crankshafts'
+    bending and supports, the carrier's pillars, and the hole errors' share (−Σ f·ε).
+    """
+    c, theta, ux, uy = _unpack(x, discs)
+    F = st["pin_force"]
+    usable = np.isfinite(p.bl)
+    lin = np.where(
+        usable,
+        p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
+        + p.nx * ux[..., None]
+        + p.ny * uy[..., None],
+        0.0,
+    )
+    lin0 = np.where(usable, -p.arm * np.where(usable, p.bl, 0.0), 0.0)
+    zero = np.zeros_like(c)
+    out = {
+        "work_mesh": np.sum(F * (lin - lin0), axis=(-2, -1)),
+        "work_crank_bearings": zero,
+        "work_crankshafts": zero,
+        "work_carrier": zero,
+        "work_hole_errors": zero,
+    }
+    if "bearing_fx" not in st:
+        return out
+    fx, fy = st["bearing_fx"], st["bearing_fy"]
+    B = np.hypot(fx, fy)
+    fd = B * st["deflection"]  # f·d, d along f
+    shafts = np.zeros_like(c)
+    if stage.crankshaft_stiffness is not None:
+        shafts = np.sum(B * B, axis=(-2, -1)) / stage.crankshaft_stiffness
+    if "shaft_deflection" in st:
+        w = st["shaft_deflection"]
+        shafts = shafts + np.sum(fx * w[..., 0] + fy * w[..., 1], axis=(-2, -1))
+        if p.supports.carrier is not None:
+            out["work_carrier"] = p.supports.carrier * st["end_plate"] ** 2
+    out["work_crankshafts"] = shafts
+    out["work_crank_bearings"] = np.sum(fd, axis=(-2, -1)) - np.where(
+        stage.crankshaft_stiffness is not None, shafts, 0.0
+    )
+    out["work_hole_errors"] = -np.sum(fx * p.ex + fy * p.ey, axis=(-2, -1))
+    return out
+
+
+def _disc_loads(mesh: StackMesh, prob: _Problem, force: FloatArray) -> dict[str, FloatArray]:
+    """Torque share and mesh force of every disc from the forces on both flanks (A, D, 2·n1)."""
+    return contact_fields(
+        ("torque_share", "mesh_force"),
+        mesh.design,
+        mesh.geo,
+        force,
+        normal=(prob.nx, prob.ny),
+        moment_arm=prob.arm,
+    )
+
+
+def ring_mesh(mesh: StackMesh, ring: tuple[int, ...]) -> StackMesh:
+    """The unloaded mesh of one ring of a many-ring :class:`StackMesh`."""
+    if not ring:
+        return mesh
+    geo = type(mesh.geo)(
+        **{name: getattr(mesh.geo, name)[ring] for name in mesh.geo.__dataclass_fields__}
+    )
+    fields = {name: getattr(mesh, name) for name in mesh.__dataclass_fields__}
+    for name in ("rest", "reverse_rest", "backlash", "alpha", "gamma", "normal_x", "normal_y"):
+        fields[name] = fields[name][ring]
+    return StackMesh(**{**fields, "geo": geo, "ring_shape": ()})
+
+
+def _reducer(D: int) -> FloatArray:
+    reduce = np.zeros((1 + 3 * D, 1))
+    reduce[[0, *range(1, 1 + 3 * D, 3)], 0] = 1.0
+    return reduce
+
+
+def _deflection(law: _Law, force: FloatArray) -> FloatArray:
+    """Total displacement s at which the bearing (+ spring) carries ``force`` [m]."""
+    rs = law.rs
+    s = 0.5 * rs.clearance + (np.maximum(force, 0.0) / rs.constant) ** (1.0 / LOAD_EXPONENT)
+    for _ in range(100):
+        resid = radial_force(rs, s) - force
+        if np.all(np.abs(resid) <= 1e-12 * np.maximum(force, 1e-300)):
+            break
+        k = radial_stiffness(rs, s)
+        s = np.where(force > 0, s - resid / np.where(k > 0, k, np.inf), 0.5 * rs.clearance)
+    if law.k is not None:
+        s = s + force / law.k
+    return s
