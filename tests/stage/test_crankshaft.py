@@ -131,19 +131,22 @@ def test_keys_exclude_each_other():
 def test_data_sheet_backlash_and_budget():
     """Backlash of the mesh alone is its play 2Δρ/(e·n2) (docs/drive.md); the stage adds
     the bearings' free travel; the compliance shares add up to 1."""
-    from types import SimpleNamespace
-
+    from cyclomesh.core.pair import PinErrors
     from cyclomesh.results.stage import data_sheet
+    from cyclomesh.studyfile.schema import CaseInputs
 
-    inputs = SimpleNamespace(
+    inputs = CaseInputs(
         design=RV40,
-        stage=StageDesign(HOLES, ROLLERS, crankshaft=SHAFT, carrier=CARRIER),
         modification=MOD,
-        errors=None,
+        errors=PinErrors(),
+        torque=412.0,
         crank_angles=PHI,
         groove_deformation=True,
+        errors_um={},
         discs=2,
         contact_law="half_plane",
+        crank_holes=HOLES,
+        stage=StageDesign(HOLES, ROLLERS, crankshaft=SHAFT, carrier=CARRIER),
     )
     sheet = data_sheet(inputs, 412.0)
     arcmin = np.radians(1 / 60)
