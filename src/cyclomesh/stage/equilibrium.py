@@ -5,7 +5,11 @@ potential, and the stiff-limit split of the bearing loads.
 
 :func:`solve_direction` solves the stage under a positive torque in the frame of a
 :class:`~cyclomesh.drive.mesh.StackMesh` (the reverse flanks go through the mirror);
-:func:`ring_mesh` takes one ring of a many-ring mesh.
+:func:`ring_mesh` takes one ring of a many-ring mesh. With the crankshafts and carrier
+from their geometry (:class:`Supports`, :func:`stage_supports`; docs/stage.md) the beam
+deflections of the crank pins at the discs and the end plate's rotation are extra
+unknowns of the same potential; the output twist is split by virtual work into the
+work of every part on its own deformation (:data:`WORK_PARTS`).
 
 References
 ----------
