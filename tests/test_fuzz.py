@@ -221,3 +221,101 @@ def test_fuzz_examples(tmp_path):
     assert counts["cases"] >= 300 and counts["exit 0"] >= 50 and counts["exit 2"] >= 100
     assert counts["data kept on error"] >= 50
     assert counts["exit 0"] + counts["exit 2"] == counts["cases"]
+
+
+# --- physically impossible accepted (issue 23) ---------------------------------------
+#
+# Mutations that no real pair or stage can have: an eccentricity error beyond the play
+# (the pins jam the disc) or beyond e/2, a pin radius error at or below -ρp (a pin of
+# no radius), a radial error beyond ρp, a groove wider than the pin pitch allows
+# (ρg ≥ a·sin(π/n1)), a clearance deeper than the teeth (Δρ ≥ 2e), a negative Δρ (the
+# pins overlap the disc), rollers longer than the disc, hole errors far beyond the
+# bearing clearance. Each must end as a refusal (exit 2, one line naming it) or, where
+# the pins jam the disc (negative play), as a run whose "jam" verdict row fails and
+# whose summary.json warns; never as a result that looks fine.
+
+IMPOSSIBLE_CASES = 36
+STAGE_CHEAP = {"analysis.crank_step_deg": 30.0, "stiffness.points": 3}
+
+
+def _impossible(rng: random.Random) -> tuple[str, dict[str, Any], str]:
+    """(example, {dotted key: value}, what) of one impossible mutation."""
+    u = rng.uniform(0.0, 1.0)
+    a, e, rho = 82.0, 1.5, 3.5  # mm, table2 and measured (Table 1 of the paper)
+    pitch_half_chord = a * math.sin(math.pi / 40)
+    families = [
+        # beyond the play (Δρ = 8 µm) but within |εe| < e/2: computed, the pins jam
+        ("table2", {"errors.eccentricity_um": -(100.0 + 640.0 * u)}, "εe beyond the play"),
+        ("table2", {"errors.eccentricity_um": -(1.0 + u) * e * 500.0}, "εe beyond e/2"),
+        ("table2", {"modification.pin_radius_um": -(0.5 + 200.0 * u)}, "Δρ < 0"),
+        ("table2", {"modification.pin_radius_um": 2 * e * 1e3 * (1.0 + 0.15 * u)}, "Δρ ≥ 2e"),
+        ("table2", {"errors.pin_radius_um": -rho * 1e3 * (1.0 + u)}, "ερ ≤ -ρp"),
+        ("table2", {"errors.radial_um": rng.choice([-1, 1]) * rho * 1e3 * (1 + u)}, "|εa| ≥ ρp"),
+        ("table2", {"design.groove_radius_mm": pitch_half_chord * (1 + u)}, "ρg ≥ a·sin(π/n1)"),
+        ("measured", {"csv.pin_radius_um": -rho * 1e3 * (1.0 + u)}, "measured ερ ≤ -ρp"),
+        ("rv_stage", {"stage.crank_bearing.roller_length_mm": 10.0 * (1 + u)}, "rollers > B"),
+        ("rv_stage", {"stage.hole_error_radial_um": 200.0 + 800.0 * u}, "hole error ≫ clearance"),
+        ("rv_stage", {"design.groove_radius_mm": 64.0 * math.sin(math.pi / 40) * (1 + u)}, "ρg"),
+    ]
+    return rng.choice(families)
+
+
+def _jam_warned(out: Path) -> bool:
+    """A complete result whose summary.json warns of jamming and has a failing jam row."""
+    summary = load_results(out).summary
+    cases = summary["cases"].values() if isinstance(summary["cases"], dict) else summary["cases"]
+    rows = [row for case in cases for row in case["checks"]["rows"] if row["check"] == "jam"]
+    warned = any("jam" in warning for warning in summary["warnings"])
+    return warned and any(row["verdict"] == "fail" for row in rows)
+
+
+def test_fuzz_physically_impossible_is_refused_or_flagged(tmp_path):
+    rng = random.Random(SEED + 1)
+    runner = CliRunner()
+    counts: Counter[str] = Counter()
+    for index in range(IMPOSSIBLE_CASES):
+        example, change, what = _impossible(rng)
+        folder = tmp_path / f"impossible-{index}"
+        folder.mkdir()
+        raw = tomllib.loads((EXAMPLES / f"{example}.toml").read_text())
+        cheap = STAGE_CHEAP if example == "rv_stage" else {"analysis.crank_step_deg": 30.0}
+        for dotted, value in {**cheap, **change}.items():
+            if dotted == "csv.pin_radius_um":  # pin 7's row of the measured file
+                rows = (EXAMPLES / "measured_pins.csv").read_text().splitlines()
+                k = next(i for i, r in enumerate(rows) if r.startswith("7,"))
+                rows[k] = ",".join([*rows[k].split(",")[:3], f"{value:.6g}"])
+                (folder / "measured_pins.csv").write_text("\n".join(rows) + "\n")
+            else:
+                _set(raw, dotted.split("."), value)
+        study = folder / "study.toml"
+        study.write_text(toml_dumps(raw), encoding="utf-8")
+        commands = ["check", "run"] + (["stiffness"] if example == "rv_stage" else [])
+        checked = None
+        for command in commands:
+            out = folder / f"out-{command}"
+            args = [command, str(study)]
+            if command != "check":
+                args += ["--out", str(out), "-q", *EXTRA[command]]
+            result = runner.invoke(app, args)
+            label = f"{example} [{what}: {change}] {command}"
+            counts["impossible cases"] += 1
+            lines = [line for line in result.output.splitlines() if line.strip()]
+            if command == "check":
+                checked = result.exit_code
+            if result.exit_code == 2:
+                assert len(lines) == 1 and lines[0].startswith("error: "), (label, result.output)
+                assert "internal error" not in lines[0], (label, lines[0])
+                assert not out.exists(), label
+                counts["impossible refused"] += 1
+                continue
+            assert result.exit_code == 0, (label, result.exit_code, result.output)
+            assert checked == 0, (label, "check refused what the command accepts")
+            if command == "check":
+                counts["check ok (computed)"] += 1
+                continue
+            # accepted: only a jam may be computed, and it must be flagged
+            assert _jam_warned(out), (label, "accepted as if fine")
+            counts["impossible warned (jam)"] += 1
+    print(f"\nfuzz, physically impossible: {dict(counts)}")
+    assert counts["impossible cases"] >= 60
+    assert counts["impossible refused"] >= 20 and counts["impossible warned (jam)"] >= 1

@@ -66,7 +66,7 @@ def test_no_runtime_warning_before_the_error_line(tmp_path):
         text + '\n[[cases]]\nname = "loose"\nmodification.pin_radius_um = 3400.0\n'
     )
     done = cyclomesh("run", "rho.toml", "--out", "o1", "-q", "--figures", "none", cwd=tmp_path)
-    assert "no pin can touch" in only_error_line(done)
+    assert "modification.pin_radius_um = 3400: no pin reaches" in only_error_line(done)
     angles = np.linspace(-180, 0, 19)
     rows = [f"{a},{1e300 if k == 5 else 8.0}" for k, a in enumerate(angles)]
     (tmp_path / "profile.csv").write_text(

@@ -210,7 +210,7 @@ def test_geometry_sweep_checks_every_candidate_and_keeps_full_reasons():
     # e = 2 mm (K1 = 0.976) undercuts the profile; ρp = 6.5 mm makes neighbouring pins
     # overlap: infeasible, with the core's whole message as the reason
     undercut = str(ds["reason"].sel(eccentricity_mm=2.0, pin_radius_mm=3.5, width_mm=12.0).values)
-    assert undercut.startswith("undercut profile") and undercut.endswith("pin_circle_radius")
+    assert undercut.startswith("undercut profile") and undercut.endswith("pin_circle_radius_mm")
     assert len(undercut) > 160  # was cut at 160 characters
     overlap = str(ds["reason"].sel(eccentricity_mm=1.5, pin_radius_mm=6.5, width_mm=12.0).values)
     assert "neighbouring pins interfere" in overlap

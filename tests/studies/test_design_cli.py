@@ -160,7 +160,7 @@ def test_geometry_design_map_end_to_end(tmp_path):
     assert set(ds["feasible"].dims) == {"pin_radius_mm", "eccentricity_mm"}
     reasons = ds["reason"].sel(eccentricity_mm=2.0).values
     assert all(
-        r.startswith("undercut profile") and r.endswith("pin_circle_radius")
+        r.startswith("undercut profile") and r.endswith("pin_circle_radius_mm")
         for r in reasons.ravel()
     )
     best = tomllib.loads((out / "best.toml").read_text())

@@ -246,6 +246,7 @@ CHANGE.update(
 CHANGE["design.disc.crank_holes"] = 2
 CHANGE["design.disc.crank_hole_circle_radius_mm"] = 44.0
 CHANGE["design.disc.crank_hole_radius_mm"] = 11.0
+CHANGE["design.disc.bore_radius_mm"] = 20.0  # drawn by export, another kind's key
 
 # issue 26: crankshafts and carrier from their geometry, measured loops
 SHAFT = {"support_span_mm": 40.0, "disc_pitch_mm": 11.0}

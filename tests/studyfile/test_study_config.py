@@ -318,13 +318,20 @@ BAD = {
     ),
     "K1 >= 1": (
         TABLE2.replace("eccentricity_mm = 1.5", "eccentricity_mm = 2.1"),
-        'case "Case 1": eccentricity too large: K1',
+        'case "Case 1": design.eccentricity_mm = 2.1, design.pins = 40 and '
+        "design.pin_circle_radius_mm = 82 give K1 = e·n1/a = 1.024; it must be below 1",
+    ),
+    "K1 too small from the pin circle": (
+        TABLE2.replace("pin_circle_radius_mm = 82.0", "pin_circle_radius_mm = 2000.0"),
+        "design.pin_circle_radius_mm = 2000 give K1 = e·n1/a = 0.03; it must be at least "
+        "0.05 (a cycloid disc, not a circle): lower design.pin_circle_radius_mm to at most "
+        "1200, or raise design.eccentricity_mm to at least 2.5",
     ),
     "interfering pins": (
         TABLE2.replace("pin_radius_mm = 3.5", "pin_radius_mm = 6.5").replace(
             "groove_radius_mm = 3.505", "groove_radius_mm = 6.6"
         ),
-        'case "Case 1": pin_radius 6.5 mm: neighbouring pins interfere',
+        'case "Case 1": design.pin_radius_mm = 6.5: neighbouring pins interfere',
     ),
 }
 

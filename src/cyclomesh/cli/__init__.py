@@ -204,7 +204,7 @@ def export(
             case: {key: Path(out) / rel for key, rel in files.items()}
             for case, files in result.written.items()
         }
-        print_export(written, chord_tolerance_um)
+        print_export(written, chord_tolerance_um, result.same)
 
 
 @app.command()

@@ -375,7 +375,8 @@ def _check_branch(d: FloatArray, a: FloatArray, g: FloatArray) -> None:
     if np.any(np.log(d / g) - a / g >= -1.0):
         raise ConvergenceError(
             "contact approach beyond the validity of the line-contact formula "
-            "(force past the stiffest point of Eq. 20): torque too large for the design"
+            "(force past the stiffest point of Eq. 20): torque too large for the design; "
+            "lower the torque, or raise design.width_mm or the youngs_modulus_gpa of [material]"
         )
 
 

@@ -97,7 +97,11 @@ def share_load(
     usable = np.isfinite(bl) & (arm > 0)
     if not np.all(np.any(usable, axis=-1)):
         bad = int(np.argmin(np.any(usable, axis=-1)))
-        err = ConvergenceError("no pin can touch the loaded flanks: check the errors")
+        err = ConvergenceError(
+            "no pin can touch the loaded flanks: the pin errors (errors.radial_um, "
+            "errors.pin_radius_um, errors.eccentricity_um) open more clearance than the "
+            "teeth can close; lower them (or modification.pin_radius_um)"
+        )
         err.case_index = bad
         raise err
     # rotation at which pin i alone carries T: an upper bound of the root (pins whose
@@ -110,10 +114,9 @@ def share_load(
         alone = np.where(valid, bl + single_delta / np.where(valid, arm, 1.0), np.inf)
     x = np.min(alone, axis=-1)
     if not np.all(np.isfinite(x)):
-        err = ConvergenceError(
-            "torque too large: no pin could carry it alone within the line-contact law (Eq. 20)"
-        )
-        err.case_index = int(np.argmax(~np.isfinite(x)))
+        bad = int(np.argmax(~np.isfinite(x)))
+        err = ConvergenceError(_too_large(single_force[bad], alpha[bad], gamma[bad], usable[bad]))
+        err.case_index = bad
         raise err
 
     # keep only the pins that can engage below that bound
@@ -158,3 +161,19 @@ def share_load(
     full = np.zeros_like(bl)
     np.put_along_axis(full, order, np.where(c_ok, force, 0.0), -1)
     return x.reshape(lead), full.reshape(*lead, n_pins)
+
+
+def _too_large(force: FloatArray, alpha: FloatArray, gamma: FloatArray, usable: NDArray) -> str:
+    """The message for a torque that no pin could carry alone: by which factor the face
+    width or the moduli must grow. The largest force of the law, exp(α/γ − 1), is
+    proportional to B·E (α/γ = ln(B/C) + const. in Eqs. 20–23 of [1]; C the compliance)."""
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        limit = np.where(gamma > 0, np.exp(alpha / np.where(gamma > 0, gamma, 1.0) - 1.0), np.inf)
+        ratio = np.where(usable, force / limit, np.inf)
+    factor = float(np.min(ratio))
+    need = f" by a factor above {factor:.3g}" if np.isfinite(factor) and factor > 1 else ""
+    return (
+        "torque too large for the contact: no pin could carry it alone within the "
+        "line-contact law (Eq. 20); lower the torque, or raise design.width_mm or the "
+        f"youngs_modulus_gpa of [material]{need}"
+    )

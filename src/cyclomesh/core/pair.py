@@ -35,6 +35,7 @@ __all__ = [
     "check_physical",
     "YOUNGS_MODULUS_RANGE",
     "POISSON_RATIO_RANGE",
+    "check_bore",
 ]
 
 
@@ -142,29 +143,43 @@ class PairDesign:
             raise DesignError(f"pins must be an integer of at least 3, got {self.pins!r}")
         for name in ("pin_circle_radius", "pin_radius", "groove_radius", "eccentricity", "width"):
             _positive(name, getattr(self, name))
-        if self.short_amplitude_coefficient >= 1.0:
+        k1, n1 = self.short_amplitude_coefficient, int(self.pins)
+        a_mm, e_mm = self.pin_circle_radius * 1e3, self.eccentricity * 1e3
+        keys = (
+            f"design.eccentricity_mm = {e_mm:.6g}, design.pins = {n1} and "
+            f"design.pin_circle_radius_mm = {a_mm:.6g} give K1 = e·n1/a = {k1:.4g}"
+        )
+        if k1 >= 1.0:
             raise DesignError(
-                f"eccentricity too large: K1 = e·n1/a = {self.short_amplitude_coefficient:.4g} "
-                "must be below 1 (reduce eccentricity or pins, or enlarge pin_circle_radius)"
+                f"{keys}; it must be below 1 (the pin-centre locus would loop): raise "
+                f"design.pin_circle_radius_mm above {e_mm * n1:.6g}, or lower "
+                f"design.eccentricity_mm below {a_mm / n1:.6g} or design.pins below "
+                f"{self.pin_circle_radius / self.eccentricity:.6g}"
             )
-        if self.short_amplitude_coefficient < MIN_SHORT_AMPLITUDE:
+        if k1 < MIN_SHORT_AMPLITUDE:
             raise DesignError(
-                f"eccentricity too small: K1 = e·n1/a = {self.short_amplitude_coefficient:.4g} "
-                f"must be at least {MIN_SHORT_AMPLITUDE:g} (a cycloid disc, not a circle)"
+                f"{keys}; it must be at least {MIN_SHORT_AMPLITUDE:g} (a cycloid disc, not a "
+                f"circle): lower design.pin_circle_radius_mm to at most "
+                f"{e_mm * n1 / MIN_SHORT_AMPLITUDE:.6g}, or raise design.eccentricity_mm to at "
+                f"least {MIN_SHORT_AMPLITUDE * a_mm / n1:.6g}"
             )
         half_pitch_chord = self.pin_circle_radius * math.sin(math.pi / self.pins)
         if self.pin_radius >= half_pitch_chord:
             raise DesignError(
-                f"pin_radius {self.pin_radius * 1e3:.4g} mm: neighbouring pins interfere; "
-                f"it must be below a·sin(π/n1) = {half_pitch_chord * 1e3:.4g} mm"
+                f"design.pin_radius_mm = {self.pin_radius * 1e3:.6g}: neighbouring pins "
+                f"interfere; it must be below a·sin(π/n1) = {half_pitch_chord * 1e3:.6g} mm "
+                "(or raise design.pin_circle_radius_mm, or lower design.pins)"
             )
         if self.groove_radius <= self.pin_radius:
-            raise DesignError("groove_radius must exceed pin_radius (the groove seats the pin)")
+            raise DesignError(
+                f"design.groove_radius_mm = {self.groove_radius * 1e3:.6g} must exceed "
+                f"design.pin_radius_mm = {self.pin_radius * 1e3:.6g} (the groove seats the pin)"
+            )
         if self.groove_radius >= half_pitch_chord:
             raise DesignError(
-                f"groove_radius {self.groove_radius * 1e3:.4g} mm: neighbouring pin grooves "
-                f"overlap in the ring; it must be below a·sin(π/n1) = "
-                f"{half_pitch_chord * 1e3:.4g} mm (the groove seats the pin with a small "
+                f"design.groove_radius_mm = {self.groove_radius * 1e3:.6g}: neighbouring pin "
+                f"grooves overlap in the ring; it must be below a·sin(π/n1) = "
+                f"{half_pitch_chord * 1e3:.6g} mm (the groove seats the pin with a small "
                 "clearance)"
             )
         if self.eccentricity >= self.pin_circle_radius:
@@ -259,6 +274,23 @@ class CrankHoles:
                 f"_mm + crank_hole_radius_mm = {(self.circle_radius + self.radius) * 1e3:.4g}"
                 f" must be below a − e − ρp = {root * 1e3:.4g} mm"
             )
+
+
+def check_bore(design: PairDesign, holes: CrankHoles | None, bore_radius: float) -> None:
+    """Raise :class:`DesignError` unless the disc's central bore (radius [m]) stays clear
+    of the crank holes (r_b < r_c − r) and inside the tooth root a − e − ρp."""
+    root = design.pin_circle_radius - design.eccentricity - design.pin_radius
+    if holes is not None and bore_radius >= holes.circle_radius - holes.radius:
+        raise DesignError(
+            f"design.disc.bore_radius_mm = {bore_radius * 1e3:.6g}: the bore cuts the crank "
+            "holes; it must be below crank_hole_circle_radius_mm − crank_hole_radius_mm = "
+            f"{(holes.circle_radius - holes.radius) * 1e3:.6g}"
+        )
+    if bore_radius >= root:
+        raise DesignError(
+            f"design.disc.bore_radius_mm = {bore_radius * 1e3:.6g}: the bore reaches the "
+            f"tooth root; it must be below a − e − ρp = {root * 1e3:.6g} mm"
+        )
 
 
 TABLE1 = PairDesign(
@@ -416,25 +448,43 @@ def check_physical(design: PairDesign, modification: Modification, errors: PinEr
         )
     angular = np.asarray(errors.angular, float)
     if angular.size and not np.max(np.abs(angular)) < limit:
-        raise DesignError(
-            f"errors.angular_urad: |εψ| up to {np.max(np.abs(angular)) * 1e6:.6g} µrad; it "
-            f"must stay below a tenth of the pin pitch, {limit * 1e6:.6g} µrad"
+        raise _pin_error(
+            "angular_urad",
+            angular,
+            f"|εψ| up to {np.max(np.abs(angular)) * 1e6:.6g} µrad; it must stay below a tenth "
+            f"of the pin pitch, {limit * 1e6:.6g} µrad",
         )
     radius = np.asarray(errors.pin_radius, float)
     # (relative margin: ερ = −ρp written in µm converts to a hair below ρp in metres)
     if radius.size and not np.max(np.abs(radius)) < design.pin_radius * (1.0 - 1e-9):
         worst = float(radius.flat[int(np.argmax(np.abs(radius)))])
-        raise DesignError(
-            f"errors.pin_radius_um: ερ = {worst * 1e6:.6g} µm; |ερ| must stay below the pin "
-            f"radius, {design.pin_radius * 1e6:.6g} µm (a pin of radius ρp + ερ ≤ 0 does "
-            "not exist)"
+        raise _pin_error(
+            "pin_radius_um",
+            radius,
+            f"ερ = {worst * 1e6:.6g} µm; |ερ| must stay below the pin radius, "
+            f"{design.pin_radius * 1e6:.6g} µm (a pin of radius ρp + ερ ≤ 0 does not exist)",
         )
     radial = np.asarray(errors.radial, float)
     if radial.size and not np.max(np.abs(radial)) < design.pin_radius:
-        raise DesignError(
-            f"errors.radial_um: |εa| up to {np.max(np.abs(radial)) * 1e6:.6g} µm; it must "
-            f"stay below the pin radius, {design.pin_radius * 1e6:.6g} µm"
+        raise _pin_error(
+            "radial_um",
+            radial,
+            f"|εa| up to {np.max(np.abs(radial)) * 1e6:.6g} µm; it must stay below the pin "
+            f"radius, {design.pin_radius * 1e6:.6g} µm",
         )
+
+
+def _pin_error(column: str, values: NDArray, why: str) -> DesignError:
+    """``errors.<column>: <why>``, with the column and the pin (1 … n1) of the largest
+    |value| as attributes ``column`` and ``pin``, so that a study can name the row of a
+    measured-pins file that holds it."""
+    values = np.asarray(values)
+    index = np.unravel_index(int(np.argmax(np.abs(values))), values.shape)
+    err = DesignError(f"errors.{column}: {why}")
+    err.column = column  # type: ignore[attr-defined]
+    err.pin = int(index[-1]) + 1 if values.ndim else None  # type: ignore[attr-defined]
+    err.why = why  # type: ignore[attr-defined]
+    return err
 
 
 def pin_errors_si(

@@ -20,6 +20,7 @@ References
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -157,11 +158,30 @@ def check_profile(design: PairDesign, modification: Modification | None = None) 
     """
     modification = modification or Modification()
     a, rho = generating_radii(design, modification)
+    d_rho_um = modification.pin_radius * 1e6
     if rho <= 0:
-        raise DesignError("modification.pin_radius: ρp + Δρ must stay positive")
+        raise DesignError(
+            f"modification.pin_radius_um = {d_rho_um:.6g}: ρp + Δρ must stay positive; raise "
+            f"it above {-design.pin_radius * 1e6:.6g}"
+        )
     if a <= design.eccentricity * design.pins:
         raise DesignError(
-            "modification.pin_circle_radius: a + Δa must exceed e·n1 (K1 < 1) for a valid profile"
+            f"modification.pin_circle_radius_um = {modification.pin_circle_radius * 1e6:.6g}: "
+            "a + Δa must exceed e·n1 (K1 < 1) for a valid profile; raise it above "
+            f"{(design.eccentricity * design.pins - design.pin_circle_radius) * 1e6:.6g}"
+        )
+    # The pins must reach the teeth at every crank angle. Midway between two pins the
+    # nearest pin centre is |w| = sqrt(a² + e² − 2ae·cos(π/n1)) from the disc centre;
+    # the tooth tips' pin-centre offset reaches a' + e − (ρ' − ρp) (contact.py, c = −1).
+    e, a0, n1 = design.eccentricity, design.pin_circle_radius, design.pins
+    nearest = math.sqrt(a0 * a0 + e * e - 2.0 * a0 * e * math.cos(math.pi / n1))
+    reach = a + e - (rho - design.pin_radius)
+    if nearest >= reach:
+        most = (modification.pin_circle_radius + a0 + e - nearest) * 1e6
+        raise DesignError(
+            f"modification.pin_radius_um = {d_rho_um:.6g}: no pin reaches the disc's teeth "
+            f"(a clearance deeper than the teeth, about 2e = {2e6 * e:.6g} µm); it must be "
+            f"below {most:.6g} (Δρ − Δa less than a + e − sqrt(a² + e² − 2ae·cos(π/n1)))"
         )
     theta = np.linspace(0.0, 2.0 * np.pi / design.teeth, 4001)
     rho_c = curvature_radius(theta, design, modification)
@@ -170,15 +190,19 @@ def check_profile(design: PairDesign, modification: Modification | None = None) 
     if np.any(convex & (locus_radius <= rho)):
         r_min = float(np.min(locus_radius[convex]))
         raise DesignError(
-            f"undercut profile: generating pin radius ρp+Δρ = {rho * 1e3:.4g} mm exceeds the "
-            f"smallest convex curvature radius of the pin-centre locus ({r_min * 1e3:.4g} mm); "
-            "reduce pin_radius or eccentricity, or enlarge pin_circle_radius"
+            f"undercut profile: the generating pin radius ρp + Δρ = {rho * 1e3:.6g} mm "
+            "(design.pin_radius_mm + modification.pin_radius_um) exceeds the smallest convex "
+            f"curvature radius of the pin-centre locus ({r_min * 1e3:.6g} mm): lower "
+            "design.pin_radius_mm or modification.pin_radius_um below it, or lower "
+            "design.eccentricity_mm, or raise design.pin_circle_radius_mm"
         )
     concave = ~convex
     if np.any(concave & (-rho_c <= design.pin_radius)):
+        # |ρc| = ρ' − R > ρp  ⇔  Δρ > R on every concave point (R < 0 there)
+        least = float(np.max(locus_radius[concave])) * 1e6
         raise DesignError(
-            "the pin does not fit the concave tooth-space bottom (|ρc| ≤ ρp): "
-            "reduce modification.pin_radius's negative amount or the pin radius"
+            f"modification.pin_radius_um = {d_rho_um:.6g}: the pin does not fit the concave "
+            f"tooth-space bottom (|ρc| ≤ ρp there); raise it above {least:.6g}"
         )
     if modification.profile is not None:
         _check_deviation(design, modification)

@@ -356,8 +356,13 @@ def print_design(summary: dict[str, Any], seconds: float, out: Path) -> None:
     console.print(f"report: {out / 'report.html'}", markup=False)
 
 
-def print_export(written: dict[str, dict[str, Path]], chord_tolerance_um: float) -> None:
-    """Per case of an export: points, tip and root radii, the files written."""
+def print_export(
+    written: dict[str, dict[str, Path]],
+    chord_tolerance_um: float,
+    same: dict[str, str] | None = None,
+) -> None:
+    """Per case of an export: points, tip and root radii, the files written; a case
+    whose drawing is an earlier case's (``same``: case → that case) in one line."""
     import json
 
     from rich.console import Console
@@ -372,3 +377,10 @@ def print_export(written: dict[str, dict[str, Path]], chord_tolerance_um: float)
             markup=False,
         )
         console.print("  " + ", ".join(str(p) for p in files.values()), markup=False)
+    for name, first in (same or {}).items():
+        folder = written[first]["json"].parent
+        console.print(
+            f"{name}: the same drawing as {first} (only non-profile keys differ): "
+            f"written once, in {folder}",
+            markup=False,
+        )

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ["StudyKind", "execute", "figure_pool", "running_backend"]
+__all__ = ["StudyKind", "execute", "figure_pool", "report_title", "running_backend"]
 
 Progress = Callable[[int], None]
 
@@ -188,7 +188,7 @@ def execute(
             files = kind.write(result, folder.path, options)  # moved into out at the end
             if kind.report_name is None:
                 return result
-            title = f"{study.title}: {kind.title}" if kind.title else study.title
+            title = report_title(study.title, kind.title)
             publish(
                 folder.path,
                 title,
@@ -201,3 +201,11 @@ def execute(
                 pool=pool,
             )
     return result
+
+
+def report_title(study_title: str, kind_title: str) -> str:
+    """The report's title: the study's, followed by the kind of study unless the study's
+    title already says it ("Tolerance study: …" is not followed by ": tolerance study")."""
+    if not kind_title or kind_title.casefold() in study_title.casefold():
+        return study_title
+    return f"{study_title}: {kind_title}"

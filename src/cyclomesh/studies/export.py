@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from cyclomesh.output.export import FORMATS, export_study
+from cyclomesh.output.export import FORMATS, export_study, export_summary
 from cyclomesh.studies.execute import StudyKind
 
 __all__ = ["ExportResult", "EXPORT", "compute_export"]
@@ -29,6 +29,8 @@ class ExportResult:
     formats: tuple[str, ...]
     chord_tolerance: float
     written: dict[str, dict[str, Path]] = field(default_factory=dict)
+    same: dict[str, str] = field(default_factory=dict)
+    """Case → the earlier case whose folder holds its (identical) drawing."""
 
 
 def compute_export(
@@ -44,8 +46,13 @@ def compute_export(
 
 
 def write_export(result: ExportResult, out: Path) -> list[Path]:
-    """Write the profile files of every case; the paths written."""
-    staged = export_study(result.study, out, result.formats, result.chord_tolerance)
+    """Write the profile files of every case, once per distinct drawing, and the
+    ``summary.json`` entries saying which cases share a folder; the paths written."""
+    from cyclomesh.output.writers import write_json
+
+    staged, same = export_study(result.study, out, result.formats, result.chord_tolerance)
+    result.same.update(same)
+    write_json(out / "summary.json", export_summary(result.study, same))  # written last
     result.written.update(
         {
             case: {k: path.relative_to(out) for k, path in files.items()}

@@ -26,6 +26,8 @@ from cyclomesh.exceptions import StudyError
 __all__ = [
     "PIN_ERROR_COLUMNS",
     "read_pin_errors_csv",
+    "read_pin_error_rows",
+    "name_measured_row",
     "read_csv_table",
     "number_cell",
     "integer_cell",
@@ -59,6 +61,13 @@ def read_pin_errors_csv(path: Path, pins: int, key: str = "errors.file") -> dict
         Missing or unreadable file, missing or unknown columns, a value that is not a
         finite number, or pins that are not exactly 1 … n1 once each.
     """
+    return read_pin_error_rows(path, pins, key)[0]
+
+
+def read_pin_error_rows(
+    path: Path, pins: int, key: str = "errors.file"
+) -> tuple[dict[str, NDArray], NDArray]:
+    """:func:`read_pin_errors_csv` and the line number of each pin's row, shape ``(pins,)``."""
     where, header, table = read_csv_table(path, key)
     expected = ("pin", *PIN_ERROR_COLUMNS)
     missing = [name for name in expected if name not in header]
@@ -74,10 +83,12 @@ def read_pin_errors_csv(path: Path, pins: int, key: str = "errors.file") -> dict
             f"(columns must be {', '.join(expected)})"
         )
     rows: dict[int, dict[str, float]] = {}
+    lines: dict[int, int] = {}
     for line, row in table:
         pin = integer_cell(where, line, "pin", row["pin"], pins)
         if pin in rows:
             raise StudyError(f"{where} line {line}: pin {pin} appears twice")
+        lines[pin] = line
         rows[pin] = {name: number_cell(where, line, name, row[name]) for name in PIN_ERROR_COLUMNS}
     if len(rows) != pins:
         absent = [str(p) for p in range(1, pins + 1) if p not in rows]
@@ -85,9 +96,30 @@ def read_pin_errors_csv(path: Path, pins: int, key: str = "errors.file") -> dict
             f"{where}: expected {pins} rows (one per pin), got {len(rows)}; "
             f"missing pin {', '.join(absent[:5])}{' …' if len(absent) > 5 else ''}"
         )
-    return {
+    values = {
         name: np.array([rows[p][name] for p in range(1, pins + 1)]) for name in PIN_ERROR_COLUMNS
     }
+    return values, np.array([lines[p] for p in range(1, pins + 1)])
+
+
+def name_measured_row(exc: Exception, path: Path, pins: int, key: str = "errors.file") -> str:
+    """The message of ``exc`` (a bound of :func:`cyclomesh.core.pair.check_physical` on
+    one pin's error) naming the row of the measured-pins file that holds the value, when
+    that row gives the pin an error in that column; else ``str(exc)`` unchanged.
+
+    ``errors.file: measured_pins.csv line 9 (pin 3): pin_radius_um = -3500: ερ = …``
+    """
+    column, pin = getattr(exc, "column", None), getattr(exc, "pin", None)
+    if column not in PIN_ERROR_COLUMNS or pin is None or not 1 <= pin <= pins:
+        return str(exc)
+    values, lines = read_pin_error_rows(path, pins, key)
+    value = float(values[column][pin - 1])
+    if value == 0.0:  # the value comes from the study file's lists or random draws
+        return str(exc)
+    return (
+        f"{key}: {path.name} line {int(lines[pin - 1])} (pin {pin}): {column} = {value:.6g}"
+        f": {getattr(exc, 'why', exc)}"
+    )
 
 
 def read_csv_table(

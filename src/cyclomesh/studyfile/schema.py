@@ -63,6 +63,7 @@ from cyclomesh.core.pair import (
     Modification,
     PairDesign,
     PinErrors,
+    check_bore,
     check_physical,
     pin_errors_si,
 )
@@ -82,7 +83,11 @@ from cyclomesh.studyfile.limits import (
     MAX_STUDY_FILE_BYTES,
     read_regular_file,
 )
-from cyclomesh.studyfile.measurements import PIN_ERROR_COLUMNS, read_pin_errors_csv
+from cyclomesh.studyfile.measurements import (
+    PIN_ERROR_COLUMNS,
+    name_measured_row,
+    read_pin_errors_csv,
+)
 from cyclomesh.studyfile.messages import one_line, parse_section
 from cyclomesh.studyfile.profile_csv import read_profile_csv
 from cyclomesh.studyfile.sections import (
@@ -317,7 +322,13 @@ class CaseSpec(StrictSection):
                 self.errors.eccentricity_um,
             )
             errors.ring_shape(design.pins)
-            check_physical(design, modification, errors)
+            try:
+                check_physical(design, modification, errors)
+            except DesignError as exc:  # a bound on a measured pin: name the file's row
+                if self.errors.file is None:
+                    raise
+                path = self._base_dir / self.errors.file
+                raise DesignError(name_measured_row(exc, path, d.pins)) from None
             try:
                 with np.errstate(over="ignore", invalid="ignore"):  # huge tables: inf, refused
                     check_profile(design, modification)
@@ -329,6 +340,8 @@ class CaseSpec(StrictSection):
             crank_holes = d.disc.to_core()
             if crank_holes is not None:
                 crank_holes.check_fits(design)
+            if d.disc.bore_radius_mm is not None:
+                check_bore(design, crank_holes, d.disc.bore_radius_mm * M_PER_MM)
             stage = None if self.stage is None else self.stage.to_core(crank_holes, d.discs)
             if stage is not None:
                 stage.check_fits(design, d.discs)

@@ -131,6 +131,9 @@ class DiscSection(StrictSection):
     crank_hole_radius_mm: float | None = Field(
         None, gt=0, description="radius of each crank hole [mm]"
     )
+    bore_radius_mm: float | None = Field(
+        None, gt=0, description="radius of the disc's central bore [mm] (drawn by export)"
+    )
 
     @model_validator(mode="after")
     def _complete(self) -> DiscSection:

@@ -54,6 +54,7 @@ OWN_SECTIONS: dict[str, tuple[str, ...]] = {
     "allocate": ("tolerance",),
     "design": ("design_space",),
     "fe": ("fe",),
+    "export": ("design.disc.bore_radius_mm",),
     "run": (
         "load.torque_nm",
         "stage.rated_torque_nm",
@@ -68,7 +69,8 @@ run's load and the stage's data-sheet rating are the run's: ``cyclomesh stiffnes
 ``[requirements]`` is checked by every kind that computes a quantity (run, stiffness,
 tolerance, design, fe); ``cyclomesh allocate`` reports no metric and leaves it, as it
 leaves the allowables of ``[material]`` (the default limits) and the tolerance study's
-percentile."""
+percentile. The disc's bore is drawn by ``cyclomesh export`` (which takes every key) and
+computed by no other kind."""
 
 _PAIR = (
     "design.pins",
@@ -245,6 +247,8 @@ def _matches(key: str, pattern: str) -> bool:
 
 def classify(kind: str, key: str) -> str:
     """``"used"``, ``"refused"`` or ``"other"`` (another kind's section) for a key."""
+    if _drawn_only(key):  # the export's: every kind leaves it, with or without holes
+        return "other"
     if any(_matches(key, p) for p in REFUSED[kind]):
         return "refused"
     for other, sections in OWN_SECTIONS.items():  # a key another kind owns by name
@@ -259,6 +263,11 @@ def classify(kind: str, key: str) -> str:
     if _matches(key, "tolerance.allocation"):  # cyclomesh allocate's subsection
         return "other"
     raise KeyError(f"{kind}: key {key} is neither used, refused nor another kind's")
+
+
+def _drawn_only(key: str) -> bool:
+    """A key only ``cyclomesh export`` uses (the disc's bore)."""
+    return any(_matches(key, p) for p in OWN_SECTIONS["export"])
 
 
 def _walk(table: Mapping[str, Any], prefix: str = "") -> Iterator[tuple[str, Any]]:
@@ -320,7 +329,7 @@ def check_keys(raw: Mapping[str, Any], kind: str) -> None:
     for section in REFUSED[kind]:  # a refused section counts when present
         if "." not in section and section != "cases" and _present(raw, section):
             keys.insert(0, section)
-    for key in keys:
+    for key in (k for k in keys if not _drawn_only(k)):
         for pattern, (needed, why) in NEEDS.get(kind, {}).items():
             if _matches(key, pattern) and not _present(raw, needed):
                 raise StudyError(why if kind == "run" else f"cyclomesh {kind}: {why}")
