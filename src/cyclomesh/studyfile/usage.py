@@ -58,6 +58,7 @@ OWN_SECTIONS: dict[str, tuple[str, ...]] = {
     "run": (
         "load.torque_nm",
         "stage.rated_torque_nm",
+        "stage.duty_cycle",
         "requirements",
         *_ALLOWABLES,
     ),
