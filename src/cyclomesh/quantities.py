@@ -247,6 +247,23 @@ _ROWS = (
         ANGLE,
         parity=-1,
     ),
+    Quantity(
+        "stage_te_order_amplitude",
+        "arcsec",
+        "amplitude of the output's TE by order of the crank revolution "
+        "(output order = crank order x (n1 - 1))",
+        "stage TE by order",
+        ARCSEC_PER_RAD,
+        ("crank_order",),
+    ),
+    Quantity(
+        "torque_share_order_amplitude",
+        "N·m",
+        "amplitude of each disc's torque share by order",
+        "disc torque by order",
+        1.0,
+        ("crank_order", "disc"),
+    ),
     # --- a torsion curve (cyclomesh.stiffness) --------------------------------------------
     Quantity(
         "rotation",
@@ -577,7 +594,8 @@ _ROWS = (
     Quantity(
         "stage_torsional_rigidity_nm_per_arcmin",
         "N·m/arcmin",
-        "torsional rigidity of the stage (mesh, bearings, springs), secant 50-100 %",
+        "torsional rigidity of the stage (mesh, bearings, crankshafts, carrier), b/a "
+        "50-100 % of rated (catalogue)",
         "stage rigidity",
     ),
     Quantity(
@@ -589,10 +607,59 @@ _ROWS = (
     Quantity(
         "stage_lost_motion_arcmin",
         "arcmin",
-        "lost motion of the stage, TE(-3 %) - TE(+3 %)",
+        "lost motion of the stage: twist between the loop's mid-points at -3 % and +3 %",
         "stage lost motion",
     ),
     Quantity("mesh_lost_motion_arcmin", "arcmin", "lost motion of the mesh alone", "mesh LM"),
+    Quantity(
+        "stage_backlash_arcmin",
+        "arcmin",
+        "backlash of the stage: width of the loop at zero torque (at ±0.1 %)",
+        "stage backlash",
+    ),
+    Quantity("mesh_backlash_arcmin", "arcmin", "backlash of the mesh alone", "mesh backlash"),
+    Quantity(
+        "stage_duty_equivalent_torque_nm",
+        "N·m",
+        "equivalent torque of the duty cycle (cubic mean, exponent 10/3)",
+        "T_eq",
+    ),
+    Quantity(
+        "stage_duty_equivalent_speed_rpm", "rpm", "mean output speed of the duty cycle", "n_eq"
+    ),
+    Quantity(
+        "stage_duty_l10_h_min",
+        "h",
+        "L10h of the weakest crank bearing over the duty cycle (ISO 281, variable load)",
+        "L10h cycle",
+    ),
+    Quantity(
+        "stage_l10_h_at_equivalent_torque",
+        "h",
+        "L10h of the weakest crank bearing at T_eq and n_eq",
+        "L10h at T_eq",
+    ),
+    Quantity(
+        "compliance_share",
+        "1",
+        "share of the output twist at rated torque by part of the stage (virtual work): "
+        "mesh, crank bearings, crankshafts, carrier, hole errors",
+        "compliance share",
+    ),
+    Quantity(
+        "stage_te_orders",
+        "arcsec",
+        "three largest orders of the output TE at rated torque: [crank order, output order, "
+        "amplitude]",
+        "stage TE orders",
+    ),
+    Quantity(
+        "torque_share_orders",
+        "N·m",
+        "three largest orders of the disc torque share at rated torque: [crank order, output "
+        "order, amplitude of the largest disc]",
+        "disc torque orders",
+    ),
     Quantity(
         "stage_max_contact_stress_mpa",
         "MPa",
@@ -626,6 +693,39 @@ _ROWS = (
         "N·m/arcmin",
         "smallest torsional rigidity of the stage",
         "min stage rigidity",
+    ),
+    Quantity(
+        "measured_torsional_rigidity_nm_per_arcmin",
+        "N·m/arcmin",
+        "measured torsional rigidity (b/a, 50-100 % of rated)",
+        "measured rigidity",
+    ),
+    Quantity(
+        "measured_lost_motion_arcmin",
+        "arcmin",
+        "measured lost motion (±3 %)",
+        "measured lost motion",
+    ),
+    Quantity(
+        "measured_backlash_arcmin", "arcmin", "measured backlash (width at 0)", "measured backlash"
+    ),
+    Quantity(
+        "reconciling_compliance_arcmin_per_knm",
+        "arcmin/kN·m",
+        "series compliance that would take the model to the measured rigidity (not applied)",
+        "reconciling compliance",
+    ),
+    Quantity(
+        "reconciling_stiffness_nm_per_arcmin",
+        "N·m/arcmin",
+        "series stiffness that would take the model to the measured rigidity (not applied)",
+        "reconciling stiffness",
+    ),
+    Quantity(
+        "lost_motion_difference_arcmin",
+        "arcmin",
+        "measured lost motion less the model's",
+        "LM difference",
     ),
     # --- metrics of a design map (cyclomesh design) -------------------------------------------
     Quantity("feasible", "1", "feasible", "feasible"),

@@ -295,6 +295,31 @@ CHANGE["design.disc.crank_hole_circle_radius_mm"] = 44.0
 CHANGE["design.disc.crank_hole_radius_mm"] = 11.0
 CHANGE["design.disc.bore_radius_mm"] = 20.0  # drawn by export, another kind's key
 
+# issue 26: crankshafts and carrier from their geometry, measured loops
+SHAFT = {"support_span_mm": 40.0, "disc_pitch_mm": 11.0}
+PILLARS = {
+    "pillars": 3,
+    "pillar_diameter_mm": 14.0,
+    "pillar_length_mm": 24.0,
+    "pillar_circle_radius_mm": 36.0,
+}
+CHANGE.update(
+    {
+        "stage.crankshaft.support_span_mm": 45.0,
+        "stage.crankshaft.disc_pitch_mm": 12.0,
+        "stage.crankshaft.support_bearing_stiffness_n_per_um": 300.0,
+        "stage.carrier.pillars": 4,
+        "stage.carrier.pillar_diameter_mm": 12.0,
+        "stage.carrier.pillar_length_mm": 20.0,
+        "stage.carrier.pillar_circle_radius_mm": 40.0,
+        "stiffness.measured_file": str(EXAMPLES / "rv_stage_measured_loop.csv"),
+        "stage.duty_cycle.torque_nm": [250.0, -100.0],
+        "stage.duty_cycle.output_speed_rpm": [10.0, 30.0],
+        "stage.duty_cycle.time_share": [0.3, 0.7],
+    }
+)
+DUTY = {"torque_nm": [200.0, -150.0], "output_speed_rpm": [15.0, 15.0], "time_share": [0.5, 0.5]}
+
 # keys whose change needs something else in both studies (kind, key) or (None, key)
 CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
     **{(None, f"errors.random.{k}"): RANDOM for k in ("seed", "radial_um", "angular_urad")},
@@ -322,7 +347,13 @@ def change_table(key: str, kind: str = "run") -> dict[str, Any]:
     if key.startswith("design.disc.") and kind not in ("run", "stiffness"):
         return {"design": {"disc": dict(HOLES)}}
     if key.startswith("stage.") and kind not in ("run", "stiffness"):
-        return merge(STAGE, _nested(key, CHANGE[key]))
+        whole = {  # a valid [stage.crankshaft] / [stage.carrier] around the key
+            "stage.crankshaft.": {"stage": {"crankshaft": SHAFT}},
+            "stage.carrier.": {"stage": {"crankshaft": SHAFT, "carrier": PILLARS}},
+            "stage.duty_cycle.": {"stage": {"duty_cycle": DUTY}},
+        }
+        extra = next((v for k, v in whole.items() if key.startswith(k)), {})
+        return merge(merge(STAGE, extra), _nested(key, CHANGE[key]))
     if key == "tolerance.tangential_um":  # instead of angular_urad (not both)
         return {"tolerance": {"angular_urad": DELETE, "tangential_um": CHANGE[key]}}
     if key == "friction.lubricant.viscosity_40c_cst":  # instead of the grade (not both)
@@ -359,6 +390,20 @@ def merge(base: dict[str, Any], change: dict[str, Any]) -> dict[str, Any]:
         else:
             out[key] = copy.deepcopy(value)
     return out
+
+
+for _kind in ("run", "stiffness"):
+    for _key in schema_keys():
+        if _key.startswith("stage.crankshaft."):
+            CONTEXT[(_kind, _key)] = merge(
+                STAGE, {"design": {"discs": 2}, "stage": {"crankshaft": SHAFT}}
+            )
+        elif _key.startswith("stage.duty_cycle."):
+            CONTEXT[(_kind, _key)] = merge(STAGE, {"stage": {"duty_cycle": DUTY}})
+        elif _key.startswith("stage.carrier."):
+            CONTEXT[(_kind, _key)] = merge(
+                STAGE, {"stage": {"crankshaft": SHAFT, "carrier": PILLARS}}
+            )
 
 
 def toml_value(value: Any) -> str:

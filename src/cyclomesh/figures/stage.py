@@ -16,7 +16,12 @@ from cyclomesh.figures.render import new_figure
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["plot_crank_bearing_loads", "plot_stage_torsion_curve"]
+__all__ = [
+    "plot_crank_bearing_loads",
+    "plot_stage_torsion_curve",
+    "plot_compliance_budget",
+    "plot_measured_loop",
+]
 
 Results = xr.Dataset | Mapping[str, xr.Dataset]
 
@@ -93,4 +98,62 @@ def plot_stage_torsion_curve(results: Results) -> Figure:
         ax.set_title(name, fontsize="small")
         ax.legend(fontsize="x-small")
     axes[0].set_ylabel("rotation [arcmin]")
+    return fig
+
+
+def plot_compliance_budget(shares: Mapping[str, Mapping[str, float]]) -> Figure:
+    """The compliance budget of the RV stage at rated torque: one bar per part and case.
+
+    ``shares``: case → part → share of the output twist (``compliance_share`` of the
+    summary, :func:`cyclomesh.results.datasheet.compliance_share`), in per cent.
+    """
+    cases = {name: s for name, s in shares.items() if s}
+    if not cases:
+        raise ValueError("no compliance budget to plot")
+    parts = list(dict.fromkeys(p for s in cases.values() for p in s))
+    width = max(5.0, 1.0 + 0.9 * len(parts) * max(1, len(cases)) ** 0.5)
+    fig = new_figure(width, 3.6)
+    fig.subplots_adjust(left=0.8 / width, right=1 - 0.2 / width, bottom=0.18, top=0.95)
+    ax = fig.add_subplot()
+    step = 0.8 / len(cases)
+    for i, (name, share) in enumerate(cases.items()):
+        x = [j - 0.4 + step * (i + 0.5) for j in range(len(parts))]
+        values = [100.0 * share.get(p, 0.0) for p in parts]
+        ax.bar(x, values, width=step * 0.9, color=f"C{i}", label=name)
+    ax.set_xticks(range(len(parts)))
+    ax.set_xticklabels([p.replace("_", " ") for p in parts], rotation=20, fontsize="small")
+    ax.set_ylabel("share of output twist [%]")
+    ax.legend(fontsize="x-small")
+    return fig
+
+
+def plot_measured_loop(results: Results) -> Figure:
+    """The measured hysteresis loop drawn over the model's torsion curve, one panel per case.
+
+    Needs ``measured_torque`` [N m] and ``measured_twist`` [arcmin] (dim ``sample``) and the
+    model's ``stage_rotation`` (or ``rotation``) [arcsec, TE sign] against ``torque``.
+    """
+    if isinstance(results, xr.Dataset):
+        results = {str(results.attrs.get("case_name", "")): results}
+    cases = {name: ds for name, ds in results.items() if "measured_twist" in ds}
+    if not cases:
+        raise ValueError("no measured loop to plot")
+    width = 4.2 * len(cases) + 0.8
+    fig = new_figure(width, 4.0)
+    fig.subplots_adjust(left=0.8 / width, right=1 - 0.2 / width, bottom=0.13, top=0.9,
+                        wspace=0.3)  # fmt: skip
+    axes = fig.subplots(1, len(cases), squeeze=False)[0]
+    for ax, (name, ds) in zip(axes, cases.items(), strict=True):
+        ax.plot(ds["measured_twist"].values, ds["measured_torque"].values, "-", color="0.4",
+                lw=0.8, label="measured")  # fmt: skip
+        var = "stage_rotation" if "stage_rotation" in ds else "rotation"
+        model = -ds[var].mean("crank_angle").values / 60.0  # TE sign, arcsec → twist, arcmin
+        ax.plot(model, ds["torque"].values, "o-", color="C3", ms=2.5,
+                label="model (stage)" if var == "stage_rotation" else "model (mesh)")  # fmt: skip
+        ax.axhline(0.0, color="0.7", lw=0.6)
+        ax.axvline(0.0, color="0.7", lw=0.6)
+        ax.set_xlabel("twist of the output [arcmin]")
+        ax.set_title(name, fontsize="small")
+        ax.legend(fontsize="x-small")
+    axes[0].set_ylabel("torque [N·m]")
     return fig

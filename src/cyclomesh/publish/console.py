@@ -225,6 +225,10 @@ STIFFNESS_ROWS = (
     row("stage_lost_motion_arcmin_max"),
     row("stage_torsional_rigidity_nm_per_arcmin_min"),
     row("stage_l10_h_min"),
+    row("measured_torsional_rigidity_nm_per_arcmin"),
+    row("measured_lost_motion_arcmin"),
+    row("measured_backlash_arcmin"),
+    row("reconciling_compliance_arcmin_per_knm"),
 )
 """Rows of the stiffness summary (labels and units from the quantity registry)."""
 
@@ -238,14 +242,20 @@ def print_stiffness(summaries: dict, out: Path, checks: dict | None = None) -> N
         print_checks(console, checks)
     if any("stage_lost_motion_arcmin_max" in record for record in summaries.values()):
         console.print(
-            "stage rows: the RV stage of \\[stage] (mesh + crank bearings), which the "
-            "requirements check; the other rows: the mesh alone. Main bearings, housing and "
-            "the first stage are not included: the reducer is softer"
+            "stage rows: the RV stage of \\[stage] (mesh, crank bearings and, when given, "
+            "crankshafts and carrier), which the requirements check; the other rows: the mesh "
+            "alone. Main bearings, housing and the first stage are not included: the reducer "
+            "is softer"
         )
     else:
         console.print(
             "the mesh alone: crank bearings, crankshafts and the first stage are not "
             "included: the reducer is softer"
+        )
+    if any("measured_lost_motion_arcmin" in record for record in summaries.values()):
+        console.print(
+            "measured: the loop of \\[stiffness] measured_file by the same definitions; the "
+            "reconciling compliance is reported, not applied"
         )
     console.print(f"report: {out / 'report.html'}")
 

@@ -59,6 +59,12 @@ STAGE_METRICS: dict[str, Metric] = select(
     "mesh_torsional_rigidity_nm_per_arcmin",
     "stage_lost_motion_arcmin",
     "mesh_lost_motion_arcmin",
+    "stage_backlash_arcmin",
+    "mesh_backlash_arcmin",
+    "stage_duty_equivalent_torque_nm",
+    "stage_duty_equivalent_speed_rpm",
+    "stage_duty_l10_h_min",
+    "stage_l10_h_at_equivalent_torque",
     "stage_lost_motion_arcmin_max",
     "stage_torsional_rigidity_nm_per_arcmin_min",
     "stage_max_contact_stress_mpa",
@@ -139,6 +145,22 @@ def stage_dataset(result: Stage, stage: StageDesign, pins: int) -> xr.Dataset:
             p, ("disc", "crank"), "crank_bearing_equivalent_load"
         )
         data["crank_bearing_l10"] = var(hours, ("disc", "crank"), "crank_bearing_l10")
+    from cyclomesh.core.transmission import is_full_revolution
+
+    orders = None
+    if is_full_revolution(result.crank_angle):  # the output's ripple by orders
+        from cyclomesh.results.datasheet import order_spectrum
+
+        top = 3 * pins
+        te = np.moveaxis(order_spectrum(result.transmission_error, -1, top), 0, -1)
+        share = np.moveaxis(order_spectrum(result.torque_share, -2, top), 0, -2)
+        orders = np.arange(te.shape[-1])
+        data["stage_te_order_amplitude"] = var(
+            te / ARCSEC, ("crank_order",), "stage_te_order_amplitude"
+        )
+        data["torque_share_order_amplitude"] = var(
+            share, ("crank_order", "disc"), "torque_share_order_amplitude"
+        )
     coords = {
         "crank_angle": ("crank_angle", deg, {"units": "deg"}),
         "disc": np.arange(1, result.pin_load.shape[-2] + 1),
@@ -147,6 +169,13 @@ def stage_dataset(result: Stage, stage: StageDesign, pins: int) -> xr.Dataset:
     }
     if not squeeze:
         coords["torque"] = ("torque", result.torque, {"units": "N·m"})
+    if orders is not None:
+        coords["crank_order"] = ("crank_order", orders, {"long_name": "order of the crank speed"})
+        coords["output_order"] = (
+            "crank_order",
+            orders * (pins - 1),
+            {"long_name": "order of the output speed"},
+        )
     ds = xr.Dataset(data, coords=coords)
     ds.attrs["stage_output_speed_rpm"] = float(stage.output_speed)
     return ds
@@ -198,7 +227,73 @@ def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
             stage_dynamic_load_rating_kn=float(stage.bearing.rating() / 1e3),
             stage_max_roller_load_n=float(np.max(result.max_roller_load[at])),
         )
-    return {name: sheet[name] for name in STAGE_METRICS if name in sheet}
+    sheet.update(_catalogue_extras(inputs, rated_torque, phi, curve))
+    out = {name: sheet[name] for name in STAGE_METRICS if name in sheet}
+    for key in ("compliance_share", "stage_te_orders", "torque_share_orders"):
+        if key in sheet:
+            out[key] = sheet[key]
+    return out
+
+
+def _duty_sheet(inputs: Any, phi: np.ndarray) -> dict[str, Any]:
+    """L10h of the weakest crank bearing over the duty cycle, the catalogue's equivalent
+    torque and speed, and the life at that single point (:mod:`cyclomesh.stage.duty`)."""
+    import dataclasses
+
+    from cyclomesh.stage.duty import cycle_life
+
+    stage = inputs.stage
+    cycle = stage.duty_cycle
+    t_eq, n_eq = cycle.equivalent()
+    torques = sorted(set(cycle.torque) | {t_eq})
+    result = solve(inputs.case().replace(torque=torques, crank_angles=phi), inputs.model())
+    loads = {t: result.bearing_load[i] for i, t in enumerate(torques)}
+    rating = stage.bearing.rating()
+    _, hours = cycle_life(cycle, [loads[t] for t in cycle.torque], rating, inputs.design.pins)
+    point = dataclasses.replace(stage, output_speed=n_eq)
+    _, _, at_eq = bearing_life(result, point, inputs.design.pins)
+    return {
+        "stage_duty_equivalent_torque_nm": t_eq,
+        "stage_duty_equivalent_speed_rpm": n_eq,
+        "stage_duty_l10_h_min": float(np.min(hours)),
+        "stage_l10_h_at_equivalent_torque": float(np.min(at_eq[torques.index(t_eq)])),
+    }
+
+
+def _catalogue_extras(inputs: Any, rated_torque: float, phi: np.ndarray, curve: Any) -> dict:
+    """Backlash of stage and mesh (width at ±0.1 % of T_r) and the compliance budget at
+    +T_r (:mod:`cyclomesh.results.datasheet`)."""
+    from cyclomesh.results.datasheet import BACKLASH_FRACTION, compliance_share
+
+    small = solve(
+        inputs.case().replace(
+            torque=[-BACKLASH_FRACTION * rated_torque, BACKLASH_FRACTION * rated_torque],
+            crank_angles=phi,
+        ),
+        inputs.model(),
+    )
+    result = curve.stage
+    at = int(np.flatnonzero(result.torque == rated_torque)[0])
+    te, mesh = small.transmission_error, small.mesh_transmission_error
+    extra: dict[str, Any] = {}
+    if inputs.stage.duty_cycle is not None:
+        extra.update(_duty_sheet(inputs, phi))
+    from cyclomesh.core.transmission import is_full_revolution
+    from cyclomesh.results.datasheet import order_spectrum, top_orders
+
+    if is_full_revolution(phi):  # the output's ripple by orders at the rated torque
+        teeth = inputs.design.pins - 1
+        amp = order_spectrum(result.transmission_error[at], orders=3 * inputs.design.pins)
+        extra["stage_te_orders"] = top_orders(amp / ARCSEC, 3, teeth)
+        share = order_spectrum(result.torque_share[at], orders=3 * inputs.design.pins)
+        extra["torque_share_orders"] = top_orders(np.max(share, axis=-1), 3, teeth)
+    return extra | {
+        "stage_backlash_arcmin": float(np.mean(te[0] - te[1]) / ARCMIN),
+        "mesh_backlash_arcmin": float(np.mean(mesh[0] - mesh[1]) / ARCMIN),
+        "compliance_share": compliance_share(
+            {k: v[at] for k, v in result.work.items()}, rated_torque, result.twist[at]
+        ),
+    }
 
 
 STAGE_MESH_VARIABLES = (
@@ -326,4 +421,10 @@ STAGE_STIFFNESS_METRICS: dict[str, Metric] = select(
     "stage_torsional_rigidity_nm_per_arcmin_mean",
     "stage_torsional_rigidity_nm_per_arcmin_min",
     "stage_l10_h_min",
+    "measured_torsional_rigidity_nm_per_arcmin",
+    "measured_lost_motion_arcmin",
+    "measured_backlash_arcmin",
+    "reconciling_compliance_arcmin_per_knm",
+    "reconciling_stiffness_nm_per_arcmin",
+    "lost_motion_difference_arcmin",
 )

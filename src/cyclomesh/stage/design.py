@@ -18,6 +18,9 @@ from cyclomesh.stage.bearing import (
     RollerSet,
     deflection_for_force,
 )
+from cyclomesh.stage.carrier import Carrier
+from cyclomesh.stage.crankshaft import Crankshaft
+from cyclomesh.stage.duty import DutyCycle
 
 __all__ = ["StageDesign"]
 
@@ -45,6 +48,16 @@ class StageDesign:
         radial (outwards) and tangential (counter-clockwise). Need a bearing.
     output_speed : float
         Output speed [rev/min] for the life in hours.
+    crankshaft : Crankshaft, optional
+        The crankshafts from their geometry (:mod:`cyclomesh.stage.crankshaft`): a beam on
+        two support bearings coupling the discs of the stack; excludes
+        ``crankshaft_stiffness``.
+    carrier : Carrier, optional
+        The carrier's pillars (:mod:`cyclomesh.stage.carrier`): the end plate turns against
+        the output flange; needs ``crankshaft`` (the axial places); excludes
+        ``carrier_stiffness``.
+    duty_cycle : DutyCycle, optional
+        A load spectrum for the life over a cycle (:mod:`cyclomesh.stage.duty`).
     """
 
     holes: CrankHoles
@@ -54,8 +67,30 @@ class StageDesign:
     hole_error_radial: ArrayLike = 0.0
     hole_error_tangential: ArrayLike = 0.0
     output_speed: float = 15.0
+    crankshaft: Crankshaft | None = None
+    carrier: Carrier | None = None
+    duty_cycle: DutyCycle | None = None
 
     def __post_init__(self) -> None:
+        if self.duty_cycle is not None and self.bearing is None:
+            raise DesignError(
+                "stage.duty_cycle: the life needs a crank bearing ([stage.crank_bearing])"
+            )
+        if self.crankshaft is not None and self.crankshaft_stiffness is not None:
+            raise DesignError(
+                "stage: give the crankshaft either by its geometry ([stage.crankshaft]) or by "
+                "crankshaft_stiffness_n_per_um, not both"
+            )
+        if self.carrier is not None and self.carrier_stiffness is not None:
+            raise DesignError(
+                "stage: give the carrier either by its geometry ([stage.carrier]) or by "
+                "carrier_stiffness_nm_per_arcmin, not both"
+            )
+        if self.carrier is not None and self.crankshaft is None:
+            raise DesignError(
+                "stage.carrier: needs [stage.crankshaft] support_span_mm and disc_pitch_mm "
+                "(where the discs load the crankshafts between the flanges)"
+            )
         for name in ("crankshaft_stiffness", "carrier_stiffness"):
             value = getattr(self, name)
             if value is not None and not (
@@ -72,10 +107,12 @@ class StageDesign:
         if not all(np.all(np.isfinite(v)) for v in errs):
             raise DesignError("stage: crank hole errors must be finite numbers")
         if self.bearing is None and (
-            any(np.any(v != 0) for v in errs) or self.crankshaft_stiffness is not None
+            any(np.any(v != 0) for v in errs)
+            or self.crankshaft_stiffness is not None
+            or self.crankshaft is not None
         ):
             raise DesignError(
-                "stage: crank hole errors and a crankshaft stiffness need a compliant crank "
+                "stage: crank hole errors and compliant crankshafts need a compliant crank "
                 "bearing ([stage.crank_bearing]); rigid bearings cannot take them"
             )
         if self.bearing is not None:

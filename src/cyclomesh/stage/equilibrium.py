@@ -5,7 +5,11 @@ potential, and the stiff-limit split of the bearing loads.
 
 :func:`solve_direction` solves the stage under a positive torque in the frame of a
 :class:`~cyclomesh.drive.mesh.StackMesh` (the reverse flanks go through the mirror);
-:func:`ring_mesh` takes one ring of a many-ring mesh.
+:func:`ring_mesh` takes one ring of a many-ring mesh. With the crankshafts and carrier
+from their geometry (:class:`Supports`, :func:`stage_supports`; docs/stage.md) the beam
+deflections of the crank pins at the discs and the end plate's rotation are extra
+unknowns of the same potential; the output twist is split by virtual work into the
+work of every part on its own deformation (:data:`WORK_PARTS`).
 
 References
 ----------
@@ -15,6 +19,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,7 +44,14 @@ from cyclomesh.stage.bearing import (
 )
 from cyclomesh.stage.design import StageDesign
 
-__all__ = ["solve_direction", "ring_mesh", "FORCE_TOLERANCE"]
+__all__ = [
+    "solve_direction",
+    "ring_mesh",
+    "FORCE_TOLERANCE",
+    "Supports",
+    "stage_supports",
+    "WORK_PARTS",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -91,6 +103,44 @@ class _Power:
         return s**p, p * s ** (p - 1.0), s ** (p + 1.0) / (p + 1.0), s
 
 
+# --- the crankshafts and the carrier from their geometry ----------------------------
+
+
+@dataclass(frozen=True)
+class Supports:
+    """Elastic crankshafts and end plate in the equilibrium (extra unknowns after 1 + 3D).
+
+    ``stiffness``: inverse of the crankshaft's flexibility at the discs' planes (D, D) or
+    None (rigid crankshaft): unknowns w'_dk (x, y), the beam's own deflection of crank pin k
+    at disc d, energy ½·Σ_k w'_kᵀ·K·w'_k per direction. ``fraction``: x_d/S of every disc
+    (D,); ``carrier``: K_β [N·m/rad] or None: unknown β, the end plate's rotation against
+    the output flange, moving the crank pin at disc d by x_d/S·β·ẑ×h_k, energy ½K_β·β².
+    """
+
+    stiffness: FloatArray | None
+    fraction: FloatArray
+    carrier: float | None
+
+    def extra(self, discs: int, cranks: int) -> int:
+        return (2 * discs * cranks if self.stiffness is not None else 0) + (
+            1 if self.carrier is not None else 0
+        )
+
+
+def stage_supports(stage: StageDesign, discs: int, order: NDArray[np.int64]) -> Supports | None:
+    """The supports of ``stage`` for the discs in ``order`` (the mirror's disc order)."""
+    if stage.crankshaft is None:
+        return None
+    shaft = stage.crankshaft
+    flexibility = shaft.compliance(discs)[np.ix_(order, order)]
+    fraction = (shaft.positions(discs) / shaft.support_span)[order]
+    return Supports(
+        stiffness=np.linalg.inv(flexibility),
+        fraction=fraction,
+        carrier=None if stage.carrier is None else stage.carrier.torsional_stiffness(),
+    )
+
+
 # --- the per-direction problem -------------------------------------------------------
 
 
@@ -111,6 +161,7 @@ class _Problem:
     ey: FloatArray
     torque: float
     scale: float  # r_c
+    supports: Supports | None = None
 
     def take(self, idx: NDArray[np.int64]) -> _Problem:
         kw = {
@@ -150,15 +201,14 @@ def _pins(p: _Problem, theta: FloatArray, ux: FloatArray, uy: FloatArray):
 
 def _unpack(x: FloatArray, discs: int):
     c = x[:, 0]
-    rest = x[:, 1:].reshape(-1, discs, 3)
+    rest = x[:, 1 : 1 + 3 * discs].reshape(-1, discs, 3)
     return c, rest[..., 0], rest[..., 1], rest[..., 2]
 
 
 def _evaluate(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, hessian: bool = True):
     """Potential, gradient, Hessian (scaled: rotations × r_c) and the parts of the state."""
     c, theta, ux, uy = _unpack(x, discs)
-    n = x.shape[0]
-    m = 1 + 3 * discs
+    n, m = x.shape
     F, k, U, bad = _pins(p, theta, ux, uy)
     energy = np.sum(U, axis=(-2, -1)) - p.torque * c
     L = p.scale
@@ -180,6 +230,8 @@ def _evaluate(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, hessian:
     state = {"pin_force": F, "bad": bad}
     if rigid:
         return energy, g, H, state
+    if p.supports is not None:
+        return _evaluate_supported(p, law, x, discs, hessian, energy, g, H, state)
     # bearings: d = u + (θ − c)·Jh + ε, Jh = (−hy, hx)
     jx, jy = -p.hy[:, None, :], p.hx[:, None, :]  # (n, 1, N)
     rot = (theta - c[:, None])[..., None]
@@ -214,6 +266,90 @@ def _evaluate(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, hessian:
     return energy, g, H, state
 
 
+def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state):
+    """Bearings, crankshafts and end plate of :func:`_evaluate` with :class:`Supports`.
+
+    d_dk = u_d + (θ_d − c)·Jh_k + ε_dk − w'_dk − (x_d/S)·β·Jh_k (hole against crank pin);
+    the gradient and Hessian are assembled from ∂d/∂x (n, D, N, 2, m) in one contraction.
+    """
+    sup = p.supports
+    c, theta, ux, uy = _unpack(x, discs)
+    n, m = x.shape
+    N = p.hx.shape[-1]
+    L = p.scale
+    jx, jy = -p.hy[:, None, :], p.hx[:, None, :]  # (n, 1, N)
+    base = 1 + 3 * discs
+    nw = 2 * discs * N if sup.stiffness is not None else 0
+    w = x[:, base : base + nw].reshape(n, discs, N, 2) if nw else np.zeros((n, discs, N, 2))
+    beta = x[:, base + nw] if sup.carrier is not None else np.zeros(n)
+    a = sup.fraction[None, :, None]  # (1, D, 1)
+    rot = (theta - c[:, None])[..., None] - a * beta[:, None, None]
+    dx = ux[..., None] + rot * jx + p.ex - w[..., 0]
+    dy = uy[..., None] + rot * jy + p.ey - w[..., 1]
+    s = np.hypot(dx, dy)
+    B, kb, Ub, sb = law.evaluate(s)
+    energy = energy + np.sum(Ub, axis=(-2, -1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cx = np.where(s > 0, dx / s, 1.0)
+        cy = np.where(s > 0, dy / s, 0.0)
+        secant = np.where(s > 0, B / s, kb)
+    fx, fy = B * cx, B * cy
+    # ∂d/∂x, scaled unknowns (rotations × L)
+    G = np.zeros((n, discs, N, 2, m))
+    jxb = np.broadcast_to(jx, (n, discs, N)) / L
+    jyb = np.broadcast_to(jy, (n, discs, N)) / L
+    G[..., 0, 0], G[..., 1, 0] = -jxb, -jyb
+    for d in range(discs):
+        G[:, d, :, 0, 1 + 3 * d], G[:, d, :, 1, 1 + 3 * d] = jxb[:, d], jyb[:, d]
+        G[:, d, :, 0, 2 + 3 * d] = 1.0
+        G[:, d, :, 1, 3 + 3 * d] = 1.0
+    if nw:
+        idx = base + np.arange(nw).reshape(discs, N, 2)
+        for d in range(discs):
+            for k in range(N):
+                G[:, d, k, 0, idx[d, k, 0]] = -1.0
+                G[:, d, k, 1, idx[d, k, 1]] = -1.0
+    if sup.carrier is not None:
+        G[..., 0, base + nw] = -a * jxb
+        G[..., 1, base + nw] = -a * jyb
+    f = np.stack([fx, fy], axis=-1)
+    g = g + np.einsum("ndkc,ndkcm->nm", f, G)
+    if nw:
+        Kw = np.einsum("de,nekc->ndkc", sup.stiffness, w)
+        energy = energy + 0.5 * np.sum(w * Kw, axis=(1, 2, 3))
+        g[:, base : base + nw] += Kw.reshape(n, nw)
+    if sup.carrier is not None:
+        energy = energy + 0.5 * sup.carrier * beta * beta
+        g[:, base + nw] += sup.carrier * beta / L
+    if hessian:
+        kxx = kb * cx * cx + secant * cy * cy
+        kyy = kb * cy * cy + secant * cx * cx
+        kxy = (kb - secant) * cx * cy
+        kmat = np.stack([np.stack([kxx, kxy], -1), np.stack([kxy, kyy], -1)], -2)
+        H = H + np.einsum("ndkcm,ndkce,ndkep->nmp", G, kmat, G, optimize=True)
+        if nw:
+            H[:, base : base + nw, base : base + nw] += np.kron(sup.stiffness, np.eye(2 * N))
+        if sup.carrier is not None:
+            H[:, base + nw, base + nw] += sup.carrier / (L * L)
+    state.update(
+        bearing_fx=fx,
+        bearing_fy=fy,
+        deflection=s,
+        bearing_part=sb,
+        shaft_deflection=w,
+        end_plate=beta,
+    )
+    return energy, g, H, state
+
+
+def _rotation_index(m: int, discs: int, supports: Supports | None) -> list[int]:
+    """Unknowns that are rotations (scaled by r_c in the Newton step)."""
+    idx = [0, *range(1, 1 + 3 * discs, 3)]
+    if supports is not None and supports.carrier is not None:
+        idx.append(m - 1)
+    return idx
+
+
 def _newton(
     p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray
 ) -> FloatArray:
@@ -231,7 +367,8 @@ def _newton(
             H = np.einsum("im,nij,jk->nmk", reduce, H, reduce)
         # converged: every residual below tol, or at the round-off of the unknowns
         # themselves (stiff bearings: a residual of H·ulp(x) cannot be resolved)
-        xs = np.abs(_scale(xa, 1.0 / p.scale, discs))
+        rot_idx = _rotation_index(xa.shape[1], discs, None if rigid else p.supports)
+        xs = np.abs(_scale(xa, 1.0 / p.scale, rot_idx))
         if rigid:
             xs = xs @ reduce
         noise = 16.0 * np.finfo(float).eps * np.einsum("nij,nj->ni", np.abs(H), xs)
@@ -256,7 +393,7 @@ def _newton(
         tiny = -slope <= 1e-13 * np.maximum(np.abs(energy), 1e-300)
         for _h in range(_MAX_HALVINGS):
             full = _expand(step[todo] * t[todo, None], reduce if rigid else None)
-            trial = xa[todo] + _scale(full, p.scale, discs)
+            trial = xa[todo] + _scale(full, p.scale, rot_idx)
             e_t, _g, _H, st = _evaluate(sub.take(todo), law, trial, discs, rigid, hessian=False)
             ok = ~st["bad"] & ((e_t <= energy[todo] + 1e-4 * t[todo] * slope[todo]) | tiny[todo])
             new[todo[ok]] = trial[ok]
@@ -280,11 +417,10 @@ def _expand(step: FloatArray, reduce: FloatArray | None) -> FloatArray:
     return step if reduce is None else step @ reduce.T
 
 
-def _scale(step: FloatArray, L: float, discs: int) -> FloatArray:
+def _scale(step: FloatArray, L: float, rot_idx: list[int]) -> FloatArray:
     """Scaled step (rotations × L) → unknowns (rad, m)."""
     out = step.copy()
-    out[:, 0] /= L
-    out[:, 1::3] /= L
+    out[:, rot_idx] /= L
     return out
 
 
@@ -427,8 +563,13 @@ def solve_direction(
     stage: StageDesign,
     errs: tuple[FloatArray, FloatArray],
     torque: float,
+    supports: Supports | None = None,
 ) -> dict[str, FloatArray]:
-    """Stage under a positive torque in the mesh's frame (``other``: the mirror problem)."""
+    """Stage under a positive torque in the mesh's frame (``other``: the mirror problem).
+
+    ``supports``: the crankshafts and carrier from their geometry (:func:`stage_supports`
+    in this direction's disc order), None: rigid (or the override springs of ``stage``).
+    """
     D, n1 = mesh.geo.rotation.shape[-2:]
     prob = _problem(mesh, other, stage.holes, errs, torque)
     A = prob.bl.shape[0]
@@ -484,6 +625,9 @@ def solve_direction(
         x[:, 1::3] = x[:, [0]] + omega
         x[:, 2::3] = ux
         x[:, 3::3] = uy
+        if supports is not None:
+            prob = dataclasses.replace(prob, supports=supports)
+            x = np.concatenate([x, np.zeros((A, supports.extra(D, N)))], axis=-1)
         x = _newton(prob, law, x, D, False, mesh.phi)
         energy, g, _, st = _evaluate(prob, law, x, D, False, hessian=False)
         F = st["pin_force"]
@@ -491,9 +635,11 @@ def solve_direction(
         deflection = st["deflection"]
         sb = st["bearing_part"]
         residual = np.max(np.abs(g), axis=-1)
+        work = _work(prob, stage, x, D, st)
     else:
         deflection = np.zeros_like(bfx)
         sb = deflection
+        work = _work(prob, stage, x, D, {"pin_force": F})
         residual = np.max(
             np.abs(_evaluate(prob, None, x, D, True, hessian=False)[1] @ _reducer(D)), -1
         )
@@ -529,9 +675,68 @@ def solve_direction(
         "disc_translation_y": uy,
         "disc_te": transmission_error(mesh.rest[:, None], theta),
         "carrier_te": transmission_error(mesh.rest, c),
+        "twist": c,
         "mesh_te": mesh_te,
         "residual": residual,
+        **work,
     }
+
+
+WORK_PARTS = ("mesh", "crank_bearings", "crankshafts", "carrier", "hole_errors")
+"""Parts of the output twist (:func:`_work`; the carrier's override spring adds T²/k_c)."""
+
+
+def _work(p: _Problem, stage: StageDesign, x: FloatArray, discs: int, st: dict):
+    """Work of every part on its own deformation at equilibrium [J], (A,) each.
+
+    Virtual work (Clapeyron's identity for an affine compatibility, exact for any
+    constitutive law): at the stationary point of Π, x·∇Π = 0, i.e.
+
+        T·c = Σ_pins F·(δ − δ(0)) + Σ_bearings f·(d − ε) + Σ w'ᵀKw' + K_β·β²,
+
+    so the output twist splits into the mesh (pin approaches and the closing of the
+    modification gaps), the crank bearings (their clearance included; a series spring
+    ``crankshaft_stiffness`` is counted with the crankshafts, B²/k), the crankshafts'
+    bending and supports, the carrier's pillars, and the hole errors' share (−Σ f·ε).
+    """
+    c, theta, ux, uy = _unpack(x, discs)
+    F = st["pin_force"]
+    usable = np.isfinite(p.bl)
+    lin = np.where(
+        usable,
+        p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
+        + p.nx * ux[..., None]
+        + p.ny * uy[..., None],
+        0.0,
+    )
+    lin0 = np.where(usable, -p.arm * np.where(usable, p.bl, 0.0), 0.0)
+    zero = np.zeros_like(c)
+    out = {
+        "work_mesh": np.sum(F * (lin - lin0), axis=(-2, -1)),
+        "work_crank_bearings": zero,
+        "work_crankshafts": zero,
+        "work_carrier": zero,
+        "work_hole_errors": zero,
+    }
+    if "bearing_fx" not in st:
+        return out
+    fx, fy = st["bearing_fx"], st["bearing_fy"]
+    B = np.hypot(fx, fy)
+    fd = B * st["deflection"]  # f·d, d along f
+    shafts = np.zeros_like(c)
+    if stage.crankshaft_stiffness is not None:
+        shafts = np.sum(B * B, axis=(-2, -1)) / stage.crankshaft_stiffness
+    if "shaft_deflection" in st:
+        w = st["shaft_deflection"]
+        shafts = shafts + np.sum(fx * w[..., 0] + fy * w[..., 1], axis=(-2, -1))
+        if p.supports.carrier is not None:
+            out["work_carrier"] = p.supports.carrier * st["end_plate"] ** 2
+    out["work_crankshafts"] = shafts
+    out["work_crank_bearings"] = np.sum(fd, axis=(-2, -1)) - np.where(
+        stage.crankshaft_stiffness is not None, shafts, 0.0
+    )
+    out["work_hole_errors"] = -np.sum(fx * p.ex + fy * p.ey, axis=(-2, -1))
+    return out
 
 
 def _disc_loads(mesh: StackMesh, prob: _Problem, force: FloatArray) -> dict[str, FloatArray]:

@@ -74,7 +74,13 @@ from cyclomesh.stage.bearing import (
     rating_life,
 )
 from cyclomesh.stage.design import StageDesign
-from cyclomesh.stage.equilibrium import FORCE_TOLERANCE, ring_mesh, solve_direction
+from cyclomesh.stage.equilibrium import (
+    FORCE_TOLERANCE,
+    WORK_PARTS,
+    ring_mesh,
+    solve_direction,
+    stage_supports,
+)
 
 __all__ = [
     "StageDesign",
@@ -86,6 +92,7 @@ __all__ = [
     "stage_torsion_curve",
     "bearing_life",
     "FORCE_TOLERANCE",
+    "WORK_PARTS",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -134,6 +141,13 @@ class Stage:
         TE of the mesh alone (rigid bearings) at the same torque [rad], (Q, A).
     residual : ndarray
         Largest equilibrium residual of each solve [N] (moments over r_c), (Q, A).
+    work : dict of ndarray
+        Work of every part of the stage on its own deformation [J], (Q, A) each, keys
+        :data:`WORK_PARTS`: they add up to T·twist to round-off (virtual work).
+    twist : ndarray
+        Rotation of the output under T from the rest position (first pin touching, no
+        load) [rad], counter-clockwise in the loaded direction's frame: positive with a
+        positive torque, (Q, A).
     """
 
     crank_angle: FloatArray
@@ -157,6 +171,8 @@ class Stage:
     residual: FloatArray
     groove_load: FloatArray | None = None
     groove_stress: FloatArray | None = None
+    work: dict[str, FloatArray] | None = None
+    twist: FloatArray | None = None
 
 
 _PER_PIN = {"pin_load", "opposite_pin_load", "groove_load", "contact_stress", "groove_stress"}
@@ -171,6 +187,7 @@ _PER_DISC = {
     "disc_te",
 }
 _ODD = {
+    "twist",
     "mesh_fy",
     "bearing_fy",
     "disc_translation_y",
@@ -274,6 +291,8 @@ def solve(case: Case, model: Model) -> Stage:
         rad[mirror_index(discs)][:, mirror_index(N)],
         -tan[mirror_index(discs)][:, mirror_index(N)],
     )
+    supports = stage_supports(stage, discs, np.arange(discs))
+    mirror_supports = stage_supports(stage, discs, mirror_index(discs))
     per_ring = []
     for ring in np.ndindex(ring_shape):  # rings one after the other (one ring: ())
         results = []
@@ -282,10 +301,14 @@ def solve(case: Case, model: Model) -> Stage:
         for value in torques:
             try:
                 if value > 0:
-                    fields = solve_direction(f_ring, r_ring, stage, (rad, tan), float(value))
+                    fields = solve_direction(
+                        f_ring, r_ring, stage, (rad, tan), float(value), supports
+                    )
                 else:
                     fields = _reverse(
-                        solve_direction(r_ring, f_ring, stage, mirror_errs, float(-value))
+                        solve_direction(
+                            r_ring, f_ring, stage, mirror_errs, float(-value), mirror_supports
+                        )
                     )
             except ConvergenceError as exc:
                 raise ConvergenceError(f"{where}torque {value:g} N·m: {exc}") from None
@@ -296,8 +319,12 @@ def solve(case: Case, model: Model) -> Stage:
         for name in per_ring[0]
     }
     te = out.pop("carrier_te")
+    work = {name: out.pop(f"work_{name}") for name in WORK_PARTS}
+    twist = out.pop("twist")
     if stage.carrier_stiffness is not None:
         te = te - torques[:, None] / stage.carrier_stiffness
+        twist = twist + torques[:, None] / stage.carrier_stiffness
+        work["carrier"] = work["carrier"] + (torques**2 / stage.carrier_stiffness)[:, None]
     bfx, bfy = out.pop("bearing_fx"), out.pop("bearing_fy")
     mfx, mfy = out.pop("mesh_fx"), out.pop("mesh_fy")
     return Stage(
@@ -322,6 +349,8 @@ def solve(case: Case, model: Model) -> Stage:
         transmission_error=te,
         mesh_transmission_error=out["mesh_te"],
         residual=out["residual"],
+        work=work,
+        twist=twist,
     )
 
 

@@ -294,6 +294,7 @@ _HEADINGS = {
     "mesh_force": "Mesh force (crank bearing load)",
     "torque_share": "Torque split between the discs",
     "crank_bearing_loads": "Crank bearing loads (RV stage)",
+    "compliance_budget": "Compliance budget (RV stage)",
 }
 
 
@@ -453,6 +454,22 @@ def run_figures(run: RunResult, inputs: list[FigureJob] | None = None) -> list[F
                 "(colour: crankshaft, line style: disc; docs/stage.md).",
             )
         )
+    budgets = {
+        k: dict(v["compliance_share"]) for k, v in run.summaries.items() if "compliance_share" in v
+    }
+    if budgets:
+        from cyclomesh.figures import stage as stage_plots
+
+        jobs.append(
+            job(
+                "compliance_budget",
+                stage_plots.plot_compliance_budget,
+                budgets,
+                caption="Compliance budget of the RV stage at rated torque: each part's share "
+                "of the output twist from rest (virtual work, shares add to 1); the first "
+                "stage is not modelled (docs/stage.md).",
+            )
+        )
     stacks = {k: v[["torque_share"]] for k, v in run.results.items() if "torque_share" in v}
     if stacks:
         jobs.append(
@@ -601,13 +618,29 @@ def run_sections(run: RunResult) -> list[Section]:
                     *(_cell(run.summaries[n].get(k)) for n in staged),
                 ]
                 for k in keys
+            ]
+            + [
+                [
+                    f"compliance share at rated torque: {part.replace('_', ' ')} [%]",
+                    *(
+                        _cell(100.0 * run.summaries[n]["compliance_share"][part])
+                        if "compliance_share" in run.summaries[n]
+                        else _cell(None)
+                        for n in staged
+                    ),
+                ]
+                for part in dict.fromkeys(
+                    p for n in staged for p in run.summaries[n].get("compliance_share", {})
+                )
             ],
         )
         sheet += (
             "<p>RV stage (docs/stage.md): discs on the crank bearings, mesh, bearings and "
-            "springs solved together; rigidity and lost motion over at most 360 of the "
-            "case's crank angles; the first stage, the main bearings and the housing are "
-            "not modelled.</p>"
+            "springs solved together; rigidity (b/a, 50-100 % of rated), lost motion "
+            "(mid-points at ±3 %) and backlash (width at zero torque) by the catalogue's "
+            "definitions over at most 360 of the case's crank angles; the compliance shares "
+            "split the output twist at rated torque by virtual work; the first stage, the "
+            "main bearings and the housing are not modelled.</p>"
         )
         sections.append(Section("Data sheet (RV stage)", sheet))
     return warning_sections(run.study_warnings()) + sections

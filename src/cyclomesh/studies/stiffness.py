@@ -152,8 +152,11 @@ def compute_stiffness(
                 inputs, section.rated_torque_nm, section.points, inputs.crank_angles
             )
             ds = ds.assign(data)
-        result.curves[case.name] = ds
         summary = summarize_stiffness(ds)
+        if section.measured_file is not None:  # read back beside the model, never applied
+            ds, measured = _measured(case, section, ds, summary, stage_summary)
+            stage_summary = {**stage_summary, **measured}
+        result.curves[case.name] = ds
         record: dict[str, Any] = {"rated_torque_nm": section.rated_torque_nm}
         record["discs"] = inputs.discs
         record.update(
@@ -175,6 +178,27 @@ def compute_stiffness(
             progress(1)
     result.seconds = time.perf_counter() - start
     return result
+
+
+def _measured(case: Any, section: Any, ds: Any, summary: Any, stage_summary: dict):
+    """The measured loop of ``[stiffness] measured_file`` against the stage (or the mesh)."""
+    from cyclomesh.results.datasheet import measured_loop_variables
+    from cyclomesh.studyfile.loops import read_loop_csv
+
+    torque, twist = read_loop_csv(case._base_dir / section.measured_file)
+    if "stage_torsional_rigidity_nm_per_arcmin_mean" in stage_summary:
+        rigidity = stage_summary["stage_torsional_rigidity_nm_per_arcmin_mean"]
+        lost = stage_summary["stage_lost_motion_arcmin_mean"]
+    else:
+        rigidity = float(summary["torsional_rigidity_nm_per_arcmin_mean"].values[()])
+        lost = float(summary["lost_motion_arcmin_mean"].values[()])
+    try:
+        data, measured = measured_loop_variables(
+            torque, twist, section.rated_torque_nm, rigidity, lost
+        )
+    except CyclomeshError as exc:
+        raise StudyError(f"stiffness.measured_file: {section.measured_file}: {exc}") from None
+    return ds.assign(data), measured
 
 
 def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
@@ -218,6 +242,7 @@ _HEADINGS = {
     "play": "Play and lost motion",
     "torque_share": "Torque split between the discs",
     "stage_torsion_curve": "Torsion curve of the RV stage",
+    "measured_loop": "Measured loop",
 }
 
 
@@ -291,6 +316,26 @@ def stiffness_figures(result: StiffnessResult) -> list[FigureJob]:
                 caption="Torsion curve of the RV stage (mesh, crank bearings and springs in "
                 "one solve) beside the mesh alone: rotation of the output, mean over the "
                 "crank angles, against torque in % of rated (docs/stage.md).",
+            )
+        )
+    loops = {
+        k: v
+        for k, v in _curves(
+            result, ("measured_torque", "measured_twist", "rotation", "stage_rotation")
+        ).items()
+        if "measured_twist" in v
+    }
+    if loops:
+        from cyclomesh.figures import stage as stage_plots
+
+        jobs.append(
+            job(
+                "measured_loop",
+                stage_plots.plot_measured_loop,
+                loops,
+                caption="Measured hysteresis loop ([stiffness] measured_file) over the model's "
+                "torsion curve (mean over the crank angles); the reconciling series "
+                "compliance is reported in the summary, never applied (docs/stage.md).",
             )
         )
     stacks = {k: v for k, v in _curves(result, ("torque_share",)).items() if "torque_share" in v}

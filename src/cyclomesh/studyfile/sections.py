@@ -29,6 +29,9 @@ from cyclomesh.core.pair import (
 )
 from cyclomesh.exceptions import DesignError
 from cyclomesh.stage.bearing import RollerSet
+from cyclomesh.stage.carrier import Carrier
+from cyclomesh.stage.crankshaft import Crankshaft
+from cyclomesh.stage.duty import DutyCycle
 from cyclomesh.stage.solve import StageDesign
 from cyclomesh.studyfile.limits import (
     MAX_ABS_CRANK_DEG,
@@ -55,6 +58,9 @@ __all__ = [
     "LoadSection",
     "StiffnessSection",
     "CrankBearingSection",
+    "CrankshaftSection",
+    "CarrierSection",
+    "DutyCycleSection",
     "StageSection",
     "RandomErrorsSection",
     "ErrorsSection",
@@ -434,6 +440,11 @@ class StiffnessSection(StrictSection):
         gt=0,
         description="torsional stiffness of the rest of the drive, in series [N·m/arcmin]",
     )
+    measured_file: str | None = Field(
+        None,
+        description="measured hysteresis loop (CSV torque_nm, twist_arcmin), read back by "
+        "the catalogue definitions beside the model (docs/stage.md)",
+    )
 
 
 def _per_crank(value: Any) -> float | list[float] | list[list[float]]:
@@ -466,6 +477,39 @@ class CrankBearingSection(StrictSection):
     rating_factor: float = Field(1.1, gt=0, description="b_m of ISO 281 (1.1 machined raceways)")
 
 
+class CrankshaftSection(StrictSection):
+    """``[stage.crankshaft]``: every crankshaft as a beam on two support bearings."""
+
+    support_span_mm: float = Field(
+        gt=0, description="distance between the crankshaft's two support bearings [mm]"
+    )
+    disc_pitch_mm: float = Field(
+        gt=0, description="axial distance between neighbouring discs' mid-planes [mm]"
+    )
+    support_bearing_stiffness_n_per_um: float | None = Field(
+        None, gt=0, description="radial stiffness of each support bearing [N/µm] (omitted: rigid)"
+    )
+
+
+class CarrierSection(StrictSection):
+    """``[stage.carrier]``: the pillars joining the output flange and the end plate."""
+
+    pillars: int = Field(ge=2, description="number of pillars")
+    pillar_diameter_mm: float = Field(gt=0, description="pillar diameter [mm]")
+    pillar_length_mm: float = Field(gt=0, description="free length between the flanges [mm]")
+    pillar_circle_radius_mm: float = Field(gt=0, description="radius of the pillars' circle [mm]")
+
+
+class DutyCycleSection(StrictSection):
+    """``[stage.duty_cycle]``: a load spectrum of the output, one value per step."""
+
+    torque_nm: list[float] = Field(min_length=1, description="output torque of each step")
+    output_speed_rpm: list[float] = Field(min_length=1, description="output speed of each step")
+    time_share: list[float] = Field(
+        min_length=1, description="share of the time of each step (normalised)"
+    )
+
+
 class StageSection(StrictSection):
     """``[stage]``: the RV stage around the mesh: crank bearings, springs, hole errors.
 
@@ -483,6 +527,9 @@ class StageSection(StrictSection):
         None, gt=0, description="rated torque of the data sheet [N·m] (default: the load)"
     )
     crank_bearing: CrankBearingSection | None = None
+    crankshaft: CrankshaftSection | None = None
+    carrier: CarrierSection | None = None
+    duty_cycle: DutyCycleSection | None = None
     crankshaft_stiffness_n_per_um: float | None = Field(
         None, gt=0, description="radial stiffness of a crank pin, in series with its bearing"
     )
@@ -532,9 +579,45 @@ class StageSection(StrictSection):
                 ),
                 rating_factor=b.rating_factor,
             )
+        crankshaft = carrier = None
+        if self.crankshaft is not None:
+            if b is None:
+                raise DesignError(
+                    "stage.crankshaft: needs [stage.crank_bearing] (the crank pin's diameter "
+                    "is the crank hole's less two rollers)"
+                )
+            crankshaft = Crankshaft(
+                support_span=self.crankshaft.support_span_mm * M_PER_MM,
+                disc_pitch=self.crankshaft.disc_pitch_mm * M_PER_MM,
+                pin_diameter=2.0 * holes.radius - 2.0 * b.roller_diameter_mm * M_PER_MM,
+                support_stiffness=(
+                    None
+                    if self.crankshaft.support_bearing_stiffness_n_per_um is None
+                    else self.crankshaft.support_bearing_stiffness_n_per_um / M_PER_UM
+                ),
+            )
+            crankshaft.positions(discs)  # the stack fits between the supports
+        if self.carrier is not None:
+            c = self.carrier
+            carrier = Carrier(
+                pillars=c.pillars,
+                pillar_diameter=c.pillar_diameter_mm * M_PER_MM,
+                pillar_length=c.pillar_length_mm * M_PER_MM,
+                pillar_circle_radius=c.pillar_circle_radius_mm * M_PER_MM,
+            )
+        duty = None
+        if self.duty_cycle is not None:
+            duty = DutyCycle(
+                tuple(self.duty_cycle.torque_nm),
+                tuple(self.duty_cycle.output_speed_rpm),
+                tuple(self.duty_cycle.time_share),
+            )
         stage = StageDesign(
             holes=holes,
             bearing=bearing,
+            crankshaft=crankshaft,
+            carrier=carrier,
+            duty_cycle=duty,
             crankshaft_stiffness=(
                 None
                 if self.crankshaft_stiffness_n_per_um is None

@@ -60,6 +60,7 @@ OWN_SECTIONS: dict[str, tuple[str, ...]] = {
         "load.torque_nm",
         "load.input_speed_rpm",
         "stage.rated_torque_nm",
+        "stage.duty_cycle",
         "requirements",
         *_ALLOWABLES,
     ),
