@@ -17,7 +17,7 @@ from cyclomesh.quantities import QUANTITIES, REDUCTIONS, label, quantity
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 UNITS = {
     "1", "N", "MPa", "kN", "arcsec", "arcmin", "deg", "mm", "um", "h", "rpm", "%",
-    "N·m", "N·m/arcmin", "arcmin/kN·m", "urad", "",
+    "N·m", "N·m/arcmin", "arcmin/kN·m", "urad", "", "W", "m/s",
 }  # fmt: skip
 """The spellings of units in every output (one per unit: ``N·m``, never ``N m``)."""
 NOT_QUANTITIES = {"name", "results", "checks", "warnings", "disc", "torque_nm", "crank_angle"}
@@ -115,3 +115,45 @@ def test_every_summary_key_and_variable_of_a_stage_run_is_a_row(rv_stage):
                 assert isinstance(value, int | float | list | None), key
         with xr.open_dataset(rv_stage / case["results"]) as ds:
             assert_rows(ds.load(), "run")
+
+
+def test_every_friction_variable_summary_key_and_loop_variable_is_a_row(tmp_path):
+    """With [friction]: the run's friction variables and summary keys (power_loss_w a
+    table path -> W), the torsion loop's variables (docs/efficiency.md)."""
+    import xarray as xr
+
+    out = tmp_path / "out"
+    result = CliRunner().invoke(
+        app,
+        ["run", str(EXAMPLES / "efficiency.toml"), "--out", str(out), "--figures", "none"]
+        + ["--crank-step-deg", "3"],
+    )
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    for name, unit in summary["units"].items():
+        assert name in QUANTITIES and QUANTITIES[name].unit == unit, (name, unit)
+    for case in summary["cases"]:
+        assert "efficiency" in case and "power_loss_w" in case
+        for key, value in case.items():
+            if key in NOT_QUANTITIES:
+                continue
+            assert key in QUANTITIES, f"summary.json key {key!r} is not a registry row"
+            if key == "power_loss_w":
+                assert all(isinstance(v, float | None) for v in value.values()), value
+            else:
+                assert isinstance(value, int | float | list | None), key
+        with xr.open_dataset(out / case["results"]) as ds:
+            assert "power_loss" in ds
+            assert_rows(ds.load(), "run")
+    from cyclomesh.core.friction import Friction
+
+    ds = stiffness(
+        TABLE1,
+        Modification(pin_radius=8e-6),
+        rated_torque=250.0,
+        points=5,
+        crank_angles_deg=[0.0, 4.5],
+        friction=Friction(mesh=0.05, groove=0.05),
+    )
+    assert "hysteresis" in ds
+    assert_rows(ds, "stiffness")

@@ -314,6 +314,25 @@ _ROWS = (
         "torsional rigidity of the RV stage",
         "stage rigidity",
     ),
+    Quantity(
+        "rotation_ascending",
+        "arcsec",
+        "disc rotation, rising torque (friction loop)",
+        "rising",
+        ARCSEC_PER_RAD,
+        TORSION,
+        parity=-1,
+    ),
+    Quantity(
+        "rotation_descending",
+        "arcsec",
+        "disc rotation, falling torque (friction loop)",
+        "falling",
+        ARCSEC_PER_RAD,
+        TORSION,
+        parity=-1,
+    ),
+    Quantity("hysteresis", "arcmin", "largest width of the friction loop", "hysteresis"),
     # --- metrics of a run (summary.json, tolerance rings, CLI tables) ------------------------
     Quantity(
         "te_mean_arcsec",
@@ -448,6 +467,114 @@ _ROWS = (
         "smallest torsional rigidity of the whole drive",
         "min drive rigidity",
     ),
+    Quantity(
+        "hysteresis_arcmin_mean",
+        "arcmin",
+        "mean width of the friction loop (with [friction])",
+        "hysteresis",
+    ),
+    Quantity(
+        "hysteresis_arcmin_max",
+        "arcmin",
+        "largest width of the friction loop",
+        "max hysteresis",
+    ),
+    # --- friction (docs/efficiency.md): a run's variables, per pin, disc or angle -----------
+    Quantity(
+        "friction_force",
+        "N",
+        "tangential (friction) force at the pin contact",
+        "friction",
+        1.0,
+        PIN,
+    ),
+    Quantity(
+        "sliding_velocity_tooth", "m/s", "sliding velocity, pin-tooth", "sliding tooth", 1.0, PIN
+    ),
+    Quantity(
+        "sliding_velocity_groove", "m/s", "sliding velocity, pin-groove", "sliding groove", 1.0, PIN
+    ),
+    Quantity("power_loss_tooth", "W", "friction power loss, pin-tooth", "loss pin-tooth", 1.0, PIN),
+    Quantity(
+        "power_loss_groove", "W", "friction power loss, pin-groove", "loss pin-groove", 1.0, PIN
+    ),
+    Quantity("friction_coefficient", "1", "friction coefficient acting on the disc", "μ", 1.0, PIN),
+    Quantity(
+        "power_loss_bearing",
+        "W",
+        "friction power loss of the crank bearing",
+        "loss bearing",
+        1.0,
+        DISC,
+    ),
+    Quantity(
+        "input_torque",
+        "N·m",
+        "input torque, moment balance of the crank (forward)",
+        "T in",
+        1.0,
+        ANGLE,
+        parity=-1,
+    ),
+    Quantity(
+        "backdrive_input_torque",
+        "N·m",
+        "input torque, moment balance (back-driving)",
+        "T in back",
+        1.0,
+        ANGLE,
+        parity=-1,
+    ),
+    Quantity("output_power", "W", "output power |T|·ω/n2", "P out", 1.0, ANGLE),
+    Quantity("power_loss", "W", "friction power loss, all paths (forward)", "P loss", 1.0, ANGLE),
+    Quantity(
+        "backdrive_power_loss",
+        "W",
+        "friction power loss, all paths (back-driving)",
+        "P loss back",
+        1.0,
+        ANGLE,
+    ),
+    Quantity("input_power", "W", "input power P_out + P_loss (forward)", "P in", 1.0, ANGLE),
+    Quantity("moment_input_power", "W", "T_in·ω from the moment balance", "T in·ω", 1.0, ANGLE),
+    Quantity("instantaneous_efficiency", "1", "forward efficiency", "η", 1.0, ANGLE),
+    Quantity(
+        "instantaneous_backdrive_efficiency", "1", "back-driving efficiency", "η back", 1.0, ANGLE
+    ),
+    # --- friction: metrics of a run (summary.json) -----------------------------------------
+    Quantity("efficiency", "1", "forward efficiency, P_out/P_in over the angles", "efficiency"),
+    Quantity(
+        "backdrive_efficiency", "1", "back-driving efficiency over the angles", "back-drive eff."
+    ),
+    Quantity("input_power_w", "W", "mean input power (forward)", "P in"),
+    Quantity("output_power_w", "W", "mean output power (forward)", "P out"),
+    Quantity("input_speed_rpm", "rpm", "input (crank) speed", "n in"),
+    Quantity(
+        "power_loss_w",
+        "W",
+        "mean friction power loss per path (table path -> W; null: not modelled)",
+        "P loss",
+    ),
+    # --- friction: an efficiency map (cyclomesh efficiency, summary.json) ---------------------
+    Quantity("peak_efficiency", "1", "largest forward efficiency of the map", "peak efficiency"),
+    Quantity("peak_torque_nm", "N·m", "output torque of the peak efficiency", "at torque"),
+    Quantity("peak_speed_rpm", "rpm", "input speed of the peak efficiency", "at input speed"),
+    Quantity("rated_speed_rpm", "rpm", "input speed of the rated point", "rated speed"),
+    Quantity("rated_efficiency", "1", "forward efficiency at the rated point", "rated efficiency"),
+    Quantity(
+        "rated_backdrive_efficiency",
+        "1",
+        "back-driving efficiency at the rated point",
+        "rated back-driving",
+    ),
+    Quantity("rated_input_power_w", "W", "input power at the rated point", "rated input power"),
+    Quantity(
+        "rated_power_loss_w",
+        "W",
+        "power loss per path at the rated point (table path -> W; null: not modelled)",
+        "rated losses",
+    ),
+    Quantity("efficiency_min", "1", "smallest forward efficiency of the map", "min efficiency"),
     # --- metrics of the RV stage -------------------------------------------------------------
     Quantity("stage_rated_torque_nm", "N·m", "rated torque of the data sheet", "rated torque"),
     Quantity("stage_output_speed_rpm", "rpm", "output speed of the rated life", "speed"),
@@ -606,6 +733,12 @@ _ROWS = (
     Quantity("play_arcmin", "arcmin", "largest unloaded play", "max play"),
     Quantity("min_play_arcmin", "arcmin", "smallest unloaded play", "min play"),
     Quantity("lost_motion_arcmin", "arcmin", "lost motion TE(-3 % T) - TE(+3 % T)", "lost motion"),
+    Quantity(
+        "loss_fraction",
+        "1",
+        "power loss over input power, 1 - efficiency (with friction)",
+        "loss fraction",
+    ),
     # --- metrics of an FE check (cyclomesh fe) -----------------------------------------------
     Quantity("fe_max_pin_load_n", "N", "largest pin load, FE", "FE max pin load"),
     Quantity("fe_max_contact_stress_mpa", "MPa", "peak contact stress, pin-tooth, FE", "FE max σH"),

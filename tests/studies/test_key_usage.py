@@ -95,6 +95,15 @@ BASE = {
         "fe": {"crank_angles_deg": [0.0, 3.0]},
         "cases": [{"name": "a"}],
     },
+    "efficiency": {
+        **COMMON,
+        "friction": {"mesh_coefficient": 0.05, "groove_coefficient": 0.06},
+        "efficiency": {
+            "torque_nm": {"start": 100.0, "stop": 250.0, "points": 2},
+            "input_speed_rpm": {"start": 500.0, "stop": 1000.0, "points": 2},
+        },
+        "cases": [{"name": "a"}],
+    },
 }
 
 DELETE = object()
@@ -243,6 +252,44 @@ CHANGE.update(
         "design_space.width_mm": _range(11.0, 12.0),
     }
 )
+# issue 25: friction, the input speed, efficiency requirement
+CHANGE.update(
+    {
+        "load.input_speed_rpm": 1000.0,
+        "friction.mesh_coefficient": 0.05,
+        "friction.groove_coefficient": 0.06,
+        "friction.bearing_coefficient": 0.004,
+        "friction.bearing_diameter_mm": 50.0,
+        "friction.pins": "fixed",
+        "friction.lubricant.grade": 320,
+        "friction.lubricant.viscosity_40c_cst": 200.0,
+        "friction.lubricant.viscosity_100c_cst": 25.0,
+        "friction.lubricant.temperature_c": 70.0,
+        "friction.lubricant.roughness_um": 0.2,
+        "requirements.min_efficiency": 0.9,
+        "efficiency.torque_nm": _range(150.0, 250.0),
+        "efficiency.input_speed_rpm": _range(500.0, 2000.0),
+        "efficiency.rated_torque_nm": 120.0,
+        "efficiency.rated_speed_rpm": 700.0,
+        "design_space.min_efficiency": 0.999,
+    }
+)
+FRICTION = {
+    "friction": {
+        "mesh_coefficient": 0.03,
+        "groove_coefficient": 0.04,
+        "bearing_coefficient": 0.002,
+        "bearing_diameter_mm": 40.0,
+    }
+}
+LUBRICATED = {  # boundary caps above Benedict–Kelley's value at this speed
+    "load": {"input_speed_rpm": 3000.0},
+    "friction": {
+        "mesh_coefficient": 0.2,
+        "groove_coefficient": 0.2,
+        "lubricant": {"grade": 220, "temperature_c": 60.0},
+    },
+}
 CHANGE["design.disc.crank_holes"] = 2
 CHANGE["design.disc.crank_hole_circle_radius_mm"] = 44.0
 CHANGE["design.disc.crank_hole_radius_mm"] = 11.0
@@ -285,6 +332,13 @@ CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
         for k in schema_keys()
         if k.startswith(("stage.", "design.disc."))
     },
+    **{
+        (kind, k): LUBRICATED if k.startswith("friction.lubricant.") else FRICTION
+        for kind in ("run", "stiffness", "efficiency", "design")
+        for k in schema_keys()
+        if k.startswith("friction.")
+    },
+    ("design", "design_space.min_efficiency"): FRICTION,
 }
 
 
@@ -302,6 +356,14 @@ def change_table(key: str, kind: str = "run") -> dict[str, Any]:
         return merge(merge(STAGE, extra), _nested(key, CHANGE[key]))
     if key == "tolerance.tangential_um":  # instead of angular_urad (not both)
         return {"tolerance": {"angular_urad": DELETE, "tangential_um": CHANGE[key]}}
+    if key == "friction.lubricant.viscosity_40c_cst":  # instead of the grade (not both)
+        oil = {"viscosity_40c_cst": 200.0, "viscosity_100c_cst": 18.0}
+        if kind in ("run", "stiffness", "efficiency", "design"):
+            return {"friction": {"lubricant": {"grade": DELETE, **oil}}}
+        return {"friction": {**FRICTION["friction"], "lubricant": oil}}
+    if key.startswith("friction.") and kind not in ("run", "stiffness", "efficiency", "design"):
+        context = LUBRICATED if key.startswith("friction.lubricant.") else FRICTION
+        return merge({"friction": context["friction"]}, _nested(key, CHANGE[key]))
     if key == "errors.random.tangential_um":  # instead of angular_urad (not both)
         return {"errors": {"random": {"angular_urad": DELETE, "tangential_um": CHANGE[key]}}}
     if key == "tolerance.position":
@@ -461,6 +523,12 @@ def fingerprint(kind: str, path: Path, monkeypatch: pytest.MonkeyPatch) -> str:
         r = k.compute_design(study)
         return digest(head, r.map, r.summary, job_data(k.design_figures(r)),
                       report_text(k.design_sections(r)))  # fmt: skip
+    if kind == "efficiency":
+        from cyclomesh.studies import efficiency as k
+
+        r = k.compute_efficiency(study)
+        return digest(head, r.maps, r.summaries, r.checks, job_data(k.efficiency_figures(r)),
+                      report_text(k.efficiency_sections(r)))  # fmt: skip
     if kind == "fe":
         from cyclomesh.studies import fe as k
 
@@ -528,6 +596,8 @@ NEUTRAL = {
     # a rotation of the profile turns every tooth alike: it moves the TE, not the loads,
     # and an allocation reports only the contact stress; the key reaches the ring model
     ("allocate", "modification.rotation_urad"),
+    # likewise the efficiency, which the rotation leaves alone: the key reaches the inputs
+    ("efficiency", "modification.rotation_urad"),
 }
 
 USED_CASES = [c for kind in KINDS for c in _cases(kind, "used")]
@@ -558,7 +628,11 @@ def test_a_used_key_changes_the_study(kind, key, tmp_path, monkeypatch, baseline
             write_study(tmp_path, data, name)
             for data, name in ((BASE[kind], "a"), (merge(BASE[kind], change_table(key, kind)), "b"))
         ]
-        models = [ring_model(s, s.tolerance) for s in map(load_study, paths)]
+        studies = list(map(load_study, paths))
+        if kind == "efficiency":
+            assert studies[0].inputs[0].modification != studies[1].inputs[0].modification
+            return
+        models = [ring_model(s, s.tolerance) for s in studies]
         assert models[0].modification != models[1].modification
         return
     context = CONTEXT.get((kind, key)) or CONTEXT.get((None, key)) or {}

@@ -124,6 +124,10 @@ def check(
         more += "; [design_space] OK"
     if loaded.file.fe is not None:
         more += "; [fe] OK"
+    if any(inputs.friction is not None for inputs in loaded.inputs):
+        more += "; [friction] OK"
+    if loaded.file.efficiency is not None:
+        more += "; [efficiency] OK"
     if loaded.file.requirements != type(loaded.file.requirements)():
         more += "; [requirements] OK"
     typer.echo(f"{study}: {len(loaded.cases)} case(s) OK: {names}{more}; for {', '.join(kinds)}")
@@ -241,6 +245,31 @@ def stiffness(
     if not quiet:
         print_warnings(result.study_warnings())
         print_stiffness(result.summaries, out, result.checks)
+
+
+@app.command()
+@cli_errors()
+def efficiency(
+    study: StudyArg,
+    out: OutOption,
+    quiet: QuietOption = False,
+    crank_step_deg: StepOption = None,
+    figures: FiguresOption = None,
+) -> None:
+    """Efficiency map of every case ([efficiency] and [friction]): forward and back-driving
+    efficiency over torque × input speed, the loss breakdown at the rated point."""
+    from cyclomesh.publish.console import print_efficiency
+    from cyclomesh.studies import efficiency as kind
+    from cyclomesh.studies.execute import execute
+    from cyclomesh.studyfile import load_study
+
+    loaded = load_study(study, overrides(crank_step_deg))
+    kind.check_efficiency(loaded)
+    options = output_options(loaded, figures)
+    progress = bar(len(loaded.cases), "cases", quiet)
+    result = execute(kind.EFFICIENCY, loaded, out, options, progress=progress)
+    if not quiet:
+        print_efficiency(result.summaries, out, result.checks)
 
 
 @app.command()

@@ -3,7 +3,7 @@
 A :class:`Case` is the gear pair as built and loaded (design, modification, pin ring
 errors, torque, crank angles); a :class:`Model` the physics chosen to analyse it (the
 tooth term of the contact law, the pin–groove deformation, the disc body, the number of
-discs, the RV stage around the mesh, and later friction). Both are frozen. Every solver
+discs, the RV stage around the mesh, friction at the contacts). Both are frozen. Every solver
 (:func:`cyclomesh.core.ltca.solve_ltca`, :func:`cyclomesh.drive.solve.solve_drive`,
 :func:`cyclomesh.drive.solve.torsion_curve`, :func:`cyclomesh.stage.solve.solve_stage`,
 :func:`cyclomesh.stage.solve.stage_torsion_curve`) checks them once through
@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.discbody import DiscBody
+from cyclomesh.core.friction import Friction
 from cyclomesh.core.hertz import CONTACT_LAWS
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors, check_physical
 from cyclomesh.core.profile import check_profile
@@ -94,6 +95,10 @@ class Model:
     stage : StageDesign or None
         The RV stage around the mesh (crank bearings, carrier,
         :class:`cyclomesh.stage.solve.StageDesign`), or None: the mesh alone.
+    friction : Friction or None
+        Friction at the pin contacts and the crank bearing, in the equilibrium
+        (:class:`cyclomesh.core.friction.Friction`, docs/efficiency.md), or None: the
+        paper's frictionless model (assumption 3 of [1]); all coefficients 0 is the same.
     """
 
     contact_law: str = "half_plane"
@@ -101,6 +106,7 @@ class Model:
     disc_body: Any = "rigid"
     discs: int = 1
     stage: Any = None
+    friction: Any = None
 
     def replace(self, **changes: Any) -> Model:
         """A copy with ``changes`` (``dataclasses.replace``)."""
@@ -121,6 +127,7 @@ class Checked:
     ring_shape: tuple
     contact_law: str
     groove_deformation: bool
+    friction: Friction | None = None
 
 
 def check(case: Case, model: Model, *, torque: str = "list") -> Checked:
@@ -148,6 +155,19 @@ def check(case: Case, model: Model, *, torque: str = "list") -> Checked:
     check_contact_law(model.contact_law)
     body = check_disc_body(model.disc_body, model.contact_law, design)
     ring_shape = check_pair(design, modification, errors)
+    friction = model.friction
+    if friction is not None and friction.frictionless:
+        friction = None  # the paper's model, bit for bit
+    if friction is not None and body is not None:
+        raise DesignError(
+            "friction: the compliant (FE) disc body is not coupled with friction yet; set "
+            'disc_body = "rigid" or remove [friction]'
+        )
+    if friction is not None and model.stage is not None:
+        raise DesignError(
+            "friction: the RV stage's equilibrium ([stage]) is not coupled with friction yet; "
+            "remove [stage] to see the mesh's friction, or [friction] for the stage"
+        )
     return Checked(
         design=design,
         modification=modification,
@@ -159,6 +179,7 @@ def check(case: Case, model: Model, *, torque: str = "list") -> Checked:
         ring_shape=ring_shape,
         contact_law=model.contact_law,
         groove_deformation=model.groove_deformation,
+        friction=friction,
     )
 
 

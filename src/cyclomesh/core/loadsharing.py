@@ -54,6 +54,8 @@ def share_load(
     alpha: ArrayLike,
     gamma: ArrayLike,
     torque: float,
+    torque_arm: ArrayLike | None = None,
+    start: ArrayLike | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Solve the statically indeterminate load sharing (Eqs. 15–18 of [1]).
 
@@ -68,6 +70,16 @@ def share_load(
         (:func:`cyclomesh.core.hertz.compliance_coefficients`; γ = 0 for a linear spring).
     torque : float
         T > 0 [N·m].
+    torque_arm : array_like, optional
+        Moment arm of each pin's load in the torque balance [m], Σ F_i·l'_i = T, when it
+        differs from the compatibility arm ``moment_arm`` (friction at the contacts,
+        :func:`cyclomesh.core.friction.torque_arm`); None: l' = l (Eq. 18 of [1]), solved
+        exactly as without the argument. A pin with l' ≤ 0 (friction-locked) still takes
+        its load from compatibility but bounds nothing.
+    start : array_like, optional
+        With ``torque_arm``: Newton's start Δφc, shape (...) [rad] (a nearby solution, as
+        in a fixed-point iteration on the friction); from the left of the root the first
+        tangent step of the convex M lands right of it, from where it descends as usual.
 
     Returns
     -------
@@ -84,6 +96,8 @@ def share_load(
     """
     bl = np.asarray(backlash, float)
     arm = np.asarray(moment_arm, float)
+    if torque_arm is not None:
+        return _share_load_friction(bl, arm, alpha, gamma, torque, torque_arm, start)
     bl, arm, alpha, gamma = np.broadcast_arrays(
         bl, arm, np.asarray(alpha, float), np.asarray(gamma, float)
     )
@@ -177,3 +191,91 @@ def _too_large(force: FloatArray, alpha: FloatArray, gamma: FloatArray, usable: 
         "line-contact law (Eq. 20); lower the torque, or raise design.width_mm or the "
         f"youngs_modulus_gpa of [material]{need}"
     )
+
+
+def _share_load_friction(
+    bl: FloatArray,
+    arm: FloatArray,
+    alpha: ArrayLike,
+    gamma: ArrayLike,
+    torque: float | FloatArray,
+    torque_arm: ArrayLike,
+    start: ArrayLike | None = None,
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`share_load` with a torque-balance arm l' apart from the compatibility arm l.
+
+    M(Δφ) = Σ l'_i·F_i(l_i·(Δφ − φbl,i)⁺) − T. The pins with l' > 0 make it convex and
+    increasing as without friction; the few friction-locked pins (l' ≤ 0, near a tip or a
+    tooth-space bottom, where l < μ·m) subtract loads that are small because their l is.
+    Newton's method starts at the smallest rotation at which one pin with l' > 0 alone
+    carries T; all usable pins are candidates (the locked ones move the root right of that
+    start), and the result is checked to a torque residual of 1e-12·T. ``torque`` may be
+    an array of the leading shape (a friction moment of the crank bearing per case).
+    """
+    bl, arm, t_arm, alpha, gamma = np.broadcast_arrays(
+        bl,
+        arm,
+        np.asarray(torque_arm, float),
+        np.asarray(alpha, float),
+        np.asarray(gamma, float),
+    )
+    lead = bl.shape[:-1]
+    n_pins = bl.shape[-1]
+    bl, arm, t_arm, alpha, gamma = (v.reshape(-1, n_pins) for v in (bl, arm, t_arm, alpha, gamma))
+    torque = np.broadcast_to(np.asarray(torque, float), lead).reshape(-1)
+    if not np.all(torque > 0):
+        err = ConvergenceError("the torque on the pins is not positive: friction too large")
+        err.case_index = int(np.argmin(torque > 0))
+        raise err
+    usable = np.isfinite(bl) & (arm > 0)
+    drives = usable & (t_arm > 0)
+    if not np.all(np.any(drives, axis=-1)):
+        err = ConvergenceError(
+            "no pin can carry the torque against its friction: check the coefficients"
+        )
+        err.case_index = int(np.argmin(np.any(drives, axis=-1)))
+        raise err
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        single_force = np.where(drives, torque[:, None] / np.where(drives, t_arm, 1.0), 0.0)
+        log_single = np.log(np.where(drives, single_force, 1.0))
+        valid = drives & ((gamma == 0) | (log_single < alpha / gamma - 1.0))
+        single_delta = single_force * (alpha - gamma * log_single)
+        alone = np.where(valid, bl + single_delta / np.where(valid, arm, 1.0), np.inf)
+    x = np.min(alone, axis=-1)
+    if not np.all(np.isfinite(x)):
+        bad = int(np.argmax(~np.isfinite(x)))
+        err = ConvergenceError(_too_large(single_force[bad], alpha[bad], gamma[bad], drives[bad]))
+        err.case_index = bad
+        raise err
+    if start is not None:
+        x = np.broadcast_to(np.asarray(start, float), lead).reshape(-1).copy()
+    c_bl = np.where(usable, bl, np.inf)
+    tol = TORQUE_TOLERANCE * torque
+    active = np.ones(x.shape, bool)
+    force = np.zeros_like(c_bl)
+    for _ in range(_MAX_ITERATIONS):
+        xa = x[active]
+        delta = np.maximum(xa[:, None] - c_bl[active], 0.0) * arm[active]
+        f = force_from_approach(delta, alpha[active], gamma[active])
+        force[active] = f
+        resid = _column_sum(f * t_arm[active]) - torque[active]
+        engaged = f > 0
+        with np.errstate(divide="ignore"):
+            log_f = np.log(np.where(engaged, f, 1.0))
+        dddf = alpha[active] - gamma[active] * (1.0 + log_f)
+        slope = _column_sum(np.where(engaged, arm[active] * t_arm[active] / dddf, 0.0))
+        done = np.abs(resid) <= tol[active]
+        step = np.where(done, 0.0, resid / np.where(slope > 0, slope, np.inf))
+        idx = np.flatnonzero(active)
+        x[idx] = xa - step
+        active[idx[done]] = False
+        if not np.any(active):
+            break
+    else:
+        err = ConvergenceError(
+            f"load sharing with friction did not converge: torque residual above "
+            f"{TORQUE_TOLERANCE:.0e}·T after {_MAX_ITERATIONS} Newton steps"
+        )
+        err.case_index = int(np.flatnonzero(active)[0])
+        raise err
+    return x.reshape(lead), force.reshape(*lead, n_pins)

@@ -208,6 +208,11 @@ def ltca(case: Case, model: Model) -> LTCA:
             "ltca: one disc and no stage (a stack or a stage: cyclomesh.results.chain.run)"
         )
     c = check(case, model, torque="positive")
+    if c.friction is not None:
+        raise DesignError(
+            "ltca: the one-disc fast path is frictionless; friction is solved by the stack "
+            "(cyclomesh.drive.solve.drive, cyclomesh.analyse)"
+        )
     design, modification, errors, phi = c.design, c.modification, c.errors, c.phi
     body, ring_shape, torque = c.body, c.ring_shape, case.torque
     geo = unloaded_contact(design, modification, errors, phi)

@@ -153,6 +153,14 @@ METRICS: dict[str, tuple[str, float, str, str, bool]] = {
         "lost motion TE(-3 % T) - TE(+3 % T)",
         True,
     ),
+    "efficiency": ("efficiency", 1.0, "1", "forward efficiency (with friction)", False),
+    "loss_fraction": (
+        "loss_fraction",
+        1.0,
+        "1",
+        "power loss over input power, 1 - efficiency (with friction)",
+        True,
+    ),
 }
 METRICS = {
     key: (var, si, QUANTITIES[var].unit, QUANTITIES[var].long_name, worse)
@@ -166,6 +174,7 @@ OBJECTIVES: dict[str, str] = {
     "te_pp": "te_pp",
     "lost_motion": "lost_motion",
     "play": "max_play",
+    "efficiency": "loss_fraction",
 }
 """Objective names of a study (minimised) → metric."""
 
@@ -188,6 +197,8 @@ class Constraints:
         Lower bound on the fewest loaded pins.
     max_lost_motion : float, optional
         Upper bound on the lost motion [rad] (the map then computes it).
+    min_efficiency : float, optional
+        Lower bound on the forward efficiency [-] (needs friction).
     """
 
     max_play: float | None = None
@@ -196,6 +207,7 @@ class Constraints:
     max_te_pp: float | None = None
     min_contacts: int | None = None
     max_lost_motion: float | None = None
+    min_efficiency: float | None = None
 
     def checks(self) -> list[tuple[str, str, float, str]]:
         """(metric, "<=" or ">=", limit [SI], name) of every limit set."""
@@ -207,6 +219,7 @@ class Constraints:
             ("te_pp", "<=", self.max_te_pp, "max_te_pp"),
             ("min_contacts", ">=", self.min_contacts, "min_contacts"),
             ("lost_motion", "<=", self.max_lost_motion, "max_lost_motion"),
+            ("efficiency", ">=", self.min_efficiency, "min_efficiency"),
         ):
             if value is not None:
                 out.append((metric, op, float(value), name))
@@ -224,18 +237,22 @@ def candidate_metrics(
     contact_law: str = "half_plane",
     discs: int = 1,
     disc_body: Any = "rigid",
+    friction: Any = None,
 ) -> dict[str, FloatArray]:
     """Metrics of one candidate modification (see module doc), per ring, SI units.
 
     ``contact_law`` is the tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`);
     ``torque`` [N·m] is the torque on the stack of ``discs`` discs
-    (:func:`cyclomesh.drive.solve.solve_drive`).
+    (:func:`cyclomesh.drive.solve.solve_drive`). With ``friction``
+    (:class:`~cyclomesh.core.friction.Friction`) a second solve, friction in the equilibrium,
+    gives the forward ``efficiency`` and ``loss_fraction`` (the other metrics stay those of
+    the frictionless model, as without it).
 
     Returns
     -------
     dict of ndarray
-        Keys of :data:`METRICS` (``lost_motion`` only if asked), each of the errors'
-        ring shape.
+        Keys of :data:`METRICS` (``lost_motion`` only if asked, the efficiency only with
+        friction), each of the errors' ring shape.
     """
     if not (isinstance(torque, int | float) and math.isfinite(torque) and torque > 0):
         raise DesignError(f"torque must be a positive number of N·m, got {torque!r}")
@@ -270,6 +287,24 @@ def candidate_metrics(
         out["min_torque_share"] = share.min(axis=angles_discs)
     if lost_motion:
         out["lost_motion"] = np.max(te[..., 1, :] - te[..., 2, :], axis=-1)
+    if friction is not None and not friction.frictionless:
+        fr = solve_drive(
+            design,
+            modification,
+            errors,
+            [torque],
+            phi,
+            groove_deformation,
+            discs,
+            contact_law=contact_law,
+            disc_body=disc_body,
+            friction=friction,
+        ).friction
+        loss = np.sum(fr["power_loss_tooth"] + fr["power_loss_groove"], axis=(-2, -1))
+        loss = np.mean(loss + np.sum(fr["power_loss_bearing"], axis=-1), axis=-1)[..., 0]
+        p_out = torque * friction.speed / design.teeth
+        out["efficiency"] = p_out / (p_out + loss)
+        out["loss_fraction"] = loss / (p_out + loss)
     return out
 
 
@@ -324,6 +359,8 @@ class DesignTask:
     disc_body: Any = "rigid"
     """The base design's disc body for every candidate (Δa, Δρ, δ of a few µm leave the
     body's compliance as it is)."""
+    friction: Any = None
+    """:class:`~cyclomesh.core.friction.Friction` for the efficiency metrics, or None."""
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -374,6 +411,8 @@ class DesignTask:
         skip = set() if self.lost_motion else {"lost_motion"}
         if self.discs == 1:
             skip |= {"max_torque_share", "min_torque_share"}
+        if self.friction is None:
+            skip |= {"efficiency", "loss_fraction"}
         return [m for m in METRICS if m not in skip]
 
     def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
@@ -395,6 +434,7 @@ class DesignTask:
                     self.contact_law,
                     self.discs,
                     self.disc_body,
+                    self.friction,
                 )
             except CyclomeshError as exc:  # undercut, interfering pin, failed solve
                 reason[row] = str(exc)  # in full: design.nc keeps every character
@@ -486,6 +526,7 @@ def design_map(
     contact_law: str = "half_plane",
     discs: int = 1,
     disc_body: Any = "rigid",
+    friction: Any = None,
 ) -> xr.Dataset:
     """Design map over a grid of modifications, as a labelled Dataset.
 
@@ -512,7 +553,8 @@ def design_map(
     constraints : Constraints, optional
         Feasibility limits (SI).
     objective : str
-        ``max_contact_stress``, ``te_pp``, ``lost_motion`` or ``play`` (minimised).
+        ``max_contact_stress``, ``te_pp``, ``lost_motion`` or ``play`` (minimised), or
+        ``efficiency`` (maximised: the loss fraction minimised; needs ``friction``).
     lost_motion : bool, optional
         Compute the lost motion (default: when it is the objective or constrained; a
         lost-motion constraint needs it).
@@ -526,6 +568,10 @@ def design_map(
     disc_body : "rigid" or DiscBody
         The disc body of every candidate: the base design's coefficients (a
         modification of a few µm leaves the body's compliance as it is).
+    friction : Friction, optional
+        Friction at the pins (:mod:`cyclomesh.core.friction`): adds the ``efficiency`` and
+        ``loss_fraction`` metrics (a second solve per candidate, friction in the
+        equilibrium); needed by the ``efficiency`` objective and ``min_efficiency``.
 
     Returns
     -------
@@ -555,6 +601,12 @@ def design_map(
         raise DesignError("lost_motion=False, but the objective or a constraint needs it")
     if isinstance(discs, bool) or not isinstance(discs, int | np.integer) or discs < 1:
         raise DesignError(f"discs must be a whole number of at least 1, got {discs!r}")
+    if friction is not None and friction.frictionless:
+        friction = None
+    if friction is None and (objective == "efficiency" or constraints.min_efficiency):
+        raise DesignError(
+            "the efficiency objective and min_efficiency need friction: add [friction]"
+        )
     coords = {key: np.atleast_1d(np.asarray(v, dtype=float)) for key, v in axes.items()}
     task = DesignTask(
         design=design,
@@ -571,6 +623,7 @@ def design_map(
         contact_law=contact_law,
         discs=int(discs),
         disc_body=disc_body,
+        friction=friction,
     )
     metrics = evaluate_grid(task, backend, chunk, progress)
     feasible, reason = feasibility(metrics, constraints)
@@ -632,6 +685,8 @@ def _constraint_attrs(constraints: Constraints) -> dict[str, float]:
         out["min_contacts"] = int(constraints.min_contacts)
     if constraints.max_lost_motion is not None:
         out["max_lost_motion_arcmin"] = constraints.max_lost_motion / RAD_PER_ARCMIN
+    if constraints.min_efficiency is not None:
+        out["min_efficiency"] = float(constraints.min_efficiency)
     return out
 
 

@@ -27,6 +27,7 @@ from cyclomesh.core.fields import CONTACT_FIELDS, contact_fields
 from cyclomesh.core.loadsharing import share_load
 from cyclomesh.core.ltca import locate_failure, pin_compliance, rest_position
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.drive.friction import FRICTION_FIELDS, FrictionCoupling
 from cyclomesh.drive.mirror import mirror_problem, unmirror
 from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.quantities import QUANTITIES
@@ -41,6 +42,7 @@ __all__ = [
     "reverse_fields",
     "PER_PIN",
     "PER_DISC",
+    "FRICTION_PIN",
     "ODD",
 ]
 
@@ -57,7 +59,9 @@ class StackMesh:
     (compliance of δ = F(α − γ ln F) [m/N], (..., A, N·n1)); ``normal_x``, ``normal_y``
     (outward flank normal, fixed frame, (..., A, N, n1): the force of pin i on its disc is
     −F_i·n, a counter-clockwise disc rotation θ closes the gap by l_i·θ, a translation u by
-    n·u); ``ring_shape``; ``phi`` (crank angles of disc 1 in this frame [rad])."""
+    n·u); ``ring_shape``; ``phi`` (crank angles of disc 1 in this frame [rad]);
+    ``eccentricity`` (e + εe of every ring [m], (..., 1, 1, 1), for the contact kinematics of
+    friction, :mod:`cyclomesh.drive.friction`)."""
 
     design: PairDesign
     geo: UnloadedContact  # arrays (..., A, N, n1)
@@ -72,6 +76,7 @@ class StackMesh:
     phi: FloatArray
     body: DiscBody | None = None
     tooth: NDArray | None = None  # (A, N·n1): tooth space of every contact (compliant disc)
+    eccentricity: FloatArray | None = None  # (..., 1, 1, 1): e + εe of every ring [m]
 
 
 def disc_angles(phi: FloatArray, discs: int) -> FloatArray:
@@ -154,6 +159,10 @@ def _mesh(
         ring_shape=ring_shape,
         phi=phi,
         body=body,
+        eccentricity=design.eccentricity
+        + np.broadcast_to(np.asarray(errors.eccentricity, float), ring_shape)[
+            ..., None, None, None
+        ],
         tooth=None
         if body is None
         else tooth_index(design.pins, design.pitch, disc_angles(phi, discs))
@@ -163,12 +172,19 @@ def _mesh(
     )
 
 
-def load_stack(mesh: StackMesh, torque: float) -> dict[str, FloatArray]:
-    """Loaded state of a stack under a positive torque, in the mesh's frame."""
+def load_stack(
+    mesh: StackMesh, torque: float, friction: FrictionCoupling | None = None
+) -> dict[str, FloatArray]:
+    """Loaded state of a stack under a positive torque, in the mesh's frame; with
+    ``friction`` (:mod:`cyclomesh.drive.friction`) the friction forces enter the torque
+    balance and the friction fields (:data:`~cyclomesh.drive.friction.FRICTION_FIELDS`)
+    are added."""
     geo = mesh.geo
     flat_arm = mesh.backlash.shape
     try:
-        if mesh.body is None:
+        if friction is not None:
+            loaded, force, state = friction.share(torque)
+        elif mesh.body is None:
             loaded, force = share_load(
                 mesh.backlash, geo.moment_arm.reshape(flat_arm), mesh.alpha, mesh.gamma, torque
             )
@@ -188,6 +204,7 @@ def load_stack(mesh: StackMesh, torque: float) -> dict[str, FloatArray]:
         err = locate_failure(exc, (*mesh.ring_shape, mesh.phi.size), mesh.phi)
         raise ConvergenceError(f"torque {torque:g} N·m: {err}") from None
     force = force.reshape(geo.rotation.shape)
+    extra = {} if friction is None else friction.fields(force, state)
     fields = contact_fields(
         CONTACT_FIELDS,
         mesh.design,
@@ -197,7 +214,7 @@ def load_stack(mesh: StackMesh, torque: float) -> dict[str, FloatArray]:
         normal=(mesh.normal_x, mesh.normal_y),
         stack_axes=2,
     )
-    return {"pin_load": force, **fields, "loaded_rotation": loaded}
+    return extra | {"pin_load": force, **fields, "loaded_rotation": loaded}
 
 
 def stack_meshes(
@@ -255,13 +272,17 @@ ODD = {name for name in PER_PIN if name in QUANTITIES and QUANTITIES[name].parit
 """Fields that change sign in the mirror image: the registry's parity
 (:data:`cyclomesh.quantities.QUANTITIES`), and the y component of the mesh force."""
 PER_DISC = {"torque_share", "contacts", "mesh_force_x", "mesh_force_y", "max_contact_stress"}
+FRICTION_PIN = {name for name, pin in FRICTION_FIELDS.items() if pin}
+"""The per-pin friction fields (:mod:`cyclomesh.drive.friction`); the others are per disc."""
+PER_DISC |= {name for name, pin in FRICTION_FIELDS.items() if not pin}
+ODD |= {name for name in FRICTION_FIELDS if QUANTITIES[name].parity < 0}
 
 
 def reverse_fields(fields: dict[str, FloatArray]) -> dict[str, FloatArray]:
     """Fields of the mirrored forward problem mapped back onto the reverse flanks."""
     out = {}
     for name, value in fields.items():
-        if PER_PIN.get(name, False):
+        if PER_PIN.get(name, name in FRICTION_PIN):
             arr = unmirror(value, -3, -2, True)
         elif name in PER_DISC:
             arr = unmirror(value, -2, -1, False)

@@ -72,9 +72,12 @@ from cyclomesh.core.case import (
     check_torques,
 )
 from cyclomesh.core.discbody import DiscBody
+from cyclomesh.core.friction import Friction
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.core.transmission import gear_ratio, transmission_error
+from cyclomesh.drive.friction import FRICTION_FIELDS, FrictionCoupling
 from cyclomesh.drive.mesh import (
+    FRICTION_PIN,
     PER_DISC,
     PER_PIN,
     StackMesh,
@@ -167,6 +170,12 @@ class Drive:
         Instantaneous ratio of the stack (Eq. 26) [-].
     play : ndarray
         TE of the reverse rest position minus TE of the forward one [rad], ≥ 0, (..., A).
+    friction : dict or None
+        With friction (:mod:`cyclomesh.drive.friction`): ``friction_force``,
+        ``sliding_velocity_tooth``, ``sliding_velocity_groove``, ``power_loss_tooth``,
+        ``power_loss_groove``, ``friction_coefficient`` per pin (..., Q, A, N, n1) [N, m/s,
+        m/s, W, W, -], ``input_torque`` [N·m] and ``power_loss_bearing`` [W] per disc
+        (..., Q, A, N); None without.
     """
 
     crank_angle: FloatArray
@@ -191,6 +200,7 @@ class Drive:
     transmission_error: FloatArray
     gear_ratio: FloatArray
     play: FloatArray
+    friction: dict[str, FloatArray] | None = None
 
 
 def play(
@@ -240,6 +250,8 @@ def solve_drive(
     discs: int = 1,
     contact_law: str = "half_plane",
     disc_body: str | DiscBody = "rigid",
+    friction: Friction | None = None,
+    backdrive: bool = False,
 ) -> Drive:
     """Loaded contact of a stack of discs on both flanks over a list of torques.
 
@@ -269,6 +281,14 @@ def solve_drive(
     disc_body : "rigid" or DiscBody
         Rigid disc, or the compliant disc body (:func:`~cyclomesh.core.ltca.solve_ltca`);
         the discs of a stack share no body.
+    friction : Friction, optional
+        Friction at the pin contacts (:mod:`cyclomesh.core.friction`), in the torque
+        balance; None (or all coefficients 0): the paper's frictionless model, bit for bit.
+    backdrive : bool
+        The sense of the motion with friction: False, the crank drives every torque (it
+        turns counter-clockwise, φ increasing, against a positive torque and clockwise
+        against a negative one); True, every torque drives the crank back (the motion
+        reversed, the same flanks loaded).
 
     Returns
     -------
@@ -284,13 +304,15 @@ def solve_drive(
     """
     return drive(
         Case(design, modification, errors, torque, crank_angles),
-        Model(contact_law, groove_deformation, disc_body, discs),
+        Model(contact_law, groove_deformation, disc_body, discs, friction=friction),
+        backdrive,
     )
 
 
-def drive(case: Case, model: Model) -> Drive:
+def drive(case: Case, model: Model, backdrive: bool = False) -> Drive:
     """:func:`solve_drive` of a :class:`~cyclomesh.core.case.Case` and a
-    :class:`~cyclomesh.core.case.Model` (the mesh alone: ``model.stage`` is not read)."""
+    :class:`~cyclomesh.core.case.Model` (the mesh alone: ``model.stage`` is not read);
+    ``backdrive``: the sense of the motion with ``model.friction`` (:func:`solve_drive`)."""
     c = check(case, model)
     design, phi, torques = c.design, c.phi, c.torques
     fwd, rev = stack_meshes(
@@ -311,9 +333,14 @@ def drive(case: Case, model: Model) -> Drive:
         play = unmirror(rev.rest - rev.reverse_rest, -1, None, False)
 
     per_torque = []
+    friction = c.friction
+    sense = -1.0 if backdrive else 1.0
     for value in torques:
         mesh = fwd if value > 0 else rev
-        fields = load_stack(mesh, abs(float(value)))
+        coupling = None
+        if friction is not None:  # a negative torque: the crank turns clockwise, which
+            coupling = FrictionCoupling(mesh, friction, sense)  # the mirror turns over
+        fields = load_stack(mesh, abs(float(value)), coupling)
         geo = mesh.geo
         fields.update(
             backlash=mesh.backlash.reshape(geo.rotation.shape),
@@ -328,10 +355,12 @@ def drive(case: Case, model: Model) -> Drive:
         per_torque.append(fields)
 
     def stacked(name: str) -> FloatArray:
-        axis = -4 if PER_PIN[name] else -3 if name in PER_DISC else -2
+        axis = -4 if PER_PIN.get(name, name in FRICTION_PIN) else -3 if name in PER_DISC else -2
         return np.stack([fields[name] for fields in per_torque], axis=axis)
 
     out = {name: stacked(name) for name in PER_PIN}
+    if friction is not None:
+        out["friction"] = {name: stacked(name) for name in FRICTION_FIELDS}
     te = transmission_error(out["rest_rotation"], out["loaded_rotation"])
     fx, fy = out.pop("mesh_force_x"), out.pop("mesh_force_y")
     return Drive(

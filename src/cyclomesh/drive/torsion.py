@@ -21,8 +21,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.case import Case, Model, check, check_discs
 from cyclomesh.core.discbody import DiscBody
+from cyclomesh.core.friction import Friction
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.core.transmission import transmission_error
+from cyclomesh.drive.friction import FrictionCoupling
 from cyclomesh.drive.mesh import load_stack, reverse_fields, stack_meshes
 from cyclomesh.exceptions import DesignError
 
@@ -144,6 +146,14 @@ class TorsionCurve:
         Stiffness of the rest of the drive in series [N·m/rad].
     drive_rotation, drive_lost_motion, drive_torsional_rigidity : ndarray or None
         The same for the whole drive (mesh in series with ``series_stiffness``).
+    rotation_ascending, rotation_descending : ndarray or None
+        With friction: TE on the branch of rising torque (the disc turning
+        counter-clockwise, friction resisting it) and of falling torque [rad], (..., Q, A);
+        ``rotation`` is then their mean (the mid curve).
+    hysteresis : ndarray or None
+        With friction: the loop's largest width over the torques, ascending − descending
+        branch [rad] (≥ 0: on the rising branch friction helps the pins hold the disc, so it
+        turns less), (..., A).
     """
 
     crank_angle: FloatArray
@@ -160,6 +170,9 @@ class TorsionCurve:
     drive_rotation: FloatArray | None = None
     drive_lost_motion: FloatArray | None = None
     drive_torsional_rigidity: FloatArray | None = None
+    rotation_ascending: FloatArray | None = None
+    rotation_descending: FloatArray | None = None
+    hysteresis: FloatArray | None = None
 
 
 def torsion_curve(
@@ -174,6 +187,7 @@ def torsion_curve(
     series_stiffness: float | None = None,
     contact_law: str = "half_plane",
     disc_body: str | DiscBody = "rigid",
+    friction: Friction | None = None,
 ) -> TorsionCurve:
     """Torsion curve of the cycloid-pin mesh: rotation against torque, both directions.
 
@@ -202,6 +216,11 @@ def torsion_curve(
         Tooth term of the contact law (:func:`~cyclomesh.core.ltca.solve_ltca`).
     disc_body : "rigid" or DiscBody
         Rigid or compliant disc body (:func:`solve_drive`).
+    friction : Friction, optional
+        Friction at the pin contacts (:mod:`cyclomesh.core.friction`): the crank held, the
+        disc turning about its centre, each torque solved on the rising branch (friction
+        against a counter-clockwise turn) and on the falling one: the curve becomes a
+        loop. None or all coefficients 0: the frictionless curve, bit for bit.
 
     Returns
     -------
@@ -209,7 +228,7 @@ def torsion_curve(
     """
     return torsion(
         Case(design, modification, errors, rated_torque, crank_angles),
-        Model(contact_law, groove_deformation, disc_body, discs),
+        Model(contact_law, groove_deformation, disc_body, discs, friction=friction),
         points,
         series_stiffness,
     )
@@ -243,6 +262,19 @@ def torsion(
         c.contact_law,
         c.body,
     )
+    branches = {}
+    if c.friction is not None:
+        for name, sense in (("rotation_ascending", 1.0), ("rotation_descending", -1.0)):
+            te = []
+            for value in torques:
+                mesh = fwd if value > 0 else rev  # the mirror turns the disc's sense over
+                coupling = FrictionCoupling(mesh, c.friction, 0.0, sense if value > 0 else -sense)
+                fields = load_stack(mesh, abs(float(value)), coupling)
+                fields = {"rest_rotation": mesh.rest, "loaded_rotation": fields["loaded_rotation"]}
+                if value < 0:
+                    fields = reverse_fields(fields)
+                te.append(transmission_error(fields["rest_rotation"], fields["loaded_rotation"]))
+            branches[name] = np.stack(te, axis=-2)
     rotation, contacts, stress, share = [], [], [], []
     for value in torques:
         fields = load_stack(fwd if value > 0 else rev, abs(float(value)))
@@ -257,6 +289,10 @@ def torsion(
         stress.append(fields["max_contact_stress"])
         share.append(fields["torque_share"])
     rotation = np.stack(rotation, axis=-2)
+    if branches:  # the mid curve of the loop; contacts and stresses of the frictionless one
+        rotation = 0.5 * (branches["rotation_ascending"] + branches["rotation_descending"])
+        width = branches["rotation_ascending"] - branches["rotation_descending"]
+        branches["hysteresis"] = np.max(width, axis=-2)
     lost, rigidity = torsion_metrics(rotation, torques, rated_torque)
     result = {
         "crank_angle": phi,
@@ -269,6 +305,7 @@ def torsion(
         "play": fwd.rest - fwd.reverse_rest,
         "lost_motion": lost,
         "torsional_rigidity": rigidity,
+        **branches,
     }
     if series_stiffness is not None:
         drive = rotation - torques[:, None] / series_stiffness

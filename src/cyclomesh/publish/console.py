@@ -60,6 +60,8 @@ RUN_ROWS: tuple[tuple[str, str, float], ...] = (
     row("stage_torsional_rigidity_nm_per_arcmin_min"),
     row("stage_max_crank_bearing_load_n"),
     row("stage_l10_h_min"),
+    row("efficiency", "%", 100.0),
+    row("backdrive_efficiency", "%", 100.0),
 )
 """Rows of the run summary: metric key, short label with unit, factor to that unit."""
 
@@ -217,6 +219,7 @@ STIFFNESS_ROWS = (
     row("lost_motion_arcmin_max"),
     row("torsional_rigidity_nm_per_arcmin_mean"),
     row("torsional_rigidity_nm_per_arcmin_min"),
+    row("hysteresis_arcmin_max"),
     row("drive_lost_motion_arcmin_max"),
     row("drive_torsional_rigidity_nm_per_arcmin_min"),
     row("stage_lost_motion_arcmin_max"),
@@ -254,6 +257,27 @@ def print_stiffness(summaries: dict, out: Path, checks: dict | None = None) -> N
             "measured: the loop of \\[stiffness] measured_file by the same definitions; the "
             "reconciling compliance is reported, not applied"
         )
+    console.print(f"report: {out / 'report.html'}")
+
+
+EFFICIENCY_ROWS = (
+    row("peak_efficiency", "%", 100.0),
+    row("peak_torque_nm"),
+    row("peak_speed_rpm"),
+    row("rated_efficiency", "%", 100.0),
+    row("rated_backdrive_efficiency", "%", 100.0),
+    row("rated_input_power_w"),
+)
+
+
+def print_efficiency(summaries: dict, out: Path, checks: dict | None = None) -> None:
+    from rich.console import Console
+
+    console = Console(highlight=False)
+    print_metrics(console, summaries, EFFICIENCY_ROWS)
+    if checks:
+        print_checks(console, checks)
+    console.print("losses: pin contacts and crank bearings; churning, seals not modelled")
     console.print(f"report: {out / 'report.html'}")
 
 

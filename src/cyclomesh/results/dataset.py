@@ -260,6 +260,7 @@ def analyse(
     disc_body: Any = "rigid",
     crank_holes: Any = None,
     cache_dir: Any = None,
+    friction: Any = None,
 ) -> xr.Dataset:
     """Loaded tooth contact analysis of a cycloid-pin pair as a labelled Dataset.
 
@@ -294,6 +295,12 @@ def analyse(
         once per design, then loaded from ``cache_dir``, default the per-user cache), the
         disc held at its ``crank_holes`` (a :class:`~cyclomesh.core.pair.CrankHoles`) or,
         without them, at the bore. Recorded in the ``disc_body`` attribute.
+    friction : Friction, optional
+        Friction at the pin contacts (:class:`cyclomesh.core.friction.Friction`), in the
+        equilibrium: the loaded contact is that of the crank driving the torque, and the
+        Dataset gains the friction variables of :mod:`cyclomesh.results.efficiency` (the
+        back-driving efficiency from a second solve). None or all coefficients 0: the
+        frictionless model, bit for bit.
 
     Returns
     -------
@@ -315,7 +322,7 @@ def analyse(
     torques = check_torques(torque)
     body = resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir)
     case = Case(design, modification, errors, torques, crank_angles)
-    model = Model(contact_law, groove_deformation, body, discs)
+    model = Model(contact_law, groove_deformation, body, discs, friction=friction)
     return drive_dataset(drive(case, model), case, model, torque_dim, degrees)
 
 
@@ -328,9 +335,21 @@ def drive_dataset(
 ) -> xr.Dataset:
     """The Dataset of :func:`analyse` from a :class:`~cyclomesh.drive.solve.Drive` of ``case``
     and ``model`` (its disc body resolved): :func:`drive_to_dataset` with the model's
-    ``contact_law`` and ``disc_body`` attributes, and the crank angles in [deg] as given."""
+    ``contact_law`` and ``disc_body`` attributes, and the crank angles in [deg] as given.
+    With friction (``result.friction``) the friction variables of
+    :mod:`cyclomesh.results.efficiency` are added, the back-driving ones from a second solve
+    of the same case and model."""
     modification = case.modification or Modification()
     ds = drive_to_dataset(result, case.design, modification, model.groove_deformation, torque_dim)
+    if result.friction is not None:
+        from cyclomesh.results.efficiency import efficiency_variables, friction_attrs
+
+        friction = model.friction
+        back = drive(case, model, backdrive=True)
+        ds = ds.assign(
+            efficiency_variables(result, back, case.design.teeth, friction.speed, torque_dim)
+        )
+        ds.attrs.update(friction_attrs(friction))
     ds.attrs["contact_law"] = model.contact_law
     body = model.disc_body
     ds.attrs["disc_body"] = "rigid" if isinstance(body, str) else "fe"

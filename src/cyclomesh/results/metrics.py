@@ -75,6 +75,8 @@ STIFFNESS_METRICS: dict[str, Metric] = select(
     "drive_lost_motion_arcmin_max",
     "drive_torsional_rigidity_nm_per_arcmin_mean",
     "drive_torsional_rigidity_nm_per_arcmin_min",
+    "hysteresis_arcmin_mean",
+    "hysteresis_arcmin_max",
 )
 """Headline numbers of a torsion curve (``cyclomesh stiffness``; docs/drive.md)."""
 

@@ -141,6 +141,13 @@ REQUIREMENTS: dict[str, Requirement] = {
             "L10h of the weakest crank bearing (ISO 281)",
             (("stage_l10_h_min", 1.0),),
         ),
+        Requirement(
+            "min_efficiency",
+            "min",
+            "1",
+            "forward efficiency (with [friction])",
+            (("efficiency", 1.0), ("efficiency_min", 1.0)),
+        ),
     )
 }
 """Every requirement key of ``[requirements]``, with the metrics that check it."""
@@ -365,6 +372,7 @@ SHORT = {
     "min_torsional_rigidity_nm_per_arcmin": "rigidity [N·m/arcmin]",
     "max_mesh_force_n": "mesh force [N]",
     "min_bearing_life_h": "bearing L10h [h]",
+    "min_efficiency": "efficiency",
     "k1": "K1 = e·n1/a",
     "undercut_margin": "undercut margin",
     "peak_stress_curvature": "ρc at peak σH [mm]",

@@ -55,6 +55,7 @@ def stiffness(
     disc_body: Any = "rigid",
     crank_holes: Any = None,
     cache_dir: Any = None,
+    friction: Any = None,
 ) -> xr.Dataset:
     """Torsion curve, play, lost motion and torsional rigidity of the mesh (Eqs. 5–26 of [1]).
 
@@ -82,6 +83,10 @@ def stiffness(
         ``drive_torsional_rigidity``.
     contact_law : {"paper", "half_plane"}
         Tooth term of the contact law (:func:`cyclomesh.core.ltca.solve_ltca`).
+    friction : Friction, optional
+        Friction at the pins (:func:`cyclomesh.drive.solve.torsion_curve`): adds the loop's
+        ``rotation_ascending``, ``rotation_descending`` [arcsec] and ``hysteresis``
+        [arcmin]; ``rotation`` is then the loop's mid curve.
 
     Returns
     -------
@@ -110,7 +115,7 @@ def stiffness(
         series = float(k) / RAD_PER_ARCMIN
     body = resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir)
     case = Case(design, modification, errors, rated_torque, phi)
-    model = Model(contact_law, groove_deformation, body, discs)
+    model = Model(contact_law, groove_deformation, body, discs, friction=friction)
     curve = torsion(case, model, points, series)
     return torsion_dataset(curve, case, model, points, degrees, series_stiffness_nm_per_arcmin)
 
@@ -177,6 +182,14 @@ def torsion_dataset(
             _attrs("torsional_rigidity"),
         ),
     }
+    if curve.hysteresis is not None:
+        for name in ("rotation_ascending", "rotation_descending"):
+            data[name] = (curve_dims, getattr(curve, name) / RAD_PER_ARCSEC, _attrs(name))
+        data["hysteresis"] = (
+            angle_dims,
+            curve.hysteresis / RAD_PER_ARCMIN,
+            _attrs("hysteresis"),
+        )
     if stack:
         data["torque_share"] = (
             (*curve_dims, "disc"),
@@ -234,6 +247,8 @@ _SUMMARY = {
     "lost_motion_arcmin_max": ("lost_motion", "max"),
     "torsional_rigidity_nm_per_arcmin_mean": ("torsional_rigidity", "mean"),
     "torsional_rigidity_nm_per_arcmin_min": ("torsional_rigidity", "min"),
+    "hysteresis_arcmin_mean": ("hysteresis", "mean"),
+    "hysteresis_arcmin_max": ("hysteresis", "max"),
 }
 
 

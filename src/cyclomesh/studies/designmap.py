@@ -102,6 +102,7 @@ def constraints(space: DesignSpaceSection) -> Constraints:
         max_te_pp=scaled(space.max_te_pp_arcsec, RAD_PER_ARCSEC),
         min_contacts=space.min_contacts,
         max_lost_motion=scaled(space.max_lost_motion_arcmin, RAD_PER_ARCMIN),
+        min_efficiency=space.min_efficiency,
     )
 
 
@@ -183,6 +184,7 @@ def compute_design(
                 base.disc_body, base.design, base.modification, base.crank_holes
             ),
             constraints=constraints(space),
+            friction=base.friction,
             objective=space.objective,
             lost_motion=space.lost_motion,
             backend=backend,
@@ -287,7 +289,7 @@ def best_study(study: Study, ds: xr.Dataset) -> str:
 
     base = study.base.model_dump()
     sections: dict[str, Any] = {"title": f"{study.title}: optimum of the design map"}
-    for name in ("design", "modification", "material", "load", "errors", "analysis"):
+    for name in ("design", "modification", "material", "load", "errors", "analysis", "friction"):
         table = _drop_none(base.get(name) or {})
         if table:
             sections[name] = table

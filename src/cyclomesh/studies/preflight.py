@@ -19,7 +19,7 @@ if TYPE_CHECKING:
 
 __all__ = ["COMMANDS", "preflight", "kinds_of", "check_kinds"]
 
-COMMANDS = ("run", "stiffness", "tolerance", "allocate", "design", "fe", "export")
+COMMANDS = ("run", "stiffness", "tolerance", "allocate", "design", "fe", "export", "efficiency")
 """The commands a study file can be given to."""
 
 
@@ -36,6 +36,8 @@ def kinds_of(study: Study) -> list[str]:
         kinds.append("design")
     if study.file.fe is not None:
         kinds.append("fe")
+    if study.file.efficiency is not None:
+        kinds.append("efficiency")
     return kinds
 
 
@@ -58,8 +60,16 @@ def preflight(study: Study, kind: str, *, allow_work: bool = False, work: bool =
             f"{study.path.name}: no [design_space] section "
             "(see docs/design-map.md, examples/design.toml)"
         )
+    if kind == "efficiency":  # the section and the friction first, as the command
+        from cyclomesh.studies.efficiency import check_efficiency
+
+        check_efficiency(study)
     if kind in KINDS:
         check_keys(study.raw, kind)
+    if kind in ("run", "stiffness"):
+        from cyclomesh.studies.run import refuse_friction_with_stage
+
+        refuse_friction_with_stage(study)
     if kind == "stiffness":
         from cyclomesh.studies.stiffness import check_stiffness
 

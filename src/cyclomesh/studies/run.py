@@ -25,6 +25,7 @@ import numpy as np
 from cyclomesh.core.pair import Modification
 from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.quantities import QUANTITIES
+from cyclomesh.results.efficiency import EFFICIENCY_METRICS
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STIFFNESS_METRICS
 from cyclomesh.results.profile import profile_curves
 from cyclomesh.results.stage import STAGE_METRICS
@@ -148,6 +149,7 @@ def compute_run(
     from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
 
     check_keys(study.raw, "run")
+    refuse_friction_with_stage(study)
     run = RunResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
         if on_start:
@@ -163,6 +165,7 @@ def compute_run(
         if inputs.stage is not None:
             ds, sheet = _with_stage(ds, case, inputs)
         run.summaries[case.name] = summary_record(summarize(ds))
+        run.summaries[case.name].update(efficiency_summary(ds, case))
         if sheet is not None:
             run.summaries[case.name].update(sheet)
         run.results[case.name] = ds
@@ -177,6 +180,28 @@ def compute_run(
         if progress:
             progress(1)
     return run
+
+
+def refuse_friction_with_stage(study: Study) -> None:
+    """One-line :class:`StudyError` for a case with both ``[friction]`` and ``[stage]``:
+    the stage's equilibrium is not coupled with friction yet."""
+    from cyclomesh.exceptions import StudyError
+
+    for case, inputs in zip(study.cases, study.inputs, strict=True):
+        if inputs.friction is not None and inputs.stage is not None:
+            raise StudyError(
+                f"{case.label}: [friction] is not coupled with the [stage] equilibrium yet: "
+                "remove [stage] to see the mesh's friction, or [friction] for the stage"
+            )
+
+
+def efficiency_summary(ds: xr.Dataset, case: CaseSpec) -> dict[str, Any]:
+    """The friction numbers of a case (:func:`cyclomesh.results.efficiency.efficiency_record`),
+    or with no friction the input speed alone."""
+    from cyclomesh.results.efficiency import efficiency_record
+
+    record = efficiency_record(ds) if "power_loss" in ds else {}
+    return record | {"input_speed_rpm": case.load.speed_rpm(case.design.pins - 1)}
 
 
 def _with_stage(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs) -> tuple[xr.Dataset, dict]:
@@ -247,7 +272,10 @@ def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
                 "warnings": run.warnings.get(case.name, []),
             }
         )
-    units = {name: m.unit for name, m in (METRICS | DRIVE_METRICS | STAGE_METRICS).items()}
+    units = {
+        name: m.unit
+        for name, m in (METRICS | DRIVE_METRICS | STAGE_METRICS | EFFICIENCY_METRICS).items()
+    }
     document = summary_document(study, units, records, warnings=run.study_warnings())
     written.append(write_json(out / "summary.json", document))
     return written

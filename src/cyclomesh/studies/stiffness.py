@@ -118,6 +118,9 @@ def compute_stiffness(
 
     check_stiffness(study)
     check_keys(study.raw, "stiffness")
+    from cyclomesh.studies.run import refuse_friction_with_stage
+
+    refuse_friction_with_stage(study)
     start = time.perf_counter()
     result = StiffnessResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
@@ -136,6 +139,7 @@ def compute_stiffness(
                 contact_law=inputs.contact_law,
                 disc_body=inputs.disc_body,
                 crank_holes=inputs.crank_holes,
+                friction=inputs.friction,
             )
         except CyclomeshError as exc:  # name the case
             raise type(exc)(f"{case.label}: {exc}") from None

@@ -36,6 +36,7 @@ __all__ = [
     "ToleranceSection",
     "RangeSection",
     "FeSection",
+    "EfficiencySection",
     "DesignSpaceSection",
 ]
 
@@ -205,6 +206,37 @@ class RangeSection(StrictSection):
         return np.linspace(self.start, self.stop, self.points)
 
 
+class EfficiencySection(StrictSection):
+    """``[efficiency]``: the efficiency map of ``cyclomesh efficiency`` (docs/efficiency.md)."""
+
+    torque_nm: RangeSection = Field(description="output torques [N·m], > 0")
+    input_speed_rpm: RangeSection = Field(description="input (crank) speeds [rpm], > 0")
+    rated_torque_nm: float | None = Field(
+        None, gt=0, description="rated torque of the loss breakdown [N·m] (default: largest)"
+    )
+    rated_speed_rpm: float | None = Field(
+        None, gt=0, description="rated input speed of the loss breakdown [rpm] (default: largest)"
+    )
+
+    @model_validator(mode="after")
+    def _positive(self) -> EfficiencySection:
+        for name in ("torque_nm", "input_speed_rpm"):
+            grid = getattr(self, name)
+            if min(grid.start, grid.stop) <= 0:
+                raise ValueError(f"{name}: start and stop must be positive")
+            if grid.points > 1 and grid.start == grid.stop:
+                raise ValueError(f"{name}: start and stop must differ for several points")
+        return self
+
+    def rated(self) -> tuple[float, float]:
+        """The rated point (torque [N·m], input speed [rpm])."""
+        torques, speeds = self.torque_nm.values(), self.input_speed_rpm.values()
+        return (
+            self.rated_torque_nm if self.rated_torque_nm is not None else float(torques.max()),
+            self.rated_speed_rpm if self.rated_speed_rpm is not None else float(speeds.max()),
+        )
+
+
 class FeSection(StrictSection):
     """``[fe]``: the whole-disc finite-element model of ``cyclomesh fe`` (docs/contact-law.md).
 
@@ -244,8 +276,11 @@ class DesignSpaceSection(StrictSection):
     max_lost_motion_arcmin: float | None = Field(
         None, gt=0, description="largest allowed lost motion [arcmin] (computes it)"
     )
-    objective: Literal["max_contact_stress", "te_pp", "lost_motion", "play"] = Field(
-        "max_contact_stress", description="metric minimised"
+    min_efficiency: float | None = Field(
+        None, gt=0, le=1, description="smallest forward efficiency allowed (needs [friction])"
+    )
+    objective: Literal["max_contact_stress", "te_pp", "lost_motion", "play", "efficiency"] = Field(
+        "max_contact_stress", description="metric minimised (efficiency: maximised)"
     )
     rings: int = Field(
         0, ge=0, le=MAX_RINGS, description="rings drawn from [tolerance] (0: nominal map)"
@@ -304,5 +339,6 @@ class DesignSpaceSection(StrictSection):
             "max_te_pp_arcsec",
             "min_contacts",
             "max_lost_motion_arcmin",
+            "min_efficiency",
         )
         return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}

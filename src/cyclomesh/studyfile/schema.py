@@ -58,6 +58,7 @@ from pydantic import (
 
 from cyclomesh.core.case import Case, Model
 from cyclomesh.core.deviation import ProfileDeviation
+from cyclomesh.core.friction import Friction
 from cyclomesh.core.pair import (
     CrankHoles,
     Modification,
@@ -73,6 +74,7 @@ from cyclomesh.stage.solve import StageDesign
 from cyclomesh.studyfile.kind_sections import (
     AllocationSection,
     DesignSpaceSection,
+    EfficiencySection,
     FeSection,
     Normal,
     ToleranceSection,
@@ -98,7 +100,9 @@ from cyclomesh.studyfile.sections import (
     DesignSection,
     ErrorsSection,
     FiguresSection,
+    FrictionSection,
     LoadSection,
+    LubricantSection,
     MaterialProperties,
     MaterialSection,
     ModificationSection,
@@ -123,6 +127,9 @@ __all__ = [
     "AnalysisSection",
     "StiffnessSection",
     "FeSection",
+    "FrictionSection",
+    "LubricantSection",
+    "EfficiencySection",
     "FiguresSection",
     "RequirementsSection",
     "Uniform",
@@ -170,15 +177,22 @@ class CaseInputs:
     """``[analysis] disc_body``: "rigid" or "fe" (held at the crank holes if any)."""
     stage: StageDesign | None = None
     """The RV stage (``[stage]``: crank bearings on the crank holes), or None: mesh alone."""
+    friction: Friction | None = None
+    """``[friction]`` at the input speed, or None: frictionless (the paper's model)."""
 
     def case(self) -> Case:
         """The case: design, modification, errors, torque, crank angles (SI)."""
         return Case(self.design, self.modification, self.errors, self.torque, self.crank_angles)
 
     def model(self) -> Model:
-        """The model: contact law, groove deformation, disc body, discs, stage."""
+        """The model: contact law, groove deformation, disc body, discs, stage, friction."""
         return Model(
-            self.contact_law, self.groove_deformation, self.disc_body, self.discs, self.stage
+            self.contact_law,
+            self.groove_deformation,
+            self.disc_body,
+            self.discs,
+            self.stage,
+            self.friction,
         )
 
     def kwargs(self) -> dict[str, Any]:
@@ -197,6 +211,7 @@ class CaseInputs:
                 if self.disc_body != "rigid"
                 else {}
             ),
+            **({"friction": self.friction} if self.friction is not None else {}),
         }
 
 
@@ -213,6 +228,7 @@ class CaseSpec(StrictSection):
     analysis: AnalysisSection = AnalysisSection()
     stiffness: StiffnessSection | None = None
     stage: StageSection | None = None
+    friction: FrictionSection | None = None
 
     _base_dir: Path = PrivateAttr(default_factory=Path)
 
@@ -342,9 +358,26 @@ class CaseSpec(StrictSection):
                 crank_holes.check_fits(design)
             if d.disc.bore_radius_mm is not None:
                 check_bore(design, crank_holes, d.disc.bore_radius_mm * M_PER_MM)
-            stage = None if self.stage is None else self.stage.to_core(crank_holes, d.discs)
-            if stage is not None:
+            speed = self.load.speed_rpm(d.pins - 1)
+            stage = None
+            if self.stage is not None:
+                given = self.stage.output_speed_rpm
+                if (
+                    given is not None
+                    and self.load.input_speed_rpm is not None
+                    and abs(given * (d.pins - 1) - speed) > 1e-9 * speed
+                ):
+                    raise DesignError(
+                        f"stage.output_speed_rpm = {given:g} disagrees with load.input_speed_rpm "
+                        f"= {speed:g} (output = input/n2 = {speed / (d.pins - 1):.6g} rpm): "
+                        "give load.input_speed_rpm alone"
+                    )
+                stage = self.stage.to_core(crank_holes, d.discs, speed / (d.pins - 1))
                 stage.check_fits(design, d.discs)
+            friction = None
+            if self.friction is not None:
+                friction = self.friction.to_core(speed)
+                friction = None if friction.frictionless else friction
         except DesignError as exc:
             raise StudyError(f"{self.label}: {exc}") from None
         if stage is not None and self.analysis.disc_body != "rigid":
@@ -369,6 +402,7 @@ class CaseSpec(StrictSection):
             crank_holes=crank_holes,
             disc_body=self.analysis.disc_body,
             stage=stage,
+            friction=friction,
         )
 
 
@@ -393,8 +427,10 @@ class StudyFile(StrictSection):
     tolerance: ToleranceSection | None = None
     stiffness: StiffnessSection | None = None  # also per case: cases may override it
     stage: StageSection | None = None  # the RV stage (crank bearings); per case too
+    friction: FrictionSection | None = None  # friction at the pins; per case too
     design_space: DesignSpaceSection | None = None
     fe: FeSection | None = None  # cyclomesh fe (the FE model needs the fe extra)
+    efficiency: EfficiencySection | None = None  # cyclomesh efficiency (needs [friction])
     requirements: RequirementsSection = RequirementsSection()  # checked by every kind
 
 

@@ -20,6 +20,7 @@ from pydantic import (
     model_validator,
 )
 
+from cyclomesh.core.friction import ISO_VG, Friction, Lubricant
 from cyclomesh.core.pair import (
     POISSON_RATIO_RANGE,
     YOUNGS_MODULUS_RANGE,
@@ -67,6 +68,8 @@ __all__ = [
     "AnalysisSection",
     "FiguresSection",
     "RequirementsSection",
+    "LubricantSection",
+    "FrictionSection",
     "CASE_SECTIONS",
     "GROOVE_CLEARANCE_MM",
     "FE_BORE_FRACTION",
@@ -81,6 +84,7 @@ CASE_SECTIONS = (
     "analysis",
     "stiffness",
     "stage",
+    "friction",
 )
 """Sections that a case may override."""
 
@@ -322,6 +326,103 @@ class LoadSection(StrictSection):
         description="torque on the disc (stack) T [N·m], or a list; negative loads the "
         "reverse flanks; 0 is refused",
     )
+    input_speed_rpm: float | None = Field(
+        None,
+        gt=0,
+        le=1e5,
+        description="input (crank) speed [rpm]: friction powers, lubricated coefficients, the "
+        "stage's output speed (= input/n2); default 15·n2 (15 rpm at the output)",
+    )
+
+    def speed_rpm(self, teeth: int) -> float:
+        """The input speed [rpm]: the key, else 15 rpm at the output (15·n2)."""
+        return self.input_speed_rpm if self.input_speed_rpm is not None else 15.0 * teeth
+
+
+class LubricantSection(StrictSection):
+    """``[friction.lubricant]``: the oil of the lubricated (Benedict–Kelley) coefficient."""
+
+    grade: int | None = Field(
+        None, description=f"ISO VG viscosity grade, one of {', '.join(map(str, ISO_VG))}"
+    )
+    viscosity_40c_cst: float | None = Field(
+        None, gt=0, le=1e5, description="kinematic viscosity at 40 °C [cSt] (instead of grade)"
+    )
+    viscosity_100c_cst: float | None = Field(
+        None, gt=0, le=1e4, description="kinematic viscosity at 100 °C [cSt]"
+    )
+    temperature_c: float = Field(40.0, ge=-30, le=150, description="oil temperature [°C]")
+    roughness_um: float = Field(0.4, ge=0, lt=1, description="mean roughness Ra [µm]")
+
+    @model_validator(mode="after")
+    def _one_viscosity(self) -> LubricantSection:
+        if (self.grade is None) == (self.viscosity_40c_cst is None):
+            raise ValueError("give grade (ISO VG) or viscosity_40c_cst, one of them")
+        if self.grade is not None and self.grade not in ISO_VG:
+            raise ValueError(
+                f"grade: expected an ISO VG grade ({', '.join(map(str, ISO_VG))}), got {self.grade}"
+            )
+        if self.viscosity_40c_cst is not None and self.viscosity_100c_cst is None:
+            raise ValueError("viscosity_40c_cst needs viscosity_100c_cst")
+        return self
+
+    def to_core(self) -> Lubricant:
+        """The :class:`~cyclomesh.core.friction.Lubricant` (SI roughness)."""
+        nu40, nu100 = ISO_VG[self.grade] if self.grade is not None else (None, None)
+        return Lubricant(
+            viscosity_40=self.viscosity_40c_cst or nu40,
+            viscosity_100=self.viscosity_100c_cst or nu100,
+            temperature=self.temperature_c,
+            roughness=self.roughness_um * M_PER_UM,
+        )
+
+
+class FrictionSection(StrictSection):
+    """``[friction]``: friction at the pin contacts, in the equilibrium (docs/efficiency.md)."""
+
+    mesh_coefficient: float = Field(
+        0.0, ge=0, lt=1, description="Coulomb coefficient pin-tooth (boundary value)"
+    )
+    groove_coefficient: float = Field(
+        0.0, ge=0, lt=1, description="Coulomb coefficient pin-groove (boundary value)"
+    )
+    bearing_coefficient: float = Field(
+        0.0, ge=0, lt=1, description="crank bearing friction coefficient μ (SKF: M = μ·P·d/2)"
+    )
+    bearing_diameter_mm: float | None = Field(
+        None, gt=0, le=1e4, description="bore diameter d of the crank bearing [mm]"
+    )
+    pins: Literal["rolling", "fixed"] = Field(
+        "rolling", description="pins free to turn in their grooves, or fixed"
+    )
+    lubricant: LubricantSection | None = None
+
+    @model_validator(mode="after")
+    def _caps(self) -> FrictionSection:
+        if self.bearing_coefficient > 0 and self.bearing_diameter_mm is None:
+            raise ValueError(
+                "bearing_coefficient needs bearing_diameter_mm (the crank bearing's bore)"
+            )
+        if self.lubricant is not None and (
+            self.mesh_coefficient == 0 or (self.pins == "rolling" and self.groove_coefficient == 0)
+        ):
+            raise ValueError(
+                "lubricant: give mesh_coefficient (and groove_coefficient for rolling pins) > 0: "
+                "the boundary friction that caps the lubricated coefficient"
+            )
+        return self
+
+    def to_core(self, speed_rpm: float) -> Friction:
+        """The :class:`~cyclomesh.core.friction.Friction` at ``speed_rpm`` (input speed)."""
+        return Friction(
+            mesh=self.mesh_coefficient,
+            groove=self.groove_coefficient,
+            bearing=self.bearing_coefficient,
+            pins=self.pins,
+            lubricant=None if self.lubricant is None else self.lubricant.to_core(),
+            speed=speed_rpm * 2.0 * math.pi / 60.0,
+            bearing_diameter=(self.bearing_diameter_mm or 0.0) * M_PER_MM,
+        )
 
 
 class StiffnessSection(StrictSection):
@@ -416,7 +517,12 @@ class StageSection(StrictSection):
     ``crank_hole_circle_radius_mm``, ``crank_hole_radius_mm``): one set of keys.
     """
 
-    output_speed_rpm: float = Field(15.0, gt=0, description="output speed for L10h [rpm]")
+    output_speed_rpm: float | None = Field(
+        None,
+        gt=0,
+        description="output speed for L10h [rpm]; default load.input_speed_rpm/n2 (15 rpm); "
+        "refused when it disagrees with load.input_speed_rpm",
+    )
     rated_torque_nm: float | None = Field(
         None, gt=0, description="rated torque of the data sheet [N·m] (default: the load)"
     )
@@ -449,8 +555,11 @@ class StageSection(StrictSection):
                     )
         return raw
 
-    def to_core(self, holes: CrankHoles | None, discs: int) -> StageDesign:
-        """The :class:`~cyclomesh.stage.solve.StageDesign` in SI units."""
+    def to_core(
+        self, holes: CrankHoles | None, discs: int, output_speed: float = 15.0
+    ) -> StageDesign:
+        """The :class:`~cyclomesh.stage.solve.StageDesign` in SI units; ``output_speed``
+        [rpm] from ``load.input_speed_rpm`` where ``output_speed_rpm`` is not given."""
         if holes is None:
             raise DesignError(
                 "stage: needs the crankshafts: set [design.disc] crank_holes (2 or 3), "
@@ -521,7 +630,9 @@ class StageSection(StrictSection):
             ),
             hole_error_radial=np.asarray(self.hole_error_radial_um, float) * M_PER_UM,
             hole_error_tangential=np.asarray(self.hole_error_tangential_um, float) * M_PER_UM,
-            output_speed=self.output_speed_rpm,
+            output_speed=(
+                self.output_speed_rpm if self.output_speed_rpm is not None else output_speed
+            ),
         )
         stage.hole_errors(discs)  # the shapes, checked here
         return stage
@@ -715,6 +826,9 @@ class RequirementsSection(StrictSection):
         None, gt=0, description="smallest torsional rigidity [N·m/arcmin] (cyclomesh stiffness)"
     )
     max_mesh_force_n: float | None = Field(None, gt=0, description="largest mesh force [N]")
+    min_efficiency: float | None = Field(
+        None, gt=0, le=1, description="smallest forward efficiency [-] (with [friction])"
+    )
     min_bearing_life_h: float | None = Field(
         None, gt=0, description="L10h of the weakest crank bearing [h] (RV stage, [stage])"
     )

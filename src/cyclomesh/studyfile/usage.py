@@ -40,7 +40,7 @@ __all__ = [
     "check_keys",
 ]
 
-KINDS = ("run", "stiffness", "tolerance", "allocate", "design", "fe")
+KINDS = ("run", "stiffness", "tolerance", "allocate", "design", "fe", "efficiency")
 
 _ALLOWABLES = tuple(
     f"material.{part}allowable_contact_stress_mpa" for part in ("", "pin.", "disc.", "ring.")
@@ -54,9 +54,11 @@ OWN_SECTIONS: dict[str, tuple[str, ...]] = {
     "allocate": ("tolerance",),
     "design": ("design_space",),
     "fe": ("fe",),
+    "efficiency": ("efficiency",),
     "export": ("design.disc.bore_radius_mm",),
     "run": (
         "load.torque_nm",
+        "load.input_speed_rpm",
         "stage.rated_torque_nm",
         "stage.duty_cycle",
         "requirements",
@@ -101,7 +103,16 @@ _CHECKED = ("requirements", *_ALLOWABLES)
 """What the kinds that check requirements use besides their own keys."""
 
 USED: dict[str, tuple[str, ...]] = {
-    "run": (*_LTCA, *_RUN_FIGURES, "cases", "stage", "design.disc", *_CHECKED),
+    "run": (
+        *_LTCA,
+        *_RUN_FIGURES,
+        "cases",
+        "stage",
+        "design.disc",
+        "friction",
+        "load.input_speed_rpm",
+        *_CHECKED,
+    ),
     "stiffness": (
         *_PAIR,
         *_OUTPUT,
@@ -112,6 +123,7 @@ USED: dict[str, tuple[str, ...]] = {
         "stiffness",
         "stage",
         "design.disc",
+        "friction",
         *_CHECKED,
     ),
     "tolerance": (
@@ -124,7 +136,7 @@ USED: dict[str, tuple[str, ...]] = {
         "requirements.tolerance_percentile",
     ),
     "allocate": (*_LTCA, "tolerance"),
-    "design": (*_LTCA, *_RINGS, "design_space", *_CHECKED),
+    "design": (*_LTCA, *_RINGS, "design_space", "friction", *_CHECKED),
     "fe": (
         *_PAIR,
         *_OUTPUT,
@@ -136,6 +148,17 @@ USED: dict[str, tuple[str, ...]] = {
         *_CHECKED,
     ),
 }
+USED["efficiency"] = (
+    *_PAIR,
+    *_OUTPUT,
+    "design.discs",
+    "errors",
+    "analysis",
+    "cases",
+    "friction",
+    "efficiency",
+    *_CHECKED,
+)
 """Keys (or whole tables) each kind of study uses."""
 
 _HOLES = (
@@ -162,6 +185,16 @@ NEEDS: dict[str, dict[str, tuple[str, str]]] = {
     for kind in ("run", "stiffness")
 }
 """Keys a kind uses only together with another (key → (needed key, refusal))."""
+
+
+def _friction(kind: str) -> str:
+    return (
+        f"friction: [friction] is not taken by cyclomesh {kind} yet; use cyclomesh run or "
+        "cyclomesh stiffness for friction and efficiency, or remove [friction] "
+        "(docs/efficiency.md)"
+    )
+
+
 _BASE_ONLY = (
     "cases: this kind of study analyses the base description only; remove [[cases]] "
     "(cyclomesh run runs them)"
@@ -172,16 +205,20 @@ REFUSED: dict[str, dict[str, str]] = {
     "run": {},
     "stiffness": {
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
+        "friction.lubricant": "the torsion test is at rest, where the boundary coefficients "
+        "apply; remove [friction.lubricant] (cyclomesh run uses it)",
     },
     "tolerance": {
         "design.disc": _HOLES,
         "stage": _stage("tolerance"),
+        "friction": _friction("tolerance"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "allocate": {
         "design.disc": _HOLES,
         "stage": _stage("allocate"),
+        "friction": _friction("allocate"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
@@ -194,6 +231,7 @@ REFUSED: dict[str, dict[str, str]] = {
     "fe": {
         "design.disc": _HOLES,
         "stage": _stage("fe"),
+        "friction": _friction("fe"),
         "design.discs": "the FE model solves one disc; remove [design] discs",
         "errors": "the FE model takes no pin errors yet; remove [errors] (cyclomesh run "
         "handles them)",
@@ -202,6 +240,13 @@ REFUSED: dict[str, dict[str, str]] = {
         "analysis.crank_step_deg": "cyclomesh fe solves at fe.crank_angles_deg; remove it",
         "analysis.groove_deformation": "the FE model always has the pin-groove contact "
         "(the improved model); remove it",
+        **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
+    },
+    "efficiency": {
+        "design.disc": _HOLES,
+        "stage": _stage("efficiency"),
+        "analysis.disc_body": "the efficiency map solves the rigid disc (friction is not "
+        "coupled with the FE disc body yet); remove disc_body",
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
 }

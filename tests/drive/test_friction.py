@@ -1,0 +1,271 @@
+"""Friction in the equilibrium (cyclomesh.core.friction, cyclomesh.drive.friction):
+frictionless limit bit for bit, the power balance from forces × velocities computed here
+from the geometry, back-driving, the lubricated coefficient, hysteresis."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from cyclomesh import TABLE1, Modification, PinErrors
+from cyclomesh.core.friction import Friction, Lubricant, benedict_kelley, walther_viscosity
+from cyclomesh.core.loadsharing import share_load
+from cyclomesh.drive.solve import solve_drive
+from cyclomesh.exceptions import DesignError
+
+TPM = Modification(pin_radius=8e-6)
+REV = np.deg2rad(np.arange(0.0, 360.0, 3.0))
+SPEED = 2.0 * np.pi * 1500.0 / 60.0
+
+
+def _errors(seed):
+    rng = np.random.default_rng(seed)
+    return PinErrors(
+        radial=rng.uniform(-3e-6, 3e-6, TABLE1.pins),
+        angular=rng.uniform(-2e-5, 2e-5, TABLE1.pins),
+        eccentricity=1e-6,
+    )
+
+
+def test_frictionless_is_bit_identical():
+    """All coefficients 0: the paper's model, every field bit for bit."""
+    for mod, errors in ((TPM, None), (TPM, _errors(1))):
+        base = solve_drive(TABLE1, mod, errors, [-200.0, 250.0], REV, discs=2)
+        zero = solve_drive(TABLE1, mod, errors, [-200.0, 250.0], REV, discs=2, friction=Friction())
+        for field in dataclasses.fields(base):
+            a, b = getattr(base, field.name), getattr(zero, field.name)
+            if a is None:
+                assert b is None
+            else:
+                np.testing.assert_array_equal(a, b, err_msg=field.name)
+
+
+def test_torque_arm_equal_to_the_arm_reproduces_share_load():
+    """The friction branch of share_load with l' = l solves the same problem."""
+    rng = np.random.default_rng(3)
+    bl = rng.uniform(0, 2e-4, (5, 12))
+    arm = rng.uniform(5e-3, 6e-2, (5, 12))
+    alpha, gamma = 1.2e-9, 3e-11
+    x0, f0 = share_load(bl, arm, alpha, gamma, 300.0)
+    x1, f1 = share_load(bl, arm, alpha, gamma, 300.0, torque_arm=arm)
+    np.testing.assert_allclose(x1, x0, rtol=1e-12)
+    np.testing.assert_allclose(f1, f0, rtol=1e-10, atol=1e-9 * f0.max())
+
+
+def _geometry_power(drive, design, friction, backdrive=False, errors=None):
+    """Output power, pin losses and the normal-approach power from the geometry alone:
+    pin centres, contact points P = C − r·n, the disc's velocity at P, the pin forces
+    −F·n + T·t with T = −μ_eff·F·sgn(v·t)."""
+    errors = errors or PinErrors()
+    ecc = design.eccentricity + errors.eccentricity
+    f = drive.friction
+    nx, ny = np.cos(drive.force_angle + np.pi), np.sin(drive.force_angle + np.pi)  # outward n
+    force = drive.pin_load
+    angle = np.arange(design.pins) * design.pitch + errors.angular
+    radius = design.pin_circle_radius + np.asarray(errors.radial)
+    cx, cy = radius * np.cos(angle), radius * np.sin(angle)
+    r_pin = design.pin_radius + np.asarray(errors.pin_radius)
+    px, py = cx - r_pin * nx, cy - r_pin * ny
+    discs = force.shape[-2]
+    crank = drive.crank_angle[:, None] + 2 * np.pi * np.arange(discs) / discs
+    sense = -1.0 if backdrive else 1.0
+    omega = sense * np.sign(drive.torque)[:, None, None, None] * friction.speed
+    ox = (ecc * np.cos(crank))[..., None]
+    oy = (ecc * np.sin(crank))[..., None]
+    wd = -omega / design.teeth
+    vx = -omega * oy - wd * (py - oy)
+    vy = omega * ox + wd * (px - ox)
+    vt = vx * -ny + vy * nx
+    vn = vx * nx + vy * ny
+    tangential = -f["friction_coefficient"] * force * np.sign(vt)
+    losses = np.sum(-tangential * vt, axis=(-2, -1))  # Σ μF|v| ≥ 0
+    # crank bearing: SKF M = μ·|R|·d/2, R the resultant of the pin forces, at ω(1 + 1/n2)
+    rx = np.sum(-force * nx - tangential * ny, axis=-1)
+    ry = np.sum(-force * ny + tangential * nx, axis=-1)
+    moment = 0.5 * friction.bearing * friction.bearing_diameter * np.hypot(rx, ry)
+    losses = losses + np.sum(moment, axis=-1) * friction.speed * (1 + 1 / design.teeth)
+    approach = np.sum(force * vn, axis=(-2, -1))
+    p_out = np.abs(drive.torque)[:, None] * friction.speed / design.teeth
+    return p_out, losses, approach, np.abs(omega[..., 0, 0])
+
+
+@pytest.mark.parametrize("pins", ["fixed", "rolling"])
+@pytest.mark.parametrize("backdrive", [False, True])
+@pytest.mark.parametrize("bearing", [0.0, 0.004])
+def test_power_balance_closes(pins, backdrive, bearing):
+    """T_in·ω − P_out = Σ losses (conjugate profile) to 1e-9 of P_out; the losses from
+    forces × velocities computed here equal the solver's."""
+    friction = Friction(
+        mesh=0.06, groove=0.05, pins=pins, speed=SPEED, bearing=bearing, bearing_diameter=0.04
+    )
+    drive = solve_drive(
+        TABLE1, None, None, [-180.0, 250.0], REV, discs=2, friction=friction, backdrive=backdrive
+    )
+    p_out, losses, approach, omega = _geometry_power(drive, TABLE1, friction, backdrive)
+    f = drive.friction
+    solver_losses = np.sum(f["power_loss_tooth"] + f["power_loss_groove"], axis=(-2, -1))
+    solver_losses = solver_losses + np.sum(f["power_loss_bearing"], axis=-1)
+    np.testing.assert_allclose(solver_losses, losses, rtol=1e-11)
+    t_in = np.sum(f["input_torque"], axis=-1)
+    p_in = t_in * np.sign(drive.torque)[:, None] * (-1.0 if backdrive else 1.0) * omega
+    if backdrive:  # the output supplies P_out, the input receives −P_in
+        balance = p_out - (-p_in) - losses
+    else:
+        balance = p_in - p_out - losses
+    assert np.max(np.abs(balance - approach)) <= 1e-9 * np.max(p_out)
+    assert np.max(np.abs(approach)) <= 1e-7 * np.max(p_out)  # conjugate: no approach power
+    assert np.all(losses > 0)
+
+
+def test_power_balance_with_a_modified_profile_and_errors():
+    """With TPM and pin errors the virtual power holds with the approach power Σ F·(v·n)."""
+    errors = _errors(7)
+    friction = Friction(mesh=0.05, groove=0.1, speed=SPEED)
+    drive = solve_drive(TABLE1, TPM, errors, 250.0, REV, friction=friction)
+    p_out, losses, approach, omega = _geometry_power(drive, TABLE1, friction, errors=errors)
+    t_in = drive.friction["input_torque"].sum(-1)
+    np.testing.assert_allclose(t_in * omega - p_out - losses, approach, atol=1e-9 * p_out.max())
+    assert np.max(np.abs(approach)) > 1e-6 * p_out.max()  # not conjugate: there is some
+
+
+def test_friction_changes_load_sharing_and_te():
+    base = solve_drive(TABLE1, TPM, None, 250.0, REV)
+    fric = solve_drive(TABLE1, TPM, None, 250.0, REV, friction=Friction(mesh=0.08, pins="fixed"))
+    # forward drive: friction resists the disc's turn, the pins carry more and TE grows
+    assert np.all(fric.pin_load.sum(-1) > base.pin_load.sum(-1))
+    assert np.all(fric.transmission_error < base.transmission_error)
+    # the torque balance with friction holds
+    torque_share = fric.torque_share[..., 0]
+    assert np.all(torque_share > 250.0)  # Σ F·l exceeds T by the friction moment
+
+
+def _efficiencies(mu, **kw):
+    friction = Friction(mesh=mu, groove=mu, speed=SPEED, **kw)
+    out = []
+    for back in (False, True):
+        d = solve_drive(TABLE1, TPM, None, 250.0, REV, friction=friction, backdrive=back)
+        loss = np.sum(d.friction["power_loss_tooth"] + d.friction["power_loss_groove"])
+        p_out = 250.0 * SPEED / TABLE1.teeth * REV.size
+        out.append(p_out / (p_out + loss) if not back else (p_out - loss) / p_out)
+    return out
+
+
+def test_backdrive_and_forward_efficiency_friction_on_the_output_side():
+    """The pins' friction acts on the disc (output) side: the closed form of a friction
+    torque T_f at the output is η_f = 1 − x, η_b = 1/(1 + x), x = T_f/ΣF·l. Both below 1,
+    equal to first order in μ, and their difference second order."""
+    forward, back = _efficiencies(0.02, pins="fixed")
+    assert forward < 1 and back < 1
+    forward2, back2 = _efficiencies(0.04, pins="fixed")
+    d1, d2 = back - forward, back2 - forward2
+    assert 3.0 < d2 / d1 < 5.0  # O(μ²)
+    assert (1 - forward2) / (1 - forward) == pytest.approx(2.0, rel=0.05)
+
+
+def test_rolling_pins_lose_less_when_the_groove_is_smoother():
+    fixed, _ = _efficiencies(0.05, pins="fixed")
+    friction = Friction(mesh=0.05, groove=0.02, speed=SPEED, pins="rolling")
+    d = solve_drive(TABLE1, TPM, None, 250.0, REV, friction=friction)
+    assert np.all(d.friction["power_loss_tooth"] == 0.0)  # the pins roll on the teeth
+    assert np.sum(d.friction["power_loss_groove"]) > 0
+    loss = np.sum(d.friction["power_loss_groove"])
+    p_out = 250.0 * SPEED / TABLE1.teeth * REV.size
+    assert p_out / (p_out + loss) > fixed
+
+
+def test_benedict_kelley_falls_with_speed_and_rises_with_load():
+    w = np.array([1e5, 2e5, 4e5])
+    mu_load = benedict_kelley(w, 1.0, 1.0, 100.0, 0.4e-6)
+    assert np.all(np.diff(mu_load) > 0)
+    # μ(2w) − μ(w) = 0.0127·C_R·log10 2 exactly
+    c_r = 50.0 / (50.0 - 0.4 / 0.0254)
+    np.testing.assert_allclose(np.diff(mu_load), 0.0127 * c_r * np.log10(2.0), rtol=1e-12)
+    v = np.array([0.5, 1.0, 2.0])
+    mu_speed = benedict_kelley(2e5, v, v, 100.0, 0.4e-6)
+    assert np.all(np.diff(mu_speed) < 0)
+    np.testing.assert_allclose(np.diff(mu_speed), -0.0127 * c_r * 3 * np.log10(2.0), rtol=1e-12)
+
+
+def test_walther_viscosity_passes_through_its_two_points():
+    np.testing.assert_allclose(walther_viscosity(220.0, 19.0, [40.0, 100.0]), [220.0, 19.0])
+    assert 19.0 < walther_viscosity(220.0, 19.0, 70.0) < 220.0
+
+
+def test_lubricated_efficiency_rises_with_speed_and_converges():
+    effs = []
+    for rpm in (300.0, 3000.0):
+        friction = Friction(
+            mesh=0.1,
+            groove=0.1,
+            pins="fixed",
+            lubricant=Lubricant(220.0, 19.0, 60.0),
+            speed=2 * np.pi * rpm / 60,
+        )
+        d = solve_drive(TABLE1, TPM, None, 250.0, REV, friction=friction)
+        mu = d.friction["friction_coefficient"][d.pin_load > 0]
+        assert np.all((mu >= 0) & (mu <= 0.1))
+        loss = np.sum(d.friction["power_loss_tooth"])
+        p_out = 250.0 * friction.speed / TABLE1.teeth * REV.size
+        effs.append(p_out / (p_out + loss))
+        # the fixed point: re-solving with the coefficients found changes nothing
+        mu_all = d.friction["friction_coefficient"]
+        assert np.isfinite(mu_all).all()
+    assert effs[1] > effs[0]
+
+
+def test_friction_is_refused_with_the_fe_disc_body_and_bad_coefficients():
+    with pytest.raises(DesignError, match="mesh_coefficient"):
+        Friction(mesh=1.5)
+    with pytest.raises(DesignError, match="pins"):
+        Friction(pins="floating")
+
+
+def test_the_model_refuses_friction_where_a_solver_does_not_model_it():
+    """Model.friction reaches every solver through check(): the stage's equilibrium and the
+    one-disc fast path refuse it in one line; all coefficients 0 is no friction."""
+    from cyclomesh.core.case import Case, Model, check
+    from cyclomesh.core.ltca import ltca
+
+    case = Case(TABLE1, TPM, None, 250.0, [0.0])
+    friction = Friction(mesh=0.05, groove=0.05)
+    with pytest.raises(DesignError, match=r"stage.*not coupled with friction"):
+        check(case, Model(stage=object(), friction=friction))
+    with pytest.raises(DesignError, match="ltca: the one-disc fast path is frictionless"):
+        ltca(case, Model(friction=friction))
+    assert check(case, Model(friction=Friction())).friction is None
+    assert ltca(case, Model(friction=Friction())).pin_load.shape[-1] == TABLE1.pins
+
+
+def test_loop_hysteresis_grows_linearly_with_the_coefficient():
+    from cyclomesh.drive.solve import torsion_curve
+
+    phi = np.deg2rad(np.arange(0.0, 9.0, 3.0))
+    widths = []
+    for mu in (0.0, 0.002, 0.004, 0.008):
+        curve = torsion_curve(TABLE1, TPM, None, 250.0, phi, points=5, friction=Friction(mu, mu))
+        if mu == 0.0:
+            plain = torsion_curve(TABLE1, TPM, None, 250.0, phi, points=5)
+            np.testing.assert_array_equal(curve.rotation, plain.rotation)
+            assert curve.hysteresis is None
+            continue
+        assert np.all(curve.hysteresis > 0)
+        widths.append(curve.hysteresis)
+    np.testing.assert_allclose(widths[1] / widths[0], 2.0, rtol=2e-3)
+    np.testing.assert_allclose(widths[2] / widths[0], 4.0, rtol=5e-3)
+
+
+def test_backdriving_is_less_efficient_when_the_input_side_loses_most():
+    """Friction on the input side (the crank bearing) is the classic case: η_b < η_f
+    (η_b = 2 − 1/η_f for a loss independent of the sense); pins alone are the reverse."""
+    friction = Friction(mesh=0.01, groove=0.01, bearing=0.02, bearing_diameter=0.04, speed=SPEED)
+    eff = []
+    for back in (False, True):
+        d = solve_drive(TABLE1, TPM, None, 250.0, REV, friction=friction, backdrive=back)
+        f = d.friction
+        loss = np.sum(f["power_loss_tooth"] + f["power_loss_groove"]) + np.sum(
+            f["power_loss_bearing"]
+        )
+        p_out = 250.0 * SPEED / TABLE1.teeth * REV.size
+        eff.append(p_out / (p_out + loss) if not back else (p_out - loss) / p_out)
+    forward, backward = eff
+    assert backward < forward < 1.0

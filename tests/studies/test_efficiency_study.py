@@ -1,0 +1,151 @@
+"""Friction through the study file: run, stiffness and cyclomesh efficiency end to end;
+the one speed key."""
+
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from cyclomesh.cli import app
+from cyclomesh.exceptions import StudyError
+from cyclomesh.studyfile import load_study
+
+PAIR = """
+[design]
+pins = 40
+pin_circle_radius_mm = 82.0
+pin_radius_mm = 3.5
+groove_radius_mm = 3.505
+eccentricity_mm = 1.5
+width_mm = 12.0
+[modification]
+pin_radius_um = 8.0
+[analysis]
+crank_start_deg = 0.0
+crank_stop_deg = 9.0
+crank_step_deg = 3.0
+"""
+FRICTION = """
+[friction]
+mesh_coefficient = 0.08
+groove_coefficient = 0.08
+pins = "fixed"
+bearing_coefficient = 0.0025
+bearing_diameter_mm = 40.0
+"""
+
+
+def _write(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "study.toml"
+    path.write_text('title = "f"\n' + text)
+    return path
+
+
+def _invoke(*args: str) -> None:
+    result = CliRunner().invoke(app, [*args, "--figures", "none", "--quiet"])
+    assert result.exit_code == 0, result.output
+
+
+def test_run_reports_efficiency_and_losses_with_units(tmp_path):
+    path = _write(tmp_path, PAIR + FRICTION + "[load]\ninput_speed_rpm = 1000.0\n")
+    _invoke("run", str(path), "--out", str(tmp_path / "out"))
+    doc = json.loads((tmp_path / "out" / "summary.json").read_text())
+    case = doc["cases"][0]
+    assert 0.8 < case["efficiency"] < 1.0 and 0.8 < case["backdrive_efficiency"] < 1.0
+    loss = case["power_loss_w"]
+    assert loss["pin_tooth"] > 0 and loss["crank_bearings"] > 0 and loss["pin_groove"] == 0
+    assert loss["output_mechanism"] is None
+    total = sum(v for v in loss.values() if v is not None)
+    assert case["input_power_w"] - case["output_power_w"] == pytest.approx(total, rel=1e-12)
+    assert case["input_speed_rpm"] == 1000.0
+    assert doc["units"]["power_loss_w"] == "W" and doc["units"]["efficiency"] == "1"
+    import xarray as xr
+
+    ds = xr.open_dataset(tmp_path / "out" / case["results"])
+    for name in ("friction_force", "sliding_velocity_tooth", "power_loss_tooth"):
+        assert ds[name].dims == ("crank_angle", "pin") and "units" in ds[name].attrs
+    assert ds["instantaneous_efficiency"].dims == ("crank_angle",)
+
+
+def test_stiffness_reports_the_loop(tmp_path):
+    text = PAIR + FRICTION + "[stiffness]\nrated_torque_nm = 250.0\npoints = 5\n"
+    _invoke("stiffness", str(_write(tmp_path, text)), "--out", str(tmp_path / "out"))
+    case = json.loads((tmp_path / "out" / "summary.json").read_text())["cases"][0]
+    assert case["hysteresis_arcmin_max"] > 0
+
+
+def test_efficiency_map_end_to_end(tmp_path):
+    text = (
+        PAIR
+        + FRICTION
+        + """
+[efficiency]
+torque_nm = { start = 50.0, stop = 250.0, points = 3 }
+input_speed_rpm = { start = 500.0, stop = 1500.0, points = 2 }
+[requirements]
+min_efficiency = 0.99
+"""
+    )
+    out = tmp_path / "out"
+    _invoke("efficiency", str(_write(tmp_path, text)), "--out", str(out))
+    case = json.loads((out / "summary.json").read_text())["cases"][0]
+    assert 0.8 < case["rated_efficiency"] <= case["peak_efficiency"] < 1.0
+    assert case["rated_torque_nm"] == 250.0 and case["rated_speed_rpm"] == 1500.0
+    rows = {r["check"]: r for r in case["checks"]["rows"]}
+    assert rows["min_efficiency"]["verdict"] == "fail"
+    import xarray as xr
+
+    ds = xr.open_dataset(out / case["results"])
+    assert ds["efficiency"].dims == ("torque", "input_speed")
+    assert ds["power_loss"].sizes["path"] == 3
+    from cyclomesh.quantities import QUANTITIES  # every number a registry row, its unit
+
+    units = json.loads((out / "summary.json").read_text())["units"]
+    for key in case.keys() - {"name", "results", "checks"}:
+        assert key in QUANTITIES and units[key] == QUANTITIES[key].unit, key
+    for name in ds.data_vars:
+        assert ds[name].attrs["units"] == QUANTITIES[name].unit, name
+
+
+def test_efficiency_needs_friction_and_its_section(tmp_path):
+    result = CliRunner().invoke(
+        app, ["efficiency", str(_write(tmp_path, PAIR)), "--out", str(tmp_path / "o")]
+    )
+    assert result.exit_code == 2 and "[efficiency]" in result.output
+
+
+def test_one_speed_key(tmp_path):
+    stage = """
+[design.disc]
+crank_holes = 3
+crank_hole_circle_radius_mm = 45.0
+crank_hole_radius_mm = 10.0
+[stage.crank_bearing]
+rollers = 10
+roller_diameter_mm = 4.0
+roller_length_mm = 9.0
+"""
+    study = load_study(_write(tmp_path, PAIR + stage + "[load]\ninput_speed_rpm = 780.0\n"))
+    assert study.inputs[0].stage.output_speed == pytest.approx(20.0)  # 780/39
+    study = load_study(_write(tmp_path, PAIR + stage))
+    assert study.inputs[0].stage.output_speed == 15.0  # the default, unchanged
+    bad = PAIR + stage + "output_speed_rpm = 30.0\n[load]\ninput_speed_rpm = 780.0\n"
+    bad = bad.replace(
+        "[stage.crank_bearing]", "[stage]\noutput_speed_rpm = 30.0\n[stage.crank_bearing]"
+    )
+    bad = bad.replace("roller_length_mm = 9.0\noutput_speed_rpm = 30.0", "roller_length_mm = 9.0")
+    with pytest.raises(StudyError, match="disagrees with load.input_speed_rpm"):
+        load_study(_write(tmp_path, bad))
+
+
+def test_friction_section_refusals(tmp_path):
+    with pytest.raises(StudyError, match="bearing_diameter_mm"):
+        load_study(_write(tmp_path, PAIR + "[friction]\nbearing_coefficient = 0.01\n"))
+    lub = "[friction]\nmesh_coefficient = 0.1\ngroove_coefficient = 0.1\n[friction.lubricant]\n"
+    with pytest.raises(StudyError, match="grade"):
+        load_study(_write(tmp_path, PAIR + lub + "grade = 221\n"))
+    with pytest.raises(StudyError, match="one of them"):
+        load_study(_write(tmp_path, PAIR + lub + "temperature_c = 50.0\n"))
+    with pytest.raises(StudyError, match="caps"):
+        load_study(_write(tmp_path, PAIR + "[friction]\n[friction.lubricant]\ngrade = 220\n"))
