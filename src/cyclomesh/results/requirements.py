@@ -45,6 +45,7 @@ __all__ = [
     "peak_stress_warning",
     "jam_row",
     "jam_warning",
+    "jams",
     "min_play_arcmin",
     "verdict_counts",
     "SHORT",
@@ -330,6 +331,20 @@ def min_play_arcmin(ds: Any) -> float | None:
     return float(np.nanmin(values)) * factor
 
 
+#: A play below minus this is a jam [arcmin]. The play is a difference of two rest
+#: positions of tens of arcsec, so a pair with zero clearance (the unmodified profile of
+#: Table 2, case 4) gives a play of round-off size, about ±1e-9 arcmin, not a jam; 1e-6
+#: arcmin (0.3 nrad, an overlap of 0.02 nm at the pin circle) is far above that and far
+#: below any overlap that matters.
+JAM_TOLERANCE_ARCMIN = 1e-6
+
+
+def jams(play_arcmin: float | None) -> bool:
+    """Whether the smallest play at zero load [arcmin] means the pins jam the disc
+    (below ``-JAM_TOLERANCE_ARCMIN``; a play of round-off size is a zero play)."""
+    return play_arcmin is not None and play_arcmin < -JAM_TOLERANCE_ARCMIN
+
+
 def jam_row(play_arcmin: float) -> dict[str, Any]:
     """Verdict row of the smallest play at zero load: negative fails (the pins jam the
     disc: at rest the disc overlaps the pins of the other flank, so the loaded results
@@ -343,7 +358,7 @@ def jam_row(play_arcmin: float) -> dict[str, Any]:
         play_arcmin,
         "negative play: the pins jam the disc; enlarge the clearance of [modification] "
         "or reduce [errors]"
-        if play_arcmin < 0
+        if jams(play_arcmin)
         else "the pins do not jam the disc",
     )
     row["margin_pct"] = None  # of a zero limit
@@ -352,7 +367,7 @@ def jam_row(play_arcmin: float) -> dict[str, Any]:
 
 def jam_warning(play_arcmin: float | None) -> str | None:
     """The warning of a negative play at zero load (None if it is not negative)."""
-    if play_arcmin is None or play_arcmin >= 0:
+    if not jams(play_arcmin):
         return None
     return (
         f"negative play at zero load ({play_arcmin:.4g} arcmin): the pins jam the disc, "

@@ -18,6 +18,7 @@ from cyclomesh.results.requirements import (
     checks_rows,
     design_warnings,
     jam_row,
+    jams,
     min_play_arcmin,
     peak_stress_warning,
     verdict_counts,
@@ -59,7 +60,7 @@ def case_checks(
         if row is not None:
             rows.append(row)
     play = min_play_arcmin(ds)
-    if play is not None and play < 0:  # the pins jam the disc: a failing row
+    if jams(play):  # the pins jam the disc: a failing row
         rows.append(jam_row(play))
     return {
         "rows": rows,
