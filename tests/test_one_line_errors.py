@@ -146,3 +146,24 @@ def test_an_overlapping_pin_names_the_key_and_the_amount(tmp_path):
     done = cyclomesh("run", "s.toml", "--out", "o", "-q", "--figures", "none", cwd=tmp_path)
     line = only_error_line(done)
     assert "by 8 µm" in line and "raise modification.pin_radius_um (Δρ) by at least 8 µm" in line
+
+
+def test_a_forked_worker_that_catches_ctrl_c_stays_silent():
+    """A worker forked before its initializer ignores SIGINT inherits the command's
+    handler; Ctrl-C there must neither write the command's line a second time nor
+    touch the staging folder: the process that installed the handler does both."""
+    script = (
+        "import os, signal, sys\n"
+        "from cyclomesh.cli.errors import _one_line_interrupt\n"
+        "with _one_line_interrupt():\n"
+        "    child = os.fork()\n"
+        "    if child == 0:\n"
+        "        os.kill(os.getpid(), signal.SIGINT)\n"
+        "        os._exit(0)\n"
+        "    _, status = os.waitpid(child, 0)\n"
+        "    print(os.waitstatus_to_exitcode(status))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "130\n"
+    assert done.stderr == ""

@@ -105,6 +105,8 @@ def quiet_logs() -> None:
 
 
 INTERRUPTED = "error: interrupted (Ctrl-C): --out is left as it was\n"
+_HANDLER_PID = [0]
+"""The process that installed :func:`_interrupted` (forked workers inherit it)."""
 
 
 def _interrupted(signum: int, frame: Any) -> None:
@@ -112,11 +114,15 @@ def _interrupted(signum: int, frame: Any) -> None:
 
     Not a ``KeyboardInterrupt``: raised in the middle of an import that another thread
     waits for (the import preload), that can leave the import lock held and the command
-    hung. Worker processes die with this one (``PR_SET_PDEATHSIG``)."""
+    hung. Worker processes die with this one (``PR_SET_PDEATHSIG``). A worker forked
+    before its initializer ignores SIGINT inherits this handler: it leaves quietly, so
+    the command's one line is written once, by the command's own process."""
     import os
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C does not cut this short
+    if os.getpid() != _HANDLER_PID[0]:  # a forked worker: its parent speaks and cleans up
+        os._exit(EXIT_INTERRUPTED)
     from cyclomesh.output.folder import abandon_active
 
     with suppress(Exception):
@@ -135,6 +141,9 @@ def _one_line_interrupt() -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    import os
+
+    _HANDLER_PID[0] = os.getpid()
     previous = signal.signal(signal.SIGINT, _interrupted)
     try:
         yield
