@@ -272,6 +272,9 @@ CHANGE.update(
         "efficiency.rated_torque_nm": 120.0,
         "efficiency.rated_speed_rpm": 700.0,
         "design_space.min_efficiency": 0.999,
+        "design_space.min_stage_l10_h": 1e9,
+        "design_space.min_stage_rigidity_nm_per_arcmin": 1e9,
+        "design_space.max_stage_lost_motion_arcmin": 1e-6,
     }
 )
 FRICTION = {
@@ -328,7 +331,7 @@ CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
     **{("design", k): ROBUST for k in schema_keys() if k.startswith("tolerance.")},
     **{
         (kind, k): STAGE
-        for kind in ("run", "stiffness")
+        for kind in ("run", "stiffness", "design")
         for k in schema_keys()
         if k.startswith(("stage.", "design.disc."))
     },
@@ -339,14 +342,22 @@ CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
         if k.startswith("friction.")
     },
     ("design", "design_space.min_efficiency"): FRICTION,
+    **{
+        ("design", f"design_space.{k}"): STAGE
+        for k in (
+            "min_stage_l10_h",
+            "min_stage_rigidity_nm_per_arcmin",
+            "max_stage_lost_motion_arcmin",
+        )
+    },
 }
 
 
 def change_table(key: str, kind: str = "run") -> dict[str, Any]:
     """The nested table that sets ``key`` to its test value."""
-    if key.startswith("design.disc.") and kind not in ("run", "stiffness"):
+    if key.startswith("design.disc.") and kind not in ("run", "stiffness", "design"):
         return {"design": {"disc": dict(HOLES)}}
-    if key.startswith("stage.") and kind not in ("run", "stiffness"):
+    if key.startswith("stage.") and kind not in ("run", "stiffness", "design"):
         whole = {  # a valid [stage.crankshaft] / [stage.carrier] around the key
             "stage.crankshaft.": {"stage": {"crankshaft": SHAFT}},
             "stage.carrier.": {"stage": {"crankshaft": SHAFT, "carrier": PILLARS}},
@@ -392,7 +403,7 @@ def merge(base: dict[str, Any], change: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-for _kind in ("run", "stiffness"):
+for _kind in ("run", "stiffness", "design"):
     for _key in schema_keys():
         if _key.startswith("stage.crankshaft."):
             CONTEXT[(_kind, _key)] = merge(

@@ -114,7 +114,6 @@ def test_stage_needs_the_crank_holes(tmp_path):
             "[tolerance]\nseed = 1\nrings = 4\nallowable_contact_stress_mpa = 2000.0\n"
             'radial_um = { distribution = "uniform", half_range = 4.0 }\n',
         ),
-        ("design", "[design_space]\npin_radius_um = { start = 1.0, stop = 4.0, points = 3 }\n"),
     ],
 )
 def test_other_studies_refuse_stage_rather_than_ignore_it(tmp_path, command, section):
@@ -142,3 +141,96 @@ def test_one_disc_stage_and_its_figure(tmp_path):
     assert (out / "figures" / "crank_bearing_loads.png").exists()
     fig = plot_crank_bearing_loads({"one disc": ds})
     assert len(fig.axes) == 1 and len(fig.axes[0].lines) == 3
+
+
+STAGE_MAP = """
+[design_space]
+pin_radius_um = { start = 2.0, stop = 6.0, points = 3 }
+max_stage_lost_motion_arcmin = 1.3
+objective = "stage_rigidity"
+"""
+
+
+def _stage_map_study(tmp_path: Path, space: str) -> Path:
+    text = EXAMPLE.read_text()
+    text = text[: text.index("[[cases]]")]
+    text = text.replace("crank_step_deg = 1.0", "crank_start_deg = 0.0\ncrank_stop_deg = 6.0\n"
+                        "crank_step_deg = 3.0")  # fmt: skip
+    study = tmp_path / "map.toml"
+    study.write_text(text + space)
+    return study
+
+
+def test_design_map_with_the_stage_metrics(tmp_path):
+    from cyclomesh.core.case import Case, Model
+    from cyclomesh.core.pair import Modification
+    from cyclomesh.stage.solve import bearing_life, stage_torsion
+    from cyclomesh.studyfile.schema import load_study
+
+    study = _stage_map_study(tmp_path, STAGE_MAP)
+    out = tmp_path / "out"
+    result = invoke("design", str(study), "--out", str(out), "--figures", "none")
+    assert result.exit_code == 0, result.output
+    ds = xr.open_dataset(out / "design.nc")
+    rig = ds["stage_torsional_rigidity_nm_per_arcmin_min"]
+    assert rig.attrs["units"] == "N·m/arcmin"
+    assert ds["stage_l10_h_min"].attrs["units"] == "h"
+    assert ds["stage_lost_motion_arcmin_max"].attrs["units"] == "arcmin"
+    # the optimum is the stiffest feasible candidate (a maximised objective)
+    feasible = ds["feasible"].values.astype(bool)
+    assert feasible.any()
+    best = float(ds.attrs["optimum_pin_radius_um"])
+    assert float(rig.sel(pin_radius_um=best)) == np.max(rig.values[feasible])
+    lost = ds["stage_lost_motion_arcmin_max"].values
+    assert np.array_equal(feasible, lost <= 1.3)
+    # each metric is the stage's own torsion curve and life, recomputed for a candidate
+    base = load_study(study).base
+    inputs = base.to_core()
+    dr = 4.0
+    curve = stage_torsion(
+        Case(
+            inputs.design,
+            Modification(pin_radius=dr * 1e-6),
+            None,
+            412.0,
+            np.deg2rad(base.analysis.crank_angles_deg()),
+        ),
+        Model("half_plane", True, "rigid", 2, inputs.stage),
+        points=2,
+    )
+    arcmin = np.pi / (180 * 60)
+    cell = ds.sel(pin_radius_um=dr)
+    assert float(cell["stage_torsional_rigidity_nm_per_arcmin_min"]) == pytest.approx(
+        np.min(curve.torsional_rigidity) * arcmin, rel=1e-12
+    )
+    assert float(cell["stage_lost_motion_arcmin_max"]) == pytest.approx(
+        np.max(curve.lost_motion) / arcmin, rel=1e-12
+    )
+    at = int(np.flatnonzero(curve.stage.torque == 412.0)[0])
+    hours = bearing_life(curve.stage, inputs.stage, 40)[2][at]
+    assert float(cell["stage_l10_h_min"]) == pytest.approx(np.min(hours), rel=1e-12)
+    # more play (a larger Δρ) costs lost motion
+    assert np.all(np.diff(lost) > 0)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["constraints"] == {"max_stage_lost_motion_arcmin": 1.3}
+    assert "[stage.crank_bearing]" in (out / "best.toml").read_text()
+
+
+def test_design_map_stage_limits_and_refusals(tmp_path):
+    space = STAGE_MAP.replace("max_stage_lost_motion_arcmin = 1.3", "min_stage_l10_h = 1e9")
+    out = tmp_path / "out"
+    result = invoke(
+        "design", str(_stage_map_study(tmp_path, space)), "--out", str(out), "--figures", "none"
+    )
+    assert result.exit_code == 0, result.output
+    ds = xr.open_dataset(out / "design.nc")
+    assert not ds["feasible"].values.any()
+    assert set(ds["reason"].values.tolist()) == {"min_stage_l10 violated"}
+    # a stage objective without [stage]: one line, exit 2
+    text = (Path(__file__).resolve().parents[1] / "studies" / "test_design_cli.py").read_text()
+    plain = text[text.index('title = "small'): text.index('objective = "max')]  # fmt: skip
+    study = tmp_path / "plain.toml"
+    study.write_text(plain + 'objective = "stage_l10"\n')
+    result = invoke("design", str(study), "--out", str(tmp_path / "o2"))
+    assert result.exit_code == 2, result.output
+    assert "needs the RV stage: add [stage]" in result.output

@@ -136,7 +136,7 @@ USED: dict[str, tuple[str, ...]] = {
         "requirements.tolerance_percentile",
     ),
     "allocate": (*_LTCA, "tolerance"),
-    "design": (*_LTCA, *_RINGS, "design_space", "friction", *_CHECKED),
+    "design": (*_LTCA, *_RINGS, "design_space", "friction", "stage", "design.disc", *_CHECKED),
     "fe": (
         *_PAIR,
         *_OUTPUT,
@@ -182,7 +182,7 @@ NEEDS: dict[str, dict[str, tuple[str, str]]] = {
             "or remove [design.disc] (docs/stage.md)",
         )
     }
-    for kind in ("run", "stiffness")
+    for kind in ("run", "stiffness", "design")
 }
 """Keys a kind uses only together with another (key → (needed key, refusal))."""
 
@@ -223,8 +223,6 @@ REFUSED: dict[str, dict[str, str]] = {
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "design": {
-        "design.disc": _HOLES,
-        "stage": _stage("design"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
