@@ -234,3 +234,28 @@ def test_design_map_stage_limits_and_refusals(tmp_path):
     result = invoke("design", str(study), "--out", str(tmp_path / "o2"))
     assert result.exit_code == 2, result.output
     assert "needs the RV stage: add [stage]" in result.output
+
+
+@pytest.mark.parametrize(
+    "errors, warned",
+    [
+        ("hole_error_radial_um = [0.0, 4.0, 0.0]\n", True),  # > 2.5 µm left after the pose
+        ("hole_error_radial_um = [0.0, 1.0, 0.0]\n", False),  # within the free travel
+        ("hole_error_tangential_um = 8.0\n", False),  # only turns the disc
+    ],
+)
+def test_hole_errors_beyond_the_clearance_are_warned(tmp_path, errors, warned):
+    text = EXAMPLE.read_text()
+    text = text[: text.index("[[cases]]")].replace(
+        "rated_torque_nm = 412.0\n", "rated_torque_nm = 412.0\n" + errors, 1
+    )
+    text = text.replace("crank_step_deg = 1.0", "crank_step_deg = 30.0")
+    study = tmp_path / "s.toml"
+    study.write_text(text)
+    out = tmp_path / "o"
+    result = invoke("run", str(study), "--out", str(out), "--figures", "none")
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    text = " ".join(summary["warnings"])
+    assert ("preloaded at zero torque" in text) is warned
+    assert ("preloaded at zero torque" in " ".join(result.output.split())) is warned

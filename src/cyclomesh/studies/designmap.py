@@ -151,7 +151,7 @@ def compute_design(
     space = study.file.design_space
     if space is None:
         raise StudyError(f"{study.path.name}: no [design_space] section")
-    from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
+    from cyclomesh.studyfile.warnings import has_pin_errors, stage_warning, study_warnings
 
     base = study.base.to_core()
     if np.ndim(base.torque):
@@ -171,7 +171,7 @@ def compute_design(
         angles,
         bool(space.rings) or has_pin_errors(base.errors_um, study.base.errors.eccentricity_um),
         "rings drawn from [tolerance]" if space.rings else "pin errors",
-    )
+    ) + [w for w in (stage_warning(base),) if w]
     try:
         ds = design_map(
             base.design,
