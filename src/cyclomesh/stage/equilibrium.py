@@ -59,6 +59,12 @@ FORCE_TOLERANCE = 1e-12
 """Accepted residual of every equilibrium equation, relative to T/r_c (moments /r_c)."""
 _MAX_ITERATIONS = 200
 _MAX_HALVINGS = 60
+_REACH = 0.5
+"""Largest pin approach a line-search trial may reach, as a fraction of the stiffest point
+of the contact law γ·exp(α/γ − 1) (about 0.8 mm here, against µm under load): a longer
+trial step is halved. Near the stiffest point dδ/dF → 0 and the law's inversion
+(:func:`~cyclomesh.core.hertz.force_from_approach`) converges too slowly; a wild first
+step at a light torque with pin errors reached it and failed the solve."""
 
 
 # --- the bearing law with its optional series spring ---------------------------------
@@ -154,7 +160,7 @@ class _Problem:
     ny: FloatArray
     alpha: FloatArray
     gamma: FloatArray
-    dmax: FloatArray  # largest approach of the contact law, (A, D, n1)
+    dmax: FloatArray  # largest approach a trial may reach (_REACH of the law's), (A, D, n1)
     hx: FloatArray  # (A, N) hole centres from the disc centre, fixed frame
     hy: FloatArray
     ex: FloatArray  # (A, D, N) hole errors, fixed frame
@@ -547,7 +553,7 @@ def _problem(
         ny=np.concatenate([mesh.normal_y, np.where(usable_o, -_mirrored(other.normal_y), 0)], -1),
         alpha=alpha,
         gamma=gamma,
-        dmax=np.where(np.isfinite(dmax), dmax * (1.0 - 1e-9), np.inf),
+        dmax=np.where(np.isfinite(dmax), dmax * _REACH, np.inf),
         hx=hx,
         hy=hy,
         ex=ex,
