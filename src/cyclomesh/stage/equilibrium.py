@@ -184,20 +184,17 @@ class _Problem:
         return _Problem(**kw)
 
 
-def _pins(p: _Problem, theta: FloatArray, ux: FloatArray, uy: FloatArray):
+def _pins(p: _Problem, theta: FloatArray, ux: FloatArray | None, uy: FloatArray | None):
     """Pin approach, force, stiffness, energy; None where an approach leaves the law.
 
     The law is evaluated only where a pin closes (δ > 0; most pins of a crank angle are
     open), each element by the same arithmetic as on the whole array.
     """
     usable = np.isfinite(p.bl)
-    delta = np.where(
-        usable,
-        p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
-        + p.nx * ux[..., None]
-        + p.ny * uy[..., None],
-        -1.0,
-    )
+    delta = p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
+    if ux is not None:  # None: no translation (adding n·0 would change no bit)
+        delta = delta + p.nx * ux[..., None] + p.ny * uy[..., None]
+    delta = np.where(usable, delta, -1.0)
     delta = np.maximum(delta, 0.0)
     bad = np.any(delta >= p.dmax, axis=(-2, -1))
     closed = np.flatnonzero((delta > 0.0) & (delta < p.dmax))
@@ -238,20 +235,22 @@ def _evaluate(
     """
     c, theta, ux, uy = _unpack(x, discs)
     n, m = x.shape
-    F, k, U, bad = _pins(p, theta, ux, uy)
+    # rigid: u = 0 exactly, and only the rotations' rows of g and H enter the reduced
+    # problem (the others are multiplied by 0 there), so they are left 0
+    F, k, U, bad = _pins(p, theta, None if rigid else ux, None if rigid else uy)
     energy = np.sum(U, axis=(-2, -1)) - p.torque * c
     L = p.scale
     hessian = hessian and gradient
     g = np.zeros((n, m)) if gradient else None
     H = np.zeros((n, m, m)) if hessian else None
     # pins: a = (θ_d: l/L, ux: nx, uy: ny) in scaled unknowns
-    cols = [p.arm / L, p.nx, p.ny]
+    cols = [p.arm / L] if rigid else [p.arm / L, p.nx, p.ny]
     for d in range(discs if gradient else 0):
         base = 1 + 3 * d
         for a_i, col in enumerate(cols):
             g[:, base + a_i] += np.sum(F[:, d] * col[:, d], axis=-1)
             if hessian:
-                for b_i in range(a_i, 3):
+                for b_i in range(a_i, len(cols)):
                     v = np.sum(k[:, d] * col[:, d] * cols[b_i][:, d], axis=-1)
                     H[:, base + a_i, base + b_i] += v
                     if b_i != a_i:
@@ -656,7 +655,7 @@ def solve_direction(
         ux, uy = dx.mean(-1), dy.mean(-1)
         # turn each disc so that its pins keep (in the least-squares sense, weighted by
         # their stiffness) the approach of the rigid solution despite the translation
-        _, k_pin, _, _ = _pins(prob, x[:, 1::3], np.zeros_like(ux), np.zeros_like(uy))
+        _, k_pin, _, _ = _pins(prob, x[:, 1::3], None, None)
         shift = prob.nx * ux[..., None] + prob.ny * uy[..., None]
         weight = np.sum(k_pin * prob.arm * prob.arm, -1)
         turn = -np.sum(k_pin * prob.arm * shift, -1) / np.where(weight > 0, weight, np.inf)
