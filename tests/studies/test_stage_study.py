@@ -106,25 +106,6 @@ def test_stage_needs_the_crank_holes(tmp_path):
     assert "set [design.disc] crank_holes" in result.output
 
 
-@pytest.mark.parametrize(
-    "command, section",
-    [
-        (
-            "tolerance",
-            "[tolerance]\nseed = 1\nrings = 4\nallowable_contact_stress_mpa = 2000.0\n"
-            'radial_um = { distribution = "uniform", half_range = 4.0 }\n',
-        ),
-    ],
-)
-def test_other_studies_refuse_stage_rather_than_ignore_it(tmp_path, command, section):
-    study = tmp_path / "s.toml"
-    text = EXAMPLE.read_text()
-    study.write_text(text[: text.index("[[cases]]")] + section)
-    result = invoke(command, str(study), "--out", str(tmp_path / "o"))
-    assert result.exit_code == 2, result.output
-    assert "[stage] is not taken by cyclomesh" in result.output
-
-
 def test_one_disc_stage_and_its_figure(tmp_path):
     from cyclomesh.figures.stage import plot_crank_bearing_loads
 
@@ -259,3 +240,101 @@ def test_hole_errors_beyond_the_clearance_are_warned(tmp_path, errors, warned):
     text = " ".join(summary["warnings"])
     assert ("preloaded at zero torque" in text) is warned
     assert ("preloaded at zero torque" in " ".join(result.output.split())) is warned
+
+
+STAGE_TOLERANCE = """
+[tolerance]
+seed = 3
+rings = 4
+allowable_contact_stress_mpa = 1850.0
+crank_step_deg = 10.0
+radial_um = { distribution = "uniform", half_range = 2.0 }
+angular_urad = { distribution = "uniform", half_range = 20.0 }
+hole_radial_um = { distribution = "uniform", half_range = 3.0 }
+hole_tangential_um = { distribution = "normal", sigma = 2.0 }
+
+[tolerance.allocation]
+factor_max = 2.0
+factor_steps = 2
+bisections = 1
+"""
+
+
+def _stage_tolerance_study(tmp_path: Path, extra: str = STAGE_TOLERANCE) -> Path:
+    text = EXAMPLE.read_text()
+    study = tmp_path / "tol.toml"
+    study.write_text(text[: text.index("[[cases]]")] + extra)
+    return study
+
+
+def test_tolerance_with_the_stage_draws_hole_errors_and_reports_the_bearings(tmp_path):
+    study = _stage_tolerance_study(tmp_path)
+    out = tmp_path / "out"
+    result = invoke("tolerance", str(study), "--out", str(out), "--figures", "none")
+    assert result.exit_code == 0, result.output
+    assert "stage: weakest ring" in " ".join(result.output.split())
+    ds = xr.open_dataset(out / "tolerance_rings.nc")
+    units = {
+        "stage_l10_h_min": "h",
+        "stage_lost_motion_arcmin_max": "arcmin",
+        "stage_max_crank_bearing_load_n": "N",
+        "stage_max_contact_stress_mpa": "MPa",
+    }
+    for name, unit in units.items():
+        assert ds[name].attrs["units"] == unit
+        assert np.all(np.isfinite(ds[name].values)) and np.all(ds[name].values > 0)
+    summary = json.loads((out / "tolerance_summary.json").read_text())
+    loads = summary["metrics"]["stage_max_crank_bearing_load_n"]
+    assert [p["percent"] for p in loads["percentiles"]][:3] == [5.0, 50.0, 95.0]
+    weakest = summary["stage_worst_ring"]
+    life = ds["stage_l10_h_min"].values
+    assert weakest["stage_l10_h_min"] == np.min(life)
+    assert weakest["ring"] == int(ds["ring"].values[np.argmin(life)])
+    # the worst ring's study file reruns the ring: its hole errors and pin errors
+    # are written bit for bit, so cyclomesh run gives the same stage numbers
+    k = summary["worst_ring"]["ring"]
+    rerun = tmp_path / "rerun"
+    result = invoke("run", str(out / "worst_ring.toml"), "--out", str(rerun), "--figures", "none")
+    assert result.exit_code == 0, result.output
+    case = json.loads((rerun / "summary.json").read_text())["cases"][0]
+    for name in units:
+        assert case[name] == float(ds[name].sel(ring=k)), name
+    # hole errors move the stage's numbers (not the mesh's on rigid bearings)
+    plain = _stage_tolerance_study(
+        tmp_path, "".join(
+            line + "\n" for line in STAGE_TOLERANCE.splitlines() if not line.startswith("hole_")
+        )
+    )  # fmt: skip
+    out2 = tmp_path / "plain"
+    assert invoke("tolerance", str(plain), "--out", str(out2), "--figures", "none").exit_code == 0
+    ds2 = xr.open_dataset(out2 / "tolerance_rings.nc")
+    np.testing.assert_array_equal(
+        ds2["max_contact_stress_mpa"].values, ds["max_contact_stress_mpa"].values
+    )
+    assert not np.array_equal(ds2["stage_l10_h_min"].values, life)
+
+
+def test_allocation_with_the_stage_scales_the_hole_errors_too(tmp_path):
+    out = tmp_path / "out"
+    result = invoke(
+        "allocate", str(_stage_tolerance_study(tmp_path)), "--out", str(out), "--figures", "none"
+    )
+    assert result.exit_code == 0, result.output
+    ds = xr.open_dataset(out / "allocation_rings.nc")
+    assert "stage_max_contact_stress_mpa" in ds and "stage_l10_h_min" in ds
+    # the criterion is the stage's stress: a ring not exceeding at f = 1 has f* > 1
+    above = ds["stage_max_contact_stress_mpa"].values > 1850.0
+    assert np.all(ds["critical_factor_upper"].values[above] <= 1.0)
+    assert np.all(ds["critical_factor_lower"].values[~above] >= 1.0)
+
+
+def test_hole_tolerances_need_the_stage(tmp_path):
+    text = EXAMPLE.read_text()
+    start = text.index("[stage]")
+    study = tmp_path / "s.toml"
+    body = text[:start].replace("[design.disc]", "[design.disc_unused]")
+    body = body[: body.index("[design.disc_unused]")] + body[body.index("[modification]") :]
+    study.write_text(body + STAGE_TOLERANCE)
+    result = invoke("tolerance", str(study), "--out", str(tmp_path / "o"))
+    assert result.exit_code == 2, result.output
+    assert "crank hole errors need the RV stage" in " ".join(result.output.split())

@@ -70,6 +70,12 @@ def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
             "load.torque_nm: tolerance studies take one torque (of the stack), not a list"
         )
     crank_range = spec.crank_range(base.analysis)
+    holes = [k for k in ("hole_radial_um", "hole_tangential_um") if getattr(spec, k) is not None]
+    if holes and (core.stage is None or core.stage.bearing is None):
+        raise StudyError(
+            f"tolerance.{holes[0]}: crank hole errors need the RV stage with its bearings: "
+            "add [stage] and [stage.crank_bearing] (docs/stage.md), or remove the key"
+        )
     return RingModel(
         design=core.design,
         modification=core.modification,
@@ -84,6 +90,12 @@ def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
         crank_range=crank_range,
         disc_body=resolve_disc_body(
             core.disc_body, core.design, core.modification, core.crank_holes
+        ),
+        stage=core.stage,
+        base_hole_errors_um=(
+            None
+            if base.stage is None
+            else (base.stage.hole_error_radial_um, base.stage.hole_error_tangential_um)
         ),
     )
 

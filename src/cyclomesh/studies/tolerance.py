@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cyclomesh.exceptions import StudyError
-from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STAGE_RING_METRICS, STRESS_METRIC
 from cyclomesh.studies.execute import StudyKind
 from cyclomesh.studies.rings import (
     Progress,
@@ -97,7 +97,7 @@ def metrics_dataset(
         arr = np.asarray(values)
         if arr.dtype == np.bool_:
             arr = arr.astype(np.int8)  # NetCDF has no boolean
-        metric = METRICS.get(name) or DRIVE_METRICS.get(name)
+        metric = METRICS.get(name) or DRIVE_METRICS.get(name) or STAGE_RING_METRICS.get(name)
         attrs_ = (
             {"units": metric.unit, "long_name": metric.long_name}
             if metric
@@ -148,7 +148,7 @@ def ring_statistics(
     jammed = jammed_rings(ds)
     runs = np.asarray(ds["jammed"].values) == 0 if "jammed" in ds else np.ones(n, dtype=bool)
     stats = {}
-    for name, metric in (METRICS | DRIVE_METRICS).items():
+    for name, metric in (METRICS | DRIVE_METRICS | STAGE_RING_METRICS).items():
         if name in ds and name != "any_overlap":
             stats[name] = {
                 "unit": metric.unit,
@@ -211,6 +211,29 @@ def ring_statistics(
             "std": "sample standard deviation (ddof = 1)",
         },
         "percentiles": list(PERCENTILES),
+        **_stage_worst(ds),
+    }
+
+
+def _stage_worst(ds: xr.Dataset) -> dict[str, Any]:
+    """With ``[stage]``: the ring whose weakest crank bearing has the shortest L10h (or,
+    without a bearing, the largest crank bearing load), the stage's worst ring."""
+    name, pick = ("stage_l10_h_min", np.nanargmin)
+    if name not in ds:
+        name, pick = ("stage_max_crank_bearing_load_n", np.nanargmax)
+    if name not in ds:
+        return {}
+    values = np.asarray(ds[name].values, dtype=float)
+    if not np.any(np.isfinite(values)):
+        return {"stage_worst_ring": None}
+    i = int(pick(values))
+    k = int(ds["ring"].values[i])
+    return {
+        "stage_worst_ring": {
+            "ring": k,
+            "by": name,
+            **{m: float(ds[m].values[i]) for m in STAGE_RING_METRICS if m in ds},
+        }
     }
 
 
@@ -259,6 +282,15 @@ def worst_ring_study(
         "angular_urad": [float(v) for v in total["angular_urad"][0]],
         "pin_radius_um": [float(v) for v in total["pin_radius_um"][0]],
     }
+    if model.stage is not None and base.get("stage"):
+        stage = dict(_drop_none(base["stage"]))
+        for key, name in (
+            ("hole_error_radial_um", "hole_radial_um"),
+            ("hole_error_tangential_um", "hole_tangential_um"),
+        ):
+            if name in total:
+                stage[key] = np.asarray(total[name][0], float).tolist()
+        sections["stage"] = stage
     header = "".join(f"# {line}\n" for line in note.splitlines())
     return header + toml_dumps(sections) + "\n"
 
@@ -439,7 +471,7 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
             f"{fmt_number(p['estimate'])} [{fmt_number(p['lower'])}, {fmt_number(p['upper'])}]"
             for p in s["percentiles"]
         ]
-        m = METRICS.get(name) or DRIVE_METRICS.get(name)
+        m = METRICS.get(name) or DRIVE_METRICS.get(name) or STAGE_RING_METRICS.get(name)
         label = name if m is None else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
         rows.append([label, fmt_number(s["mean"]), fmt_number(s["std"]), *pct])
     header = ["metric", "mean", "std"] + [f"P{p:g} [{conf:.0%} CI]" for p in stats["percentiles"]]
@@ -466,6 +498,15 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
             else "no ring jams."
         )
     )
+    stage = stats.get("stage_worst_ring")
+    if stage:
+        life = stage.get("stage_l10_h_min")
+        worst_text += (
+            f". RV stage: the weakest ring is {stage['ring']}"
+            + ("" if life is None else f" (L10h of its weakest crank bearing {life:.5g} h")
+            + f"{', ' if life is not None else ' ('}largest crank bearing load "
+            f"{stage['stage_max_crank_bearing_load_n']:.5g} N)"
+        )
     text = description_html(result.study) + (
         f"<p>{stats['rings']} rings, seed {stats['seed']}. Probability that the peak tooth "
         f"contact stress exceeds {stats['allowable_contact_stress_mpa']:g} MPa: "

@@ -130,6 +130,12 @@ class ToleranceSection(StrictSection):
     pin_radius_um: ErrorDistribution | None = None
     eccentricity_um: ErrorDistribution | None = None
     position: TruePosition | None = None
+    hole_radial_um: ErrorDistribution | None = Field(
+        None, description="crank hole position error, radial [µm], per disc and crank ([stage])"
+    )
+    hole_tangential_um: ErrorDistribution | None = Field(
+        None, description="crank hole position error, tangential [µm], per disc and crank"
+    )
     allocation: AllocationSection = AllocationSection()
 
     @model_validator(mode="after")
