@@ -240,6 +240,13 @@ def test_hole_errors_beyond_the_clearance_are_warned(tmp_path, errors, warned):
     text = " ".join(summary["warnings"])
     assert ("preloaded at zero torque" in text) is warned
     assert ("preloaded at zero torque" in " ".join(result.output.split())) is warned
+    if warned:  # the base's hole errors in a tolerance study too
+        study.write_text(study.read_text() + STAGE_TOLERANCE.replace("rings = 4", "rings = 1"))
+        out = tmp_path / "t"
+        result = invoke("tolerance", str(study), "--out", str(out), "--figures", "none")
+        assert result.exit_code == 0, result.output
+        summary = json.loads((out / "tolerance_summary.json").read_text())
+        assert "preloaded at zero torque" in " ".join(summary["warnings"])
 
 
 STAGE_TOLERANCE = """

@@ -104,9 +104,11 @@ def ring_warnings(model: RingModel) -> list[str]:
     """Warnings of a tolerance or allocation study (:mod:`cyclomesh.studyfile.warnings`)."""
     from cyclomesh.studyfile.warnings import study_warnings
 
-    return study_warnings(
+    out = study_warnings(
         model.contact_law, model.crank_angles_deg, True, "rings drawn from [tolerance]"
     )
+    stage = None if model.stage is None else model.stage.preload_warning(model.discs)
+    return out + ([stage] if stage else [])
 
 
 def ring_count(spec: ToleranceSection, rings: int | None) -> int:
