@@ -363,3 +363,22 @@ def test_stage_rings_do_not_depend_on_their_chunk(tmp_path):
     for name in one.data_vars:
         np.testing.assert_array_equal(one[name].values, three[name].values, strict=True)
     assert "stage_l10_h_min" in one
+
+
+def test_tolerance_with_the_stage_checks_its_requirements_on_the_percentiles(tmp_path):
+    extra = STAGE_TOLERANCE.replace("crank_step_deg = 10.0", "crank_step_deg = 30.0")
+    extra += "\n[requirements]\nmin_bearing_life_h = 6000.0\nmax_lost_motion_arcmin = 1.0\n"
+    out = tmp_path / "out"
+    study = _stage_tolerance_study(tmp_path, extra)
+    result = invoke("tolerance", str(study), "--out", str(out), "--figures", "none")
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "tolerance_summary.json").read_text())
+    ds = xr.open_dataset(out / "tolerance_rings.nc")
+    rows = {row["check"]: row for row in summary["checks"]["rows"]}
+    # a lower limit on P5 of the rings, an upper one on P95 (requirements.tolerance_percentile)
+    assert rows["min_bearing_life_h"]["value"] == pytest.approx(
+        np.percentile(ds["stage_l10_h_min"].values, 5.0), rel=1e-12
+    )
+    assert rows["max_lost_motion_arcmin"]["value"] == pytest.approx(
+        np.percentile(ds["stage_lost_motion_arcmin_max"].values, 95.0), rel=1e-12
+    )
