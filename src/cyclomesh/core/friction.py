@@ -97,6 +97,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.contact import contact_tangent
+from cyclomesh.core.loadsharing import column_sum
 from cyclomesh.exceptions import DesignError
 
 __all__ = [
@@ -109,6 +110,8 @@ __all__ = [
     "tangential_velocity",
     "normal_moment",
     "effective_coefficient",
+    "coefficients",
+    "FrictionBalance",
     "torque_arm",
     "input_torque",
     "pin_resultant",
@@ -337,24 +340,127 @@ def effective_coefficient(
     groove : ndarray of bool
         True where the pin rolls on the tooth and slides in its groove.
     """
+    speed = None if velocity is None else np.abs(np.asarray(velocity, float)) * friction.speed
+    mu, groove, _ = coefficients(friction, cos_beta, force, speed, width)
+    return mu, groove
+
+
+_BK_ELASTICITY = 0.0127 / math.log(10.0)
+"""F·dμ/dF of Benedict–Kelley's coefficient per unit C_R: μ ∝ log10 of the load [4]."""
+
+
+def coefficients(
+    friction: Friction,
+    cos_beta: ArrayLike,
+    force: ArrayLike | None = None,
+    speed: ArrayLike | None = None,
+    width: float | None = None,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """:func:`effective_coefficient` from the sliding speed |v·t|·ω [m/s], with the
+    coefficient's elasticity F·dμ_eff/dF [-] (0 for a Coulomb or a capped coefficient;
+    Benedict–Kelley's μ is 0.0127·C_R·log10 of the load, so F·dμ/dF = 0.0127·C_R/ln 10,
+    times cos β at the groove), which the Newton step of the load sharing needs
+    (:class:`FrictionBalance`)."""
     cos_beta = np.asarray(cos_beta, float)
     mesh = np.full(cos_beta.shape, float(friction.mesh))
     groove = friction.groove * cos_beta
+    el_mesh = el_groove = np.zeros(cos_beta.shape)
     if friction.lubricant is not None and force is not None:
         lub = friction.lubricant
-        speed = np.abs(np.asarray(velocity, float)) * friction.speed
         f = np.asarray(force, float)
+        speed = np.asarray(speed, float)
         loaded = (f > 0) & (speed > 0)
         w = np.where(loaded, f, 1.0) / width
         v = np.where(loaded, speed, 1.0)
         mu_tooth = benedict_kelley(w, v, v, lub.viscosity, lub.roughness)
         mu_groove = benedict_kelley(w * cos_beta, v, v, lub.viscosity, lub.roughness)
+        slope = _BK_ELASTICITY * 50.0 / (50.0 - lub.roughness * _UIN_PER_M)
+        free_tooth = loaded & (mu_tooth > 0.0) & (mu_tooth < mesh)
+        free_groove = loaded & (mu_groove > 0.0) & (mu_groove < friction.groove)
+        el_mesh = np.where(free_tooth, slope, 0.0)
+        el_groove = np.where(free_groove, slope * cos_beta, 0.0)
         mesh = np.where(loaded, np.clip(mu_tooth, 0.0, mesh), mesh)
         groove = np.where(loaded, np.clip(mu_groove, 0.0, friction.groove) * cos_beta, groove)
     if friction.pins == "fixed":
-        return mesh, np.zeros(mesh.shape, bool)
+        return mesh, np.zeros(mesh.shape, bool), el_mesh
     slides_in_groove = groove < mesh
-    return np.where(slides_in_groove, groove, mesh), slides_in_groove
+    return (
+        np.where(slides_in_groove, groove, mesh),
+        slides_in_groove,
+        np.where(slides_in_groove, el_groove, el_mesh),
+    )
+
+
+@dataclass(frozen=True)
+class FrictionBalance:
+    """The torque balance of a disc stack with load-dependent friction, for
+    :func:`cyclomesh.core.loadsharing.share_load` (its ``balance``): the lubricated
+    coefficient μ(F) at the pins and the crank bearing's moment M_b(|R|), R the resultant
+    of the pin forces on each disc, both functions of the pin loads and so of Δφ alone.
+
+        M(Δφ) = Σ F_i·(l_i + μ_i(F_i)·s_i·m_i) − s_b·Σ_k M_b(|R_k|),
+
+    dM/dΔφ = Σ dF_i·(l_i + s_i·m_i·(μ_i + F_i·dμ_i/dF)) − s_b·Σ_k dM_b,k, one Newton loop
+    with the compatibility (no fixed point on μ or M_b). Per-pin ``data``: ``arm`` l,
+    ``normal_moment`` m, ``sign`` s, ``speed`` |v·t|·ω [m/s] and ``cos_beta`` (lubricated),
+    else ``mu``; with a bearing ``normal_x``, ``normal_y`` and ``disc`` (index of the
+    pin's disc).
+
+    Parameters
+    ----------
+    friction : Friction
+    data : dict
+        The per-pin arrays above, broadcast against the backlash.
+    width : float
+        Face width [m] (lubricated coefficient).
+    discs : int
+        Number of discs in a row of the load sharing.
+    bearing_sense : float
+        s_b: +1 when the bearing's moment adds to the torque on the pins (module doc).
+    """
+
+    friction: Friction
+    data: dict
+    width: float = 0.0
+    discs: int = 1
+    bearing_sense: float = 1.0
+
+    def coefficient(self, force: FloatArray, data: dict) -> tuple[FloatArray, FloatArray]:
+        """μ_eff and F·dμ_eff/dF at the pins (:func:`coefficients`)."""
+        if "mu" in data:
+            return data["mu"], np.zeros(force.shape)
+        mu, _, elasticity = coefficients(
+            self.friction, data["cos_beta"], force, data["speed"], self.width
+        )
+        return mu, elasticity
+
+    def __call__(
+        self, force: FloatArray, dforce: FloatArray, data: dict
+    ) -> tuple[FloatArray, FloatArray]:
+        mu, elasticity = self.coefficient(force, data)
+        sm = data["sign"] * data["normal_moment"]
+        moment = column_sum(force * (data["arm"] + mu * sm))
+        slope = column_sum(dforce * (data["arm"] + sm * (mu + elasticity)))
+        if self.friction.bearing > 0:
+            tx, ty = contact_tangent(data["normal_x"], data["normal_y"])
+            tangential = -data["sign"] * mu * force  # on the disc, along t
+            dtangential = -data["sign"] * (mu + elasticity) * dforce
+            gx = -force * data["normal_x"] + tangential * tx
+            gy = -force * data["normal_y"] + tangential * ty
+            dgx = -dforce * data["normal_x"] + dtangential * tx
+            dgy = -dforce * data["normal_y"] + dtangential * ty
+            scale = 0.5 * self.friction.bearing * self.friction.bearing_diameter
+            for k in range(self.discs):
+                on = data["disc"] == k
+                rx = column_sum(np.where(on, gx, 0.0))
+                ry = column_sum(np.where(on, gy, 0.0))
+                load = np.hypot(rx, ry)
+                drx = column_sum(np.where(on, dgx, 0.0))
+                dry = column_sum(np.where(on, dgy, 0.0))
+                dload = (rx * drx + ry * dry) / np.where(load > 0, load, 1.0)
+                moment = moment - self.bearing_sense * scale * load
+                slope = slope - self.bearing_sense * scale * dload
+        return moment, slope
 
 
 def torque_arm(

@@ -19,13 +19,16 @@ References
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Protocol
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.hertz import force_from_approach
 from cyclomesh.exceptions import ConvergenceError
 
-__all__ = ["share_load", "TORQUE_TOLERANCE"]
+__all__ = ["share_load", "Balance", "column_sum", "TORQUE_TOLERANCE"]
 
 FloatArray = NDArray[np.float64]
 
@@ -34,7 +37,7 @@ TORQUE_TOLERANCE = 1e-12
 _MAX_ITERATIONS = 100
 
 
-def _column_sum(values: FloatArray) -> FloatArray:
+def column_sum(values: FloatArray) -> FloatArray:
     """Sum over the last axis, column after column.
 
     The candidate pins are padded to the widest case of the batch; numpy's pairwise
@@ -48,6 +51,21 @@ def _column_sum(values: FloatArray) -> FloatArray:
     return total
 
 
+class Balance(Protocol):
+    """A torque balance whose pin moments depend on the pin loads (a load-dependent
+    friction coefficient, a bearing moment from the pin resultant): ``data`` holds per-pin
+    arrays (broadcast against the backlash), handed back compacted to the candidate pins
+    of the cases still iterating; the call returns the pins' moment Σ F·l'(F) less any
+    load-dependent torque the pins also carry, per case, and its derivative with respect
+    to Δφ from ``dforce`` = dF/dΔφ (both shape (k,), summed with :func:`column_sum`)."""
+
+    data: Mapping[str, ArrayLike]
+
+    def __call__(
+        self, force: FloatArray, dforce: FloatArray, data: Mapping[str, FloatArray]
+    ) -> tuple[FloatArray, FloatArray]: ...
+
+
 def share_load(
     backlash: ArrayLike,
     moment_arm: ArrayLike,
@@ -56,6 +74,7 @@ def share_load(
     torque: ArrayLike,
     torque_arm: ArrayLike | None = None,
     start: ArrayLike | None = None,
+    balance: Balance | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Solve the statically indeterminate load sharing (Eqs. 15–18 of [1]).
 
@@ -80,6 +99,12 @@ def share_load(
         Newton's start Δφc, shape (...) [rad] (a nearby solution); None: the single-pin
         bound below. From the left of the root the first tangent step of the convex M
         lands right of it, from where it descends as usual.
+    balance : Balance, optional
+        A load-dependent torque balance (:class:`Balance`; friction with a lubricated
+        coefficient or a crank bearing, :class:`cyclomesh.core.friction.FrictionBalance`),
+        solved in the same Newton loop: M(Δφ) = balance(F(Δφ)) − T. ``torque_arm`` then
+        only sets the start and the candidate pins (give the smallest arm the pin can
+        have).
 
     Returns
     -------
@@ -156,11 +181,23 @@ def share_load(
     candidate = usable & (bl < x[:, None])
     if start is not None:
         x = np.broadcast_to(np.asarray(start, float), lead).reshape(-1).copy()
+    data = {}
+    if balance is not None:
+        data = {
+            key: np.broadcast_to(np.asarray(value, float), (*lead, n_pins)).reshape(-1, n_pins)
+            for key, value in balance.data.items()
+        }
     problem = (bl, arm, t_arm, alpha, gamma, torque)
-    x, force = _newton(x, candidate, *problem)
+    x, force = _newton(x, candidate, *problem, balance, data)
     late = np.flatnonzero(np.any(usable & ~candidate & (bl < x[:, None]), axis=-1))
     if late.size:  # friction-locked pins moved the root past a pin left out: all pins
-        x[late], force[late] = _newton(x[late], usable[late], *(v[late] for v in problem))
+        x[late], force[late] = _newton(
+            x[late],
+            usable[late],
+            *(v[late] for v in problem),
+            balance,
+            {key: value[late] for key, value in data.items()},
+        )
     return x.reshape(lead), force.reshape(*lead, n_pins)
 
 
@@ -173,10 +210,13 @@ def _newton(
     alpha: FloatArray,
     gamma: FloatArray,
     torque: FloatArray,
+    balance: Balance | None = None,
+    data: Mapping[str, FloatArray] | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Newton's method of :func:`share_load` on the candidate pins of each case, from
-    ``x`` (shape (k,)); the arrays are (k, n_pins) and ``torque`` (k,). Returns the
-    rotation and the forces of every pin (0 off the candidates)."""
+    ``x`` (shape (k,)); the arrays are (k, n_pins) and ``torque`` (k,), ``data`` the
+    balance's per-pin arrays. Returns the rotation and the forces of every pin (0 off
+    the candidates)."""
     x = x.copy()
     width = int(np.max(np.sum(candidate, axis=-1)))
     order = np.argsort(~candidate, axis=-1, kind="stable")[:, :width]
@@ -186,6 +226,7 @@ def _newton(
     c_alpha, c_gamma = take(alpha, order, -1), take(gamma, order, -1)
     c_ok = take(candidate, order, -1)
     c_bl = np.where(c_ok, c_bl, np.inf)
+    c_data = {key: take(value, order, -1) for key, value in (data or {}).items()}
 
     tol = TORQUE_TOLERANCE * torque
     active = np.ones(x.shape, bool)
@@ -196,13 +237,21 @@ def _newton(
         delta = np.maximum(xa[:, None] - c_bl[active], 0.0) * ca
         f = force_from_approach(delta, c_alpha[active], c_gamma[active])
         force[active] = f
-        resid = _column_sum(f * ta) - torque[active]
         # dM/dΔφ = Σ l·l'·dF/dδ, dδ/dF = α − γ − γ·ln F on the loaded pins
         engaged = f > 0
         with np.errstate(divide="ignore"):
             log_f = np.log(np.where(engaged, f, 1.0))
         dddf = c_alpha[active] - c_gamma[active] * (1.0 + log_f)
-        slope = _column_sum(np.where(engaged, ca * ta / dddf, 0.0))
+        if balance is None:
+            resid = column_sum(f * ta) - torque[active]
+            slope = column_sum(np.where(engaged, ca * ta / dddf, 0.0))
+        else:
+            moment, slope = balance(
+                f,
+                np.where(engaged, ca / dddf, 0.0),
+                {key: value[active] for key, value in c_data.items()},
+            )
+            resid = moment - torque[active]
         done = np.abs(resid) <= tol[active]
         step = np.where(done, 0.0, resid / np.where(slope > 0, slope, np.inf))
         idx = np.flatnonzero(active)
