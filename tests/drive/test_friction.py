@@ -282,3 +282,84 @@ def test_backdriving_is_less_efficient_when_the_input_side_loses_most():
         eff.append(p_out / (p_out + loss) if not back else (p_out - loss) / p_out)
     forward, backward = eff
     assert backward < forward < 1.0
+
+
+def _lever_split(drive, design, friction):
+    """Loss of the pins' friction split by the member whose motion makes the sliding, from
+    the geometry alone, summed over the angles [W]: the crank's (the disc centre O2 on its
+    circle: the friction force goes into the crank bearing, input side) and the disc's
+    spin about O2 (the friction moment about O2 goes into the disc's balance, output
+    side); plus the crank bearing's M_b·ω (input) and M_b·ω/n2 (output)."""
+    nx, ny = np.cos(drive.force_angle + np.pi), np.sin(drive.force_angle + np.pi)
+    force = drive.pin_load
+    angle = np.arange(design.pins) * design.pitch
+    cx, cy = design.pin_circle_radius * np.cos(angle), design.pin_circle_radius * np.sin(angle)
+    px, py = cx - design.pin_radius * nx, cy - design.pin_radius * ny
+    crank = drive.crank_angle[:, None]
+    ox = (design.eccentricity * np.cos(crank))[..., None]
+    oy = (design.eccentricity * np.sin(crank))[..., None]
+    w = friction.speed
+    crank_t = (-w * oy) * -ny + (w * ox) * nx  # v_O2·t per unit of the motion's sign
+    spin_t = (w / design.teeth) * ((py - oy) * -ny - (px - ox) * nx)  # (ω_d ẑ×(P−O2))·t
+    sliding = crank_t + spin_t
+    mu = drive.friction["friction_coefficient"]
+    # the motion's sign cancels: |v·t| = |crank_t + spin_t|, split in proportion
+    share = np.where(sliding != 0, 1.0 / np.where(sliding != 0, sliding, 1.0), 0.0)
+    loss = mu * force * np.abs(sliding)
+    crank_loss = np.sum(loss * crank_t * share)
+    spin_loss = np.sum(loss * spin_t * share)
+    bearing = np.sum(drive.friction["power_loss_bearing"]) / (1 + 1 / design.teeth)
+    return crank_loss + bearing, spin_loss + bearing / design.teeth
+
+
+def test_backdriving_efficiency_below_forward():
+    """Which of forward drive and back-driving is more efficient follows from where the
+    friction acts, as in a worm gear. With W = Σ F·l·ω/n2 the power of the pins' normal
+    forces, p and q the input-side (crank) and output-side (disc spin) losses over W,
+    forward P_out = W − L_out, P_in = W + L_in; backward P_out = W + L_out, the crank
+    receives W − L_in: η_f = (1 − q)/(1 + p), η_b = (1 − p)/(1 + q), so η_b < η_f exactly
+    when p > q (η_f − η_b = (p² − q²)/((1 + p)(1 + q)) for the same p, q both ways).
+
+    The classical case, a loss on the input side (the crank bearing turns at
+    ω(1 + 1/n2): n2/(n2 + 1) of its loss is the crank's): back-driving is less efficient,
+    and η_b = 2 − 1/η_f (a self-similar input loss) up to its output-side share.
+    The pins' sliding comes mostly from the disc's spin (|P − I| = m + n2·e·(−û·n) with
+    m > n2·e·(−û·n) here), q > p, and back-driving comes out slightly *more* efficient,
+    like a worm of lead angle above 45°: not a sign error, the mechanics of the reversed
+    power flow (the identities above are checked on the solver's powers)."""
+    p_out = 250.0 * SPEED / TABLE1.teeth * REV.size
+    cases = {
+        "crank bearing": Friction(bearing=0.005, bearing_diameter=0.04, speed=SPEED),
+        "fixed pins": Friction(mesh=0.05, pins="fixed", speed=SPEED),
+        "pins and bearing": Friction(
+            mesh=0.03, groove=0.03, bearing=0.01, bearing_diameter=0.04, speed=SPEED
+        ),
+    }
+    for name, friction in cases.items():
+        eff, levers = [], []
+        for back in (False, True):
+            d = solve_drive(TABLE1, None, None, 250.0, REV, friction=friction, backdrive=back)
+            f = d.friction
+            loss = np.sum(f["power_loss_tooth"] + f["power_loss_groove"])
+            loss = loss + np.sum(f["power_loss_bearing"])
+            eff.append(p_out / (p_out + loss) if not back else (p_out - loss) / p_out)
+            l_in, l_out = _lever_split(d, TABLE1, friction)
+            assert l_in + l_out == pytest.approx(loss, rel=1e-12)
+            # W from the pins' normal moment Σ F·l (torque_share), not from the losses:
+            # the friction moment about O2 is the spin's share of the loss, exactly
+            normal = np.sum(d.torque_share) * SPEED / TABLE1.teeth
+            assert normal == pytest.approx(p_out + l_out if not back else p_out - l_out, rel=1e-9)
+            levers.append((l_in / normal, l_out / normal))
+        forward, backward = eff
+        (p_f, q_f), (p_b, q_b) = levers
+        assert forward == pytest.approx((1 - q_f) / (1 + p_f), rel=1e-12), name
+        assert backward == pytest.approx((1 - p_b) / (1 + q_b), rel=1e-12), name
+        assert np.sign(forward - backward) == np.sign(p_f - q_f), name
+        if name == "fixed pins":
+            assert q_f > p_f and backward > forward
+        else:
+            assert p_f > q_f and backward < forward < 1.0, name
+        if name == "crank bearing":
+            assert q_f == pytest.approx(p_f / TABLE1.teeth, rel=1e-12)
+            # 2 − 1/η_f, up to the output-side share 1/(n2 + 1) of the loss: second order
+            assert abs(backward - (2 - 1 / forward)) < 0.1 * (1 - forward) ** 2
