@@ -363,3 +363,47 @@ def test_backdriving_efficiency_below_forward():
             assert q_f == pytest.approx(p_f / TABLE1.teeth, rel=1e-12)
             # 2 − 1/η_f, up to the output-side share 1/(n2 + 1) of the loss: second order
             assert abs(backward - (2 - 1 / forward)) < 0.1 * (1 - forward) ** 2
+
+
+@pytest.mark.parametrize("design", ["table1", "few pins"])
+def test_closed_form_of_malhotra_and_parameswaran_within_two_percent(design):
+    """The exact solve on the closed form's own assumptions (core.friction's
+    closed_form_efficiency: rigid, unmodified, no clearance, F ∝ l, i.e. equal linear
+    springs, fixed pins): the loss of Malhotra & Parameswaran's load distribution within
+    2 % (at μ = 1e-3, where the friction's own effect on the loads is 1e-4), and with
+    friction in the equilibrium the forward and back-driving efficiencies within 2 % of
+    their loss at μ = 0.08 (they come within 0.03 %: the sums over 40 or 16 pins against
+    the closed form's integrals)."""
+    from cyclomesh.core.friction import closed_form_efficiency
+    from cyclomesh.drive.friction import FrictionCoupling
+    from cyclomesh.drive.mesh import load_stack, stack_meshes
+
+    pair = (
+        TABLE1 if design == "table1" else dataclasses.replace(TABLE1, pins=16, eccentricity=0.004)
+    )
+    phi = np.deg2rad(np.linspace(0.0, 360.0 / (pair.pins - 1), 61)[:-1])
+    mesh, _ = stack_meshes(pair, Modification(), PinErrors(), phi, 1, False, True, False)
+    assert np.all(np.sum(mesh.backlash < 1e-9, axis=-1) >= pair.pins // 2 - 1)  # no clearance
+    linear = dataclasses.replace(
+        mesh, alpha=np.full_like(mesh.alpha, 1e-9), gamma=np.zeros_like(mesh.gamma)
+    )
+    p_out = 250.0 * SPEED / (pair.pins - 1)
+    geometry = (pair.pins, pair.pin_circle_radius, pair.pin_radius, pair.eccentricity)
+    for mu in (1e-3, 0.08):
+        friction = Friction(mesh=mu, pins="fixed", speed=SPEED)
+        for back in (False, True):
+            fields = load_stack(
+                linear, 250.0, FrictionCoupling(linear, friction, -1.0 if back else 1.0)
+            )
+            loss = np.mean(np.sum(fields["power_loss_tooth"], axis=(-2, -1)))
+            eff = (p_out - loss) / p_out if back else p_out / (p_out + loss)
+            exact = closed_form_efficiency(*geometry, mu, equilibrium=True, backdrive=back)
+            loaded = np.sum(fields["pin_load"] > 0, axis=-1)  # half the pins (less a tip's)
+            assert set(np.unique(loaded)) <= {pair.pins // 2 - 1, pair.pins // 2}
+            # 2 % of the loss asked; the sums over the pins meet the integrals to 0.03 %
+            assert abs(eff - exact) < 0.005 * (1 - exact), (mu, back)
+            if mu < 0.01 and not back:
+                classical = closed_form_efficiency(*geometry, mu)
+                assert (1 / eff - 1) == pytest.approx(1 / classical - 1, rel=0.02)
+    # the forward closed forms of the two assumptions differ by friction's effect on the loads
+    assert closed_form_efficiency(*geometry, 0.08, True) < closed_form_efficiency(*geometry, 0.08)

@@ -117,6 +117,7 @@ __all__ = [
     "pin_resultant",
     "contact_losses",
     "bearing_moment",
+    "closed_form_efficiency",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -514,3 +515,66 @@ def contact_losses(
 ) -> FloatArray:
     """Power lost at each pin contact [W]: μ_eff·F·|v_d·t|·ω."""
     return np.asarray(mu, float) * force * np.abs(velocity) * speed
+
+
+def closed_form_efficiency(
+    pins: int,
+    pin_circle_radius: float,
+    pin_radius: float,
+    eccentricity: float,
+    mu: float,
+    equilibrium: bool = False,
+    backdrive: bool = False,
+) -> float:
+    """Efficiency of a cycloid stage with fixed pins in closed form, on the assumptions of
+    Malhotra & Parameswaran [3]: rigid members, the unmodified profile with no clearance,
+    half the pins loaded with F_i ∝ l_i (their load distribution,
+    F_i = 4T/(z_c·K1·r_p)·sin θ_i/S_i, S_i = √(1 + K1² − 2·K1·cos θ_i), K1 = n1·e/r_p < 1),
+    Coulomb sliding μ at every pin, the pins' number large enough for the sums over the
+    pins to be integrals over θ ∈ (0, π).
+
+    The disc turns about the pitch point I (n1·e from the ring's centre) at ω/n2, so pin
+    i slides at (ω/n2)·|PI|, |PI| = r_p·S − r_rp, and its force's arm about the disc's
+    centre is l = n2·e·sin θ/S. With ∫ sin²θ/S² dθ = π/2 and ∫ sin θ·(r_p − r_rp/S) dθ =
+    2·(r_p − r_rp) over (0, π), the loss over the output power is
+
+        x = Σ μ·F·|PI| / Σ F·l = 4·μ·(r_p − r_rp)/(π·n2·e),   η = 1/(1 + x)
+
+    (``equilibrium=False``: the losses on the frictionless loads, as in [3]). This
+    continuum form of the per-pin sums of [3] is derived here, not quoted: the text of
+    the paper's own efficiency equation was not at hand.
+
+    ``equilibrium=True``: friction in the torque balance, as cyclomesh solves it. The loss
+    splits into the crank's share p (the friction force into the crank bearing) and the
+    disc spin's share q (its moment about the disc centre, arm m = |PI| − n2·e·(K1 −
+    cos θ)/S): p = −2·μ·J(K1)/π, q = x − p, J(K) = −1/K + (1 − K²)/(2K²)·ln((1 + K)/(1 − K))
+    (J < 0), and η_f = (1 − q)/(1 + p), η_b = (1 − p)/(1 + q) (``backdrive``).
+
+    Parameters
+    ----------
+    pins : int
+        n1 (the disc has n2 = n1 − 1 teeth).
+    pin_circle_radius, pin_radius, eccentricity : float
+        r_p, r_rp, e [m].
+    mu : float
+        Coulomb coefficient at the pins [-].
+    equilibrium, backdrive : bool
+
+    Returns
+    -------
+    float
+        The efficiency [-].
+    """
+    teeth = pins - 1
+    k1 = pins * eccentricity / pin_circle_radius
+    if not 0.0 < k1 < 1.0:
+        raise DesignError("closed form: K1 = n1·e/r_p must lie in (0, 1)")
+    x = 4.0 * mu * (pin_circle_radius - pin_radius) / (math.pi * teeth * eccentricity)
+    if not equilibrium:
+        if backdrive:
+            raise DesignError("closed form: back-driving needs friction in the equilibrium")
+        return 1.0 / (1.0 + x)
+    j = -1.0 / k1 + (1.0 - k1 * k1) / (2.0 * k1 * k1) * math.log((1.0 + k1) / (1.0 - k1))
+    p = -2.0 * mu * j / math.pi
+    q = x - p
+    return (1.0 - p) / (1.0 + q) if backdrive else (1.0 - q) / (1.0 + p)
