@@ -86,6 +86,12 @@ References
 [5] ASTM D341: viscosity–temperature relation of petroleum oils (Walther's equation).
 [6] SKF, Rolling bearings catalogue (2018), "Friction: estimating the frictional moment",
     M = 0.5·μ·P·d, μ ≈ 0.0025 for needle roller bearings.
+[7] D. Dowson, S. Toyoda, "A central film thickness formula for elastohydrodynamic line
+    contacts", Proc. 5th Leeds-Lyon Symposium on Tribology (1979) 60–65: H_c =
+    3.06·G^0.56·U^0.69·W^−0.1 (the Dowson–Higginson line-contact analysis).
+[8] B. J. Hamrock, S. R. Schmid, B. O. Jacobson, Fundamentals of Fluid Film Lubrication,
+    2nd ed., Marcel Dekker (2004): film parameter λ = h/σ, σ = √(σ1² + σ2²); boundary
+    λ < 1, mixed 1 ≤ λ ≤ 3, full film λ > 3.
 """
 
 from __future__ import annotations
@@ -112,6 +118,11 @@ __all__ = [
     "effective_coefficient",
     "coefficients",
     "FrictionBalance",
+    "Film",
+    "central_film_thickness",
+    "film_parameters",
+    "boundary_share",
+    "MIXED_RANGE",
     "torque_arm",
     "input_torque",
     "pin_resultant",
@@ -158,13 +169,23 @@ class Lubricant:
     temperature : float
         Oil (bulk) temperature [°C].
     roughness : float
-        Mean arithmetic roughness Ra of the two surfaces [m].
+        Mean arithmetic roughness Ra of the two surfaces [m] (Benedict–Kelley's S).
+    composite_roughness : float, optional
+        Composite roughness σ = √(σ1² + σ2²) of the two surfaces [m], the film parameter's
+        λ = h_c/σ; None: √2·``roughness`` (two surfaces of that roughness).
+    pressure_viscosity : float
+        Pressure–viscosity coefficient α [1/Pa] (Barus; 2e-8 for a mineral gear oil).
+    density : float
+        Oil density [kg/m³] (dynamic viscosity η0 = ρ·ν).
     """
 
     viscosity_40: float
     viscosity_100: float
     temperature: float = 40.0
     roughness: float = 0.4e-6
+    composite_roughness: float | None = None
+    pressure_viscosity: float = 2.0e-8
+    density: float = 880.0
 
     def __post_init__(self) -> None:
         if not (0 < self.viscosity_100 < self.viscosity_40):
@@ -179,11 +200,33 @@ class Lubricant:
                 "friction.lubricant.roughness_um must be ≥ 0 and below 1 µm "
                 "(the range of Benedict–Kelley's roughness factor)"
             )
+        if self.composite_roughness is not None and not (
+            math.isfinite(self.composite_roughness) and 0 < self.composite_roughness < 1e-5
+        ):
+            raise DesignError("friction.lubricant.composite_roughness_um must lie in (0, 10) µm")
+        if not (0 < self.pressure_viscosity < 1e-7):
+            raise DesignError(
+                "friction.lubricant.pressure_viscosity_per_gpa must lie in (0, 100) 1/GPa"
+            )
+        if not (500.0 <= self.density <= 2000.0):
+            raise DesignError("friction.lubricant.density_kg_m3 must lie in [500, 2000] kg/m³")
 
     @property
     def viscosity(self) -> float:
         """Kinematic viscosity at the oil temperature [cSt] (ASTM D341, [5])."""
         return float(walther_viscosity(self.viscosity_40, self.viscosity_100, self.temperature))
+
+    @property
+    def sigma(self) -> float:
+        """Composite roughness σ of the film parameter [m]."""
+        if self.composite_roughness is not None:
+            return self.composite_roughness
+        return math.sqrt(2.0) * self.roughness
+
+    @property
+    def dynamic_viscosity(self) -> float:
+        """η0 = ρ·ν at the oil temperature [Pa·s]."""
+        return self.density * self.viscosity * 1e-6
 
 
 def walther_viscosity(nu40: float, nu100: float, temperature_c: ArrayLike) -> FloatArray:
@@ -314,12 +357,112 @@ def tangential_velocity(
     return e * (np.cos(phi) * normal_x + np.sin(phi) * normal_y) - m / teeth
 
 
+def central_film_thickness(
+    load_per_width: ArrayLike,
+    mean_speed: ArrayLike,
+    radius: ArrayLike,
+    viscosity: float,
+    pressure_viscosity: float,
+    modulus: ArrayLike,
+) -> FloatArray:
+    """Central film thickness of a lubricated line contact [m], Dowson & Toyoda [7]:
+
+        h_c = 3.06·G^0.56·U^0.69·W^−0.1·R,
+        U = η0·u/(E'·R),  G = α·E',  W = w/(E'·R),
+
+    u the mean (entraining) speed (u1 + u2)/2, R the reduced radius of curvature, w the
+    load per unit length, E' = 2/((1 − ν1²)/E1 + (1 − ν2²)/E2) (twice the E* of
+    :func:`cyclomesh.core.hertz.effective_modulus`). Isothermal, fully flooded.
+
+    Parameters
+    ----------
+    load_per_width : array_like
+        w [N/m], > 0.
+    mean_speed : array_like
+        u [m/s], > 0.
+    radius : array_like
+        R [m], > 0.
+    viscosity : float
+        η0 at the oil temperature and ambient pressure [Pa·s].
+    pressure_viscosity : float
+        α [1/Pa].
+    modulus : array_like
+        E' [Pa].
+    """
+    e = np.asarray(modulus, float)
+    r = np.asarray(radius, float)
+    u = viscosity * np.asarray(mean_speed, float) / (e * r)
+    w = np.asarray(load_per_width, float) / (e * r)
+    return 3.06 * (pressure_viscosity * e) ** 0.56 * u**0.69 * w**-0.1 * r
+
+
+MIXED_RANGE = (1.0, 3.0)
+"""Film parameters λ bounding mixed lubrication: boundary below 1, full film above 3 (the
+classical regimes, Hamrock [8], Ch. 1)."""
+
+
+def boundary_share(film_parameter: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """Weight of boundary friction in the mixed regime [-] and its derivative dw/dλ.
+
+    1 below λ = 1, 0 above λ = 3, between them the smooth step 1 − (3t² − 2t³),
+    t = (λ − 1)/2, continuous with its slope (the Newton step of the load sharing uses
+    it). The smooth step is this model's interpolation between the regimes of [8], not a
+    published fit: μ = w·μ_boundary + (1 − w)·μ_EHL (:func:`coefficients`).
+    """
+    lam = np.asarray(film_parameter, float)
+    lo, hi = MIXED_RANGE
+    t = np.clip((lam - lo) / (hi - lo), 0.0, 1.0)
+    inside = (t > 0.0) & (t < 1.0)
+    return 1.0 - t * t * (3.0 - 2.0 * t), np.where(inside, -6.0 * t * (1.0 - t) / (hi - lo), 0.0)
+
+
+@dataclass(frozen=True)
+class Film:
+    """Geometry and elasticity of the pin contacts for the film thickness: reduced radii
+    of pin–tooth and pin–groove (Eqs. 22, 23 of [1], :func:`cyclomesh.core.hertz.pin_tooth_radius`,
+    :func:`~cyclomesh.core.hertz.pin_groove_radius`) [m], arrays broadcasting with the pins,
+    and E' of each pair [Pa]; ``width`` the contact length B [m]."""
+
+    tooth_radius: ArrayLike
+    groove_radius: ArrayLike
+    tooth_modulus: float
+    groove_modulus: float
+    width: float
+
+
+def film_parameters(
+    lubricant: Lubricant,
+    force: ArrayLike,
+    speed: ArrayLike,
+    cos_beta: ArrayLike,
+    film: Film,
+    tooth_radius: ArrayLike | None = None,
+    groove_radius: ArrayLike | None = None,
+) -> tuple[FloatArray, FloatArray]:
+    """Film parameters λ = h_c/σ of the pin–tooth and the pin–groove contact [-]
+    (:func:`central_film_thickness`, loads F and F·cos β per unit width, mean speed
+    |v·t|·ω/2: one surface slides on the other standing still); 0 where the pin carries
+    no load. ``tooth_radius``/``groove_radius`` override the film's (a subset of pins)."""
+    f = np.asarray(force, float)
+    v = np.asarray(speed, float)
+    loaded = (f > 0) & (v > 0)
+    w = np.where(loaded, f, 1.0) / film.width
+    u = 0.5 * np.where(loaded, v, 1.0)
+    rt = film.tooth_radius if tooth_radius is None else tooth_radius
+    rg = film.groove_radius if groove_radius is None else groove_radius
+    eta, alpha, sigma = lubricant.dynamic_viscosity, lubricant.pressure_viscosity, lubricant.sigma
+    h_t = central_film_thickness(w, u, np.abs(rt), eta, alpha, film.tooth_modulus)
+    h_g = central_film_thickness(w * cos_beta, u, np.abs(rg), eta, alpha, film.groove_modulus)
+    return np.where(loaded, h_t / sigma, 0.0), np.where(loaded, h_g / sigma, 0.0)
+
+
 def effective_coefficient(
     friction: Friction,
     cos_beta: ArrayLike,
     force: ArrayLike | None = None,
     velocity: ArrayLike | None = None,
     width: float | None = None,
+    film: Film | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Coefficients of the pin contacts: the one that acts on the disc, and whether the
     groove is the interface that slides.
@@ -333,6 +476,8 @@ def effective_coefficient(
         Pin load [N], tangential velocity of the disc per unit input speed [m/rad] and face
         width [m], for the lubricated coefficient (Benedict–Kelley [4] at the sliding
         interface, |v| = sliding = entrainment speed there, capped by the boundary value).
+    film : Film, optional
+        With a lubricant: the film parameter's mixed regime (:func:`coefficients`).
 
     Returns
     -------
@@ -342,7 +487,7 @@ def effective_coefficient(
         True where the pin rolls on the tooth and slides in its groove.
     """
     speed = None if velocity is None else np.abs(np.asarray(velocity, float)) * friction.speed
-    mu, groove, _ = coefficients(friction, cos_beta, force, speed, width)
+    mu, groove, _ = coefficients(friction, cos_beta, force, speed, width, film)
     return mu, groove
 
 
@@ -356,12 +501,20 @@ def coefficients(
     force: ArrayLike | None = None,
     speed: ArrayLike | None = None,
     width: float | None = None,
+    film: Film | None = None,
+    data: dict | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """:func:`effective_coefficient` from the sliding speed |v·t|·ω [m/s], with the
     coefficient's elasticity F·dμ_eff/dF [-] (0 for a Coulomb or a capped coefficient;
     Benedict–Kelley's μ is 0.0127·C_R·log10 of the load, so F·dμ/dF = 0.0127·C_R/ln 10,
     times cos β at the groove), which the Newton step of the load sharing needs
-    (:class:`FrictionBalance`)."""
+    (:class:`FrictionBalance`).
+
+    With ``film`` the film parameter λ of each interface (:func:`film_parameters`) sets
+    the regime: μ = w(λ)·μ_boundary + (1 − w(λ))·μ_BK (:func:`boundary_share`), boundary
+    friction below λ = 1, Benedict–Kelley's (capped) above 3; λ ∝ w^−0.1, so
+    F·dλ/dF = −0.1·λ. ``data`` may hold the film's radii for a subset of pins
+    (``tooth_radius``, ``groove_radius``)."""
     cos_beta = np.asarray(cos_beta, float)
     mesh = np.full(cos_beta.shape, float(friction.mesh))
     groove = friction.groove * cos_beta
@@ -380,8 +533,21 @@ def coefficients(
         free_groove = loaded & (mu_groove > 0.0) & (mu_groove < friction.groove)
         el_mesh = np.where(free_tooth, slope, 0.0)
         el_groove = np.where(free_groove, slope * cos_beta, 0.0)
-        mesh = np.where(loaded, np.clip(mu_tooth, 0.0, mesh), mesh)
-        groove = np.where(loaded, np.clip(mu_groove, 0.0, friction.groove) * cos_beta, groove)
+        bk_tooth = np.clip(mu_tooth, 0.0, mesh)
+        bk_groove = np.clip(mu_groove, 0.0, friction.groove)
+        if film is not None:  # the mixed regime by the film parameter
+            radii = {} if data is None else {k: data[k] for k in ("tooth_radius", "groove_radius")}
+            lam_t, lam_g = film_parameters(lub, f, speed, cos_beta, film, **radii)
+            w_t, dw_t = boundary_share(lam_t)
+            w_g, dw_g = boundary_share(lam_g)
+            el_mesh = (1.0 - w_t) * el_mesh + (mesh - bk_tooth) * dw_t * (-0.1 * lam_t)
+            el_groove = (1.0 - w_g) * el_groove + (
+                friction.groove - bk_groove
+            ) * cos_beta * dw_g * (-0.1 * lam_g)
+            bk_tooth = w_t * mesh + (1.0 - w_t) * bk_tooth
+            bk_groove = w_g * friction.groove + (1.0 - w_g) * bk_groove
+        mesh = np.where(loaded, bk_tooth, mesh)
+        groove = np.where(loaded, bk_groove * cos_beta, groove)
     if friction.pins == "fixed":
         return mesh, np.zeros(mesh.shape, bool), el_mesh
     slides_in_groove = groove < mesh
@@ -403,9 +569,9 @@ class FrictionBalance:
 
     dM/dΔφ = Σ dF_i·(l_i + s_i·m_i·(μ_i + F_i·dμ_i/dF)) − s_b·Σ_k dM_b,k, one Newton loop
     with the compatibility (no fixed point on μ or M_b). Per-pin ``data``: ``arm`` l,
-    ``normal_moment`` m, ``sign`` s, ``speed`` |v·t|·ω [m/s] and ``cos_beta`` (lubricated),
-    else ``mu``; with a bearing ``normal_x``, ``normal_y`` and ``disc`` (index of the
-    pin's disc).
+    ``normal_moment`` m, ``sign`` s, ``speed`` |v·t|·ω [m/s], ``cos_beta`` and with a
+    ``film`` its ``tooth_radius`` and ``groove_radius`` (lubricated), else ``mu``; with a
+    bearing ``normal_x``, ``normal_y`` and ``disc`` (index of the pin's disc).
 
     Parameters
     ----------
@@ -418,6 +584,8 @@ class FrictionBalance:
         Number of discs in a row of the load sharing.
     bearing_sense : float
         s_b: +1 when the bearing's moment adds to the torque on the pins (module doc).
+    film : Film, optional
+        The film parameter's mixed regime of the lubricated coefficient.
     """
 
     friction: Friction
@@ -425,13 +593,14 @@ class FrictionBalance:
     width: float = 0.0
     discs: int = 1
     bearing_sense: float = 1.0
+    film: Film | None = None
 
     def coefficient(self, force: FloatArray, data: dict) -> tuple[FloatArray, FloatArray]:
         """μ_eff and F·dμ_eff/dF at the pins (:func:`coefficients`)."""
         if "mu" in data:
             return data["mu"], np.zeros(force.shape)
         mu, _, elasticity = coefficients(
-            self.friction, data["cos_beta"], force, data["speed"], self.width
+            self.friction, data["cos_beta"], force, data["speed"], self.width, self.film, data
         )
         return mu, elasticity
 

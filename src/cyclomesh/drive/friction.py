@@ -30,17 +30,20 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cyclomesh.core.friction import (
+    Film,
     Friction,
     FrictionBalance,
     bearing_moment,
     contact_losses,
     effective_coefficient,
+    film_parameters,
     input_torque,
     normal_moment,
     pin_resultant,
     tangential_velocity,
     torque_arm,
 )
+from cyclomesh.core.hertz import pin_groove_radius, pin_tooth_radius
 from cyclomesh.core.loadsharing import share_load
 
 __all__ = ["FrictionCoupling", "FRICTION_FIELDS"]
@@ -55,6 +58,7 @@ FRICTION_FIELDS = {
     "power_loss_tooth": True,
     "power_loss_groove": True,
     "friction_coefficient": True,
+    "film_parameter": True,
     "input_torque": False,
     "power_loss_bearing": False,
 }
@@ -102,6 +106,24 @@ class FrictionCoupling:
         )
         return self.motion * v
 
+    def _film(self) -> Film:
+        """Reduced radii and E' of the pin contacts (:class:`~cyclomesh.core.friction.Film`)."""
+        design, geo = self.mesh.design, self.mesh.geo
+
+        def modulus(a, b) -> float:  # E' = 2/((1 − ν1²)/E1 + (1 − ν2²)/E2)
+            return 2.0 / (
+                (1 - a.poisson_ratio**2) / a.youngs_modulus
+                + (1 - b.poisson_ratio**2) / b.youngs_modulus
+            )
+
+        return Film(
+            pin_tooth_radius(geo.pin_radius, geo.curvature_radius),
+            pin_groove_radius(geo.pin_radius, design.groove_radius),
+            modulus(design.pin_material, design.disc_material),
+            modulus(design.pin_material, design.ring_material),
+            design.width,
+        )
+
     def _resultant(
         self, force: FloatArray, tangential: FloatArray
     ) -> tuple[FloatArray, FloatArray]:
@@ -134,6 +156,8 @@ class FrictionCoupling:
         bearing = self.friction.bearing > 0
         mu, groove = effective_coefficient(self.friction, geo.cos_beta)
         mu = np.broadcast_to(mu, shape).reshape(flat)
+        film = self._film() if lubricated else None
+        lam = np.zeros(shape)
         arm_cap = torque_arm(arm, m, mu, sign)  # the boundary (largest) coefficient
         moment = np.zeros(shape[:-1])  # (..., A, N): bearing friction moment on each disc
         if not (lubricated or bearing):
@@ -144,6 +168,8 @@ class FrictionCoupling:
                 speed = np.abs(velocity) * self.friction.speed
                 data["speed"] = speed.reshape(flat)
                 data["cos_beta"] = np.broadcast_to(geo.cos_beta, shape).reshape(flat)
+                data["tooth_radius"] = np.broadcast_to(film.tooth_radius, shape).reshape(flat)
+                data["groove_radius"] = np.broadcast_to(film.groove_radius, shape).reshape(flat)
             else:
                 data["mu"] = mu
             if bearing:
@@ -153,7 +179,7 @@ class FrictionCoupling:
                 index = np.arange(discs, dtype=float)[:, None]
                 data["disc"] = np.broadcast_to(index, shape).reshape(flat)
             balance = FrictionBalance(
-                self.friction, data, mesh.design.width, shape[-2], self._bearing_sense()
+                self.friction, data, mesh.design.width, shape[-2], self._bearing_sense(), film
             )
             # the start and the candidates from the smallest arm a pin can have
             loaded, force = share_load(
@@ -168,9 +194,17 @@ class FrictionCoupling:
             f = force.reshape(shape)
             if lubricated:
                 mu, groove = effective_coefficient(
-                    self.friction, geo.cos_beta, f, velocity, mesh.design.width
+                    self.friction, geo.cos_beta, f, velocity, mesh.design.width, film
                 )
                 mu = mu.reshape(flat)
+                lam_t, lam_g = film_parameters(
+                    self.friction.lubricant,
+                    f,
+                    np.abs(velocity) * self.friction.speed,
+                    geo.cos_beta,
+                    film,
+                )
+                lam = np.where(groove, lam_g, lam_t)
             if bearing:
                 rx, ry = self._resultant(f, -sign.reshape(shape) * mu.reshape(shape) * f)
                 moment = bearing_moment(self.friction, np.hypot(rx, ry))
@@ -180,6 +214,7 @@ class FrictionCoupling:
             "velocity": velocity,
             "sign": sign.reshape(shape),
             "bearing_moment": moment,  # those of the returned loads: the balance's own
+            "film_parameter": lam,
         }
         return loaded, force, state
 
@@ -213,6 +248,7 @@ class FrictionCoupling:
             "power_loss_tooth": np.where(groove, 0.0, loss),
             "power_loss_groove": np.where(groove, loss, 0.0),
             "friction_coefficient": mu,
+            "film_parameter": state["film_parameter"],
             "input_torque": t_in,
             "power_loss_bearing": moment * relative,
         }
