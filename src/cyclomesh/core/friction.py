@@ -117,6 +117,7 @@ __all__ = [
     "normal_moment",
     "effective_coefficient",
     "coefficients",
+    "lubrication_constants",
     "FrictionBalance",
     "Film",
     "central_film_thickness",
@@ -411,9 +412,9 @@ def boundary_share(film_parameter: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """
     lam = np.asarray(film_parameter, float)
     lo, hi = MIXED_RANGE
-    t = np.clip((lam - lo) / (hi - lo), 0.0, 1.0)
-    inside = (t > 0.0) & (t < 1.0)
-    return 1.0 - t * t * (3.0 - 2.0 * t), np.where(inside, -6.0 * t * (1.0 - t) / (hi - lo), 0.0)
+    t = np.minimum(np.maximum((lam - lo) * (1.0 / (hi - lo)), 0.0), 1.0)
+    one_minus = 1.0 - t
+    return 1.0 - t * t * (3.0 - 2.0 * t), (-6.0 / (hi - lo)) * t * one_minus
 
 
 @dataclass(frozen=True)
@@ -495,6 +496,36 @@ _BK_ELASTICITY = 0.0127 / math.log(10.0)
 """F·dμ/dF of Benedict–Kelley's coefficient per unit C_R: μ ∝ log10 of the load [4]."""
 
 
+def lubrication_constants(
+    friction: Friction,
+    cos_beta: ArrayLike,
+    speed: ArrayLike,
+    width: float,
+    film: Film | None = None,
+) -> dict[str, FloatArray]:
+    """The load-independent parts of the lubricated coefficient of every pin, at a load of
+    1 N: Benedict–Kelley's μ is 0.0127·C_R·log10 of the load, so μ_BK(F) = μ_BK(1 N) +
+    0.0127·C_R·log10 F, and the film parameter λ(F) = λ(1 N)·F^−0.1 (Dowson–Toyoda, w^−0.1).
+    Keys ``moving`` (1 where the contact slides), ``mu0_tooth``, ``mu0_groove`` and with a
+    film ``lam0_tooth``, ``lam0_groove``: per-pin arrays for :func:`coefficients` (the
+    Newton loop of the load sharing evaluates only F's logarithm per step)."""
+    lub = friction.lubricant
+    cos_beta = np.asarray(cos_beta, float)
+    speed = np.asarray(speed, float)
+    moving = speed > 0
+    v = np.where(moving, speed, 1.0)
+    out = {
+        "moving": np.broadcast_to(moving, np.broadcast_shapes(moving.shape, cos_beta.shape)),
+        "mu0_tooth": benedict_kelley(1.0 / width, v, v, lub.viscosity, lub.roughness)
+        + 0.0 * cos_beta,
+        "mu0_groove": benedict_kelley(cos_beta / width, v, v, lub.viscosity, lub.roughness),
+    }
+    if film is not None:
+        lam_t, lam_g = film_parameters(lub, np.ones(out["moving"].shape), speed, cos_beta, film)
+        out["lam0_tooth"], out["lam0_groove"] = lam_t, lam_g
+    return {key: np.asarray(value, float) for key, value in out.items()}
+
+
 def coefficients(
     friction: Friction,
     cos_beta: ArrayLike,
@@ -502,7 +533,7 @@ def coefficients(
     speed: ArrayLike | None = None,
     width: float | None = None,
     film: Film | None = None,
-    data: dict | None = None,
+    constants: dict | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """:func:`effective_coefficient` from the sliding speed |v·t|·ω [m/s], with the
     coefficient's elasticity F·dμ_eff/dF [-] (0 for a Coulomb or a capped coefficient;
@@ -513,39 +544,25 @@ def coefficients(
     With ``film`` the film parameter λ of each interface (:func:`film_parameters`) sets
     the regime: μ = w(λ)·μ_boundary + (1 − w(λ))·μ_BK (:func:`boundary_share`), boundary
     friction below λ = 1, Benedict–Kelley's (capped) above 3; λ ∝ w^−0.1, so
-    F·dλ/dF = −0.1·λ. ``data`` may hold the film's radii for a subset of pins
-    (``tooth_radius``, ``groove_radius``)."""
+    F·dλ/dF = −0.1·λ. ``constants``: those of :func:`lubrication_constants` (then
+    ``speed``, ``width`` and ``film`` are not read)."""
     cos_beta = np.asarray(cos_beta, float)
-    mesh = np.full(cos_beta.shape, float(friction.mesh))
-    groove = friction.groove * cos_beta
+    cap_t, cap_g = float(friction.mesh), float(friction.groove)
+    mesh = np.full(cos_beta.shape, cap_t)
+    groove = cap_g * cos_beta
     el_mesh = el_groove = np.zeros(cos_beta.shape)
     if friction.lubricant is not None and force is not None:
         lub = friction.lubricant
+        if constants is None:
+            constants = lubrication_constants(friction, cos_beta, speed, width, film)
         f = np.asarray(force, float)
-        speed = np.asarray(speed, float)
-        loaded = (f > 0) & (speed > 0)
-        w = np.where(loaded, f, 1.0) / width
-        v = np.where(loaded, speed, 1.0)
-        mu_tooth = benedict_kelley(w, v, v, lub.viscosity, lub.roughness)
-        mu_groove = benedict_kelley(w * cos_beta, v, v, lub.viscosity, lub.roughness)
+        loaded = (f > 0) & (constants["moving"] > 0)
+        log_f = np.log(np.where(loaded, f, 1.0))
         slope = _BK_ELASTICITY * 50.0 / (50.0 - lub.roughness * _UIN_PER_M)
-        free_tooth = loaded & (mu_tooth > 0.0) & (mu_tooth < mesh)
-        free_groove = loaded & (mu_groove > 0.0) & (mu_groove < friction.groove)
-        el_mesh = np.where(free_tooth, slope, 0.0)
-        el_groove = np.where(free_groove, slope * cos_beta, 0.0)
-        bk_tooth = np.clip(mu_tooth, 0.0, mesh)
-        bk_groove = np.clip(mu_groove, 0.0, friction.groove)
-        if film is not None:  # the mixed regime by the film parameter
-            radii = {} if data is None else {k: data[k] for k in ("tooth_radius", "groove_radius")}
-            lam_t, lam_g = film_parameters(lub, f, speed, cos_beta, film, **radii)
-            w_t, dw_t = boundary_share(lam_t)
-            w_g, dw_g = boundary_share(lam_g)
-            el_mesh = (1.0 - w_t) * el_mesh + (mesh - bk_tooth) * dw_t * (-0.1 * lam_t)
-            el_groove = (1.0 - w_g) * el_groove + (
-                friction.groove - bk_groove
-            ) * cos_beta * dw_g * (-0.1 * lam_g)
-            bk_tooth = w_t * mesh + (1.0 - w_t) * bk_tooth
-            bk_groove = w_g * friction.groove + (1.0 - w_g) * bk_groove
+        scale = np.exp(-0.1 * log_f) if "lam0_tooth" in constants else None
+        bk_tooth, el_mesh = _mixed(constants, "tooth", scale, log_f, cap_t, slope)
+        bk_groove, el_groove = _mixed(constants, "groove", scale, log_f, cap_g, slope)
+        el_groove = el_groove * cos_beta
         mesh = np.where(loaded, bk_tooth, mesh)
         groove = np.where(loaded, bk_groove * cos_beta, groove)
     if friction.pins == "fixed":
@@ -556,6 +573,33 @@ def coefficients(
         slides_in_groove,
         np.where(slides_in_groove, el_groove, el_mesh),
     )
+
+
+def _mixed(
+    constants: dict,
+    interface: str,
+    scale: FloatArray | None,
+    log_f: FloatArray,
+    cap: float,
+    slope: float,
+) -> tuple[FloatArray, FloatArray]:
+    """The lubricated coefficient of one interface and its elasticity F·dμ/dF
+    (:func:`coefficients`): Benedict–Kelley's capped at the boundary value, blended with it
+    by the film parameter's boundary share. Where every contact of the array is boundary
+    (λ ≤ 1) or full film (λ ≥ 3) the formulas reduce exactly to the cap or to
+    Benedict–Kelley's, and the rest is not evaluated (the Newton loop's hot path)."""
+    lam = None if scale is None else constants[f"lam0_{interface}"] * scale
+    lo, hi = MIXED_RANGE
+    if lam is not None and lam.size and lam.max() <= lo:
+        return np.full(log_f.shape, cap), np.zeros(log_f.shape)
+    mu = constants[f"mu0_{interface}"] + slope * log_f
+    bk = np.minimum(np.maximum(mu, 0.0), cap)
+    el = np.where((mu > 0.0) & (mu < cap), slope, 0.0)
+    if lam is not None and not (lam.size and lam.min() >= hi):
+        w, dw = boundary_share(lam)
+        el = (1.0 - w) * el - 0.1 * (cap - bk) * dw * lam
+        bk = bk + w * (cap - bk)
+    return bk, el
 
 
 @dataclass(frozen=True)
@@ -569,8 +613,8 @@ class FrictionBalance:
 
     dM/dΔφ = Σ dF_i·(l_i + s_i·m_i·(μ_i + F_i·dμ_i/dF)) − s_b·Σ_k dM_b,k, one Newton loop
     with the compatibility (no fixed point on μ or M_b). Per-pin ``data``: ``arm`` l,
-    ``normal_moment`` m, ``sign`` s, ``speed`` |v·t|·ω [m/s], ``cos_beta`` and with a
-    ``film`` its ``tooth_radius`` and ``groove_radius`` (lubricated), else ``mu``; with a
+    ``normal_moment`` m, ``sign`` s, ``cos_beta`` and the constants of
+    :func:`lubrication_constants` (lubricated), else ``mu``; with a
     bearing ``normal_x``, ``normal_y`` and ``disc`` (index of the pin's disc).
 
     Parameters
@@ -599,9 +643,15 @@ class FrictionBalance:
         """μ_eff and F·dμ_eff/dF at the pins (:func:`coefficients`)."""
         if "mu" in data:
             return data["mu"], np.zeros(force.shape)
-        mu, _, elasticity = coefficients(
-            self.friction, data["cos_beta"], force, data["speed"], self.width, self.film, data
-        )
+        # only the loaded pins: an unloaded one's μ multiplies a zero force (and dF = 0)
+        on = force > 0
+        keys = ("cos_beta", "moving", "mu0_tooth", "mu0_groove", "lam0_tooth", "lam0_groove")
+        sub = {key: data[key][on] for key in keys if key in data}
+        mu_on, _, el_on = coefficients(self.friction, sub["cos_beta"], force[on], constants=sub)
+        mu = np.zeros(force.shape)
+        elasticity = np.zeros(force.shape)
+        mu[on] = mu_on
+        elasticity[on] = el_on
         return mu, elasticity
 
     def __call__(

@@ -246,10 +246,11 @@ def _newton(
             resid = column_sum(f * ta) - torque[active]
             slope = column_sum(np.where(engaged, ca * ta / dddf, 0.0))
         else:
+            every = active.all()  # no copies while every case iterates
             moment, slope = balance(
                 f,
                 np.where(engaged, ca / dddf, 0.0),
-                {key: value[active] for key, value in c_data.items()},
+                c_data if every else {key: value[active] for key, value in c_data.items()},
             )
             resid = moment - torque[active]
         done = np.abs(resid) <= tol[active]

@@ -34,10 +34,11 @@ from cyclomesh.core.friction import (
     Friction,
     FrictionBalance,
     bearing_moment,
+    coefficients,
     contact_losses,
     effective_coefficient,
-    film_parameters,
     input_torque,
+    lubrication_constants,
     normal_moment,
     pin_resultant,
     tangential_velocity,
@@ -166,10 +167,16 @@ class FrictionCoupling:
             data = {"arm": arm, "normal_moment": m, "sign": sign}
             if lubricated:
                 speed = np.abs(velocity) * self.friction.speed
-                data["speed"] = speed.reshape(flat)
                 data["cos_beta"] = np.broadcast_to(geo.cos_beta, shape).reshape(flat)
-                data["tooth_radius"] = np.broadcast_to(film.tooth_radius, shape).reshape(flat)
-                data["groove_radius"] = np.broadcast_to(film.groove_radius, shape).reshape(flat)
+                constants = lubrication_constants(
+                    self.friction, geo.cos_beta, speed, mesh.design.width, film
+                )
+                constants = {
+                    key: np.broadcast_to(value, shape).reshape(flat)
+                    for key, value in constants.items()
+                }
+                constants["cos_beta"] = data["cos_beta"]
+                data.update(constants)
             else:
                 data["mu"] = mu
             if bearing:
@@ -192,19 +199,21 @@ class FrictionCoupling:
                 balance=balance,
             )
             f = force.reshape(shape)
-            if lubricated:
-                mu, groove = effective_coefficient(
-                    self.friction, geo.cos_beta, f, velocity, mesh.design.width, film
+            if lubricated:  # the coefficients and λ of the returned loads, as the loop had them
+                on = force > 0
+                sub = {key: value[on] for key, value in constants.items()}
+                mu_on, groove_on, _ = coefficients(
+                    self.friction, sub["cos_beta"], force[on], constants=sub
                 )
-                mu = mu.reshape(flat)
-                lam_t, lam_g = film_parameters(
-                    self.friction.lubricant,
-                    f,
-                    np.abs(velocity) * self.friction.speed,
-                    geo.cos_beta,
-                    film,
-                )
-                lam = np.where(groove, lam_g, lam_t)
+                mu = mu.copy()
+                mu[on] = mu_on
+                groove = np.array(np.broadcast_to(groove, shape)).reshape(flat)
+                groove[on] = groove_on
+                groove = groove.reshape(shape)
+                scale = force[on] ** -0.1
+                lam = np.zeros(flat)
+                lam[on] = np.where(groove_on, sub["lam0_groove"] * scale, sub["lam0_tooth"] * scale)
+                lam = lam.reshape(shape)
             if bearing:
                 rx, ry = self._resultant(f, -sign.reshape(shape) * mu.reshape(shape) * f)
                 moment = bearing_moment(self.friction, np.hypot(rx, ry))
