@@ -371,7 +371,8 @@ def test_tolerance_with_friction_gives_efficiency_statistics(cli, tmp_path):
     text = study.read_text(encoding="utf-8").replace(
         "[tolerance]\n",
         "[friction]\nmesh_coefficient = 0.08\ngroove_coefficient = 0.06\n"
-        "bearing_coefficient = 0.0025\nbearing_diameter_mm = 40.0\n\n[tolerance]\n",
+        "bearing_coefficient = 0.0025\nbearing_diameter_mm = 40.0\n\n"
+        "[requirements]\nmin_efficiency = 0.5\ntolerance_percentile = 90.0\n\n[tolerance]\n",
     )
     study.write_text(text, encoding="utf-8")
     out = tmp_path / "tol"
@@ -386,6 +387,8 @@ def test_tolerance_with_friction_gives_efficiency_statistics(cli, tmp_path):
     assert summary["percentiles"][:3] == [5.0, 50.0, 95.0]
     for p, q in zip(stats["percentiles"][:3], (5.0, 50.0, 95.0), strict=True):
         assert p["estimate"] == pytest.approx(np.percentile(eff, q), rel=1e-12)
+    (row,) = [r for r in summary["checks"]["rows"] if r["check"] == "min_efficiency"]
+    assert row["value"] == pytest.approx(np.percentile(eff, 10.0), rel=1e-12)  # P10: a minimum
     k = summary["worst_ring"]["ring"]
     rerun = invoke(cli, "run", out / "worst_ring.toml", "--out", tmp_path / "run", "-q")
     assert rerun.exit_code == 0, rerun.output
