@@ -561,10 +561,11 @@ def coefficients(
         slope = _BK_ELASTICITY * 50.0 / (50.0 - lub.roughness * _UIN_PER_M)
         scale = np.exp(-0.1 * log_f) if "lam0_tooth" in constants else None
         bk_tooth, el_mesh = _mixed(constants, "tooth", scale, log_f, cap_t, slope)
-        bk_groove, el_groove = _mixed(constants, "groove", scale, log_f, cap_g, slope)
-        el_groove = el_groove * cos_beta
         mesh = np.where(loaded, bk_tooth, mesh)
-        groove = np.where(loaded, bk_groove * cos_beta, groove)
+        if friction.pins != "fixed":  # a fixed pin never slides in a groove
+            bk_groove, el_groove = _mixed(constants, "groove", scale, log_f, cap_g, slope)
+            el_groove = el_groove * cos_beta
+            groove = np.where(loaded, bk_groove * cos_beta, groove)
     if friction.pins == "fixed":
         return mesh, np.zeros(mesh.shape, bool), el_mesh
     slides_in_groove = groove < mesh
@@ -645,7 +646,9 @@ class FrictionBalance:
             return data["mu"], np.zeros(force.shape)
         # only the loaded pins: an unloaded one's μ multiplies a zero force (and dF = 0)
         on = force > 0
-        keys = ("cos_beta", "moving", "mu0_tooth", "mu0_groove", "lam0_tooth", "lam0_groove")
+        keys = ("cos_beta", "moving", "mu0_tooth", "lam0_tooth")
+        if self.friction.pins != "fixed":
+            keys = (*keys, "mu0_groove", "lam0_groove")
         sub = {key: data[key][on] for key in keys if key in data}
         mu_on, _, el_on = coefficients(self.friction, sub["cos_beta"], force[on], constants=sub)
         mu = np.zeros(force.shape)
