@@ -468,3 +468,27 @@ def test_closed_form_of_malhotra_and_parameswaran_within_two_percent(design):
                 assert (1 / eff - 1) == pytest.approx(1 / classical - 1, rel=0.02)
     # the forward closed forms of the two assumptions differ by friction's effect on the loads
     assert closed_form_efficiency(*geometry, 0.08, True) < closed_form_efficiency(*geometry, 0.08)
+
+
+def test_lubrication_constants_are_the_formulas_at_one_newton():
+    """The per-pin constants of the Newton loop (logarithms taken apart) equal
+    Benedict–Kelley's coefficient and the film parameter of the formulas at F = 1 N."""
+    from cyclomesh.core.friction import Film, film_parameters, lubrication_constants
+
+    rng = np.random.default_rng(2)
+    lub = Lubricant(150.0, 14.7, 70.0, roughness=0.3e-6, composite_roughness=0.5e-6)
+    friction = Friction(mesh=0.2, groove=0.2, lubricant=lub)
+    cos_beta = rng.uniform(0.4, 1.0, 50)
+    speed = np.where(np.arange(50) % 7 == 0, 0.0, rng.uniform(0.01, 3.0, 50))
+    film = Film(rng.uniform(1e-3, 1e-2, 50), rng.uniform(0.5, 3.0, 50), 2.2e11, 2.1e11, 0.012)
+    c = lubrication_constants(friction, cos_beta, speed, 0.012, film)
+    moving = speed > 0
+    v = speed[moving]
+    tooth = benedict_kelley(1 / 0.012, v, v, lub.viscosity, lub.roughness)
+    groove = benedict_kelley(cos_beta[moving] / 0.012, v, v, lub.viscosity, lub.roughness)
+    np.testing.assert_allclose(c["mu0_tooth"][moving], tooth, rtol=1e-12)
+    np.testing.assert_allclose(c["mu0_groove"][moving], groove, rtol=1e-12)
+    lam_t, lam_g = film_parameters(lub, np.ones(50), speed, cos_beta, film)
+    np.testing.assert_allclose(c["lam0_tooth"], lam_t, rtol=1e-12)
+    np.testing.assert_allclose(c["lam0_groove"], lam_g, rtol=1e-12)
+    assert np.all(c["lam0_tooth"][~moving] == 0) and np.all(c["moving"] == moving)

@@ -513,17 +513,39 @@ def lubrication_constants(
     cos_beta = np.asarray(cos_beta, float)
     speed = np.asarray(speed, float)
     moving = speed > 0
-    v = np.where(moving, speed, 1.0)
+    shape = np.broadcast_shapes(moving.shape, cos_beta.shape)
+    log_v = np.log(np.where(moving, speed, 1.0))
+    log_cb = np.log(cos_beta)
+    # Benedict–Kelley [4] at F = 1 N, its logarithms taken apart (V_s = V_e = v):
+    # μ = k·[ln(3.17e8·w_us/ν0) − 3·ln v_us], k = 0.0127·C_R/ln 10, w_us = cos β/B [lbf/in]
+    k = _BK_ELASTICITY * 50.0 / (50.0 - lub.roughness * _UIN_PER_M)
+    base = math.log(3.17e8 * _LBF_PER_IN_PER_N_PER_M / (width * lub.viscosity))
+    mu0_tooth = k * (base - 3.0 * (log_v + math.log(_IN_PER_M)))
     out = {
-        "moving": np.broadcast_to(moving, np.broadcast_shapes(moving.shape, cos_beta.shape)),
-        "mu0_tooth": benedict_kelley(1.0 / width, v, v, lub.viscosity, lub.roughness)
-        + 0.0 * cos_beta,
-        "mu0_groove": benedict_kelley(cos_beta / width, v, v, lub.viscosity, lub.roughness),
+        "moving": np.broadcast_to(moving, shape),
+        "mu0_tooth": np.broadcast_to(mu0_tooth, shape),
+        "mu0_groove": mu0_tooth + k * log_cb,
     }
     if film is not None:
-        lam_t, lam_g = film_parameters(lub, np.ones(out["moving"].shape), speed, cos_beta, film)
-        out["lam0_tooth"], out["lam0_groove"] = lam_t, lam_g
-    return {key: np.asarray(value, float) for key, value in out.items()}
+        # Dowson–Toyoda [7] at F = 1 N (w = 1/B), u = v/2, over σ: the powers as exponentials,
+        # h_c = 3.06·α^0.56·E'^−0.03·η0^0.69·w^−0.1·u^0.69·R^0.41
+        log_u = log_v - math.log(2.0)
+
+        def lam0(radius: ArrayLike, modulus: float, log_w: ArrayLike) -> FloatArray:
+            const = math.log(
+                3.06
+                * lub.pressure_viscosity**0.56
+                * modulus**-0.03
+                * lub.dynamic_viscosity**0.69
+                / lub.sigma
+            )
+            log_r = np.log(np.abs(np.asarray(radius, float)))
+            return np.where(moving, np.exp(const - 0.1 * log_w + 0.69 * log_u + 0.41 * log_r), 0.0)
+
+        log_w = -math.log(width)
+        out["lam0_tooth"] = lam0(film.tooth_radius, film.tooth_modulus, log_w)
+        out["lam0_groove"] = lam0(film.groove_radius, film.groove_modulus, log_w + log_cb)
+    return {key: np.asarray(np.broadcast_to(value, shape), float) for key, value in out.items()}
 
 
 def coefficients(
