@@ -73,6 +73,13 @@ w the load per unit width [lbf/in], V_s the sliding and V_e the sum (entraining)
 load, slow speed) it exceeds boundary friction; the interface's Coulomb coefficient is
 then taken as the boundary value: μ = min(μ_BK, μ_boundary), and μ ≥ 0.
 
+The regime follows from the film parameter λ = h_c/σ (:func:`film_parameters`): the
+central film thickness of Dowson & Toyoda [7] from the Hertz geometry of the contact, σ
+the composite roughness. Boundary friction below λ = 1, Benedict–Kelley's (capped) above
+3 [8], and between them a smooth step of this model (:func:`boundary_share`). The
+coefficient is a function of the pin load; :class:`FrictionBalance` puts it, with the
+crank bearing's moment, into the Newton loop of the load sharing.
+
 References
 ----------
 [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672, doi:10.3390/machines10080672.
