@@ -76,6 +76,11 @@ def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
             f"tolerance.{holes[0]}: crank hole errors need the RV stage with its bearings: "
             "add [stage] and [stage.crank_bearing] (docs/stage.md), or remove the key"
         )
+    if core.stage is not None and core.friction is not None:
+        raise StudyError(
+            "[friction] is not coupled with the [stage] equilibrium yet: remove [friction] "
+            "(the stage's rings) or [stage] (the rings' efficiency)"
+        )
     return RingModel(
         design=core.design,
         modification=core.modification,
@@ -97,6 +102,7 @@ def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
             if base.stage is None
             else (base.stage.hole_error_radial_um, base.stage.hole_error_tangential_um)
         ),
+        friction=core.friction,
     )
 
 
