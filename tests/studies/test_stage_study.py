@@ -382,3 +382,11 @@ def test_tolerance_with_the_stage_checks_its_requirements_on_the_percentiles(tmp
     assert rows["max_lost_motion_arcmin"]["value"] == pytest.approx(
         np.percentile(ds["stage_lost_motion_arcmin_max"].values, 95.0), rel=1e-12
     )
+
+
+def test_tolerance_refuses_friction_with_the_stage(tmp_path):
+    extra = "\n[friction]\nmesh_coefficient = 0.05\ngroove_coefficient = 0.06\n" + STAGE_TOLERANCE
+    result = invoke("tolerance", str(_stage_tolerance_study(tmp_path, extra)), "--out",
+                    str(tmp_path / "o"))  # fmt: skip
+    assert result.exit_code == 2, result.output
+    assert "not coupled with the [stage] equilibrium" in " ".join(result.output.split())
