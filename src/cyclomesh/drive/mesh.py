@@ -21,10 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from cyclomesh.core.contact import UnloadedContact, contact_normal, unloaded_contact
+from cyclomesh.core.contact import UnloadedContact, unloaded_contact
 from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
 from cyclomesh.core.fields import CONTACT_FIELDS, contact_fields
-from cyclomesh.core.loadsharing import share_load
+from cyclomesh.core.kernel import share_load
 from cyclomesh.core.ltca import locate_failure, pin_compliance, rest_position
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.friction import FRICTION_FIELDS, FrictionCoupling
@@ -98,8 +98,9 @@ def stacked_contact(
     phi: FloatArray,
     discs: int,
 ) -> UnloadedContact:
-    """Unloaded contact of every disc of a stack, arrays (..., A, N, n1) (Eqs. 5–11)."""
-    raw = unloaded_contact(design, modification, errors, disc_angles(phi, discs))
+    """Unloaded contact of every disc of a stack, arrays (..., A, N, n1) (Eqs. 5–11), with
+    the outward flank normals in the fixed frame (computed once, with the contact)."""
+    raw = unloaded_contact(design, modification, errors, disc_angles(phi, discs), normals=True)
     return UnloadedContact(
         **{
             name: _stack(getattr(raw, name), discs, phi.size)
@@ -137,15 +138,6 @@ def _mesh(
     flat = (*geo.rotation.shape[:-2], discs * design.pins)
     rest, reverse_rest = rest_positions(geo, design.pins, discs)
     alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
-    offsets = 2.0 * np.pi * np.arange(discs) / discs
-    nx, ny = contact_normal(
-        design,
-        modification,
-        errors,
-        phi[:, None] + offsets[None, :],
-        geo.profile_angle,
-        geo.pin_radius,
-    )
     return StackMesh(
         design=design,
         geo=geo,
@@ -154,8 +146,8 @@ def _mesh(
         backlash=geo.rotation.reshape(flat) - rest[..., None],
         alpha=alpha.reshape(flat),
         gamma=gamma.reshape(flat),
-        normal_x=nx,
-        normal_y=ny,
+        normal_x=geo.normal_x,
+        normal_y=geo.normal_y,
         ring_shape=ring_shape,
         phi=phi,
         body=body,
