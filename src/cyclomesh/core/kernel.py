@@ -36,8 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core import loadsharing
-from cyclomesh.core.hertz import _MAX_NEWTON, _ROUND_OFF
-from cyclomesh.core.loadsharing import _MAX_ITERATIONS, TORQUE_TOLERANCE
+from cyclomesh.core.loadsharing import TORQUE_TOLERANCE
 
 __all__ = ["KERNELS", "ENV_VAR", "kernel_name", "share_load"]
 
@@ -97,6 +96,19 @@ def share_load(
     return rotation.reshape(lead), force.reshape(*lead, n_pins)
 
 
+_MAX_ITERATIONS = 100
+"""Newton steps on Δφc before a case is handed to the reference (as loadsharing's)."""
+_MAX_NEWTON = 50
+"""Newton steps of one force inversion (as :func:`cyclomesh.core.hertz.force_from_approach`)."""
+_ROUND_OFF = 2e-15
+"""Relative residual of a converged force inversion (as force_from_approach)."""
+_LOOSE = 1e-10
+"""Relative residual of the force inversions while the torque residual is above
+:data:`_LOOSE_UNTIL`·T: Newton's steps there are far from the root, and an error of
+1e-10 in their forces is squared away by the steps that follow."""
+_LOOSE_UNTIL = 1e-3
+
+
 @cache
 def _compiled() -> Any:
     """The compiled kernel, or None without numba (imported on first use only)."""
@@ -111,23 +123,25 @@ def _compiled() -> Any:
     return jit(_share_load_rows)
 
 
-def _invert_cold(d, a, g):  # pragma: no cover (compiled)
+def _invert_cold(d, a, g, tol):  # pragma: no cover (compiled)
     """y = ln F of δ = F(α − γ ln F) as :func:`cyclomesh.core.hertz.force_from_approach`:
-    two fixed-point steps from ln(δ/α), then Newton to a residual of 2e-15·δ; returns
+    two fixed-point steps from ln(δ/α), then Newton to a residual of ``tol``·δ; returns
     (y, F, converged)."""
     y = np.log(d / a)
     y = np.log(d / (a - g * y))
     y = np.log(d / (a - g * y))
-    return _newton_y(d, a, g, y, _MAX_NEWTON)
+    return _newton_y(d, a, g, y, _MAX_NEWTON, tol)
 
 
-def _newton_y(d, a, g, y, steps):  # pragma: no cover (compiled)
-    """Newton's method in y = ln F on δ = e^y(α − γ y) from ``y``: (y, F, converged)."""
+def _newton_y(d, a, g, y, steps, tol):  # pragma: no cover (compiled)
+    """Newton's method in y = ln F on δ = e^y(α − γ y) from ``y`` to a residual of
+    ``tol``·δ; at 2e-15 (round-off), one more step makes the root independent of the
+    start. Returns (y, F, converged)."""
     for _ in range(steps):
         f = np.exp(y)
         resid = f * (a - g * y) - d
-        if abs(resid) <= _ROUND_OFF * d:
-            if resid != 0.0:  # one more step: the root to round-off, whatever the start
+        if abs(resid) <= tol * d:
+            if tol <= _ROUND_OFF and resid != 0.0:
                 y = y - resid / (f * (a - g - g * y))
                 f = np.exp(y)
             return y, f, True
@@ -145,7 +159,11 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, rotation, force):  # pragma:
     not taken; an unloaded pin (Δφc ≤ φbl) is skipped; and each pin's force inversion
     starts from its own last solution moved along the tangent, y₀ = y + Δδ/(dδ/dy),
     which Newton's method in y finishes in one or two exponentials (the convex δ(y)
-    puts that start right of the root, from where Newton descends monotonically).
+    puts that start right of the root, from where Newton descends monotonically);
+    while the torque residual is above 1e-3·T the inversions stop at 1e-10·δ (the
+    steps that follow square that error away), then the step is taken again with
+    every force at round-off, so Δφc follows the reference's Newton steps and stops
+    where it stops (at a residual within 1e-12·T, not at the exact root).
 
     Fills ``rotation`` (n_cases) and ``force`` (n_cases, n_pins, zero on entry); returns
     the number of cases it could not finish (then the caller uses the reference).
@@ -199,6 +217,7 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, rotation, force):  # pragma:
                 n_cand += 1
         ok = False
         bad = False
+        inner = _LOOSE  # the inversions' tolerance: loose while the torque is far off
         for _ in range(_MAX_ITERATIONS):
             moment = 0.0
             slope = 0.0
@@ -227,9 +246,9 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, rotation, force):  # pragma:
                     if last_slope[j] > 0.0:
                         y0 = last_y[j] + (d - last_d[j]) / last_slope[j]
                         if y0 < a / g - 1.0:
-                            y, f, converged = _newton_y(d, a, g, y0, 8)
+                            y, f, converged = _newton_y(d, a, g, y0, 8, inner)
                     if not converged:
-                        y, f, converged = _invert_cold(d, a, g)
+                        y, f, converged = _invert_cold(d, a, g, inner)
                     if not converged:
                         bad = True
                         break
@@ -243,6 +262,9 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, rotation, force):  # pragma:
             if bad:
                 break
             resid = moment - torque
+            if inner > _ROUND_OFF and abs(resid) <= _LOOSE_UNTIL * torque:
+                inner = _ROUND_OFF  # near the root: this step again, forces to round-off
+                continue
             if abs(resid) <= tol:
                 ok = True
                 break
