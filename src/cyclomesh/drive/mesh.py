@@ -61,7 +61,9 @@ class StackMesh:
     −F_i·n, a counter-clockwise disc rotation θ closes the gap by l_i·θ, a translation u by
     n·u); ``ring_shape``; ``phi`` (crank angles of disc 1 in this frame [rad]);
     ``eccentricity`` (e + εe of every ring [m], (..., 1, 1, 1), for the contact kinematics of
-    friction, :mod:`cyclomesh.drive.friction`)."""
+    friction, :mod:`cyclomesh.drive.friction`); ``force_angle`` (direction of each pin's
+    force on its disc, fixed frame [rad], (..., A, N, n1): geometry alone, so computed once
+    here and not again for every torque of a torsion curve)."""
 
     design: PairDesign
     geo: UnloadedContact  # arrays (..., A, N, n1)
@@ -77,6 +79,7 @@ class StackMesh:
     body: DiscBody | None = None
     tooth: NDArray | None = None  # (A, N·n1): tooth space of every contact (compliant disc)
     eccentricity: FloatArray | None = None  # (..., 1, 1, 1): e + εe of every ring [m]
+    force_angle: FloatArray | None = None  # (..., A, N, n1): arg(−n) [rad]
 
 
 def disc_angles(phi: FloatArray, discs: int) -> FloatArray:
@@ -148,6 +151,9 @@ def _mesh(
         gamma=gamma.reshape(flat),
         normal_x=geo.normal_x,
         normal_y=geo.normal_y,
+        force_angle=contact_fields(
+            ("force_angle",), design, geo, geo.rotation, normal=(geo.normal_x, geo.normal_y)
+        )["force_angle"],
         ring_shape=ring_shape,
         phi=phi,
         body=body,
@@ -198,7 +204,7 @@ def load_stack(
     force = force.reshape(geo.rotation.shape)
     extra = {} if friction is None else friction.fields(force, state)
     fields = contact_fields(
-        CONTACT_FIELDS,
+        _PER_TORQUE,
         mesh.design,
         geo,
         force,
@@ -206,7 +212,12 @@ def load_stack(
         normal=(mesh.normal_x, mesh.normal_y),
         stack_axes=2,
     )
+    fields["force_angle"] = mesh.force_angle
     return extra | {"pin_load": force, **fields, "loaded_rotation": loaded}
+
+
+_PER_TORQUE = tuple(name for name in CONTACT_FIELDS if name != "force_angle")
+"""The contact fields that change with the torque (the force angle is the mesh's)."""
 
 
 def stack_meshes(
