@@ -17,6 +17,7 @@ HEAVY = ("xarray", "pandas", "matplotlib", "pyarrow", "netCDF4", "distributed")
         ("cyclomesh, cyclomesh.cli", (*HEAVY, "scipy", "pydantic")),  # --help
         ("cyclomesh.tolerance.tasks", HEAVY),  # what tolerance workers run
         ("cyclomesh.studies.run, cyclomesh.studies.tolerance, cyclomesh.publish.pipeline", HEAVY),
+        ("cyclomesh.studies.allocate, cyclomesh.studies.rings", HEAVY),
         ("cyclomesh.studies.stiffness", HEAVY),
         # plot modules: matplotlib only when a figure is drawn (in the figure workers)
         (

@@ -303,7 +303,8 @@ def test_two_disc_tolerance_without_errors_shares_half_each(tmp_path):
 
 
 def test_two_disc_allocation_runs_on_the_stack(tmp_path):
-    from cyclomesh.studies.tolerance import compute_allocation, ring_model
+    from cyclomesh.studies.allocate import compute_allocation
+    from cyclomesh.studies.rings import ring_model
 
     study = load_study(two_disc_study(tmp_path, 4.0, 50.0))
     assert ring_model(study, study.tolerance).discs == 2

@@ -512,7 +512,7 @@ def fingerprint(kind: str, path: Path, monkeypatch: pytest.MonkeyPatch) -> str:
         return digest(head, r.rings, without_time(r.summary), job_data(k.tolerance_figures(r)),
                       report_text(k.tolerance_sections(r)))  # fmt: skip
     if kind == "allocate":
-        from cyclomesh.studies import tolerance as k
+        from cyclomesh.studies import allocate as k
 
         r = k.compute_allocation(study)
         return digest(head, r.rings, without_time(r.record), job_data(k.allocation_figures(r)),

@@ -17,7 +17,8 @@ import xarray as xr
 from typer.testing import CliRunner
 
 from cyclomesh.cli import app
-from cyclomesh.studies.tolerance import run_allocation, run_tolerance
+from cyclomesh.studies.allocate import run_allocation
+from cyclomesh.studies.tolerance import run_tolerance
 
 EXAMPLE = Path(__file__).parents[2] / "examples" / "tolerance.toml"
 

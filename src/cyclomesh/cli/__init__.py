@@ -334,11 +334,12 @@ def allocate(
     """Largest scale factor on the tolerances that meets the target exceedance probability."""
     use_cache_dir(cache_dir)
     from cyclomesh.publish.console import print_allocation
-    from cyclomesh.studies import tolerance as kind
+    from cyclomesh.studies import allocate as kind
     from cyclomesh.studies.execute import execute
+    from cyclomesh.studies.rings import load_tolerance_study
     from cyclomesh.studyfile.limits import check_study_work
 
-    loaded, spec = kind.load_tolerance_study(study)
+    loaded, spec = load_tolerance_study(study)
     check_study_work(loaded, "allocate", rings=rings, allow=no_work_limit)
     preflight(loaded, "allocate", work=False)  # what check --kind allocate refuses
     if target_probability is not None and not 0.0 < target_probability < 1.0:

@@ -2,8 +2,9 @@
 
 - :mod:`cyclomesh.studies.run`: the cases of a study file, each through a crank
   revolution (``cyclomesh run``);
-- :mod:`cyclomesh.studies.tolerance`: Monte Carlo tolerance studies and tolerance
-  allocation (``cyclomesh tolerance``, ``cyclomesh allocate``);
+- :mod:`cyclomesh.studies.tolerance`: Monte Carlo tolerance studies (``cyclomesh
+  tolerance``), :mod:`cyclomesh.studies.allocate`: tolerance allocation (``cyclomesh
+  allocate``), both on the rings of :mod:`cyclomesh.studies.rings`;
 - :mod:`cyclomesh.studies.designmap`: design maps over the modification space, nominal or
   robust over rings (``cyclomesh design``).
 

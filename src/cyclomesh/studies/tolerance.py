@@ -1,5 +1,4 @@
-"""Tolerance studies: Monte Carlo rings (``cyclomesh tolerance``) and tolerance allocation
-(``cyclomesh allocate``), on the one pipeline.
+"""Tolerance studies: Monte Carlo rings (``cyclomesh tolerance``), on the one pipeline.
 
 The study runs the base description of the study file (its top-level sections;
 ``[[cases]]`` are refused) with the errors of ``[tolerance]`` added to the base's
@@ -16,9 +15,9 @@ falling back key by key to ``[analysis]``'s. Stages (see ``docs/pipeline.md``):
 3. :func:`tolerance_figures` and :func:`tolerance_sections` give the figures and the
    report (``report.html``).
 
-The allocation has the same stages (:func:`compute_allocation`,
-:func:`write_allocation`: ``allocation_rings.nc``, ``allocation.json``,
-``allocation_report.html``). Nothing here prints; progress goes to a callback.
+The tolerance allocation (``cyclomesh allocate``) is :mod:`cyclomesh.studies.allocate`;
+what both share is :mod:`cyclomesh.studies.rings`. Nothing here prints; progress goes
+to a callback.
 """
 
 from __future__ import annotations
@@ -27,8 +26,7 @@ import html
 import json
 import math
 import time
-from collections.abc import Callable, Iterator, Mapping
-from contextlib import contextmanager
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -36,12 +34,21 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cyclomesh.exceptions import StudyError
-from cyclomesh.results.dataset import resolve_disc_body
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC
 from cyclomesh.studies.execute import StudyKind
-from cyclomesh.studyfile.schema import Study, ToleranceSection, load_study
+from cyclomesh.studies.rings import (
+    Progress,
+    StudyFiles,
+    fmt_number,
+    load_tolerance_study,
+    ring_count,
+    ring_model,
+    ring_warnings,
+    run_rings,
+    run_whole,
+)
+from cyclomesh.studyfile.schema import Study, ToleranceSection
 from cyclomesh.studyfile.usage import check_keys
-from cyclomesh.tolerance.allocation import Allocation
 from cyclomesh.tolerance.tasks import RingModel
 
 if TYPE_CHECKING:
@@ -54,106 +61,21 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ToleranceResult",
-    "AllocationResult",
+    "StudyFiles",
     "load_tolerance_study",
     "ring_model",
     "compute_tolerance",
     "write_tolerance",
     "tolerance_figures",
     "tolerance_sections",
-    "compute_allocation",
-    "write_allocation",
-    "allocation_figures",
-    "allocation_sections",
     "metrics_dataset",
     "ring_statistics",
     "worst_ring",
     "jammed_rings",
     "worst_ring_study",
     "run_tolerance",
-    "run_allocation",
+    "TOLERANCE",
 ]
-
-Progress = Callable[[int], None]
-
-
-def load_tolerance_study(path: str | Path) -> tuple[Study, ToleranceSection]:
-    """Load a study file that must have a ``[tolerance]`` section.
-
-    Raises
-    ------
-    StudyError
-        A bad study file, or no ``[tolerance]`` section.
-    """
-    study = load_study(path)
-    if study.tolerance is None:
-        raise StudyError(f"{Path(path).name}: no [tolerance] section (see examples/tolerance.toml)")
-    return study, study.tolerance
-
-
-def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
-    """The fixed part of the tolerance study: the study's base case as core objects."""
-    base = study.base
-    core = base.to_core()
-    if np.ndim(core.torque):
-        raise StudyError(
-            "load.torque_nm: tolerance studies take one torque (of the stack), not a list"
-        )
-    crank_range = spec.crank_range(base.analysis)
-    return RingModel(
-        design=core.design,
-        modification=core.modification,
-        base_errors_um=core.errors_um,
-        base_eccentricity_um=float(base.errors.eccentricity_um),
-        torque_nm=float(core.torque),
-        crank_angles_deg=spec.crank_angles_deg(base.analysis),
-        groove_deformation=bool(core.groove_deformation),
-        spec=spec,
-        contact_law=core.contact_law,
-        discs=core.discs,
-        crank_range=crank_range,
-        disc_body=resolve_disc_body(
-            core.disc_body, core.design, core.modification, core.crank_holes
-        ),
-    )
-
-
-def ring_warnings(model: RingModel) -> list[str]:
-    """Warnings of a tolerance or allocation study (:mod:`cyclomesh.studyfile.warnings`)."""
-    from cyclomesh.studyfile.warnings import study_warnings
-
-    return study_warnings(
-        model.contact_law, model.crank_angles_deg, True, "rings drawn from [tolerance]"
-    )
-
-
-def _rings(spec: ToleranceSection, rings: int | None) -> int:
-    n = spec.rings if rings is None else int(rings)
-    if n < 1:
-        raise StudyError(f"--rings must be at least 1, got {n}")
-    return n
-
-
-def _run(
-    task: Any,
-    n: int,
-    model: RingModel,
-    backend: Backend | None,
-    chunk: int | None,
-    progress: Progress | None,
-) -> dict[str, np.ndarray]:
-    from cyclomesh.execution.backends import SerialBackend, run_chunks
-
-    backend = backend or SerialBackend()
-    size = chunk or _default_chunk(n, model, backend.workers)
-    return run_chunks(task, n, backend=backend, chunk_size=size, progress=progress)
-
-
-def _default_chunk(n: int, model: RingModel, workers: int) -> int:
-    """One core call per chunk, but at least ~4 chunks per worker for balance."""
-    per_worker = math.ceil(n / (4 * max(1, workers)))
-    return max(1, min(model.block_rings, per_worker))
-
 
 # --- results of a tolerance study --------------------------------------------------------
 
@@ -395,9 +317,9 @@ def compute_tolerance(
         raise StudyError(f"{study.path.name}: no [tolerance] section (see examples/tolerance.toml)")
     start = time.perf_counter()
     spec = study.tolerance
-    n = _rings(spec, rings)
+    n = ring_count(spec, rings)
     model = ring_model(study, spec)
-    per_ring = _run(ToleranceTask(model), n, model, backend, chunk_rings, progress)
+    per_ring = run_rings(ToleranceTask(model), n, model, backend, chunk_rings, progress)
     seconds = time.perf_counter() - start
     ds = metrics_dataset(
         per_ring,
@@ -505,10 +427,6 @@ def tolerance_figures(result: ToleranceResult) -> list[FigureJob]:
     ]
 
 
-def _fmt(x: Any) -> str:
-    return "n/a" if x is None or (isinstance(x, float) and not np.isfinite(x)) else f"{x:.4g}"
-
-
 def tolerance_sections(result: ToleranceResult) -> list[Section]:
     """Report section of a tolerance study: statistics table, exceedance, worst ring."""
     from cyclomesh.publish.report import Section, table_html
@@ -518,12 +436,12 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
     rows = []
     for name, s in stats["metrics"].items():
         pct = [
-            f"{_fmt(p['estimate'])} [{_fmt(p['lower'])}, {_fmt(p['upper'])}]"
+            f"{fmt_number(p['estimate'])} [{fmt_number(p['lower'])}, {fmt_number(p['upper'])}]"
             for p in s["percentiles"]
         ]
         m = METRICS.get(name) or DRIVE_METRICS.get(name)
         label = name if m is None else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
-        rows.append([label, _fmt(s["mean"]), _fmt(s["std"]), *pct])
+        rows.append([label, fmt_number(s["mean"]), fmt_number(s["std"]), *pct])
     header = ["metric", "mean", "std"] + [f"P{p:g} [{conf:.0%} CI]" for p in stats["percentiles"]]
     ex = stats["exceedance"][STRESS_METRIC]
     worst = stats["worst_ring"]
@@ -568,288 +486,6 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
     ]
 
 
-# --- tolerance allocation ----------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class AllocationResult:
-    """Outcome of :func:`compute_allocation`."""
-
-    study: Study
-    allocation: Allocation
-    rings: xr.Dataset
-    record: dict[str, Any]
-    seconds: float
-
-
-def _nominal_stress(model: RingModel) -> float:
-    from cyclomesh.tolerance.sampling import RingErrors
-
-    pins = model.design.pins
-    zero = RingErrors(
-        np.zeros(1, dtype=np.int64),
-        np.zeros((1, pins)),
-        np.zeros((1, pins)),
-        np.zeros((1, pins)),
-        np.zeros(1),
-    )
-    return float(model.metrics(zero)[STRESS_METRIC][0])
-
-
-def compute_allocation(
-    study: Study,
-    *,
-    target_probability: float | None = None,
-    rings: int | None = None,
-    backend: Backend | None = None,
-    chunk_rings: int | None = None,
-    progress: Progress | None = None,
-) -> AllocationResult:
-    """Largest scale factor on the stated tolerances that meets the target probability.
-
-    Parameters are those of :func:`compute_tolerance`, and ``target_probability``
-    (default: ``tolerance.allocation.target_probability``).
-    """
-
-    check_keys(study.raw, "allocate")  # [stage], [[cases]], ...: refused in one line
-    import xarray as xr
-
-    from cyclomesh.tolerance.allocation import allocate_factor
-    from cyclomesh.tolerance.tasks import AllocationTask
-
-    if study.tolerance is None:
-        raise StudyError(f"{study.path.name}: no [tolerance] section (see examples/tolerance.toml)")
-    start = time.perf_counter()
-    spec = study.tolerance
-    alloc = spec.allocation
-    target = alloc.target_probability if target_probability is None else target_probability
-    if not 0.0 < target < 1.0:
-        raise StudyError(f"--target-probability must lie in (0, 1), got {target:g}")
-    n = _rings(spec, rings)
-    model = ring_model(study, spec)
-    allowable = spec.allowable_contact_stress_mpa
-    nominal = _nominal_stress(model)
-    if nominal > allowable:
-        raise StudyError(
-            f"the nominal ring (no sampled errors) already exceeds the allowable contact "
-            f"stress: {nominal:.1f} MPa > {allowable:g} MPa; no tolerance can meet it"
-        )
-    factors = tuple(
-        alloc.factor_max * (i + 1) / alloc.factor_steps for i in range(alloc.factor_steps)
-    )
-    task = AllocationTask(model, factors, alloc.bisections, allowable)
-    per_ring = _run(task, n, model, backend, chunk_rings, progress)
-    seconds = time.perf_counter() - start
-    result = allocate_factor(
-        per_ring["critical_factor_lower"],
-        per_ring["critical_factor_upper"],
-        target,
-        alloc.confidence,
-        alloc.factor_max,
-    )
-    from cyclomesh.tolerance.statistics import describe
-    from cyclomesh.tolerance.tasks import STATED_METRICS
-
-    stated = [name for name in STATED_METRICS if name in per_ring]
-    every = METRICS | DRIVE_METRICS
-    data = {
-        name: xr.DataArray(per_ring[name], dims=("ring",), attrs={"units": "1"})
-        for name in ("critical_factor_lower", "critical_factor_upper")
-    }
-    data["critical_factor_upper"].attrs["nonfinite"] = (
-        "inf: the ring does not exceed the allowable stress up to factor_max"
-    )
-    for name in stated:
-        data[name] = xr.DataArray(
-            per_ring[name],
-            dims=("ring",),
-            attrs={
-                "units": every[name].unit,
-                "long_name": every[name].long_name + " at the stated tolerances (factor 1)",
-            },
-        )
-    ds = xr.Dataset(
-        data,
-        coords={"ring": ("ring", per_ring["ring"])},
-        attrs={
-            "seed": spec.seed,
-            "allowable_contact_stress_mpa": allowable,
-            "nominal_contact_stress_mpa": nominal,
-            "study_title": study.title,
-            "study_sha256": study.sha256,
-            "tolerance": json.dumps(spec.model_dump(exclude_none=True)),
-            "method": result.as_dict()["method"],
-        },
-    )
-    record = result.as_dict()
-    record.update(
-        nominal_contact_stress_mpa=nominal,
-        allowable_contact_stress_mpa=allowable,
-        seconds=seconds,
-        study_title=study.title,
-        discs=model.discs,
-        crank_angles=len(model.crank_angles_deg),
-        at_stated_tolerances={
-            name: {
-                "unit": every[name].unit,
-                "description": every[name].long_name,
-                **describe(per_ring[name], confidence=alloc.confidence),
-            }
-            for name in stated
-        },
-        warnings=ring_warnings(model),
-    )
-    return AllocationResult(study, result, ds, record, seconds)
-
-
-def write_allocation(result: AllocationResult, out: Path) -> list[Path]:
-    """Write ``allocation_rings.nc`` and ``allocation.json`` into ``out``."""
-    from cyclomesh.output.writers import write_json, write_netcdf
-
-    out.mkdir(parents=True, exist_ok=True)
-    return [
-        write_netcdf(result.rings, out / "allocation_rings.nc"),
-        write_json(out / "allocation.json", result.record),
-    ]
-
-
-def allocation_figures(result: AllocationResult) -> list[FigureJob]:
-    """The exceedance probability against the scale factor, as a figure job."""
-    from cyclomesh.figures import tolerance as plots
-    from cyclomesh.figures.render import FigureJob
-
-    return [
-        FigureJob(
-            "allocation_exceedance",
-            plots.plot_allocation,
-            (result.allocation,),
-            caption="Exceedance probability vs. scale factor on the tolerances",
-            section="Tolerance allocation",
-        )
-    ]
-
-
-def allocation_sections(result: AllocationResult) -> list[Section]:
-    """Report section of a tolerance allocation."""
-    from cyclomesh.publish.report import Section, table_html
-    from cyclomesh.studies.run import description_html, warning_sections
-
-    statement = html.escape(result.allocation.statement())
-    stated = result.record.get("at_stated_tolerances", {})
-    rows = [
-        [name, m["unit"], _fmt(m["mean"]), _fmt(m["min"]), _fmt(m["max"])]
-        + [_fmt(p["estimate"]) for p in m["percentiles"]]
-        for name, m in stated.items()
-    ]
-    table = ""
-    if rows:
-        percents = [p["percent"] for p in next(iter(stated.values()))["percentiles"]]
-        table = "<p>The rings at the stated tolerances (factor 1):</p>" + table_html(
-            ["metric", "unit", "mean", "min", "max", *(f"P{p:g}" for p in percents)], rows
-        )
-    return warning_sections(result.record.get("warnings", [])) + [
-        Section(
-            "Tolerance allocation",
-            description_html(result.study) + f"<p>{statement}</p>" + table,
-        )
-    ]
-
-
-# --- whole studies (compute, write, figures, report) ------------------------------------
-
-
-@dataclass(frozen=True)
-class StudyFiles:
-    """What :func:`run_tolerance` and :func:`run_allocation` return."""
-
-    result: Any
-    files: list[Path]
-
-    @property
-    def summary(self) -> dict[str, Any]:
-        """Statistics (tolerance) or the allocation record."""
-        return getattr(self.result, "summary", None) or self.result.record
-
-    @property
-    def rings(self) -> xr.Dataset:
-        """Per-ring results."""
-        return self.result.rings
-
-    @property
-    def allocation(self) -> Allocation:
-        """The allocation (of :func:`run_allocation`)."""
-        return self.result.allocation
-
-
-@contextmanager
-def _backend(
-    backend: Backend | None, scheduler: str | None, workers: int | None
-) -> Iterator[Backend | None]:
-    if backend is not None or (scheduler is None and workers is None):
-        yield backend
-        return
-    from cyclomesh.execution.backends import make_backend
-
-    own = make_backend(scheduler, workers)
-    try:
-        yield own
-    finally:
-        own.close()
-
-
-def _options(study: Study, figures: bool, options: OutputOptions | None) -> OutputOptions:
-    from cyclomesh.publish.pipeline import OutputOptions
-
-    if options is not None:
-        return options
-    return OutputOptions.from_study(study, None if figures else "none")
-
-
-def _whole(
-    kind: Any,
-    study_path: str | Path,
-    out_dir: str | Path,
-    backend: Backend | None,
-    scheduler: str | None,
-    workers: int | None,
-    figures: bool,
-    options: OutputOptions | None,
-    progress: Progress | None,
-    **compute: Any,
-) -> StudyFiles:
-    """Load the study, then :func:`~cyclomesh.studies.execute.execute` ``kind`` on the
-    backend of :func:`_backend` into ``out_dir``."""
-    from cyclomesh.studies.execute import execute
-
-    study, _ = load_tolerance_study(study_path)
-    with _backend(backend, scheduler, workers) as where:
-        result = execute(
-            kind,
-            study,
-            out_dir,
-            _options(study, figures, options),
-            backend=where,
-            parallel=True,
-            progress=_fixed(progress),
-            **compute,
-        )
-    return StudyFiles(result, _listed(out_dir))
-
-
-def _fixed(progress: Progress | None) -> Any:
-    """``progress`` as :func:`~cyclomesh.studies.execute.execute` takes it."""
-    from contextlib import nullcontext
-
-    return lambda: nullcontext(progress or (lambda n: None))
-
-
-def _listed(out: str | Path) -> list[Path]:
-    """The files the completion marker of ``out`` vouches for."""
-    from cyclomesh.output.folder import load_results
-
-    return list(load_results(out).files)
-
-
 def run_tolerance(
     study_path: str | Path,
     out_dir: str | Path,
@@ -868,7 +504,7 @@ def run_tolerance(
     Runs on ``backend``, else on a Dask cluster at ``scheduler`` or on ``workers``
     local processes (closed at the end), else in this process.
     """
-    return _whole(
+    return run_whole(
         TOLERANCE,
         study_path,
         out_dir,
@@ -883,39 +519,6 @@ def run_tolerance(
     )
 
 
-def run_allocation(
-    study_path: str | Path,
-    out_dir: str | Path,
-    *,
-    target_probability: float | None = None,
-    rings: int | None = None,
-    backend: Backend | None = None,
-    scheduler: str | None = None,
-    workers: int | None = None,
-    chunk_rings: int | None = None,
-    figures: bool = True,
-    options: OutputOptions | None = None,
-    progress: Progress | None = None,
-) -> StudyFiles:
-    """A whole tolerance allocation: compute, write the files, the figure and
-    ``allocation_report.html`` (``backend``, ``scheduler``, ``workers`` as for
-    :func:`run_tolerance`)."""
-    return _whole(
-        ALLOCATE,
-        study_path,
-        out_dir,
-        backend,
-        scheduler,
-        workers,
-        figures,
-        options,
-        progress,
-        target_probability=target_probability,
-        rings=rings,
-        chunk_rings=chunk_rings,
-    )
-
-
 TOLERANCE = StudyKind(
     command="tolerance",
     title="tolerance study",
@@ -925,14 +528,3 @@ TOLERANCE = StudyKind(
     sections=lambda result: tolerance_sections(result),
 )
 """``cyclomesh tolerance`` (:func:`cyclomesh.studies.execute.execute`)."""
-
-ALLOCATE = StudyKind(
-    command="allocate",
-    title="tolerance allocation",
-    compute=lambda study, **kw: compute_allocation(study, **kw),
-    write=lambda result, out, options: write_allocation(result, out),
-    figures=lambda result, early: allocation_figures(result),
-    sections=lambda result: allocation_sections(result),
-    report_name="allocation_report.html",
-)
-"""``cyclomesh allocate`` (:func:`cyclomesh.studies.execute.execute`)."""

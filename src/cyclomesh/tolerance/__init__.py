@@ -4,7 +4,8 @@
 through the core (chunk functions for :mod:`cyclomesh.execution.backends`); ``statistics`` and
 ``allocation`` reduce them. The ``[tolerance]`` section is part of the one study file
 schema (:class:`cyclomesh.studyfile.schema.ToleranceSection`); the study itself (files,
-figures, report) is :mod:`cyclomesh.studies.tolerance`.
+figures, report) is :mod:`cyclomesh.studies.tolerance` and
+:mod:`cyclomesh.studies.allocate`.
 """
 
 from cyclomesh.tolerance.sampling import RingErrors, ToleranceSpec, draw_ring_errors

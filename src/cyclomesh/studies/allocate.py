@@ -1,0 +1,286 @@
+"""Tolerance allocation (``cyclomesh allocate``): the largest scale factor on the stated
+tolerances of ``[tolerance]`` that keeps the probability of exceeding the allowable
+contact stress under the target, on the one pipeline.
+
+Stages as for :mod:`cyclomesh.studies.tolerance` (see ``docs/pipeline.md``):
+:func:`compute_allocation`, :func:`write_allocation` (``allocation_rings.nc``,
+``allocation.json``), :func:`allocation_figures` and :func:`allocation_sections`
+(``allocation_report.html``). Nothing here prints; progress goes to a callback.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from cyclomesh.exceptions import StudyError
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC
+from cyclomesh.studies.execute import StudyKind
+from cyclomesh.studies.rings import (
+    Progress,
+    StudyFiles,
+    fmt_number,
+    ring_count,
+    ring_model,
+    ring_warnings,
+    run_rings,
+    run_whole,
+)
+from cyclomesh.studyfile.schema import Study
+from cyclomesh.studyfile.usage import check_keys
+from cyclomesh.tolerance.allocation import Allocation
+from cyclomesh.tolerance.tasks import RingModel
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from cyclomesh.execution.backends import Backend
+    from cyclomesh.figures.render import FigureJob
+    from cyclomesh.publish.pipeline import OutputOptions
+    from cyclomesh.publish.report import Section
+
+__all__ = [
+    "AllocationResult",
+    "StudyFiles",
+    "compute_allocation",
+    "write_allocation",
+    "allocation_figures",
+    "allocation_sections",
+    "run_allocation",
+    "ALLOCATE",
+]
+
+
+@dataclass(frozen=True)
+class AllocationResult:
+    """Outcome of :func:`compute_allocation`."""
+
+    study: Study
+    allocation: Allocation
+    rings: xr.Dataset
+    record: dict[str, Any]
+    seconds: float
+
+
+def _nominal_stress(model: RingModel) -> float:
+    from cyclomesh.tolerance.sampling import RingErrors
+
+    pins = model.design.pins
+    zero = RingErrors(
+        np.zeros(1, dtype=np.int64),
+        np.zeros((1, pins)),
+        np.zeros((1, pins)),
+        np.zeros((1, pins)),
+        np.zeros(1),
+    )
+    return float(model.metrics(zero)[STRESS_METRIC][0])
+
+
+def compute_allocation(
+    study: Study,
+    *,
+    target_probability: float | None = None,
+    rings: int | None = None,
+    backend: Backend | None = None,
+    chunk_rings: int | None = None,
+    progress: Progress | None = None,
+) -> AllocationResult:
+    """Largest scale factor on the stated tolerances that meets the target probability.
+
+    Parameters are those of :func:`compute_tolerance`, and ``target_probability``
+    (default: ``tolerance.allocation.target_probability``).
+    """
+
+    check_keys(study.raw, "allocate")  # [stage], [[cases]], ...: refused in one line
+    import xarray as xr
+
+    from cyclomesh.tolerance.allocation import allocate_factor
+    from cyclomesh.tolerance.tasks import AllocationTask
+
+    if study.tolerance is None:
+        raise StudyError(f"{study.path.name}: no [tolerance] section (see examples/tolerance.toml)")
+    start = time.perf_counter()
+    spec = study.tolerance
+    alloc = spec.allocation
+    target = alloc.target_probability if target_probability is None else target_probability
+    if not 0.0 < target < 1.0:
+        raise StudyError(f"--target-probability must lie in (0, 1), got {target:g}")
+    n = ring_count(spec, rings)
+    model = ring_model(study, spec)
+    allowable = spec.allowable_contact_stress_mpa
+    nominal = _nominal_stress(model)
+    if nominal > allowable:
+        raise StudyError(
+            f"the nominal ring (no sampled errors) already exceeds the allowable contact "
+            f"stress: {nominal:.1f} MPa > {allowable:g} MPa; no tolerance can meet it"
+        )
+    factors = tuple(
+        alloc.factor_max * (i + 1) / alloc.factor_steps for i in range(alloc.factor_steps)
+    )
+    task = AllocationTask(model, factors, alloc.bisections, allowable)
+    per_ring = run_rings(task, n, model, backend, chunk_rings, progress)
+    seconds = time.perf_counter() - start
+    result = allocate_factor(
+        per_ring["critical_factor_lower"],
+        per_ring["critical_factor_upper"],
+        target,
+        alloc.confidence,
+        alloc.factor_max,
+    )
+    from cyclomesh.tolerance.statistics import describe
+    from cyclomesh.tolerance.tasks import STATED_METRICS
+
+    stated = [name for name in STATED_METRICS if name in per_ring]
+    every = METRICS | DRIVE_METRICS
+    data = {
+        name: xr.DataArray(per_ring[name], dims=("ring",), attrs={"units": "1"})
+        for name in ("critical_factor_lower", "critical_factor_upper")
+    }
+    data["critical_factor_upper"].attrs["nonfinite"] = (
+        "inf: the ring does not exceed the allowable stress up to factor_max"
+    )
+    for name in stated:
+        data[name] = xr.DataArray(
+            per_ring[name],
+            dims=("ring",),
+            attrs={
+                "units": every[name].unit,
+                "long_name": every[name].long_name + " at the stated tolerances (factor 1)",
+            },
+        )
+    ds = xr.Dataset(
+        data,
+        coords={"ring": ("ring", per_ring["ring"])},
+        attrs={
+            "seed": spec.seed,
+            "allowable_contact_stress_mpa": allowable,
+            "nominal_contact_stress_mpa": nominal,
+            "study_title": study.title,
+            "study_sha256": study.sha256,
+            "tolerance": json.dumps(spec.model_dump(exclude_none=True)),
+            "method": result.as_dict()["method"],
+        },
+    )
+    record = result.as_dict()
+    record.update(
+        nominal_contact_stress_mpa=nominal,
+        allowable_contact_stress_mpa=allowable,
+        seconds=seconds,
+        study_title=study.title,
+        discs=model.discs,
+        crank_angles=len(model.crank_angles_deg),
+        at_stated_tolerances={
+            name: {
+                "unit": every[name].unit,
+                "description": every[name].long_name,
+                **describe(per_ring[name], confidence=alloc.confidence),
+            }
+            for name in stated
+        },
+        warnings=ring_warnings(model),
+    )
+    return AllocationResult(study, result, ds, record, seconds)
+
+
+def write_allocation(result: AllocationResult, out: Path) -> list[Path]:
+    """Write ``allocation_rings.nc`` and ``allocation.json`` into ``out``."""
+    from cyclomesh.output.writers import write_json, write_netcdf
+
+    out.mkdir(parents=True, exist_ok=True)
+    return [
+        write_netcdf(result.rings, out / "allocation_rings.nc"),
+        write_json(out / "allocation.json", result.record),
+    ]
+
+
+def allocation_figures(result: AllocationResult) -> list[FigureJob]:
+    """The exceedance probability against the scale factor, as a figure job."""
+    from cyclomesh.figures import tolerance as plots
+    from cyclomesh.figures.render import FigureJob
+
+    return [
+        FigureJob(
+            "allocation_exceedance",
+            plots.plot_allocation,
+            (result.allocation,),
+            caption="Exceedance probability vs. scale factor on the tolerances",
+            section="Tolerance allocation",
+        )
+    ]
+
+
+def allocation_sections(result: AllocationResult) -> list[Section]:
+    """Report section of a tolerance allocation."""
+    from cyclomesh.publish.report import Section, table_html
+    from cyclomesh.studies.run import description_html, warning_sections
+
+    statement = html.escape(result.allocation.statement())
+    stated = result.record.get("at_stated_tolerances", {})
+    rows = [
+        [name, m["unit"], fmt_number(m["mean"]), fmt_number(m["min"]), fmt_number(m["max"])]
+        + [fmt_number(p["estimate"]) for p in m["percentiles"]]
+        for name, m in stated.items()
+    ]
+    table = ""
+    if rows:
+        percents = [p["percent"] for p in next(iter(stated.values()))["percentiles"]]
+        table = "<p>The rings at the stated tolerances (factor 1):</p>" + table_html(
+            ["metric", "unit", "mean", "min", "max", *(f"P{p:g}" for p in percents)], rows
+        )
+    return warning_sections(result.record.get("warnings", [])) + [
+        Section(
+            "Tolerance allocation",
+            description_html(result.study) + f"<p>{statement}</p>" + table,
+        )
+    ]
+
+
+def run_allocation(
+    study_path: str | Path,
+    out_dir: str | Path,
+    *,
+    target_probability: float | None = None,
+    rings: int | None = None,
+    backend: Backend | None = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    chunk_rings: int | None = None,
+    figures: bool = True,
+    options: OutputOptions | None = None,
+    progress: Progress | None = None,
+) -> StudyFiles:
+    """A whole tolerance allocation: compute, write the files, the figure and
+    ``allocation_report.html`` (``backend``, ``scheduler``, ``workers`` as for
+    :func:`run_tolerance`)."""
+    return run_whole(
+        ALLOCATE,
+        study_path,
+        out_dir,
+        backend,
+        scheduler,
+        workers,
+        figures,
+        options,
+        progress,
+        target_probability=target_probability,
+        rings=rings,
+        chunk_rings=chunk_rings,
+    )
+
+
+ALLOCATE = StudyKind(
+    command="allocate",
+    title="tolerance allocation",
+    compute=lambda study, **kw: compute_allocation(study, **kw),
+    write=lambda result, out, options: write_allocation(result, out),
+    figures=lambda result, early: allocation_figures(result),
+    sections=lambda result: allocation_sections(result),
+    report_name="allocation_report.html",
+)
+"""``cyclomesh allocate`` (:func:`cyclomesh.studies.execute.execute`)."""
