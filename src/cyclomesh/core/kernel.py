@@ -136,7 +136,9 @@ def _invert_cold(d, a, g, tol):  # pragma: no cover (compiled)
 def _newton_y(d, a, g, y, steps, tol):  # pragma: no cover (compiled)
     """Newton's method in y = ln F on δ = e^y(α − γ y) from ``y`` to a residual of
     ``tol``·δ; at 2e-15 (round-off), one more step makes the root independent of the
-    start. Returns (y, F, converged)."""
+    start. A step below √(tol/100) ends it unchecked: Newton's error after it is of the
+    order of the step squared (δ'' ≈ δ' on the stiffening branch), so the residual is
+    below tol·δ without another exponential. Returns (y, F, converged)."""
     for _ in range(steps):
         f = np.exp(y)
         resid = f * (a - g * y) - d
@@ -145,7 +147,10 @@ def _newton_y(d, a, g, y, steps, tol):  # pragma: no cover (compiled)
                 y = y - resid / (f * (a - g - g * y))
                 f = np.exp(y)
             return y, f, True
-        y = y - resid / (f * (a - g - g * y))
+        step = resid / (f * (a - g - g * y))
+        y = y - step
+        if step * step <= 0.01 * tol:
+            return y, np.exp(y), True
     return y, 0.0, False
 
 
