@@ -500,6 +500,14 @@ _ROWS = (
     ),
     Quantity("friction_coefficient", "1", "friction coefficient acting on the disc", "μ", 1.0, PIN),
     Quantity(
+        "film_parameter",
+        "1",
+        "film parameter h_c/sigma at the sliding interface (0: pin unloaded)",
+        "λ",
+        1.0,
+        PIN,
+    ),
+    Quantity(
         "power_loss_bearing",
         "W",
         "friction power loss of the crank bearing",
@@ -549,6 +557,8 @@ _ROWS = (
     Quantity("input_power_w", "W", "mean input power (forward)", "P in"),
     Quantity("output_power_w", "W", "mean output power (forward)", "P out"),
     Quantity("input_speed_rpm", "rpm", "input (crank) speed", "n in"),
+    Quantity("film_parameter_min", "1", "smallest film parameter of the loaded contacts", "λ min"),
+    Quantity("film_parameter_mean", "1", "mean film parameter of the loaded contacts", "λ mean"),
     Quantity(
         "power_loss_w",
         "W",

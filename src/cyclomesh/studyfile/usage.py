@@ -132,6 +132,8 @@ USED: dict[str, tuple[str, ...]] = {
         "tolerance.rings",
         "tolerance.allowable_contact_stress_mpa",
         "tolerance.allocation.confidence",
+        "friction",
+        "load.input_speed_rpm",
         *_CHECKED,
         "requirements.tolerance_percentile",
     ),
@@ -189,8 +191,8 @@ NEEDS: dict[str, dict[str, tuple[str, str]]] = {
 
 def _friction(kind: str) -> str:
     return (
-        f"friction: [friction] is not taken by cyclomesh {kind} yet; use cyclomesh run or "
-        "cyclomesh stiffness for friction and efficiency, or remove [friction] "
+        f"friction: [friction] is not taken by cyclomesh {kind} yet; use cyclomesh run, "
+        "stiffness or tolerance for friction and efficiency, or remove [friction] "
         "(docs/efficiency.md)"
     )
 
@@ -211,7 +213,6 @@ REFUSED: dict[str, dict[str, str]] = {
     "tolerance": {
         "design.disc": _HOLES,
         "stage": _stage("tolerance"),
-        "friction": _friction("tolerance"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
