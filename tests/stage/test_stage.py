@@ -266,3 +266,44 @@ def test_light_torque_with_pin_errors_solves():
     result = solve_stage(RV40, sd, mod, errors, [-12.36], phi, discs=2)
     assert np.all(np.isfinite(result.twist)) and np.all(result.twist < 0)
     assert np.max(result.residual) <= 1e-11 * 12.36 / HOLES.circle_radius
+
+
+def test_stretched_newton_step_keeps_the_answer_and_saves_steps(monkeypatch):
+    """At −3 % of the rated torque with pin and hole errors a disc carries almost nothing:
+    its crank bearings' equilibrium compression is ~0, where Q ∝ δ^(10/9) makes Newton
+    linear. The step stretched by 10/9 (the modified Newton step of that root) must reach
+    the same equilibrium (to round-off) with fewer potential evaluations."""
+    import cyclomesh.stage.equilibrium as eq
+
+    rng = np.random.default_rng(0)
+    errors = PinErrors(radial=rng.uniform(-2e-6, 2e-6, 40), angular=rng.uniform(-2e-5, 2e-5, 40))
+    sd = StageDesign(
+        HOLES,
+        _bearing(5e-6),
+        hole_error_radial=rng.uniform(-3e-6, 3e-6, (2, 3)),
+        hole_error_tangential=rng.normal(0.0, 2e-6, (2, 3)),
+    )
+    phi = np.radians(np.arange(0.0, 360.0, 3.0))
+    mod = Modification(pin_radius=3e-6)
+    calls = []
+    evaluate = eq._evaluate
+
+    def counted(*args, **kwargs):
+        calls.append(args[2].shape[0])
+        return evaluate(*args, **kwargs)
+
+    monkeypatch.setattr(eq, "_evaluate", counted)
+    results, rows = [], []
+    for linear in (eq._LINEAR, (1.0, 1.0)):  # (1, 1): never stretched
+        monkeypatch.setattr(eq, "_LINEAR", linear)
+        calls.clear()
+        results.append(solve_stage(RV40, sd, mod, errors, [-12.36], phi, discs=2))
+        rows.append(sum(calls))
+    fast, plain = results
+    tol = 1e-12 * 12.36 / HOLES.circle_radius
+    assert np.max(fast.residual) <= tol and np.max(plain.residual) <= tol
+    assert rows[0] < rows[1]
+    scale = np.max(np.abs(plain.twist))
+    assert np.max(np.abs(fast.twist - plain.twist)) <= 1e-9 * scale
+    load = np.max(plain.bearing_load)
+    assert np.max(np.abs(fast.bearing_load - plain.bearing_load)) <= 1e-6 * load

@@ -59,6 +59,9 @@ FORCE_TOLERANCE = 1e-12
 """Accepted residual of every equilibrium equation, relative to T/r_c (moments /r_c)."""
 _MAX_ITERATIONS = 200
 _MAX_HALVINGS = 60
+_LINEAR = (0.05, 0.12)
+"""Residual ratios of two Newton steps taken as the linear convergence of a crank bearing
+near zero load (:func:`_newton`; (1 − 9/10)^(10/9) ≈ 0.077 in the middle)."""
 _REACH = 0.5
 """Largest pin approach a line-search trial may reach, as a fraction of the stiffest point
 of the contact law γ·exp(α/γ − 1) (about 0.8 mm here, against µm under load): a longer
@@ -89,14 +92,17 @@ class _Law:
             sb = sb - resid / (1.0 + radial_stiffness(self.rs, sb) / self.k)
         raise ConvergenceError("stage: the crank bearing and crankshaft spring split failed")
 
-    def evaluate(self, s: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-        """(B, dB/ds, U, s_b) at the displacements s [m]."""
+    def evaluate(
+        self, s: FloatArray, stiffness: bool = True
+    ) -> tuple[FloatArray, FloatArray | None, FloatArray, FloatArray]:
+        """(B, dB/ds, U, s_b) at the displacements s [m]; dB/ds None if not ``stiffness``."""
         sb = self._split(s)
         force = radial_force(self.rs, sb)
-        stiff = radial_stiffness(self.rs, sb)
+        stiff = radial_stiffness(self.rs, sb) if stiffness else None
         energy = radial_energy(self.rs, sb)
         if self.k is not None:
-            stiff = stiff / (1.0 + stiff / self.k)
+            if stiffness:
+                stiff = stiff / (1.0 + stiff / self.k)
             energy = energy + 0.5 * force * force / self.k
         return force, stiff, energy, sb
 
@@ -104,7 +110,9 @@ class _Law:
 class _Power:
     """The stiff limit of a roller set without clearance: B = s^(10/9) (any scale)."""
 
-    def evaluate(self, s: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    def evaluate(
+        self, s: FloatArray, stiffness: bool = True
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         p = LOAD_EXPONENT
         return s**p, p * s ** (p - 1.0), s ** (p + 1.0) / (p + 1.0), s
 
@@ -268,18 +276,20 @@ def _evaluate(
     dx = ux[..., None] + rot * jx + p.ex
     dy = uy[..., None] + rot * jy + p.ey
     s = np.hypot(dx, dy)
-    B, kb, Ub, sb = law.evaluate(s)
+    B, kb, Ub, sb = law.evaluate(s, stiffness=hessian)
     energy = energy + np.sum(Ub, axis=(-2, -1))
     with np.errstate(divide="ignore", invalid="ignore"):
         cx = np.where(s > 0, dx / s, 1.0)
         cy = np.where(s > 0, dy / s, 0.0)
-        secant = np.where(s > 0, B / s, kb)
+        if hessian:
+            secant = np.where(s > 0, B / s, kb)
     fx, fy = B * cx, B * cy  # force of the disc on the crank pin
     # columns of ∂d/∂(c, θ_d, ux_d, uy_d), scaled (c, θ by L)
     gc = [(-jx / L, -jy / L), (jx / L, jy / L), (1.0, 0.0), (0.0, 1.0)]
-    kxx = kb * cx * cx + secant * cy * cy
-    kyy = kb * cy * cy + secant * cx * cx
-    kxy = (kb - secant) * cx * cy
+    if hessian:
+        kxx = kb * cx * cx + secant * cy * cy
+        kyy = kb * cy * cy + secant * cx * cx
+        kxy = (kb - secant) * cx * cy
     for d in range(discs if g is not None else 0):
         idx = [0, 1 + 3 * d, 2 + 3 * d, 3 + 3 * d]
         vec = [
@@ -317,12 +327,13 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
     dx = ux[..., None] + rot * jx + p.ex - w[..., 0]
     dy = uy[..., None] + rot * jy + p.ey - w[..., 1]
     s = np.hypot(dx, dy)
-    B, kb, Ub, sb = law.evaluate(s)
+    B, kb, Ub, sb = law.evaluate(s, stiffness=hessian)
     energy = energy + np.sum(Ub, axis=(-2, -1))
     with np.errstate(divide="ignore", invalid="ignore"):
         cx = np.where(s > 0, dx / s, 1.0)
         cy = np.where(s > 0, dy / s, 0.0)
-        secant = np.where(s > 0, B / s, kb)
+        if hessian:
+            secant = np.where(s > 0, B / s, kb)
     fx, fy = B * cx, B * cy
     if g is None:  # the potential only (a line-search trial)
         if nw:
@@ -397,6 +408,9 @@ def _newton(
     reduce = np.zeros((1 + 3 * discs, 1))
     reduce[[0, *range(1, 1 + 3 * discs, 3)], 0] = 1.0  # rigid: θ_d = c, u = 0
     active = np.arange(x.shape[0])
+    previous = np.full(x.shape[0], np.inf)  # max |g| of the last step, per crank angle
+    extended = np.zeros(x.shape[0], bool)  # the last step was a stretched one
+    linear = np.zeros(x.shape[0], bool)  # the last residual ratio was in _LINEAR
     for _ in range(_MAX_ITERATIONS):
         sub = p.take(active)
         xa = x[active]
@@ -413,6 +427,15 @@ def _newton(
         noise = 16.0 * np.finfo(float).eps * np.einsum("nij,nj->ni", np.abs(H), xs)
         done = np.all(np.abs(g) <= np.maximum(tol, noise), axis=-1)
         keep = ~done
+        res = np.max(np.abs(g), axis=-1)
+        # a crank bearing whose equilibrium compression is ~0 (a disc that carries almost
+        # nothing at a light torque) makes Newton linear, δ → δ·(1 − 1/p) with
+        # Q ∝ δ^p (residual ×(1 − 1/p)^p ≈ 1/13 a step); the step stretched by p is the
+        # modified Newton step of that root: try it first, every other step at most
+        ratio = (res > _LINEAR[0] * previous[active]) & (res < _LINEAR[1] * previous[active])
+        stretch = (~rigid & ~extended[active] & ratio & linear[active])[keep]
+        linear[active] = ratio & ~extended[active]
+        previous[active] = res
         active = active[keep]
         if active.size == 0:
             return x
@@ -426,7 +449,8 @@ def _newton(
         flip = ~(slope < 0)
         step[flip] = -g[flip] / diag[flip, None]
         slope = np.sum(g * step, axis=-1)
-        t = np.ones(xa.shape[0])
+        t = np.where(stretch, LOAD_EXPONENT, 1.0)
+        extended[active] = stretch
         todo = np.arange(xa.shape[0])
         new = xa.copy()
         tiny = -slope <= 1e-13 * np.maximum(np.abs(energy), 1e-300)
@@ -439,7 +463,8 @@ def _newton(
             todo = todo[~ok]
             if todo.size == 0:
                 break
-            t[todo] *= 0.5
+            extended[active[todo]] = False
+            t[todo] = np.where(t[todo] > 1.0, 1.0, 0.5 * t[todo])
         else:
             raise ConvergenceError(
                 f"stage: no descent at crank angle {np.degrees(phi[active[todo[0]]]):.6g}° "
