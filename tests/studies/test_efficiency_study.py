@@ -75,6 +75,29 @@ def test_stiffness_reports_the_loop(tmp_path):
     assert case["hysteresis_arcmin_max"] > 0
 
 
+def test_stiffness_takes_a_lubricant_at_rest_as_boundary_friction(tmp_path):
+    """One file for run, efficiency and stiffness: at rest (no film) the lubricated
+    coefficient is the boundary one, so the loop is that of the boundary coefficients
+    alone, with a note naming the lubricant."""
+    rolling = FRICTION.replace('"fixed"', '"rolling"')
+    oil = "[friction.lubricant]\ngrade = 220\ntemperature_c = 60.0\n"
+    text = PAIR + rolling + "[stiffness]\nrated_torque_nm = 250.0\npoints = 3\n"
+    cases = []
+    for name, extra in (("dry", ""), ("oil", oil)):
+        (tmp_path / name).mkdir()
+        path = _write(tmp_path / name, text + extra)
+        _invoke("stiffness", str(path), "--out", str(tmp_path / name / "out"))
+        doc = json.loads((tmp_path / name / "out" / "summary.json").read_text())
+        cases.append(doc)
+    dry, wet = (d["cases"][0] for d in cases)
+    assert wet["hysteresis_arcmin_max"] == dry["hysteresis_arcmin_max"] > 0
+    notes = json.dumps(cases[1]["warnings"]) + json.dumps(wet.get("warnings", []))
+    assert "friction.lubricant" in notes and "boundary" in notes
+    assert "friction.lubricant" not in json.dumps(cases[0]["warnings"]) + json.dumps(
+        dry.get("warnings", [])
+    )
+
+
 def test_efficiency_map_end_to_end(tmp_path):
     text = (
         PAIR
@@ -149,3 +172,28 @@ def test_friction_section_refusals(tmp_path):
         load_study(_write(tmp_path, PAIR + lub + "temperature_c = 50.0\n"))
     with pytest.raises(StudyError, match="caps"):
         load_study(_write(tmp_path, PAIR + "[friction]\n[friction.lubricant]\ngrade = 220\n"))
+
+
+@pytest.mark.parametrize(
+    ("nu40", "nu100"),
+    [(0.1, 0.05), (100.0, 200.0), (100.0, 100.0), (10.0, 1.0)],  # fmt: skip
+)
+def test_an_oil_outside_walthers_equation_is_refused_in_one_line(tmp_path, nu40, nu100):
+    """Below 0.3 cSt log log(ν + 0.7) does not exist (a math domain error before); an oil
+    that thickens as it warms makes no sense: both refused by the schema, exit 2."""
+    oil = f"viscosity_40c_cst = {nu40}\nviscosity_100c_cst = {nu100}\n"
+    lub = "[friction]\nmesh_coefficient = 0.1\ngroove_coefficient = 0.1\n[friction.lubricant]\n"
+    path = _write(tmp_path, PAIR + lub + oil + "[load]\ninput_speed_rpm = 1000.0\n")
+    result = CliRunner().invoke(app, ["run", str(path), "--out", str(tmp_path / "o"), "--quiet"])
+    assert result.exit_code == 2, result.output
+    line = result.output.strip()
+    assert "\n" not in line and "viscosity_100c_cst" in line and "Traceback" not in line
+    assert not (tmp_path / "o" / "summary.json").exists()
+
+
+def test_walther_refuses_an_oil_below_its_range():
+    from cyclomesh.core.friction import Lubricant
+    from cyclomesh.exceptions import DesignError
+
+    with pytest.raises(DesignError, match="viscosity_100c_cst"):
+        Lubricant(viscosity_40=0.1, viscosity_100=0.05)

@@ -119,6 +119,7 @@ __all__ = [
     "PINS",
     "ISO_VG",
     "walther_viscosity",
+    "MIN_VISCOSITY_CST",
     "benedict_kelley",
     "tangential_velocity",
     "normal_moment",
@@ -142,6 +143,11 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 PINS = ("rolling", "fixed")
+
+MIN_VISCOSITY_CST = 2.0
+"""Smallest kinematic viscosity [cSt] of Walther's equation in the form of
+:func:`walther_viscosity` (ASTM D341 [5]: log log(ν + 0.7) holds from 2 cSt up; below, the
+standard adds terms, and below 0.3 cSt the double logarithm does not exist)."""
 
 ISO_VG: dict[int, tuple[float, float]] = {
     32: (32.0, 5.4),
@@ -196,10 +202,10 @@ class Lubricant:
     density: float = 880.0
 
     def __post_init__(self) -> None:
-        if not (0 < self.viscosity_100 < self.viscosity_40):
+        if not (MIN_VISCOSITY_CST <= self.viscosity_100 < self.viscosity_40):
             raise DesignError(
-                "friction.lubricant: the viscosity at 100 °C must be positive and below "
-                "the one at 40 °C"
+                f"friction.lubricant: viscosity_100c_cst must be at least {MIN_VISCOSITY_CST:g} "
+                "cSt (Walther's equation, ASTM D341) and below viscosity_40c_cst"
             )
         if not (-30.0 <= self.temperature <= 150.0):
             raise DesignError("friction.lubricant.temperature_c must lie in [−30, 150] °C")

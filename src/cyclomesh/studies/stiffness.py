@@ -100,6 +100,28 @@ def check_stiffness(study: Study) -> None:
         _section(case)
 
 
+def at_rest(friction: Any) -> Any:
+    """The friction of the torsion test: at rest there is no entrainment, so no film (film
+    parameter λ = 0) and a lubricated coefficient is its boundary value
+    (:func:`cyclomesh.core.friction.boundary_share` = 1 below λ = 1): the lubricant is
+    dropped and the boundary coefficients of ``[friction]`` apply."""
+    if friction is None or friction.lubricant is None:
+        return friction
+    import dataclasses
+
+    return dataclasses.replace(friction, lubricant=None)
+
+
+def _lubricant_note(friction: Any) -> str | None:
+    if friction is None or friction.lubricant is None:
+        return None
+    return (
+        "friction.lubricant: the torsion test is at rest (no oil film), so the boundary "
+        "coefficients mesh_coefficient and groove_coefficient apply; the lubricant acts in "
+        "cyclomesh run, efficiency and tolerance"
+    )
+
+
 def compute_stiffness(
     study: Study, *, backend: Any = None, progress: Callable[[int], None] | None = None
 ) -> StiffnessResult:
@@ -139,7 +161,7 @@ def compute_stiffness(
                 contact_law=inputs.contact_law,
                 disc_body=inputs.disc_body,
                 crank_holes=inputs.crank_holes,
-                friction=inputs.friction,
+                friction=at_rest(inputs.friction),
             )
         except CyclomeshError as exc:  # name the case
             raise type(exc)(f"{case.label}: {exc}") from None
@@ -172,7 +194,7 @@ def compute_stiffness(
             inputs.contact_law,
             case.analysis.crank_angles_deg(),
             has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
-        ) + [w for w in (jam_warning(min_play_arcmin(ds)),) if w]
+        ) + [w for w in (jam_warning(min_play_arcmin(ds)), _lubricant_note(inputs.friction)) if w]
         result.checks[case.name] = case_checks(study, case, inputs, record, ds[["play"]])
         if progress:
             progress(1)

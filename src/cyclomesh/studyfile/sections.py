@@ -20,7 +20,7 @@ from pydantic import (
     model_validator,
 )
 
-from cyclomesh.core.friction import ISO_VG, Friction, Lubricant
+from cyclomesh.core.friction import ISO_VG, MIN_VISCOSITY_CST, Friction, Lubricant
 from cyclomesh.core.pair import (
     POISSON_RATIO_RANGE,
     YOUNGS_MODULUS_RANGE,
@@ -376,6 +376,15 @@ class LubricantSection(StrictSection):
             )
         if self.viscosity_40c_cst is not None and self.viscosity_100c_cst is None:
             raise ValueError("viscosity_40c_cst needs viscosity_100c_cst")
+        at_40 = self.viscosity_40c_cst or ISO_VG.get(self.grade or 0, (math.inf,))[0]
+        if self.viscosity_100c_cst is not None and not (
+            MIN_VISCOSITY_CST <= self.viscosity_100c_cst < at_40
+        ):
+            raise ValueError(
+                f"viscosity_100c_cst: expected at least {MIN_VISCOSITY_CST:g} cSt (Walther's "
+                "equation, ASTM D341) and below viscosity_40c_cst (oil thins as it warms), "
+                f"got {self.viscosity_100c_cst:g}"
+            )
         return self
 
     def to_core(self) -> Lubricant:

@@ -205,11 +205,7 @@ _NO_RUN_FIGURES = "this kind of study draws no load or stress figures; remove th
 
 REFUSED: dict[str, dict[str, str]] = {
     "run": {},
-    "stiffness": {
-        **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
-        "friction.lubricant": "the torsion test is at rest, where the boundary coefficients "
-        "apply; remove [friction.lubricant] (cyclomesh run uses it)",
-    },
+    "stiffness": {key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     "tolerance": {
         "design.disc": _HOLES,
         "stage": _stage("tolerance"),
