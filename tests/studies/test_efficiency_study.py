@@ -197,3 +197,48 @@ def test_walther_refuses_an_oil_below_its_range():
 
     with pytest.raises(DesignError, match="viscosity_100c_cst"):
         Lubricant(viscosity_40=0.1, viscosity_100=0.05)
+
+
+ALLOCATION = """
+[load]
+torque_nm = 250.0
+input_speed_rpm = 1000.0
+[tolerance]
+seed = 1
+rings = 3
+allowable_contact_stress_mpa = 1400.0
+radial_um = { distribution = "uniform", half_range = 3.0 }
+[tolerance.allocation]
+factor_max = 1.5
+factor_steps = 2
+bisections = 1
+"""
+
+
+def test_allocate_takes_friction_in_the_equilibrium(tmp_path):
+    """cyclomesh allocate with [friction]: the contact stress of its criterion comes from
+    the solve with friction (the tangential forces change the torque balance, so the
+    nominal stress moves), and the rings' efficiency at the stated tolerances is reported;
+    frictionless, no efficiency is reported."""
+    from cyclomesh.studies.allocate import compute_allocation
+
+    records = {}
+    for name, extra in (("dry", ""), ("friction", FRICTION)):
+        (tmp_path / name).mkdir()
+        study = load_study(_write(tmp_path / name, PAIR + ALLOCATION + extra))
+        records[name] = compute_allocation(study).record
+    dry, wet = records["dry"], records["friction"]
+    assert "efficiency" not in dry["at_stated_tolerances"]
+    eff = wet["at_stated_tolerances"]["efficiency"]
+    assert 0.8 < eff["min"] <= eff["max"] < 1.0 and eff["unit"] == "1"
+    assert wet["nominal_contact_stress_mpa"] != dry["nominal_contact_stress_mpa"]
+    assert wet["nominal_contact_stress_mpa"] == pytest.approx(
+        dry["nominal_contact_stress_mpa"], rel=0.05
+    )
+
+
+def test_allocate_with_friction_from_the_cli(tmp_path):
+    path = _write(tmp_path, PAIR + ALLOCATION + FRICTION)
+    _invoke("allocate", str(path), "--out", str(tmp_path / "out"))
+    doc = json.loads((tmp_path / "out" / "allocation.json").read_text())
+    assert "efficiency" in doc["at_stated_tolerances"]

@@ -337,13 +337,14 @@ CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
     },
     **{
         (kind, k): LUBRICATED if k.startswith("friction.lubricant.") else FRICTION
-        for kind in ("run", "stiffness", "efficiency", "design", "tolerance")
+        for kind in ("run", "stiffness", "efficiency", "design", "tolerance", "allocate")
         for k in schema_keys()
         if k.startswith("friction.")
     },
     ("design", "design_space.min_efficiency"): FRICTION,
     # the ratio P_out/P_in of Coulomb friction is the same at every speed: a lubricant's is not
     ("tolerance", "load.input_speed_rpm"): LUBRICATED,
+    ("allocate", "load.input_speed_rpm"): LUBRICATED,
 }
 
 
@@ -363,7 +364,7 @@ def change_table(key: str, kind: str = "run") -> dict[str, Any]:
         return {"tolerance": {"angular_urad": DELETE, "tangential_um": CHANGE[key]}}
     if key == "friction.lubricant.viscosity_40c_cst":  # instead of the grade (not both)
         oil = {"viscosity_40c_cst": 200.0, "viscosity_100c_cst": 18.0}
-        if kind in ("run", "stiffness", "efficiency", "design", "tolerance"):
+        if kind in ("run", "stiffness", "efficiency", "design", "tolerance", "allocate"):
             return {"friction": {"lubricant": {"grade": DELETE, **oil}}}
         return {"friction": {**FRICTION["friction"], "lubricant": oil}}
     if key.startswith("friction.") and kind not in (
@@ -372,6 +373,7 @@ def change_table(key: str, kind: str = "run") -> dict[str, Any]:
         "efficiency",
         "design",
         "tolerance",
+        "allocate",
     ):
         context = LUBRICATED if key.startswith("friction.lubricant.") else FRICTION
         return merge({"friction": context["friction"]}, _nested(key, CHANGE[key]))

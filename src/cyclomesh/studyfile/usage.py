@@ -137,7 +137,7 @@ USED: dict[str, tuple[str, ...]] = {
         *_CHECKED,
         "requirements.tolerance_percentile",
     ),
-    "allocate": (*_LTCA, "tolerance"),
+    "allocate": (*_LTCA, "tolerance", "friction", "load.input_speed_rpm"),
     "design": (*_LTCA, *_RINGS, "design_space", "friction", *_CHECKED),
     "fe": (
         *_PAIR,
@@ -192,7 +192,7 @@ NEEDS: dict[str, dict[str, tuple[str, str]]] = {
 def _friction(kind: str) -> str:
     return (
         f"friction: [friction] is not taken by cyclomesh {kind} yet; use cyclomesh run, "
-        "stiffness or tolerance for friction and efficiency, or remove [friction] "
+        "stiffness, tolerance or allocate for friction and efficiency, or remove [friction] "
         "(docs/efficiency.md)"
     )
 
@@ -215,7 +215,6 @@ REFUSED: dict[str, dict[str, str]] = {
     "allocate": {
         "design.disc": _HOLES,
         "stage": _stage("allocate"),
-        "friction": _friction("allocate"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },

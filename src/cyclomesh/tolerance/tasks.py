@@ -252,8 +252,10 @@ STATED_METRICS = (
     "max_mesh_force_n",
     "min_torque_share_nm",
     "max_torque_share_nm",
+    "efficiency",
 )
-"""Per-ring metrics an allocation also reports at the stated tolerances (f = 1)."""
+"""Per-ring metrics an allocation also reports at the stated tolerances (f = 1); the
+forward efficiency with ``[friction]`` only."""
 
 
 @dataclass(frozen=True)
@@ -273,7 +275,11 @@ class AllocationTask:
     Every step solves the whole batch (rings already settled ride along and their
     results are ignored). One more solve at the stated tolerances (f = 1) gives each
     ring's :data:`STATED_METRICS` (peak stress, the largest mesh force on a disc and, for
-    a stack, the range of the torque one disc carries).
+    a stack, the range of the torque one disc carries; with friction, the efficiency).
+
+    With friction (``model.friction``) every solve has it in the equilibrium: the
+    tangential forces change the torque balance and so the pin loads and the contact
+    stress the criterion is on.
     """
 
     model: RingModel
