@@ -242,3 +242,24 @@ def test_allocate_with_friction_from_the_cli(tmp_path):
     _invoke("allocate", str(path), "--out", str(tmp_path / "out"))
     doc = json.loads((tmp_path / "out" / "allocation.json").read_text())
     assert "efficiency" in doc["at_stated_tolerances"]
+
+
+def test_tolerance_figures_draw_the_efficiency_with_friction():
+    """The rings' efficiency (a metric of the table with [friction]) has its histogram
+    and ECDF too; without it the figures are those of before."""
+    import numpy as np
+    import xarray as xr
+
+    from cyclomesh.figures.tolerance import plot_metric_histograms, reduce_rings
+
+    rng = np.random.default_rng(1)
+    stress = xr.DataArray(1500 + 100 * rng.standard_normal(50), dims="ring")
+    dry = xr.Dataset({"max_contact_stress_mpa": stress})
+    wet = dry.assign(efficiency=xr.DataArray(0.88 + 0.002 * rng.standard_normal(50), dims="ring"))
+    assert "efficiency" not in reduce_rings(dry, 2000.0).histograms
+    dist = reduce_rings(wet, 2000.0)
+    counts, edges, _ = dist.histograms["efficiency"]
+    assert counts.sum() == 50 and 0.85 < edges[0] < edges[-1] < 0.9
+    assert "efficiency" in dist.ecdfs
+    fig = plot_metric_histograms(dist, 2000.0)
+    assert any("efficiency" in ax.get_xlabel() for ax in fig.axes)

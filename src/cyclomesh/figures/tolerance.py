@@ -111,7 +111,8 @@ def reduce_rings(
 
 
 def _metrics(ds: xr.Dataset) -> list[str]:
-    names = (*METRICS, *DRIVE_METRICS)  # the mesh force and a stack's torque split too
+    # the mesh force and a stack's torque split too, and the efficiency with [friction]
+    names = (*METRICS, *DRIVE_METRICS, "efficiency")
     return [name for name in names if name in ds and name not in ("any_overlap", "jammed")]
 
 
