@@ -585,6 +585,12 @@ _ROWS = (
         "rated losses",
     ),
     Quantity("efficiency_min", "1", "smallest forward efficiency of the map", "min efficiency"),
+    Quantity(
+        "backdrive_efficiency_min",
+        "1",
+        "smallest back-driving efficiency of the map",
+        "min back-drive eff.",
+    ),
     # --- metrics of the RV stage -------------------------------------------------------------
     Quantity("stage_rated_torque_nm", "N·m", "rated torque of the data sheet", "rated torque"),
     Quantity("stage_output_speed_rpm", "rpm", "output speed of the rated life", "speed"),

@@ -4,6 +4,7 @@ the one speed key."""
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -263,3 +264,73 @@ def test_tolerance_figures_draw_the_efficiency_with_friction():
     assert "efficiency" in dist.ecdfs
     fig = plot_metric_histograms(dist, 2000.0)
     assert any("efficiency" in ax.get_xlabel() for ax in fig.axes)
+
+
+TOLERANCE = """
+[load]
+torque_nm = 250.0
+input_speed_rpm = 1000.0
+[tolerance]
+seed = 3
+rings = 4
+allowable_contact_stress_mpa = 2000.0
+radial_um = { distribution = "uniform", half_range = 3.0 }
+"""
+
+
+def _tolerance(tmp_path: Path, text: str) -> dict:
+    path = _write(tmp_path, text)
+    _invoke("tolerance", str(path), "--out", str(tmp_path / "out"))
+    return json.loads((tmp_path / "out" / "tolerance_summary.json").read_text())
+
+
+def test_tolerance_backdrive_efficiency_only_when_required(tmp_path):
+    """[requirements] min_backdrive_efficiency asks for a back-driven solve of every ring:
+    its statistics and its check appear; without it, no second solve (no metric)."""
+    import xarray as xr
+
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    plain = _tolerance(tmp_path / "a", PAIR + TOLERANCE + FRICTION)
+    assert "efficiency" in plain["metrics"] and "backdrive_efficiency" not in plain["metrics"]
+    req = "[requirements]\nmin_backdrive_efficiency = 0.5\n"
+    asked = _tolerance(tmp_path / "b", PAIR + TOLERANCE + FRICTION + req)
+    back = asked["metrics"]["backdrive_efficiency"]
+    assert 0.5 < back["min"] <= back["max"] < 1.0
+    # the forward metrics do not move with the second solve
+    assert asked["metrics"]["efficiency"] == plain["metrics"]["efficiency"]
+    rows = [r for r in asked["checks"]["rows"] if r["check"] == "min_backdrive_efficiency"]
+    assert rows and rows[0]["verdict"] == "pass"
+    rings = xr.open_dataset(tmp_path / "b" / "out" / "tolerance_rings.nc")
+    assert rings["backdrive_efficiency"].attrs["units"] == "1"
+
+
+def test_ring_backdrive_efficiency_is_the_runs(tmp_path):
+    """A ring's back-driving efficiency is that of cyclomesh run on the same ring (its
+    worst_ring.toml): the ring formula and the run's record agree."""
+    import xarray as xr
+
+    req = "[requirements]\nmin_backdrive_efficiency = 0.5\n"
+    _tolerance(tmp_path, PAIR + TOLERANCE + FRICTION + req)
+    rings = xr.open_dataset(tmp_path / "out" / "tolerance_rings.nc")
+    worst = int(rings["ring"].values[int(np.argmax(rings["max_contact_stress_mpa"].values))])
+    _invoke("run", str(tmp_path / "out" / "worst_ring.toml"), "--out", str(tmp_path / "run"))
+    case = json.loads((tmp_path / "run" / "summary.json").read_text())["cases"][0]
+    ring = rings.sel(ring=worst)
+    assert float(ring["backdrive_efficiency"]) == pytest.approx(
+        case["backdrive_efficiency"], rel=1e-9
+    )
+    assert float(ring["efficiency"]) == pytest.approx(case["efficiency"], rel=1e-9)
+
+
+def test_run_checks_min_backdrive_efficiency(tmp_path):
+    req = "[requirements]\nmin_backdrive_efficiency = 0.999\n"
+    path = _write(tmp_path, PAIR + FRICTION + "[load]\ninput_speed_rpm = 1000.0\n" + req)
+    result = CliRunner().invoke(
+        app, ["run", str(path), "--out", str(tmp_path / "o"), "--figures", "none", "--quiet"]
+    )
+    case = json.loads((tmp_path / "o" / "summary.json").read_text())["cases"][0]
+    rows = [r for r in case["checks"]["rows"] if r["check"] == "min_backdrive_efficiency"]
+    assert rows[0]["value"] == case["backdrive_efficiency"] and rows[0]["verdict"] == "fail"
+    assert rows[0]["margin"] == pytest.approx(case["backdrive_efficiency"] - 0.999)
+    assert result.exit_code == 0, result.output  # a failed requirement is a verdict, no error

@@ -270,6 +270,7 @@ CHANGE.update(
         "friction.lubricant.pressure_viscosity_per_gpa": 15.0,
         "friction.lubricant.density_kg_m3": 850.0,
         "requirements.min_efficiency": 0.9,
+        "requirements.min_backdrive_efficiency": 0.9,
         "efficiency.torque_nm": _range(150.0, 250.0),
         "efficiency.input_speed_rpm": _range(500.0, 2000.0),
         "efficiency.rated_torque_nm": 120.0,

@@ -112,7 +112,7 @@ def reduce_rings(
 
 def _metrics(ds: xr.Dataset) -> list[str]:
     # the mesh force and a stack's torque split too, and the efficiency with [friction]
-    names = (*METRICS, *DRIVE_METRICS, "efficiency")
+    names = (*METRICS, *DRIVE_METRICS, "efficiency", "backdrive_efficiency")
     return [name for name in names if name in ds and name not in ("any_overlap", "jammed")]
 
 

@@ -60,6 +60,7 @@ MAP_METRICS = {
         "rated_input_power_w",
         "rated_power_loss_w",
         "efficiency_min",
+        "backdrive_efficiency_min",
     ).items()
 }
 """Numbers of each case in ``summary.json`` with their units (rows of
@@ -177,6 +178,7 @@ def compute_efficiency(
             "rated_input_power_w": rated["input_power_w"],
             "rated_power_loss_w": rated["power_loss_w"],
             "efficiency_min": float(eff.min()),
+            "backdrive_efficiency_min": float(ds["backdrive_efficiency"].values.min()),
         }
         result.maps[case.name] = ds
         result.summaries[case.name] = summary

@@ -61,8 +61,12 @@ def load_tolerance_study(path: str | Path) -> tuple[Study, ToleranceSection]:
     return study, study.tolerance
 
 
-def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
-    """The fixed part of the tolerance study: the study's base case as core objects."""
+def ring_model(study: Study, spec: ToleranceSection, checked: bool = False) -> RingModel:
+    """The fixed part of the tolerance study: the study's base case as core objects.
+
+    ``checked``: the kind checks ``[requirements]`` (``cyclomesh tolerance``); then
+    ``min_backdrive_efficiency`` with ``[friction]`` asks for every ring's back-driving
+    efficiency (a second solve per ring, :attr:`RingModel.backdrive`)."""
     base = study.base
     core = base.to_core()
     if np.ndim(core.torque):
@@ -86,6 +90,9 @@ def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
             core.disc_body, core.design, core.modification, core.crank_holes
         ),
         friction=core.friction,
+        backdrive=checked
+        and core.friction is not None
+        and study.file.requirements.min_backdrive_efficiency is not None,
     )
 
 

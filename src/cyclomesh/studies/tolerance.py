@@ -80,7 +80,7 @@ __all__ = [
 
 # --- results of a tolerance study --------------------------------------------------------
 
-RING_METRICS = METRICS | DRIVE_METRICS | select("efficiency")
+RING_METRICS = METRICS | DRIVE_METRICS | select("efficiency", "backdrive_efficiency")
 """The per-ring metrics of a tolerance study: those of a run, a stack's, and with
 ``[friction]`` the forward efficiency (:func:`cyclomesh.tolerance.tasks.ring_efficiency`)."""
 
@@ -323,7 +323,7 @@ def compute_tolerance(
     start = time.perf_counter()
     spec = study.tolerance
     n = ring_count(spec, rings)
-    model = ring_model(study, spec)
+    model = ring_model(study, spec, checked=True)
     per_ring = run_rings(ToleranceTask(model), n, model, backend, chunk_rings, progress)
     seconds = time.perf_counter() - start
     ds = metrics_dataset(

@@ -855,6 +855,13 @@ class RequirementsSection(StrictSection):
     min_efficiency: float | None = Field(
         None, gt=0, le=1, description="smallest forward efficiency [-] (with [friction])"
     )
+    min_backdrive_efficiency: float | None = Field(
+        None,
+        ge=0,
+        le=1,
+        description="smallest back-driving efficiency [-] (with [friction]; in a tolerance "
+        "study it adds a back-driving solve per ring)",
+    )
     min_bearing_life_h: float | None = Field(
         None, gt=0, description="L10h of the weakest crank bearing [h] (RV stage, [stage])"
     )

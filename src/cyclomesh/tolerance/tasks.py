@@ -92,6 +92,11 @@ class RingModel:
     friction : Friction, optional
         Friction in the equilibrium (:mod:`cyclomesh.core.friction`): every ring's
         forward ``efficiency`` joins its metrics (:func:`ring_efficiency`).
+    backdrive : bool
+        With friction, also solve every ring back-driven (the output driving the crank,
+        :func:`cyclomesh.drive.solve.solve_drive` ``backdrive``): its
+        ``backdrive_efficiency`` joins the metrics (:func:`ring_backdrive_efficiency`), at
+        the cost of a second solve per ring.
     """
 
     design: PairDesign
@@ -107,6 +112,7 @@ class RingModel:
     crank_range: tuple[float, float, float] | None = None
     disc_body: Any = "rigid"
     friction: Any = None
+    backdrive: bool = False
 
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
@@ -169,6 +175,23 @@ class RingModel:
         out = drive_metrics(result, self.design.teeth)
         if self.friction is not None:
             out["efficiency"] = ring_efficiency(result, self.design.teeth, self.friction.speed)
+        if self.friction is not None and self.backdrive:
+            back = solve_drive(
+                self.design,
+                self.modification,
+                self.pin_errors(block),
+                self.torque_nm,
+                np.deg2rad(self.crank_angles_deg),
+                self.groove_deformation,
+                self.discs,
+                self.contact_law,
+                self.disc_body,
+                friction=self.friction,
+                backdrive=True,
+            )
+            out["backdrive_efficiency"] = ring_backdrive_efficiency(
+                result, back, self.design.teeth, self.friction.speed
+            )
         return out
 
     def _blame(self, block: RingErrors) -> None:
@@ -190,6 +213,21 @@ def ring_efficiency(result: Any, teeth: int, speed: float) -> NDArray[np.float64
     loss = loss + np.sum(f["power_loss_bearing"], axis=-1)  # (..., Q, A)
     p_out = np.abs(result.torque[0]) * speed / teeth
     return p_out / (p_out + np.mean(loss[..., 0, :], axis=-1))
+
+
+def ring_backdrive_efficiency(
+    forward: Any, backward: Any, teeth: int, speed: float
+) -> NDArray[np.float64]:
+    """Back-driving efficiency of every ring [-]: (P_out − P_loss,b)/P_out with P_out =
+    |T|·ω/n2 of the forward drive and P_loss,b the mean over the crank angles of the
+    back-driven solve's losses (pins and crank bearings), as
+    :func:`cyclomesh.results.efficiency.efficiency_record` takes it for one case: the
+    output shaft delivers P_out, the crank receives what the losses leave of it."""
+    b = backward.friction
+    loss = np.sum(b["power_loss_tooth"] + b["power_loss_groove"], axis=(-2, -1))
+    loss = loss + np.sum(b["power_loss_bearing"], axis=-1)  # (..., Q, A)
+    p_out = np.abs(forward.torque[0]) * speed / teeth
+    return (p_out - np.mean(loss[..., 0, :], axis=-1)) / p_out
 
 
 def _by_blocks(start: int, stop: int, solve: Any, size: int) -> dict[str, NDArray[Any]]:
@@ -253,6 +291,7 @@ STATED_METRICS = (
     "min_torque_share_nm",
     "max_torque_share_nm",
     "efficiency",
+    "backdrive_efficiency",
 )
 """Per-ring metrics an allocation also reports at the stated tolerances (f = 1); the
 forward efficiency with ``[friction]`` only."""
