@@ -334,3 +334,20 @@ def test_run_checks_min_backdrive_efficiency(tmp_path):
     assert rows[0]["value"] == case["backdrive_efficiency"] and rows[0]["verdict"] == "fail"
     assert rows[0]["margin"] == pytest.approx(case["backdrive_efficiency"] - 0.999)
     assert result.exit_code == 0, result.output  # a failed requirement is a verdict, no error
+
+
+def test_run_with_zero_friction_says_it_is_frictionless(tmp_path):
+    """All coefficients 0: the frictionless model, bit for bit the run without [friction],
+    and a warning says why no efficiency is reported."""
+    zero = "[friction]\nmesh_coefficient = 0.0\n"
+    docs = []
+    for name, extra in (("none", ""), ("zero", zero)):
+        path = _write(tmp_path, PAIR + extra)
+        _invoke("run", str(path), "--out", str(tmp_path / name))
+        docs.append(json.loads((tmp_path / name / "summary.json").read_text()))
+    plain, zeroed = docs
+    assert "efficiency" not in zeroed["cases"][0]
+    for key in ("te_pp_arcsec", "max_contact_stress_mpa", "max_pin_load_n"):
+        assert zeroed["cases"][0][key] == plain["cases"][0][key]
+    text = json.dumps(zeroed["warnings"]) + json.dumps(zeroed["cases"][0]["warnings"])
+    assert "frictionless" in text and "frictionless" not in json.dumps(plain)

@@ -173,13 +173,25 @@ def compute_run(
             inputs.contact_law,
             case.analysis.crank_angles_deg(),
             has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
-        ) + [w for w in (jam_warning(min_play_arcmin(ds)),) if w]
+        ) + [w for w in (jam_warning(min_play_arcmin(ds)), _zero_friction(case, inputs)) if w]
         run.checks[case.name] = case_checks(study, case, inputs, run.summaries[case.name], ds)
         if on_done:
             on_done(case.name)
         if progress:
             progress(1)
     return run
+
+
+def _zero_friction(case: Any, inputs: Any) -> str | None:
+    """A ``[friction]`` whose coefficients are all 0 is the frictionless model: say so,
+    as the efficiency and the losses it would give (1 and 0) are not reported."""
+    if case.friction is None or inputs.friction is not None:
+        return None
+    return (
+        "friction: every coefficient of [friction] is 0, the frictionless model (the "
+        "paper's assumption 3: efficiency 1, no loss), so no efficiency or loss is "
+        "reported; give mesh_coefficient > 0 for friction"
+    )
 
 
 def refuse_friction_with_stage(study: Study) -> None:
