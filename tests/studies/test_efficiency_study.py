@@ -351,3 +351,14 @@ def test_run_with_zero_friction_says_it_is_frictionless(tmp_path):
         assert zeroed["cases"][0][key] == plain["cases"][0][key]
     text = json.dumps(zeroed["warnings"]) + json.dumps(zeroed["cases"][0]["warnings"])
     assert "frictionless" in text and "frictionless" not in json.dumps(plain)
+
+
+def test_run_report_shows_the_loss_table_readably(tmp_path):
+    """The report's summary labels the friction numbers and writes the loss table as
+    path: W, not as a Python dict."""
+    path = _write(tmp_path, PAIR + FRICTION + "[load]\ninput_speed_rpm = 1000.0\n")
+    _invoke("run", str(path), "--out", str(tmp_path / "out"))
+    text = (tmp_path / "out" / "report.html").read_text()
+    assert "{&#x27;" not in text and "{'" not in text
+    assert "pin-tooth: " in text and "output-mechanism: not modelled" in text
+    assert "P loss [W]" in text and "back-drive eff." in text

@@ -514,6 +514,13 @@ def _cell(value: Any) -> Any:
         return "true" if value else "false"
     if isinstance(value, list):  # one value per torque of a torque list
         return " / ".join(f"{v:.4g}" if isinstance(v, float) else str(_cell(v)) for v in value)
+    if isinstance(value, dict):  # a table such as the loss per path (path -> W)
+        return "; ".join(
+            f"{k.replace('_', '-')}: " + ("not modelled" if v is None else str(_cell(v)))
+            if not isinstance(v, float)
+            else f"{k.replace('_', '-')}: {v:.4g}"
+            for k, v in value.items()
+        )
     return value
 
 
@@ -609,7 +616,7 @@ def run_sections(run: RunResult) -> list[Section]:
             )
             for n in names
         },
-        METRICS | DRIVE_METRICS | STIFFNESS_METRICS,
+        METRICS | DRIVE_METRICS | STIFFNESS_METRICS | EFFICIENCY_METRICS,
     )
     from cyclomesh.studies.checks import checks_section
 
