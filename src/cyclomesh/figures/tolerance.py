@@ -16,7 +16,13 @@ import numpy as np
 import xarray as xr
 
 from cyclomesh.figures.render import fixed_figure, plain_log_axis
-from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC, metric_label
+from cyclomesh.results.metrics import (
+    DRIVE_METRICS,
+    METRICS,
+    STAGE_RING_METRICS,
+    STRESS_METRIC,
+    metric_label,
+)
 
 if TYPE_CHECKING:
     from cyclomesh.tolerance.allocation import Allocation
@@ -111,8 +117,8 @@ def reduce_rings(
 
 
 def _metrics(ds: xr.Dataset) -> list[str]:
-    # the mesh force and a stack's torque split too, and the efficiency with [friction]
-    names = (*METRICS, *DRIVE_METRICS, "efficiency", "backdrive_efficiency")
+    # the mesh force, a stack's torque split, the RV stage's metrics and the efficiency
+    names = (*METRICS, *DRIVE_METRICS, *STAGE_RING_METRICS, "efficiency", "backdrive_efficiency")
     return [name for name in names if name in ds and name not in ("any_overlap", "jammed")]
 
 
