@@ -9,7 +9,8 @@ line naming the dotted key. ``cyclomesh check`` therefore refuses a bad key in a
 section before any work is done. To add the section of a new kind of study, see
 ``docs/pipeline.md``.
 
-The sections live by concern: those of a case in :mod:`cyclomesh.studyfile.sections`,
+The sections live by concern: those of a case in :mod:`cyclomesh.studyfile.sections`
+and :mod:`cyclomesh.studyfile.drive_sections`,
 those of the other kinds of study in :mod:`cyclomesh.studyfile.kind_sections`, the
 one-line formatter in :mod:`cyclomesh.studyfile.messages`; this module assembles them
 (:class:`CaseSpec`, :class:`StudyFile`), loads a file (:func:`load_study`) and re-exports
@@ -71,6 +72,12 @@ from cyclomesh.core.pair import (
 from cyclomesh.core.profile import check_profile
 from cyclomesh.exceptions import DesignError, StudyError
 from cyclomesh.stage.solve import StageDesign
+from cyclomesh.studyfile.drive_sections import (
+    FrictionSection,
+    LubricantSection,
+    StageSection,
+    StiffnessSection,
+)
 from cyclomesh.studyfile.kind_sections import (
     AllocationSection,
     DesignSpaceSection,
@@ -100,16 +107,12 @@ from cyclomesh.studyfile.sections import (
     DesignSection,
     ErrorsSection,
     FiguresSection,
-    FrictionSection,
     LoadSection,
-    LubricantSection,
     MaterialProperties,
     MaterialSection,
     ModificationSection,
     RandomErrorsSection,
     RequirementsSection,
-    StageSection,
-    StiffnessSection,
     StrictSection,
     crank_angles_deg,
     tangential_urad,
