@@ -25,7 +25,7 @@ import numpy as np
 from cyclomesh.exceptions import StudyError
 from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.quantities import QUANTITIES, select
-from cyclomesh.studies.execute import StudyKind
+from cyclomesh.studies.execute import CommandSteps, StudyKind
 from cyclomesh.studyfile.schema import Study, folder_name
 
 if TYPE_CHECKING:
@@ -303,6 +303,12 @@ def efficiency_sections(result: EfficiencyResult) -> list[Section]:
     ]
 
 
+def _show(result: EfficiencyResult, out: Path, options: Any) -> None:
+    from cyclomesh.publish.console import print_efficiency
+
+    print_efficiency(result.summaries, out, result.checks)
+
+
 EFFICIENCY = StudyKind(
     command="efficiency",
     title="efficiency map",
@@ -310,4 +316,6 @@ EFFICIENCY = StudyKind(
     write=lambda result, out, options: write_efficiency(result, out),
     figures=lambda result, early: efficiency_figures(result),
     sections=lambda result: efficiency_sections(result),
+    keys_first=check_efficiency,  # the section and the friction first
+    steps=CommandSteps(progress=lambda study, o: (len(study.cases), "cases"), show=_show),
 )

@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 from cyclomesh.exceptions import CyclomeshError, StudyError
 from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.results.metrics import STIFFNESS_METRICS
-from cyclomesh.studies.execute import StudyKind
+from cyclomesh.studies.execute import CommandSteps, StudyKind
 from cyclomesh.studyfile.schema import CaseSpec, StiffnessSection, Study, folder_name
 
 if TYPE_CHECKING:
@@ -407,6 +407,20 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
     ]
 
 
+def _preflight(study: Study) -> None:
+    from cyclomesh.studies.run import refuse_friction_with_stage
+
+    refuse_friction_with_stage(study)
+    check_stiffness(study)
+
+
+def _show(result: StiffnessResult, out: Path, options: Any) -> None:
+    from cyclomesh.publish.console import print_stiffness, print_warnings
+
+    print_warnings(result.study_warnings())
+    print_stiffness(result.summaries, out, result.checks)
+
+
 STIFFNESS = StudyKind(
     command="stiffness",
     title="torsion curve",
@@ -414,5 +428,7 @@ STIFFNESS = StudyKind(
     write=lambda result, out, options: write_stiffness(result, out),
     figures=lambda result, early: stiffness_figures(result),
     sections=lambda result: stiffness_sections(result),
+    preflight=_preflight,
+    steps=CommandSteps(progress=lambda study, o: (len(study.cases), "cases"), show=_show),
 )
 """``cyclomesh stiffness`` (:func:`cyclomesh.studies.execute.execute`)."""
