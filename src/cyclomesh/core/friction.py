@@ -98,6 +98,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.contact import contact_tangent
 from cyclomesh.exceptions import DesignError
+from cyclomesh.units import IN_PER_M, LBF_PER_IN_PER_N_PER_M, UIN_PER_M
 
 __all__ = [
     "Friction",
@@ -136,10 +137,6 @@ ISO_VG: dict[int, tuple[float, float]] = {
 (manufacturers' data sheets of ISO VG gear oils); give ``viscosity_100c_cst`` to use
 another oil."""
 
-_LBF_PER_IN_PER_N_PER_M = 0.0254 / 4.4482216152605
-_IN_PER_M = 1.0 / 0.0254
-_UIN_PER_M = 1e6 / 0.0254
-
 
 @dataclass(frozen=True)
 class Lubricant:
@@ -170,7 +167,7 @@ class Lubricant:
             )
         if not (-30.0 <= self.temperature <= 150.0):
             raise DesignError("friction.lubricant.temperature_c must lie in [−30, 150] °C")
-        if not (0 <= self.roughness * _UIN_PER_M < 40.0):
+        if not (0 <= self.roughness * UIN_PER_M < 40.0):
             raise DesignError(
                 "friction.lubricant.roughness_um must be ≥ 0 and below 1 µm "
                 "(the range of Benedict–Kelley's roughness factor)"
@@ -219,10 +216,10 @@ def benedict_kelley(
     ndarray
         μ = 0.0127·C_R·log10[3.17e8·w/(ν0·V_s·V_e²)] (US units inside, as published).
     """
-    w = np.asarray(load_per_width, float) * _LBF_PER_IN_PER_N_PER_M
-    vs = np.asarray(sliding, float) * _IN_PER_M
-    ve = np.asarray(entrainment, float) * _IN_PER_M
-    c_r = 50.0 / (50.0 - roughness * _UIN_PER_M)
+    w = np.asarray(load_per_width, float) * LBF_PER_IN_PER_N_PER_M
+    vs = np.asarray(sliding, float) * IN_PER_M
+    ve = np.asarray(entrainment, float) * IN_PER_M
+    c_r = 50.0 / (50.0 - roughness * UIN_PER_M)
     with np.errstate(divide="ignore"):
         return 0.0127 * c_r * np.log10(3.17e8 * w / (viscosity_cst * vs * ve * ve))
 

@@ -26,7 +26,7 @@ from cyclomesh.exceptions import StudyError
 from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.quantities import QUANTITIES, select
 from cyclomesh.studies.execute import CommandSteps, StudyKind
-from cyclomesh.studyfile.schema import Study, folder_name
+from cyclomesh.studyfile.schema import Study
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -205,25 +205,16 @@ def _point(
 
 def write_efficiency(result: EfficiencyResult, out: Path) -> list[Path]:
     """Write ``<case>/efficiency.nc`` of every case and ``summary.json`` into ``out``."""
-    from cyclomesh.output.writers import write_json, write_netcdf
+    from cyclomesh.output.writers import write_case_netcdf, write_json
 
     study = result.study
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    written: list[Path] = []
-    records = []
-    for case in study.cases:
-        folder = out / folder_name(case.name)
-        folder.mkdir(parents=True, exist_ok=True)
-        written.append(write_netcdf(result.maps[case.name], folder / "efficiency.nc"))
-        records.append(
-            {
-                "name": case.name,
-                "results": f"{folder_name(case.name)}/efficiency.nc",
-                **result.summaries[case.name],
-                "checks": result.checks[case.name],
-            }
-        )
+    written, records = write_case_netcdf(
+        study,
+        out,
+        result.maps,
+        "efficiency.nc",
+        lambda case: {**result.summaries[case.name], "checks": result.checks[case.name]},
+    )
     document = summary_document(study, MAP_METRICS, records)
     written.append(write_json(out / "summary.json", document))
     return written

@@ -302,31 +302,29 @@ def write_fe(result: FeResult, out: Path) -> list[Path]:
     import csv
 
     from cyclomesh.output.folder import atomic_write
-    from cyclomesh.output.writers import write_json, write_netcdf
+    from cyclomesh.output.writers import write_case_netcdf, write_json
+
+    def convergence(case: Any, folder: Path) -> list[Path]:
+        if case.name not in result.convergence:
+            return []
+        path = folder / "convergence.csv"
+        with atomic_write(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
+            csv.writer(fh).writerows(result.convergence[case.name])
+        return [path]
 
     study = result.study
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    written: list[Path] = []
-    records = []
-    for case in study.cases:
-        folder = out / folder_name(case.name)
-        folder.mkdir(parents=True, exist_ok=True)
-        written.append(write_netcdf(result.cases[case.name], folder / "fe.nc"))
-        if case.name in result.convergence:
-            path = folder / "convergence.csv"
-            with atomic_write(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
-                csv.writer(fh).writerows(result.convergence[case.name])
-            written.append(path)
-        records.append(
-            {
-                "name": case.name,
-                "results": f"{folder_name(case.name)}/fe.nc",
-                "crank_angles_deg": [float(a) for a in result.cases[case.name].crank_angle],
-                **result.summaries[case.name],
-                "checks": result.checks[case.name],
-            }
-        )
+    written, records = write_case_netcdf(
+        study,
+        out,
+        result.cases,
+        "fe.nc",
+        lambda case: {
+            "crank_angles_deg": [float(a) for a in result.cases[case.name].crank_angle],
+            **result.summaries[case.name],
+            "checks": result.checks[case.name],
+        },
+        convergence,
+    )
     document = summary_document(
         study,
         {name: m.unit for name, m in FE_METRICS.items()},

@@ -203,26 +203,20 @@ def _measured(case: Any, section: Any, ds: Any, summary: Any, stage_summary: dic
 
 def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
     """Write ``<case>/stiffness.nc`` of every case and ``summary.json`` into ``out``."""
-    from cyclomesh.output.writers import write_json, write_netcdf
+    from cyclomesh.output.writers import write_case_netcdf, write_json
 
     study = result.study
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    written: list[Path] = []
-    records = []
-    for case in study.cases:
-        folder = out / folder_name(case.name)
-        folder.mkdir(parents=True, exist_ok=True)
-        written.append(write_netcdf(result.curves[case.name], folder / "stiffness.nc"))
-        records.append(
-            {
-                "name": case.name,
-                "results": f"{folder_name(case.name)}/stiffness.nc",
-                **result.summaries[case.name],
-                "checks": result.checks[case.name],
-                "warnings": result.warnings.get(case.name, []),
-            }
-        )
+    written, records = write_case_netcdf(
+        study,
+        out,
+        result.curves,
+        "stiffness.nc",
+        lambda case: {
+            **result.summaries[case.name],
+            "checks": result.checks[case.name],
+            "warnings": result.warnings.get(case.name, []),
+        },
+    )
     from cyclomesh.results.stage import STAGE_STIFFNESS_METRICS
 
     document = summary_document(
