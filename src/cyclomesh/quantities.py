@@ -231,6 +231,8 @@ sliding_velocity_groove | m/s | pin | + | sliding groove | - | sliding velocity,
 power_loss_tooth | W | pin | + | loss pin-tooth | - | friction power loss, pin-tooth
 power_loss_groove | W | pin | + | loss pin-groove | - | friction power loss, pin-groove
 friction_coefficient | 1 | pin | + | μ | - | friction coefficient acting on the disc
+film_parameter | 1 | pin | + | λ | - | film parameter h_c/sigma at the sliding interface (0: pin
+    unloaded)
 power_loss_bearing | W | disc | + | loss bearing | - | friction power loss of the crank bearing
 input_torque | N·m | angle | - | T in | - | input torque, moment balance of the crank (forward)
 backdrive_input_torque | N·m | angle | - | T in back | - | input torque, moment balance
@@ -249,6 +251,8 @@ backdrive_efficiency | 1 | - | + | back-drive eff. | - | back-driving efficiency
 input_power_w | W | - | + | P in | - | mean input power (forward)
 output_power_w | W | - | + | P out | - | mean output power (forward)
 input_speed_rpm | rpm | - | + | n in | - | input (crank) speed
+film_parameter_min | 1 | - | + | λ min | - | smallest film parameter of the loaded contacts
+film_parameter_mean | 1 | - | + | λ mean | - | mean film parameter of the loaded contacts
 power_loss_w | W | - | + | P loss | - | mean friction power loss per path (table path -> W;
     null: not modelled)
 # --- friction: an efficiency map (cyclomesh efficiency, summary.json)

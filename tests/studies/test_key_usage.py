@@ -266,6 +266,9 @@ CHANGE.update(
         "friction.lubricant.viscosity_100c_cst": 25.0,
         "friction.lubricant.temperature_c": 70.0,
         "friction.lubricant.roughness_um": 0.2,
+        "friction.lubricant.composite_roughness_um": 0.3,
+        "friction.lubricant.pressure_viscosity_per_gpa": 15.0,
+        "friction.lubricant.density_kg_m3": 850.0,
         "requirements.min_efficiency": 0.9,
         "efficiency.torque_nm": _range(150.0, 250.0),
         "efficiency.input_speed_rpm": _range(500.0, 2000.0),
@@ -334,11 +337,13 @@ CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
     },
     **{
         (kind, k): LUBRICATED if k.startswith("friction.lubricant.") else FRICTION
-        for kind in ("run", "stiffness", "efficiency", "design")
+        for kind in ("run", "stiffness", "efficiency", "design", "tolerance")
         for k in schema_keys()
         if k.startswith("friction.")
     },
     ("design", "design_space.min_efficiency"): FRICTION,
+    # the ratio P_out/P_in of Coulomb friction is the same at every speed: a lubricant's is not
+    ("tolerance", "load.input_speed_rpm"): LUBRICATED,
 }
 
 
@@ -358,10 +363,16 @@ def change_table(key: str, kind: str = "run") -> dict[str, Any]:
         return {"tolerance": {"angular_urad": DELETE, "tangential_um": CHANGE[key]}}
     if key == "friction.lubricant.viscosity_40c_cst":  # instead of the grade (not both)
         oil = {"viscosity_40c_cst": 200.0, "viscosity_100c_cst": 18.0}
-        if kind in ("run", "stiffness", "efficiency", "design"):
+        if kind in ("run", "stiffness", "efficiency", "design", "tolerance"):
             return {"friction": {"lubricant": {"grade": DELETE, **oil}}}
         return {"friction": {**FRICTION["friction"], "lubricant": oil}}
-    if key.startswith("friction.") and kind not in ("run", "stiffness", "efficiency", "design"):
+    if key.startswith("friction.") and kind not in (
+        "run",
+        "stiffness",
+        "efficiency",
+        "design",
+        "tolerance",
+    ):
         context = LUBRICATED if key.startswith("friction.lubricant.") else FRICTION
         return merge({"friction": context["friction"]}, _nested(key, CHANGE[key]))
     if key == "errors.random.tangential_um":  # instead of angular_urad (not both)

@@ -361,3 +361,42 @@ def test_rings_that_jam_the_disc_are_an_outcome_not_an_error(cli, tmp_path):
     refused = invoke(cli, "run", outs["16"] / "jammed_ring.toml", "--out", tmp_path / "r")
     assert refused.exit_code == 2 and "overlaps the disc" in refused.output
     assert "jam" in (outs["16"] / "report.html").read_text()
+
+
+def test_tolerance_with_friction_gives_efficiency_statistics(cli, tmp_path):
+    """[friction] in a tolerance study: every ring's forward efficiency (the pins' and the
+    crank bearing's losses in the equilibrium), its P5/P50/P95 over the rings, and the
+    worst ring rerun by `cyclomesh run` gives its efficiency again."""
+    study = write_study(tmp_path)
+    text = study.read_text(encoding="utf-8").replace(
+        "[tolerance]\n",
+        "[friction]\nmesh_coefficient = 0.08\ngroove_coefficient = 0.06\n"
+        "bearing_coefficient = 0.0025\nbearing_diameter_mm = 40.0\n\n"
+        "[requirements]\nmin_efficiency = 0.5\ntolerance_percentile = 90.0\n\n[tolerance]\n",
+    )
+    study.write_text(text, encoding="utf-8")
+    out = tmp_path / "tol"
+    result = invoke(cli, "tolerance", study, "--out", out, "--workers", "1", "--figures", "none")
+    assert result.exit_code == 0, result.output
+    ds = rings_nc(out)
+    eff = ds["efficiency"].values
+    assert ds["efficiency"].attrs["units"] == "1"
+    assert np.all((eff > 0.8) & (eff < 1.0)) and np.ptp(eff) > 0  # the rings differ
+    summary = json.loads((out / "tolerance_summary.json").read_text())
+    stats = summary["metrics"]["efficiency"]
+    assert summary["percentiles"][:3] == [5.0, 50.0, 95.0]
+    for p, q in zip(stats["percentiles"][:3], (5.0, 50.0, 95.0), strict=True):
+        assert p["estimate"] == pytest.approx(np.percentile(eff, q), rel=1e-12)
+    (row,) = [r for r in summary["checks"]["rows"] if r["check"] == "min_efficiency"]
+    assert row["value"] == pytest.approx(np.percentile(eff, 10.0), rel=1e-12)  # P10: a minimum
+    k = summary["worst_ring"]["ring"]
+    rerun = invoke(cli, "run", out / "worst_ring.toml", "--out", tmp_path / "run", "-q")
+    assert rerun.exit_code == 0, rerun.output
+    record = json.loads((tmp_path / "run" / "summary.json").read_text())["cases"][0]
+    assert record["efficiency"] == pytest.approx(float(ds["efficiency"].sel(ring=k)), rel=1e-12)
+    # frictionless: no efficiency
+    plain = tmp_path / "plain"
+    study.write_text(write_study(tmp_path).read_text(encoding="utf-8"), encoding="utf-8")
+    result = invoke(cli, "tolerance", study, "--out", plain, "--workers", "1", "--figures", "none")
+    assert result.exit_code == 0, result.output
+    assert "efficiency" not in rings_nc(plain)

@@ -73,6 +73,13 @@ w the load per unit width [lbf/in], V_s the sliding and V_e the sum (entraining)
 load, slow speed) it exceeds boundary friction; the interface's Coulomb coefficient is
 then taken as the boundary value: μ = min(μ_BK, μ_boundary), and μ ≥ 0.
 
+The regime follows from the film parameter λ = h_c/σ (:func:`film_parameters`): the
+central film thickness of Dowson & Toyoda [7] from the Hertz geometry of the contact, σ
+the composite roughness. Boundary friction below λ = 1, Benedict–Kelley's (capped) above
+3 [8], and between them a smooth step of this model (:func:`boundary_share`). The
+coefficient is a function of the pin load; :class:`FrictionBalance` puts it, with the
+crank bearing's moment, into the Newton loop of the load sharing.
+
 References
 ----------
 [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672, doi:10.3390/machines10080672.
@@ -86,6 +93,12 @@ References
 [5] ASTM D341: viscosity–temperature relation of petroleum oils (Walther's equation).
 [6] SKF, Rolling bearings catalogue (2018), "Friction: estimating the frictional moment",
     M = 0.5·μ·P·d, μ ≈ 0.0025 for needle roller bearings.
+[7] D. Dowson, S. Toyoda, "A central film thickness formula for elastohydrodynamic line
+    contacts", Proc. 5th Leeds-Lyon Symposium on Tribology (1979) 60–65: H_c =
+    3.06·G^0.56·U^0.69·W^−0.1 (the Dowson–Higginson line-contact analysis).
+[8] B. J. Hamrock, S. R. Schmid, B. O. Jacobson, Fundamentals of Fluid Film Lubrication,
+    2nd ed., Marcel Dekker (2004): film parameter λ = h/σ, σ = √(σ1² + σ2²); boundary
+    λ < 1, mixed 1 ≤ λ ≤ 3, full film λ > 3.
 """
 
 from __future__ import annotations
@@ -97,6 +110,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.contact import contact_tangent
+from cyclomesh.core.loadsharing import column_sum
 from cyclomesh.exceptions import DesignError
 from cyclomesh.units import IN_PER_M, LBF_PER_IN_PER_N_PER_M, UIN_PER_M
 
@@ -110,11 +124,20 @@ __all__ = [
     "tangential_velocity",
     "normal_moment",
     "effective_coefficient",
+    "coefficients",
+    "lubrication_constants",
+    "FrictionBalance",
+    "Film",
+    "central_film_thickness",
+    "film_parameters",
+    "boundary_share",
+    "MIXED_RANGE",
     "torque_arm",
     "input_torque",
     "pin_resultant",
     "contact_losses",
     "bearing_moment",
+    "closed_form_efficiency",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -151,13 +174,23 @@ class Lubricant:
     temperature : float
         Oil (bulk) temperature [°C].
     roughness : float
-        Mean arithmetic roughness Ra of the two surfaces [m].
+        Mean arithmetic roughness Ra of the two surfaces [m] (Benedict–Kelley's S).
+    composite_roughness : float, optional
+        Composite roughness σ = √(σ1² + σ2²) of the two surfaces [m], the film parameter's
+        λ = h_c/σ; None: √2·``roughness`` (two surfaces of that roughness).
+    pressure_viscosity : float
+        Pressure–viscosity coefficient α [1/Pa] (Barus; 2e-8 for a mineral gear oil).
+    density : float
+        Oil density [kg/m³] (dynamic viscosity η0 = ρ·ν).
     """
 
     viscosity_40: float
     viscosity_100: float
     temperature: float = 40.0
     roughness: float = 0.4e-6
+    composite_roughness: float | None = None
+    pressure_viscosity: float = 2.0e-8
+    density: float = 880.0
 
     def __post_init__(self) -> None:
         if not (0 < self.viscosity_100 < self.viscosity_40):
@@ -172,11 +205,33 @@ class Lubricant:
                 "friction.lubricant.roughness_um must be ≥ 0 and below 1 µm "
                 "(the range of Benedict–Kelley's roughness factor)"
             )
+        if self.composite_roughness is not None and not (
+            math.isfinite(self.composite_roughness) and 0 < self.composite_roughness < 1e-5
+        ):
+            raise DesignError("friction.lubricant.composite_roughness_um must lie in (0, 10) µm")
+        if not (0 < self.pressure_viscosity < 1e-7):
+            raise DesignError(
+                "friction.lubricant.pressure_viscosity_per_gpa must lie in (0, 100) 1/GPa"
+            )
+        if not (500.0 <= self.density <= 2000.0):
+            raise DesignError("friction.lubricant.density_kg_m3 must lie in [500, 2000] kg/m³")
 
     @property
     def viscosity(self) -> float:
         """Kinematic viscosity at the oil temperature [cSt] (ASTM D341, [5])."""
         return float(walther_viscosity(self.viscosity_40, self.viscosity_100, self.temperature))
+
+    @property
+    def sigma(self) -> float:
+        """Composite roughness σ of the film parameter [m]."""
+        if self.composite_roughness is not None:
+            return self.composite_roughness
+        return math.sqrt(2.0) * self.roughness
+
+    @property
+    def dynamic_viscosity(self) -> float:
+        """η0 = ρ·ν at the oil temperature [Pa·s]."""
+        return self.density * self.viscosity * 1e-6
 
 
 def walther_viscosity(nu40: float, nu100: float, temperature_c: ArrayLike) -> FloatArray:
@@ -307,12 +362,112 @@ def tangential_velocity(
     return e * (np.cos(phi) * normal_x + np.sin(phi) * normal_y) - m / teeth
 
 
+def central_film_thickness(
+    load_per_width: ArrayLike,
+    mean_speed: ArrayLike,
+    radius: ArrayLike,
+    viscosity: float,
+    pressure_viscosity: float,
+    modulus: ArrayLike,
+) -> FloatArray:
+    """Central film thickness of a lubricated line contact [m], Dowson & Toyoda [7]:
+
+        h_c = 3.06·G^0.56·U^0.69·W^−0.1·R,
+        U = η0·u/(E'·R),  G = α·E',  W = w/(E'·R),
+
+    u the mean (entraining) speed (u1 + u2)/2, R the reduced radius of curvature, w the
+    load per unit length, E' = 2/((1 − ν1²)/E1 + (1 − ν2²)/E2) (twice the E* of
+    :func:`cyclomesh.core.hertz.effective_modulus`). Isothermal, fully flooded.
+
+    Parameters
+    ----------
+    load_per_width : array_like
+        w [N/m], > 0.
+    mean_speed : array_like
+        u [m/s], > 0.
+    radius : array_like
+        R [m], > 0.
+    viscosity : float
+        η0 at the oil temperature and ambient pressure [Pa·s].
+    pressure_viscosity : float
+        α [1/Pa].
+    modulus : array_like
+        E' [Pa].
+    """
+    e = np.asarray(modulus, float)
+    r = np.asarray(radius, float)
+    u = viscosity * np.asarray(mean_speed, float) / (e * r)
+    w = np.asarray(load_per_width, float) / (e * r)
+    return 3.06 * (pressure_viscosity * e) ** 0.56 * u**0.69 * w**-0.1 * r
+
+
+MIXED_RANGE = (1.0, 3.0)
+"""Film parameters λ bounding mixed lubrication: boundary below 1, full film above 3 (the
+classical regimes, Hamrock [8], Ch. 1)."""
+
+
+def boundary_share(film_parameter: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """Weight of boundary friction in the mixed regime [-] and its derivative dw/dλ.
+
+    1 below λ = 1, 0 above λ = 3, between them the smooth step 1 − (3t² − 2t³),
+    t = (λ − 1)/2, continuous with its slope (the Newton step of the load sharing uses
+    it). The smooth step is this model's interpolation between the regimes of [8], not a
+    published fit: μ = w·μ_boundary + (1 − w)·μ_EHL (:func:`coefficients`).
+    """
+    lam = np.asarray(film_parameter, float)
+    lo, hi = MIXED_RANGE
+    t = np.minimum(np.maximum((lam - lo) * (1.0 / (hi - lo)), 0.0), 1.0)
+    one_minus = 1.0 - t
+    return 1.0 - t * t * (3.0 - 2.0 * t), (-6.0 / (hi - lo)) * t * one_minus
+
+
+@dataclass(frozen=True)
+class Film:
+    """Geometry and elasticity of the pin contacts for the film thickness: reduced radii
+    of pin–tooth and pin–groove (Eqs. 22, 23 of [1], :func:`cyclomesh.core.hertz.pin_tooth_radius`,
+    :func:`~cyclomesh.core.hertz.pin_groove_radius`) [m], arrays broadcasting with the pins,
+    and E' of each pair [Pa]; ``width`` the contact length B [m]."""
+
+    tooth_radius: ArrayLike
+    groove_radius: ArrayLike
+    tooth_modulus: float
+    groove_modulus: float
+    width: float
+
+
+def film_parameters(
+    lubricant: Lubricant,
+    force: ArrayLike,
+    speed: ArrayLike,
+    cos_beta: ArrayLike,
+    film: Film,
+    tooth_radius: ArrayLike | None = None,
+    groove_radius: ArrayLike | None = None,
+) -> tuple[FloatArray, FloatArray]:
+    """Film parameters λ = h_c/σ of the pin–tooth and the pin–groove contact [-]
+    (:func:`central_film_thickness`, loads F and F·cos β per unit width, mean speed
+    |v·t|·ω/2: one surface slides on the other standing still); 0 where the pin carries
+    no load. ``tooth_radius``/``groove_radius`` override the film's (a subset of pins)."""
+    f = np.asarray(force, float)
+    v = np.asarray(speed, float)
+    loaded = (f > 0) & (v > 0)
+    w = np.where(loaded, f, 1.0) / film.width
+    u = 0.5 * np.where(loaded, v, 1.0)
+    rt = film.tooth_radius if tooth_radius is None else tooth_radius
+    rg = film.groove_radius if groove_radius is None else groove_radius
+    eta, alpha, sigma = lubricant.dynamic_viscosity, lubricant.pressure_viscosity, lubricant.sigma
+    h_t = central_film_thickness(w, u, np.abs(rt), eta, alpha, film.tooth_modulus)
+    h_g = central_film_thickness(w * cos_beta, u, np.abs(rg), eta, alpha, film.groove_modulus)
+    return np.where(loaded, h_t / sigma, 0.0), np.where(loaded, h_g / sigma, 0.0)
+
+
 def effective_coefficient(
     friction: Friction,
     cos_beta: ArrayLike,
     force: ArrayLike | None = None,
     velocity: ArrayLike | None = None,
     width: float | None = None,
+    film: Film | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Coefficients of the pin contacts: the one that acts on the disc, and whether the
     groove is the interface that slides.
@@ -326,6 +481,8 @@ def effective_coefficient(
         Pin load [N], tangential velocity of the disc per unit input speed [m/rad] and face
         width [m], for the lubricated coefficient (Benedict–Kelley [4] at the sliding
         interface, |v| = sliding = entrainment speed there, capped by the boundary value).
+    film : Film, optional
+        With a lubricant: the film parameter's mixed regime (:func:`coefficients`).
 
     Returns
     -------
@@ -334,24 +491,225 @@ def effective_coefficient(
     groove : ndarray of bool
         True where the pin rolls on the tooth and slides in its groove.
     """
+    speed = None if velocity is None else np.abs(np.asarray(velocity, float)) * friction.speed
+    mu, groove, _ = coefficients(friction, cos_beta, force, speed, width, film)
+    return mu, groove
+
+
+_BK_ELASTICITY = 0.0127 / math.log(10.0)
+"""F·dμ/dF of Benedict–Kelley's coefficient per unit C_R: μ ∝ log10 of the load [4]."""
+
+
+def lubrication_constants(
+    friction: Friction,
+    cos_beta: ArrayLike,
+    speed: ArrayLike,
+    width: float,
+    film: Film | None = None,
+) -> dict[str, FloatArray]:
+    """The load-independent parts of the lubricated coefficient of every pin, at a load of
+    1 N: Benedict–Kelley's μ is 0.0127·C_R·log10 of the load, so μ_BK(F) = μ_BK(1 N) +
+    0.0127·C_R·log10 F, and the film parameter λ(F) = λ(1 N)·F^−0.1 (Dowson–Toyoda, w^−0.1).
+    Keys ``moving`` (1 where the contact slides), ``mu0_tooth``, ``mu0_groove`` and with a
+    film ``lam0_tooth``, ``lam0_groove``: per-pin arrays for :func:`coefficients` (the
+    Newton loop of the load sharing evaluates only F's logarithm per step)."""
+    lub = friction.lubricant
     cos_beta = np.asarray(cos_beta, float)
-    mesh = np.full(cos_beta.shape, float(friction.mesh))
-    groove = friction.groove * cos_beta
+    speed = np.asarray(speed, float)
+    moving = speed > 0
+    shape = np.broadcast_shapes(moving.shape, cos_beta.shape)
+    log_v = np.log(np.where(moving, speed, 1.0))
+    log_cb = np.log(cos_beta)
+    # Benedict–Kelley [4] at F = 1 N, its logarithms taken apart (V_s = V_e = v):
+    # μ = k·[ln(3.17e8·w_us/ν0) − 3·ln v_us], k = 0.0127·C_R/ln 10, w_us = cos β/B [lbf/in]
+    k = _BK_ELASTICITY * 50.0 / (50.0 - lub.roughness * UIN_PER_M)
+    base = math.log(3.17e8 * LBF_PER_IN_PER_N_PER_M / (width * lub.viscosity))
+    mu0_tooth = k * (base - 3.0 * (log_v + math.log(IN_PER_M)))
+    out = {
+        "moving": np.broadcast_to(moving, shape),
+        "mu0_tooth": np.broadcast_to(mu0_tooth, shape),
+        "mu0_groove": mu0_tooth + k * log_cb,
+    }
+    if film is not None:
+        # Dowson–Toyoda [7] at F = 1 N (w = 1/B), u = v/2, over σ: the powers as exponentials,
+        # h_c = 3.06·α^0.56·E'^−0.03·η0^0.69·w^−0.1·u^0.69·R^0.41
+        log_u = log_v - math.log(2.0)
+
+        def lam0(radius: ArrayLike, modulus: float, log_w: ArrayLike) -> FloatArray:
+            const = math.log(
+                3.06
+                * lub.pressure_viscosity**0.56
+                * modulus**-0.03
+                * lub.dynamic_viscosity**0.69
+                / lub.sigma
+            )
+            log_r = np.log(np.abs(np.asarray(radius, float)))
+            return np.where(moving, np.exp(const - 0.1 * log_w + 0.69 * log_u + 0.41 * log_r), 0.0)
+
+        log_w = -math.log(width)
+        out["lam0_tooth"] = lam0(film.tooth_radius, film.tooth_modulus, log_w)
+        out["lam0_groove"] = lam0(film.groove_radius, film.groove_modulus, log_w + log_cb)
+    return {key: np.asarray(np.broadcast_to(value, shape), float) for key, value in out.items()}
+
+
+def coefficients(
+    friction: Friction,
+    cos_beta: ArrayLike,
+    force: ArrayLike | None = None,
+    speed: ArrayLike | None = None,
+    width: float | None = None,
+    film: Film | None = None,
+    constants: dict | None = None,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """:func:`effective_coefficient` from the sliding speed |v·t|·ω [m/s], with the
+    coefficient's elasticity F·dμ_eff/dF [-] (0 for a Coulomb or a capped coefficient;
+    Benedict–Kelley's μ is 0.0127·C_R·log10 of the load, so F·dμ/dF = 0.0127·C_R/ln 10,
+    times cos β at the groove), which the Newton step of the load sharing needs
+    (:class:`FrictionBalance`).
+
+    With ``film`` the film parameter λ of each interface (:func:`film_parameters`) sets
+    the regime: μ = w(λ)·μ_boundary + (1 − w(λ))·μ_BK (:func:`boundary_share`), boundary
+    friction below λ = 1, Benedict–Kelley's (capped) above 3; λ ∝ w^−0.1, so
+    F·dλ/dF = −0.1·λ. ``constants``: those of :func:`lubrication_constants` (then
+    ``speed``, ``width`` and ``film`` are not read)."""
+    cos_beta = np.asarray(cos_beta, float)
+    cap_t, cap_g = float(friction.mesh), float(friction.groove)
+    mesh = np.full(cos_beta.shape, cap_t)
+    groove = cap_g * cos_beta
+    el_mesh = el_groove = np.zeros(cos_beta.shape)
     if friction.lubricant is not None and force is not None:
         lub = friction.lubricant
-        speed = np.abs(np.asarray(velocity, float)) * friction.speed
+        if constants is None:
+            constants = lubrication_constants(friction, cos_beta, speed, width, film)
         f = np.asarray(force, float)
-        loaded = (f > 0) & (speed > 0)
-        w = np.where(loaded, f, 1.0) / width
-        v = np.where(loaded, speed, 1.0)
-        mu_tooth = benedict_kelley(w, v, v, lub.viscosity, lub.roughness)
-        mu_groove = benedict_kelley(w * cos_beta, v, v, lub.viscosity, lub.roughness)
-        mesh = np.where(loaded, np.clip(mu_tooth, 0.0, mesh), mesh)
-        groove = np.where(loaded, np.clip(mu_groove, 0.0, friction.groove) * cos_beta, groove)
+        loaded = (f > 0) & (constants["moving"] > 0)
+        log_f = np.log(np.where(loaded, f, 1.0))
+        slope = _BK_ELASTICITY * 50.0 / (50.0 - lub.roughness * UIN_PER_M)
+        scale = np.exp(-0.1 * log_f) if "lam0_tooth" in constants else None
+        bk_tooth, el_mesh = _mixed(constants, "tooth", scale, log_f, cap_t, slope)
+        mesh = np.where(loaded, bk_tooth, mesh)
+        if friction.pins != "fixed":  # a fixed pin never slides in a groove
+            bk_groove, el_groove = _mixed(constants, "groove", scale, log_f, cap_g, slope)
+            el_groove = el_groove * cos_beta
+            groove = np.where(loaded, bk_groove * cos_beta, groove)
     if friction.pins == "fixed":
-        return mesh, np.zeros(mesh.shape, bool)
+        return mesh, np.zeros(mesh.shape, bool), el_mesh
     slides_in_groove = groove < mesh
-    return np.where(slides_in_groove, groove, mesh), slides_in_groove
+    return (
+        np.where(slides_in_groove, groove, mesh),
+        slides_in_groove,
+        np.where(slides_in_groove, el_groove, el_mesh),
+    )
+
+
+def _mixed(
+    constants: dict,
+    interface: str,
+    scale: FloatArray | None,
+    log_f: FloatArray,
+    cap: float,
+    slope: float,
+) -> tuple[FloatArray, FloatArray]:
+    """The lubricated coefficient of one interface and its elasticity F·dμ/dF
+    (:func:`coefficients`): Benedict–Kelley's capped at the boundary value, blended with it
+    by the film parameter's boundary share. Where every contact of the array is boundary
+    (λ ≤ 1) or full film (λ ≥ 3) the formulas reduce exactly to the cap or to
+    Benedict–Kelley's, and the rest is not evaluated (the Newton loop's hot path)."""
+    lam = None if scale is None else constants[f"lam0_{interface}"] * scale
+    lo, hi = MIXED_RANGE
+    if lam is not None and lam.size and lam.max() <= lo:
+        return np.full(log_f.shape, cap), np.zeros(log_f.shape)
+    mu = constants[f"mu0_{interface}"] + slope * log_f
+    bk = np.minimum(np.maximum(mu, 0.0), cap)
+    el = np.where((mu > 0.0) & (mu < cap), slope, 0.0)
+    if lam is not None and not (lam.size and lam.min() >= hi):
+        w, dw = boundary_share(lam)
+        el = (1.0 - w) * el - 0.1 * (cap - bk) * dw * lam
+        bk = bk + w * (cap - bk)
+    return bk, el
+
+
+@dataclass(frozen=True)
+class FrictionBalance:
+    """The torque balance of a disc stack with load-dependent friction, for
+    :func:`cyclomesh.core.loadsharing.share_load` (its ``balance``): the lubricated
+    coefficient μ(F) at the pins and the crank bearing's moment M_b(|R|), R the resultant
+    of the pin forces on each disc, both functions of the pin loads and so of Δφ alone.
+
+        M(Δφ) = Σ F_i·(l_i + μ_i(F_i)·s_i·m_i) − s_b·Σ_k M_b(|R_k|),
+
+    dM/dΔφ = Σ dF_i·(l_i + s_i·m_i·(μ_i + F_i·dμ_i/dF)) − s_b·Σ_k dM_b,k, one Newton loop
+    with the compatibility (no fixed point on μ or M_b). Per-pin ``data``: ``arm`` l,
+    ``normal_moment`` m, ``sign`` s, ``cos_beta`` and the constants of
+    :func:`lubrication_constants` (lubricated), else ``mu``; with a
+    bearing ``normal_x``, ``normal_y`` and ``disc`` (index of the pin's disc).
+
+    Parameters
+    ----------
+    friction : Friction
+    data : dict
+        The per-pin arrays above, broadcast against the backlash.
+    width : float
+        Face width [m] (lubricated coefficient).
+    discs : int
+        Number of discs in a row of the load sharing.
+    bearing_sense : float
+        s_b: +1 when the bearing's moment adds to the torque on the pins (module doc).
+    film : Film, optional
+        The film parameter's mixed regime of the lubricated coefficient.
+    """
+
+    friction: Friction
+    data: dict
+    width: float = 0.0
+    discs: int = 1
+    bearing_sense: float = 1.0
+    film: Film | None = None
+
+    def coefficient(self, force: FloatArray, data: dict) -> tuple[FloatArray, FloatArray]:
+        """μ_eff and F·dμ_eff/dF at the pins (:func:`coefficients`)."""
+        if "mu" in data:
+            return data["mu"], np.zeros(force.shape)
+        # only the loaded pins: an unloaded one's μ multiplies a zero force (and dF = 0)
+        on = force > 0
+        keys = ("cos_beta", "moving", "mu0_tooth", "lam0_tooth")
+        if self.friction.pins != "fixed":
+            keys = (*keys, "mu0_groove", "lam0_groove")
+        sub = {key: data[key][on] for key in keys if key in data}
+        mu_on, _, el_on = coefficients(self.friction, sub["cos_beta"], force[on], constants=sub)
+        mu = np.zeros(force.shape)
+        elasticity = np.zeros(force.shape)
+        mu[on] = mu_on
+        elasticity[on] = el_on
+        return mu, elasticity
+
+    def __call__(
+        self, force: FloatArray, dforce: FloatArray, data: dict
+    ) -> tuple[FloatArray, FloatArray]:
+        mu, elasticity = self.coefficient(force, data)
+        sm = data["sign"] * data["normal_moment"]
+        moment = column_sum(force * (data["arm"] + mu * sm))
+        slope = column_sum(dforce * (data["arm"] + sm * (mu + elasticity)))
+        if self.friction.bearing > 0:
+            tx, ty = contact_tangent(data["normal_x"], data["normal_y"])
+            tangential = -data["sign"] * mu * force  # on the disc, along t
+            dtangential = -data["sign"] * (mu + elasticity) * dforce
+            gx = -force * data["normal_x"] + tangential * tx
+            gy = -force * data["normal_y"] + tangential * ty
+            dgx = -dforce * data["normal_x"] + dtangential * tx
+            dgy = -dforce * data["normal_y"] + dtangential * ty
+            scale = 0.5 * self.friction.bearing * self.friction.bearing_diameter
+            for k in range(self.discs):
+                on = data["disc"] == k
+                rx = column_sum(np.where(on, gx, 0.0))
+                ry = column_sum(np.where(on, gy, 0.0))
+                load = np.hypot(rx, ry)
+                drx = column_sum(np.where(on, dgx, 0.0))
+                dry = column_sum(np.where(on, dgy, 0.0))
+                dload = (rx * drx + ry * dry) / np.where(load > 0, load, 1.0)
+                moment = moment - self.bearing_sense * scale * load
+                slope = slope - self.bearing_sense * scale * dload
+        return moment, slope
 
 
 def torque_arm(
@@ -405,3 +763,66 @@ def contact_losses(
 ) -> FloatArray:
     """Power lost at each pin contact [W]: μ_eff·F·|v_d·t|·ω."""
     return np.asarray(mu, float) * force * np.abs(velocity) * speed
+
+
+def closed_form_efficiency(
+    pins: int,
+    pin_circle_radius: float,
+    pin_radius: float,
+    eccentricity: float,
+    mu: float,
+    equilibrium: bool = False,
+    backdrive: bool = False,
+) -> float:
+    """Efficiency of a cycloid stage with fixed pins in closed form, on the assumptions of
+    Malhotra & Parameswaran [3]: rigid members, the unmodified profile with no clearance,
+    half the pins loaded with F_i ∝ l_i (their load distribution,
+    F_i = 4T/(z_c·K1·r_p)·sin θ_i/S_i, S_i = √(1 + K1² − 2·K1·cos θ_i), K1 = n1·e/r_p < 1),
+    Coulomb sliding μ at every pin, the pins' number large enough for the sums over the
+    pins to be integrals over θ ∈ (0, π).
+
+    The disc turns about the pitch point I (n1·e from the ring's centre) at ω/n2, so pin
+    i slides at (ω/n2)·|PI|, |PI| = r_p·S − r_rp, and its force's arm about the disc's
+    centre is l = n2·e·sin θ/S. With ∫ sin²θ/S² dθ = π/2 and ∫ sin θ·(r_p − r_rp/S) dθ =
+    2·(r_p − r_rp) over (0, π), the loss over the output power is
+
+        x = Σ μ·F·|PI| / Σ F·l = 4·μ·(r_p − r_rp)/(π·n2·e),   η = 1/(1 + x)
+
+    (``equilibrium=False``: the losses on the frictionless loads, as in [3]). This
+    continuum form of the per-pin sums of [3] is derived here, not quoted: the text of
+    the paper's own efficiency equation was not at hand.
+
+    ``equilibrium=True``: friction in the torque balance, as cyclomesh solves it. The loss
+    splits into the crank's share p (the friction force into the crank bearing) and the
+    disc spin's share q (its moment about the disc centre, arm m = |PI| − n2·e·(K1 −
+    cos θ)/S): p = −2·μ·J(K1)/π, q = x − p, J(K) = −1/K + (1 − K²)/(2K²)·ln((1 + K)/(1 − K))
+    (J < 0), and η_f = (1 − q)/(1 + p), η_b = (1 − p)/(1 + q) (``backdrive``).
+
+    Parameters
+    ----------
+    pins : int
+        n1 (the disc has n2 = n1 − 1 teeth).
+    pin_circle_radius, pin_radius, eccentricity : float
+        r_p, r_rp, e [m].
+    mu : float
+        Coulomb coefficient at the pins [-].
+    equilibrium, backdrive : bool
+
+    Returns
+    -------
+    float
+        The efficiency [-].
+    """
+    teeth = pins - 1
+    k1 = pins * eccentricity / pin_circle_radius
+    if not 0.0 < k1 < 1.0:
+        raise DesignError("closed form: K1 = n1·e/r_p must lie in (0, 1)")
+    x = 4.0 * mu * (pin_circle_radius - pin_radius) / (math.pi * teeth * eccentricity)
+    if not equilibrium:
+        if backdrive:
+            raise DesignError("closed form: back-driving needs friction in the equilibrium")
+        return 1.0 / (1.0 + x)
+    j = -1.0 / k1 + (1.0 - k1 * k1) / (2.0 * k1 * k1) * math.log((1.0 + k1) / (1.0 - k1))
+    p = -2.0 * mu * j / math.pi
+    q = x - p
+    return (1.0 - p) / (1.0 + q) if backdrive else (1.0 - q) / (1.0 + p)

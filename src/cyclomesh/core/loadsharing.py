@@ -19,13 +19,16 @@ References
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Protocol
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.hertz import force_from_approach
 from cyclomesh.exceptions import ConvergenceError
 
-__all__ = ["share_load", "TORQUE_TOLERANCE"]
+__all__ = ["share_load", "Balance", "column_sum", "TORQUE_TOLERANCE"]
 
 FloatArray = NDArray[np.float64]
 
@@ -34,7 +37,7 @@ TORQUE_TOLERANCE = 1e-12
 _MAX_ITERATIONS = 100
 
 
-def _column_sum(values: FloatArray) -> FloatArray:
+def column_sum(values: FloatArray) -> FloatArray:
     """Sum over the last axis, column after column.
 
     The candidate pins are padded to the widest case of the batch; numpy's pairwise
@@ -48,14 +51,30 @@ def _column_sum(values: FloatArray) -> FloatArray:
     return total
 
 
+class Balance(Protocol):
+    """A torque balance whose pin moments depend on the pin loads (a load-dependent
+    friction coefficient, a bearing moment from the pin resultant): ``data`` holds per-pin
+    arrays (broadcast against the backlash), handed back compacted to the candidate pins
+    of the cases still iterating; the call returns the pins' moment Σ F·l'(F) less any
+    load-dependent torque the pins also carry, per case, and its derivative with respect
+    to Δφ from ``dforce`` = dF/dΔφ (both shape (k,), summed with :func:`column_sum`)."""
+
+    data: Mapping[str, ArrayLike]
+
+    def __call__(
+        self, force: FloatArray, dforce: FloatArray, data: Mapping[str, FloatArray]
+    ) -> tuple[FloatArray, FloatArray]: ...
+
+
 def share_load(
     backlash: ArrayLike,
     moment_arm: ArrayLike,
     alpha: ArrayLike,
     gamma: ArrayLike,
-    torque: float,
+    torque: ArrayLike,
     torque_arm: ArrayLike | None = None,
     start: ArrayLike | None = None,
+    balance: Balance | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Solve the statically indeterminate load sharing (Eqs. 15–18 of [1]).
 
@@ -68,18 +87,24 @@ def share_load(
     alpha, gamma : array_like
         Compliance coefficients of δ = F(α − γ ln F) [m/N], same shape
         (:func:`cyclomesh.core.hertz.compliance_coefficients`; γ = 0 for a linear spring).
-    torque : float
-        T > 0 [N·m].
+    torque : float or array_like
+        T > 0 [N·m], one value or one per case (shape (...)).
     torque_arm : array_like, optional
         Moment arm of each pin's load in the torque balance [m], Σ F_i·l'_i = T, when it
         differs from the compatibility arm ``moment_arm`` (friction at the contacts,
-        :func:`cyclomesh.core.friction.torque_arm`); None: l' = l (Eq. 18 of [1]), solved
-        exactly as without the argument. A pin with l' ≤ 0 (friction-locked) still takes
-        its load from compatibility but bounds nothing.
+        :func:`cyclomesh.core.friction.torque_arm`); None: l' = l (Eq. 18 of [1]), the
+        paper's problem. A pin with l' ≤ 0 (friction-locked) still takes its load from
+        compatibility but bounds nothing.
     start : array_like, optional
-        With ``torque_arm``: Newton's start Δφc, shape (...) [rad] (a nearby solution, as
-        in a fixed-point iteration on the friction); from the left of the root the first
-        tangent step of the convex M lands right of it, from where it descends as usual.
+        Newton's start Δφc, shape (...) [rad] (a nearby solution); None: the single-pin
+        bound below. From the left of the root the first tangent step of the convex M
+        lands right of it, from where it descends as usual.
+    balance : Balance, optional
+        A load-dependent torque balance (:class:`Balance`; friction with a lubricated
+        coefficient or a crank bearing, :class:`cyclomesh.core.friction.FrictionBalance`),
+        solved in the same Newton loop: M(Δφ) = balance(F(Δφ)) − T. ``torque_arm`` then
+        only sets the start and the candidate pins (give the smallest arm the pin can
+        have).
 
     Returns
     -------
@@ -93,20 +118,32 @@ def share_load(
     ConvergenceError
         If no pin can carry the torque or Newton's method stalls; its ``case_index``
         attribute is the flat index of the failing case along the leading axes.
+
+    Notes
+    -----
+    One Newton loop on M(Δφ) = Σ l'_i·F_i(l_i·(Δφ − φbl,i)⁺) − T, dM/dΔφ = Σ l_i·l'_i·dF/dδ.
+    It starts at the smallest rotation at which one pin (l' > 0) alone carries T, which
+    bounds the root from above when every l' ≥ 0 (always without friction), and only the
+    pins whose backlash lies below that start are kept as candidates. With friction the
+    few friction-locked pins (l' ≤ 0, near a tip or a tooth-space bottom, where l < μ·m)
+    subtract loads that are small because their l is, and can move the root right of the
+    start: a case whose root passes the backlash of a pin left out is solved again with
+    every usable pin. With l' = l the loop is the paper's, bit for bit (l·l' = l·l = l²).
     """
     bl = np.asarray(backlash, float)
     arm = np.asarray(moment_arm, float)
-    if torque_arm is not None:
-        return _share_load_friction(bl, arm, alpha, gamma, torque, torque_arm, start)
-    bl, arm, alpha, gamma = np.broadcast_arrays(
-        bl, arm, np.asarray(alpha, float), np.asarray(gamma, float)
+    t_arm = arm if torque_arm is None else np.asarray(torque_arm, float)
+    bl, arm, t_arm, alpha, gamma = np.broadcast_arrays(
+        bl, arm, t_arm, np.asarray(alpha, float), np.asarray(gamma, float)
     )
     lead = bl.shape[:-1]
     n_pins = bl.shape[-1]
-    bl = bl.reshape(-1, n_pins)
-    arm = arm.reshape(-1, n_pins)
-    alpha = alpha.reshape(-1, n_pins)
-    gamma = gamma.reshape(-1, n_pins)
+    bl, arm, t_arm, alpha, gamma = (v.reshape(-1, n_pins) for v in (bl, arm, t_arm, alpha, gamma))
+    torque = np.broadcast_to(np.asarray(torque, float), lead).reshape(-1)
+    if not np.all(torque > 0):
+        err = ConvergenceError("the torque on the pins is not positive: friction too large")
+        err.case_index = int(np.argmin(torque > 0))
+        raise err
 
     usable = np.isfinite(bl) & (arm > 0)
     if not np.all(np.any(usable, axis=-1)):
@@ -118,47 +155,105 @@ def share_load(
         )
         err.case_index = bad
         raise err
+    drives = usable & (t_arm > 0)
+    if not np.all(np.any(drives, axis=-1)):
+        err = ConvergenceError(
+            "no pin can carry the torque against its friction: check the coefficients"
+        )
+        err.case_index = int(np.argmin(np.any(drives, axis=-1)))
+        raise err
     # rotation at which pin i alone carries T: an upper bound of the root (pins whose
     # single-pin force lies past the stiffest point of the contact law bound nothing)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        single_force = np.where(usable, torque / np.where(usable, arm, 1.0), 0.0)
-        log_single = np.log(np.where(usable, single_force, 1.0))
-        valid = usable & ((gamma == 0) | (log_single < alpha / gamma - 1.0))
+        single_force = np.where(drives, torque[:, None] / np.where(drives, t_arm, 1.0), 0.0)
+        log_single = np.log(np.where(drives, single_force, 1.0))
+        valid = drives & ((gamma == 0) | (log_single < alpha / gamma - 1.0))
         single_delta = single_force * (alpha - gamma * log_single)
         alone = np.where(valid, bl + single_delta / np.where(valid, arm, 1.0), np.inf)
     x = np.min(alone, axis=-1)
     if not np.all(np.isfinite(x)):
         bad = int(np.argmax(~np.isfinite(x)))
-        err = ConvergenceError(_too_large(single_force[bad], alpha[bad], gamma[bad], usable[bad]))
+        err = ConvergenceError(_too_large(single_force[bad], alpha[bad], gamma[bad], drives[bad]))
         err.case_index = bad
         raise err
 
     # keep only the pins that can engage below that bound
     candidate = usable & (bl < x[:, None])
+    if start is not None:
+        x = np.broadcast_to(np.asarray(start, float), lead).reshape(-1).copy()
+    data = {}
+    if balance is not None:
+        data = {
+            key: np.broadcast_to(np.asarray(value, float), (*lead, n_pins)).reshape(-1, n_pins)
+            for key, value in balance.data.items()
+        }
+    problem = (bl, arm, t_arm, alpha, gamma, torque)
+    x, force = _newton(x, candidate, *problem, balance, data)
+    late = np.flatnonzero(np.any(usable & ~candidate & (bl < x[:, None]), axis=-1))
+    if late.size:  # friction-locked pins moved the root past a pin left out: all pins
+        x[late], force[late] = _newton(
+            x[late],
+            usable[late],
+            *(v[late] for v in problem),
+            balance,
+            {key: value[late] for key, value in data.items()},
+        )
+    return x.reshape(lead), force.reshape(*lead, n_pins)
+
+
+def _newton(
+    x: FloatArray,
+    candidate: NDArray,
+    bl: FloatArray,
+    arm: FloatArray,
+    t_arm: FloatArray,
+    alpha: FloatArray,
+    gamma: FloatArray,
+    torque: FloatArray,
+    balance: Balance | None = None,
+    data: Mapping[str, FloatArray] | None = None,
+) -> tuple[FloatArray, FloatArray]:
+    """Newton's method of :func:`share_load` on the candidate pins of each case, from
+    ``x`` (shape (k,)); the arrays are (k, n_pins) and ``torque`` (k,), ``data`` the
+    balance's per-pin arrays. Returns the rotation and the forces of every pin (0 off
+    the candidates)."""
+    x = x.copy()
     width = int(np.max(np.sum(candidate, axis=-1)))
     order = np.argsort(~candidate, axis=-1, kind="stable")[:, :width]
     take = np.take_along_axis
     c_bl, c_arm = take(bl, order, -1), take(arm, order, -1)
+    c_tarm = c_arm if t_arm is arm else take(t_arm, order, -1)
     c_alpha, c_gamma = take(alpha, order, -1), take(gamma, order, -1)
     c_ok = take(candidate, order, -1)
     c_bl = np.where(c_ok, c_bl, np.inf)
+    c_data = {key: take(value, order, -1) for key, value in (data or {}).items()}
 
     tol = TORQUE_TOLERANCE * torque
     active = np.ones(x.shape, bool)
     force = np.zeros_like(c_bl)
     for _ in range(_MAX_ITERATIONS):
         xa = x[active]
-        delta = np.maximum(xa[:, None] - c_bl[active], 0.0) * c_arm[active]
+        ca, ta = c_arm[active], c_tarm[active]
+        delta = np.maximum(xa[:, None] - c_bl[active], 0.0) * ca
         f = force_from_approach(delta, c_alpha[active], c_gamma[active])
         force[active] = f
-        resid = _column_sum(f * c_arm[active]) - torque
-        # dM/dΔφ = Σ l²·dF/dδ, dδ/dF = α − γ − γ·ln F on the loaded pins
+        # dM/dΔφ = Σ l·l'·dF/dδ, dδ/dF = α − γ − γ·ln F on the loaded pins
         engaged = f > 0
         with np.errstate(divide="ignore"):
             log_f = np.log(np.where(engaged, f, 1.0))
         dddf = c_alpha[active] - c_gamma[active] * (1.0 + log_f)
-        slope = _column_sum(np.where(engaged, c_arm[active] ** 2 / dddf, 0.0))
-        done = np.abs(resid) <= tol
+        if balance is None:
+            resid = column_sum(f * ta) - torque[active]
+            slope = column_sum(np.where(engaged, ca * ta / dddf, 0.0))
+        else:
+            every = active.all()  # no copies while every case iterates
+            moment, slope = balance(
+                f,
+                np.where(engaged, ca / dddf, 0.0),
+                c_data if every else {key: value[active] for key, value in c_data.items()},
+            )
+            resid = moment - torque[active]
+        done = np.abs(resid) <= tol[active]
         step = np.where(done, 0.0, resid / np.where(slope > 0, slope, np.inf))
         idx = np.flatnonzero(active)
         x[idx] = xa - step
@@ -174,7 +269,7 @@ def share_load(
         raise err
     full = np.zeros_like(bl)
     np.put_along_axis(full, order, np.where(c_ok, force, 0.0), -1)
-    return x.reshape(lead), full.reshape(*lead, n_pins)
+    return x, full
 
 
 def _too_large(force: FloatArray, alpha: FloatArray, gamma: FloatArray, usable: NDArray) -> str:
@@ -191,91 +286,3 @@ def _too_large(force: FloatArray, alpha: FloatArray, gamma: FloatArray, usable: 
         "line-contact law (Eq. 20); lower the torque, or raise design.width_mm or the "
         f"youngs_modulus_gpa of [material]{need}"
     )
-
-
-def _share_load_friction(
-    bl: FloatArray,
-    arm: FloatArray,
-    alpha: ArrayLike,
-    gamma: ArrayLike,
-    torque: float | FloatArray,
-    torque_arm: ArrayLike,
-    start: ArrayLike | None = None,
-) -> tuple[FloatArray, FloatArray]:
-    """:func:`share_load` with a torque-balance arm l' apart from the compatibility arm l.
-
-    M(Δφ) = Σ l'_i·F_i(l_i·(Δφ − φbl,i)⁺) − T. The pins with l' > 0 make it convex and
-    increasing as without friction; the few friction-locked pins (l' ≤ 0, near a tip or a
-    tooth-space bottom, where l < μ·m) subtract loads that are small because their l is.
-    Newton's method starts at the smallest rotation at which one pin with l' > 0 alone
-    carries T; all usable pins are candidates (the locked ones move the root right of that
-    start), and the result is checked to a torque residual of 1e-12·T. ``torque`` may be
-    an array of the leading shape (a friction moment of the crank bearing per case).
-    """
-    bl, arm, t_arm, alpha, gamma = np.broadcast_arrays(
-        bl,
-        arm,
-        np.asarray(torque_arm, float),
-        np.asarray(alpha, float),
-        np.asarray(gamma, float),
-    )
-    lead = bl.shape[:-1]
-    n_pins = bl.shape[-1]
-    bl, arm, t_arm, alpha, gamma = (v.reshape(-1, n_pins) for v in (bl, arm, t_arm, alpha, gamma))
-    torque = np.broadcast_to(np.asarray(torque, float), lead).reshape(-1)
-    if not np.all(torque > 0):
-        err = ConvergenceError("the torque on the pins is not positive: friction too large")
-        err.case_index = int(np.argmin(torque > 0))
-        raise err
-    usable = np.isfinite(bl) & (arm > 0)
-    drives = usable & (t_arm > 0)
-    if not np.all(np.any(drives, axis=-1)):
-        err = ConvergenceError(
-            "no pin can carry the torque against its friction: check the coefficients"
-        )
-        err.case_index = int(np.argmin(np.any(drives, axis=-1)))
-        raise err
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        single_force = np.where(drives, torque[:, None] / np.where(drives, t_arm, 1.0), 0.0)
-        log_single = np.log(np.where(drives, single_force, 1.0))
-        valid = drives & ((gamma == 0) | (log_single < alpha / gamma - 1.0))
-        single_delta = single_force * (alpha - gamma * log_single)
-        alone = np.where(valid, bl + single_delta / np.where(valid, arm, 1.0), np.inf)
-    x = np.min(alone, axis=-1)
-    if not np.all(np.isfinite(x)):
-        bad = int(np.argmax(~np.isfinite(x)))
-        err = ConvergenceError(_too_large(single_force[bad], alpha[bad], gamma[bad], drives[bad]))
-        err.case_index = bad
-        raise err
-    if start is not None:
-        x = np.broadcast_to(np.asarray(start, float), lead).reshape(-1).copy()
-    c_bl = np.where(usable, bl, np.inf)
-    tol = TORQUE_TOLERANCE * torque
-    active = np.ones(x.shape, bool)
-    force = np.zeros_like(c_bl)
-    for _ in range(_MAX_ITERATIONS):
-        xa = x[active]
-        delta = np.maximum(xa[:, None] - c_bl[active], 0.0) * arm[active]
-        f = force_from_approach(delta, alpha[active], gamma[active])
-        force[active] = f
-        resid = _column_sum(f * t_arm[active]) - torque[active]
-        engaged = f > 0
-        with np.errstate(divide="ignore"):
-            log_f = np.log(np.where(engaged, f, 1.0))
-        dddf = alpha[active] - gamma[active] * (1.0 + log_f)
-        slope = _column_sum(np.where(engaged, arm[active] * t_arm[active] / dddf, 0.0))
-        done = np.abs(resid) <= tol[active]
-        step = np.where(done, 0.0, resid / np.where(slope > 0, slope, np.inf))
-        idx = np.flatnonzero(active)
-        x[idx] = xa - step
-        active[idx[done]] = False
-        if not np.any(active):
-            break
-    else:
-        err = ConvergenceError(
-            f"load sharing with friction did not converge: torque residual above "
-            f"{TORQUE_TOLERANCE:.0e}·T after {_MAX_ITERATIONS} Newton steps"
-        )
-        err.case_index = int(np.flatnonzero(active)[0])
-        raise err
-    return x.reshape(lead), force.reshape(*lead, n_pins)

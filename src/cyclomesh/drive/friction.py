@@ -5,8 +5,9 @@ with :func:`cyclomesh.drive.mesh.load_stack` (one narrow hook: its ``friction`` 
 in its own, possibly mirrored, frame), the friction and the sense of the motion, and
 
 * solves the load sharing with the friction moment arms l + μ_eff·s·m
-  (:func:`cyclomesh.core.friction.torque_arm`; for a lubricated coefficient, which depends
-  on the pin loads, by a fixed-point iteration on μ to round-off);
+  (:func:`cyclomesh.core.friction.torque_arm`); a lubricated coefficient and the crank
+  bearing's moment, which depend on the pin loads, in the same Newton loop
+  (:class:`cyclomesh.core.friction.FrictionBalance`);
 * returns the per-pin tangential forces, sliding velocities and power losses, and the
   input (crank) torque from the moment balance of the crank.
 
@@ -29,27 +30,26 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cyclomesh.core.friction import (
+    Film,
     Friction,
+    FrictionBalance,
     bearing_moment,
+    coefficients,
     contact_losses,
     effective_coefficient,
     input_torque,
+    lubrication_constants,
     normal_moment,
     pin_resultant,
     tangential_velocity,
     torque_arm,
 )
+from cyclomesh.core.hertz import pin_groove_radius, pin_tooth_radius
 from cyclomesh.core.loadsharing import share_load
-from cyclomesh.exceptions import ConvergenceError
 
-__all__ = ["FrictionCoupling", "FRICTION_FIELDS", "COEFFICIENT_TOLERANCE"]
+__all__ = ["FrictionCoupling", "FRICTION_FIELDS"]
 
 FloatArray = NDArray[np.float64]
-
-COEFFICIENT_TOLERANCE = 1e-12
-"""Change of the lubricated coefficients (and of the bearing moments, relative to T) at which
-the fixed point is accepted: that of the load sharing's torque residual, 1e-12·T."""
-_MAX_FIXED_POINT = 60
 
 FRICTION_FIELDS = {
     # name: per pin (else per disc)
@@ -59,6 +59,7 @@ FRICTION_FIELDS = {
     "power_loss_tooth": True,
     "power_loss_groove": True,
     "friction_coefficient": True,
+    "film_parameter": True,
     "input_torque": False,
     "power_loss_bearing": False,
 }
@@ -106,6 +107,24 @@ class FrictionCoupling:
         )
         return self.motion * v
 
+    def _film(self) -> Film:
+        """Reduced radii and E' of the pin contacts (:class:`~cyclomesh.core.friction.Film`)."""
+        design, geo = self.mesh.design, self.mesh.geo
+
+        def modulus(a, b) -> float:  # E' = 2/((1 − ν1²)/E1 + (1 − ν2²)/E2)
+            return 2.0 / (
+                (1 - a.poisson_ratio**2) / a.youngs_modulus
+                + (1 - b.poisson_ratio**2) / b.youngs_modulus
+            )
+
+        return Film(
+            pin_tooth_radius(geo.pin_radius, geo.curvature_radius),
+            pin_groove_radius(geo.pin_radius, design.groove_radius),
+            modulus(design.pin_material, design.disc_material),
+            modulus(design.pin_material, design.ring_material),
+            design.width,
+        )
+
     def _resultant(
         self, force: FloatArray, tangential: FloatArray
     ) -> tuple[FloatArray, FloatArray]:
@@ -120,10 +139,13 @@ class FrictionCoupling:
     def share(self, torque: float) -> tuple[FloatArray, FloatArray, dict[str, FloatArray]]:
         """Load sharing with friction: (rotation (..., A), force (..., A, N·n1), state).
 
-        The lubricated coefficients (which depend on the pin loads) and the crank bearing's
-        friction moment (on the bearing load, the resultant of the pin forces) are found by
-        a fixed-point iteration, each step an exact load sharing, until they change by less
-        than :data:`COEFFICIENT_TOLERANCE` (relative to T for the moment)."""
+        Coulomb coefficients: the load sharing with the friction moment arms. The
+        lubricated coefficients (which depend on the pin loads) and the crank bearing's
+        friction moment (on the bearing load, the resultant of the pin forces) are
+        functions of the pin loads, hence of the rotation alone: they enter the same
+        Newton loop (:class:`~cyclomesh.core.friction.FrictionBalance`), so that μ and M_b
+        are those of the returned loads exactly and the torque residual is below
+        1e-12·T, in one load sharing."""
         mesh, geo = self.mesh, self.mesh.geo
         flat = mesh.backlash.shape
         shape = geo.rotation.shape
@@ -134,61 +156,75 @@ class FrictionCoupling:
         lubricated = self.friction.lubricant is not None and self.motion != 0.0
         bearing = self.friction.bearing > 0
         mu, groove = effective_coefficient(self.friction, geo.cos_beta)
-        mu = mu.reshape(flat)
+        mu = np.broadcast_to(mu, shape).reshape(flat)
+        film = self._film() if lubricated else None
+        lam = np.zeros(shape)
+        arm_cap = torque_arm(arm, m, mu, sign)  # the boundary (largest) coefficient
         moment = np.zeros(shape[:-1])  # (..., A, N): bearing friction moment on each disc
-        total: float | FloatArray = torque
-        loaded = None
-        previous = None
-        for _ in range(_MAX_FIXED_POINT):
+        if not (lubricated or bearing):
+            loaded, force = share_load(mesh.backlash, arm, mesh.alpha, mesh.gamma, torque, arm_cap)
+        else:
+            data = {"arm": arm, "normal_moment": m, "sign": sign}
+            if lubricated:
+                speed = np.abs(velocity) * self.friction.speed
+                data["cos_beta"] = np.broadcast_to(geo.cos_beta, shape).reshape(flat)
+                constants = lubrication_constants(
+                    self.friction, geo.cos_beta, speed, mesh.design.width, film
+                )
+                constants = {
+                    key: np.broadcast_to(value, shape).reshape(flat)
+                    for key, value in constants.items()
+                }
+                constants["cos_beta"] = data["cos_beta"]
+                data.update(constants)
+            else:
+                data["mu"] = mu
+            if bearing:
+                discs = shape[-2]
+                data["normal_x"] = np.broadcast_to(mesh.normal_x, shape).reshape(flat)
+                data["normal_y"] = np.broadcast_to(mesh.normal_y, shape).reshape(flat)
+                index = np.arange(discs, dtype=float)[:, None]
+                data["disc"] = np.broadcast_to(index, shape).reshape(flat)
+            balance = FrictionBalance(
+                self.friction, data, mesh.design.width, shape[-2], self._bearing_sense(), film
+            )
+            # the start and the candidates from the smallest arm a pin can have
             loaded, force = share_load(
                 mesh.backlash,
                 arm,
                 mesh.alpha,
                 mesh.gamma,
-                total,
-                torque_arm(arm, m, mu, sign),
-                loaded,  # Newton from the last solution (the values move little)
+                torque,
+                np.minimum(arm, arm_cap),
+                balance=balance,
             )
-            if not (lubricated or bearing):
-                break
-            change = 0.0
-            new_mu = mu
-            if lubricated:
-                new_mu, groove = effective_coefficient(
-                    self.friction, geo.cos_beta, force.reshape(shape), velocity, mesh.design.width
+            f = force.reshape(shape)
+            if lubricated:  # the coefficients and λ of the returned loads, as the loop had them
+                on = force > 0
+                sub = {key: value[on] for key, value in constants.items()}
+                mu_on, groove_on, _ = coefficients(
+                    self.friction, sub["cos_beta"], force[on], constants=sub
                 )
-                new_mu = new_mu.reshape(flat)
-                change = np.max(np.abs(new_mu - mu))
-            if bearing:  # the fixed point t = T + s·ΣM(t) of the torque on the pins, by secant
-                f = force.reshape(shape)
-                rx, ry = self._resultant(f, -sign.reshape(shape) * new_mu.reshape(shape) * f)
+                mu = mu.copy()
+                mu[on] = mu_on
+                groove = np.array(np.broadcast_to(groove, shape)).reshape(flat)
+                groove[on] = groove_on
+                groove = groove.reshape(shape)
+                scale = force[on] ** -0.1
+                lam = np.zeros(flat)
+                lam[on] = np.where(groove_on, sub["lam0_groove"] * scale, sub["lam0_tooth"] * scale)
+                lam = lam.reshape(shape)
+            if bearing:
+                rx, ry = self._resultant(f, -sign.reshape(shape) * mu.reshape(shape) * f)
                 moment = bearing_moment(self.friction, np.hypot(rx, ry))
-                used = np.broadcast_to(np.asarray(total, float), moment.shape[:-1])
-                residual = torque + self._bearing_sense() * np.sum(moment, axis=-1) - used
-                change = max(change, np.max(np.abs(residual)) / torque)
-                step = residual  # plain iteration: g(t) = T + s·ΣM(t) − t has slope ≈ −1
-                if previous is not None:
-                    moved = used != previous[0]
-                    slope = (residual - previous[1]) / np.where(moved, used - previous[0], 1.0)
-                    secant = moved & (slope < -0.5)
-                    step = np.where(secant, -residual / np.where(secant, slope, -1.0), step)
-                previous = (used, residual)
-                total = used + step
-            if change <= COEFFICIENT_TOLERANCE:
-                break  # the last solve used values within the tolerance of the fixed point
-            mu = new_mu
-        else:
-            raise ConvergenceError(
-                "friction coefficients and bearing moments did not settle to "
-                f"{COEFFICIENT_TOLERANCE:.0e} in {_MAX_FIXED_POINT} iterations"
-            )
         state = {
             "mu": mu.reshape(shape),
             "groove": np.broadcast_to(groove, shape),
             "velocity": velocity,
             "sign": sign.reshape(shape),
+            "bearing_moment": moment,  # those of the returned loads: the balance's own
+            "film_parameter": lam,
         }
-        state["bearing_moment"] = moment  # within the tolerance of the one the solve used
         return loaded, force, state
 
     def fields(self, force: FloatArray, state: dict[str, FloatArray]) -> dict[str, FloatArray]:
@@ -221,6 +257,7 @@ class FrictionCoupling:
             "power_loss_tooth": np.where(groove, 0.0, loss),
             "power_loss_groove": np.where(groove, loss, 0.0),
             "friction_coefficient": mu,
+            "film_parameter": state["film_parameter"],
             "input_torque": t_in,
             "power_loss_bearing": moment * relative,
         }

@@ -44,9 +44,11 @@ EFFICIENCY_METRICS: dict[str, Metric] = select(
     "output_power_w",
     "input_speed_rpm",
     "power_loss_w",
+    "film_parameter_min",
+    "film_parameter_mean",
 )
 """Headline numbers of a run with ``[friction]`` (rows of :data:`cyclomesh.quantities.QUANTITIES`);
-``power_loss_w`` is a table path → W."""
+``power_loss_w`` is a table path → W; the film parameters with a lubricant only."""
 
 LOSS_PATHS = {
     "pin_tooth": "power_loss_tooth",
@@ -102,7 +104,8 @@ def efficiency_variables(
         return value[..., 0, :] if discs == 1 else value
 
     data: dict[str, tuple] = {}
-    for name in _PIN_VARS:
+    lubricated = bool(np.any(f["film_parameter"] > 0))
+    for name in _PIN_VARS + (("film_parameter",) if lubricated else ()):
         data[name] = (
             (*ring, *keep, "crank_angle", *stack, "pin"),
             pin(f[name]) * QUANTITIES[name].scale,
@@ -165,6 +168,12 @@ def efficiency_record(ds: xr.Dataset) -> dict[str, Any]:
             "output_mechanism": None,
         },
     }
+    if "film_parameter" in ds:  # a lubricant: the film parameter of the loaded contacts
+        lam = ds["film_parameter"]
+        over = [d for d in lam.dims if d != "torque"]
+        loaded = lam.where(lam > 0)
+        record["film_parameter_min"] = _plain(loaded.min(over).values)
+        record["film_parameter_mean"] = _plain(loaded.mean(over).values)
     return record
 
 
@@ -191,5 +200,8 @@ def friction_attrs(friction: Any) -> dict[str, Any]:
             lubricant_temperature_c=float(lub.temperature),
             lubricant_viscosity_cst=lub.viscosity,
             lubricant_roughness_um=float(lub.roughness * 1e6),
+            lubricant_composite_roughness_um=float(lub.sigma * 1e6),
+            lubricant_pressure_viscosity_per_gpa=float(lub.pressure_viscosity * 1e9),
+            lubricant_density_kg_m3=float(lub.density),
         )
     return attrs

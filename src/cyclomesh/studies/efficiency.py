@@ -254,7 +254,8 @@ def efficiency_sections(result: EfficiencyResult) -> list[Section]:
     intro = f"<p>{html.escape(study.description)}</p>" if study.description else ""
     intro += (
         "<p><strong>Losses modelled: sliding at the pin–tooth or pin–groove contacts "
-        "(Coulomb or Benedict–Kelley), the crank bearing (SKF constant coefficient), all in "
+        "(Coulomb, or lubricated: boundary or Benedict–Kelley by the film parameter λ), the "
+        "crank bearing (SKF constant coefficient), all in "
         "the equilibrium. Not modelled: churning, seals, the output mechanism, the first "
         "stage (docs/efficiency.md).</strong></p>"
     )

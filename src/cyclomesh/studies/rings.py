@@ -104,6 +104,7 @@ def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
         disc_body=resolve_disc_body(
             core.disc_body, core.design, core.modification, core.crank_holes
         ),
+        friction=core.friction,
     )
 
 

@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from cyclomesh.quantities import select
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC
 from cyclomesh.studies.execute import CommandSteps, StudyKind
 from cyclomesh.studies.rings import (
@@ -81,6 +82,10 @@ __all__ = [
 
 # --- results of a tolerance study --------------------------------------------------------
 
+RING_METRICS = METRICS | DRIVE_METRICS | select("efficiency")
+"""The per-ring metrics of a tolerance study: those of a run, a stack's, and with
+``[friction]`` the forward efficiency (:func:`cyclomesh.tolerance.tasks.ring_efficiency`)."""
+
 
 def metrics_dataset(
     per_ring: Mapping[str, np.ndarray],
@@ -88,7 +93,7 @@ def metrics_dataset(
     attrs: Mapping[str, Any] | None = None,
 ) -> xr.Dataset:
     """Per-ring metrics as an xarray Dataset with dimension ``ring``, units and long
-    names from :data:`cyclomesh.results.metrics.METRICS`."""
+    names from :data:`RING_METRICS`."""
     import xarray as xr
 
     ring = np.asarray(per_ring["ring"], dtype=np.int64)
@@ -99,7 +104,7 @@ def metrics_dataset(
         arr = np.asarray(values)
         if arr.dtype == np.bool_:
             arr = arr.astype(np.int8)  # NetCDF has no boolean
-        metric = METRICS.get(name) or DRIVE_METRICS.get(name)
+        metric = RING_METRICS.get(name)
         attrs_ = (
             {"units": metric.unit, "long_name": metric.long_name}
             if metric
@@ -150,7 +155,7 @@ def ring_statistics(
     jammed = jammed_rings(ds)
     runs = np.asarray(ds["jammed"].values) == 0 if "jammed" in ds else np.ones(n, dtype=bool)
     stats = {}
-    for name, metric in (METRICS | DRIVE_METRICS).items():
+    for name, metric in RING_METRICS.items():
         if name in ds and name != "any_overlap":
             stats[name] = {
                 "unit": metric.unit,
@@ -227,7 +232,7 @@ def worst_ring_study(
         The tolerance study's fixed part.
     base : mapping
         The base case's sections in study units (``design``, ``modification``,
-        ``material``, ``load``, ``analysis``), e.g. ``CaseSpec.model_dump()``; the
+        ``material``, ``load``, ``friction``, ``analysis``), e.g. ``CaseSpec.model_dump()``; the
         ``errors`` and crank angles are replaced by the ring's own.
     ring : int
         Ring index k.
@@ -241,7 +246,7 @@ def worst_ring_study(
     total = model.total_errors_um(model.draw([ring]))
     spec = model.spec
     sections: dict[str, Any] = {"title": title}
-    for name in ("design", "modification", "material", "load"):
+    for name in ("design", "modification", "material", "load", "friction"):
         table = _drop_none(base.get(name) or {})
         if table:
             sections[name] = table
@@ -440,7 +445,7 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
             f"{fmt_number(p['estimate'])} [{fmt_number(p['lower'])}, {fmt_number(p['upper'])}]"
             for p in s["percentiles"]
         ]
-        m = METRICS.get(name) or DRIVE_METRICS.get(name)
+        m = RING_METRICS.get(name)
         label = name if m is None else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
         rows.append([label, fmt_number(s["mean"]), fmt_number(s["std"]), *pct])
     header = ["metric", "mean", "std"] + [f"P{p:g} [{conf:.0%} CI]" for p in stats["percentiles"]]

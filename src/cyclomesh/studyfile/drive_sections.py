@@ -40,7 +40,8 @@ __all__ = [
 
 
 class LubricantSection(StrictSection):
-    """``[friction.lubricant]``: the oil of the lubricated (Benedict–Kelley) coefficient."""
+    """``[friction.lubricant]``: the oil of the lubricated coefficient (Benedict–Kelley in
+    the mixed regime of the film parameter λ, docs/efficiency.md)."""
 
     grade: int | None = Field(
         None, description=f"ISO VG viscosity grade, one of {', '.join(map(str, ISO_VG))}"
@@ -53,6 +54,17 @@ class LubricantSection(StrictSection):
     )
     temperature_c: float = Field(40.0, ge=-30, le=150, description="oil temperature [°C]")
     roughness_um: float = Field(0.4, ge=0, lt=1, description="mean roughness Ra [µm]")
+    composite_roughness_um: float | None = Field(
+        None,
+        gt=0,
+        lt=10,
+        description="composite roughness √(σ1² + σ2²) of the film parameter [µm] "
+        "(default √2·roughness_um)",
+    )
+    pressure_viscosity_per_gpa: float = Field(
+        20.0, gt=0, lt=100, description="pressure-viscosity coefficient α [1/GPa]"
+    )
+    density_kg_m3: float = Field(880.0, ge=500, le=2000, description="oil density [kg/m³]")
 
     @model_validator(mode="after")
     def _one_viscosity(self) -> LubricantSection:
@@ -74,6 +86,11 @@ class LubricantSection(StrictSection):
             viscosity_100=self.viscosity_100c_cst or nu100,
             temperature=self.temperature_c,
             roughness=self.roughness_um * M_PER_UM,
+            composite_roughness=None
+            if self.composite_roughness_um is None
+            else self.composite_roughness_um * M_PER_UM,
+            pressure_viscosity=self.pressure_viscosity_per_gpa * 1e-9,
+            density=self.density_kg_m3,
         )
 
 

@@ -148,8 +148,8 @@ def _stage(kind: str) -> str:
 
 def _friction(kind: str) -> str:
     return (
-        f"friction: [friction] is not taken by cyclomesh {kind} yet; use cyclomesh run or "
-        "cyclomesh stiffness for friction and efficiency, or remove [friction] "
+        f"friction: [friction] is not taken by cyclomesh {kind} yet; use cyclomesh run, "
+        "stiffness or tolerance for friction and efficiency, or remove [friction] "
         "(docs/efficiency.md)"
     )
 
@@ -325,13 +325,14 @@ KINDS: tuple[KindSpec, ...] = (
             "tolerance.rings",
             "tolerance.allowable_contact_stress_mpa",
             "tolerance.allocation.confidence",
+            "friction",
+            "load.input_speed_rpm",
             *_CHECKED,
             "requirements.tolerance_percentile",
         ),
         refused={
             "design.disc": _HOLES,
             "stage": _stage("tolerance"),
-            "friction": _friction("tolerance"),
             "cases": _BASE_ONLY,
             **_NO_FIGURES,
         },

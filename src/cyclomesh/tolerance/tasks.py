@@ -89,6 +89,9 @@ class RingModel:
     disc_body : "rigid" or DiscBody
         The disc body (:func:`cyclomesh.core.ltca.solve_ltca`), resolved once by the
         parent and carried to the workers with the task (one table for all rings).
+    friction : Friction, optional
+        Friction in the equilibrium (:mod:`cyclomesh.core.friction`): every ring's
+        forward ``efficiency`` joins its metrics (:func:`ring_efficiency`).
     """
 
     design: PairDesign
@@ -103,6 +106,7 @@ class RingModel:
     discs: int = 1
     crank_range: tuple[float, float, float] | None = None
     disc_body: Any = "rigid"
+    friction: Any = None
 
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
@@ -160,8 +164,12 @@ class RingModel:
             self.discs,
             self.contact_law,
             self.disc_body,
+            friction=self.friction,
         )
-        return drive_metrics(result, self.design.teeth)
+        out = drive_metrics(result, self.design.teeth)
+        if self.friction is not None:
+            out["efficiency"] = ring_efficiency(result, self.design.teeth, self.friction.speed)
+        return out
 
     def _blame(self, block: RingErrors) -> None:
         """Re-solve ring by ring and raise the core's error naming the failing ring."""
@@ -170,6 +178,18 @@ class RingModel:
                 self._solve(block.take([i]))
             except CyclomeshError as exc:
                 raise type(exc)(f"ring {k} (seed {self.spec.seed}): {exc}") from None
+
+
+def ring_efficiency(result: Any, teeth: int, speed: float) -> NDArray[np.float64]:
+    """Forward efficiency of every ring of a one-torque drive with friction [-]:
+    P_out/(P_out + P_loss), P_out = |T|·ω/n2, P_loss the mean over the crank angles of the
+    pins' and the crank bearings' losses (as :func:`cyclomesh.results.efficiency.efficiency_record`
+    takes it for one case)."""
+    f = result.friction
+    loss = np.sum(f["power_loss_tooth"] + f["power_loss_groove"], axis=(-2, -1))
+    loss = loss + np.sum(f["power_loss_bearing"], axis=-1)  # (..., Q, A)
+    p_out = np.abs(result.torque[0]) * speed / teeth
+    return p_out / (p_out + np.mean(loss[..., 0, :], axis=-1))
 
 
 def _by_blocks(start: int, stop: int, solve: Any, size: int) -> dict[str, NDArray[Any]]:
