@@ -4,10 +4,13 @@ Example design of Table 1 (Li et al., Machines 2022), Δρ = 8 µm, groove defor
 250 N·m, one revolution at 0.1° (3600 crank angles × 40 pins), on one core.
 
     .venv/bin/python benchmarks/bench_core.py [--repeat 7] [--profile] [--disc-body fe]
+        [--kernel numpy|numba|both]
 
 ``--disc-body fe`` (the fe extra; implies ``--contact-law half_plane``) solves with the
 compliant disc: the influence coefficients are computed once (timed, unless already in
-the cache) and the revolution is timed as before.
+the cache) and the revolution is timed as before. ``--kernel`` sets CYCLOMESH_KERNEL
+(:mod:`cyclomesh.core.kernel`; ``both``: numpy then numba in one process, with their
+ratio and the largest difference of the pin loads).
 """
 
 from __future__ import annotations
@@ -39,7 +42,29 @@ def main() -> None:
     parser.add_argument(
         "--no-tune", action="store_true", help="leave glibc's malloc thresholds alone"
     )
+    parser.add_argument(
+        "--kernel", default=None, help='"numpy", "numba" or "both" (default: CYCLOMESH_KERNEL)'
+    )
     args = parser.parse_args()
+    if args.kernel == "both":
+        rates, loads = {}, {}
+        for name in ("numpy", "numba"):
+            os.environ["CYCLOMESH_KERNEL"] = name
+            print(f"-- kernel {name}")
+            rates[name], loads[name] = _bench(args)
+        ref = loads["numpy"]
+        diff = np.max(np.abs(loads["numba"] - ref)) / np.max(np.abs(ref))
+        print(
+            f"numba/numpy: {rates['numba'] / rates['numpy']:.2f}x; pin loads differ by "
+            f"{diff:.1e} of the largest"
+        )
+        return
+    if args.kernel is not None:
+        os.environ["CYCLOMESH_KERNEL"] = args.kernel
+    _bench(args)
+
+
+def _bench(args):
     if not args.no_tune:
         tune_allocator()  # as every cyclomesh process that solves does
 
@@ -70,6 +95,7 @@ def main() -> None:
         f"median {np.median(times) * 1e3:.1f} ms over {args.repeat} runs"
     )
     print(f"pin-steps per second: {pin_steps / best:,.0f}")
+    result = run()
     if args.profile:
         import cProfile
         import pstats
@@ -77,6 +103,7 @@ def main() -> None:
         profiler = cProfile.Profile()
         profiler.runcall(run)
         pstats.Stats(profiler).sort_stats("tottime").print_stats(10)
+    return pin_steps / best, result.pin_load
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ Cases (Table 1 design of Li et al. 2022, Δρ = 8 µm, groove deformation on, 25
 
 - ``run 3600``: ``cyclomesh run`` of one case at 0.1° over a revolution (3600 × 40);
 - ``run 36``: the same at 10° (36 steps), figures and report included;
+- ``run 36 --figures none``: the same without figures (matplotlib never imported);
 - ``tolerance``: ``cyclomesh tolerance`` of examples/tolerance.toml, 200 rings at 1°;
 - ``--help``: start of the command.
 
@@ -12,7 +13,11 @@ stage by stage (load, solve, result files, figures, report; "start-up" is Python
 the imports of a run), so that a regression shows where it is. Stage times of a second
 run in one process miss the imports that the first paid; the machine is shared, so
 take best-of-N. Targets (issue 7, on a 2-core machine): run 3600 < 1.5 s and less
-than 0.15 s above run 36; run 36 < 2 s; --help < 0.3 s; tolerance of 200 rings < 3 s.
+than 0.15 s above run 36; run 36 < 2 s; --help < 0.3 s; tolerance of 200 rings < 3 s;
+issue 27: run 36 <= 0.8 s with the default figures, <= 0.4 s with ``--figures none``.
+"start-up of a run" is followed by the import time of each heavy package a run pays for
+(``python -X importtime``, cumulative, so they overlap: xarray includes pandas and pyarrow;
+dask, when the cluster extra is installed, is imported by xarray's first array).
 
     .venv/bin/python benchmarks/bench_pipeline.py --repeat 3
     .venv/bin/python benchmarks/bench_pipeline.py --rings 40000 --ring-step 10 --only tolerance
@@ -75,6 +80,28 @@ def _startup(repeat: int) -> float:
         subprocess.run([sys.executable, "-c", code], check=True)
         best = min(best, time.perf_counter() - start)
     return best
+
+
+HEAVY = ("numpy", "scipy", "pydantic", "typer", "xarray", "pandas", "pyarrow", "dask", "netCDF4")
+
+
+def _import_split() -> dict[str, float]:
+    """Seconds of the imports of ``cyclomesh run`` (``-X importtime``): the cumulative time
+    of each heavy package, with what it imports first (so xarray includes pandas)."""
+    code = (
+        "import cyclomesh.cli, cyclomesh.studies.run, cyclomesh.results.dataset, "
+        "cyclomesh.output.writers, xarray, netCDF4, pyarrow.parquet; "
+        "import numpy, xarray; xarray.Variable('x', numpy.zeros(1))"  # xarray's duck arrays
+    )
+    err = subprocess.run(
+        [sys.executable, "-X", "importtime", "-c", code], capture_output=True, text=True
+    ).stderr
+    seconds: dict[str, float] = {}
+    for line in err.splitlines():
+        parts = line.split("|")
+        if len(parts) == 3 and parts[2].strip() in HEAVY:
+            seconds[parts[2].strip()] = int(parts[1]) * 1e-6
+    return dict(sorted(seconds.items(), key=lambda kv: -kv[1]))
 
 
 def _stages_run(study_file: Path, out: Path) -> dict[str, float]:
@@ -141,7 +168,7 @@ def main() -> None:
         tmp = Path(tmp)
         if "help" in which:
             _line("cyclomesh --help", _wall(["--help"], args.repeat))
-            _line("start-up of a run", _startup(args.repeat))
+            _line("start-up of a run", _startup(args.repeat), _import_split())
         if "run" in which:
             walls = {}
             for step, label in (("0.1", "run 3600 steps"), ("10.0", "run 36 steps")):
@@ -151,6 +178,16 @@ def main() -> None:
                 walls[step] = _wall(["run", str(study), "--out", str(out), "-q"], args.repeat)
                 shutil.rmtree(out, ignore_errors=True)
                 _line(label, walls[step], _stages_run(study, out))
+            study = tmp / "case_10.0.toml"
+            out = tmp / "out_none"
+            none = _wall(
+                ["run", str(study), "--out", str(out), "-q", "--figures", "none"], args.repeat
+            )
+            _line("run 36 --figures none", none)
+            print(
+                f"{'issue 27 targets':>22}: run 36 {walls['10.0']:.3f} s (<= 0.8), "
+                f"--figures none {none:.3f} s (<= 0.4)"
+            )
             extra = walls["0.1"] - walls["10.0"]
             rate = 3564 * 40 / extra if extra > 0 else float("inf")
             print(f"{'3600 over 36':>22}: +{extra:.3f} s = {rate / 1e6:.2f} M pin-steps/s")

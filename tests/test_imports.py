@@ -42,3 +42,24 @@ def test_lazy_names_of_the_package():
     assert callable(cyclomesh.analyse) and "analyse" in dir(cyclomesh)
     with pytest.raises(AttributeError, match="no attribute 'nonsense'"):
         cyclomesh.nonsense  # noqa: B018
+
+
+def test_run_without_figures_never_imports_matplotlib(tmp_path):
+    """``cyclomesh run --figures none`` end to end: no figure asked, matplotlib never
+    imported (issue 27), and the result files are all there."""
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parents[1] / "examples" / "table2.toml"
+    out = tmp_path / "out"
+    code = (
+        "import sys\n"
+        "from cyclomesh.cli import app\n"
+        f"args = ['run', {str(example)!r}, '--out', {str(out)!r}, '-q', '--figures', 'none',"
+        " '--crank-step-deg', '10']\n"
+        "try:\n    app(args)\nexcept SystemExit as exc:\n    assert not exc.code, exc.code\n"
+        "print(sorted(m for m in ('matplotlib', 'scipy.stats') if m in sys.modules))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "[]", done.stdout
+    assert (out / "summary.json").is_file() and not (out / "figures").exists()

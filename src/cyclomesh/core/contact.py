@@ -92,6 +92,11 @@ class UnloadedContact:
         Actual pin radius ρp + ερ,i [m].
     residual : ndarray
         Residual of the contact condition, as a distance [m].
+    normal_x, normal_y : ndarray or None
+        Outward flank normal n at the contact, fixed frame (unit vector, as
+        :func:`contact_normal` gives it, bit for bit), when asked for
+        (``unloaded_contact(..., normals=True)``), else None: computed once here, from
+        the contact's own intermediates, for the mesh force and the friction of a stack.
     """
 
     rotation: FloatArray
@@ -103,6 +108,8 @@ class UnloadedContact:
     curvature_radius: FloatArray
     pin_radius: FloatArray
     residual: FloatArray
+    normal_x: FloatArray | None = None
+    normal_y: FloatArray | None = None
 
 
 def contact_phase(
@@ -157,6 +164,7 @@ def unloaded_contact(
     modification: Modification | None,
     errors: PinErrors | None,
     crank_angles: ArrayLike,
+    normals: bool = False,
 ) -> UnloadedContact:
     """Unloaded contact of every pin at every crank angle (Eqs. 5–11 of [1]).
 
@@ -169,6 +177,9 @@ def unloaded_contact(
         Pin position, pin radius and eccentricity errors (Eq. 5); leading axes are rings.
     crank_angles : array_like
         Crank angles φ [rad], shape (n_angles,).
+    normals : bool
+        Also the outward flank normals in the fixed frame (``normal_x``, ``normal_y``,
+        equal bit for bit to :func:`contact_normal`'s, which they spare recomputing).
 
     Returns
     -------
@@ -210,7 +221,7 @@ def unloaded_contact(
 
     if modification.profile is not None:
         return _deviated_contact(
-            design, modification, w2, wx, wy, r_pin, phi, phi_t, t_root, pin_angle
+            design, modification, w2, wx, wy, r_pin, phi, phi_t, t_root, pin_angle, normals
         )
     jammed = np.sqrt(w2) < a - e + s - CONTACT_TOLERANCE
     if np.any(jammed):
@@ -252,17 +263,46 @@ def unloaded_contact(
 
     moment_arm = -a * e * n2 * sin_u / d
     rho_x, rho_y = a - e * c - rho_gen * nx, -e * sin_u - rho_gen * ny
+    profile_angle = np.where(reach, u, -np.pi)
+    pin_radius = np.broadcast_to(r_pin, w2.shape)
+    normal = (None, None)
+    if normals:
+        normal = _fixed_normal(arg_w, profile_angle, pin_radius, a, e, n1, rho_gen)
     return UnloadedContact(
         rotation=np.where(reach, rotation, np.inf),
         reverse_rotation=np.where(reach, reverse, -np.inf),
         moment_arm=np.where(reach, moment_arm, 0.0),
         cos_beta=np.where(reach, np.abs(np.cos(lateral)), 1.0),
-        profile_angle=np.where(reach, u, -np.pi),
+        profile_angle=profile_angle,
         contact_radius=np.where(reach, np.hypot(rho_x, rho_y), a + e - rho_gen),
         curvature_radius=np.where(reach, curvature_radius(t, design, modification), np.inf),
-        pin_radius=np.broadcast_to(r_pin, w2.shape),
+        pin_radius=pin_radius,
         residual=residual,
+        normal_x=normal[0],
+        normal_y=normal[1],
     )
+
+
+def _fixed_normal(
+    arg_w: FloatArray,
+    profile_angle: FloatArray,
+    pin_radius: FloatArray,
+    a: float,
+    e: float,
+    n1: int,
+    rho_gen: float,
+) -> tuple[FloatArray, FloatArray]:
+    """Outward flank normal in the fixed frame from arg w and the contact's φ1 (module doc;
+    :func:`contact_normal`): n = (cos, sin)(arg w + arg n − arg P_s), n and P_s in the
+    tooth frame of the contact."""
+    u = profile_angle
+    c, sin_u = np.cos(u), np.sin(u)
+    d = np.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
+    nx, ny = (a - e * n1 * c) / d, -e * n1 * sin_u / d
+    s = pin_radius - rho_gen
+    zx, zy = a - e * c + s * nx, -e * sin_u + s * ny
+    angle = arg_w + np.arctan2(ny, nx) - np.arctan2(zy, zx)
+    return np.cos(angle), np.sin(angle)
 
 
 def contact_normal(
@@ -326,14 +366,7 @@ def contact_normal(
         pin_r * np.cos(pin_angle) - ecc * np.cos(crank),
     )
     # tooth frame of the contact: normal n and pin centre P_s (module doc)
-    u = profile_angle
-    c, sin_u = np.cos(u), np.sin(u)
-    d = np.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
-    nx, ny = (a - e * n1 * c) / d, -e * n1 * sin_u / d
-    s = pin_radius - rho_gen
-    zx, zy = a - e * c + s * nx, -e * sin_u + s * ny
-    angle = arg_w + np.arctan2(ny, nx) - np.arctan2(zy, zx)
-    return np.cos(angle), np.sin(angle)
+    return _fixed_normal(arg_w, profile_angle, pin_radius, a, e, n1, rho_gen)
 
 
 def contact_tangent(normal_x: FloatArray, normal_y: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -409,6 +442,7 @@ def _deviated_contact(
     phi_t: FloatArray,
     t_root: FloatArray,
     pin_angle: FloatArray,
+    normals: bool = False,
 ) -> UnloadedContact:
     """:func:`unloaded_contact` with a tabulated profile deviation: each flank solved."""
     n2 = design.teeth
@@ -454,18 +488,27 @@ def _deviated_contact(
     )
     # moment arm of the line of action (through Q along N) about the disc centre
     moment_arm = geo.qx * geo.ny - geo.qy * geo.nx
+    profile_angle = np.where(reach, u, -np.pi)
+    normal = (None, None)
+    if normals:  # of the undeviated cycloid at the contact's φ1, as contact_normal
+        a, rho_gen = generating_radii(design, modification)
+        normal = _fixed_normal(
+            arg_w, profile_angle, r_pin, a, design.eccentricity, design.pins, rho_gen
+        )
     return UnloadedContact(
         rotation=np.where(reach, rotation, np.inf),
         reverse_rotation=np.where(rev_reach, reverse, -np.inf),
         moment_arm=np.where(reach, moment_arm, 0.0),
         cos_beta=np.where(reach, np.abs(np.cos(lateral)), 1.0),
-        profile_angle=np.where(reach, u, -np.pi),
+        profile_angle=profile_angle,
         contact_radius=np.where(
             reach, np.hypot(geo.x, geo.y), _tip_radius(design, modification, space)
         ),
         curvature_radius=np.where(reach, geo.curvature_radius, np.inf),
         pin_radius=r_pin,
         residual=residual,
+        normal_x=normal[0],
+        normal_y=normal[1],
     )
 
 

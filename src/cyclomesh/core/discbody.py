@@ -37,7 +37,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.hertz import force_from_approach
-from cyclomesh.core.loadsharing import TORQUE_TOLERANCE, share_load
+from cyclomesh.core.kernel import share_load
+from cyclomesh.core.loadsharing import TORQUE_TOLERANCE
 from cyclomesh.exceptions import ConvergenceError
 
 __all__ = [

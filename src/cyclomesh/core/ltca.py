@@ -36,7 +36,7 @@ from cyclomesh.core.fields import (
     count_contacts,
 )
 from cyclomesh.core.hertz import compliance_coefficients
-from cyclomesh.core.loadsharing import share_load
+from cyclomesh.core.kernel import share_load
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.core.transmission import gear_ratio, transmission_error
 from cyclomesh.exceptions import ConvergenceError, DesignError

@@ -21,10 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from cyclomesh.core.contact import UnloadedContact, contact_normal, unloaded_contact
+from cyclomesh.core.contact import UnloadedContact, unloaded_contact
 from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
 from cyclomesh.core.fields import CONTACT_FIELDS, PIN_FIELDS, contact_fields
-from cyclomesh.core.loadsharing import share_load
+from cyclomesh.core.kernel import share_load
 from cyclomesh.core.ltca import locate_failure, pin_compliance, rest_position
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.friction import FRICTION_FIELDS, FrictionCoupling
@@ -61,7 +61,9 @@ class StackMesh:
     −F_i·n, a counter-clockwise disc rotation θ closes the gap by l_i·θ, a translation u by
     n·u); ``ring_shape``; ``phi`` (crank angles of disc 1 in this frame [rad]);
     ``eccentricity`` (e + εe of every ring [m], (..., 1, 1, 1), for the contact kinematics of
-    friction, :mod:`cyclomesh.drive.friction`)."""
+    friction, :mod:`cyclomesh.drive.friction`); ``force_angle`` (direction of each pin's
+    force on its disc, fixed frame [rad], (..., A, N, n1): geometry alone, so computed once
+    here and not again for every torque of a torsion curve)."""
 
     design: PairDesign
     geo: UnloadedContact  # arrays (..., A, N, n1)
@@ -77,6 +79,7 @@ class StackMesh:
     body: DiscBody | None = None
     tooth: NDArray | None = None  # (A, N·n1): tooth space of every contact (compliant disc)
     eccentricity: FloatArray | None = None  # (..., 1, 1, 1): e + εe of every ring [m]
+    force_angle: FloatArray | None = None  # (..., A, N, n1): arg(−n) [rad]
 
 
 def disc_angles(phi: FloatArray, discs: int) -> FloatArray:
@@ -98,8 +101,9 @@ def stacked_contact(
     phi: FloatArray,
     discs: int,
 ) -> UnloadedContact:
-    """Unloaded contact of every disc of a stack, arrays (..., A, N, n1) (Eqs. 5–11)."""
-    raw = unloaded_contact(design, modification, errors, disc_angles(phi, discs))
+    """Unloaded contact of every disc of a stack, arrays (..., A, N, n1) (Eqs. 5–11), with
+    the outward flank normals in the fixed frame (computed once, with the contact)."""
+    raw = unloaded_contact(design, modification, errors, disc_angles(phi, discs), normals=True)
     return UnloadedContact(
         **{
             name: _stack(getattr(raw, name), discs, phi.size)
@@ -137,15 +141,6 @@ def _mesh(
     flat = (*geo.rotation.shape[:-2], discs * design.pins)
     rest, reverse_rest = rest_positions(geo, design.pins, discs)
     alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
-    offsets = 2.0 * np.pi * np.arange(discs) / discs
-    nx, ny = contact_normal(
-        design,
-        modification,
-        errors,
-        phi[:, None] + offsets[None, :],
-        geo.profile_angle,
-        geo.pin_radius,
-    )
     return StackMesh(
         design=design,
         geo=geo,
@@ -154,8 +149,11 @@ def _mesh(
         backlash=geo.rotation.reshape(flat) - rest[..., None],
         alpha=alpha.reshape(flat),
         gamma=gamma.reshape(flat),
-        normal_x=nx,
-        normal_y=ny,
+        normal_x=geo.normal_x,
+        normal_y=geo.normal_y,
+        force_angle=contact_fields(
+            ("force_angle",), design, geo, geo.rotation, normal=(geo.normal_x, geo.normal_y)
+        )["force_angle"],
         ring_shape=ring_shape,
         phi=phi,
         body=body,
@@ -206,7 +204,7 @@ def load_stack(
     force = force.reshape(geo.rotation.shape)
     extra = {} if friction is None else friction.fields(force, state)
     fields = contact_fields(
-        CONTACT_FIELDS,
+        _PER_TORQUE,
         mesh.design,
         geo,
         force,
@@ -214,7 +212,12 @@ def load_stack(
         normal=(mesh.normal_x, mesh.normal_y),
         stack_axes=2,
     )
+    fields["force_angle"] = mesh.force_angle
     return extra | {"pin_load": force, **fields, "loaded_rotation": loaded}
+
+
+_PER_TORQUE = tuple(name for name in CONTACT_FIELDS if name != "force_angle")
+"""The contact fields that change with the torque (the force angle is the mesh's)."""
 
 
 def stack_meshes(

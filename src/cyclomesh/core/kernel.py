@@ -1,0 +1,281 @@
+"""The compiled load-sharing kernel (numba) beside the NumPy reference, and the switch.
+
+:func:`share_load` is the one entry of the solvers (the one-disc chain
+:func:`cyclomesh.core.ltca.ltca`, the stacks of :mod:`cyclomesh.drive.mesh`, the start of
+the compliant disc :func:`cyclomesh.core.discbody.share_load_coupled`): with the NumPy
+kernel it is :func:`cyclomesh.core.loadsharing.share_load` itself (the reference), with
+the numba kernel the same algorithm, case by case in one compiled pass: the start at
+the single-pin bound, the candidate pins, Newton's method on M(Δφc) = Σ l·F(l·(Δφc −
+φbl)⁺) − T (Eqs. 15–18 of [1]) with each pin's force inverted from its approach
+(δ = F(α − γ ln F), Eqs. 19–23, Newton in y = ln F as
+:func:`cyclomesh.core.hertz.force_from_approach`), without temporaries, skipping the
+unloaded pins (about three in four) and reusing ln F = y in the slope. The results
+agree with the reference to round-off (tested to 1e-13 relative on both contact laws,
+stacks, the compliant disc and the stage, ``tests/core/test_kernel.py``). Any case the
+kernel cannot finish (no usable pin, a torque too large, a force past the stiffest
+point of the law, no convergence) is handed to the reference, which raises its own
+one-line error, so the errors are those of the NumPy path.
+
+The switch: the environment variable ``CYCLOMESH_KERNEL`` = ``numpy`` (the default) or
+``numba`` (needs the ``fast`` extra, ``pip install 'cyclomesh[fast]'``), read at each
+call, so worker processes follow the command's environment. Friction (a torque arm
+apart from the compatibility arm) always takes the NumPy path.
+
+References
+----------
+[1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672, doi:10.3390/machines10080672.
+"""
+
+from __future__ import annotations
+
+import os
+from functools import cache
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from cyclomesh.core import loadsharing
+from cyclomesh.core.loadsharing import TORQUE_TOLERANCE
+
+__all__ = ["KERNELS", "ENV_VAR", "kernel_name", "share_load"]
+
+FloatArray = NDArray[np.float64]
+
+ENV_VAR = "CYCLOMESH_KERNEL"
+"""Environment variable that selects the kernel."""
+KERNELS = ("numpy", "numba")
+"""Kernel names: the NumPy reference (default) and the compiled numba kernel."""
+
+
+def kernel_name() -> str:
+    """The selected kernel, from ``CYCLOMESH_KERNEL`` (``numpy`` when unset).
+
+    Raises
+    ------
+    ValueError
+        One line naming the variable and its values, for any other value, or ``numba``
+        without numba installed (the fix: the ``fast`` extra).
+    """
+    name = os.environ.get(ENV_VAR, "numpy").strip().lower() or "numpy"
+    if name not in KERNELS:
+        raise ValueError(
+            f"{ENV_VAR}={name!r}: expected one of {', '.join(KERNELS)}; unset it for numpy"
+        )
+    if name == "numba" and _compiled() is None:
+        raise ValueError(
+            f"{ENV_VAR}=numba needs numba: pip install 'cyclomesh[fast]' (or unset {ENV_VAR})"
+        )
+    return name
+
+
+def share_load(
+    backlash: ArrayLike,
+    moment_arm: ArrayLike,
+    alpha: ArrayLike,
+    gamma: ArrayLike,
+    torque: float,
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`cyclomesh.core.loadsharing.share_load` (frictionless) on the selected kernel.
+
+    Parameters and returns as there: φbl [rad], l [m], α, γ [m/N] of shape
+    (..., n_pins), T [N·m]; Δφc (...) [rad] and the pin loads (..., n_pins) [N].
+    """
+    if kernel_name() == "numpy":
+        return loadsharing.share_load(backlash, moment_arm, alpha, gamma, torque)
+    bl, arm, a, g = np.broadcast_arrays(
+        *(np.asarray(v, float) for v in (backlash, moment_arm, alpha, gamma))
+    )
+    lead, n_pins = bl.shape[:-1], bl.shape[-1]
+    flat = [np.ascontiguousarray(v).reshape(-1, n_pins) for v in (bl, arm, a, g)]
+    rotation = np.empty(flat[0].shape[0])
+    force = np.zeros(flat[0].shape)
+    failed = _compiled()(*flat, float(torque), rotation, force)
+    if failed:  # the reference raises its one-line error (or solves the case)
+        return loadsharing.share_load(backlash, moment_arm, alpha, gamma, torque)
+    return rotation.reshape(lead), force.reshape(*lead, n_pins)
+
+
+_MAX_ITERATIONS = 100
+"""Newton steps on Δφc before a case is handed to the reference (as loadsharing's)."""
+_MAX_NEWTON = 50
+"""Newton steps of one force inversion (as :func:`cyclomesh.core.hertz.force_from_approach`)."""
+_ROUND_OFF = 2e-15
+"""Relative residual of a converged force inversion (as force_from_approach)."""
+_LOOSE = 1e-10
+"""Relative residual of the force inversions while the torque residual is above
+:data:`_LOOSE_UNTIL`·T: Newton's steps there are far from the root, and an error of
+1e-10 in their forces is squared away by the steps that follow."""
+_LOOSE_UNTIL = 1e-3
+
+
+@cache
+def _compiled() -> Any:
+    """The compiled kernel, or None without numba (imported on first use only)."""
+    try:
+        import numba
+    except ImportError:
+        return None
+    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    global _invert_cold, _newton_y  # compiled in place, so the kernel calls them compiled
+    _newton_y = jit(_newton_y)
+    _invert_cold = jit(_invert_cold)
+    return jit(_share_load_rows)
+
+
+def _invert_cold(d, a, g, tol):  # pragma: no cover (compiled)
+    """y = ln F of δ = F(α − γ ln F) as :func:`cyclomesh.core.hertz.force_from_approach`:
+    two fixed-point steps from ln(δ/α), then Newton to a residual of ``tol``·δ; returns
+    (y, F, converged)."""
+    y = np.log(d / a)
+    y = np.log(d / (a - g * y))
+    y = np.log(d / (a - g * y))
+    return _newton_y(d, a, g, y, _MAX_NEWTON, tol)
+
+
+def _newton_y(d, a, g, y, steps, tol):  # pragma: no cover (compiled)
+    """Newton's method in y = ln F on δ = e^y(α − γ y) from ``y`` to a residual of
+    ``tol``·δ; at 2e-15 (round-off), one more step makes the root independent of the
+    start. A step below √(tol/100) ends it unchecked: Newton's error after it is of the
+    order of the step squared (δ'' ≈ δ' on the stiffening branch), so the residual is
+    below tol·δ without another exponential. Returns (y, F, converged)."""
+    for _ in range(steps):
+        f = np.exp(y)
+        resid = f * (a - g * y) - d
+        if abs(resid) <= tol * d:
+            if tol <= _ROUND_OFF and resid != 0.0:
+                y = y - resid / (f * (a - g - g * y))
+                f = np.exp(y)
+            return y, f, True
+        step = resid / (f * (a - g - g * y))
+        y = y - step
+        if step * step <= 0.01 * tol:
+            return y, np.exp(y), True
+    return y, 0.0, False
+
+
+def _share_load_rows(bl, arm, alpha, gamma, torque, rotation, force):  # pragma: no cover
+    """Load sharing of every case (row), written for numba (plain loops, scalars).
+
+    The algorithm of :func:`cyclomesh.core.loadsharing.share_load` (same start, same
+    candidates, same Newton steps on Δφc, sums in pin order) with three savings that
+    leave every converged value at round-off: a pin whose backlash is already above
+    the bound cannot lower it (its single-pin rotation is larger), so its logarithm is
+    not taken; an unloaded pin (Δφc ≤ φbl) is skipped; and each pin's force inversion
+    starts from its own last solution moved along the tangent, y₀ = y + Δδ/(dδ/dy),
+    which Newton's method in y finishes in one or two exponentials (the convex δ(y)
+    puts that start right of the root, from where Newton descends monotonically);
+    while the torque residual is above 1e-3·T the inversions stop at 1e-10·δ (the
+    steps that follow square that error away), then the step is taken again with
+    every force at round-off, so Δφc follows the reference's Newton steps and stops
+    where it stops (at a residual within 1e-12·T, not at the exact root).
+
+    Fills ``rotation`` (n_cases) and ``force`` (n_cases, n_pins, zero on entry); returns
+    the number of cases it could not finish (then the caller uses the reference).
+    """
+    n_cases, n_pins = bl.shape
+    tol = TORQUE_TOLERANCE * torque
+    candidates = np.empty(n_pins, np.int64)
+    branch = np.empty(n_pins)  # largest approach of the law, γ·exp(α/γ − 1) [m]
+    last_y = np.empty(n_pins)  # ln F of the pin's last inversion
+    last_d = np.empty(n_pins)  # its approach [m]
+    last_slope = np.empty(n_pins)  # dδ/dy there [m]
+    failed = 0
+    for k in range(n_cases):
+        # start: the rotation at which one pin alone carries T (an upper bound), the pin
+        # with the smallest backlash first so that the bound prunes the others early
+        first = -1
+        smallest = np.inf
+        for i in range(n_pins):
+            b = bl[k, i]
+            if np.isfinite(b) and arm[k, i] > 0.0 and (first < 0 or b < smallest):
+                first = i
+                smallest = b
+        if first < 0:
+            failed += 1
+            continue
+        x = np.inf
+        for jj in range(-1, n_pins):
+            i = first if jj < 0 else jj
+            if jj == first:
+                continue
+            b, lk = bl[k, i], arm[k, i]
+            if not (np.isfinite(b) and lk > 0.0) or b >= x:
+                continue  # δ > 0 on the valid branch: its rotation alone is above b ≥ x
+            a, g = alpha[k, i], gamma[k, i]
+            single = torque / lk
+            log_single = np.log(single)
+            if g == 0.0 or log_single < a / g - 1.0:
+                alone = b + single * (a - g * log_single) / lk
+                if alone < x:
+                    x = alone
+        if not np.isfinite(x):
+            failed += 1
+            continue
+        n_cand = 0
+        for i in range(n_pins):
+            b = bl[k, i]
+            if np.isfinite(b) and arm[k, i] > 0.0 and b < x:
+                candidates[n_cand] = i
+                branch[n_cand] = -1.0  # computed when the pin first carries load
+                last_slope[n_cand] = 0.0  # no inversion yet
+                n_cand += 1
+        ok = False
+        bad = False
+        inner = _LOOSE  # the inversions' tolerance: loose while the torque is far off
+        for _ in range(_MAX_ITERATIONS):
+            moment = 0.0
+            slope = 0.0
+            for j in range(n_cand):
+                i = candidates[j]
+                gap = x - bl[k, i]
+                if gap <= 0.0:  # unloaded pin: no force, no inversion
+                    force[k, i] = 0.0
+                    continue
+                lk = arm[k, i]
+                d = gap * lk
+                if d <= 0.0:
+                    force[k, i] = 0.0
+                    continue
+                a, g = alpha[k, i], gamma[k, i]
+                if g == 0.0:
+                    f = d / a
+                    dddf = a
+                else:
+                    if branch[j] < 0.0:
+                        branch[j] = g * np.exp(a / g - 1.0) if g > 0.0 else np.inf
+                    if d >= branch[j] * (1.0 - 1e-12):  # at or past the stiffest point
+                        bad = True
+                        break
+                    converged = False
+                    if last_slope[j] > 0.0:
+                        y0 = last_y[j] + (d - last_d[j]) / last_slope[j]
+                        if y0 < a / g - 1.0:
+                            y, f, converged = _newton_y(d, a, g, y0, 8, inner)
+                    if not converged:
+                        y, f, converged = _invert_cold(d, a, g, inner)
+                    if not converged:
+                        bad = True
+                        break
+                    dddf = a - g * (1.0 + y)
+                    last_y[j] = y
+                    last_d[j] = d
+                    last_slope[j] = f * dddf
+                force[k, i] = f
+                moment += f * lk
+                slope += lk * lk / dddf
+            if bad:
+                break
+            resid = moment - torque
+            if inner > _ROUND_OFF and abs(resid) <= _LOOSE_UNTIL * torque:
+                inner = _ROUND_OFF  # near the root: this step again, forces to round-off
+                continue
+            if abs(resid) <= tol:
+                ok = True
+                break
+            x = x - (resid / slope if slope > 0.0 else 0.0)
+        if not ok:
+            failed += 1
+            continue
+        rotation[k] = x
+    return failed

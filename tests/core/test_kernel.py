@@ -1,0 +1,178 @@
+"""The compiled load-sharing kernel (numba) against the NumPy reference (issue 27).
+
+Both kernels solve the same equations to round-off; they differ in the last bits of the
+libm calls (NumPy's SIMD exp and log are not glibc's), so the comparison is to 1e-13 of
+each field's largest value. Elementwise, a pin just engaging (Δφc − φbl ≪ Δφc) carries a
+load whose relative error is that of Δφc times Δφc/(Δφc − φbl) (≈ 400 for a pin at 1e-3
+of the peak load; its pressure, ∝ √F, more): the per-pin fields are held to 1e-13 of
+their largest value, the rotations and the transmission error to 1e-13 elementwise.
+"""
+
+import numpy as np
+import pytest
+
+from cyclomesh import TABLE1, Modification
+from cyclomesh.core import kernel
+from cyclomesh.core.discbody import DiscBody
+from cyclomesh.core.ltca import solve_ltca
+from cyclomesh.core.pair import CrankHoles, PairDesign, PinErrors
+from cyclomesh.drive.solve import solve_drive
+from cyclomesh.exceptions import ConvergenceError
+from cyclomesh.stage import RollerSet, StageDesign, solve_stage
+
+pytest.importorskip("numba")
+
+MOD = Modification(pin_radius=8e-6)
+PHI = np.deg2rad(np.arange(0.0, 360.0, 1.5))
+RNG = np.random.default_rng(27)
+ERRORS = PinErrors(
+    radial=RNG.uniform(-4e-6, 4e-6, (3, 40)), angular=RNG.uniform(-5e-5, 5e-5, (3, 40))
+)
+
+
+def _both(monkeypatch, solve):
+    out = {}
+    for name in kernel.KERNELS:
+        monkeypatch.setenv(kernel.ENV_VAR, name)
+        out[name] = solve()
+    return out["numpy"], out["numba"]
+
+
+def _agree(ref, got, fields):
+    for name in fields:
+        a, b = np.asarray(getattr(ref, name)), np.asarray(getattr(got, name))
+        assert a.shape == b.shape, name
+        fin = np.isfinite(a)
+        assert np.array_equal(fin, np.isfinite(b)), name
+        a, b = a[fin], b[fin]
+        scale = np.max(np.abs(a))
+        assert np.max(np.abs(a - b)) <= 1e-13 * scale, name
+        if name in ("loaded_rotation", "transmission_error", "torque_share"):
+            assert np.all(np.abs(a - b) <= 1e-13 * np.abs(a)), name  # elementwise
+
+
+LTCA_FIELDS = (
+    "pin_load",
+    "groove_load",
+    "contact_stress",
+    "groove_stress",
+    "loaded_rotation",
+    "transmission_error",
+    "gear_ratio",
+    "overlap",
+    "contacts",
+)
+
+
+@pytest.mark.parametrize("law", ["half_plane", "paper"])
+@pytest.mark.parametrize("groove", [True, False])
+def test_ltca_kernels_agree_on_both_laws_with_pin_errors(monkeypatch, law, groove):
+    ref, got = _both(monkeypatch, lambda: solve_ltca(TABLE1, MOD, ERRORS, 250.0, PHI, groove, law))
+    _agree(ref, got, LTCA_FIELDS)
+    # the kernel's solution is an equilibrium in its own right
+    share = np.sum(got.pin_load * got.moment_arm, axis=-1)
+    np.testing.assert_allclose(share, 250.0, rtol=1e-12)
+
+
+def test_stacks_and_both_flanks_agree(monkeypatch):
+    ref, got = _both(
+        monkeypatch,
+        lambda: solve_drive(TABLE1, MOD, ERRORS, [-250.0, 100.0, 250.0], PHI[::4], True, 2),
+    )
+    _agree(
+        ref,
+        got,
+        (
+            "pin_load",
+            "contact_stress",
+            "transmission_error",
+            "torque_share",
+            "mesh_force",
+            "force_angle",
+            "loaded_rotation",
+        ),
+    )
+
+
+def _synthetic_body():
+    """A reciprocal, positive-definite influence table (as tests/core/test_discbody.py)."""
+    n2 = TABLE1.teeth
+    u = np.linspace(-np.pi, 0.0, 13)
+    arm = 0.05 * np.abs(np.sin(u)) + 0.01
+    d = np.arange(n2)
+    dist = np.minimum(d, n2 - d)
+    local = 3e-10 * np.exp(-dist)[:, None, None] * np.exp(-((u[:, None] - u[None, :]) ** 2))
+    web = 1e-7 * arm[:, None] * arm[None, :]
+    return DiscBody(u, (local + web[None])[None], n2)
+
+
+def test_compliant_disc_agrees(monkeypatch):
+    body = _synthetic_body()
+    ref, got = _both(
+        monkeypatch,
+        lambda: solve_ltca(TABLE1, MOD, None, 250.0, PHI[:24], True, "half_plane", body),
+    )
+    _agree(ref, got, ("pin_load", "contact_stress", "loaded_rotation", "transmission_error"))
+
+
+def test_stage_agrees(monkeypatch):
+    rv40 = PairDesign(
+        pins=40,
+        pin_circle_radius=64e-3,
+        pin_radius=3e-3,
+        groove_radius=3.005e-3,
+        eccentricity=1.3e-3,
+        width=10e-3,
+    )
+    holes = CrankHoles(count=3, circle_radius=36e-3, radius=13e-3)
+    rollers = RollerSet(
+        rollers=14, diameter=4e-3, length=9e-3, clearance=5e-6, pitch_diameter=22e-3
+    )
+    mod = Modification(pin_radius=3e-6)
+    ref, got = _both(
+        monkeypatch,
+        lambda: solve_stage(
+            rv40, StageDesign(holes, rollers), mod, None, (-412.0, 412.0), PHI[::8], discs=2
+        ),
+    )
+    _agree(ref, got, ("pin_load", "transmission_error", "bearing_load"))
+
+
+def test_failures_are_the_reference_errors(monkeypatch):
+    """A case the kernel cannot finish goes to the reference, which raises its error."""
+    messages = []
+    for name in kernel.KERNELS:
+        monkeypatch.setenv(kernel.ENV_VAR, name)
+        with pytest.raises(ConvergenceError) as info:
+            solve_ltca(TABLE1, MOD, None, 5e6, PHI[:4], True, "half_plane")
+        messages.append(str(info.value))
+    assert messages[0] == messages[1] and "torque too large" in messages[0]
+
+
+def test_switch_refuses_an_unknown_kernel_in_one_line(monkeypatch):
+    monkeypatch.setenv(kernel.ENV_VAR, "fortran")
+    with pytest.raises(
+        ValueError, match=r"^CYCLOMESH_KERNEL='fortran': expected one of numpy, numba"
+    ):
+        solve_ltca(TABLE1, MOD, None, 250.0, PHI[:4])
+    monkeypatch.delenv(kernel.ENV_VAR)
+    assert kernel.kernel_name() == "numpy"  # the reference is the default
+
+
+def test_numba_solves_without_the_reference(monkeypatch):
+    """The compiled path does the work itself: the reference is not called."""
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("fell back to the NumPy reference")
+
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    monkeypatch.setattr(kernel.loadsharing, "share_load", refuse)
+    got = solve_ltca(TABLE1, MOD, ERRORS, 250.0, PHI, True, "paper")
+    np.testing.assert_allclose(np.sum(got.pin_load * got.moment_arm, axis=-1), 250.0, rtol=1e-12)
+
+
+def test_the_kernel_keeps_the_reference_constants():
+    from cyclomesh.core import hertz, loadsharing
+
+    assert kernel._MAX_ITERATIONS == loadsharing._MAX_ITERATIONS
+    assert (kernel._MAX_NEWTON, kernel._ROUND_OFF) == (hertz._MAX_NEWTON, hertz._ROUND_OFF)
