@@ -35,6 +35,9 @@ if TYPE_CHECKING:
 __all__ = [
     "StudyFiles",
     "load_tolerance_study",
+    "require_tolerance",
+    "check_rings",
+    "ring_total",
     "ring_model",
     "ring_warnings",
     "ring_count",
@@ -59,6 +62,22 @@ def load_tolerance_study(path: str | Path) -> tuple[Study, ToleranceSection]:
     if study.tolerance is None:
         raise StudyError(f"{Path(path).name}: no [tolerance] section (see examples/tolerance.toml)")
     return study, study.tolerance
+
+
+def require_tolerance(study: Study) -> None:
+    """Refuse, in one line, a study without a ``[tolerance]`` section."""
+    if study.tolerance is None:
+        raise StudyError(f"{study.path.name}: no [tolerance] section (see examples/tolerance.toml)")
+
+
+def check_rings(study: Study) -> None:
+    """The pre-flight of a ring study: the base case must make a ring model."""
+    ring_model(study, study.tolerance)
+
+
+def ring_total(study: Study, rings: int | None) -> int:
+    """The rings a command draws: ``--rings``, else ``tolerance.rings``."""
+    return study.tolerance.rings if rings is None else rings
 
 
 def ring_model(study: Study, spec: ToleranceSection, checked: bool = False) -> RingModel:

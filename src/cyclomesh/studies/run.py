@@ -29,7 +29,7 @@ from cyclomesh.results.efficiency import EFFICIENCY_METRICS
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STIFFNESS_METRICS
 from cyclomesh.results.profile import profile_curves
 from cyclomesh.results.stage import STAGE_METRICS
-from cyclomesh.studies.execute import StudyKind
+from cyclomesh.studies.execute import CommandSteps, StudyKind
 from cyclomesh.studyfile.schema import CaseInputs, CaseSpec, Study, folder_name
 
 if TYPE_CHECKING:
@@ -688,6 +688,12 @@ def warning_sections(warnings: list[str]) -> list[Section]:
     return [Section("Warnings", f"<ul>{items}</ul>")]
 
 
+def _show_run(result: RunResult, out: Path, options: Any) -> None:
+    from cyclomesh.publish.console import print_run
+
+    print_run(result.summaries, out, result.checks, result.study_warnings())
+
+
 RUN = StudyKind(
     command="run",
     title="",
@@ -696,5 +702,7 @@ RUN = StudyKind(
     figures=lambda result, early: run_figures(result, early),
     sections=lambda result: run_sections(result),
     early_figures=lambda study: input_figures(study),
+    preflight=refuse_friction_with_stage,
+    steps=CommandSteps(progress=lambda study, o: (len(study.cases), "cases"), show=_show_run),
 )
 """``cyclomesh run`` (:func:`cyclomesh.studies.execute.execute`)."""

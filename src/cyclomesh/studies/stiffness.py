@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 from cyclomesh.exceptions import CyclomeshError, StudyError
 from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.results.metrics import STIFFNESS_METRICS
-from cyclomesh.studies.execute import StudyKind
+from cyclomesh.studies.execute import CommandSteps, StudyKind
 from cyclomesh.studyfile.schema import CaseSpec, StiffnessSection, Study, folder_name
 
 if TYPE_CHECKING:
@@ -233,26 +233,20 @@ def _measured(case: Any, section: Any, ds: Any, summary: Any, stage_summary: dic
 
 def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
     """Write ``<case>/stiffness.nc`` of every case and ``summary.json`` into ``out``."""
-    from cyclomesh.output.writers import write_json, write_netcdf
+    from cyclomesh.output.writers import write_case_netcdf, write_json
 
     study = result.study
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    written: list[Path] = []
-    records = []
-    for case in study.cases:
-        folder = out / folder_name(case.name)
-        folder.mkdir(parents=True, exist_ok=True)
-        written.append(write_netcdf(result.curves[case.name], folder / "stiffness.nc"))
-        records.append(
-            {
-                "name": case.name,
-                "results": f"{folder_name(case.name)}/stiffness.nc",
-                **result.summaries[case.name],
-                "checks": result.checks[case.name],
-                "warnings": result.warnings.get(case.name, []),
-            }
-        )
+    written, records = write_case_netcdf(
+        study,
+        out,
+        result.curves,
+        "stiffness.nc",
+        lambda case: {
+            **result.summaries[case.name],
+            "checks": result.checks[case.name],
+            "warnings": result.warnings.get(case.name, []),
+        },
+    )
     from cyclomesh.results.stage import STAGE_STIFFNESS_METRICS
 
     document = summary_document(
@@ -437,6 +431,20 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
     ]
 
 
+def _preflight(study: Study) -> None:
+    from cyclomesh.studies.run import refuse_friction_with_stage
+
+    refuse_friction_with_stage(study)
+    check_stiffness(study)
+
+
+def _show(result: StiffnessResult, out: Path, options: Any) -> None:
+    from cyclomesh.publish.console import print_stiffness, print_warnings
+
+    print_warnings(result.study_warnings())
+    print_stiffness(result.summaries, out, result.checks)
+
+
 STIFFNESS = StudyKind(
     command="stiffness",
     title="torsion curve",
@@ -444,5 +452,7 @@ STIFFNESS = StudyKind(
     write=lambda result, out, options: write_stiffness(result, out),
     figures=lambda result, early: stiffness_figures(result),
     sections=lambda result: stiffness_sections(result),
+    preflight=_preflight,
+    steps=CommandSteps(progress=lambda study, o: (len(study.cases), "cases"), show=_show),
 )
 """``cyclomesh stiffness`` (:func:`cyclomesh.studies.execute.execute`)."""
