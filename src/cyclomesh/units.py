@@ -21,6 +21,9 @@ __all__ = [
     "MPA_PER_PA",
     "MM_PER_M",
     "UM_PER_M",
+    "IN_PER_M",
+    "UIN_PER_M",
+    "LBF_PER_IN_PER_N_PER_M",
 ]
 
 RAD_PER_ARCSEC = math.pi / (180.0 * 3600.0)
@@ -55,3 +58,12 @@ RAD_PER_URAD = 1e-6
 
 PA_PER_GPA = 1e9
 """One gigapascal in pascals (study-file keys ``_gpa``)."""
+
+IN_PER_M = 1.0 / 0.0254
+"""One metre in inches (the Benedict–Kelley coefficient is fitted in US units)."""
+
+UIN_PER_M = 1e6 / 0.0254
+"""One metre in microinches (surface roughness of the Benedict–Kelley coefficient)."""
+
+LBF_PER_IN_PER_N_PER_M = 0.0254 / 4.4482216152605
+"""One newton per metre in pound-force per inch (a load per face width)."""

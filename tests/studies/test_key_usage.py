@@ -270,6 +270,7 @@ CHANGE.update(
         "friction.lubricant.pressure_viscosity_per_gpa": 15.0,
         "friction.lubricant.density_kg_m3": 850.0,
         "requirements.min_efficiency": 0.9,
+        "requirements.min_backdrive_efficiency": 0.9,
         "efficiency.torque_nm": _range(150.0, 250.0),
         "efficiency.input_speed_rpm": _range(500.0, 2000.0),
         "efficiency.rated_torque_nm": 120.0,
@@ -342,7 +343,7 @@ CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
     },
     **{
         (kind, k): LUBRICATED if k.startswith("friction.lubricant.") else FRICTION
-        for kind in ("run", "stiffness", "efficiency", "design", "tolerance")
+        for kind in ("run", "stiffness", "efficiency", "design", "tolerance", "allocate")
         for k in schema_keys()
         if k.startswith("friction.")
     },
@@ -362,6 +363,7 @@ CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
     },
     # the ratio P_out/P_in of Coulomb friction is the same at every speed: a lubricant's is not
     ("tolerance", "load.input_speed_rpm"): LUBRICATED,
+    ("allocate", "load.input_speed_rpm"): LUBRICATED,
 }
 
 
@@ -382,7 +384,7 @@ def change_table(key: str, kind: str = "run") -> dict[str, Any]:
         return {"tolerance": {"angular_urad": DELETE, "tangential_um": CHANGE[key]}}
     if key == "friction.lubricant.viscosity_40c_cst":  # instead of the grade (not both)
         oil = {"viscosity_40c_cst": 200.0, "viscosity_100c_cst": 18.0}
-        if kind in ("run", "stiffness", "efficiency", "design", "tolerance"):
+        if kind in ("run", "stiffness", "efficiency", "design", "tolerance", "allocate"):
             return {"friction": {"lubricant": {"grade": DELETE, **oil}}}
         return {"friction": {**FRICTION["friction"], "lubricant": oil}}
     if key.startswith("friction.") and kind not in (
@@ -391,6 +393,7 @@ def change_table(key: str, kind: str = "run") -> dict[str, Any]:
         "efficiency",
         "design",
         "tolerance",
+        "allocate",
     ):
         context = LUBRICATED if key.startswith("friction.lubricant.") else FRICTION
         return merge({"friction": context["friction"]}, _nested(key, CHANGE[key]))
@@ -628,6 +631,9 @@ NEUTRAL = {
     ("allocate", "modification.rotation_urad"),
     # likewise the efficiency, which the rotation leaves alone: the key reaches the inputs
     ("efficiency", "modification.rotation_urad"),
+    # the torsion test is at rest: no oil film, so the lubricated coefficient is the
+    # boundary one; the key reaches the inputs (and the report's note names it)
+    *(("stiffness", k) for k in schema_keys() if k.startswith("friction.lubricant.")),
 }
 
 USED_CASES = [c for kind in KINDS for c in _cases(kind, "used")]
@@ -654,13 +660,21 @@ def test_a_used_key_changes_the_study(kind, key, tmp_path, monkeypatch, baseline
     if (kind, key) in NEUTRAL:  # physically without effect on what the kind reports
         from cyclomesh.studies.tolerance import ring_model
 
+        start = merge(BASE[kind], CONTEXT.get((kind, key)) or {})
         paths = [
             write_study(tmp_path, data, name)
-            for data, name in ((BASE[kind], "a"), (merge(BASE[kind], change_table(key, kind)), "b"))
+            for data, name in ((start, "a"), (merge(start, change_table(key, kind)), "b"))
         ]
         studies = list(map(load_study, paths))
         if kind == "efficiency":
             assert studies[0].inputs[0].modification != studies[1].inputs[0].modification
+            return
+        if kind == "stiffness":
+            from cyclomesh.studies.stiffness import at_rest
+
+            frictions = [s.inputs[0].friction for s in studies]
+            assert frictions[0] != frictions[1]
+            assert at_rest(frictions[0]) == at_rest(frictions[1])
             return
         models = [ring_model(s, s.tolerance) for s in studies]
         assert models[0].modification != models[1].modification

@@ -231,40 +231,33 @@ def run_backend(scheduler: str | None, workers: int | None, parallel: bool = Tru
     return make_backend(scheduler, workers)
 
 
-def crank_angles_from(text: str | None) -> list[float] | None:
-    """The angles of ``--crank-angles`` [deg] (None: the study's)."""
-    if not text:
-        return None
-    from cyclomesh.studyfile.limits import MAX_ABS_CRANK_DEG
-
-    try:
-        angles = [float(a) for a in text.split(",")]
-    except ValueError:
-        raise StudyError(
-            f"--crank-angles: expected numbers separated by commas, got {text!r}"
-        ) from None
-    if not 1 <= len(angles) <= 24 or not all(abs(a) <= MAX_ABS_CRANK_DEG for a in angles):
-        raise StudyError(
-            f"--crank-angles: expected 1 to 24 angles within ±{MAX_ABS_CRANK_DEG:g} deg, "
-            f"got {text!r}"
-        )
-    return angles
-
-
-def require_fe_extra() -> None:
-    """Refuse ``cyclomesh fe`` in one line when the fe extra (scikit-fem, gmsh) cannot load."""
-    try:
-        import gmsh  # noqa: F401
-        import skfem  # noqa: F401
-    except (ImportError, OSError) as exc:  # gmsh's wheel also needs X11/OpenGL libraries
-        raise StudyError(
-            f"cyclomesh fe needs the fe extra: pip install -e '.[fe]' ({exc})".replace("\n", " ")
-        ) from None
-
-
 def show_version(value: bool) -> None:
     if value:
         from cyclomesh.execution.runtime import version
 
         typer.echo(f"cyclomesh {version()}")
         raise typer.Exit()
+
+
+OPTIONS: dict[str, tuple[Any, Any]] = {
+    "quiet": (QuietOption, False),
+    "crank_step_deg": (StepOption, None),
+    "figures": (FiguresOption, None),
+    "csv": (CsvOption, False),
+    "cache_dir": (CacheDirOption, None),
+    "no_work_limit": (NoLimitOption, False),
+    "rings": (RingsOption, None),
+    "scheduler": (SchedulerOption, None),
+    "workers": (WorkersOption, None),
+    "chunk_rings": (ChunkOption, None),
+    "target_probability": (TargetOption, None),
+    "crank_angles": (CrankAnglesOption, None),
+    "convergence": (ConvergenceOption, True),
+    "format": (FormatOption, "dxf,svg,csv"),
+    "chord_tolerance_um": (ChordOption, 0.1),
+}
+"""Every option a kind of study's command may take (``KindSpec.options``): its type
+(with the flag and help) and default."""
+
+ARGUMENTS = {"study": StudyArg, "tolerance": TolStudyArg, "design_space": DesignStudyArg}
+"""The ``STUDY.toml`` argument of a command by the section the file must have."""

@@ -34,6 +34,7 @@ from cyclomesh.core.pair import PairDesign
 
 __all__ = [
     "CONTACT_FIELDS",
+    "PIN_FIELDS",
     "CONTACT_LOAD_FRACTION",
     "contact_fields",
     "contact_stresses",
@@ -62,6 +63,10 @@ CONTACT_FIELDS = (
 )
 """The fields :func:`contact_fields` computes (``mesh_force`` gives ``mesh_force_x`` and
 ``mesh_force_y``)."""
+
+PIN_FIELDS = frozenset({"groove_load", "contact_stress", "groove_stress", "overlap", "force_angle"})
+"""The fields of :data:`CONTACT_FIELDS` with one value per pin, (..., n1); the others have
+one per disc (``torque_share``, ``mesh_force_x``/``_y``, ``contacts``)."""
 
 
 def contact_stresses(

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from cyclomesh.core.contact import UnloadedContact, unloaded_contact
 from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
-from cyclomesh.core.fields import CONTACT_FIELDS, contact_fields
+from cyclomesh.core.fields import CONTACT_FIELDS, PIN_FIELDS, contact_fields
 from cyclomesh.core.kernel import share_load
 from cyclomesh.core.ltca import locate_failure, pin_compliance, rest_position
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
@@ -250,25 +250,25 @@ def stack_meshes(
     return fwd, rev
 
 
+_CONTACT = [
+    part
+    for name in CONTACT_FIELDS
+    for part in ((f"{name}_x", f"{name}_y") if name == "mesh_force" else (name,))
+]
 PER_PIN = {
     "pin_load": True,
-    "groove_load": True,
-    "contact_stress": True,
-    "groove_stress": True,
+    **{name: name in PIN_FIELDS for name in _CONTACT},
     "backlash": True,
-    "overlap": True,
     "profile_angle": True,
     "contact_radius": True,
     "moment_arm": True,
     "curvature_radius": True,
-    "force_angle": True,
-    "torque_share": False,
-    "contacts": False,
-    "mesh_force_x": False,
-    "mesh_force_y": False,
     "rest_rotation": False,
     "loaded_rotation": False,
 }
+"""Every field of a stack (:func:`load_stack` and the unloaded mesh) → whether it has one
+value per pin (else per disc or per crank angle); the contact fields' from
+:data:`cyclomesh.core.fields.PIN_FIELDS`."""
 ODD = {name for name in PER_PIN if name in QUANTITIES and QUANTITIES[name].parity < 0} | {
     "mesh_force_y"
 }

@@ -283,7 +283,7 @@ class Session:
         """The state's study, loaded and refused as ``cyclomesh run`` refuses it (work
         limit, keys the run cannot honour): what the page accepts, the command runs."""
         from cyclomesh.studies.preflight import preflight
-        from cyclomesh.studyfile.limits import check_study_work
+        from cyclomesh.studyfile.kinds import check_study_work
 
         study = self._load(text)
         check_study_work(study, "run")

@@ -18,10 +18,12 @@ import gmsh
 import numpy as np
 from numpy.typing import NDArray
 
+from cyclomesh.units import M_PER_MM
+
 __all__ = ["Refinement", "mesh_disk", "mesh_half_disk", "mesh_block", "mesh_profile_disc"]
 
 FloatArray = NDArray[np.float64]
-MM = 1e-3
+MM = M_PER_MM  # mm -> m (units.py): gmsh works in mm
 
 
 @dataclass(frozen=True)

@@ -38,7 +38,8 @@ def plot_efficiency_map(maps: Mapping[str, xr.Dataset]) -> Figure:
         ax.set_ylabel("efficiency [%]")
         ax.set_title(f"{name}\nsolid: forward, dashed: back-driving", fontsize="medium")
         ax.grid(alpha=0.3)
-        ax.legend(title="input speed", fontsize="small", loc="lower right")
+        # outside the axes: inside, it hides the curves' ends at the largest torque
+        ax.legend(title="input speed", fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1))
     return fig
 
 
@@ -64,5 +65,13 @@ def plot_loss_breakdown(records: Mapping[str, dict[str, Any]]) -> Figure:
     ax.set_ylabel("power loss [W]")
     ax.set_title("Loss breakdown at the rated point")
     ax.set_ylim(0, 1.15 * max(bottom.max(), 1e-12))
-    ax.legend(fontsize="small")
+    # outside the axes (inside, it covers the top of the bar and the η label); a path
+    # with no loss in any case (e.g. pin-tooth sliding of rolling pins) is named as such
+    handles, labels = ax.get_legend_handles_labels()
+    totals = {
+        label: sum(records[n]["rated_power_loss_w"].get(path) or 0.0 for n in names)
+        for path, label in _PATH_LABELS.items()
+    }
+    labels = [f"{lb} (0 W)" if totals[lb] == 0.0 else lb for lb in labels]
+    ax.legend(handles, labels, fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1))
     return fig

@@ -7,7 +7,7 @@ Each function takes the run's Datasets (case name → Dataset with the stage var
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import xarray as xr
 
@@ -65,6 +65,22 @@ def plot_crank_bearing_loads(results: Results) -> Figure:
     return fig
 
 
+def _case_panels(results: Results, var: str, none: str) -> tuple[Figure, Any, dict]:
+    """A figure of one panel per case that has ``var`` (side by side, 4.2 in each):
+    the figure, its axes and the cases; ``ValueError(none)`` if no case has it."""
+    if isinstance(results, xr.Dataset):
+        results = {str(results.attrs.get("case_name", "")): results}
+    cases = {name: ds for name, ds in results.items() if var in ds}
+    if not cases:
+        raise ValueError(none)
+    width = 4.2 * len(cases) + 0.8
+    fig = new_figure(width, 4.0)
+    fig.subplots_adjust(left=0.8 / width, right=1 - 0.2 / width, bottom=0.13, top=0.9,
+                        wspace=0.3)  # fmt: skip
+    axes = fig.subplots(1, len(cases), squeeze=False)[0]
+    return fig, axes, cases
+
+
 def plot_stage_torsion_curve(results: Results) -> Figure:
     """Torsion curve of the RV stage beside the mesh alone, one panel per case.
 
@@ -72,16 +88,9 @@ def plot_stage_torsion_curve(results: Results) -> Figure:
     the mesh (rigid bearings) and the stage (mesh, crank bearings, springs in one solve),
     with their lost motion (±3 %) and mean rigidity (secant 50–100 %) in the legend.
     """
-    if isinstance(results, xr.Dataset):
-        results = {str(results.attrs.get("case_name", "")): results}
-    cases = {name: ds for name, ds in results.items() if "stage_rotation" in ds}
-    if not cases:
-        raise ValueError("no results with a stage torsion curve to plot")
-    width = 4.2 * len(cases) + 0.8
-    fig = new_figure(width, 4.0)
-    fig.subplots_adjust(left=0.8 / width, right=1 - 0.2 / width, bottom=0.13, top=0.9,
-                        wspace=0.3)  # fmt: skip
-    axes = fig.subplots(1, len(cases), squeeze=False)[0]
+    fig, axes, cases = _case_panels(
+        results, "stage_rotation", "no results with a stage torsion curve to plot"
+    )
     for ax, (name, ds) in zip(axes, cases.items(), strict=True):
         rated = float(ds.attrs.get("rated_torque_nm", abs(ds["torque"]).max()))
         percent = 100.0 * ds["torque"].values / rated
@@ -133,16 +142,7 @@ def plot_measured_loop(results: Results) -> Figure:
     Needs ``measured_torque`` [N m] and ``measured_twist`` [arcmin] (dim ``sample``) and the
     model's ``stage_rotation`` (or ``rotation``) [arcsec, TE sign] against ``torque``.
     """
-    if isinstance(results, xr.Dataset):
-        results = {str(results.attrs.get("case_name", "")): results}
-    cases = {name: ds for name, ds in results.items() if "measured_twist" in ds}
-    if not cases:
-        raise ValueError("no measured loop to plot")
-    width = 4.2 * len(cases) + 0.8
-    fig = new_figure(width, 4.0)
-    fig.subplots_adjust(left=0.8 / width, right=1 - 0.2 / width, bottom=0.13, top=0.9,
-                        wspace=0.3)  # fmt: skip
-    axes = fig.subplots(1, len(cases), squeeze=False)[0]
+    fig, axes, cases = _case_panels(results, "measured_twist", "no measured loop to plot")
     for ax, (name, ds) in zip(axes, cases.items(), strict=True):
         ax.plot(ds["measured_twist"].values, ds["measured_torque"].values, "-", color="0.4",
                 lw=0.8, label="measured")  # fmt: skip

@@ -117,8 +117,8 @@ def reduce_rings(
 
 
 def _metrics(ds: xr.Dataset) -> list[str]:
-    # the mesh force, a stack's torque split and the RV stage's metrics too
-    names = (*METRICS, *DRIVE_METRICS, *STAGE_RING_METRICS)
+    # the mesh force, a stack's torque split, the RV stage's metrics and the efficiency
+    names = (*METRICS, *DRIVE_METRICS, *STAGE_RING_METRICS, "efficiency", "backdrive_efficiency")
     return [name for name in names if name in ds and name not in ("any_overlap", "jammed")]
 
 

@@ -32,6 +32,7 @@ from cyclomesh.core.outline import Outline, PinLayout, disc_outline, pin_layout
 from cyclomesh.core.pair import CrankHoles, Modification, PairDesign
 from cyclomesh.exceptions import StudyError
 from cyclomesh.output.folder import atomic_write, write_text
+from cyclomesh.units import MM_PER_M
 
 if TYPE_CHECKING:
     from cyclomesh.studyfile.schema import Study
@@ -56,7 +57,7 @@ DATUM = (
     "360*(k-1)/n2 deg counter-clockwise; pins at crank angle 0 (pin-centre circle centred "
     "at (-e, 0)); millimetres"
 )
-MM = 1e3  # m -> mm
+MM = MM_PER_M  # m -> mm (units.py)
 CENTRE_MARK = 1.25
 """Half-length of a centre mark as a fraction of its circle's radius (a cross that
 reaches past the circle, as drawings mark a hole's centre) [-]."""

@@ -28,7 +28,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -170,6 +170,38 @@ def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
             out.setncatts({str(k): _nc_attr(v) for k, v in var.attrs.items()})
         nc.setncatts({str(k): _nc_attr(v) for k, v in ds.attrs.items()})
     return path
+
+
+def write_case_netcdf(
+    study: Any,
+    out: Path,
+    datasets: Mapping[str, xr.Dataset],
+    file: str,
+    record: Callable[[Any], Mapping[str, Any]],
+    extra: Callable[[Any, Path], list[Path]] | None = None,
+) -> tuple[list[Path], list[dict[str, Any]]]:
+    """Write ``<case>/<file>`` (NetCDF) of every case of ``study`` into ``out``.
+
+    Returns the files written and one ``summary.json`` record a case: ``name``,
+    ``results`` (the file, relative to ``out``), then ``record(case)``;
+    ``extra(case, folder)`` writes more files of a case (their paths).
+    """
+    from cyclomesh.studyfile.schema import folder_name
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    records = []
+    for case in study.cases:
+        folder = out / folder_name(case.name)
+        folder.mkdir(parents=True, exist_ok=True)
+        written.append(write_netcdf(datasets[case.name], folder / file))
+        if extra is not None:
+            written += extra(case, folder)
+        records.append(
+            {"name": case.name, "results": f"{folder_name(case.name)}/{file}", **record(case)}
+        )
+    return written, records
 
 
 def _nc_attr(value: Any) -> Any:

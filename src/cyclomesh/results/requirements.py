@@ -149,6 +149,13 @@ REQUIREMENTS: dict[str, Requirement] = {
             "forward efficiency (with [friction])",
             (("efficiency", 1.0), ("efficiency_min", 1.0)),
         ),
+        Requirement(
+            "min_backdrive_efficiency",
+            "min",
+            "1",
+            "back-driving efficiency (with [friction])",
+            (("backdrive_efficiency", 1.0), ("backdrive_efficiency_min", 1.0)),
+        ),
     )
 }
 """Every requirement key of ``[requirements]``, with the metrics that check it."""
@@ -388,6 +395,7 @@ SHORT = {
     "max_mesh_force_n": "mesh force [N]",
     "min_bearing_life_h": "bearing L10h [h]",
     "min_efficiency": "efficiency",
+    "min_backdrive_efficiency": "back-drive efficiency",
     "k1": "K1 = e·n1/a",
     "undercut_margin": "undercut margin",
     "peak_stress_curvature": "ρc at peak σH [mm]",

@@ -6,7 +6,8 @@ potential, and the stiff-limit split of the bearing loads.
 :func:`solve_direction` solves the stage under a positive torque in the frame of a
 :class:`~cyclomesh.drive.mesh.StackMesh` (the reverse flanks go through the mirror);
 :func:`ring_mesh` takes one ring of a many-ring mesh. With the crankshafts and carrier
-from their geometry (:class:`Supports`, :func:`stage_supports`; docs/stage.md) the beam
+from their geometry (:class:`Supports`, :func:`stage_supports`, with the bearing law in
+:mod:`cyclomesh.stage.supports`; docs/stage.md) the beam
 deflections of the crank pins at the discs and the end plate's rotation are extra
 unknowns of the same potential; the output twist is split by virtual work into the
 work of every part on its own deformation (:data:`WORK_PARTS`).
@@ -36,13 +37,16 @@ from cyclomesh.drive.solve import (
 from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.stage.bearing import (
     LOAD_EXPONENT,
-    RollerSet,
-    radial_energy,
-    radial_force,
-    radial_stiffness,
     roller_loads,
 )
 from cyclomesh.stage.design import StageDesign
+from cyclomesh.stage.supports import (
+    BearingLaw,
+    PowerLaw,
+    Supports,
+    bearing_deflection,
+    stage_supports,
+)
 
 __all__ = [
     "solve_direction",
@@ -68,91 +72,6 @@ of the contact law γ·exp(α/γ − 1) (about 0.8 mm here, against µm under lo
 trial step is halved. Near the stiffest point dδ/dF → 0 and the law's inversion
 (:func:`~cyclomesh.core.hertz.force_from_approach`) converges too slowly; a wild first
 step at a light torque with pin errors reached it and failed the solve."""
-
-
-# --- the bearing law with its optional series spring ---------------------------------
-
-
-class _Law:
-    """Isotropic force B(s), stiffness B'(s), energy U(s) of a crank bearing (+ spring)."""
-
-    def __init__(self, bearing: RollerSet, spring: float | None):
-        self.rs, self.k = bearing, spring
-
-    def _split(self, s: FloatArray) -> FloatArray:
-        """Bearing part s_b of the displacement s = s_b + B(s_b)/k (Newton, monotone)."""
-        if self.k is None:
-            return s
-        sb = s.copy()
-        for _ in range(100):
-            f = radial_force(self.rs, sb)
-            resid = sb + f / self.k - s
-            if np.all(np.abs(resid) <= 1e-14 * np.maximum(s, 1e-300)):
-                return sb
-            sb = sb - resid / (1.0 + radial_stiffness(self.rs, sb) / self.k)
-        raise ConvergenceError("stage: the crank bearing and crankshaft spring split failed")
-
-    def evaluate(
-        self, s: FloatArray, stiffness: bool = True
-    ) -> tuple[FloatArray, FloatArray | None, FloatArray, FloatArray]:
-        """(B, dB/ds, U, s_b) at the displacements s [m]; dB/ds None if not ``stiffness``."""
-        sb = self._split(s)
-        force = radial_force(self.rs, sb)
-        stiff = radial_stiffness(self.rs, sb) if stiffness else None
-        energy = radial_energy(self.rs, sb)
-        if self.k is not None:
-            if stiffness:
-                stiff = stiff / (1.0 + stiff / self.k)
-            energy = energy + 0.5 * force * force / self.k
-        return force, stiff, energy, sb
-
-
-class _Power:
-    """The stiff limit of a roller set without clearance: B = s^(10/9) (any scale)."""
-
-    def evaluate(
-        self, s: FloatArray, stiffness: bool = True
-    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-        p = LOAD_EXPONENT
-        return s**p, p * s ** (p - 1.0), s ** (p + 1.0) / (p + 1.0), s
-
-
-# --- the crankshafts and the carrier from their geometry ----------------------------
-
-
-@dataclass(frozen=True)
-class Supports:
-    """Elastic crankshafts and end plate in the equilibrium (extra unknowns after 1 + 3D).
-
-    ``stiffness``: inverse of the crankshaft's flexibility at the discs' planes (D, D) or
-    None (rigid crankshaft): unknowns w'_dk (x, y), the beam's own deflection of crank pin k
-    at disc d, energy ½·Σ_k w'_kᵀ·K·w'_k per direction. ``fraction``: x_d/S of every disc
-    (D,); ``carrier``: K_β [N·m/rad] or None: unknown β, the end plate's rotation against
-    the output flange, moving the crank pin at disc d by x_d/S·β·ẑ×h_k, energy ½K_β·β².
-    """
-
-    stiffness: FloatArray | None
-    fraction: FloatArray
-    carrier: float | None
-
-    def extra(self, discs: int, cranks: int) -> int:
-        return (2 * discs * cranks if self.stiffness is not None else 0) + (
-            1 if self.carrier is not None else 0
-        )
-
-
-def stage_supports(stage: StageDesign, discs: int, order: NDArray[np.int64]) -> Supports | None:
-    """The supports of ``stage`` for the discs in ``order`` (the mirror's disc order)."""
-    if stage.crankshaft is None:
-        return None
-    shaft = stage.crankshaft
-    flexibility = shaft.compliance(discs)[np.ix_(order, order)]
-    fraction = (shaft.positions(discs) / shaft.support_span)[order]
-    return Supports(
-        stiffness=np.linalg.inv(flexibility),
-        fraction=fraction,
-        carrier=None if stage.carrier is None else stage.carrier.torsional_stiffness(),
-    )
 
 
 # --- the per-direction problem -------------------------------------------------------
@@ -496,7 +415,7 @@ def _distribution(p: _Problem, mesh_fx: FloatArray, mesh_fy: FloatArray, moment:
     by Newton's method on the convex potential. Returns the forces on the crank pins,
     (A, D, N) each.
     """
-    law = _Power()
+    law = PowerLaw()
     A, D = mesh_fx.shape
     N = p.hx.shape[-1]
     L = p.scale
@@ -667,9 +586,9 @@ def solve_direction(
         prob, rigid["mesh_force_x"], rigid["mesh_force_y"], -rigid["torque_share"]
     )
     if stage.bearing is not None:
-        law = _Law(stage.bearing, stage.crankshaft_stiffness)
+        law = BearingLaw(stage.bearing, stage.crankshaft_stiffness)
         B = np.hypot(bfx, bfy)
-        s = _deflection(law, B)
+        s = bearing_deflection(law, B)
         with np.errstate(divide="ignore", invalid="ignore"):
             dx = np.where(B > 0, bfx / B * s, 0.0) - prob.ex
             dy = np.where(B > 0, bfy / B * s, 0.0) - prob.ey
@@ -832,18 +751,3 @@ def _reducer(D: int) -> FloatArray:
     reduce = np.zeros((1 + 3 * D, 1))
     reduce[[0, *range(1, 1 + 3 * D, 3)], 0] = 1.0
     return reduce
-
-
-def _deflection(law: _Law, force: FloatArray) -> FloatArray:
-    """Total displacement s at which the bearing (+ spring) carries ``force`` [m]."""
-    rs = law.rs
-    s = 0.5 * rs.clearance + (np.maximum(force, 0.0) / rs.constant) ** (1.0 / LOAD_EXPONENT)
-    for _ in range(100):
-        resid = radial_force(rs, s) - force
-        if np.all(np.abs(resid) <= 1e-12 * np.maximum(force, 1e-300)):
-            break
-        k = radial_stiffness(rs, s)
-        s = np.where(force > 0, s - resid / np.where(k > 0, k, np.inf), 0.5 * rs.clearance)
-    if law.k is not None:
-        s = s + force / law.k
-    return s

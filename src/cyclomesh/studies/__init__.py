@@ -13,5 +13,7 @@ Every kind has the same parts: a section of the study file schema
 (parallel work through :mod:`cyclomesh.execution.backends`), a writer of its result files
 (:mod:`cyclomesh.output.writers`), figure jobs (:mod:`cyclomesh.figures`) and report
 sections (:mod:`cyclomesh.publish.report`); :mod:`cyclomesh.publish.pipeline` renders the
-figures and writes the report, and the CLI command is a thin layer with the progress display.
+figures and writes the report. Each kind's ``StudyKind`` (:mod:`cyclomesh.studies.execute`)
+is named by its entry in the one registry, :data:`cyclomesh.studyfile.kinds.KINDS`, from
+which the key usage, the work limits and the command line are built.
 """

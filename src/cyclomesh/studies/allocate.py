@@ -2,6 +2,13 @@
 tolerances of ``[tolerance]`` that keeps the probability of exceeding the allowable
 contact stress under the target, on the one pipeline.
 
+With ``[friction]`` every ring is solved with friction in the equilibrium (the contact
+stress of the criterion includes its effect on the load sharing) and the rings'
+forward efficiency at the stated tolerances is reported beside the other metrics. The
+criterion stays the contact stress: an efficiency requirement (``min_efficiency``) is
+checked by ``cyclomesh tolerance`` over the rings, not allocated against (the
+efficiency hardly moves with the pin errors, see docs/efficiency.md).
+
 Stages as for :mod:`cyclomesh.studies.tolerance` (see ``docs/pipeline.md``):
 :func:`compute_allocation`, :func:`write_allocation` (``allocation_rings.nc``,
 ``allocation.json``), :func:`allocation_figures` and :func:`allocation_sections`
@@ -20,14 +27,19 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cyclomesh.exceptions import StudyError
+from cyclomesh.quantities import select
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STAGE_RING_METRICS, STRESS_METRIC
-from cyclomesh.studies.execute import StudyKind
+from cyclomesh.studies.execute import CommandSteps, StudyKind
 from cyclomesh.studies.rings import (
     Progress,
     StudyFiles,
+    check_rings,
     fmt_number,
+    load_tolerance_study,
+    require_tolerance,
     ring_count,
     ring_model,
+    ring_total,
     ring_warnings,
     run_rings,
     run_whole,
@@ -112,8 +124,7 @@ def compute_allocation(
     from cyclomesh.tolerance.allocation import allocate_factor
     from cyclomesh.tolerance.tasks import AllocationTask
 
-    if study.tolerance is None:
-        raise StudyError(f"{study.path.name}: no [tolerance] section (see examples/tolerance.toml)")
+    require_tolerance(study)
     start = time.perf_counter()
     spec = study.tolerance
     alloc = spec.allocation
@@ -146,7 +157,7 @@ def compute_allocation(
     from cyclomesh.tolerance.tasks import STATED_METRICS
 
     stated = [name for name in STATED_METRICS if name in per_ring]
-    every = METRICS | DRIVE_METRICS | STAGE_RING_METRICS
+    every = METRICS | DRIVE_METRICS | STAGE_RING_METRICS | select("efficiency")
     data = {
         name: xr.DataArray(per_ring[name], dims=("ring",), attrs={"units": "1"})
         for name in ("critical_factor_lower", "critical_factor_upper")
@@ -283,6 +294,27 @@ def run_allocation(
     )
 
 
+def _check_target(study: Study, options: Any) -> None:
+    target = options["target_probability"]
+    if target is not None and not 0.0 < target < 1.0:
+        raise StudyError(f"--target-probability must lie in (0, 1), got {target:g}")
+
+
+def _banner(study: Study, options: Any, workers: int) -> str:
+    alloc = study.tolerance.allocation
+    return (
+        f"tolerance allocation: {ring_total(study, options['rings'])} rings, scale factors "
+        f"up to {alloc.factor_max:g} in {alloc.factor_steps} steps + {alloc.bisections} "
+        f"bisections, {workers} worker(s)"
+    )
+
+
+def _show(result: AllocationResult, out: Path, options: Any) -> None:
+    from cyclomesh.publish.console import print_allocation
+
+    print_allocation(result.allocation.statement(), result.record.get("warnings", []), out)
+
+
 ALLOCATE = StudyKind(
     command="allocate",
     title="tolerance allocation",
@@ -291,5 +323,20 @@ ALLOCATE = StudyKind(
     figures=lambda result, early: allocation_figures(result),
     sections=lambda result: allocation_sections(result),
     report_name="allocation_report.html",
+    keys_first=require_tolerance,
+    preflight=check_rings,
+    steps=CommandSteps(
+        load=lambda path, options: load_tolerance_study(path)[0],
+        check=_check_target,
+        parallel=lambda study, options: True,
+        banner=_banner,
+        progress=lambda study, o: (ring_total(study, o["rings"]), "rings"),
+        compute=lambda study, o, backend: {
+            "target_probability": o["target_probability"],
+            "rings": o["rings"],
+            "chunk_rings": o["chunk_rings"],
+        },
+        show=_show,
+    ),
 )
 """``cyclomesh allocate`` (:func:`cyclomesh.studies.execute.execute`)."""

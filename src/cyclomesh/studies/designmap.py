@@ -24,6 +24,7 @@ See ``docs/design-map.md``. Nothing here prints; progress goes to a callback.
 from __future__ import annotations
 
 import html
+import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -35,7 +36,7 @@ import numpy as np
 from cyclomesh.designspace.sweep import GEOMETRY, METRICS, Constraints, parameter_value
 from cyclomesh.exceptions import DesignError, StudyError
 from cyclomesh.results.dataset import resolve_disc_body
-from cyclomesh.studies.execute import StudyKind
+from cyclomesh.studies.execute import CommandSteps, StudyKind
 from cyclomesh.studyfile.schema import DesignSpaceSection, Study, load_study
 from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
@@ -61,6 +62,15 @@ Progress = Callable[[int], None]
 SECTION = "Design map"
 
 
+def require_design_space(study: Study) -> None:
+    """Refuse, in one line, a study without a ``[design_space]`` section."""
+    if study.file.design_space is None:
+        raise StudyError(
+            f"{study.path.name}: no [design_space] section (see docs/design-map.md, "
+            "examples/design.toml)"
+        )
+
+
 def load_design_study(path: str | Path) -> tuple[Study, DesignSpaceSection]:
     """Load a study file that must have a ``[design_space]`` section.
 
@@ -70,12 +80,8 @@ def load_design_study(path: str | Path) -> tuple[Study, DesignSpaceSection]:
         A bad study file, or no ``[design_space]`` section.
     """
     study = load_study(path)
+    require_design_space(study)
     space = study.file.design_space
-    if space is None:
-        raise StudyError(
-            f"{Path(path).name}: no [design_space] section (see docs/design-map.md, "
-            "examples/design.toml)"
-        )
     torques = [case.load.torque_nm for case in study.cases]
     if any(isinstance(t, list) for t in torques):
         raise StudyError(
@@ -433,6 +439,33 @@ def design_sections(result: DesignResult) -> list[Section]:
     return warning_sections(s.get("warnings", [])) + sections
 
 
+def _candidates(study: Study) -> int:
+    return math.prod(len(v) for v in study.file.design_space.axes().values())
+
+
+def _parallel(study: Study, options: Any) -> bool:
+    """A nominal map runs in this process unless ``--workers`` or ``--scheduler`` is
+    given; a robust map runs on all local cores by default."""
+    scheduler, workers = options["scheduler"], options["workers"]
+    rings = study.file.design_space.rings
+    return bool(scheduler is not None or workers not in (None, 1) or (rings and workers != 1))
+
+
+def _banner(study: Study, options: Any, workers: int) -> str:
+    rings = study.file.design_space.rings
+    return (
+        f"design map: {_candidates(study)} candidates"
+        + (f" x {rings} rings" if rings else "")
+        + f", {workers} worker(s)"
+    )
+
+
+def _show(result: DesignResult, out: Path, options: Any) -> None:
+    from cyclomesh.publish.console import print_design
+
+    print_design(result.summary, result.seconds, out)
+
+
 DESIGN = StudyKind(
     command="design",
     title="design map",
@@ -440,5 +473,14 @@ DESIGN = StudyKind(
     write=lambda result, out, options: write_design(result, out),
     figures=lambda result, early: design_figures(result),
     sections=lambda result: design_sections(result),
+    keys_first=require_design_space,
+    steps=CommandSteps(
+        load=lambda path, options: load_design_study(path)[0],
+        parallel=_parallel,
+        banner=_banner,
+        progress=lambda study, options: (_candidates(study), "candidates"),
+        compute=lambda study, options, backend: {"chunk": 1 if backend else None},
+        show=_show,
+    ),
 )
 """``cyclomesh design`` (:func:`cyclomesh.studies.execute.execute`)."""

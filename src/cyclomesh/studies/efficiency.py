@@ -25,8 +25,8 @@ import numpy as np
 from cyclomesh.exceptions import StudyError
 from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.quantities import QUANTITIES, select
-from cyclomesh.studies.execute import StudyKind
-from cyclomesh.studyfile.schema import Study, folder_name
+from cyclomesh.studies.execute import CommandSteps, StudyKind
+from cyclomesh.studyfile.schema import Study
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -60,6 +60,7 @@ MAP_METRICS = {
         "rated_input_power_w",
         "rated_power_loss_w",
         "efficiency_min",
+        "backdrive_efficiency_min",
     ).items()
 }
 """Numbers of each case in ``summary.json`` with their units (rows of
@@ -177,6 +178,7 @@ def compute_efficiency(
             "rated_input_power_w": rated["input_power_w"],
             "rated_power_loss_w": rated["power_loss_w"],
             "efficiency_min": float(eff.min()),
+            "backdrive_efficiency_min": float(ds["backdrive_efficiency"].values.min()),
         }
         result.maps[case.name] = ds
         result.summaries[case.name] = summary
@@ -205,25 +207,16 @@ def _point(
 
 def write_efficiency(result: EfficiencyResult, out: Path) -> list[Path]:
     """Write ``<case>/efficiency.nc`` of every case and ``summary.json`` into ``out``."""
-    from cyclomesh.output.writers import write_json, write_netcdf
+    from cyclomesh.output.writers import write_case_netcdf, write_json
 
     study = result.study
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    written: list[Path] = []
-    records = []
-    for case in study.cases:
-        folder = out / folder_name(case.name)
-        folder.mkdir(parents=True, exist_ok=True)
-        written.append(write_netcdf(result.maps[case.name], folder / "efficiency.nc"))
-        records.append(
-            {
-                "name": case.name,
-                "results": f"{folder_name(case.name)}/efficiency.nc",
-                **result.summaries[case.name],
-                "checks": result.checks[case.name],
-            }
-        )
+    written, records = write_case_netcdf(
+        study,
+        out,
+        result.maps,
+        "efficiency.nc",
+        lambda case: {**result.summaries[case.name], "checks": result.checks[case.name]},
+    )
     document = summary_document(study, MAP_METRICS, records)
     written.append(write_json(out / "summary.json", document))
     return written
@@ -304,6 +297,12 @@ def efficiency_sections(result: EfficiencyResult) -> list[Section]:
     ]
 
 
+def _show(result: EfficiencyResult, out: Path, options: Any) -> None:
+    from cyclomesh.publish.console import print_efficiency
+
+    print_efficiency(result.summaries, out, result.checks)
+
+
 EFFICIENCY = StudyKind(
     command="efficiency",
     title="efficiency map",
@@ -311,4 +310,6 @@ EFFICIENCY = StudyKind(
     write=lambda result, out, options: write_efficiency(result, out),
     figures=lambda result, early: efficiency_figures(result),
     sections=lambda result: efficiency_sections(result),
+    keys_first=check_efficiency,  # the section and the friction first
+    steps=CommandSteps(progress=lambda study, o: (len(study.cases), "cases"), show=_show),
 )

@@ -29,9 +29,66 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ["StudyKind", "execute", "figure_pool", "report_title", "running_backend"]
+__all__ = [
+    "StudyKind",
+    "CommandSteps",
+    "load_kind",
+    "execute",
+    "figure_pool",
+    "report_title",
+    "running_backend",
+]
 
 Progress = Callable[[int], None]
+
+
+@dataclass(frozen=True)
+class CommandSteps:
+    """What a kind's command does around :func:`execute` beyond the steps every command
+    takes (:mod:`cyclomesh.cli` runs them in this order; every field optional).
+
+    ``options`` below is the mapping of the command's options by name (``study``,
+    ``out``, ``quiet``, ``rings``, ...: ``cyclomesh.cli.options.OPTIONS``).
+
+    Attributes
+    ----------
+    before : callable
+        ``before(options) -> dict``: checks of the options before the study is loaded;
+        returns compute options parsed from them.
+    load : callable
+        ``load(path, options) -> Study`` (default: ``load_study`` with
+        ``--crank-step-deg``).
+    check : callable
+        ``check(study, options)``: a refusal of an option against the study, after the
+        pre-flight.
+    parallel : callable
+        ``parallel(study, options) -> bool``: the kind runs on an execution backend
+        (``--scheduler``, ``--workers``) when true; None: in this process.
+    output : callable
+        ``output(study, options) -> OutputOptions`` (default: from ``--figures``,
+        ``--csv``).
+    banner : callable
+        ``banner(study, options, workers) -> str``: the line said before computing.
+    progress : callable
+        ``progress(study, options) -> (total, unit)`` of the progress bar.
+    compute : callable
+        ``compute(study, options, backend) -> dict``: options of the kind's compute.
+    log : bool
+        The compute takes ``log`` (a print on stderr, silent with ``--quiet``).
+    show : callable
+        ``show(result, out, options)``: the table printed after (not with ``--quiet``).
+    """
+
+    before: Callable[[Any], dict[str, Any]] | None = None
+    load: Callable[[Path, Any], Any] | None = None
+    check: Callable[[Any, Any], None] | None = None
+    parallel: Callable[[Any, Any], bool] | None = None
+    output: Callable[[Any, Any], Any] | None = None
+    banner: Callable[[Any, Any, int], str] | None = None
+    progress: Callable[[Any, Any], tuple[int, str]] | None = None
+    compute: Callable[[Any, Any, Any], dict[str, Any]] | None = None
+    log: bool = False
+    show: Callable[[Any, Path, Any], None] | None = None
 
 
 @dataclass(frozen=True)
@@ -59,6 +116,17 @@ class StudyKind:
     report_name : str or None
         File name of the report; None: the kind writes its files only (no figures,
         no report), as ``export`` does.
+    keys_first : callable, optional
+        ``keys_first(study)``: a refusal the pre-flight gives before the key usage
+        (:func:`cyclomesh.studies.preflight.preflight`).
+    preflight : callable, optional
+        ``preflight(study)``: the kind's own refusals before computing, after the key
+        usage (``cyclomesh check --kind`` gives the same).
+    steps : CommandSteps
+        What its command does around :func:`execute`.
+
+    Its study-file side (section, keys, work estimate) and its command line (help,
+    options) are its entry in :data:`cyclomesh.studyfile.kinds.KINDS`.
     """
 
     command: str
@@ -69,6 +137,20 @@ class StudyKind:
     sections: Callable[[Any], list[Any]]
     early_figures: Callable[[Any], list[Any]] | None = None
     report_name: str | None = "report.html"
+    keys_first: Callable[[Any], None] | None = None
+    preflight: Callable[[Any], None] | None = None
+    steps: CommandSteps = CommandSteps()
+
+
+def load_kind(command: str) -> StudyKind:
+    """The :class:`StudyKind` of ``command``, imported from its registry entry's ``home``
+    (:data:`cyclomesh.studyfile.kinds.KINDS`)."""
+    from importlib import import_module
+
+    from cyclomesh.studyfile.kinds import kind_spec
+
+    module, name = kind_spec(command).home.split(":")
+    return getattr(import_module(module), name)
 
 
 def figure_pool(options: Any) -> AbstractContextManager[Any]:

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from cyclomesh.output.export import FORMATS, export_study, export_summary
-from cyclomesh.studies.execute import StudyKind
+from cyclomesh.studies.execute import CommandSteps, StudyKind
 
 __all__ = ["ExportResult", "EXPORT", "compute_export"]
 
@@ -62,6 +62,51 @@ def write_export(result: ExportResult, out: Path) -> list[Path]:
     return [path for files in staged.values() for path in files.values()]
 
 
+def _before(options: Any) -> dict[str, Any]:
+    """``--format`` and ``--chord-tolerance-um`` as :func:`compute_export` takes them."""
+    import math
+
+    from cyclomesh.exceptions import StudyError
+    from cyclomesh.output.export import parse_formats
+
+    formats = parse_formats(options["format"])
+    chord_um = options["chord_tolerance_um"]
+    if not (math.isfinite(chord_um) and chord_um >= 0.001):
+        raise StudyError(
+            f"--chord-tolerance-um: expected a number of at least 0.001, got {chord_um}"
+        )
+    return {"formats": formats, "chord_tolerance": chord_um * 1e-6}
+
+
+def _preflight(study: Any) -> None:
+    """The profile of every case must be drawable (:func:`check_exportable`)."""
+    from cyclomesh.core.outline import check_exportable
+    from cyclomesh.exceptions import DesignError, StudyError
+
+    for case, inputs in zip(study.cases, study.inputs, strict=True):
+        try:
+            check_exportable(inputs.design, inputs.modification)
+        except DesignError as exc:
+            raise StudyError(f"{case.label}: {exc}") from None
+
+
+def _output(study: Any, options: Any) -> Any:
+    from cyclomesh.publish.pipeline import OutputOptions
+
+    return OutputOptions(figures=())
+
+
+def _show(result: ExportResult, out: Path, options: Any) -> None:
+    from cyclomesh.publish.console import print_export
+
+    # the kind records the files relative to its (staged) folder: here in ``out``
+    written = {
+        case: {key: Path(out) / rel for key, rel in files.items()}
+        for case, files in result.written.items()
+    }
+    print_export(written, options["chord_tolerance_um"], result.same)
+
+
 EXPORT = StudyKind(
     command="export",
     title="",
@@ -70,4 +115,6 @@ EXPORT = StudyKind(
     figures=lambda result, early: [],
     sections=lambda result: [],
     report_name=None,
+    preflight=_preflight,
+    steps=CommandSteps(before=_before, output=_output, show=_show),
 )

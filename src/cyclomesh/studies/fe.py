@@ -35,7 +35,7 @@ import numpy as np
 from cyclomesh.exceptions import StudyError
 from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.results.metrics import FE_METRICS
-from cyclomesh.studies.execute import StudyKind
+from cyclomesh.studies.execute import CommandSteps, StudyKind
 from cyclomesh.studyfile.schema import FeSection, Study, folder_name
 from cyclomesh.units import ARCSEC_PER_RAD
 
@@ -302,31 +302,29 @@ def write_fe(result: FeResult, out: Path) -> list[Path]:
     import csv
 
     from cyclomesh.output.folder import atomic_write
-    from cyclomesh.output.writers import write_json, write_netcdf
+    from cyclomesh.output.writers import write_case_netcdf, write_json
+
+    def convergence(case: Any, folder: Path) -> list[Path]:
+        if case.name not in result.convergence:
+            return []
+        path = folder / "convergence.csv"
+        with atomic_write(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
+            csv.writer(fh).writerows(result.convergence[case.name])
+        return [path]
 
     study = result.study
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    written: list[Path] = []
-    records = []
-    for case in study.cases:
-        folder = out / folder_name(case.name)
-        folder.mkdir(parents=True, exist_ok=True)
-        written.append(write_netcdf(result.cases[case.name], folder / "fe.nc"))
-        if case.name in result.convergence:
-            path = folder / "convergence.csv"
-            with atomic_write(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
-                csv.writer(fh).writerows(result.convergence[case.name])
-            written.append(path)
-        records.append(
-            {
-                "name": case.name,
-                "results": f"{folder_name(case.name)}/fe.nc",
-                "crank_angles_deg": [float(a) for a in result.cases[case.name].crank_angle],
-                **result.summaries[case.name],
-                "checks": result.checks[case.name],
-            }
-        )
+    written, records = write_case_netcdf(
+        study,
+        out,
+        result.cases,
+        "fe.nc",
+        lambda case: {
+            "crank_angles_deg": [float(a) for a in result.cases[case.name].crank_angle],
+            **result.summaries[case.name],
+            "checks": result.checks[case.name],
+        },
+        convergence,
+    )
     document = summary_document(
         study,
         {name: m.unit for name, m in FE_METRICS.items()},
@@ -389,6 +387,55 @@ def fe_sections(result: FeResult) -> list[Section]:
     return sections
 
 
+def require_fe_extra() -> None:
+    """Refuse ``cyclomesh fe`` in one line when the fe extra (scikit-fem, gmsh) cannot load."""
+    try:
+        import gmsh  # noqa: F401
+        import skfem  # noqa: F401
+    except (ImportError, OSError) as exc:  # gmsh's wheel also needs X11/OpenGL libraries
+        raise StudyError(
+            f"cyclomesh fe needs the fe extra: pip install -e '.[fe]' ({exc})".replace("\n", " ")
+        ) from None
+
+
+def crank_angles_from(text: str | None) -> list[float] | None:
+    """The angles of ``--crank-angles`` [deg] (None: the study's)."""
+    if not text:
+        return None
+    from cyclomesh.studyfile.limits import MAX_ABS_CRANK_DEG
+
+    try:
+        angles = [float(a) for a in text.split(",")]
+    except ValueError:
+        raise StudyError(
+            f"--crank-angles: expected numbers separated by commas, got {text!r}"
+        ) from None
+    if not 1 <= len(angles) <= 24 or not all(abs(a) <= MAX_ABS_CRANK_DEG for a in angles):
+        raise StudyError(
+            f"--crank-angles: expected 1 to 24 angles within ±{MAX_ABS_CRANK_DEG:g} deg, "
+            f"got {text!r}"
+        )
+    return angles
+
+
+def _before(options: Any) -> dict[str, Any]:
+    require_fe_extra()
+    return {"crank_angles_deg": crank_angles_from(options["crank_angles"])}
+
+
+def _preflight(study: Study) -> None:
+    from cyclomesh.studyfile.schema import refuse_stage
+
+    refuse_stage(study, "fe")
+    check_fe(study)
+
+
+def _show(result: FeResult, out: Path, options: Any) -> None:
+    from cyclomesh.publish.console import print_fe
+
+    print_fe(result.summaries, out, result.checks)
+
+
 FE = StudyKind(
     command="fe",
     title="FE check",
@@ -396,5 +443,12 @@ FE = StudyKind(
     write=lambda result, out, options: write_fe(result, out),
     figures=lambda result, early: fe_figures(result),
     sections=lambda result: fe_sections(result),
+    preflight=_preflight,
+    steps=CommandSteps(
+        before=_before,
+        compute=lambda study, options, backend: {"convergence": options["convergence"]},
+        log=True,
+        show=_show,
+    ),
 )
 """``cyclomesh fe`` (:func:`cyclomesh.studies.execute.execute`)."""

@@ -1,10 +1,11 @@
 """What each command refuses before it computes, in one place (``cyclomesh check``).
 
-:func:`preflight` raises the refusal a command (``run``, ``stiffness``, ``tolerance``,
-``allocate``, ``design``, ``fe``, ``export``) would give a loaded study before it
-computes anything: the keys the command cannot honour (the key-usage table,
-:mod:`cyclomesh.studyfile.usage`), a missing section, the work limit, the FE model's and
-the export's own limits. The commands run the same checks at their start, so ``check
+:func:`preflight` raises the refusal a command (every kind of study of the registry,
+:data:`cyclomesh.studyfile.kinds.KINDS`) would give a loaded study before it computes
+anything: the kind's first refusals (a missing section), the keys the command cannot
+honour (the key-usage table, :mod:`cyclomesh.studyfile.usage`), the kind's own
+pre-flight (``StudyKind.preflight``: the FE model's and the export's own limits, ...)
+and the work limit. The commands run the same checks at their start, so ``check
 --kind KIND`` accepts a file exactly when ``KIND`` starts computing it.
 """
 
@@ -13,32 +14,23 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from cyclomesh.exceptions import StudyError
+from cyclomesh.studyfile.kinds import KINDS
 
 if TYPE_CHECKING:
     from cyclomesh.studyfile.schema import Study
 
 __all__ = ["COMMANDS", "preflight", "kinds_of", "check_kinds"]
 
-COMMANDS = ("run", "stiffness", "tolerance", "allocate", "design", "fe", "export", "efficiency")
+COMMANDS = tuple(spec.command for spec in KINDS)
 """The commands a study file can be given to."""
 
 
 def kinds_of(study: Study) -> list[str]:
     """The commands ``study`` is written for: ``run`` always, and each command whose own
     section the file has (``[stiffness]``, ``[tolerance]`` for tolerance and allocate,
-    ``[design_space]``, ``[fe]``). ``export`` is checked only when asked for."""
-    kinds = ["run"]
-    if any(case.stiffness is not None for case in study.cases):
-        kinds.append("stiffness")
-    if study.tolerance is not None:
-        kinds += ["tolerance", "allocate"]
-    if study.file.design_space is not None:
-        kinds.append("design")
-    if study.file.fe is not None:
-        kinds.append("fe")
-    if study.file.efficiency is not None:
-        kinds.append("efficiency")
-    return kinds
+    ``[design_space]``, ``[fe]``, ``[efficiency]``; each entry's ``written_for``).
+    ``export`` is checked only when asked for."""
+    return [spec.command for spec in KINDS if spec.written_for and spec.written_for(study)]
 
 
 def preflight(study: Study, kind: str, *, allow_work: bool = False, work: bool = True) -> None:
@@ -48,52 +40,20 @@ def preflight(study: Study, kind: str, *, allow_work: bool = False, work: bool =
     ``allow_work`` is ``--no-work-limit``; ``work=False`` leaves the work limit to the
     caller (a command that knows its ``--rings``).
     """
-    from cyclomesh.studyfile.limits import check_study_work
-    from cyclomesh.studyfile.usage import KINDS, check_keys
+    from cyclomesh.studies.execute import load_kind
+    from cyclomesh.studyfile.kinds import check_study_work, kind_spec
+    from cyclomesh.studyfile.usage import USED, check_keys
 
     if kind not in COMMANDS:
         raise StudyError(f"--kind: expected one of {', '.join(COMMANDS)}, got {kind!r}")
-    if kind in ("tolerance", "allocate") and study.tolerance is None:
-        raise StudyError(f"{study.path.name}: no [tolerance] section (see examples/tolerance.toml)")
-    if kind == "design" and study.file.design_space is None:
-        raise StudyError(
-            f"{study.path.name}: no [design_space] section "
-            "(see docs/design-map.md, examples/design.toml)"
-        )
-    if kind == "efficiency":  # the section and the friction first, as the command
-        from cyclomesh.studies.efficiency import check_efficiency
-
-        check_efficiency(study)
-    if kind in KINDS:
+    steps = load_kind(kind)
+    if steps.keys_first is not None:  # the section first (and what it needs), as the command
+        steps.keys_first(study)
+    if kind in USED:
         check_keys(study.raw, kind)
-    if kind in ("run", "stiffness"):
-        from cyclomesh.studies.run import refuse_friction_with_stage
-
-        refuse_friction_with_stage(study)
-    if kind == "stiffness":
-        from cyclomesh.studies.stiffness import check_stiffness
-
-        check_stiffness(study)
-    elif kind in ("tolerance", "allocate"):
-        from cyclomesh.studies.tolerance import ring_model
-
-        ring_model(study, study.tolerance)
-    elif kind == "fe":
-        from cyclomesh.studies.fe import check_fe
-        from cyclomesh.studyfile.schema import refuse_stage
-
-        refuse_stage(study, "fe")
-        check_fe(study)
-    elif kind == "export":
-        from cyclomesh.core.outline import check_exportable
-        from cyclomesh.exceptions import DesignError
-
-        for case, inputs in zip(study.cases, study.inputs, strict=True):
-            try:
-                check_exportable(inputs.design, inputs.modification)
-            except DesignError as exc:
-                raise StudyError(f"{case.label}: {exc}") from None
-    if work and kind in ("run", "stiffness", "tolerance", "allocate", "design"):
+    if steps.preflight is not None:
+        steps.preflight(study)
+    if work and kind_spec(kind).work is not None:
         check_study_work(study, kind, allow=allow_work)
 
 

@@ -35,6 +35,9 @@ if TYPE_CHECKING:
 __all__ = [
     "StudyFiles",
     "load_tolerance_study",
+    "require_tolerance",
+    "check_rings",
+    "ring_total",
     "ring_model",
     "ring_warnings",
     "ring_count",
@@ -61,8 +64,28 @@ def load_tolerance_study(path: str | Path) -> tuple[Study, ToleranceSection]:
     return study, study.tolerance
 
 
-def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
-    """The fixed part of the tolerance study: the study's base case as core objects."""
+def require_tolerance(study: Study) -> None:
+    """Refuse, in one line, a study without a ``[tolerance]`` section."""
+    if study.tolerance is None:
+        raise StudyError(f"{study.path.name}: no [tolerance] section (see examples/tolerance.toml)")
+
+
+def check_rings(study: Study) -> None:
+    """The pre-flight of a ring study: the base case must make a ring model."""
+    ring_model(study, study.tolerance)
+
+
+def ring_total(study: Study, rings: int | None) -> int:
+    """The rings a command draws: ``--rings``, else ``tolerance.rings``."""
+    return study.tolerance.rings if rings is None else rings
+
+
+def ring_model(study: Study, spec: ToleranceSection, checked: bool = False) -> RingModel:
+    """The fixed part of the tolerance study: the study's base case as core objects.
+
+    ``checked``: the kind checks ``[requirements]`` (``cyclomesh tolerance``); then
+    ``min_backdrive_efficiency`` with ``[friction]`` asks for every ring's back-driving
+    efficiency (a second solve per ring, :attr:`RingModel.backdrive`)."""
     base = study.base
     core = base.to_core()
     if np.ndim(core.torque):
@@ -103,6 +126,9 @@ def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
             else (base.stage.hole_error_radial_um, base.stage.hole_error_tangential_um)
         ),
         friction=core.friction,
+        backdrive=checked
+        and core.friction is not None
+        and study.file.requirements.min_backdrive_efficiency is not None,
     )
 
 

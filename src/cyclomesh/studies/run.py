@@ -29,7 +29,7 @@ from cyclomesh.results.efficiency import EFFICIENCY_METRICS
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STIFFNESS_METRICS
 from cyclomesh.results.profile import profile_curves
 from cyclomesh.results.stage import STAGE_METRICS
-from cyclomesh.studies.execute import StudyKind
+from cyclomesh.studies.execute import CommandSteps, StudyKind
 from cyclomesh.studyfile.schema import CaseInputs, CaseSpec, Study, folder_name
 
 if TYPE_CHECKING:
@@ -173,13 +173,33 @@ def compute_run(
             inputs.contact_law,
             case.analysis.crank_angles_deg(),
             has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
-        ) + [w for w in (jam_warning(min_play_arcmin(ds)), stage_warning(inputs)) if w]
+        ) + [
+            w
+            for w in (
+                jam_warning(min_play_arcmin(ds)),
+                stage_warning(inputs),
+                _zero_friction(case, inputs),
+            )
+            if w
+        ]
         run.checks[case.name] = case_checks(study, case, inputs, run.summaries[case.name], ds)
         if on_done:
             on_done(case.name)
         if progress:
             progress(1)
     return run
+
+
+def _zero_friction(case: Any, inputs: Any) -> str | None:
+    """A ``[friction]`` whose coefficients are all 0 is the frictionless model: say so,
+    as the efficiency and the losses it would give (1 and 0) are not reported."""
+    if case.friction is None or inputs.friction is not None:
+        return None
+    return (
+        "friction: every coefficient of [friction] is 0, the frictionless model (the "
+        "paper's assumption 3: efficiency 1, no loss), so no efficiency or loss is "
+        "reported; give mesh_coefficient > 0 for friction"
+    )
 
 
 def refuse_friction_with_stage(study: Study) -> None:
@@ -502,6 +522,13 @@ def _cell(value: Any) -> Any:
         return "true" if value else "false"
     if isinstance(value, list):  # one value per torque of a torque list
         return " / ".join(f"{v:.4g}" if isinstance(v, float) else str(_cell(v)) for v in value)
+    if isinstance(value, dict):  # a table such as the loss per path (path -> W)
+        return "; ".join(
+            f"{k.replace('_', '-')}: " + ("not modelled" if v is None else str(_cell(v)))
+            if not isinstance(v, float)
+            else f"{k.replace('_', '-')}: {v:.4g}"
+            for k, v in value.items()
+        )
     return value
 
 
@@ -597,7 +624,7 @@ def run_sections(run: RunResult) -> list[Section]:
             )
             for n in names
         },
-        METRICS | DRIVE_METRICS | STIFFNESS_METRICS,
+        METRICS | DRIVE_METRICS | STIFFNESS_METRICS | EFFICIENCY_METRICS,
     )
     from cyclomesh.studies.checks import checks_section
 
@@ -661,6 +688,12 @@ def warning_sections(warnings: list[str]) -> list[Section]:
     return [Section("Warnings", f"<ul>{items}</ul>")]
 
 
+def _show_run(result: RunResult, out: Path, options: Any) -> None:
+    from cyclomesh.publish.console import print_run
+
+    print_run(result.summaries, out, result.checks, result.study_warnings())
+
+
 RUN = StudyKind(
     command="run",
     title="",
@@ -669,5 +702,7 @@ RUN = StudyKind(
     figures=lambda result, early: run_figures(result, early),
     sections=lambda result: run_sections(result),
     early_figures=lambda study: input_figures(study),
+    preflight=refuse_friction_with_stage,
+    steps=CommandSteps(progress=lambda study, o: (len(study.cases), "cases"), show=_show_run),
 )
 """``cyclomesh run`` (:func:`cyclomesh.studies.execute.execute`)."""

@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 from cyclomesh.exceptions import CyclomeshError, StudyError
 from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.results.metrics import STIFFNESS_METRICS
-from cyclomesh.studies.execute import StudyKind
+from cyclomesh.studies.execute import CommandSteps, StudyKind
 from cyclomesh.studyfile.schema import CaseSpec, StiffnessSection, Study, folder_name
 
 if TYPE_CHECKING:
@@ -100,6 +100,28 @@ def check_stiffness(study: Study) -> None:
         _section(case)
 
 
+def at_rest(friction: Any) -> Any:
+    """The friction of the torsion test: at rest there is no entrainment, so no film (film
+    parameter λ = 0) and a lubricated coefficient is its boundary value
+    (:func:`cyclomesh.core.friction.boundary_share` = 1 below λ = 1): the lubricant is
+    dropped and the boundary coefficients of ``[friction]`` apply."""
+    if friction is None or friction.lubricant is None:
+        return friction
+    import dataclasses
+
+    return dataclasses.replace(friction, lubricant=None)
+
+
+def _lubricant_note(friction: Any) -> str | None:
+    if friction is None or friction.lubricant is None:
+        return None
+    return (
+        "friction.lubricant: the torsion test is at rest (no oil film), so the boundary "
+        "coefficients mesh_coefficient and groove_coefficient apply; the lubricant acts in "
+        "cyclomesh run, efficiency and tolerance"
+    )
+
+
 def compute_stiffness(
     study: Study, *, backend: Any = None, progress: Callable[[int], None] | None = None
 ) -> StiffnessResult:
@@ -139,7 +161,7 @@ def compute_stiffness(
                 contact_law=inputs.contact_law,
                 disc_body=inputs.disc_body,
                 crank_holes=inputs.crank_holes,
-                friction=inputs.friction,
+                friction=at_rest(inputs.friction),
             )
         except CyclomeshError as exc:  # name the case
             raise type(exc)(f"{case.label}: {exc}") from None
@@ -172,7 +194,15 @@ def compute_stiffness(
             inputs.contact_law,
             case.analysis.crank_angles_deg(),
             has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
-        ) + [w for w in (jam_warning(min_play_arcmin(ds)), stage_warning(inputs)) if w]
+        ) + [
+            w
+            for w in (
+                jam_warning(min_play_arcmin(ds)),
+                stage_warning(inputs),
+                _lubricant_note(inputs.friction),
+            )
+            if w
+        ]
         result.checks[case.name] = case_checks(study, case, inputs, record, ds[["play"]])
         if progress:
             progress(1)
@@ -203,26 +233,20 @@ def _measured(case: Any, section: Any, ds: Any, summary: Any, stage_summary: dic
 
 def write_stiffness(result: StiffnessResult, out: Path) -> list[Path]:
     """Write ``<case>/stiffness.nc`` of every case and ``summary.json`` into ``out``."""
-    from cyclomesh.output.writers import write_json, write_netcdf
+    from cyclomesh.output.writers import write_case_netcdf, write_json
 
     study = result.study
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    written: list[Path] = []
-    records = []
-    for case in study.cases:
-        folder = out / folder_name(case.name)
-        folder.mkdir(parents=True, exist_ok=True)
-        written.append(write_netcdf(result.curves[case.name], folder / "stiffness.nc"))
-        records.append(
-            {
-                "name": case.name,
-                "results": f"{folder_name(case.name)}/stiffness.nc",
-                **result.summaries[case.name],
-                "checks": result.checks[case.name],
-                "warnings": result.warnings.get(case.name, []),
-            }
-        )
+    written, records = write_case_netcdf(
+        study,
+        out,
+        result.curves,
+        "stiffness.nc",
+        lambda case: {
+            **result.summaries[case.name],
+            "checks": result.checks[case.name],
+            "warnings": result.warnings.get(case.name, []),
+        },
+    )
     from cyclomesh.results.stage import STAGE_STIFFNESS_METRICS
 
     document = summary_document(
@@ -407,6 +431,20 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
     ]
 
 
+def _preflight(study: Study) -> None:
+    from cyclomesh.studies.run import refuse_friction_with_stage
+
+    refuse_friction_with_stage(study)
+    check_stiffness(study)
+
+
+def _show(result: StiffnessResult, out: Path, options: Any) -> None:
+    from cyclomesh.publish.console import print_stiffness, print_warnings
+
+    print_warnings(result.study_warnings())
+    print_stiffness(result.summaries, out, result.checks)
+
+
 STIFFNESS = StudyKind(
     command="stiffness",
     title="torsion curve",
@@ -414,5 +452,7 @@ STIFFNESS = StudyKind(
     write=lambda result, out, options: write_stiffness(result, out),
     figures=lambda result, early: stiffness_figures(result),
     sections=lambda result: stiffness_sections(result),
+    preflight=_preflight,
+    steps=CommandSteps(progress=lambda study, o: (len(study.cases), "cases"), show=_show),
 )
 """``cyclomesh stiffness`` (:func:`cyclomesh.studies.execute.execute`)."""

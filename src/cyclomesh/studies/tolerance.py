@@ -33,17 +33,19 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from cyclomesh.exceptions import StudyError
 from cyclomesh.quantities import select
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STAGE_RING_METRICS, STRESS_METRIC
-from cyclomesh.studies.execute import StudyKind
+from cyclomesh.studies.execute import CommandSteps, StudyKind
 from cyclomesh.studies.rings import (
     Progress,
     StudyFiles,
+    check_rings,
     fmt_number,
     load_tolerance_study,
+    require_tolerance,
     ring_count,
     ring_model,
+    ring_total,
     ring_warnings,
     run_rings,
     run_whole,
@@ -80,10 +82,13 @@ __all__ = [
 
 # --- results of a tolerance study --------------------------------------------------------
 
-RING_METRICS = METRICS | DRIVE_METRICS | select("efficiency") | STAGE_RING_METRICS
+RING_METRICS = (
+    METRICS | DRIVE_METRICS | select("efficiency", "backdrive_efficiency") | STAGE_RING_METRICS
+)
 """The per-ring metrics of a tolerance study: those of a run, a stack's, with
-``[friction]`` the forward efficiency (:func:`cyclomesh.tolerance.tasks.ring_efficiency`)
-and with ``[stage]`` the stage's (:meth:`cyclomesh.tolerance.tasks.RingModel.stage_metrics`)."""
+``[friction]`` the forward efficiency (:func:`cyclomesh.tolerance.tasks.ring_efficiency`;
+the back-driving one when ``[requirements] min_backdrive_efficiency`` asks for it) and
+with ``[stage]`` the stage's (:meth:`cyclomesh.tolerance.tasks.RingModel.stage_metrics`)."""
 
 
 def metrics_dataset(
@@ -351,12 +356,11 @@ def compute_tolerance(
     check_keys(study.raw, "tolerance")  # [stage], [[cases]], ...: refused in one line
     from cyclomesh.tolerance.tasks import ToleranceTask
 
-    if study.tolerance is None:
-        raise StudyError(f"{study.path.name}: no [tolerance] section (see examples/tolerance.toml)")
+    require_tolerance(study)
     start = time.perf_counter()
     spec = study.tolerance
     n = ring_count(spec, rings)
-    model = ring_model(study, spec)
+    model = ring_model(study, spec, checked=True)
     per_ring = run_rings(ToleranceTask(model), n, model, backend, chunk_rings, progress)
     seconds = time.perf_counter() - start
     ds = metrics_dataset(
@@ -566,6 +570,18 @@ def run_tolerance(
     )
 
 
+def _banner(study: Study, options: Any, workers: int) -> str:
+    n = ring_total(study, options["rings"])
+    angles = len(study.tolerance.crank_angles_deg(study.base.analysis))
+    return f"tolerance study: {n} rings, {angles} crank angles, {workers} worker(s)"
+
+
+def _show(result: ToleranceResult, out: Path, options: Any) -> None:
+    from cyclomesh.publish.console import print_tolerance
+
+    print_tolerance(result.summary, out)
+
+
 TOLERANCE = StudyKind(
     command="tolerance",
     title="tolerance study",
@@ -573,5 +589,15 @@ TOLERANCE = StudyKind(
     write=lambda result, out, options: write_tolerance(result, out),
     figures=lambda result, early: tolerance_figures(result),
     sections=lambda result: tolerance_sections(result),
+    keys_first=require_tolerance,
+    preflight=check_rings,
+    steps=CommandSteps(
+        load=lambda path, options: load_tolerance_study(path)[0],
+        parallel=lambda study, options: True,
+        banner=_banner,
+        progress=lambda study, o: (ring_total(study, o["rings"]), "rings"),
+        compute=lambda study, o, backend: {"rings": o["rings"], "chunk_rings": o["chunk_rings"]},
+        show=_show,
+    ),
 )
 """``cyclomesh tolerance`` (:func:`cyclomesh.studies.execute.execute`)."""

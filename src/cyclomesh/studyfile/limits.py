@@ -12,7 +12,8 @@ Two kinds of limit:
 - the **work** of a whole study (:func:`check_work`): pin-steps (rings × crank angles ×
   pins × discs × torques × candidates) solved, and pin-steps held in memory, against
   :data:`MAX_SOLVED_PIN_STEPS` and :data:`MAX_STORED_PIN_STEPS`. ``--no-work-limit``
-  lifts this one.
+  lifts this one. Each kind of study estimates its work in the registry
+  (:func:`cyclomesh.studyfile.kinds.check_study_work`).
 """
 
 from __future__ import annotations
@@ -39,7 +40,6 @@ __all__ = [
     "MAX_CSV_FILE_BYTES",
     "count_crank_angles",
     "check_work",
-    "check_study_work",
     "read_regular_file",
 ]
 
@@ -163,66 +163,3 @@ def read_regular_file(path: Path, what: str, max_bytes: int) -> bytes:
     if len(data) > max_bytes:
         raise StudyError(f"{what} {path}: larger than the limit of {max_bytes} bytes")
     return data
-
-
-def _torques(inputs: object) -> int:
-    import numpy as np
-
-    return int(np.size(getattr(inputs, "torque", 1)))
-
-
-def check_study_work(
-    study: object,
-    command: str,
-    *,
-    rings: int | None = None,
-    allow: bool = False,
-) -> None:
-    """:func:`check_work` of a loaded study for ``command`` (``run``, ``check``,
-    ``stiffness``, ``tolerance``, ``allocate``, ``design``); ``rings`` is ``--rings``.
-
-    Raises
-    ------
-    StudyError
-        The work is above a limit (its product and the keys to change in the message).
-    """
-    cases = list(zip(study.cases, study.inputs, strict=True))  # type: ignore[attr-defined]
-    file = study.file  # type: ignore[attr-defined]
-    if command in ("run", "check", "stiffness"):
-        per_case = [
-            len(inputs.crank_angles) * case.design.pins * case.design.discs * _torques(inputs)
-            for case, inputs in cases
-        ]
-        what = f"{len(cases)} case(s) x crank angles x pins x discs x torques"
-        fix = "analysis.crank_step_deg (or --crank-step-deg)"
-        if command == "stiffness":
-            points = [case.stiffness.points if case.stiffness else 1 for case, _ in cases]
-            per_case = [n * p for n, p in zip(per_case, points, strict=True)]
-            what = f"{len(cases)} case(s) x stiffness.points x crank angles x pins x discs"
-            fix += " or stiffness.points"
-        check_work(what, float(sum(per_case)), float(sum(per_case)), fix, allow)
-    if command in ("check", "tolerance", "allocate") and file.tolerance is not None:
-        spec = file.tolerance
-        n = spec.rings if rings is None else rings
-        base = study.base  # type: ignore[attr-defined]
-        angles = count_crank_angles(*spec.crank_range(base.analysis))
-        ring = angles * base.design.pins * base.design.discs
-        steps = 1 if command != "allocate" else spec.allocation.factor_steps
-        steps += 0 if command != "allocate" else spec.allocation.bisections
-        what = f"{n} rings x {angles:.0f} crank angles x {base.design.pins} pins"
-        if steps > 1:
-            what += f" x {steps} scale factors"
-        fix = "tolerance.rings (or --rings) or tolerance.crank_step_deg"
-        check_work(what, float(n) * ring * steps, ring, fix, allow)
-    if command in ("check", "design") and file.design_space is not None:
-        space = file.design_space
-        candidates = math.prod(len(v) for v in space.axes().values())
-        case, inputs = cases[0]
-        per = len(inputs.crank_angles) * case.design.pins * case.design.discs * _torques(inputs)
-        k = max(1, space.rings)
-        what = (
-            f"{candidates} candidates x {k} ring(s) x {len(inputs.crank_angles)} crank angles "
-            f"x {case.design.pins} pins"
-        )
-        fix = "the design_space points, design_space.rings or analysis.crank_step_deg"
-        check_work(what, float(candidates) * k * per, float(k) * per, fix, allow)

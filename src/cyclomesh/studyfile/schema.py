@@ -9,7 +9,8 @@ line naming the dotted key. ``cyclomesh check`` therefore refuses a bad key in a
 section before any work is done. To add the section of a new kind of study, see
 ``docs/pipeline.md``.
 
-The sections live by concern: those of a case in :mod:`cyclomesh.studyfile.sections`,
+The sections live by concern: those of a case in :mod:`cyclomesh.studyfile.sections`
+and :mod:`cyclomesh.studyfile.drive_sections`,
 those of the other kinds of study in :mod:`cyclomesh.studyfile.kind_sections`, the
 one-line formatter in :mod:`cyclomesh.studyfile.messages`; this module assembles them
 (:class:`CaseSpec`, :class:`StudyFile`), loads a file (:func:`load_study`) and re-exports
@@ -54,6 +55,7 @@ from pydantic import (
     Field,
     PrivateAttr,
     ValidationError,
+    create_model,
 )
 
 from cyclomesh.core.case import Case, Model
@@ -71,6 +73,13 @@ from cyclomesh.core.pair import (
 from cyclomesh.core.profile import check_profile
 from cyclomesh.exceptions import DesignError, StudyError
 from cyclomesh.stage.solve import StageDesign
+from cyclomesh.studyfile import drive_sections, kind_sections
+from cyclomesh.studyfile.drive_sections import (
+    FrictionSection,
+    LubricantSection,
+    StageSection,
+    StiffnessSection,
+)
 from cyclomesh.studyfile.kind_sections import (
     AllocationSection,
     DesignSpaceSection,
@@ -81,6 +90,7 @@ from cyclomesh.studyfile.kind_sections import (
     TruePosition,
     Uniform,
 )
+from cyclomesh.studyfile.kinds import KINDS
 from cyclomesh.studyfile.limits import (
     MAX_STUDY_FILE_BYTES,
     read_regular_file,
@@ -100,16 +110,12 @@ from cyclomesh.studyfile.sections import (
     DesignSection,
     ErrorsSection,
     FiguresSection,
-    FrictionSection,
     LoadSection,
-    LubricantSection,
     MaterialProperties,
     MaterialSection,
     ModificationSection,
     RandomErrorsSection,
     RequirementsSection,
-    StageSection,
-    StiffnessSection,
     StrictSection,
     crank_angles_deg,
     tangential_urad,
@@ -127,6 +133,7 @@ __all__ = [
     "AnalysisSection",
     "StiffnessSection",
     "FeSection",
+    "DesignSpaceSection",
     "FrictionSection",
     "LubricantSection",
     "EfficiencySection",
@@ -406,12 +413,8 @@ class CaseSpec(StrictSection):
         )
 
 
-class StudyFile(StrictSection):
-    """Top level of a study file, before the cases are merged.
-
-    The section of every kind of study is a field here (``tolerance``; add yours next
-    to it, see ``docs/pipeline.md``) and is read as ``study.file.<section>``.
-    """
+class _StudyFileBase(StrictSection):
+    """The sections of a study file that no kind of study owns."""
 
     title: str | None = None
     description: str = ""
@@ -423,15 +426,36 @@ class StudyFile(StrictSection):
     analysis: AnalysisSection = AnalysisSection()
     figures: FiguresSection = FiguresSection()
     cases: list[dict[str, Any]] = []
-    # --- sections of the kinds of study (one line each; None when absent)
-    tolerance: ToleranceSection | None = None
-    stiffness: StiffnessSection | None = None  # also per case: cases may override it
     stage: StageSection | None = None  # the RV stage (crank bearings); per case too
     friction: FrictionSection | None = None  # friction at the pins; per case too
-    design_space: DesignSpaceSection | None = None
-    fe: FeSection | None = None  # cyclomesh fe (the FE model needs the fe extra)
-    efficiency: EfficiencySection | None = None  # cyclomesh efficiency (needs [friction])
-    requirements: RequirementsSection = RequirementsSection()  # checked by every kind
+
+
+def _kind_sections() -> dict[str, Any]:
+    """The section of every kind of study in the registry
+    (:data:`cyclomesh.studyfile.kinds.KINDS`, ``section``), None when absent, then
+    ``[requirements]`` (checked by every kind)."""
+    fields: dict[str, Any] = {}
+    for spec in KINDS:
+        if spec.section is not None:
+            name, model = spec.section
+            section = getattr(kind_sections, model, None) or getattr(drive_sections, model)
+            fields[name] = (section | None, None)
+    fields["requirements"] = (RequirementsSection, RequirementsSection())
+    return fields
+
+
+StudyFile = create_model(
+    "StudyFile",
+    __base__=_StudyFileBase,
+    __module__=__name__,
+    __doc__="""Top level of a study file, before the cases are merged.
+
+    The section of every kind of study is a field here, built from the registry of the
+    kinds (:data:`cyclomesh.studyfile.kinds.KINDS`: ``tolerance``, ``design_space``,
+    ...; see ``docs/pipeline.md``), and is read as ``study.file.<section>``.
+    """,
+    **_kind_sections(),
+)
 
 
 @dataclass(frozen=True)

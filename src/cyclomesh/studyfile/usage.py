@@ -5,6 +5,9 @@ such as ``tolerance.radial_um`` or ``design_space.pin_radius_um`` counted as one
 for every kind of study (``run``, ``stiffness``, ``tolerance``, ``allocate``, ``design``,
 ``fe``), one of:
 
+The tables are built from the registry of the kinds of study
+(:data:`cyclomesh.studyfile.kinds.KINDS`), where each kind declares its keys:
+
 * **used**: it changes what the study computes, writes or draws (:data:`USED`);
 * **refused**: the kind cannot honour it; a study file that sets it is refused in one
   line naming the key and why (:data:`REFUSED`, :func:`check_keys`; exit status 2);
@@ -28,6 +31,7 @@ from typing import Any
 from pydantic import BaseModel
 
 from cyclomesh.exceptions import StudyError
+from cyclomesh.studyfile.kinds import KINDS as _REGISTRY
 
 __all__ = [
     "KINDS",
@@ -40,31 +44,10 @@ __all__ = [
     "check_keys",
 ]
 
-KINDS = ("run", "stiffness", "tolerance", "allocate", "design", "fe", "efficiency")
+KINDS = tuple(spec.command for spec in _REGISTRY if spec.used is not None)
+"""The kinds of study whose keys are checked (``export`` takes every key)."""
 
-_ALLOWABLES = tuple(
-    f"material.{part}allowable_contact_stress_mpa" for part in ("", "pin.", "disc.", "ring.")
-)
-"""The allowable contact stresses: the default limits of [requirements]. The kinds that
-check requirements use them; an allocation (its own allowable in [tolerance]) leaves them."""
-
-OWN_SECTIONS: dict[str, tuple[str, ...]] = {
-    "stiffness": ("stiffness",),
-    "tolerance": ("tolerance", "requirements.tolerance_percentile"),
-    "allocate": ("tolerance",),
-    "design": ("design_space",),
-    "fe": ("fe",),
-    "efficiency": ("efficiency",),
-    "export": ("design.disc.bore_radius_mm",),
-    "run": (
-        "load.torque_nm",
-        "load.input_speed_rpm",
-        "stage.rated_torque_nm",
-        "stage.duty_cycle",
-        "requirements",
-        *_ALLOWABLES,
-    ),
-}
+OWN_SECTIONS: dict[str, tuple[str, ...]] = {spec.command: spec.own for spec in _REGISTRY}
 """The sections (or keys) of a kind of study's own: another kind leaves them alone. The
 run's load and the stage's data-sheet rating are the run's: ``cyclomesh stiffness`` sweeps
 ±``stiffness.rated_torque_nm`` instead, and one file serves both (examples/rv_stage.toml).
@@ -74,180 +57,18 @@ leaves the allowables of ``[material]`` (the default limits) and the tolerance s
 percentile. The disc's bore is drawn by ``cyclomesh export`` (which takes every key) and
 computed by no other kind."""
 
-_PAIR = (
-    "design.pins",
-    "design.pin_circle_radius_mm",
-    "design.pin_radius_mm",
-    "design.groove_radius_mm",
-    "design.eccentricity_mm",
-    "design.width_mm",
-    "modification",
-    "material",
-)
-_OUTPUT = ("title", "description", "figures.enabled", "figures.formats", "figures.dpi")
-_LTCA = (*_PAIR, *_OUTPUT, "design.discs", "load.torque_nm", "errors", "analysis")
-_RUN_FIGURES = ("figures.crank_angles_deg", "figures.stress_pin", "figures.stress_over")
-_RINGS = (
-    "tolerance.seed",
-    "tolerance.crank_start_deg",
-    "tolerance.crank_stop_deg",
-    "tolerance.crank_step_deg",
-    "tolerance.radial_um",
-    "tolerance.angular_urad",
-    "tolerance.pin_radius_um",
-    "tolerance.eccentricity_um",
-    "tolerance.position",
-    "tolerance.tangential_um",
-)
-_CHECKED = ("requirements", *_ALLOWABLES)
-"""What the kinds that check requirements use besides their own keys."""
-
 USED: dict[str, tuple[str, ...]] = {
-    "run": (
-        *_LTCA,
-        *_RUN_FIGURES,
-        "cases",
-        "stage",
-        "design.disc",
-        "friction",
-        "load.input_speed_rpm",
-        *_CHECKED,
-    ),
-    "stiffness": (
-        *_PAIR,
-        *_OUTPUT,
-        "design.discs",
-        "errors",
-        "analysis",
-        "cases",
-        "stiffness",
-        "stage",
-        "design.disc",
-        "friction",
-        *_CHECKED,
-    ),
-    "tolerance": (
-        *_LTCA,
-        *_RINGS,
-        "stage",
-        "design.disc",
-        "tolerance.hole_radial_um",
-        "tolerance.hole_tangential_um",
-        "tolerance.rings",
-        "tolerance.allowable_contact_stress_mpa",
-        "tolerance.allocation.confidence",
-        "friction",
-        "load.input_speed_rpm",
-        *_CHECKED,
-        "requirements.tolerance_percentile",
-    ),
-    "allocate": (*_LTCA, "tolerance", "stage", "design.disc"),
-    "design": (*_LTCA, *_RINGS, "design_space", "friction", "stage", "design.disc", *_CHECKED),
-    "fe": (
-        *_PAIR,
-        *_OUTPUT,
-        "load.torque_nm",
-        "analysis.contact_law",
-        "analysis.disc_body",
-        "cases",
-        "fe",
-        *_CHECKED,
-    ),
+    spec.command: spec.used for spec in _REGISTRY if spec.used is not None
 }
-USED["efficiency"] = (
-    *_PAIR,
-    *_OUTPUT,
-    "design.discs",
-    "errors",
-    "analysis",
-    "cases",
-    "friction",
-    "efficiency",
-    *_CHECKED,
-)
 """Keys (or whole tables) each kind of study uses."""
 
-_HOLES = (
-    "design.disc: the crank holes are the crankshafts of the RV stage, which this kind of "
-    "study does not take; remove [design.disc] (cyclomesh run and stiffness take [stage])"
-)
-
-
-def _stage(kind: str) -> str:
-    return (
-        f"stage: [stage] is not taken by cyclomesh {kind} yet; use cyclomesh run or "
-        "cyclomesh stiffness for the RV stage, or remove [stage] (docs/stage.md)"
-    )
-
-
 NEEDS: dict[str, dict[str, tuple[str, str]]] = {
-    kind: {
-        "design.disc": (
-            "stage",
-            "design.disc: the crank holes are the crankshafts of the RV stage: add [stage] "
-            "or remove [design.disc] (docs/stage.md)",
-        )
-    }
-    for kind in ("run", "stiffness", "design", "tolerance", "allocate")
+    spec.command: dict(spec.needs) for spec in _REGISTRY if spec.needs
 }
 """Keys a kind uses only together with another (key → (needed key, refusal))."""
 
-
-def _friction(kind: str) -> str:
-    return (
-        f"friction: [friction] is not taken by cyclomesh {kind} yet; use cyclomesh run, "
-        "stiffness or tolerance for friction and efficiency, or remove [friction] "
-        "(docs/efficiency.md)"
-    )
-
-
-_BASE_ONLY = (
-    "cases: this kind of study analyses the base description only; remove [[cases]] "
-    "(cyclomesh run runs them)"
-)
-_NO_RUN_FIGURES = "this kind of study draws no load or stress figures; remove the key"
-
 REFUSED: dict[str, dict[str, str]] = {
-    "run": {},
-    "stiffness": {
-        **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
-        "friction.lubricant": "the torsion test is at rest, where the boundary coefficients "
-        "apply; remove [friction.lubricant] (cyclomesh run uses it)",
-    },
-    "tolerance": {
-        "cases": _BASE_ONLY,
-        **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
-    },
-    "allocate": {
-        "friction": _friction("allocate"),
-        "cases": _BASE_ONLY,
-        **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
-    },
-    "design": {
-        "cases": _BASE_ONLY,
-        **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
-    },
-    "fe": {
-        "design.disc": _HOLES,
-        "stage": _stage("fe"),
-        "friction": _friction("fe"),
-        "design.discs": "the FE model solves one disc; remove [design] discs",
-        "errors": "the FE model takes no pin errors yet; remove [errors] (cyclomesh run "
-        "handles them)",
-        "analysis.crank_start_deg": "cyclomesh fe solves at fe.crank_angles_deg; remove it",
-        "analysis.crank_stop_deg": "cyclomesh fe solves at fe.crank_angles_deg; remove it",
-        "analysis.crank_step_deg": "cyclomesh fe solves at fe.crank_angles_deg; remove it",
-        "analysis.groove_deformation": "the FE model always has the pin-groove contact "
-        "(the improved model); remove it",
-        **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
-    },
-    "efficiency": {
-        "design.disc": _HOLES,
-        "stage": _stage("efficiency"),
-        "analysis.disc_body": "the efficiency map solves the rigid disc (friction is not "
-        "coupled with the FE disc body yet); remove disc_body",
-        **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
-    },
+    spec.command: dict(spec.refused) for spec in _REGISTRY if spec.used is not None
 }
 """Keys each kind of study refuses, with the reason (the fix is in the message)."""
 

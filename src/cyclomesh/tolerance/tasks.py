@@ -92,6 +92,11 @@ class RingModel:
     friction : Friction, optional
         Friction in the equilibrium (:mod:`cyclomesh.core.friction`): every ring's
         forward ``efficiency`` joins its metrics (:func:`ring_efficiency`).
+    backdrive : bool
+        With friction, also solve every ring back-driven (the output driving the crank,
+        :func:`cyclomesh.drive.solve.solve_drive` ``backdrive``): its
+        ``backdrive_efficiency`` joins the metrics (:func:`ring_backdrive_efficiency`), at
+        the cost of a second solve per ring.
     """
 
     design: PairDesign
@@ -114,6 +119,7 @@ class RingModel:
     """The base case's crank hole errors in study units (radial, tangential) [µm], each
     broadcastable to (D, N); None without a stage."""
     friction: Any = None
+    backdrive: bool = False
 
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
@@ -248,6 +254,23 @@ class RingModel:
         out = drive_metrics(result, self.design.teeth)
         if self.friction is not None:
             out["efficiency"] = ring_efficiency(result, self.design.teeth, self.friction.speed)
+        if self.friction is not None and self.backdrive:
+            back = solve_drive(
+                self.design,
+                self.modification,
+                self.pin_errors(block),
+                self.torque_nm,
+                np.deg2rad(self.crank_angles_deg),
+                self.groove_deformation,
+                self.discs,
+                self.contact_law,
+                self.disc_body,
+                friction=self.friction,
+                backdrive=True,
+            )
+            out["backdrive_efficiency"] = ring_backdrive_efficiency(
+                result, back, self.design.teeth, self.friction.speed
+            )
         return out
 
     def _blame(self, block: RingErrors) -> None:
@@ -269,6 +292,21 @@ def ring_efficiency(result: Any, teeth: int, speed: float) -> NDArray[np.float64
     loss = loss + np.sum(f["power_loss_bearing"], axis=-1)  # (..., Q, A)
     p_out = np.abs(result.torque[0]) * speed / teeth
     return p_out / (p_out + np.mean(loss[..., 0, :], axis=-1))
+
+
+def ring_backdrive_efficiency(
+    forward: Any, backward: Any, teeth: int, speed: float
+) -> NDArray[np.float64]:
+    """Back-driving efficiency of every ring [-]: (P_out − P_loss,b)/P_out with P_out =
+    |T|·ω/n2 of the forward drive and P_loss,b the mean over the crank angles of the
+    back-driven solve's losses (pins and crank bearings), as
+    :func:`cyclomesh.results.efficiency.efficiency_record` takes it for one case: the
+    output shaft delivers P_out, the crank receives what the losses leave of it."""
+    b = backward.friction
+    loss = np.sum(b["power_loss_tooth"] + b["power_loss_groove"], axis=(-2, -1))
+    loss = loss + np.sum(b["power_loss_bearing"], axis=-1)  # (..., Q, A)
+    p_out = np.abs(forward.torque[0]) * speed / teeth
+    return (p_out - np.mean(loss[..., 0, :], axis=-1)) / p_out
 
 
 def _by_blocks(start: int, stop: int, solve: Any, size: int) -> dict[str, NDArray[Any]]:
@@ -335,9 +373,11 @@ STATED_METRICS = (
     "stage_lost_motion_arcmin_max",
     "stage_max_crank_bearing_load_n",
     "stage_max_contact_stress_mpa",
+    "efficiency",
+    "backdrive_efficiency",
 )
 """Per-ring metrics an allocation also reports at the stated tolerances (f = 1); the
-stage's with ``[stage]``."""
+stage's with ``[stage]``, the forward efficiency with ``[friction]``."""
 
 
 @dataclass(frozen=True)
@@ -357,7 +397,11 @@ class AllocationTask:
     Every step solves the whole batch (rings already settled ride along and their
     results are ignored). One more solve at the stated tolerances (f = 1) gives each
     ring's :data:`STATED_METRICS` (peak stress, the largest mesh force on a disc and, for
-    a stack, the range of the torque one disc carries).
+    a stack, the range of the torque one disc carries; with friction, the efficiency).
+
+    With friction (``model.friction``) every solve has it in the equilibrium: the
+    tangential forces change the torque balance and so the pin loads and the contact
+    stress the criterion is on.
     """
 
     model: RingModel
