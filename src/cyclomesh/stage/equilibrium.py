@@ -42,10 +42,10 @@ from cyclomesh.stage.bearing import (
 from cyclomesh.stage.design import StageDesign
 from cyclomesh.stage.supports import (
     BearingLaw,
-    PowerLaw,
     Supports,
     bearing_deflection,
     stage_supports,
+    stiff_limit_split,
 )
 
 __all__ = [
@@ -407,70 +407,6 @@ def _scale(step: FloatArray, L: float, rot_idx: list[int]) -> FloatArray:
     return out
 
 
-def _distribution(p: _Problem, mesh_fx: FloatArray, mesh_fy: FloatArray, moment: FloatArray):
-    """Stiff-limit split of each disc's load over its bearings (power law, no clearance).
-
-    Finds per disc (u, ω) with Σ_k B(d_k)·d̂_k = (mesh_fx, mesh_fy) (the pins' resultant,
-    passed to the crank pins) and Σ_k h_k × B_k = moment, d_k = u + ω·Jh_k, B = s^(10/9),
-    by Newton's method on the convex potential. Returns the forces on the crank pins,
-    (A, D, N) each.
-    """
-    law = PowerLaw()
-    A, D = mesh_fx.shape
-    N = p.hx.shape[-1]
-    L = p.scale
-    jx = np.broadcast_to(-p.hy[:, None, :], (A, D, N))
-    jy = np.broadcast_to(p.hx[:, None, :], (A, D, N))
-    target = np.stack([moment / L, mesh_fx, mesh_fy], axis=-1)  # (A, D, 3)
-    # start: the linear (least-norm) split, its magnitude through the power law
-    lin_x = mesh_fx[..., None] / N + moment[..., None] * jx / (N * L * L)
-    lin_y = mesh_fy[..., None] / N + moment[..., None] * jy / (N * L * L)
-    mag = np.hypot(lin_x, lin_y)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s0 = mag ** (1.0 / LOAD_EXPONENT)
-        dx0 = np.where(mag > 0, lin_x / mag * s0, 0.0)
-        dy0 = np.where(mag > 0, lin_y / mag * s0, 0.0)
-    y = np.stack(
-        [np.sum(dx0 * jx + dy0 * jy, -1) / (N * L), dx0.mean(-1), dy0.mean(-1)], axis=-1
-    )  # (ω·L, ux, uy)
-    scale = np.maximum(np.max(np.abs(target), axis=-1, keepdims=True), 1e-300)
-    cols = [(jx / L, jy / L), (1.0, 0.0), (0.0, 1.0)]
-    fx, fy = np.zeros((A, D, N)), np.zeros((A, D, N))
-    # a disc that carries nothing (all its pins out of contact: pin errors, the other disc
-    # takes the torque) has the exact split B = 0 (y = 0, where the Hessian of the
-    # s^(19/9) potential vanishes, so Newton is not applied to it)
-    active = np.argwhere(np.any(target != 0.0, axis=-1))  # (k, 2) of (angle, disc)
-    ia, idisc = active[:, 0], active[:, 1]
-    for _ in range(_MAX_ITERATIONS):
-        if ia.size == 0:
-            return fx, fy
-        yk, tk = y[ia, idisc], target[ia, idisc]
-        jxk, jyk = jx[ia, idisc], jy[ia, idisc]
-        dx = yk[:, 1, None] + yk[:, 0, None] * jxk / L
-        dy = yk[:, 2, None] + yk[:, 0, None] * jyk / L
-        s = np.hypot(dx, dy)
-        B, kb, _U, _ = law.evaluate(s)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            cx, cy = np.where(s > 0, dx / s, 1.0), np.where(s > 0, dy / s, 0.0)
-            sec = np.where(s > 0, B / s, 0.0)
-        fx[ia, idisc], fy[ia, idisc] = B * cx, B * cy
-        vec = [
-            (np.broadcast_to(a, s.shape), np.broadcast_to(b, s.shape))
-            for a, b in ((jxk / L, jyk / L), *cols[1:])
-        ]
-        g = np.stack([np.sum(B * cx * a + B * cy * b, -1) for a, b in vec], -1) - tk
-        keep = ~np.all(np.abs(g) <= 1e-13 * scale[ia, idisc], axis=-1)
-        kxx, kyy = kb * cx * cx + sec * cy * cy, kb * cy * cy + sec * cx * cx
-        kxy = (kb - sec) * cx * cy
-        H = np.empty((ia.size, 3, 3))
-        for i, (ax, ay) in enumerate(vec):
-            for j, (bx, by) in enumerate(vec):
-                H[:, i, j] = np.sum((kxx * ax + kxy * ay) * bx + (kxy * ax + kyy * ay) * by, -1)
-        ia, idisc, g, H = ia[keep], idisc[keep], g[keep], H[keep]
-        y[ia, idisc] = y[ia, idisc] - np.linalg.solve(H, g[..., None])[..., 0]
-    raise ConvergenceError("stage: the stiff-limit bearing load split did not converge")
-
-
 def _mirrored(arr: FloatArray) -> FloatArray:
     """(A, D, n1) of the mirror problem → this problem's frame (angles, discs, pins)."""
     out = np.flip(arr, axis=0)
@@ -582,8 +518,13 @@ def solve_direction(
     mesh_te = transmission_error(mesh.rest, x[:, 0])
     rigid = _disc_loads(mesh, prob, F)  # pins on disc
     # bearings carry the pins' resultant to the crank pins and the moment Σ F·l
-    bfx, bfy = _distribution(
-        prob, rigid["mesh_force_x"], rigid["mesh_force_y"], -rigid["torque_share"]
+    bfx, bfy = stiff_limit_split(
+        prob.hx,
+        prob.hy,
+        prob.scale,
+        rigid["mesh_force_x"],
+        rigid["mesh_force_y"],
+        -rigid["torque_share"],
     )
     if stage.bearing is not None:
         law = BearingLaw(stage.bearing, stage.crankshaft_stiffness)
