@@ -402,7 +402,8 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
     data = {name: variable(order, values[name]) for name in METRICS}
 
     def reduced(name: str, how: str, over: tuple[str, ...]) -> xr.Variable:
-        return variable(order, nan_reduce(ds[name], how, over, order))
+        keep = [d for d in order if d in ds[name].dims]  # play has no torque dimension
+        return variable(keep, nan_reduce(ds[name], how, over, keep))
 
     if "play" in ds:
         data["play_arcsec_mean"] = reduced("play", "mean", ("crank_angle",))
