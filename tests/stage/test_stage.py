@@ -249,3 +249,20 @@ def test_a_disc_the_pin_errors_unload_gets_no_bearing_load(bearing):
     assert carrier.max() < 1e-10
     if bearing is None:  # rigid bearings: an unloaded disc passes nothing to its cranks
         assert np.all(res.bearing_load[unloaded] == 0.0)
+
+
+def test_light_torque_with_pin_errors_solves():
+    """A wild first Newton step at −3 % of the rated torque with pin errors once pushed a
+    trial past the contact law's stiffest point (its inversion failed, the solve with it);
+    the line search now halves such a step. The stage balances to round-off."""
+    rng = np.random.default_rng(1)
+    errors = PinErrors(
+        radial=rng.uniform(-2e-6, 2e-6, (3, 40))[1],
+        angular=rng.uniform(-2e-5, 2e-5, (3, 40))[1],
+    )
+    sd = StageDesign(HOLES, _bearing(5e-6), crankshaft_stiffness=200e6, carrier_stiffness=3e6)
+    phi = np.radians(np.arange(0.0, 360.0, 2.0))
+    mod = Modification(pin_radius=3e-6)
+    result = solve_stage(RV40, sd, mod, errors, [-12.36], phi, discs=2)
+    assert np.all(np.isfinite(result.twist)) and np.all(result.twist < 0)
+    assert np.max(result.residual) <= 1e-11 * 12.36 / HOLES.circle_radius

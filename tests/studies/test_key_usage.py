@@ -275,6 +275,11 @@ CHANGE.update(
         "efficiency.rated_torque_nm": 120.0,
         "efficiency.rated_speed_rpm": 700.0,
         "design_space.min_efficiency": 0.999,
+        "tolerance.hole_radial_um": {"distribution": "uniform", "half_range": 2.0},
+        "tolerance.hole_tangential_um": {"distribution": "normal", "sigma": 1.0},
+        "design_space.min_stage_l10_h": 1e9,
+        "design_space.min_stage_rigidity_nm_per_arcmin": 1e9,
+        "design_space.max_stage_lost_motion_arcmin": 1e-6,
     }
 )
 FRICTION = {
@@ -331,7 +336,7 @@ CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
     **{("design", k): ROBUST for k in schema_keys() if k.startswith("tolerance.")},
     **{
         (kind, k): STAGE
-        for kind in ("run", "stiffness")
+        for kind in ("run", "stiffness", "design", "tolerance", "allocate")
         for k in schema_keys()
         if k.startswith(("stage.", "design.disc."))
     },
@@ -342,6 +347,19 @@ CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
         if k.startswith("friction.")
     },
     ("design", "design_space.min_efficiency"): FRICTION,
+    **{
+        (kind, f"tolerance.{k}"): STAGE
+        for kind in ("tolerance", "allocate", "design")
+        for k in ("hole_radial_um", "hole_tangential_um")
+    },
+    **{
+        ("design", f"design_space.{k}"): STAGE
+        for k in (
+            "min_stage_l10_h",
+            "min_stage_rigidity_nm_per_arcmin",
+            "max_stage_lost_motion_arcmin",
+        )
+    },
     # the ratio P_out/P_in of Coulomb friction is the same at every speed: a lubricant's is not
     ("tolerance", "load.input_speed_rpm"): LUBRICATED,
 }
@@ -349,9 +367,10 @@ CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
 
 def change_table(key: str, kind: str = "run") -> dict[str, Any]:
     """The nested table that sets ``key`` to its test value."""
-    if key.startswith("design.disc.") and kind not in ("run", "stiffness"):
+    staged = ("run", "stiffness", "design", "tolerance", "allocate")
+    if key.startswith("design.disc.") and kind not in staged:
         return {"design": {"disc": dict(HOLES)}}
-    if key.startswith("stage.") and kind not in ("run", "stiffness"):
+    if key.startswith("stage.") and kind not in staged:
         whole = {  # a valid [stage.crankshaft] / [stage.carrier] around the key
             "stage.crankshaft.": {"stage": {"crankshaft": SHAFT}},
             "stage.carrier.": {"stage": {"crankshaft": SHAFT, "carrier": PILLARS}},
@@ -403,7 +422,7 @@ def merge(base: dict[str, Any], change: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-for _kind in ("run", "stiffness"):
+for _kind in ("run", "stiffness", "design", "tolerance", "allocate"):
     for _key in schema_keys():
         if _key.startswith("stage.crankshaft."):
             CONTEXT[(_kind, _key)] = merge(

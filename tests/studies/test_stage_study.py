@@ -106,26 +106,6 @@ def test_stage_needs_the_crank_holes(tmp_path):
     assert "set [design.disc] crank_holes" in result.output
 
 
-@pytest.mark.parametrize(
-    "command, section",
-    [
-        (
-            "tolerance",
-            "[tolerance]\nseed = 1\nrings = 4\nallowable_contact_stress_mpa = 2000.0\n"
-            'radial_um = { distribution = "uniform", half_range = 4.0 }\n',
-        ),
-        ("design", "[design_space]\npin_radius_um = { start = 1.0, stop = 4.0, points = 3 }\n"),
-    ],
-)
-def test_other_studies_refuse_stage_rather_than_ignore_it(tmp_path, command, section):
-    study = tmp_path / "s.toml"
-    text = EXAMPLE.read_text()
-    study.write_text(text[: text.index("[[cases]]")] + section)
-    result = invoke(command, str(study), "--out", str(tmp_path / "o"))
-    assert result.exit_code == 2, result.output
-    assert "[stage] is not taken by cyclomesh" in result.output
-
-
 def test_one_disc_stage_and_its_figure(tmp_path):
     from cyclomesh.figures.stage import plot_crank_bearing_loads
 
@@ -142,3 +122,271 @@ def test_one_disc_stage_and_its_figure(tmp_path):
     assert (out / "figures" / "crank_bearing_loads.png").exists()
     fig = plot_crank_bearing_loads({"one disc": ds})
     assert len(fig.axes) == 1 and len(fig.axes[0].lines) == 3
+
+
+STAGE_MAP = """
+[design_space]
+pin_radius_um = { start = 2.0, stop = 6.0, points = 3 }
+max_stage_lost_motion_arcmin = 1.3
+objective = "stage_rigidity"
+"""
+
+
+def _stage_map_study(tmp_path: Path, space: str) -> Path:
+    text = EXAMPLE.read_text()
+    text = text[: text.index("[[cases]]")]
+    text = text.replace("crank_step_deg = 1.0", "crank_start_deg = 0.0\ncrank_stop_deg = 6.0\n"
+                        "crank_step_deg = 3.0")  # fmt: skip
+    study = tmp_path / "map.toml"
+    study.write_text(text + space)
+    return study
+
+
+def test_design_map_with_the_stage_metrics(tmp_path):
+    from cyclomesh.core.case import Case, Model
+    from cyclomesh.core.pair import Modification
+    from cyclomesh.stage.solve import bearing_life, stage_torsion
+    from cyclomesh.studyfile.schema import load_study
+
+    study = _stage_map_study(tmp_path, STAGE_MAP)
+    out = tmp_path / "out"
+    result = invoke("design", str(study), "--out", str(out), "--figures", "none")
+    assert result.exit_code == 0, result.output
+    ds = xr.open_dataset(out / "design.nc")
+    rig = ds["stage_torsional_rigidity_nm_per_arcmin_min"]
+    assert rig.attrs["units"] == "N·m/arcmin"
+    assert ds["stage_l10_h_min"].attrs["units"] == "h"
+    assert ds["stage_lost_motion_arcmin_max"].attrs["units"] == "arcmin"
+    # the optimum is the stiffest feasible candidate (a maximised objective)
+    feasible = ds["feasible"].values.astype(bool)
+    assert feasible.any()
+    best = float(ds.attrs["optimum_pin_radius_um"])
+    assert float(rig.sel(pin_radius_um=best)) == np.max(rig.values[feasible])
+    lost = ds["stage_lost_motion_arcmin_max"].values
+    assert np.array_equal(feasible, lost <= 1.3)
+    # each metric is the stage's own torsion curve and life, recomputed for a candidate
+    base = load_study(study).base
+    inputs = base.to_core()
+    dr = 4.0
+    curve = stage_torsion(
+        Case(
+            inputs.design,
+            Modification(pin_radius=dr * 1e-6),
+            None,
+            412.0,
+            np.deg2rad(base.analysis.crank_angles_deg()),
+        ),
+        Model("half_plane", True, "rigid", 2, inputs.stage),
+        points=2,
+    )
+    arcmin = np.pi / (180 * 60)
+    cell = ds.sel(pin_radius_um=dr)
+    assert float(cell["stage_torsional_rigidity_nm_per_arcmin_min"]) == pytest.approx(
+        np.min(curve.torsional_rigidity) * arcmin, rel=1e-12
+    )
+    assert float(cell["stage_lost_motion_arcmin_max"]) == pytest.approx(
+        np.max(curve.lost_motion) / arcmin, rel=1e-12
+    )
+    at = int(np.flatnonzero(curve.stage.torque == 412.0)[0])
+    hours = bearing_life(curve.stage, inputs.stage, 40)[2][at]
+    assert float(cell["stage_l10_h_min"]) == pytest.approx(np.min(hours), rel=1e-12)
+    # more play (a larger Δρ) costs lost motion
+    assert np.all(np.diff(lost) > 0)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["constraints"] == {"max_stage_lost_motion_arcmin": 1.3}
+    assert "[stage.crank_bearing]" in (out / "best.toml").read_text()
+
+
+def test_design_map_stage_limits_and_refusals(tmp_path):
+    space = STAGE_MAP.replace("max_stage_lost_motion_arcmin = 1.3", "min_stage_l10_h = 1e9")
+    out = tmp_path / "out"
+    result = invoke(
+        "design", str(_stage_map_study(tmp_path, space)), "--out", str(out), "--figures", "none"
+    )
+    assert result.exit_code == 0, result.output
+    ds = xr.open_dataset(out / "design.nc")
+    assert not ds["feasible"].values.any()
+    assert set(ds["reason"].values.tolist()) == {"min_stage_l10 violated"}
+    # a stage objective without [stage]: one line, exit 2
+    text = (Path(__file__).resolve().parents[1] / "studies" / "test_design_cli.py").read_text()
+    plain = text[text.index('title = "small'): text.index('objective = "max')]  # fmt: skip
+    study = tmp_path / "plain.toml"
+    study.write_text(plain + 'objective = "stage_l10"\n')
+    result = invoke("design", str(study), "--out", str(tmp_path / "o2"))
+    assert result.exit_code == 2, result.output
+    assert "needs the RV stage: add [stage]" in result.output
+
+
+@pytest.mark.parametrize(
+    "errors, warned",
+    [
+        ("hole_error_radial_um = [0.0, 4.0, 0.0]\n", True),  # > 2.5 µm left after the pose
+        ("hole_error_radial_um = [0.0, 1.0, 0.0]\n", False),  # within the free travel
+        ("hole_error_tangential_um = 8.0\n", False),  # only turns the disc
+    ],
+)
+def test_hole_errors_beyond_the_clearance_are_warned(tmp_path, errors, warned):
+    text = EXAMPLE.read_text()
+    text = text[: text.index("[[cases]]")].replace(
+        "rated_torque_nm = 412.0\n", "rated_torque_nm = 412.0\n" + errors, 1
+    )
+    text = text.replace("crank_step_deg = 1.0", "crank_step_deg = 30.0")
+    study = tmp_path / "s.toml"
+    study.write_text(text)
+    out = tmp_path / "o"
+    result = invoke("run", str(study), "--out", str(out), "--figures", "none")
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    text = " ".join(summary["warnings"])
+    assert ("preloaded at zero torque" in text) is warned
+    assert ("preloaded at zero torque" in " ".join(result.output.split())) is warned
+    if warned:  # the base's hole errors in a tolerance study too
+        study.write_text(study.read_text() + STAGE_TOLERANCE.replace("rings = 4", "rings = 1"))
+        out = tmp_path / "t"
+        result = invoke("tolerance", str(study), "--out", str(out), "--figures", "none")
+        assert result.exit_code == 0, result.output
+        summary = json.loads((out / "tolerance_summary.json").read_text())
+        assert "preloaded at zero torque" in " ".join(summary["warnings"])
+
+
+STAGE_TOLERANCE = """
+[tolerance]
+seed = 3
+rings = 4
+allowable_contact_stress_mpa = 1850.0
+crank_step_deg = 10.0
+radial_um = { distribution = "uniform", half_range = 2.0 }
+angular_urad = { distribution = "uniform", half_range = 20.0 }
+hole_radial_um = { distribution = "uniform", half_range = 3.0 }
+hole_tangential_um = { distribution = "normal", sigma = 2.0 }
+
+[tolerance.allocation]
+factor_max = 2.0
+factor_steps = 2
+bisections = 1
+"""
+
+
+def _stage_tolerance_study(tmp_path: Path, extra: str = STAGE_TOLERANCE) -> Path:
+    text = EXAMPLE.read_text()
+    study = tmp_path / "tol.toml"
+    study.write_text(text[: text.index("[[cases]]")] + extra)
+    return study
+
+
+def test_tolerance_with_the_stage_draws_hole_errors_and_reports_the_bearings(tmp_path):
+    study = _stage_tolerance_study(tmp_path)
+    out = tmp_path / "out"
+    result = invoke("tolerance", str(study), "--out", str(out), "--figures", "none")
+    assert result.exit_code == 0, result.output
+    assert "stage: weakest ring" in " ".join(result.output.split())
+    ds = xr.open_dataset(out / "tolerance_rings.nc")
+    units = {
+        "stage_l10_h_min": "h",
+        "stage_lost_motion_arcmin_max": "arcmin",
+        "stage_max_crank_bearing_load_n": "N",
+        "stage_max_contact_stress_mpa": "MPa",
+    }
+    for name, unit in units.items():
+        assert ds[name].attrs["units"] == unit
+        assert np.all(np.isfinite(ds[name].values)) and np.all(ds[name].values > 0)
+    summary = json.loads((out / "tolerance_summary.json").read_text())
+    loads = summary["metrics"]["stage_max_crank_bearing_load_n"]
+    assert [p["percent"] for p in loads["percentiles"]][:3] == [5.0, 50.0, 95.0]
+    weakest = summary["stage_worst_ring"]
+    life = ds["stage_l10_h_min"].values
+    assert weakest["stage_l10_h_min"] == np.min(life)
+    assert weakest["ring"] == int(ds["ring"].values[np.argmin(life)])
+    # the worst ring's study file reruns the ring: its hole errors and pin errors
+    # are written bit for bit, so cyclomesh run gives the same stage numbers
+    k = summary["worst_ring"]["ring"]
+    rerun = tmp_path / "rerun"
+    result = invoke("run", str(out / "worst_ring.toml"), "--out", str(rerun), "--figures", "none")
+    assert result.exit_code == 0, result.output
+    case = json.loads((rerun / "summary.json").read_text())["cases"][0]
+    for name in units:
+        assert case[name] == float(ds[name].sel(ring=k)), name
+    # hole errors move the stage's numbers (not the mesh's on rigid bearings)
+    plain = _stage_tolerance_study(
+        tmp_path, "".join(
+            line + "\n" for line in STAGE_TOLERANCE.splitlines() if not line.startswith("hole_")
+        )
+    )  # fmt: skip
+    out2 = tmp_path / "plain"
+    assert invoke("tolerance", str(plain), "--out", str(out2), "--figures", "none").exit_code == 0
+    ds2 = xr.open_dataset(out2 / "tolerance_rings.nc")
+    np.testing.assert_array_equal(
+        ds2["max_contact_stress_mpa"].values, ds["max_contact_stress_mpa"].values
+    )
+    assert not np.array_equal(ds2["stage_l10_h_min"].values, life)
+
+
+def test_allocation_with_the_stage_scales_the_hole_errors_too(tmp_path):
+    out = tmp_path / "out"
+    result = invoke(
+        "allocate", str(_stage_tolerance_study(tmp_path)), "--out", str(out), "--figures", "none"
+    )
+    assert result.exit_code == 0, result.output
+    ds = xr.open_dataset(out / "allocation_rings.nc")
+    assert "stage_max_contact_stress_mpa" in ds and "stage_l10_h_min" in ds
+    # the criterion is the stage's stress: a ring not exceeding at f = 1 has f* > 1
+    above = ds["stage_max_contact_stress_mpa"].values > 1850.0
+    assert np.all(ds["critical_factor_upper"].values[above] <= 1.0)
+    assert np.all(ds["critical_factor_lower"].values[~above] >= 1.0)
+
+
+def test_hole_tolerances_need_the_stage(tmp_path):
+    text = EXAMPLE.read_text()
+    start = text.index("[stage]")
+    study = tmp_path / "s.toml"
+    body = text[:start].replace("[design.disc]", "[design.disc_unused]")
+    body = body[: body.index("[design.disc_unused]")] + body[body.index("[modification]") :]
+    study.write_text(body + STAGE_TOLERANCE)
+    result = invoke("tolerance", str(study), "--out", str(tmp_path / "o"))
+    assert result.exit_code == 2, result.output
+    assert "crank hole errors need the RV stage" in " ".join(result.output.split())
+
+
+def test_stage_rings_do_not_depend_on_their_chunk(tmp_path):
+    """Ring k's stage metrics depend on (seed, k) alone: each ring's stage is solved on
+    its own, so chunks of 1 and of 3 rings give the same bits."""
+    from cyclomesh.studies.tolerance import compute_tolerance
+    from cyclomesh.studyfile.schema import load_study
+
+    study = load_study(
+        _stage_tolerance_study(
+            tmp_path, STAGE_TOLERANCE.replace("crank_step_deg = 10.0", "crank_step_deg = 30.0")
+        )
+    )
+    one = compute_tolerance(study, rings=4, chunk_rings=1).rings
+    three = compute_tolerance(study, rings=4, chunk_rings=3).rings
+    for name in one.data_vars:
+        np.testing.assert_array_equal(one[name].values, three[name].values, strict=True)
+    assert "stage_l10_h_min" in one
+
+
+def test_tolerance_with_the_stage_checks_its_requirements_on_the_percentiles(tmp_path):
+    extra = STAGE_TOLERANCE.replace("crank_step_deg = 10.0", "crank_step_deg = 30.0")
+    extra += "\n[requirements]\nmin_bearing_life_h = 6000.0\nmax_lost_motion_arcmin = 1.0\n"
+    out = tmp_path / "out"
+    study = _stage_tolerance_study(tmp_path, extra)
+    result = invoke("tolerance", str(study), "--out", str(out), "--figures", "none")
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "tolerance_summary.json").read_text())
+    ds = xr.open_dataset(out / "tolerance_rings.nc")
+    rows = {row["check"]: row for row in summary["checks"]["rows"]}
+    # a lower limit on P5 of the rings, an upper one on P95 (requirements.tolerance_percentile)
+    assert rows["min_bearing_life_h"]["value"] == pytest.approx(
+        np.percentile(ds["stage_l10_h_min"].values, 5.0), rel=1e-12
+    )
+    assert rows["max_lost_motion_arcmin"]["value"] == pytest.approx(
+        np.percentile(ds["stage_lost_motion_arcmin_max"].values, 95.0), rel=1e-12
+    )
+
+
+def test_tolerance_refuses_friction_with_the_stage(tmp_path):
+    extra = "\n[friction]\nmesh_coefficient = 0.05\ngroove_coefficient = 0.06\n" + STAGE_TOLERANCE
+    result = invoke("tolerance", str(_stage_tolerance_study(tmp_path, extra)), "--out",
+                    str(tmp_path / "o"))  # fmt: skip
+    assert result.exit_code == 2, result.output
+    assert "not coupled with the [stage] equilibrium" in " ".join(result.output.split())

@@ -177,3 +177,30 @@ def test_too_few_crank_angles_name_the_key():
 
     with pytest.raises(StudyError, match=r"^tolerance\.crank_step_deg: fewer than 2 crank"):
         short.crank_range(AnalysisSection(crank_step_deg=1.0))
+
+
+def test_crank_hole_errors_have_their_own_streams_per_disc_and_crank():
+    """[stage]: hole errors drawn per disc and crank, ring k's from (seed, k) alone, the
+    pin errors unchanged by them, the same distributions, scaled with the rest."""
+    plain = draw_ring_errors(spec(radial_um=UNIFORM), 40, A_M, range(6))
+    assert plain.hole_radial_um is None
+    s = spec(
+        radial_um=UNIFORM,
+        hole_radial_um=UNIFORM,
+        hole_tangential_um={"distribution": "normal", "sigma": 2.0},
+    )
+    batch = draw_ring_errors(s, 40, A_M, range(6), holes=(2, 3))
+    np.testing.assert_array_equal(plain.radial_um, batch.radial_um)
+    assert batch.hole_radial_um.shape == batch.hole_tangential_um.shape == (6, 2, 3)
+    assert np.all(np.abs(batch.hole_radial_um) <= 4.0) and np.all(batch.hole_radial_um != 0)
+    assert not np.array_equal(batch.hole_radial_um, batch.hole_tangential_um)
+    alone = draw_ring_errors(s, 40, A_M, [4], holes=(2, 3))
+    np.testing.assert_array_equal(alone.hole_tangential_um[0], batch.hole_tangential_um[4])
+    np.testing.assert_array_equal(batch.scaled(0.5).hole_radial_um, 0.5 * batch.hole_radial_um)
+    np.testing.assert_array_equal(batch.take([1, 3]).hole_radial_um, batch.hole_radial_um[[1, 3]])
+    # only the tangential kind given: the radial holes stay 0
+    only = draw_ring_errors(spec(hole_tangential_um=UNIFORM), 40, A_M, range(2), holes=(2, 3))
+    assert np.all(only.hole_radial_um == 0) and np.all(only.hole_tangential_um != 0)
+    # the same distribution on 2000 draws: uniform on ±4 µm (Kolmogorov–Smirnov)
+    many = draw_ring_errors(spec(hole_radial_um=UNIFORM), 40, A_M, range(400), holes=(1, 5))
+    assert stats.kstest(many.hole_radial_um.ravel(), stats.uniform(-4.0, 8.0).cdf).pvalue > 1e-3

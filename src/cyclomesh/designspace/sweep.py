@@ -30,6 +30,17 @@ Metrics (per candidate, SI inside, engineering units in the Dataset):
   (:func:`cyclomesh.drive.solve.solve_drive` with a negative torque); the play is
   :func:`cyclomesh.drive.solve.play`.
 
+With an RV stage (``stage``: a :class:`~cyclomesh.stage.design.StageDesign`) the metrics
+above stay those of the mesh on rigid bearings and one stage solve
+(:func:`cyclomesh.stage.solve.solve`) at ±3 %, ±50 % and ±100 % of the map's torque (the
+rated torque of the stage metrics) adds (docs/stage.md):
+
+* ``stage_l10`` — L10 of the weakest crank bearing at the torque and the stage's output
+  speed (ISO 281, equivalent load over the crank angles) [s; h in the Dataset];
+* ``stage_rigidity`` — smallest torsional rigidity of the stage over the crank angles
+  (secant 50–100 %, mean of both directions) [N·m/rad];
+* ``stage_lost_motion`` — largest lost motion of the stage, TE(−3 %) − TE(+3 %) [rad].
+
 The geometry may be swept too (pin-circle radius a, pin radius ρp, eccentricity e,
 face width B: :data:`GEOMETRY`); each such candidate is checked like a study's design
 (K1 < 1, pins that do not overlap, a profile that is not undercut and seats the pin).
@@ -77,6 +88,8 @@ __all__ = [
     "feasibility",
     "design_map",
     "optimum",
+    "stage_metrics",
+    "STAGE_METRICS",
 ]
 
 NONFINITE_FAILED = "NaN: the candidate failed (undercut, interference, no solution): see reason"
@@ -154,6 +167,21 @@ METRICS: dict[str, tuple[str, float, str, str, bool]] = {
         True,
     ),
     "efficiency": ("efficiency", 1.0, "1", "forward efficiency (with friction)", False),
+    "stage_l10": ("stage_l10_h_min", 3600.0, "h", "L10h of the weakest crank bearing", False),
+    "stage_rigidity": (
+        "stage_torsional_rigidity_nm_per_arcmin_min",
+        1.0 / RAD_PER_ARCMIN,
+        "N·m/arcmin",
+        "smallest torsional rigidity of the stage",
+        False,
+    ),
+    "stage_lost_motion": (
+        "stage_lost_motion_arcmin_max",
+        RAD_PER_ARCMIN,
+        "arcmin",
+        "largest lost motion of the stage",
+        True,
+    ),
     "loss_fraction": (
         "loss_fraction",
         1.0,
@@ -175,8 +203,15 @@ OBJECTIVES: dict[str, str] = {
     "lost_motion": "lost_motion",
     "play": "max_play",
     "efficiency": "loss_fraction",
+    "stage_l10": "stage_l10",
+    "stage_rigidity": "stage_rigidity",
+    "stage_lost_motion": "stage_lost_motion",
 }
-"""Objective names of a study (minimised) → metric."""
+"""Objective names of a study → metric, minimised where larger is worse, else maximised
+(``stage_l10``, ``stage_rigidity``)."""
+
+STAGE_METRICS = ("stage_l10", "stage_rigidity", "stage_lost_motion")
+"""Metrics of the RV stage (a map with ``stage``)."""
 
 ROBUST_PERCENTILE = 95.0
 
@@ -199,6 +234,12 @@ class Constraints:
         Upper bound on the lost motion [rad] (the map then computes it).
     min_efficiency : float, optional
         Lower bound on the forward efficiency [-] (needs friction).
+    min_stage_l10 : float, optional
+        Lower bound on L10 of the weakest crank bearing [s] (needs a stage with a bearing).
+    min_stage_rigidity : float, optional
+        Lower bound on the stage's smallest torsional rigidity [N·m/rad] (needs a stage).
+    max_stage_lost_motion : float, optional
+        Upper bound on the stage's largest lost motion [rad] (needs a stage).
     """
 
     max_play: float | None = None
@@ -208,6 +249,9 @@ class Constraints:
     min_contacts: int | None = None
     max_lost_motion: float | None = None
     min_efficiency: float | None = None
+    min_stage_l10: float | None = None
+    min_stage_rigidity: float | None = None
+    max_stage_lost_motion: float | None = None
 
     def checks(self) -> list[tuple[str, str, float, str]]:
         """(metric, "<=" or ">=", limit [SI], name) of every limit set."""
@@ -220,6 +264,9 @@ class Constraints:
             ("min_contacts", ">=", self.min_contacts, "min_contacts"),
             ("lost_motion", "<=", self.max_lost_motion, "max_lost_motion"),
             ("efficiency", ">=", self.min_efficiency, "min_efficiency"),
+            ("stage_l10", ">=", self.min_stage_l10, "min_stage_l10"),
+            ("stage_rigidity", ">=", self.min_stage_rigidity, "min_stage_rigidity"),
+            ("stage_lost_motion", "<=", self.max_stage_lost_motion, "max_stage_lost_motion"),
         ):
             if value is not None:
                 out.append((metric, op, float(value), name))
@@ -238,6 +285,7 @@ def candidate_metrics(
     discs: int = 1,
     disc_body: Any = "rigid",
     friction: Any = None,
+    stage: Any = None,
 ) -> dict[str, FloatArray]:
     """Metrics of one candidate modification (see module doc), per ring, SI units.
 
@@ -246,13 +294,14 @@ def candidate_metrics(
     (:func:`cyclomesh.drive.solve.solve_drive`). With ``friction``
     (:class:`~cyclomesh.core.friction.Friction`) a second solve, friction in the equilibrium,
     gives the forward ``efficiency`` and ``loss_fraction`` (the other metrics stay those of
-    the frictionless model, as without it).
+    the frictionless model, as without it). With ``stage``
+    (:class:`~cyclomesh.stage.design.StageDesign`) :func:`stage_metrics` adds the stage's.
 
     Returns
     -------
     dict of ndarray
         Keys of :data:`METRICS` (``lost_motion`` only if asked, the efficiency only with
-        friction), each of the errors' ring shape.
+        friction, the stage's only with a stage), each of the errors' ring shape.
     """
     if not (isinstance(torque, int | float) and math.isfinite(torque) and torque > 0):
         raise DesignError(f"torque must be a positive number of N·m, got {torque!r}")
@@ -305,6 +354,62 @@ def candidate_metrics(
         p_out = torque * friction.speed / design.teeth
         out["efficiency"] = p_out / (p_out + loss)
         out["loss_fraction"] = loss / (p_out + loss)
+    if stage is not None:
+        out.update(
+            stage_metrics(
+                design,
+                modification,
+                errors,
+                torque,
+                phi,
+                stage,
+                groove_deformation,
+                contact_law,
+                discs,
+            )
+        )
+    return out
+
+
+def stage_metrics(
+    design: PairDesign,
+    modification: Modification,
+    errors: PinErrors | None,
+    torque: float,
+    crank_angles: FloatArray,
+    stage: Any,
+    groove_deformation: bool = True,
+    contact_law: str = "half_plane",
+    discs: int = 1,
+) -> dict[str, FloatArray]:
+    """The RV stage's metrics of a candidate, per ring, SI units (see the module doc).
+
+    One stage solve at ±3 %, ±50 % and ±100 % of ``torque`` [N·m] (the rated torque T_r
+    of the catalogue definitions, :func:`cyclomesh.drive.torsion.torsion_metrics`); L10
+    [s] at +T_r (:func:`cyclomesh.stage.solve.bearing_life`), only with a crank bearing.
+
+    Raises
+    ------
+    DesignError
+        A stage that does not fit the candidate (rollers wider than the disc, holes that
+        jam), or a failed solve (ConvergenceError).
+    """
+    from cyclomesh.core.case import Case, Model
+    from cyclomesh.drive.torsion import torsion_metrics, torsion_torques
+    from cyclomesh.stage.solve import bearing_life, solve
+
+    stage.check_fits(design, discs)
+    torques = torsion_torques(torque, 2)
+    res = solve(
+        Case(design, modification, errors, torques, crank_angles),
+        Model(contact_law, groove_deformation, "rigid", discs, stage),
+    )
+    lost, rigidity = torsion_metrics(res.transmission_error, torques, torque)
+    out = {"stage_rigidity": rigidity.min(axis=-1), "stage_lost_motion": lost.max(axis=-1)}
+    if stage.bearing is not None:
+        at = int(np.flatnonzero(torques == torque)[0])
+        _, _, hours = bearing_life(res, stage, design.pins)  # (..., Q, D, N)
+        out["stage_l10"] = hours[..., at, :, :].min(axis=(-2, -1)) * 3600.0
     return out
 
 
@@ -361,6 +466,8 @@ class DesignTask:
     body's compliance as it is)."""
     friction: Any = None
     """:class:`~cyclomesh.core.friction.Friction` for the efficiency metrics, or None."""
+    stage: Any = None
+    """:class:`~cyclomesh.stage.design.StageDesign` for the stage metrics, or None."""
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -413,6 +520,10 @@ class DesignTask:
             skip |= {"max_torque_share", "min_torque_share"}
         if self.friction is None:
             skip |= {"efficiency", "loss_fraction"}
+        if self.stage is None:
+            skip |= set(STAGE_METRICS)
+        elif self.stage.bearing is None:
+            skip.add("stage_l10")
         return [m for m in METRICS if m not in skip]
 
     def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
@@ -435,6 +546,7 @@ class DesignTask:
                     self.discs,
                     self.disc_body,
                     self.friction,
+                    self.stage,
                 )
             except CyclomeshError as exc:  # undercut, interfering pin, failed solve
                 reason[row] = str(exc)  # in full: design.nc keeps every character
@@ -502,7 +614,8 @@ def optimum(
             f"objective {objective!r}: metric {metric} was not computed "
             f"(choose one of {', '.join(OBJECTIVES)})"
         )
-    value = np.where(feasible, metrics[metric], np.inf)
+    sign = 1.0 if METRICS[metric][4] else -1.0  # larger is better: maximised
+    value = np.where(feasible, sign * metrics[metric], np.inf)
     if not np.any(feasible):
         return None
     return tuple(int(i) for i in np.unravel_index(np.argmin(value), value.shape))
@@ -527,6 +640,7 @@ def design_map(
     discs: int = 1,
     disc_body: Any = "rigid",
     friction: Any = None,
+    stage: Any = None,
 ) -> xr.Dataset:
     """Design map over a grid of modifications, as a labelled Dataset.
 
@@ -572,6 +686,9 @@ def design_map(
         Friction at the pins (:mod:`cyclomesh.core.friction`): adds the ``efficiency`` and
         ``loss_fraction`` metrics (a second solve per candidate, friction in the
         equilibrium); needed by the ``efficiency`` objective and ``min_efficiency``.
+    stage : StageDesign, optional
+        The RV stage around the mesh: adds :data:`STAGE_METRICS` (a stage solve at six
+        torques per candidate); needed by the ``stage_*`` objectives and constraints.
 
     Returns
     -------
@@ -607,6 +724,7 @@ def design_map(
         raise DesignError(
             "the efficiency objective and min_efficiency need friction: add [friction]"
         )
+    _check_stage(stage, objective, constraints, friction)
     coords = {key: np.atleast_1d(np.asarray(v, dtype=float)) for key, v in axes.items()}
     task = DesignTask(
         design=design,
@@ -624,6 +742,7 @@ def design_map(
         discs=int(discs),
         disc_body=disc_body,
         friction=friction,
+        stage=stage,
     )
     metrics = evaluate_grid(task, backend, chunk, progress)
     feasible, reason = feasibility(metrics, constraints)
@@ -663,6 +782,9 @@ def design_map(
             "candidates": int(task.size),
         }
     )
+    if stage is not None:
+        ds.attrs["stage"] = 1
+        ds.attrs["stage_rated_torque_nm"] = float(torque)
     for name, value in _constraint_attrs(constraints).items():
         ds.attrs[name] = value
     if best is not None:
@@ -687,7 +809,34 @@ def _constraint_attrs(constraints: Constraints) -> dict[str, float]:
         out["max_lost_motion_arcmin"] = constraints.max_lost_motion / RAD_PER_ARCMIN
     if constraints.min_efficiency is not None:
         out["min_efficiency"] = float(constraints.min_efficiency)
+    if constraints.min_stage_l10 is not None:
+        out["min_stage_l10_h"] = constraints.min_stage_l10 / 3600.0
+    if constraints.min_stage_rigidity is not None:
+        out["min_stage_rigidity_nm_per_arcmin"] = constraints.min_stage_rigidity * RAD_PER_ARCMIN
+    if constraints.max_stage_lost_motion is not None:
+        out["max_stage_lost_motion_arcmin"] = constraints.max_stage_lost_motion / RAD_PER_ARCMIN
     return out
+
+
+def _check_stage(stage: Any, objective: str, constraints: Constraints, friction: Any) -> None:
+    """One-line DesignError for stage objectives or limits without a stage (or bearing)."""
+    wanted = [m for m in STAGE_METRICS if OBJECTIVES[objective] == m]
+    wanted += [m for m, _, _, _ in constraints.checks() if m in STAGE_METRICS]
+    if stage is None and wanted:
+        raise DesignError(
+            f"the {wanted[0]} objective or constraint needs the RV stage: add [stage] "
+            "(docs/stage.md)"
+        )
+    if stage is not None and stage.bearing is None and "stage_l10" in wanted:
+        raise DesignError(
+            "the stage_l10 objective or min_stage_l10_h needs a crank bearing: add "
+            "[stage.crank_bearing]"
+        )
+    if stage is not None and friction is not None:
+        raise DesignError(
+            "[friction] is not coupled with the [stage] equilibrium yet: remove [friction] "
+            "or [stage]"
+        )
 
 
 def grid_points(axes: Mapping[str, Sequence[float]]) -> list[dict[str, float]]:

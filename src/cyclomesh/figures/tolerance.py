@@ -16,7 +16,13 @@ import numpy as np
 import xarray as xr
 
 from cyclomesh.figures.render import fixed_figure, plain_log_axis
-from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC, metric_label
+from cyclomesh.results.metrics import (
+    DRIVE_METRICS,
+    METRICS,
+    STAGE_RING_METRICS,
+    STRESS_METRIC,
+    metric_label,
+)
 
 if TYPE_CHECKING:
     from cyclomesh.tolerance.allocation import Allocation
@@ -111,7 +117,8 @@ def reduce_rings(
 
 
 def _metrics(ds: xr.Dataset) -> list[str]:
-    names = (*METRICS, *DRIVE_METRICS)  # the mesh force and a stack's torque split too
+    # the mesh force, a stack's torque split and the RV stage's metrics too
+    names = (*METRICS, *DRIVE_METRICS, *STAGE_RING_METRICS)
     return [name for name in names if name in ds and name not in ("any_overlap", "jammed")]
 
 

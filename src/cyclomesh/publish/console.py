@@ -286,13 +286,13 @@ def print_tolerance(stats: dict[str, Any], out: Path) -> None:
     from rich.markup import escape
     from rich.table import Table
 
-    from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
+    from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STAGE_RING_METRICS
 
     table = Table(title=f"{stats['rings']} rings (seed {stats['seed']})")
     for col in ("metric", "mean", "std", "P5", "P50", "P95", "P99"):
         table.add_column(col, justify="left" if col == "metric" else "right")
     for name, s in stats["metrics"].items():
-        m = METRICS.get(name) or DRIVE_METRICS.get(name)
+        m = METRICS.get(name) or DRIVE_METRICS.get(name) or STAGE_RING_METRICS.get(name)
         label = name if m is None else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
         table.add_row(
             escape(label),
@@ -324,6 +324,14 @@ def print_tolerance(stats: dict[str, Any], out: Path) -> None:
         console.print(
             f"worst ring {worst['ring']}: {worst['max_contact_stress_mpa']:.5g} MPa -> "
             f"{escape(str(out / 'worst_ring.toml'))}"
+        )
+    stage = stats.get("stage_worst_ring")
+    if stage:
+        life = stage.get("stage_l10_h_min")
+        console.print(
+            f"stage: weakest ring {stage['ring']}"
+            + ("" if life is None else f", L10h of its weakest crank bearing {life:.5g} h")
+            + f", largest crank bearing load {stage['stage_max_crank_bearing_load_n']:.5g} N"
         )
     console.print(
         f"percentile intervals: {out / 'tolerance_summary.json'}; "

@@ -26,6 +26,7 @@ __all__ = [
     "Metric",
     "METRICS",
     "DRIVE_METRICS",
+    "STAGE_RING_METRICS",
     "STIFFNESS_METRICS",
     "FE_METRICS",
     "STRESS_METRIC",
@@ -63,6 +64,15 @@ DRIVE_METRICS: dict[str, Metric] = select(
 )
 """Drive characteristics of a run (:func:`cyclomesh.analyse`; docs/drive.md). Not in
 :data:`METRICS`: the tolerance study's workers reduce core results without them."""
+
+STAGE_RING_METRICS: dict[str, Metric] = select(
+    "stage_l10_h_min",
+    "stage_lost_motion_arcmin_max",
+    "stage_max_crank_bearing_load_n",
+    "stage_max_contact_stress_mpa",
+)
+"""The RV stage's metrics of a ring of a tolerance study with ``[stage]``
+(:meth:`cyclomesh.tolerance.tasks.RingModel.stage_metrics`)."""
 
 STIFFNESS_METRICS: dict[str, Metric] = select(
     "play_arcmin_mean",

@@ -149,21 +149,10 @@ class StageDesign:
                 f"stage.crank_bearing.roller_length_mm = {self.bearing.length * 1e3:.6g}: the "
                 f"rollers must fit the disc width, design.width_mm = {design.width * 1e3:.6g}"
             )
-        er, et = self.hole_errors(discs)  # (D, N)
-        if not (np.any(er) or np.any(et)):
+        residual = self.hole_misfit(discs)
+        if residual is None:
             return
-        a = self.holes.angles
-        hx, hy = self.holes.circle_radius * np.cos(a), self.holes.circle_radius * np.sin(a)
-        ex = er * np.cos(a) - et * np.sin(a)
-        ey = er * np.sin(a) + et * np.cos(a)
-        n = a.size
-        # columns (ux, uy, ω) of the 2N equations ε + u + ω·J·h = 0
-        M = np.zeros((2 * n, 3))
-        M[:n, 0], M[n:, 1] = 1.0, 1.0
-        M[:n, 2], M[n:, 2] = -hy, hx
-        rhs = -np.concatenate([ex, ey], axis=-1)  # (D, 2N)
-        pose, *_ = np.linalg.lstsq(M, rhs.T, rcond=None)
-        residual = ((M @ pose).T - rhs).reshape(discs, 2, n)  # (D, x/y, N)
+        n = self.holes.count
         misfit = np.sqrt(np.sum(residual**2, axis=(-2, -1)) / n)
         # displacement of one bearing at its dynamic load rating
         limit = float(deflection_for_force(self.bearing, self.bearing.rating()))
@@ -176,6 +165,55 @@ class StageDesign:
                 f"displacement at its dynamic load rating ({limit * 1e6:.4g} µm with "
                 f"{self.bearing.clearance * 1e6:.4g} µm clearance): the holes jam the stage"
             )
+
+    def hole_misfit(self, discs: int) -> FloatArray | None:
+        """The hole errors that no rigid motion of a disc takes up [m], (D, 2, N) (x, y).
+
+        Per disc, the residual ε_k + u + ω·J·h_k of the least-squares pose (u, ω) over its
+        N holes (J·h = (−h_y, h_x)); None without hole errors.
+        """
+        er, et = self.hole_errors(discs)  # (D, N)
+        if not (np.any(er) or np.any(et)):
+            return None
+        a = self.holes.angles
+        hx, hy = self.holes.circle_radius * np.cos(a), self.holes.circle_radius * np.sin(a)
+        ex = er * np.cos(a) - et * np.sin(a)
+        ey = er * np.sin(a) + et * np.cos(a)
+        n = a.size
+        # columns (ux, uy, ω) of the 2N equations ε + u + ω·J·h = 0
+        M = np.zeros((2 * n, 3))
+        M[:n, 0], M[n:, 1] = 1.0, 1.0
+        M[:n, 2], M[n:, 2] = -hy, hx
+        rhs = -np.concatenate([ex, ey], axis=-1)  # (D, 2N)
+        pose, *_ = np.linalg.lstsq(M, rhs.T, rcond=None)
+        return ((M @ pose).T - rhs).reshape(discs, 2, n)  # (D, x/y, N)
+
+    def preload_warning(self, discs: int) -> str | None:
+        """A warning when crank hole errors exceed the bearing clearance (accepted, unlike
+        those :meth:`check_fits` refuses), None otherwise.
+
+        A hole whose misfit (:meth:`hole_misfit`, the least-squares position of its disc)
+        is larger than the bearing's free radial travel P_d/2 presses its rollers at zero
+        torque: the bearing is preloaded, which moves the lost motion and the life.
+        """
+        if self.bearing is None:
+            return None
+        residual = self.hole_misfit(discs)
+        if residual is None:
+            return None
+        size = np.hypot(residual[:, 0], residual[:, 1])  # (D, N)
+        free = 0.5 * self.bearing.clearance
+        if np.max(size) <= free * (1.0 + 1e-9):
+            return None
+        d, k = np.unravel_index(int(np.argmax(size)), size.shape)
+        return (
+            f"stage.hole_error_radial_um / hole_error_tangential_um: crank hole {k + 1} of "
+            f"disc {d + 1} is {np.max(size) * 1e6:.3g} µm off where no position of the disc "
+            f"takes it up, more than the bearing's free radial travel "
+            f"({free * 1e6:.3g} µm, half the {self.bearing.clearance * 1e6:.3g} µm clearance): "
+            "the crank bearings are preloaded at zero torque (the lost motion and the life "
+            "change; accepted below the jam limit of docs/stage.md)"
+        )
 
     def hole_errors(self, discs: int) -> tuple[FloatArray, FloatArray]:
         """Radial and tangential hole errors as (D, N) arrays [m]."""

@@ -59,6 +59,12 @@ FORCE_TOLERANCE = 1e-12
 """Accepted residual of every equilibrium equation, relative to T/r_c (moments /r_c)."""
 _MAX_ITERATIONS = 200
 _MAX_HALVINGS = 60
+_REACH = 0.5
+"""Largest pin approach a line-search trial may reach, as a fraction of the stiffest point
+of the contact law γ·exp(α/γ − 1) (about 0.8 mm here, against µm under load): a longer
+trial step is halved. Near the stiffest point dδ/dF → 0 and the law's inversion
+(:func:`~cyclomesh.core.hertz.force_from_approach`) converges too slowly; a wild first
+step at a light torque with pin errors reached it and failed the solve."""
 
 
 # --- the bearing law with its optional series spring ---------------------------------
@@ -154,7 +160,7 @@ class _Problem:
     ny: FloatArray
     alpha: FloatArray
     gamma: FloatArray
-    dmax: FloatArray  # largest approach of the contact law, (A, D, n1)
+    dmax: FloatArray  # largest approach a trial may reach (_REACH of the law's), (A, D, n1)
     hx: FloatArray  # (A, N) hole centres from the disc centre, fixed frame
     hy: FloatArray
     ex: FloatArray  # (A, D, N) hole errors, fixed frame
@@ -164,6 +170,9 @@ class _Problem:
     supports: Supports | None = None
 
     def take(self, idx: NDArray[np.int64]) -> _Problem:
+        """The problem at the crank angles ``idx`` (increasing); itself when it is all."""
+        if idx.size == self.bl.shape[0] and np.array_equal(idx, np.arange(idx.size)):
+            return self
         kw = {
             name: (
                 getattr(self, name)[idx]
@@ -175,27 +184,32 @@ class _Problem:
         return _Problem(**kw)
 
 
-def _pins(p: _Problem, theta: FloatArray, ux: FloatArray, uy: FloatArray):
-    """Pin approach, force, stiffness, energy; None where an approach leaves the law."""
+def _pins(p: _Problem, theta: FloatArray, ux: FloatArray | None, uy: FloatArray | None):
+    """Pin approach, force, stiffness, energy; None where an approach leaves the law.
+
+    The law is evaluated only where a pin closes (δ > 0; most pins of a crank angle are
+    open), each element by the same arithmetic as on the whole array.
+    """
     usable = np.isfinite(p.bl)
-    delta = np.where(
-        usable,
-        p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
-        + p.nx * ux[..., None]
-        + p.ny * uy[..., None],
-        -1.0,
-    )
+    delta = p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
+    if ux is not None:  # None: no translation (adding n·0 would change no bit)
+        delta = delta + p.nx * ux[..., None] + p.ny * uy[..., None]
+    delta = np.where(usable, delta, -1.0)
     delta = np.maximum(delta, 0.0)
     bad = np.any(delta >= p.dmax, axis=(-2, -1))
-    safe = np.where(delta < p.dmax, delta, 0.0)
+    closed = np.flatnonzero((delta > 0.0) & (delta < p.dmax))
+    alpha = p.alpha.reshape(-1)[closed]
+    gamma = p.gamma.reshape(-1)[closed]
+    f = force_from_approach(delta.reshape(-1)[closed], alpha, gamma)
     with np.errstate(divide="ignore", invalid="ignore"):
-        force = force_from_approach(safe, p.alpha, p.gamma)
-        logf = np.log(np.where(force > 0, force, 1.0))
-        dd = p.alpha - p.gamma * (1.0 + logf)
-        stiff = np.where(force > 0, 1.0 / dd, 0.0)
-        energy = np.where(
-            force > 0, 0.5 * force * force * (p.alpha - 0.5 * p.gamma - p.gamma * logf), 0.0
-        )
+        logf = np.log(np.where(f > 0, f, 1.0))
+        dd = alpha - gamma * (1.0 + logf)
+        k = np.where(f > 0, 1.0 / dd, 0.0)
+        u = np.where(f > 0, 0.5 * f * f * (alpha - 0.5 * gamma - gamma * logf), 0.0)
+    force, stiff, energy = (np.zeros(delta.shape) for _ in range(3))
+    force.reshape(-1)[closed] = f
+    stiff.reshape(-1)[closed] = k
+    energy.reshape(-1)[closed] = u
     return force, stiff, energy, bad
 
 
@@ -205,28 +219,44 @@ def _unpack(x: FloatArray, discs: int):
     return c, rest[..., 0], rest[..., 1], rest[..., 2]
 
 
-def _evaluate(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, hessian: bool = True):
-    """Potential, gradient, Hessian (scaled: rotations × r_c) and the parts of the state."""
+def _evaluate(
+    p: _Problem,
+    law,
+    x: FloatArray,
+    discs: int,
+    rigid: bool,
+    hessian: bool = True,
+    gradient: bool = True,
+):
+    """Potential, gradient, Hessian (scaled: rotations × r_c) and the parts of the state.
+
+    ``gradient=False`` (the line search's trials): the potential and the state only, g and
+    H None (the potential is the same arithmetic either way).
+    """
     c, theta, ux, uy = _unpack(x, discs)
     n, m = x.shape
-    F, k, U, bad = _pins(p, theta, ux, uy)
+    # rigid: u = 0 exactly, and only the rotations' rows of g and H enter the reduced
+    # problem (the others are multiplied by 0 there), so they are left 0
+    F, k, U, bad = _pins(p, theta, None if rigid else ux, None if rigid else uy)
     energy = np.sum(U, axis=(-2, -1)) - p.torque * c
     L = p.scale
-    g = np.zeros((n, m))
+    hessian = hessian and gradient
+    g = np.zeros((n, m)) if gradient else None
     H = np.zeros((n, m, m)) if hessian else None
     # pins: a = (θ_d: l/L, ux: nx, uy: ny) in scaled unknowns
-    cols = [p.arm / L, p.nx, p.ny]
-    for d in range(discs):
+    cols = [p.arm / L] if rigid else [p.arm / L, p.nx, p.ny]
+    for d in range(discs if gradient else 0):
         base = 1 + 3 * d
         for a_i, col in enumerate(cols):
             g[:, base + a_i] += np.sum(F[:, d] * col[:, d], axis=-1)
             if hessian:
-                for b_i in range(a_i, 3):
+                for b_i in range(a_i, len(cols)):
                     v = np.sum(k[:, d] * col[:, d] * cols[b_i][:, d], axis=-1)
                     H[:, base + a_i, base + b_i] += v
                     if b_i != a_i:
                         H[:, base + b_i, base + a_i] += v
-    g[:, 0] -= p.torque / L
+    if gradient:
+        g[:, 0] -= p.torque / L
     state = {"pin_force": F, "bad": bad}
     if rigid:
         return energy, g, H, state
@@ -250,7 +280,7 @@ def _evaluate(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, hessian:
     kxx = kb * cx * cx + secant * cy * cy
     kyy = kb * cy * cy + secant * cx * cx
     kxy = (kb - secant) * cx * cy
-    for d in range(discs):
+    for d in range(discs if g is not None else 0):
         idx = [0, 1 + 3 * d, 2 + 3 * d, 3 + 3 * d]
         vec = [
             (np.broadcast_to(a, s.shape)[:, d], np.broadcast_to(b, s.shape)[:, d]) for a, b in gc
@@ -294,6 +324,15 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
         cy = np.where(s > 0, dy / s, 0.0)
         secant = np.where(s > 0, B / s, kb)
     fx, fy = B * cx, B * cy
+    if g is None:  # the potential only (a line-search trial)
+        if nw:
+            Kw = np.einsum("de,nekc->ndkc", sup.stiffness, w)
+            energy = energy + 0.5 * np.sum(w * Kw, axis=(1, 2, 3))
+        if sup.carrier is not None:
+            energy = energy + 0.5 * sup.carrier * beta * beta
+        state.update(bearing_fx=fx, bearing_fy=fy, deflection=s, bearing_part=sb)
+        state.update(shaft_deflection=w, end_plate=beta)
+        return energy, g, H, state
     # ∂d/∂x, scaled unknowns (rotations × L)
     G = np.zeros((n, discs, N, 2, m))
     jxb = np.broadcast_to(jx, (n, discs, N)) / L
@@ -394,7 +433,7 @@ def _newton(
         for _h in range(_MAX_HALVINGS):
             full = _expand(step[todo] * t[todo, None], reduce if rigid else None)
             trial = xa[todo] + _scale(full, p.scale, rot_idx)
-            e_t, _g, _H, st = _evaluate(sub.take(todo), law, trial, discs, rigid, hessian=False)
+            e_t, _g, _H, st = _evaluate(sub.take(todo), law, trial, discs, rigid, gradient=False)
             ok = ~st["bad"] & ((e_t <= energy[todo] + 1e-4 * t[todo] * slope[todo]) | tiny[todo])
             new[todo[ok]] = trial[ok]
             todo = todo[~ok]
@@ -547,7 +586,7 @@ def _problem(
         ny=np.concatenate([mesh.normal_y, np.where(usable_o, -_mirrored(other.normal_y), 0)], -1),
         alpha=alpha,
         gamma=gamma,
-        dmax=np.where(np.isfinite(dmax), dmax * (1.0 - 1e-9), np.inf),
+        dmax=np.where(np.isfinite(dmax), dmax * _REACH, np.inf),
         hx=hx,
         hy=hy,
         ex=ex,
@@ -616,7 +655,7 @@ def solve_direction(
         ux, uy = dx.mean(-1), dy.mean(-1)
         # turn each disc so that its pins keep (in the least-squares sense, weighted by
         # their stiffness) the approach of the rigid solution despite the translation
-        _, k_pin, _, _ = _pins(prob, x[:, 1::3], np.zeros_like(ux), np.zeros_like(uy))
+        _, k_pin, _, _ = _pins(prob, x[:, 1::3], None, None)
         shift = prob.nx * ux[..., None] + prob.ny * uy[..., None]
         weight = np.sum(k_pin * prob.arm * prob.arm, -1)
         turn = -np.sum(k_pin * prob.arm * shift, -1) / np.where(weight > 0, weight, np.inf)

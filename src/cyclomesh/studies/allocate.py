@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cyclomesh.exceptions import StudyError
-from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STAGE_RING_METRICS, STRESS_METRIC
 from cyclomesh.studies.execute import StudyKind
 from cyclomesh.studies.rings import (
     Progress,
@@ -79,7 +79,16 @@ def _nominal_stress(model: RingModel) -> float:
         np.zeros((1, pins)),
         np.zeros(1),
     )
-    return float(model.metrics(zero)[STRESS_METRIC][0])
+    return float(model.metrics(zero)[_stress_metric(model)][0])
+
+
+STAGE_STRESS_METRIC = "stage_max_contact_stress_mpa"
+
+
+def _stress_metric(model: RingModel) -> str:
+    """The allocation's criterion: the peak tooth contact stress, with ``[stage]`` the one
+    of the stage solve (pins loaded through the crank bearings, the hole errors in)."""
+    return STRESS_METRIC if model.stage is None else STAGE_STRESS_METRIC
 
 
 def compute_allocation(
@@ -123,7 +132,7 @@ def compute_allocation(
     factors = tuple(
         alloc.factor_max * (i + 1) / alloc.factor_steps for i in range(alloc.factor_steps)
     )
-    task = AllocationTask(model, factors, alloc.bisections, allowable)
+    task = AllocationTask(model, factors, alloc.bisections, allowable, _stress_metric(model))
     per_ring = run_rings(task, n, model, backend, chunk_rings, progress)
     seconds = time.perf_counter() - start
     result = allocate_factor(
@@ -137,7 +146,7 @@ def compute_allocation(
     from cyclomesh.tolerance.tasks import STATED_METRICS
 
     stated = [name for name in STATED_METRICS if name in per_ring]
-    every = METRICS | DRIVE_METRICS
+    every = METRICS | DRIVE_METRICS | STAGE_RING_METRICS
     data = {
         name: xr.DataArray(per_ring[name], dims=("ring",), attrs={"units": "1"})
         for name in ("critical_factor_lower", "critical_factor_upper")

@@ -103,6 +103,9 @@ def constraints(space: DesignSpaceSection) -> Constraints:
         min_contacts=space.min_contacts,
         max_lost_motion=scaled(space.max_lost_motion_arcmin, RAD_PER_ARCMIN),
         min_efficiency=space.min_efficiency,
+        min_stage_l10=scaled(space.min_stage_l10_h, 3600.0),
+        min_stage_rigidity=scaled(space.min_stage_rigidity_nm_per_arcmin, 1.0 / RAD_PER_ARCMIN),
+        max_stage_lost_motion=scaled(space.max_stage_lost_motion_arcmin, RAD_PER_ARCMIN),
     )
 
 
@@ -148,7 +151,7 @@ def compute_design(
     space = study.file.design_space
     if space is None:
         raise StudyError(f"{study.path.name}: no [design_space] section")
-    from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
+    from cyclomesh.studyfile.warnings import has_pin_errors, stage_warning, study_warnings
 
     base = study.base.to_core()
     if np.ndim(base.torque):
@@ -168,7 +171,7 @@ def compute_design(
         angles,
         bool(space.rings) or has_pin_errors(base.errors_um, study.base.errors.eccentricity_um),
         "rings drawn from [tolerance]" if space.rings else "pin errors",
-    )
+    ) + [w for w in (stage_warning(base),) if w]
     try:
         ds = design_map(
             base.design,
@@ -185,6 +188,7 @@ def compute_design(
             ),
             constraints=constraints(space),
             friction=base.friction,
+            stage=base.stage,
             objective=space.objective,
             lost_motion=space.lost_motion,
             backend=backend,
@@ -213,6 +217,9 @@ _AS_SUMMARY = {  # design-map variable -> the summary metric the requirements re
     "min_contacts": "min_contacts",
     "play_arcmin": "play_arcmin_max",
     "lost_motion_arcmin": "lost_motion_arcmin_max",
+    "stage_l10_h_min": "stage_l10_h_min",
+    "stage_torsional_rigidity_nm_per_arcmin_min": "stage_torsional_rigidity_nm_per_arcmin_min",
+    "stage_lost_motion_arcmin_max": "stage_lost_motion_arcmin_max",
 }
 
 
@@ -289,7 +296,8 @@ def best_study(study: Study, ds: xr.Dataset) -> str:
 
     base = study.base.model_dump()
     sections: dict[str, Any] = {"title": f"{study.title}: optimum of the design map"}
-    for name in ("design", "modification", "material", "load", "errors", "analysis", "friction"):
+    names = ("design", "modification", "material", "load", "errors", "analysis", "friction")
+    for name in (*names, "stage"):
         table = _drop_none(base.get(name) or {})
         if table:
             sections[name] = table

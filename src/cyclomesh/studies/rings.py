@@ -70,6 +70,17 @@ def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
             "load.torque_nm: tolerance studies take one torque (of the stack), not a list"
         )
     crank_range = spec.crank_range(base.analysis)
+    holes = [k for k in ("hole_radial_um", "hole_tangential_um") if getattr(spec, k) is not None]
+    if holes and (core.stage is None or core.stage.bearing is None):
+        raise StudyError(
+            f"tolerance.{holes[0]}: crank hole errors need the RV stage with its bearings: "
+            "add [stage] and [stage.crank_bearing] (docs/stage.md), or remove the key"
+        )
+    if core.stage is not None and core.friction is not None:
+        raise StudyError(
+            "[friction] is not coupled with the [stage] equilibrium yet: remove [friction] "
+            "(the stage's rings) or [stage] (the rings' efficiency)"
+        )
     return RingModel(
         design=core.design,
         modification=core.modification,
@@ -85,6 +96,12 @@ def ring_model(study: Study, spec: ToleranceSection) -> RingModel:
         disc_body=resolve_disc_body(
             core.disc_body, core.design, core.modification, core.crank_holes
         ),
+        stage=core.stage,
+        base_hole_errors_um=(
+            None
+            if base.stage is None
+            else (base.stage.hole_error_radial_um, base.stage.hole_error_tangential_um)
+        ),
         friction=core.friction,
     )
 
@@ -93,9 +110,11 @@ def ring_warnings(model: RingModel) -> list[str]:
     """Warnings of a tolerance or allocation study (:mod:`cyclomesh.studyfile.warnings`)."""
     from cyclomesh.studyfile.warnings import study_warnings
 
-    return study_warnings(
+    out = study_warnings(
         model.contact_law, model.crank_angles_deg, True, "rings drawn from [tolerance]"
     )
+    stage = None if model.stage is None else model.stage.preload_warning(model.discs)
+    return out + ([stage] if stage else [])
 
 
 def ring_count(spec: ToleranceSection, rings: int | None) -> int:

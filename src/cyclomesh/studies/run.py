@@ -147,7 +147,7 @@ def compute_run(
     from cyclomesh.results.requirements import jam_warning, min_play_arcmin
     from cyclomesh.studies.checks import case_checks
     from cyclomesh.studyfile.usage import check_keys
-    from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
+    from cyclomesh.studyfile.warnings import has_pin_errors, stage_warning, study_warnings
 
     check_keys(study.raw, "run")
     refuse_friction_with_stage(study)
@@ -174,7 +174,7 @@ def compute_run(
             inputs.contact_law,
             case.analysis.crank_angles_deg(),
             has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
-        ) + [w for w in (jam_warning(min_play_arcmin(ds)),) if w]
+        ) + [w for w in (jam_warning(min_play_arcmin(ds)), stage_warning(inputs)) if w]
         run.checks[case.name] = case_checks(study, case, inputs, run.summaries[case.name], ds)
         if on_done:
             on_done(case.name)

@@ -114,7 +114,7 @@ def compute_stiffness(
     from cyclomesh.results.torsion import stiffness, summarize_stiffness
     from cyclomesh.studies.checks import case_checks
     from cyclomesh.studyfile.usage import check_keys
-    from cyclomesh.studyfile.warnings import has_pin_errors, study_warnings
+    from cyclomesh.studyfile.warnings import has_pin_errors, stage_warning, study_warnings
 
     check_stiffness(study)
     check_keys(study.raw, "stiffness")
@@ -172,7 +172,7 @@ def compute_stiffness(
             inputs.contact_law,
             case.analysis.crank_angles_deg(),
             has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
-        ) + [w for w in (jam_warning(min_play_arcmin(ds)),) if w]
+        ) + [w for w in (jam_warning(min_play_arcmin(ds)), stage_warning(inputs)) if w]
         result.checks[case.name] = case_checks(study, case, inputs, record, ds[["play"]])
         if progress:
             progress(1)

@@ -35,7 +35,7 @@ import numpy as np
 
 from cyclomesh.exceptions import StudyError
 from cyclomesh.quantities import select
-from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STRESS_METRIC
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STAGE_RING_METRICS, STRESS_METRIC
 from cyclomesh.studies.execute import StudyKind
 from cyclomesh.studies.rings import (
     Progress,
@@ -80,9 +80,10 @@ __all__ = [
 
 # --- results of a tolerance study --------------------------------------------------------
 
-RING_METRICS = METRICS | DRIVE_METRICS | select("efficiency")
-"""The per-ring metrics of a tolerance study: those of a run, a stack's, and with
-``[friction]`` the forward efficiency (:func:`cyclomesh.tolerance.tasks.ring_efficiency`)."""
+RING_METRICS = METRICS | DRIVE_METRICS | select("efficiency") | STAGE_RING_METRICS
+"""The per-ring metrics of a tolerance study: those of a run, a stack's, with
+``[friction]`` the forward efficiency (:func:`cyclomesh.tolerance.tasks.ring_efficiency`)
+and with ``[stage]`` the stage's (:meth:`cyclomesh.tolerance.tasks.RingModel.stage_metrics`)."""
 
 
 def metrics_dataset(
@@ -216,6 +217,29 @@ def ring_statistics(
             "std": "sample standard deviation (ddof = 1)",
         },
         "percentiles": list(PERCENTILES),
+        **_stage_worst(ds),
+    }
+
+
+def _stage_worst(ds: xr.Dataset) -> dict[str, Any]:
+    """With ``[stage]``: the ring whose weakest crank bearing has the shortest L10h (or,
+    without a bearing, the largest crank bearing load), the stage's worst ring."""
+    name, pick = ("stage_l10_h_min", np.nanargmin)
+    if name not in ds:
+        name, pick = ("stage_max_crank_bearing_load_n", np.nanargmax)
+    if name not in ds:
+        return {}
+    values = np.asarray(ds[name].values, dtype=float)
+    if not np.any(np.isfinite(values)):
+        return {"stage_worst_ring": None}
+    i = int(pick(values))
+    k = int(ds["ring"].values[i])
+    return {
+        "stage_worst_ring": {
+            "ring": k,
+            "by": name,
+            **{m: float(ds[m].values[i]) for m in STAGE_RING_METRICS if m in ds},
+        }
     }
 
 
@@ -264,6 +288,15 @@ def worst_ring_study(
         "angular_urad": [float(v) for v in total["angular_urad"][0]],
         "pin_radius_um": [float(v) for v in total["pin_radius_um"][0]],
     }
+    if model.stage is not None and base.get("stage"):
+        stage = dict(_drop_none(base["stage"]))
+        for key, name in (
+            ("hole_error_radial_um", "hole_radial_um"),
+            ("hole_error_tangential_um", "hole_tangential_um"),
+        ):
+            if name in total:
+                stage[key] = np.asarray(total[name][0], float).tolist()
+        sections["stage"] = stage
     header = "".join(f"# {line}\n" for line in note.splitlines())
     return header + toml_dumps(sections) + "\n"
 
@@ -471,6 +504,15 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
             else "no ring jams."
         )
     )
+    stage = stats.get("stage_worst_ring")
+    if stage:
+        life = stage.get("stage_l10_h_min")
+        worst_text += (
+            f". RV stage: the weakest ring is {stage['ring']}"
+            + ("" if life is None else f" (L10h of its weakest crank bearing {life:.5g} h")
+            + f"{', ' if life is not None else ' ('}largest crank bearing load "
+            f"{stage['stage_max_crank_bearing_load_n']:.5g} N)"
+        )
     text = description_html(result.study) + (
         f"<p>{stats['rings']} rings, seed {stats['seed']}. Probability that the peak tooth "
         f"contact stress exceeds {stats['allowable_contact_stress_mpa']:g} MPa: "

@@ -130,6 +130,12 @@ class ToleranceSection(StrictSection):
     pin_radius_um: ErrorDistribution | None = None
     eccentricity_um: ErrorDistribution | None = None
     position: TruePosition | None = None
+    hole_radial_um: ErrorDistribution | None = Field(
+        None, description="crank hole position error, radial [µm], per disc and crank ([stage])"
+    )
+    hole_tangential_um: ErrorDistribution | None = Field(
+        None, description="crank hole position error, tangential [µm], per disc and crank"
+    )
     allocation: AllocationSection = AllocationSection()
 
     @model_validator(mode="after")
@@ -279,8 +285,27 @@ class DesignSpaceSection(StrictSection):
     min_efficiency: float | None = Field(
         None, gt=0, le=1, description="smallest forward efficiency allowed (needs [friction])"
     )
-    objective: Literal["max_contact_stress", "te_pp", "lost_motion", "play", "efficiency"] = Field(
-        "max_contact_stress", description="metric minimised (efficiency: maximised)"
+    min_stage_l10_h: float | None = Field(
+        None, gt=0, description="shortest L10h of the weakest crank bearing allowed [h] ([stage])"
+    )
+    min_stage_rigidity_nm_per_arcmin: float | None = Field(
+        None, gt=0, description="smallest stage torsional rigidity allowed [N·m/arcmin] ([stage])"
+    )
+    max_stage_lost_motion_arcmin: float | None = Field(
+        None, gt=0, description="largest stage lost motion allowed [arcmin] ([stage])"
+    )
+    objective: Literal[
+        "max_contact_stress",
+        "te_pp",
+        "lost_motion",
+        "play",
+        "efficiency",
+        "stage_l10",
+        "stage_rigidity",
+        "stage_lost_motion",
+    ] = Field(
+        "max_contact_stress",
+        description="metric minimised (efficiency, stage_l10, stage_rigidity: maximised)",
     )
     rings: int = Field(
         0, ge=0, le=MAX_RINGS, description="rings drawn from [tolerance] (0: nominal map)"
@@ -340,5 +365,8 @@ class DesignSpaceSection(StrictSection):
             "min_contacts",
             "max_lost_motion_arcmin",
             "min_efficiency",
+            "min_stage_l10_h",
+            "min_stage_rigidity_nm_per_arcmin",
+            "max_stage_lost_motion_arcmin",
         )
         return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}

@@ -129,6 +129,10 @@ USED: dict[str, tuple[str, ...]] = {
     "tolerance": (
         *_LTCA,
         *_RINGS,
+        "stage",
+        "design.disc",
+        "tolerance.hole_radial_um",
+        "tolerance.hole_tangential_um",
         "tolerance.rings",
         "tolerance.allowable_contact_stress_mpa",
         "tolerance.allocation.confidence",
@@ -137,8 +141,8 @@ USED: dict[str, tuple[str, ...]] = {
         *_CHECKED,
         "requirements.tolerance_percentile",
     ),
-    "allocate": (*_LTCA, "tolerance"),
-    "design": (*_LTCA, *_RINGS, "design_space", "friction", *_CHECKED),
+    "allocate": (*_LTCA, "tolerance", "stage", "design.disc"),
+    "design": (*_LTCA, *_RINGS, "design_space", "friction", "stage", "design.disc", *_CHECKED),
     "fe": (
         *_PAIR,
         *_OUTPUT,
@@ -184,7 +188,7 @@ NEEDS: dict[str, dict[str, tuple[str, str]]] = {
             "or remove [design.disc] (docs/stage.md)",
         )
     }
-    for kind in ("run", "stiffness")
+    for kind in ("run", "stiffness", "design", "tolerance", "allocate")
 }
 """Keys a kind uses only together with another (key → (needed key, refusal))."""
 
@@ -211,21 +215,15 @@ REFUSED: dict[str, dict[str, str]] = {
         "apply; remove [friction.lubricant] (cyclomesh run uses it)",
     },
     "tolerance": {
-        "design.disc": _HOLES,
-        "stage": _stage("tolerance"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "allocate": {
-        "design.disc": _HOLES,
-        "stage": _stage("allocate"),
         "friction": _friction("allocate"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },
     "design": {
-        "design.disc": _HOLES,
-        "stage": _stage("design"),
         "cases": _BASE_ONLY,
         **{key: _NO_RUN_FIGURES for key in _RUN_FIGURES},
     },

@@ -18,6 +18,7 @@ References
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -30,6 +31,7 @@ __all__ = [
     "covered_deg",
     "has_pin_errors",
     "merge_warnings",
+    "stage_warning",
 ]
 
 PAPER_LAW_WARNING = (
@@ -77,6 +79,14 @@ def study_warnings(
     if pin_errors:
         out.append(coverage_warning(crank_angles_deg, what))
     return [w for w in out if w]
+
+
+def stage_warning(inputs: Any) -> str | None:
+    """The RV stage's warning of a case's core inputs (crank hole errors beyond the bearing
+    clearance, :meth:`~cyclomesh.stage.design.StageDesign.preload_warning`), or None."""
+    if getattr(inputs, "stage", None) is None:
+        return None
+    return inputs.stage.preload_warning(inputs.discs)
 
 
 def merge_warnings(per_case: Mapping[str, Iterable[str]]) -> list[str]:

@@ -44,6 +44,7 @@ __all__ = ["RingErrors", "draw_ring_errors", "unit_disc"]
 
 # stream ids of the error kinds (part of the reproducibility contract: never renumber)
 _RADIAL, _ANGULAR, _PIN_RADIUS, _ECCENTRICITY, _POSITION, _TANGENTIAL = 1, 2, 3, 4, 5, 6
+_HOLE_RADIAL, _HOLE_TANGENTIAL = 7, 8
 
 
 @dataclass(frozen=True)
@@ -65,6 +66,9 @@ class RingErrors:
         ερ,i, pin radius error [µm].
     eccentricity_um : ndarray, shape (R,)
         εe, eccentricity error [µm].
+    hole_radial_um, hole_tangential_um : ndarray, shape (R, D, N), or None
+        Crank hole position errors of the RV stage [µm] (disc frame, radial outwards and
+        counter-clockwise), drawn per disc and crank; None without a stage.
     """
 
     rings: NDArray[np.int64]
@@ -72,17 +76,22 @@ class RingErrors:
     angular_urad: NDArray[np.float64]
     pin_radius_um: NDArray[np.float64]
     eccentricity_um: NDArray[np.float64]
+    hole_radial_um: NDArray[np.float64] | None = None
+    hole_tangential_um: NDArray[np.float64] | None = None
 
     def scaled(self, factor: ArrayLike) -> RingErrors:
         """The same draws times ``factor`` (scalar, or one value per ring) [-]."""
         f = np.asarray(factor, dtype=float)
         fp = f[..., None] if f.ndim else f
+        fh = f[..., None, None] if f.ndim else f
         return RingErrors(
             self.rings,
             self.radial_um * fp,
             self.angular_urad * fp,
             self.pin_radius_um * fp,
             self.eccentricity_um * f,
+            None if self.hole_radial_um is None else self.hole_radial_um * fh,
+            None if self.hole_tangential_um is None else self.hole_tangential_um * fh,
         )
 
     def take(self, index: ArrayLike) -> RingErrors:
@@ -94,6 +103,8 @@ class RingErrors:
             self.angular_urad[i],
             self.pin_radius_um[i],
             self.eccentricity_um[i],
+            None if self.hole_radial_um is None else self.hole_radial_um[i],
+            None if self.hole_tangential_um is None else self.hole_tangential_um[i],
         )
 
 
@@ -128,6 +139,7 @@ def draw_ring_errors(
     pins: int,
     pin_circle_radius: float,
     rings: Sequence[int] | NDArray[np.integer],
+    holes: tuple[int, int] | None = None,
 ) -> RingErrors:
     """Draw the errors of the given rings at the stated tolerances (scale factor 1).
 
@@ -142,6 +154,10 @@ def draw_ring_errors(
         true-position zone's) into the angular error εψ,i = tangential / a.
     rings : sequence of int
         Ring indices k ≥ 0.
+    holes : (D, N), optional
+        Discs and crank holes of an RV stage: the crank hole errors ``hole_radial_um`` and
+        ``hole_tangential_um`` of the spec are drawn per disc and crank (streams of their
+        own, same distributions as the pin errors); None: no hole errors.
 
     Returns
     -------
@@ -172,4 +188,14 @@ def draw_ring_errors(
             pin_radius[j] = _standard(spec.pin_radius_um, _stream(seed, k, _PIN_RADIUS), pins)
         if spec.eccentricity_um is not None:
             eccentricity[j] = _standard(spec.eccentricity_um, _stream(seed, k, _ECCENTRICITY), 1)[0]
-    return RingErrors(ks, radial, angular, pin_radius, eccentricity)
+    if holes is None:
+        return RingErrors(ks, radial, angular, pin_radius, eccentricity)
+    hole = {}
+    for name, kind in (("hole_radial_um", _HOLE_RADIAL), ("hole_tangential_um", _HOLE_TANGENTIAL)):
+        hole[name] = np.zeros((n, *holes))
+        dist = getattr(spec, name, None)
+        if dist is not None:
+            for j, k in enumerate(ks.tolist()):
+                size = holes[0] * holes[1]
+                hole[name][j] = _standard(dist, _stream(seed, k, kind), size).reshape(holes)
+    return RingErrors(ks, radial, angular, pin_radius, eccentricity, **hole)

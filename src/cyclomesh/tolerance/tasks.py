@@ -106,12 +106,20 @@ class RingModel:
     discs: int = 1
     crank_range: tuple[float, float, float] | None = None
     disc_body: Any = "rigid"
+    stage: Any = None
+    """The RV stage (:class:`~cyclomesh.stage.design.StageDesign`, its own hole errors the
+    base's), or None: the mesh alone. With a stage every ring is also solved as the whole
+    stage (:meth:`stage_metrics`) and draws crank hole errors."""
+    base_hole_errors_um: tuple[Any, Any] | None = None
+    """The base case's crank hole errors in study units (radial, tangential) [µm], each
+    broadcastable to (D, N); None without a stage."""
     friction: Any = None
 
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
+        holes = None if self.stage is None else (self.discs, self.stage.holes.count)
         return draw_ring_errors(
-            self.spec, self.design.pins, self.design.pin_circle_radius, np.asarray(rings)
+            self.spec, self.design.pins, self.design.pin_circle_radius, np.asarray(rings), holes
         )
 
     def total_errors_um(self, drawn: RingErrors) -> dict[str, NDArray[np.float64]]:
@@ -122,6 +130,14 @@ class RingModel:
             total += getattr(drawn, name)
             out[name] = total
         out["eccentricity_um"] = self.base_eccentricity_um + drawn.eccentricity_um
+        if drawn.hole_radial_um is not None and self.base_hole_errors_um is not None:
+            for name, base in zip(
+                ("hole_radial_um", "hole_tangential_um"), self.base_hole_errors_um, strict=True
+            ):
+                drawn_um = getattr(drawn, name)
+                total = np.broadcast_to(np.asarray(base, float), drawn_um.shape).copy()
+                total += drawn_um
+                out[name] = total
         return out
 
     def pin_errors(self, drawn: RingErrors) -> PinErrors:
@@ -143,10 +159,73 @@ class RingModel:
             The core's error, prefixed with the first ring that fails.
         """
         try:
-            return self._solve(drawn)
+            out = self._solve(drawn)
+            if self.stage is not None:
+                out.update(self.stage_metrics(drawn))
+            return out
         except CyclomeshError:
             self._blame(drawn)
             raise
+
+    def stage_metrics(self, drawn: RingErrors) -> dict[str, NDArray[Any]]:
+        """The RV stage's metrics of every ring, solved one after the other.
+
+        Each ring's stage carries its crank hole errors (the base's plus the drawn ones,
+        µm → m as the study loader does) and is checked like a study's
+        (:meth:`~cyclomesh.stage.design.StageDesign.check_fits`: hole errors that jam the
+        stage raise DesignError, a jammed ring); one stage solve at the torque and at
+        ∓3 % of it (:func:`cyclomesh.stage.solve.solve`) gives:
+
+        * ``stage_l10_h_min``: L10h of the weakest crank bearing at the torque [h];
+        * ``stage_lost_motion_arcmin_max``: TE(−3 %) − TE(+3 %), the largest over the
+          crank angles [arcmin];
+        * ``stage_max_crank_bearing_load_n``: the largest crank bearing load [N];
+        * ``stage_max_contact_stress_mpa``: the largest pin–tooth pressure in the stage [MPa].
+        """
+        import dataclasses
+
+        from cyclomesh.core.case import Case, Model
+        from cyclomesh.drive.torsion import LOST_MOTION_FRACTION
+        from cyclomesh.stage.solve import bearing_life, solve
+        from cyclomesh.units import M_PER_UM, RAD_PER_ARCMIN
+
+        total = self.total_errors_um(drawn)
+        light = LOST_MOTION_FRACTION * self.torque_nm
+        torques = np.array([self.torque_nm, -light, light])
+        phi = np.deg2rad(self.crank_angles_deg)
+        names = (
+            "stage_l10_h_min",
+            "stage_lost_motion_arcmin_max",
+            "stage_max_crank_bearing_load_n",
+            "stage_max_contact_stress_mpa",
+        )
+        out = {name: np.full(drawn.rings.size, np.nan) for name in names}
+        for i in range(drawn.rings.size):
+            stage = self.stage
+            if "hole_radial_um" in total:
+                stage = dataclasses.replace(
+                    stage,
+                    hole_error_radial=np.asarray(total["hole_radial_um"][i], float) * M_PER_UM,
+                    hole_error_tangential=np.asarray(total["hole_tangential_um"][i], float)
+                    * M_PER_UM,
+                )
+            stage.check_fits(self.design, self.discs)
+            res = solve(
+                Case(
+                    self.design, self.modification, self.pin_errors(drawn.take([i])), torques, phi
+                ),
+                Model(self.contact_law, self.groove_deformation, "rigid", self.discs, stage),
+            )
+            te = res.transmission_error[0]  # (Q, A) of the one ring
+            out["stage_lost_motion_arcmin_max"][i] = np.max(te[1] - te[2]) / RAD_PER_ARCMIN
+            out["stage_max_crank_bearing_load_n"][i] = np.max(res.bearing_load[0, 0])
+            out["stage_max_contact_stress_mpa"][i] = np.max(res.contact_stress[0, 0]) * 1e-6
+            if stage.bearing is not None:
+                hours = bearing_life(res, stage, self.design.pins)[2][0, 0]
+                out["stage_l10_h_min"][i] = np.min(hours)
+        if self.stage.bearing is None:
+            del out["stage_l10_h_min"]
+        return out
 
     @property
     def block_rings(self) -> int:
@@ -252,8 +331,13 @@ STATED_METRICS = (
     "max_mesh_force_n",
     "min_torque_share_nm",
     "max_torque_share_nm",
+    "stage_l10_h_min",
+    "stage_lost_motion_arcmin_max",
+    "stage_max_crank_bearing_load_n",
+    "stage_max_contact_stress_mpa",
 )
-"""Per-ring metrics an allocation also reports at the stated tolerances (f = 1)."""
+"""Per-ring metrics an allocation also reports at the stated tolerances (f = 1); the
+stage's with ``[stage]``."""
 
 
 @dataclass(frozen=True)
