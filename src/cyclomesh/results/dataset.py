@@ -107,7 +107,7 @@ def to_dataset(
     if ring_dims:
         coords["ring"] = ("ring", np.arange(result.transmission_error.shape[0]))
     attrs = result_attrs(result.crank_angle, design, modification, torque, groove_deformation)
-    data["contacts"].attrs["load_threshold_fraction"] = CONTACT_LOAD_FRACTION
+    data["contacts"][2]["load_threshold_fraction"] = CONTACT_LOAD_FRACTION
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
