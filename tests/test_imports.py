@@ -46,7 +46,10 @@ def test_lazy_names_of_the_package():
 
 def test_run_without_figures_never_imports_matplotlib(tmp_path):
     """``cyclomesh run --figures none`` end to end: no figure asked, matplotlib never
-    imported (issue 27), and the result files are all there."""
+    imported (issue 27), nor ``dask.array`` and ``scipy.fft`` (xarray imports them to
+    probe for Dask arrays unless the variables are built as in
+    :mod:`cyclomesh.results.arrays`; a check only where Dask is installed), and the
+    result files are all there."""
     from pathlib import Path
 
     example = Path(__file__).resolve().parents[1] / "examples" / "table2.toml"
@@ -57,9 +60,35 @@ def test_run_without_figures_never_imports_matplotlib(tmp_path):
         f"args = ['run', {str(example)!r}, '--out', {str(out)!r}, '-q', '--figures', 'none',"
         " '--crank-step-deg', '10']\n"
         "try:\n    app(args)\nexcept SystemExit as exc:\n    assert not exc.code, exc.code\n"
-        "print(sorted(m for m in ('matplotlib', 'scipy.stats') if m in sys.modules))\n"
+        "heavy = ('matplotlib', 'scipy.stats', 'dask.array', 'scipy.fft', 'scipy.fftpack')\n"
+        "print(sorted(m for m in heavy if m in sys.modules))\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip().splitlines()[-1] == "[]", done.stdout
     assert (out / "summary.json").is_file() and not (out / "figures").exists()
+
+
+def test_run_figures_index_numpy_not_xarray():
+    """The default figures of a plain run, drawn in this process as a figure worker draws
+    them: ``dask.array`` and ``scipy.fft`` are never imported (xarray's indexing and
+    reductions would import them in every worker when Dask is installed), and every
+    figure is drawn."""
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parents[1] / "examples" / "table2.toml"
+    code = (
+        "import sys\n"
+        "from cyclomesh.figures.render import render_figures\n"
+        "from cyclomesh.studies import run as kind\n"
+        "from cyclomesh.studyfile import load_study\n"
+        f"study = load_study({str(example)!r})\n"
+        "jobs = kind.run_figures(kind.compute_run(study))\n"
+        "drawn = render_figures(jobs, None, workers=1)\n"
+        "assert [f.name for f in drawn] == [j.name for j in jobs] and all(f.png for f in drawn)\n"
+        "print(len(drawn), sorted(m for m in ('dask.array', 'scipy.fft') if m in sys.modules))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    count, absent = done.stdout.strip().splitlines()[-1].split(" ", 1)
+    assert int(count) >= 9 and absent == "[]", done.stdout

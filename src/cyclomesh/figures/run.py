@@ -102,11 +102,17 @@ def case_style(index: int, count: int, marker: str | None = None) -> dict[str, o
     return style
 
 
-def _nearest_angle(ds: xr.Dataset, angle_deg: float) -> float:
-    """The computed crank angle [deg] nearest to ``angle_deg`` (modulo 360)."""
+def _nearest_index(ds: xr.Dataset, angle_deg: float) -> int:
+    """Index of the computed crank angle nearest to ``angle_deg`` (modulo 360)."""
     crank = ds["crank_angle"].values
-    distance = np.abs((crank - angle_deg + 180.0) % 360.0 - 180.0)
-    return float(crank[np.argmin(distance)])
+    return int(np.argmin(np.abs((crank - angle_deg + 180.0) % 360.0 - 180.0)))
+
+
+def _grid(ds: xr.Dataset, name: str, *dims: str) -> np.ndarray:
+    """``ds[name]`` over ``dims`` as a NumPy array. The figures index and reduce NumPy
+    arrays, not Datasets: xarray's indexing and reductions import ``dask.array`` in the
+    figure worker whenever Dask is installed (see :mod:`cyclomesh.results.arrays`)."""
+    return ds[name].transpose(*dims).values
 
 
 def plot_profile(curves: ProfileCurves) -> Figure:
@@ -184,11 +190,12 @@ def plot_loads(results: Results, crank_angles_deg: Sequence[float] = (0, 60, 120
     axes = np.atleast_2d(fig.subplots(len(crank_angles_deg), 2, sharex=True, squeeze=False))
     for row, angle in zip(axes, crank_angles_deg, strict=True):
         for i, (name, ds) in enumerate(cases.items()):
-            at = _nearest_angle(ds, angle)
-            one = ds.sel(crank_angle=at)
+            k = _nearest_index(ds, angle)
+            at = float(ds["crank_angle"].values[k])
+            pins = ds["pin"].values
             style = case_style(i, len(cases), ".")
-            row[0].plot(one["pin"], one["pin_load"], label=name, **style)
-            row[1].plot(one["pin"], one["groove_load"], label=name, **style)
+            for ax, load in zip(row, ("pin_load", "groove_load"), strict=True):
+                ax.plot(pins, _grid(ds, load, "crank_angle", "pin")[k], label=name, **style)
         row[0].set_title(f"pin-tooth load, crank angle {at:g}°", fontsize="medium")
         row[1].set_title(f"pin-groove load, crank angle {at:g}°", fontsize="medium")
         row[0].set_ylabel("pin load Fc [N]")
@@ -218,10 +225,10 @@ def plot_profile_stress(results: Results, pin: int = 20, x: str = "profile_angle
     fig = fixed_figure(7.5, 4.5, **_MARGINS)
     ax = fig.subplots()
     for i, (name, ds) in enumerate(cases.items()):
-        one = ds.sel(pin=pin)
-        loaded = one["pin_load"].values > 0
-        abscissa = np.where(loaded, one[x].values, np.nan)
-        stress = np.where(loaded, one["contact_stress"].values, np.nan)
+        j = int(np.flatnonzero(ds["pin"].values == pin)[0])
+        loaded = _grid(ds, "pin_load", "crank_angle", "pin")[:, j] > 0
+        abscissa = np.where(loaded, _grid(ds, x, "crank_angle", "pin")[:, j], np.nan)
+        stress = np.where(loaded, _grid(ds, "contact_stress", "crank_angle", "pin")[:, j], np.nan)
         order = np.argsort(np.where(loaded, abscissa, np.inf), kind="stable")
         ax.plot(abscissa[order], stress[order], label=name, **case_style(i, len(cases)))
     if x == "profile_angle":
@@ -263,7 +270,7 @@ def plot_stress_maps(results: Results) -> Figure:
     for column, (variable, label) in enumerate(
         (("contact_stress", "tooth contact stress [MPa]"), ("groove_stress", "groove stress [MPa]"))
     ):
-        top = max(float(ds[variable].max()) for ds in cases.values()) or 1.0
+        top = max(float(np.nanmax(ds[variable].values)) for ds in cases.values()) or 1.0
         for ax, (name, ds) in zip(axes[:, column], cases.items(), strict=True):
             values = np.ma.masked_less_equal(ds[variable].transpose("pin", "crank_angle").values, 0)
             crank, pins = ds["crank_angle"].values, ds["pin"].values
@@ -407,14 +414,16 @@ def plot_backlash(results: Results, crank_angles_deg: Sequence[float] = (0.0,)) 
     for ax, angle in zip(axes, crank_angles_deg, strict=True):
         above = 0
         for i, (name, ds) in enumerate(cases.items()):
-            at = _nearest_angle(ds, angle)
-            one = ds["backlash"].sel(crank_angle=at)
-            values = np.where(np.isfinite(one.values), one.values, np.nan)
-            line = ax.plot(one["pin"], values, label=name, **case_style(i, len(cases), "."))[0]
+            k = _nearest_index(ds, angle)
+            at = float(ds["crank_angle"].values[k])
+            pins = ds["pin"].values
+            one = _grid(ds, "backlash", "crank_angle", "pin")[k]
+            values = np.where(np.isfinite(one), one, np.nan)
+            line = ax.plot(pins, values, label=name, **case_style(i, len(cases), "."))[0]
             high = values > top
             above = max(above, int(np.sum(high)))
             ax.plot(
-                one["pin"].values[high],
+                pins[high],
                 np.full(int(np.sum(high)), top),
                 "^",
                 color=line.get_color(),

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cyclomesh.output.folder import active_folder, atomic_write, write_text
+from cyclomesh.results.arrays import nan_reduce
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -357,11 +358,9 @@ def angle_table(ds: xr.Dataset) -> pa.Table:
         if source in ds:
             var = ds[source]
             over = tuple(d for d in ("disc", "pin") if d in var.dims)
-            peak = var.max(over).transpose(*rows)
+            peak = nan_reduce(var, "max", over, rows)
             units = var.attrs.get("units", "1")
-            columns.append(
-                _column(grid(peak.values, rows), csv_column(name, units), units, long_name)
-            )
+            columns.append(_column(grid(peak, rows), csv_column(name, units), units, long_name))
     return _table(columns)
 
 

@@ -23,6 +23,7 @@ from cyclomesh.drive.solve import Drive, check_torques, drive
 from cyclomesh.exceptions import DesignError
 from cyclomesh.execution.runtime import version
 from cyclomesh.quantities import QUANTITIES
+from cyclomesh.results.arrays import nan_reduce, variable
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, summary_metrics
 
 if TYPE_CHECKING:
@@ -203,29 +204,31 @@ def drive_to_dataset(
             value = select(getattr(result, name), per)
             attrs = {"units": units, "long_name": long_name}
             attrs.update({"nonfinite": NONFINITE[name]} if name in NONFINITE else {})
-            data[name] = (dims, value * scale, attrs)
+            data[name] = variable(dims, value * scale, attrs)
     name, scale, units, long_name = _PLAY
-    data[name] = (
+    data[name] = variable(
         (*ring, "crank_angle"),
         result.play * scale,
         {"units": units, "long_name": long_name},
     )
     coords = {
-        "crank_angle": ("crank_angle", np.degrees(result.crank_angle), {"units": "deg"}),
-        "pin": ("pin", np.arange(1, design.pins + 1), {"units": "1"}),
+        "crank_angle": variable("crank_angle", np.degrees(result.crank_angle), {"units": "deg"}),
+        "pin": variable("pin", np.arange(1, design.pins + 1), {"units": "1"}),
     }
     if torque_dim:
-        coords["torque"] = ("torque", result.torque, {"units": "N·m", "long_name": "torque"})
+        coords["torque"] = variable(
+            "torque", result.torque, {"units": "N·m", "long_name": "torque"}
+        )
     if stack:
-        coords["disc"] = ("disc", np.arange(1, discs + 1), {"units": "1"})
+        coords["disc"] = variable("disc", np.arange(1, discs + 1), {"units": "1"})
     if ring:
-        coords["ring"] = ("ring", np.arange(result.transmission_error.shape[0]))
+        coords["ring"] = variable("ring", np.arange(result.transmission_error.shape[0]))
     import xarray as xr
 
     single = None if torque_dim else float(result.torque[0])
     attrs = result_attrs(result.crank_angle, design, modification, single, groove_deformation)
     attrs["discs"] = int(discs)
-    data["contacts"][2]["load_threshold_fraction"] = CONTACT_LOAD_FRACTION
+    data["contacts"].attrs["load_threshold_fraction"] = CONTACT_LOAD_FRACTION
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
@@ -356,7 +359,7 @@ def drive_dataset(
     if not isinstance(body, str):
         ds.attrs["disc_body_key"] = body.key
     if degrees is not None:
-        ds = ds.assign_coords(crank_angle=("crank_angle", degrees, {"units": "deg"}))
+        ds = ds.assign_coords(crank_angle=variable("crank_angle", degrees, {"units": "deg"}))
     return ds
 
 
@@ -396,15 +399,20 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
         ds.attrs["teeth"],
     )
     coords = {d: ds[d] for d in order if d in ds.coords}
-    data = {name: (tuple(order), values[name]) for name in METRICS}
+    data = {name: variable(order, values[name]) for name in METRICS}
+
+    def reduced(name: str, how: str, over: tuple[str, ...]) -> xr.Variable:
+        keep = [d for d in order if d in ds[name].dims]  # play has no torque dimension
+        return variable(keep, nan_reduce(ds[name], how, over, keep))
+
     if "play" in ds:
-        data["play_arcsec_mean"] = ds["play"].mean("crank_angle")
-        data["play_arcsec_max"] = ds["play"].max("crank_angle")
+        data["play_arcsec_mean"] = reduced("play", "mean", ("crank_angle",))
+        data["play_arcsec_max"] = reduced("play", "max", ("crank_angle",))
     if "mesh_force" in ds:
-        data["max_mesh_force_n"] = ds["mesh_force"].max(("crank_angle", *stack))
+        data["max_mesh_force_n"] = reduced("mesh_force", "max", ("crank_angle", *stack))
     if "torque_share" in ds:
-        data["min_torque_share_nm"] = ds["torque_share"].min(("crank_angle", *stack))
-        data["max_torque_share_nm"] = ds["torque_share"].max(("crank_angle", *stack))
+        data["min_torque_share_nm"] = reduced("torque_share", "min", ("crank_angle", *stack))
+        data["max_torque_share_nm"] = reduced("torque_share", "max", ("crank_angle", *stack))
     summary = xr.Dataset(data, coords=coords)
     for name in summary.data_vars:
         metric = METRICS.get(name) or DRIVE_METRICS[name]

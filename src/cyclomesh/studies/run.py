@@ -25,6 +25,7 @@ import numpy as np
 from cyclomesh.core.pair import Modification
 from cyclomesh.publish.pipeline import case_attrs, summary_document
 from cyclomesh.quantities import QUANTITIES
+from cyclomesh.results.arrays import variable
 from cyclomesh.results.efficiency import EFFICIENCY_METRICS
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STIFFNESS_METRICS
 from cyclomesh.results.profile import profile_curves
@@ -86,7 +87,7 @@ def annotate(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs, study: Study) -
     errors = inputs.errors_um
     out = ds.assign(
         {
-            name: ("pin", errors[key], {"units": q.unit, "long_name": q.long_name})
+            name: variable("pin", errors[key], {"units": q.unit, "long_name": q.long_name})
             for name, key in (
                 ("pin_radial_error", "radial_um"),
                 ("pin_angular_error", "angular_urad"),
