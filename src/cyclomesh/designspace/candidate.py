@@ -45,7 +45,7 @@ GEOMETRY: dict[str, tuple[str, float, str, str]] = {
 """Sweepable geometry: study key → (field of PairDesign, scale to SI, units, name). A
 swept pin radius keeps the groove clearance ρg − ρp of the base design."""
 
-_DESIGN = "design."  # prefix of a PairDesign field in DesignTask.axes
+DESIGN_PREFIX = "design."  # prefix of a PairDesign field in DesignTask.axes
 
 
 def parameter(key: str) -> tuple[str, float, str, str]:
@@ -54,14 +54,14 @@ def parameter(key: str) -> tuple[str, float, str, str]:
     if key in PARAMETERS:
         return PARAMETERS[key]
     field, scale, units, name = GEOMETRY[key]
-    return _DESIGN + field, scale, units, name
+    return DESIGN_PREFIX + field, scale, units, name
 
 
 def parameter_value(design: PairDesign, modification: Modification, key: str) -> float:
     """The value of a sweepable key in a design and modification [study units]."""
     field, scale, _, _ = parameter(key)
-    if field.startswith(_DESIGN):
-        return float(getattr(design, field[len(_DESIGN) :])) / scale
+    if field.startswith(DESIGN_PREFIX):
+        return float(getattr(design, field[len(DESIGN_PREFIX) :])) / scale
     return float(getattr(modification, field)) / scale
 
 
@@ -341,7 +341,7 @@ def stage_metrics(
     return out
 
 
-def _robust(name: str, values: FloatArray) -> float:
+def robust_value(name: str, values: FloatArray) -> float:
     """Reduce a metric over rings: 95th percentile if larger is worse, else 5th.
 
     Conservative order statistics (numpy's ``higher``/``lower`` methods): the value is one

@@ -67,7 +67,7 @@ from numpy.typing import ArrayLike, NDArray
 from cyclomesh.core.ltca import check_contact_law
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.designspace.candidate import (
-    _DESIGN,
+    DESIGN_PREFIX,
     GEOMETRY,
     METRICS,
     NONFINITE_FAILED,
@@ -76,10 +76,10 @@ from cyclomesh.designspace.candidate import (
     ROBUST_PERCENTILE,
     STAGE_METRICS,
     Constraints,
-    _robust,
     candidate_metrics,
     parameter,
     parameter_value,
+    robust_value,
     stage_metrics,
 )
 from cyclomesh.exceptions import CyclomeshError, DesignError
@@ -179,9 +179,9 @@ class DesignTask:
         where = np.unravel_index(index, self.shape)
         changes = {name: values[k] for (name, values), k in zip(self.axes, where, strict=True)}
         geometry = {
-            name[len(_DESIGN) :]: changes.pop(name)
+            name[len(DESIGN_PREFIX) :]: changes.pop(name)
             for name in list(changes)
-            if name.startswith(_DESIGN)
+            if name.startswith(DESIGN_PREFIX)
         }
         design = self.design
         if geometry:
@@ -233,7 +233,7 @@ class DesignTask:
                 reason[row] = str(exc)  # in full: design.nc keeps every character
                 continue
             for m in names:
-                out[m][row] = _robust(m, values[m])
+                out[m][row] = robust_value(m, values[m])
         out["reason"] = np.asarray(reason, dtype=str)
         return out
 

@@ -27,6 +27,10 @@ __all__ = [
     "table_html",
     "render_report",
     "write_report",
+    "table_cell",
+    "metrics_table",
+    "description_html",
+    "warning_sections",
 ]
 
 _STYLE = """
@@ -169,3 +173,67 @@ def write_report(
     from cyclomesh.output.folder import write_text
 
     return write_text(path, render_report(title, sections, stamp, embed))
+
+
+def table_cell(value: Any) -> Any:
+    """A summary value as a table cell: booleans, per-torque lists and path tables as text."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, list):  # one value per torque of a torque list
+        return " / ".join(f"{v:.4g}" if isinstance(v, float) else str(table_cell(v)) for v in value)
+    if isinstance(value, dict):  # a table such as the loss per path (path -> W)
+        return "; ".join(
+            f"{k.replace('_', '-')}: " + ("not modelled" if v is None else str(table_cell(v)))
+            if not isinstance(v, float)
+            else f"{k.replace('_', '-')}: {v:.4g}"
+            for k, v in value.items()
+        )
+    return value
+
+
+_OTHER_LABELS = {
+    "torque_nm": "torque [N·m]",
+    "rated_torque_nm": "rated torque [N·m]",
+    "discs": "discs",
+    "gear_ratio_step_deg": "ratio taken over [deg]",
+}
+
+
+def metrics_table(records: dict[str, dict[str, Any]], metrics: dict[str, Any]) -> str:
+    """HTML table of summary records: one row per metric (short label with its unit,
+    long name on hover), one column per case, so that it fits a laptop screen."""
+    names = list(records)
+    keys = list(dict.fromkeys(k for record in records.values() for k in record))
+    rows = []
+    for key in keys:
+        m = metrics.get(key)
+        label = (
+            _OTHER_LABELS.get(key, key)
+            if m is None
+            else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
+        )
+        rows.append([label, *(table_cell(records[n].get(key)) for n in names)])
+    table = table_html(["metric", *names], rows)
+    for key in keys:  # the long name as a tooltip on its label
+        m = metrics.get(key)
+        if m is not None:
+            label = html.escape(m.label + ("" if m.unit == "1" else f" [{m.unit}]"))
+            table = table.replace(
+                f'<td class="t">{label}</td>',
+                f'<td class="t" title="{html.escape(m.long_name)} ({key})">{label}</td>',
+                1,
+            )
+    return table
+
+
+def description_html(study: Any) -> str:
+    """The study's description as a report paragraph ('' without one)."""
+    return f"<p>{html.escape(study.description)}</p>" if study.description else ""
+
+
+def warning_sections(warnings: list[str]) -> list[Section]:
+    """A "Warnings" report section listing ``warnings`` (none if there are none)."""
+    if not warnings:
+        return []
+    items = "".join(f"<li>{html.escape(w)}</li>" for w in warnings)
+    return [Section("Warnings", f"<ul>{items}</ul>")]

@@ -237,8 +237,7 @@ def allocation_figures(result: AllocationResult) -> list[FigureJob]:
 
 def allocation_sections(result: AllocationResult) -> list[Section]:
     """Report section of a tolerance allocation."""
-    from cyclomesh.publish.report import Section, table_html
-    from cyclomesh.studies.run import description_html, warning_sections
+    from cyclomesh.publish.report import Section, description_html, table_html, warning_sections
 
     statement = html.escape(result.allocation.statement())
     stated = result.record.get("at_stated_tolerances", {})

@@ -420,7 +420,7 @@ def design_sections(result: DesignResult) -> list[Section]:
     else:
         rows += [(f"optimum {k}", v) for k, v in s["optimum"]["parameters"].items()]
         rows += [(f"at the optimum: {k}", v) for k, v in s["optimum"]["metrics"].items()]
-    from cyclomesh.studies.run import description_html
+    from cyclomesh.publish.report import description_html
 
     text = description_html(result.study) + (
         "<p>Every candidate (modification and geometry) analysed with the full model at "
@@ -429,7 +429,7 @@ def design_sections(result: DesignResult) -> list[Section]:
         + f" ({html.escape('docs/design-map.md')}). <code>best.toml</code> is the optimum "
         "as a study file.</p>"
     )
-    from cyclomesh.studies.run import warning_sections
+    from cyclomesh.publish.report import warning_sections
 
     sections = [Section(SECTION, text + table_html(["", "value"], rows))]
     if s.get("checks"):

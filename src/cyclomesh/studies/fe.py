@@ -371,8 +371,8 @@ def fe_sections(result: FeResult) -> list[Section]:
         f"<details><summary>study file {html.escape(study.path.name)}</summary>"
         f"<pre>{html.escape(study.text)}</pre></details>"
     )
+    from cyclomesh.publish.report import metrics_table
     from cyclomesh.studies.checks import checks_section
-    from cyclomesh.studies.run import metrics_table
 
     summary = metrics_table(result.summaries, FE_METRICS)
     sections = [Section("Study", intro), checks_section(result.checks), Section("Summary", summary)]

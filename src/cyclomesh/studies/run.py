@@ -24,6 +24,11 @@ import numpy as np
 
 from cyclomesh.core.pair import Modification
 from cyclomesh.publish.pipeline import case_attrs, summary_document
+from cyclomesh.publish.report import (
+    metrics_table,
+    table_cell,
+    warning_sections,
+)
 from cyclomesh.quantities import QUANTITIES
 from cyclomesh.results.arrays import variable
 from cyclomesh.results.efficiency import EFFICIENCY_METRICS
@@ -518,58 +523,6 @@ def _flat(prefix: str, value: Any) -> dict[str, Any]:
     return {prefix: value}
 
 
-def _cell(value: Any) -> Any:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, list):  # one value per torque of a torque list
-        return " / ".join(f"{v:.4g}" if isinstance(v, float) else str(_cell(v)) for v in value)
-    if isinstance(value, dict):  # a table such as the loss per path (path -> W)
-        return "; ".join(
-            f"{k.replace('_', '-')}: " + ("not modelled" if v is None else str(_cell(v)))
-            if not isinstance(v, float)
-            else f"{k.replace('_', '-')}: {v:.4g}"
-            for k, v in value.items()
-        )
-    return value
-
-
-_OTHER_LABELS = {
-    "torque_nm": "torque [N·m]",
-    "rated_torque_nm": "rated torque [N·m]",
-    "discs": "discs",
-    "gear_ratio_step_deg": "ratio taken over [deg]",
-}
-
-
-def metrics_table(records: dict[str, dict[str, Any]], metrics: dict[str, Any]) -> str:
-    """HTML table of summary records: one row per metric (short label with its unit,
-    long name on hover), one column per case, so that it fits a laptop screen."""
-    from cyclomesh.publish.report import table_html
-
-    names = list(records)
-    keys = list(dict.fromkeys(k for record in records.values() for k in record))
-    rows = []
-    for key in keys:
-        m = metrics.get(key)
-        label = (
-            _OTHER_LABELS.get(key, key)
-            if m is None
-            else m.label + ("" if m.unit == "1" else f" [{m.unit}]")
-        )
-        rows.append([label, *(_cell(records[n].get(key)) for n in names)])
-    table = table_html(["metric", *names], rows)
-    for key in keys:  # the long name as a tooltip on its label
-        m = metrics.get(key)
-        if m is not None:
-            label = html.escape(m.label + ("" if m.unit == "1" else f" [{m.unit}]"))
-            table = table.replace(
-                f'<td class="t">{label}</td>',
-                f'<td class="t" title="{html.escape(m.long_name)} ({key})">{label}</td>',
-                1,
-            )
-    return table
-
-
 def _play_in_arcmin(record: dict[str, Any]) -> dict[str, Any]:
     """The record with its play in arcmin (``play_arcmin_*``), the unit of the terminal,
     the verdict and ``cyclomesh stiffness``; summary.json keeps ``play_arcsec_*``."""
@@ -607,7 +560,7 @@ def run_sections(run: RunResult) -> list[Section]:
             for key, values in inputs.errors_um.items():
                 flat[f"errors: total {key}"] = _flat("", list(values))[""]
     keys = list(dict.fromkeys(k for flat in flats for k in flat))
-    rows = [[k, *(_cell(f.get(k)) for f in flats)] for k in keys]
+    rows = [[k, *(table_cell(f.get(k)) for f in flats)] for k in keys]
     inputs_html = table_html(
         ["key", *names], [r for r in rows if any(v is not None for v in r[1:])]
     )
@@ -643,7 +596,7 @@ def run_sections(run: RunResult) -> list[Section]:
             [
                 [
                     f"{STAGE_METRICS[k].long_name} [{STAGE_METRICS[k].unit}]",
-                    *(_cell(run.summaries[n].get(k)) for n in staged),
+                    *(table_cell(run.summaries[n].get(k)) for n in staged),
                 ]
                 for k in keys
             ]
@@ -651,9 +604,9 @@ def run_sections(run: RunResult) -> list[Section]:
                 [
                     f"compliance share at rated torque: {part.replace('_', ' ')} [%]",
                     *(
-                        _cell(100.0 * run.summaries[n]["compliance_share"][part])
+                        table_cell(100.0 * run.summaries[n]["compliance_share"][part])
                         if "compliance_share" in run.summaries[n]
-                        else _cell(None)
+                        else table_cell(None)
                         for n in staged
                     ),
                 ]
@@ -672,21 +625,6 @@ def run_sections(run: RunResult) -> list[Section]:
         )
         sections.append(Section("Data sheet (RV stage)", sheet))
     return warning_sections(run.study_warnings()) + sections
-
-
-def description_html(study: Study) -> str:
-    """The study's description as a report paragraph ('' without one)."""
-    return f"<p>{html.escape(study.description)}</p>" if study.description else ""
-
-
-def warning_sections(warnings: list[str]) -> list[Section]:
-    """A "Warnings" report section listing ``warnings`` (none if there are none)."""
-    from cyclomesh.publish.report import Section
-
-    if not warnings:
-        return []
-    items = "".join(f"<li>{html.escape(w)}</li>" for w in warnings)
-    return [Section("Warnings", f"<ul>{items}</ul>")]
 
 
 def _show_run(result: RunResult, out: Path, options: Any) -> None:

@@ -417,12 +417,12 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
         f"<details><summary>study file {html.escape(study.path.name)}</summary>"
         f"<pre>{html.escape(study.text)}</pre></details>"
     )
+    from cyclomesh.publish.report import metrics_table
     from cyclomesh.results.stage import STAGE_STIFFNESS_METRICS
     from cyclomesh.studies.checks import checks_section
-    from cyclomesh.studies.run import metrics_table
 
     summary = metrics_table(result.summaries, STIFFNESS_METRICS | STAGE_STIFFNESS_METRICS)
-    from cyclomesh.studies.run import warning_sections
+    from cyclomesh.publish.report import warning_sections
 
     return warning_sections(result.study_warnings()) + [
         Section("Study", intro),

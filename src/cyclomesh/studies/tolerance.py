@@ -488,7 +488,7 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
     ex = stats["exceedance"][STRESS_METRIC]
     worst = stats["worst_ring"]
     jam = stats["jam"]
-    from cyclomesh.studies.run import description_html
+    from cyclomesh.publish.report import description_html
 
     worst_text = (
         "every ring jams the disc"
@@ -528,8 +528,8 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
         + html.escape("; ".join(f"{k}: {v}" for k, v in stats["methods"].items()))
         + ".</p>"
     )
+    from cyclomesh.publish.report import warning_sections
     from cyclomesh.studies.checks import checks_section
-    from cyclomesh.studies.run import warning_sections
 
     return warning_sections(stats.get("warnings", [])) + [
         checks_section({result.study.title: stats["checks"]}),
