@@ -59,8 +59,7 @@ def load_tolerance_study(path: str | Path) -> tuple[Study, ToleranceSection]:
         A bad study file, or no ``[tolerance]`` section.
     """
     study = load_study(path)
-    if study.tolerance is None:
-        raise StudyError(f"{Path(path).name}: no [tolerance] section (see examples/tolerance.toml)")
+    require_tolerance(study)
     return study, study.tolerance
 
 

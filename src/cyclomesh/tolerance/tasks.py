@@ -239,37 +239,29 @@ class RingModel:
         return block_rings(len(self.crank_angles_deg), self.design.pins * self.discs)
 
     def _solve(self, block: RingErrors) -> dict[str, NDArray[Any]]:
-        result = solve_drive(
-            self.design,
-            self.modification,
-            self.pin_errors(block),
-            self.torque_nm,
-            np.deg2rad(self.crank_angles_deg),
-            self.groove_deformation,
-            self.discs,
-            self.contact_law,
-            self.disc_body,
-            friction=self.friction,
-        )
-        out = drive_metrics(result, self.design.teeth)
-        if self.friction is not None:
-            out["efficiency"] = ring_efficiency(result, self.design.teeth, self.friction.speed)
-        if self.friction is not None and self.backdrive:
-            back = solve_drive(
+        def solve(backdrive: bool = False) -> Any:
+            return solve_drive(
                 self.design,
                 self.modification,
-                self.pin_errors(block),
+                errors,
                 self.torque_nm,
-                np.deg2rad(self.crank_angles_deg),
+                angles,
                 self.groove_deformation,
                 self.discs,
                 self.contact_law,
                 self.disc_body,
                 friction=self.friction,
-                backdrive=True,
+                backdrive=backdrive,
             )
+
+        errors, angles = self.pin_errors(block), np.deg2rad(self.crank_angles_deg)
+        result = solve()
+        out = drive_metrics(result, self.design.teeth)
+        if self.friction is not None:
+            out["efficiency"] = ring_efficiency(result, self.design.teeth, self.friction.speed)
+        if self.friction is not None and self.backdrive:
             out["backdrive_efficiency"] = ring_backdrive_efficiency(
-                result, back, self.design.teeth, self.friction.speed
+                result, solve(backdrive=True), self.design.teeth, self.friction.speed
             )
         return out
 
