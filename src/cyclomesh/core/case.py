@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from cyclomesh.core.discbody import DiscBody
+from cyclomesh.core.discbody import DiscBody, FreeDiscBody
 from cyclomesh.core.friction import Friction
 from cyclomesh.core.hertz import CONTACT_LAWS
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors, check_physical
@@ -123,7 +123,7 @@ class Checked:
     torques: FloatArray
     phi: FloatArray
     discs: int
-    body: DiscBody | None
+    body: DiscBody | FreeDiscBody | None
     ring_shape: tuple
     contact_law: str
     groove_deformation: bool
@@ -154,6 +154,11 @@ def check(case: Case, model: Model, *, torque: str = "list") -> Checked:
     phi = check_crank_angles(case.crank_angles)
     check_contact_law(model.contact_law)
     body = check_disc_body(model.disc_body, model.contact_law, design)
+    if isinstance(body, FreeDiscBody) and model.stage is None:
+        raise DesignError(
+            "disc_body: the free disc body (crank-hole centres free) is the RV stage's; "
+            "without [stage] pass the DiscBody of cyclomesh.fe.influence.influence"
+        )
     ring_shape = check_pair(design, modification, errors)
     friction = model.friction
     if friction is not None and friction.frictionless:
@@ -261,13 +266,13 @@ def check_contact_law(contact_law: str) -> str:
 
 
 def check_disc_body(
-    disc_body: str | DiscBody, contact_law: str, design: PairDesign
-) -> DiscBody | None:
+    disc_body: str | DiscBody | FreeDiscBody, contact_law: str, design: PairDesign
+) -> DiscBody | FreeDiscBody | None:
     """None for the rigid disc, the :class:`DiscBody` for a compliant one, else a
     one-line :class:`DesignError`."""
     if isinstance(disc_body, str) and disc_body == "rigid":
         return None
-    if isinstance(disc_body, DiscBody):
+    if isinstance(disc_body, DiscBody | FreeDiscBody):
         if contact_law != "half_plane":
             raise DesignError(
                 "disc_body: the FE disc body leaves the near field to the half-plane law; "

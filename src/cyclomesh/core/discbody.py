@@ -44,6 +44,8 @@ from cyclomesh.exceptions import ConvergenceError
 __all__ = [
     "DiscBody",
     "DISC_BODIES",
+    "FreeDiscBody",
+    "FREE_HELD",
     "share_load_coupled",
     "tooth_index",
     "COMPATIBILITY_TOLERANCE",
@@ -529,3 +531,72 @@ def _solve_set(
     full = np.zeros_like(bl)
     np.put_along_axis(full, order, np.where(ok, f, 0.0), -1)
     return x, full
+
+
+FREE_HELD = ((0, 0), (0, 1), (1, 1))
+"""Hole-centre components (hole, 0 radial / 1 tangential) held in the FE model of the
+free disc (:func:`cyclomesh.fe.influence.compute_free_influence`), and left out of the
+RV stage's body unknowns: they remove the disc's three rigid modes only (hole 0's
+translation, hole 1's tangential motion)."""
+
+
+@dataclass(frozen=True, eq=False)
+class FreeDiscBody:
+    """The disc body condensed on its contacts and its crank-hole centres (the RV stage).
+
+    Influence coefficients of the free disc in the frame of its hole centres' mean
+    (least-squares rigid) motion, :func:`cyclomesh.fe.influence.compute_free_influence`:
+    for loads in equilibrium (the pins' and the crank bearings' on one disc) they give the
+    body's deformation at every contact and hole centre; the disc's rigid motion is the
+    stage's unknown (:mod:`cyclomesh.stage.equilibrium`).
+
+    Attributes
+    ----------
+    pins : DiscBody
+        Pin on pin (the near field on the diagonal removed as in issue 17's table) [m/N].
+    hole_pin : ndarray
+        (n2, m, N, 2): radial and tangential displacement [m] of hole centre h (its own
+        directions e_r, e_t in the disc frame) under a unit normal load [N] into the disc
+        at profile angle a of tooth k; by reciprocity, the into-disc normal displacement
+        of that contact under a unit radial (tangential) load at the hole centre.
+    hole_hole : ndarray
+        (N, 2, N, 2): hole centre on hole centre [m/N].
+    count : int
+        N, the crank holes.
+    """
+
+    pins: DiscBody
+    hole_pin: FloatArray
+    hole_hole: FloatArray
+    count: int
+
+    @property
+    def key(self) -> str:
+        return self.pins.key
+
+    @property
+    def teeth(self) -> int:
+        return self.pins.teeth
+
+    def matrix(self, tooth: ArrayLike, angle: ArrayLike) -> FloatArray:
+        """C' of contacts (..., P) at (tooth, profile angle) and the 2N hole components,
+        (..., P + 2N, P + 2N) [m/N], symmetric: pins first (into-disc normal), then hole
+        0 radial, hole 0 tangential, hole 1 radial … (each hole's own directions).
+
+        The pin block is :meth:`DiscBody.reciprocal_matrix`; the pin–hole block the
+        Catmull–Rom interpolation of :attr:`hole_pin` along u (as the pin block's).
+        """
+        k = np.asarray(tooth, np.int64)
+        a = np.asarray(angle, float)
+        pp = self.pins.reciprocal_matrix(k, a)
+        nodes, w = self.pins._weights(a)
+        vals = self.hole_pin[np.mod(k, self.teeth)[..., None], nodes]  # (..., P, 4, N, 2)
+        ph = np.einsum("...pqhc,...pq->...phc", vals, w).reshape(*k.shape, 2 * self.count)
+        hh = self.hole_hole.reshape(2 * self.count, 2 * self.count)
+        hh = 0.5 * (hh + hh.T)
+        lead = k.shape[:-1]
+        top = np.concatenate([pp, ph], axis=-1)
+        bottom = np.concatenate(
+            [np.swapaxes(ph, -1, -2), np.broadcast_to(hh, (*lead, *hh.shape))], axis=-1
+        )
+        return np.concatenate([top, bottom], axis=-2)

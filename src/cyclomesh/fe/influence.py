@@ -47,7 +47,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from scipy.sparse.linalg import splu
 
-from cyclomesh.core.discbody import DiscBody
+from cyclomesh.core.discbody import FREE_HELD, DiscBody, FreeDiscBody
 from cyclomesh.core.pair import CrankHoles, Modification, PairDesign
 from cyclomesh.fe.mesh import Refinement, mesh_profile_disc
 from cyclomesh.fe.solve import Body, boundary_chain
@@ -61,6 +61,8 @@ __all__ = [
     "load_coefficients",
     "INFLUENCE_VERSION",
     "MESH_DEFAULTS",
+    "compute_free_influence",
+    "free_influence",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -148,6 +150,74 @@ def _arc_weights(body: Body, point: FloatArray, half_width: float, h: float):
     return chain, weights / weights.sum()
 
 
+def _disc_model(
+    design: PairDesign,
+    modification: Modification,
+    holes: CrankHoles | None,
+    bore_radius: float,
+    points: int,
+    b: float,
+    far_size: float,
+    flank_size: float,
+    elements_per_half_width: float,
+):
+    """The meshed disc of :func:`compute_influence` and its grid of contact points:
+    (u, period, points (n2·m, 2), outward normals, the fine (loaded) points, their element
+    size, the :class:`~cyclomesh.fe.solve.Body`, meshing time [s])."""
+    n2 = design.teeth
+    u = np.linspace(-np.pi, 0.0, points)
+    period = 1 if holes is None else n2 // math.gcd(n2, holes.count)
+    loaded = [k for k in range(period)]
+    # geometry of every grid point on every tooth
+    phi1 = (2.0 * np.pi * np.arange(n2)[:, None] + u[None, :]).ravel()
+    pts, normals = [], []
+    for p in phi1:
+        xy, n = profile_point(design, modification, float(p))
+        pts.append(xy)
+        normals.append(n)
+    pts, normals = np.array(pts), np.array(normals)  # (n2·m, 2)
+    h_fine = b / elements_per_half_width
+    fine = [k * points + a for k in loaded for a in range(points)]
+    refine_pts = [tuple(pts[i]) for i in range(pts.shape[0])]
+    sizes = [flank_size] * len(refine_pts)
+    radii = [2.0 * flank_size] * len(refine_pts)
+    for i in fine:
+        sizes[i] = h_fine
+        radii[i] = 2.0 * b
+    refine = Refinement(refine_pts, sizes, radii, far_size, 4e-3)
+    contacts = phi1[np.asarray(fine)]
+    outline, breaks = disc_outline(design, modification, contacts)
+    hole_list = [] if holes is None else [(x, y, holes.radius) for x, y in holes.centres]
+    mesh_t = time.perf_counter()
+    disc = Body(
+        *mesh_profile_disc(outline, bore_radius, refine, breaks, hole_list),
+        design.disc_material.youngs_modulus,
+        design.disc_material.poisson_ratio,
+    )
+    mesh_t = time.perf_counter() - mesh_t
+    return u, period, pts, normals, fine, h_fine, disc, mesh_t
+
+
+def _load_vectors(disc, pts, normals, fine, b, h_fine, flank_size):
+    """Unit Hertzian line loads of half-width b into the disc at every grid point,
+    (ndof, n2·m); the same weights read the normal approach δ = gᵀu."""
+    # load vectors: unit line load into the disc, Hertzian over b, at every grid point
+    g_rows, g_cols, g_vals = [], [], []
+    fine_set = set(fine)
+    for i in range(pts.shape[0]):
+        h_here = h_fine if i in fine_set else flank_size
+        chain, w = _arc_weights(disc, pts[i], b, h_here)
+        g_rows += [disc.dof(chain, 0), disc.dof(chain, 1)]
+        g_vals += [-normals[i, 0] * w, -normals[i, 1] * w]
+        g_cols += [np.full(2 * chain.size, i)]
+    # (ndof, n2·m): the unit loads; the same weights read the approach δ = gᵀu
+    g_full = sp.csc_matrix(
+        (np.concatenate(g_vals), (np.concatenate(g_rows), np.concatenate(g_cols))),
+        shape=(2 * disc.n_nodes, pts.shape[0]),
+    )
+    return g_full
+
+
 def compute_influence(
     design: PairDesign,
     modification: Modification | None = None,
@@ -196,36 +266,17 @@ def compute_influence(
         elements_per_half_width=elements_per_half_width,
     )
     key = influence_key(design, modification, holes, **mesh_args)
-    u = np.linspace(-np.pi, 0.0, points)
-    period = 1 if holes is None else n2 // math.gcd(n2, holes.count)
-    loaded = [k for k in range(period)]
-    # geometry of every grid point on every tooth
-    phi1 = (2.0 * np.pi * np.arange(n2)[:, None] + u[None, :]).ravel()
-    pts, normals = [], []
-    for p in phi1:
-        xy, n = profile_point(design, modification, float(p))
-        pts.append(xy)
-        normals.append(n)
-    pts, normals = np.array(pts), np.array(normals)  # (n2·m, 2)
-    h_fine = b / elements_per_half_width
-    fine = [k * points + a for k in loaded for a in range(points)]
-    refine_pts = [tuple(pts[i]) for i in range(pts.shape[0])]
-    sizes = [flank_size] * len(refine_pts)
-    radii = [2.0 * flank_size] * len(refine_pts)
-    for i in fine:
-        sizes[i] = h_fine
-        radii[i] = 2.0 * b
-    refine = Refinement(refine_pts, sizes, radii, far_size, 4e-3)
-    contacts = phi1[np.asarray(fine)]
-    outline, breaks = disc_outline(design, modification, contacts)
-    hole_list = [] if holes is None else [(x, y, holes.radius) for x, y in holes.centres]
-    mesh_t = time.perf_counter()
-    disc = Body(
-        *mesh_profile_disc(outline, bore_radius, refine, breaks, hole_list),
-        design.disc_material.youngs_modulus,
-        design.disc_material.poisson_ratio,
+    u, period, pts, normals, fine, h_fine, disc, mesh_t = _disc_model(
+        design,
+        modification,
+        holes,
+        bore_radius,
+        points,
+        b,
+        far_size,
+        flank_size,
+        elements_per_half_width,
     )
-    mesh_t = time.perf_counter() - mesh_t
     k_full = disc.stiffness().tocsc()
     ndof = k_full.shape[0]
     p = disc.mesh.p
@@ -253,20 +304,7 @@ def compute_influence(
         vals += list(-ry) + list(rx)
     t_mat = sp.csc_matrix((vals, (rows, cols)), shape=(ndof, free.size + len(tied)))
     k_red = (t_mat.T @ k_full @ t_mat).tocsc()
-    # load vectors: unit line load into the disc, Hertzian over b, at every grid point
-    g_rows, g_cols, g_vals = [], [], []
-    fine_set = set(fine)
-    for i in range(pts.shape[0]):
-        h_here = h_fine if i in fine_set else flank_size
-        chain, w = _arc_weights(disc, pts[i], b, h_here)
-        g_rows += [disc.dof(chain, 0), disc.dof(chain, 1)]
-        g_vals += [-normals[i, 0] * w, -normals[i, 1] * w]
-        g_cols += [np.full(2 * chain.size, i)]
-    # (ndof, n2·m): the unit loads; the same weights read the approach δ = gᵀu
-    g_full = sp.csc_matrix(
-        (np.concatenate(g_vals), (np.concatenate(g_rows), np.concatenate(g_cols))),
-        shape=(ndof, pts.shape[0]),
-    )
+    g_full = _load_vectors(disc, pts, normals, fine, b, h_fine, flank_size)
     g_red = (t_mat.T @ g_full).tocsc()
     fact_t = time.perf_counter()
     lu = splu(k_red, permc_spec="MMD_AT_PLUS_A")
@@ -365,3 +403,230 @@ def influence(
         if os.path.exists(tmp):
             os.unlink(tmp)
     return load_coefficients(path)
+
+
+def compute_free_influence(
+    design: PairDesign,
+    modification: Modification | None = None,
+    holes: CrankHoles | None = None,
+    bore_radius: float = 30e-3,
+    points: int = 31,
+    load_half_width: float | None = None,
+    far_size: float = 1.5e-3,
+    flank_size: float = 0.5e-3,
+    elements_per_half_width: float = 5.0,
+) -> FreeDiscBody:
+    """The disc body condensed on its contact points *and* its crank-hole centres.
+
+    The FE model is :func:`compute_influence`'s (same mesh, loads and near field), but each
+    crank hole's edge is tied to a master point whose translation is free as well as its
+    rotation: u = c_h + θ_h × (x − x_h) on the hole's nodes, c_h = r_h·e_r + t_h·e_t in the
+    hole's radial and tangential directions. Three master components (:data:`FREE_HELD`)
+    remove the rigid modes; the flexibility C of the remaining points (K⁻¹ by the same
+    sparse LU) is then moved to the frame of the hole centres' least-squares rigid motion,
+
+        C' = P·C·Pᵀ,   P = I − R·Hᵀ,
+
+    R (points × 3) the rigid motions' displacements at every point and Hᵀ the least-squares
+    fit of a rigid motion to the hole centres (HᵀR = I). C' does not depend on which
+    components were held (for loads in equilibrium it is the body's unique deformation,
+    measured from the holes' mean motion), so it keeps the cyclic symmetry of the
+    holes and its pin block is a :class:`DiscBody` table of period n2/gcd(n2, N); the
+    hole rows are read at every tooth's grid points. In the RV stage
+    (:mod:`cyclomesh.stage.equilibrium`) the loads on a disc (pins and crank bearings) are
+    in equilibrium, and the disc's rigid motion is the stage's own unknown.
+
+    Parameters and mesh as :func:`compute_influence` (``holes`` required).
+
+    References
+    ----------
+    The hybrid FE/analytical contact model of issue 17 (:mod:`cyclomesh.core.discbody`);
+    condensation on master points: the superelement (static condensation) of linear FE.
+    """
+    if holes is None:
+        raise ValueError("compute_free_influence: the free disc needs its crank holes")
+    if bore_radius >= holes.circle_radius - holes.radius:
+        raise ValueError("compute_free_influence: the bore cuts the crank holes")
+    start = time.perf_counter()
+    modification = modification or Modification()
+    n2 = design.teeth
+    b = design.pin_radius / 16.0 if load_half_width is None else float(load_half_width)
+    mesh_args = dict(
+        bore_radius=bore_radius,
+        points=points,
+        load_half_width=b,
+        far_size=far_size,
+        flank_size=flank_size,
+        elements_per_half_width=elements_per_half_width,
+    )
+    key = influence_key(design, modification, holes, free_holes=1.0, **mesh_args)
+    u, period, pts, normals, fine, h_fine, disc, mesh_t = _disc_model(
+        design,
+        modification,
+        holes,
+        bore_radius,
+        points,
+        b,
+        far_size,
+        flank_size,
+        elements_per_half_width,
+    )
+    k_full = disc.stiffness().tocsc()
+    ndof = k_full.shape[0]
+    p = disc.mesh.p
+    N = holes.count
+    ang = holes.angles
+    dead = np.zeros(ndof, bool)
+    tied = []
+    for cx, cy in holes.centres:
+        on = np.flatnonzero(np.abs(np.hypot(p[0] - cx, p[1] - cy) - holes.radius) < 1e-6)
+        tied.append((on, np.array([cx, cy])))
+        dead[disc.dof(on, 0)] = dead[disc.dof(on, 1)] = True
+    free = np.flatnonzero(~dead)
+    rows, cols, vals = list(free), list(range(free.size)), [1.0] * free.size
+    master = {}  # (hole, component 0 r / 1 t / 2 θ) → column
+    col = free.size
+    for h, (on, c) in enumerate(tied):
+        er = np.array([np.cos(ang[h]), np.sin(ang[h])])
+        et = np.array([-np.sin(ang[h]), np.cos(ang[h])])
+        rx, ry = p[0, on] - c[0], p[1, on] - c[1]
+        shapes = (
+            (np.full(on.size, er[0]), np.full(on.size, er[1])),
+            (np.full(on.size, et[0]), np.full(on.size, et[1])),
+            (-ry, rx),
+        )
+        for comp, (sx, sy) in enumerate(shapes):
+            if (h, comp) in FREE_HELD:
+                continue
+            master[(h, comp)] = col
+            rows += list(disc.dof(on, 0)) + list(disc.dof(on, 1))
+            cols += [col] * (2 * on.size)
+            vals += list(sx) + list(sy)
+            col += 1
+    t_mat = sp.csc_matrix((vals, (rows, cols)), shape=(ndof, col))
+    k_red = (t_mat.T @ k_full @ t_mat).tocsc()
+    g_full = _load_vectors(disc, pts, normals, fine, b, h_fine, flank_size)
+    g_red = (t_mat.T @ g_full).tocsc()
+    # the hole components (r, t of each hole) as unit vectors of the reduced system
+    npts = pts.shape[0]
+    hole_cols = np.zeros((col, 2 * N))
+    for h in range(N):
+        for comp in range(2):
+            if (h, comp) in master:
+                hole_cols[master[(h, comp)], 2 * h + comp] = 1.0
+    fact_t = time.perf_counter()
+    lu = splu(k_red, permc_spec="MMD_AT_PLUS_A")
+    rhs = np.concatenate([g_red[:, fine].toarray(), hole_cols], axis=1)
+    disp = lu.solve(np.ascontiguousarray(rhs))
+    fact_t = time.perf_counter() - fact_t
+    # X = C[rows, cols]: rows every grid point and hole component, cols fine points + holes
+    x_mat = np.concatenate([np.asarray(g_red.T @ disp), hole_cols.T @ disp], axis=0)
+    # rigid motions (tx, ty, ω about the disc centre): into-disc normal displacement of
+    # every grid point, radial and tangential displacement of every hole centre
+    rig = np.zeros((npts + 2 * N, 3))
+    rig[:npts, 0] = -normals[:, 0]
+    rig[:npts, 1] = -normals[:, 1]
+    rig[:npts, 2] = -(pts[:, 0] * normals[:, 1] - pts[:, 1] * normals[:, 0])
+    r_c = holes.circle_radius
+    rig[npts::2, 0], rig[npts::2, 1] = np.cos(ang), np.sin(ang)
+    rig[npts + 1 :: 2, 0], rig[npts + 1 :: 2, 1] = -np.sin(ang), np.cos(ang)
+    rig[npts + 1 :: 2, 2] = r_c
+    # least-squares rigid fit of the hole centres: Hᵀ (3, 2N) acting on (r, t) per hole
+    fit = np.zeros((3, 2 * N))
+    fit[0, 0::2], fit[0, 1::2] = np.cos(ang) / N, -np.sin(ang) / N
+    fit[1, 0::2], fit[1, 1::2] = np.sin(ang) / N, np.cos(ang) / N
+    fit[2, 1::2] = 1.0 / (N * r_c)
+    col_rig = np.concatenate([rig[np.asarray(fine)], rig[npts:]], axis=0)  # R at the cols
+    c_holes = x_mat[:, len(fine) :]  # C[:, hole comps]
+    y_mat = x_mat - (c_holes @ fit.T) @ col_rig.T  # C·Pᵀ
+    c_prime = y_mat - rig @ (fit @ y_mat[npts:])  # P·C·Pᵀ
+    resp = c_prime[:npts, : len(fine)].reshape(n2, points, period, points)
+    table = np.empty((period, n2, points, points))
+    for k0 in range(period):
+        order = np.mod(k0 + np.arange(n2), n2)
+        table[k0] = np.transpose(resp[order, :, k0, :], (0, 2, 1))
+    c = design.disc_material.compliance
+    nu = design.disc_material.poisson_ratio
+    d = np.hypot(*pts[:points].T)
+    near = 2.0 / np.pi * c * (np.log(2.0 * d / b) - nu / (2.0 * (1.0 - nu))) - c / (2.0 * np.pi)
+    diagonal = np.stack([np.diagonal(table[k0, 0]) - near for k0 in range(period)])
+    width = design.width
+    hole_pin = c_prime[:npts, len(fine) :].reshape(n2, points, N, 2) / width
+    hole_hole = c_prime[npts:, len(fine) :].reshape(N, 2, N, 2) / width
+    # reciprocity of the FE (the pin loads' hole responses against the hole loads' pin
+    # responses, on the loaded teeth): a check of the condensation, kept in the info
+    pin_rows = c_prime[npts:, : len(fine)].T.reshape(period, points, N, 2) / width
+    mismatch = float(np.max(np.abs(pin_rows - hole_pin[:period])) / np.max(np.abs(hole_pin)))
+    info = {
+        "support": f"{N} crank holes, centres free",
+        "nodes": int(disc.n_nodes),
+        "points": int(points),
+        "load_half_width_m": b,
+        "mesh_s": mesh_t,
+        "solve_s": fact_t,
+        "total_s": time.perf_counter() - start,
+        "reciprocity": mismatch,
+        **{k: float(v) for k, v in mesh_args.items()},
+    }
+    pins = DiscBody(u, table / width, n2, key=key, info=info, diagonal=diagonal / width)
+    return FreeDiscBody(pins, hole_pin, hole_hole, holes.count)
+
+
+def free_bore_radius(holes: CrankHoles) -> float:
+    """The central bore of the free disc [m]: the default 30 mm, or half the ligament
+    between the disc centre and the crank holes, r_c − r_h, if smaller (an assumption:
+    the study files give no bore; a bore cutting the holes cannot be meshed)."""
+    return min(MESH_DEFAULTS["bore_radius"], 0.5 * (holes.circle_radius - holes.radius))
+
+
+def free_influence(
+    design: PairDesign,
+    modification: Modification | None = None,
+    holes: CrankHoles | None = None,
+    cache_dir: str | Path | None = None,
+    **mesh: float,
+) -> FreeDiscBody:
+    """:func:`compute_free_influence` from the cache, computed and stored on a miss (the
+    same cache folder and atomic write as :func:`influence`)."""
+    modification = modification or Modification()
+    folder = Path(cache_dir) if cache_dir is not None else default_cache_dir()
+    unknown = set(mesh) - set(MESH_DEFAULTS)
+    if unknown:
+        raise TypeError(f"free_influence: unknown mesh settings {sorted(unknown)}")
+    args = {**MESH_DEFAULTS, "bore_radius": free_bore_radius(holes), **mesh}
+    if args["load_half_width"] is None:
+        args["load_half_width"] = design.pin_radius / 16.0
+    key = influence_key(design, modification, holes, free_holes=1.0, **args)
+    path = _cache_file(folder, key)
+    if not path.exists():
+        body = compute_free_influence(design, modification, holes, **args)
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=folder, suffix=".npz.tmp")
+        os.close(fd)
+        try:
+            with open(tmp, "wb") as fh:
+                np.savez(
+                    fh,
+                    profile_angles=body.pins.profile_angles,
+                    table=body.pins.table,
+                    diagonal=body.pins.diagonal,
+                    teeth=body.pins.teeth,
+                    key=body.pins.key,
+                    info=json.dumps(body.pins.info),
+                    hole_pin=body.hole_pin,
+                    hole_hole=body.hole_hole,
+                )
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+    with np.load(path, allow_pickle=False) as z:
+        pins = DiscBody(
+            z["profile_angles"],
+            z["table"],
+            int(z["teeth"]),
+            key=str(z["key"]),
+            info=json.loads(str(z["info"])),
+            diagonal=z["diagonal"],
+        )
+        return FreeDiscBody(pins, z["hole_pin"], z["hole_hole"], int(z["hole_pin"].shape[2]))

@@ -142,7 +142,9 @@ def run(
         raise DesignError(f"run: what must be one of {', '.join(WHAT)}, got {what!r}")
     design, modification = case.design, case.modification
     if isinstance(model.disc_body, str) and model.disc_body == "fe":
-        body = resolve_disc_body("fe", design, modification, crank_holes, cache_dir)
+        body = resolve_disc_body(
+            "fe", design, modification, crank_holes, cache_dir, stage=model.stage is not None
+        )
         model = model.replace(disc_body=body)
     options: dict[str, Any] = {"points": points}
     if what == "torsion":

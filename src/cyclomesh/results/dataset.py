@@ -489,9 +489,12 @@ def resolve_disc_body(
     modification: Modification | None = None,
     crank_holes: Any = None,
     cache_dir: Any = None,
+    stage: bool = False,
 ) -> Any:
     """``"rigid"``, or the :class:`~cyclomesh.core.discbody.DiscBody` of ``disc_body="fe"``
-    (from the cache, computed on a miss), or a DiscBody passed through.
+    (from the cache, computed on a miss), or a DiscBody passed through. ``stage``: the RV
+    stage's body, the :class:`~cyclomesh.core.discbody.FreeDiscBody` with the crank-hole
+    centres free (:func:`cyclomesh.fe.influence.free_influence`).
 
     Raises
     ------
@@ -502,6 +505,10 @@ def resolve_disc_body(
         return disc_body
     if not fe_extra_available():
         raise DesignError(FE_EXTRA_MESSAGE)
+    if stage:
+        from cyclomesh.fe.influence import free_influence
+
+        return free_influence(design, modification, crank_holes, cache_dir)
     from cyclomesh.fe.influence import influence
 
     return influence(design, modification, crank_holes, cache_dir)

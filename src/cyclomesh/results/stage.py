@@ -198,7 +198,7 @@ def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
     stage = inputs.stage
     phi = sheet_angles(np.asarray(inputs.crank_angles, float))
     curve = stage_torsion(
-        inputs.case().replace(torque=rated_torque, crank_angles=phi), inputs.model(), points=2
+        inputs.case().replace(torque=rated_torque, crank_angles=phi), stage_model(inputs), points=2
     )
     result = curve.stage
     at = int(np.flatnonzero(result.torque == rated_torque)[0])
@@ -246,7 +246,7 @@ def _duty_sheet(inputs: Any, phi: np.ndarray) -> dict[str, Any]:
     cycle = stage.duty_cycle
     t_eq, n_eq = cycle.equivalent()
     torques = sorted(set(cycle.torque) | {t_eq})
-    result = solve(inputs.case().replace(torque=torques, crank_angles=phi), inputs.model())
+    result = solve(inputs.case().replace(torque=torques, crank_angles=phi), stage_model(inputs))
     loads = {t: result.bearing_load[i] for i, t in enumerate(torques)}
     rating = stage.bearing.rating()
     _, hours = cycle_life(cycle, [loads[t] for t in cycle.torque], rating, inputs.design.pins)
@@ -270,7 +270,7 @@ def _catalogue_extras(inputs: Any, rated_torque: float, phi: np.ndarray, curve: 
             torque=[-BACKLASH_FRACTION * rated_torque, BACKLASH_FRACTION * rated_torque],
             crank_angles=phi,
         ),
-        inputs.model(),
+        stage_model(inputs),
     )
     result = curve.stage
     at = int(np.flatnonzero(result.torque == rated_torque)[0])
@@ -355,9 +355,24 @@ def stage_mesh(ds: xr.Dataset, result: Stage, teeth: int) -> xr.Dataset:
     return out
 
 
+def stage_model(inputs: Any) -> Any:
+    """The :class:`~cyclomesh.core.case.Model` of a case's stage: ``disc_body = "fe"``
+    resolved to the free disc (the crank-hole centres free,
+    :func:`cyclomesh.fe.influence.free_influence`, from the cache or computed once)."""
+    model = inputs.model()
+    if isinstance(model.disc_body, str) and model.disc_body == "fe":
+        from cyclomesh.results.dataset import resolve_disc_body
+
+        body = resolve_disc_body(
+            "fe", inputs.design, inputs.modification, inputs.crank_holes, stage=True
+        )
+        model = model.replace(disc_body=body)
+    return model
+
+
 def solve_case(inputs: Any) -> Stage:
     """The stage of a run case at its torque(s) and crank angles."""
-    return solve(inputs.case(), inputs.model())
+    return solve(inputs.case(), stage_model(inputs))
 
 
 def stage_torsion_variables(
@@ -373,7 +388,7 @@ def stage_torsion_variables(
     """
     curve = stage_torsion(
         inputs.case().replace(torque=rated_torque, crank_angles=crank_angles),
-        inputs.model(),
+        stage_model(inputs),
         points=points,
     )
     data: dict[str, Any] = {

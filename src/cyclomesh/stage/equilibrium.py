@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from cyclomesh.core.discbody import FREE_HELD, FreeDiscBody
 from cyclomesh.core.fields import contact_fields
 from cyclomesh.core.hertz import force_from_approach
 from cyclomesh.core.pair import CrankHoles
@@ -66,6 +67,11 @@ _MAX_HALVINGS = 60
 _LINEAR = (0.05, 0.12)
 """Residual ratios of two Newton steps taken as the linear convergence of a crank bearing
 near zero load (:func:`_newton`; (1 − 9/10)^(10/9) ≈ 0.077 in the middle)."""
+_BODY_REACH = 10.0
+"""Pins with an unloaded backlash below this many times the single-pin bound of the
+rotation get the compliant disc's unknowns (:func:`body_coupling`): the disc turns by
+about the output's twist, a few times that bound in the examples (the far side of the
+disc, whose forward flanks face away, is 5–500 times it)."""
 _REACH = 0.5
 """Largest pin approach a line-search trial may reach, as a fraction of the stiffest point
 of the contact law γ·exp(α/γ − 1) (about 0.8 mm here, against µm under load): a longer
@@ -95,6 +101,7 @@ class _Problem:
     torque: float
     scale: float  # r_c
     supports: Supports | None = None
+    body: _Body | None = None  # the compliant disc (FE), unknowns after the supports'
 
     def take(self, idx: NDArray[np.int64]) -> _Problem:
         """The problem at the crank angles ``idx`` (increasing); itself when it is all."""
@@ -103,7 +110,7 @@ class _Problem:
         kw = {
             name: (
                 getattr(self, name)[idx]
-                if isinstance(getattr(self, name), np.ndarray)
+                if isinstance(getattr(self, name), np.ndarray | _Body)
                 else getattr(self, name)
             )
             for name in self.__dataclass_fields__
@@ -111,16 +118,49 @@ class _Problem:
         return _Problem(**kw)
 
 
-def _pins(p: _Problem, theta: FloatArray, ux: FloatArray | None, uy: FloatArray | None):
+@dataclass
+class _Body:
+    """The compliant disc in the equilibrium (:func:`body_coupling`), leading axis the
+    crank angles (A, ...), Λ body unknowns per disc.
+
+    The unknowns z (m) are the forces on each disc scaled by a typical compliance c0,
+    λ = z/c0: the loads of its candidate pins (into the disc) and of its hole centres
+    (radial and tangential, less the three components that fix the rigid motion). The body's
+    displacement is C'·λ (:class:`~cyclomesh.core.discbody.FreeDiscBody`), its energy
+    ½·λᵀC'λ = ½·zᵀEz; at the stationary point λ is the load on the disc.
+    """
+
+    pin_w: FloatArray  # (A, D, 2·n1, Λ): into-disc displacement of every pin per unit z
+    hole_w: FloatArray  # (A, D, N, 2, Λ): hole centre displacement (fixed frame, x y)
+    energy: FloatArray  # (A, D, Λ, Λ): E = C'/c0² on the free components
+
+    def __getitem__(self, idx: NDArray[np.int64]) -> _Body:
+        return _Body(self.pin_w[idx], self.hole_w[idx], self.energy[idx])
+
+    @property
+    def size(self) -> int:
+        return self.energy.shape[1] * self.energy.shape[2]
+
+
+def _pins(
+    p: _Problem,
+    theta: FloatArray,
+    ux: FloatArray | None,
+    uy: FloatArray | None,
+    shift: FloatArray | None = None,
+):
     """Pin approach, force, stiffness, energy; None where an approach leaves the law.
 
     The law is evaluated only where a pin closes (δ > 0; most pins of a crank angle are
-    open), each element by the same arithmetic as on the whole array.
+    open), each element by the same arithmetic as on the whole array. ``shift``: the disc
+    body's displacement into the disc at every pin (compliant disc), subtracted.
     """
     usable = np.isfinite(p.bl)
     delta = p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
     if ux is not None:  # None: no translation (adding n·0 would change no bit)
         delta = delta + p.nx * ux[..., None] + p.ny * uy[..., None]
+    if shift is not None:
+        delta = delta - shift
     delta = np.where(usable, delta, -1.0)
     delta = np.maximum(delta, 0.0)
     bad = np.any(delta >= p.dmax, axis=(-2, -1))
@@ -162,9 +202,13 @@ def _evaluate(
     """
     c, theta, ux, uy = _unpack(x, discs)
     n, m = x.shape
+    shift = None
+    if p.body is not None and not rigid:  # the body's displacement at the pins
+        z = x[:, m - p.body.size :].reshape(n, discs, -1)
+        shift = np.einsum("ndpl,ndl->ndp", p.body.pin_w, z)
     # rigid: u = 0 exactly, and only the rotations' rows of g and H enter the reduced
     # problem (the others are multiplied by 0 there), so they are left 0
-    F, k, U, bad = _pins(p, theta, None if rigid else ux, None if rigid else uy)
+    F, k, U, bad = _pins(p, theta, None if rigid else ux, None if rigid else uy, shift)
     energy = np.sum(U, axis=(-2, -1)) - p.torque * c
     L = p.scale
     hessian = hessian and gradient
@@ -187,7 +231,10 @@ def _evaluate(
     state = {"pin_force": F, "bad": bad}
     if rigid:
         return energy, g, H, state
-    if p.supports is not None:
+    if p.body is not None:
+        state["pin_shift"] = shift
+        energy, g, H = _body_pins(p, x, discs, cols, F, k, energy, g, H)
+    if p.supports is not None or p.body is not None:
         return _evaluate_supported(p, law, x, discs, hessian, energy, g, H, state)
     # bearings: d = u + (θ − c)·Jh + ε, Jh = (−hy, hx)
     jx, jy = -p.hy[:, None, :], p.hx[:, None, :]  # (n, 1, N)
@@ -225,11 +272,103 @@ def _evaluate(
     return energy, g, H, state
 
 
+def _body_pins(p: _Problem, x, discs, cols, F, k, energy, g, H):
+    """The compliant disc at the pins and its own energy (:class:`_Body`).
+
+    δ_i −= (C'·λ)_i, so ∂δ/∂z = −pin_w; the body's energy ½·zᵀEz = ½·λᵀC'λ (issue 17's
+    coefficients, :class:`~cyclomesh.core.discbody.FreeDiscBody`). Gradient and Hessian
+    of the scaled unknowns as :func:`_evaluate` (``cols``: ∂δ/∂(θ·r_c, u) of every pin).
+    """
+    b = p.body
+    n, m = x.shape
+    lam = b.energy.shape[-1]
+    z0 = m - b.size
+    z = x[:, z0:].reshape(n, discs, lam)
+    ez = np.einsum("ndlk,ndk->ndl", b.energy, z)
+    energy = energy + 0.5 * np.sum(z * ez, axis=(1, 2))
+    if g is None:
+        return energy, g, H
+    for d in range(discs):
+        zi = slice(z0 + d * lam, z0 + (d + 1) * lam)
+        w = b.pin_w[:, d]  # (n, 2·n1, Λ)
+        g[:, zi] += ez[:, d] - np.einsum("np,npl->nl", F[:, d], w)
+        if H is not None:
+            kw = k[:, d, :, None] * w
+            H[:, zi, zi] += np.einsum("npl,npk->nlk", w, kw) + b.energy[:, d]
+            base = 1 + 3 * d
+            for a_i, col in enumerate(cols):
+                v = -np.einsum("np,npl->nl", col[:, d], kw)
+                H[:, base + a_i, zi] += v
+                H[:, zi, base + a_i] += v
+    return energy, g, H
+
+
+def body_coupling(
+    mesh: StackMesh, prob: _Problem, body: FreeDiscBody, reach: FloatArray
+) -> _Body:
+    """The compliant disc of one direction: :class:`_Body` from the free disc's
+    influence coefficients (:class:`~cyclomesh.core.discbody.FreeDiscBody`, issue 17's FE
+    with the crank-hole centres free).
+
+    Every loaded-flank pin that can close (positive moment arm, unloaded backlash below
+    ``reach`` (A,) [rad], :data:`_BODY_REACH` times the rotation at which one pin alone
+    would carry the torque) gets a body unknown (its load), and so do the hole centres
+    except :data:`~cyclomesh.core.discbody.FREE_HELD`, which fix the disc's rigid motion
+    (the stage's θ_d, u_d: the hole centres' least-squares motion). The opposite flanks
+    and the other pins keep the rigid disc (they carry no load in the examples; with a
+    compliant disc their gaps would move by the body's deformation too, which is not
+    modelled). Hole components are turned from the disc's radial/tangential directions to
+    the fixed frame at every crank angle.
+    """
+    A, D, n1 = mesh.geo.rotation.shape
+    N = prob.hx.shape[-1]
+    tooth = np.asarray(mesh.tooth).reshape(A, D, n1)
+    angle = mesh.geo.profile_angle.reshape(A, D, n1)
+    bl = prob.bl[..., :n1]
+    cand = np.isfinite(bl) & (prob.arm[..., :n1] > 0) & (bl < reach[:, None, None])
+    P = max(int(np.max(np.sum(cand, axis=-1))), 1)
+    order = np.argsort(~cand, axis=-1, kind="stable")[..., :P]
+    ok = np.take_along_axis(cand, order, -1)
+    cmat = body.matrix(
+        np.take_along_axis(tooth, order, -1),
+        np.where(ok, np.take_along_axis(angle, order, -1), 0.0),
+    )
+    rows = np.concatenate([ok, np.ones((A, D, 2 * N), bool)], -1)
+    cmat = np.where(rows[..., :, None] & rows[..., None, :], cmat, 0.0)
+    c0 = float(np.mean(np.diagonal(cmat[..., :P, :P], axis1=-2, axis2=-1)[ok]))
+    pad = np.flatnonzero(~ok.reshape(-1, P))
+    if pad.size:  # padding: an unknown of its own, 0 at the solution
+        flat = cmat.reshape(-1, P + 2 * N, P + 2 * N)
+        j = pad % P
+        flat[pad // P, j, j] = c0
+    held = [2 * h + c for h, c in FREE_HELD]
+    free = np.array([*range(P), *(P + j for j in range(2 * N) if j not in held)])
+    scaled = cmat[..., free] / c0  # (A, D, P + 2N, Λ)
+    lam = free.size
+    pin_w = np.zeros((A, D, 2 * n1, lam))
+    np.put_along_axis(pin_w, order[..., None], scaled[..., :P, :], axis=2)
+    holes = scaled[..., P:, :].reshape(A, D, N, 2, lam)  # radial, tangential
+    L = prob.scale
+    erx, ery = prob.hx[:, None, :, None] / L, prob.hy[:, None, :, None] / L  # (A, 1, N, 1)
+    hole_w = np.stack(
+        [
+            holes[..., 0, :] * erx - holes[..., 1, :] * ery,
+            holes[..., 0, :] * ery + holes[..., 1, :] * erx,
+        ],
+        axis=-2,
+    )
+    energy = cmat[..., free[:, None], free[None, :]] / (c0 * c0)
+    return _Body(pin_w=pin_w, hole_w=hole_w, energy=energy)
+
+
 def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state):
     """Bearings, crankshafts and end plate of :func:`_evaluate` with :class:`Supports`.
 
     d_dk = u_d + (θ_d − c)·Jh_k + ε_dk − w'_dk − (x_d/S)·β·Jh_k (hole against crank pin);
     the gradient and Hessian are assembled from ∂d/∂x (n, D, N, 2, m) in one contraction.
+    With the compliant disc (``p.body``) the hole centre moves by the body's displacement
+    too: d_dk += (C'·λ)_k (:class:`_Body`). Either of ``p.supports`` and ``p.body`` may be
+    None.
     """
     sup = p.supports
     c, theta, ux, uy = _unpack(x, discs)
@@ -238,13 +377,19 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
     L = p.scale
     jx, jy = -p.hy[:, None, :], p.hx[:, None, :]  # (n, 1, N)
     base = 1 + 3 * discs
-    nw = 2 * discs * N if sup.stiffness is not None else 0
+    nw = 2 * discs * N if sup is not None and sup.stiffness is not None else 0
+    carrier = None if sup is None else sup.carrier
     w = x[:, base : base + nw].reshape(n, discs, N, 2) if nw else np.zeros((n, discs, N, 2))
-    beta = x[:, base + nw] if sup.carrier is not None else np.zeros(n)
-    a = sup.fraction[None, :, None]  # (1, D, 1)
+    beta = x[:, base + nw] if carrier is not None else np.zeros(n)
+    a = sup.fraction[None, :, None] if sup is not None else np.zeros((1, discs, 1))
     rot = (theta - c[:, None])[..., None] - a * beta[:, None, None]
     dx = ux[..., None] + rot * jx + p.ex - w[..., 0]
     dy = uy[..., None] + rot * jy + p.ey - w[..., 1]
+    if p.body is not None:
+        lam = p.body.energy.shape[-1]
+        z = x[:, m - p.body.size :].reshape(n, discs, lam)
+        wh = np.einsum("ndkcl,ndl->ndkc", p.body.hole_w, z)
+        dx, dy = dx + wh[..., 0], dy + wh[..., 1]
     s = np.hypot(dx, dy)
     B, kb, Ub, sb = law.evaluate(s, stiffness=hessian)
     energy = energy + np.sum(Ub, axis=(-2, -1))
@@ -258,8 +403,8 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
         if nw:
             Kw = np.einsum("de,nekc->ndkc", sup.stiffness, w)
             energy = energy + 0.5 * np.sum(w * Kw, axis=(1, 2, 3))
-        if sup.carrier is not None:
-            energy = energy + 0.5 * sup.carrier * beta * beta
+        if carrier is not None:
+            energy = energy + 0.5 * carrier * beta * beta
         state.update(bearing_fx=fx, bearing_fy=fy, deflection=s, bearing_part=sb)
         state.update(shaft_deflection=w, end_plate=beta)
         return energy, g, H, state
@@ -278,18 +423,22 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
             for k in range(N):
                 G[:, d, k, 0, idx[d, k, 0]] = -1.0
                 G[:, d, k, 1, idx[d, k, 1]] = -1.0
-    if sup.carrier is not None:
+    if carrier is not None:
         G[..., 0, base + nw] = -a * jxb
         G[..., 1, base + nw] = -a * jyb
+    if p.body is not None:
+        for d in range(discs):
+            z0 = m - p.body.size + d * lam
+            G[:, d, :, :, z0 : z0 + lam] = p.body.hole_w[:, d]
     f = np.stack([fx, fy], axis=-1)
     g = g + np.einsum("ndkc,ndkcm->nm", f, G)
     if nw:
         Kw = np.einsum("de,nekc->ndkc", sup.stiffness, w)
         energy = energy + 0.5 * np.sum(w * Kw, axis=(1, 2, 3))
         g[:, base : base + nw] += Kw.reshape(n, nw)
-    if sup.carrier is not None:
-        energy = energy + 0.5 * sup.carrier * beta * beta
-        g[:, base + nw] += sup.carrier * beta / L
+    if carrier is not None:
+        energy = energy + 0.5 * carrier * beta * beta
+        g[:, base + nw] += carrier * beta / L
     if hessian:
         kxx = kb * cx * cx + secant * cy * cy
         kyy = kb * cy * cy + secant * cx * cx
@@ -298,8 +447,8 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
         H = H + np.einsum("ndkcm,ndkce,ndkep->nmp", G, kmat, G, optimize=True)
         if nw:
             H[:, base : base + nw, base : base + nw] += np.kron(sup.stiffness, np.eye(2 * N))
-        if sup.carrier is not None:
-            H[:, base + nw, base + nw] += sup.carrier / (L * L)
+        if carrier is not None:
+            H[:, base + nw, base + nw] += carrier / (L * L)
     state.update(
         bearing_fx=fx,
         bearing_fy=fy,
@@ -311,11 +460,12 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
     return energy, g, H, state
 
 
-def _rotation_index(m: int, discs: int, supports: Supports | None) -> list[int]:
-    """Unknowns that are rotations (scaled by r_c in the Newton step)."""
+def _rotation_index(m: int, discs: int, supports: Supports | None, tail: int = 0) -> list[int]:
+    """Unknowns that are rotations (scaled by r_c in the Newton step); ``tail``: the
+    compliant disc's unknowns after the supports'."""
     idx = [0, *range(1, 1 + 3 * discs, 3)]
     if supports is not None and supports.carrier is not None:
-        idx.append(m - 1)
+        idx.append(m - 1 - tail)
     return idx
 
 
@@ -339,7 +489,8 @@ def _newton(
             H = np.einsum("im,nij,jk->nmk", reduce, H, reduce)
         # converged: every residual below tol, or at the round-off of the unknowns
         # themselves (stiff bearings: a residual of H·ulp(x) cannot be resolved)
-        rot_idx = _rotation_index(xa.shape[1], discs, None if rigid else p.supports)
+        tail = 0 if rigid or p.body is None else p.body.size
+        rot_idx = _rotation_index(xa.shape[1], discs, None if rigid else p.supports, tail)
         xs = np.abs(_scale(xa, 1.0 / p.scale, rot_idx))
         if rigid:
             xs = xs @ reduce
@@ -483,11 +634,14 @@ def solve_direction(
     errs: tuple[FloatArray, FloatArray],
     torque: float,
     supports: Supports | None = None,
+    body: FreeDiscBody | None = None,
 ) -> dict[str, FloatArray]:
     """Stage under a positive torque in the mesh's frame (``other``: the mirror problem).
 
     ``supports``: the crankshafts and carrier from their geometry (:func:`stage_supports`
     in this direction's disc order), None: rigid (or the override springs of ``stage``).
+    ``body``: the compliant disc (:class:`~cyclomesh.core.discbody.FreeDiscBody`; ``mesh``
+    then carries the tooth of every pin), None: rigid discs. It needs a crank bearing.
     """
     D, n1 = mesh.geo.rotation.shape[-2:]
     prob = _problem(mesh, other, stage.holes, errs, torque)
@@ -512,6 +666,7 @@ def solve_direction(
             "alone within the line-contact law (Eq. 20)"
         )
     x[:, 1::3] = x[:, [0]]
+    bound = x[:, 0].copy()  # one pin alone: an upper bound of the rigid mesh's rotation
     x = _newton(prob, None, x, D, True, mesh.phi)
     _, _, _, st = _evaluate(prob, None, x, D, True, hessian=False)
     F = st["pin_force"]
@@ -552,6 +707,10 @@ def solve_direction(
         if supports is not None:
             prob = dataclasses.replace(prob, supports=supports)
             x = np.concatenate([x, np.zeros((A, supports.extra(D, N)))], axis=-1)
+        if body is not None:  # the compliant disc, from its undeformed state
+            coupling = body_coupling(mesh, prob, body, _BODY_REACH * bound)
+            prob = dataclasses.replace(prob, body=coupling)
+            x = np.concatenate([x, np.zeros((A, prob.body.size))], axis=-1)
         x = _newton(prob, law, x, D, False, mesh.phi)
         energy, g, _, st = _evaluate(prob, law, x, D, False, hessian=False)
         F = st["pin_force"]
@@ -606,7 +765,7 @@ def solve_direction(
     }
 
 
-WORK_PARTS = ("mesh", "crank_bearings", "crankshafts", "carrier", "hole_errors")
+WORK_PARTS = ("mesh", "disc_body", "crank_bearings", "crankshafts", "carrier", "hole_errors")
 """Parts of the output twist (:func:`_work`; the carrier's override spring adds T²/k_c)."""
 
 
@@ -635,8 +794,11 @@ def _work(p: _Problem, stage: StageDesign, x: FloatArray, discs: int, st: dict):
     )
     lin0 = np.where(usable, -p.arm * np.where(usable, p.bl, 0.0), 0.0)
     zero = np.zeros_like(c)
+    if st.get("pin_shift") is not None:  # the compliant disc: δ includes −(C'λ)_pin
+        lin = lin - st["pin_shift"]
     out = {
         "work_mesh": np.sum(F * (lin - lin0), axis=(-2, -1)),
+        "work_disc_body": zero,
         "work_crank_bearings": zero,
         "work_crankshafts": zero,
         "work_carrier": zero,
@@ -653,13 +815,16 @@ def _work(p: _Problem, stage: StageDesign, x: FloatArray, discs: int, st: dict):
     if "shaft_deflection" in st:
         w = st["shaft_deflection"]
         shafts = shafts + np.sum(fx * w[..., 0] + fy * w[..., 1], axis=(-2, -1))
-        if p.supports.carrier is not None:
+        if p.supports is not None and p.supports.carrier is not None:
             out["work_carrier"] = p.supports.carrier * st["end_plate"] ** 2
     out["work_crankshafts"] = shafts
     out["work_crank_bearings"] = np.sum(fd, axis=(-2, -1)) - np.where(
         stage.crankshaft_stiffness is not None, shafts, 0.0
     )
     out["work_hole_errors"] = -np.sum(fx * p.ex + fy * p.ey, axis=(-2, -1))
+    if p.body is not None:  # λᵀC'λ = zᵀEz, the body's work on its own deformation
+        z = x[:, x.shape[1] - p.body.size :].reshape(x.shape[0], discs, -1)
+        out["work_disc_body"] = np.einsum("ndl,ndlk,ndk->n", z, p.body.energy, z)
     return out
 
 

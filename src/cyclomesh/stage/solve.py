@@ -59,6 +59,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.case import Case, Model, check
+from cyclomesh.core.discbody import FreeDiscBody
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.solve import (
     mirror_index,
@@ -259,19 +260,33 @@ def solve(case: Case, model: Model) -> Stage:
     """:func:`solve_stage` of a :class:`~cyclomesh.core.case.Case` and a
     :class:`~cyclomesh.core.case.Model` whose ``stage`` is a :class:`StageDesign`.
 
-    The model's disc body is carried to the stage like its other options; the coupling of
-    the compliant (FE) disc body with the crank bearings is the RV-stage model's to
-    specify, and until then a :class:`~cyclomesh.core.discbody.DiscBody` is refused here
-    in one line.
+    The compliant disc: ``model.disc_body`` a
+    :class:`~cyclomesh.core.discbody.FreeDiscBody` (the FE disc condensed on its contacts
+    and its crank-hole centres, :func:`cyclomesh.fe.influence.free_influence`), so that the
+    crank bearings' and the pins' forces deform one elastic disc
+    (:func:`~cyclomesh.stage.equilibrium.body_coupling`); it needs
+    ``[stage.crank_bearing]``. A :class:`~cyclomesh.core.discbody.DiscBody` (held holes)
+    is refused in one line.
     """
     stage = model.stage
     if not isinstance(stage, StageDesign):
         raise DesignError("stage: the model has no StageDesign (Model(stage=...))")
     c = check(case, model)
-    if c.body is not None:
+    body = c.body
+    if body is not None and not isinstance(body, FreeDiscBody):
         raise DesignError(
-            'stage: the compliant disc body (disc_body = "fe") is not coupled with the crank '
-            'bearings yet; use disc_body = "rigid" with [stage]'
+            "stage: the compliant disc needs the crank-hole centres free (the FreeDiscBody of "
+            'cyclomesh.fe.influence.free_influence, which disc_body = "fe" resolves to)'
+        )
+    if body is not None and stage.bearing is None:
+        raise DesignError(
+            'stage: disc_body = "fe" needs crank bearings ([stage.crank_bearing]): rigid '
+            'bearings without clearance hold the hole centres; set disc_body = "rigid"'
+        )
+    if body is not None and body.count != stage.holes.count:
+        raise DesignError(
+            f"stage: disc body coefficients for {body.count} crank holes, the design has "
+            f"{stage.holes.count}"
         )
     torques, discs, phi, ring_shape = c.torques, c.discs, c.phi, c.ring_shape
     rad, tan = stage.hole_errors(discs)
@@ -285,6 +300,7 @@ def solve(case: Case, model: Model) -> Stage:
         True,  # both: the opposite flanks of one direction are the mirror's loaded flanks
         True,
         c.contact_law,
+        None if body is None else body.pins,  # the tooth of every pin
     )
     N = stage.holes.count
     mirror_errs = (
@@ -302,12 +318,18 @@ def solve(case: Case, model: Model) -> Stage:
             try:
                 if value > 0:
                     fields = solve_direction(
-                        f_ring, r_ring, stage, (rad, tan), float(value), supports
+                        f_ring, r_ring, stage, (rad, tan), float(value), supports, body
                     )
                 else:
                     fields = _reverse(
                         solve_direction(
-                            r_ring, f_ring, stage, mirror_errs, float(-value), mirror_supports
+                            r_ring,
+                            f_ring,
+                            stage,
+                            mirror_errs,
+                            float(-value),
+                            mirror_supports,
+                            body,
                         )
                     )
             except ConvergenceError as exc:

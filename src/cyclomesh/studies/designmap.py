@@ -160,6 +160,7 @@ def compute_design(
     from cyclomesh.studyfile.warnings import has_pin_errors, stage_warning, study_warnings
 
     base = study.base.to_core()
+    base.refuse_compliant_stage("design")
     if np.ndim(base.torque):
         raise StudyError("load.torque_nm: a design map takes one torque (of the stack), not a list")
     errors = base.errors

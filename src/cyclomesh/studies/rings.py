@@ -103,6 +103,7 @@ def ring_model(study: Study, spec: ToleranceSection, checked: bool = False) -> R
             "[friction] is not coupled with the [stage] equilibrium yet: remove [friction] "
             "(the stage's rings) or [stage] (the rings' efficiency)"
         )
+    core.refuse_compliant_stage("tolerance/allocate")
     return RingModel(
         design=core.design,
         modification=core.modification,

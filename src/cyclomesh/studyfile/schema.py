@@ -202,6 +202,17 @@ class CaseInputs:
             self.friction,
         )
 
+    def refuse_compliant_stage(self, kind: str) -> None:
+        """One-line :class:`StudyError` for ``disc_body = "fe"`` with ``[stage]`` in a
+        kind that solves the stage per ring or candidate (``kind``: tolerance, allocate,
+        design): the compliant disc is coupled with the stage in run and stiffness only."""
+        if self.stage is not None and self.disc_body != "rigid":
+            raise StudyError(
+                f'[analysis] disc_body = "fe" with [stage]: cyclomesh {kind} solves the stage '
+                "with rigid discs only (the compliant disc is in run and stiffness); set "
+                'disc_body = "rigid"'
+            )
+
     def kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`cyclomesh.analyse`."""
         return {
@@ -387,10 +398,11 @@ class CaseSpec(StrictSection):
                 friction = None if friction.frictionless else friction
         except DesignError as exc:
             raise StudyError(f"{self.label}: {exc}") from None
-        if stage is not None and self.analysis.disc_body != "rigid":
+        if stage is not None and self.analysis.disc_body != "rigid" and stage.bearing is None:
             raise StudyError(
-                f'{self.label}: [analysis] disc_body = "fe" is not coupled with the [stage] '
-                'crank bearings yet: set disc_body = "rigid" or remove [stage]'
+                f'{self.label}: [analysis] disc_body = "fe" with [stage] needs the crank '
+                "bearings ([stage.crank_bearing]; rigid bearings hold the hole centres): add "
+                'them or set disc_body = "rigid"'
             )
         return CaseInputs(
             design=design,
