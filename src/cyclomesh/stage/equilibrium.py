@@ -304,8 +304,8 @@ def _body_pins(p: _Problem, x, discs, cols, F, k, energy, g, H):
 
 
 def body_coupling(
-    mesh: StackMesh, prob: _Problem, body: FreeDiscBody, reach: FloatArray
-) -> _Body:
+    mesh: StackMesh, prob: _Problem, body: FreeDiscBody, reach: FloatArray, start: dict
+) -> tuple[_Body, FloatArray]:
     """The compliant disc of one direction: :class:`_Body` from the free disc's
     influence coefficients (:class:`~cyclomesh.core.discbody.FreeDiscBody`, issue 17's FE
     with the crank-hole centres free).
@@ -319,6 +319,15 @@ def body_coupling(
     compliant disc their gaps would move by the body's deformation too, which is not
     modelled). Hole components are turned from the disc's radial/tangential directions to
     the fixed frame at every crank angle.
+
+    The pins' coefficients have the near field of the contact law taken out (issue 17), so
+    C' alone is not positive definite (a pin's own coefficient may be negative; only the
+    law's compliance plus C' is): the stationary point in the body unknowns is then a
+    saddle of the potential, not a minimum. Newton's method finds it from the rigid disc's
+    loads (λ = the loads on the disc there, ``start``); the convergence test is the
+    residual of every equation, as without the body (tested on every crank angle of the
+    examples; a shift of C''s negative part into the laws, which would restore a minimum,
+    took a quarter of the law's α and left the stiffened law no range).
     """
     A, D, n1 = mesh.geo.rotation.shape
     N = prob.hx.shape[-1]
@@ -335,14 +344,14 @@ def body_coupling(
     )
     rows = np.concatenate([ok, np.ones((A, D, 2 * N), bool)], -1)
     cmat = np.where(rows[..., :, None] & rows[..., None, :], cmat, 0.0)
-    c0 = float(np.mean(np.diagonal(cmat[..., :P, :P], axis1=-2, axis2=-1)[ok]))
+    held = [2 * h + c for h, c in FREE_HELD]
+    free = np.array([*range(P), *(P + j for j in range(2 * N) if j not in held)])
+    c0 = float(np.mean(np.abs(np.diagonal(cmat[..., :P, :P], axis1=-2, axis2=-1)[ok])))
     pad = np.flatnonzero(~ok.reshape(-1, P))
     if pad.size:  # padding: an unknown of its own, 0 at the solution
         flat = cmat.reshape(-1, P + 2 * N, P + 2 * N)
         j = pad % P
         flat[pad // P, j, j] = c0
-    held = [2 * h + c for h, c in FREE_HELD]
-    free = np.array([*range(P), *(P + j for j in range(2 * N) if j not in held)])
     scaled = cmat[..., free] / c0  # (A, D, P + 2N, Λ)
     lam = free.size
     pin_w = np.zeros((A, D, 2 * n1, lam))
@@ -358,7 +367,15 @@ def body_coupling(
         axis=-2,
     )
     energy = cmat[..., free[:, None], free[None, :]] / (c0 * c0)
-    return _Body(pin_w=pin_w, hole_w=hole_w, energy=energy)
+    # the start: λ the loads on the disc in the state ``start`` (the rigid disc's), the
+    # pins' and the crank bearings' reactions (radial and tangential at each hole)
+    lam = np.zeros((A, D, P + 2 * N))
+    lam[..., :P] = np.where(ok, np.take_along_axis(start["pin_force"], order, -1), 0.0)
+    fx, fy = -start["bearing_fx"], -start["bearing_fy"]  # (A, D, N), on the disc
+    lam[..., P::2] = fx * erx[..., 0] + fy * ery[..., 0]
+    lam[..., P + 1 :: 2] = -fx * ery[..., 0] + fy * erx[..., 0]
+    z = c0 * lam[..., free]
+    return _Body(pin_w=pin_w, hole_w=hole_w, energy=energy), z.reshape(A, -1)
 
 
 def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state):
@@ -707,10 +724,11 @@ def solve_direction(
         if supports is not None:
             prob = dataclasses.replace(prob, supports=supports)
             x = np.concatenate([x, np.zeros((A, supports.extra(D, N)))], axis=-1)
-        if body is not None:  # the compliant disc, from its undeformed state
-            coupling = body_coupling(mesh, prob, body, _BODY_REACH * bound)
+        if body is not None:  # the compliant disc, from the rigid disc's loads
+            _, _, _, start = _evaluate(prob, law, x, D, False, hessian=False)
+            coupling, z = body_coupling(mesh, prob, body, _BODY_REACH * bound, start)
             prob = dataclasses.replace(prob, body=coupling)
-            x = np.concatenate([x, np.zeros((A, prob.body.size))], axis=-1)
+            x = np.concatenate([x, z], axis=-1)
         x = _newton(prob, law, x, D, False, mesh.phi)
         energy, g, _, st = _evaluate(prob, law, x, D, False, hessian=False)
         F = st["pin_force"]
