@@ -227,7 +227,10 @@ def test_pins_beyond_the_first_set_are_added_exactly(monkeypatch):
     np.testing.assert_allclose(r.loaded_rotation, full.loaded_rotation, rtol=1e-12)
 
 
-def test_fe_body_with_the_rv_stage_is_refused(tmp_path):
+def test_fe_body_with_the_rv_stage_only_in_run_and_stiffness(tmp_path):
+    """disc_body = "fe" with [stage] is accepted by run and stiffness (the compliant disc
+    in the stage, tests/stage/test_stage_fe.py) and refused in one line, naming the key and
+    the fix, by the kinds that solve the stage per ring (tolerance, allocate)."""
     from pathlib import Path
 
     from typer.testing import CliRunner
@@ -235,17 +238,27 @@ def test_fe_body_with_the_rv_stage_is_refused(tmp_path):
     from cyclomesh.cli import app
 
     text = (Path(__file__).parents[2] / "examples" / "rv_stage.toml").read_text()
-    if "[analysis]" in text:
-        text = text.replace(
-            "[analysis]", '[analysis]\ndisc_body = "fe"\ncontact_law = "half_plane"', 1
-        )
-    else:
-        text += '\n[analysis]\ndisc_body = "fe"\ncontact_law = "half_plane"\n'
+    text = text.replace("[analysis]", '[analysis]\ndisc_body = "fe"', 1)
     path = tmp_path / "rv.toml"
     path.write_text(text)
     out = CliRunner().invoke(app, ["check", str(path)])
+    assert out.exit_code == 0, out.output
+    base = text[: text.index("[[cases]]")]  # tolerance studies take the base only
+    base += (
+        "[tolerance]\nseed = 3\nrings = 4\nallowable_contact_stress_mpa = 1850.0\n"
+        'radial_um = { distribution = "uniform", half_range = 2.0 }\n'
+    )
+    path.write_text(base)
+    out = CliRunner().invoke(app, ["tolerance", str(path), "--out", str(tmp_path / "out")])
     assert out.exit_code == 2
-    assert "[stage]" in out.output and "disc_body" in out.output
+    assert 'disc_body = "fe" with [stage]' in out.output and 'disc_body = "rigid"' in out.output
+    # without crank bearings (rigid bearings hold the hole centres) every kind refuses it
+    text = text.replace("[stage.crank_bearing]", "[not_a_bearing]")
+    cut = text.index("[not_a_bearing]")
+    end = text.find("\n[", cut + 1)
+    path.write_text(text[:cut] + (text[end + 1 :] if end > 0 else ""))
+    out = CliRunner().invoke(app, ["check", str(path)])
+    assert out.exit_code == 2 and "[stage.crank_bearing]" in out.output
 
 
 @pytest.mark.parametrize("period", [1, 3, 13])

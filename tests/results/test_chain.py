@@ -83,12 +83,13 @@ def test_the_stage_goes_through_the_same_chain_and_reports_the_groove_stress():
 def test_the_stage_takes_the_disc_body_through_the_model_and_names_what_is_missing():
     """Nothing in the chain stops a DiscBody on its way to the stage: Model carries it,
     check() accepts it (half-plane law, teeth match), and the stage refuses it in one
-    line until the coupling with the crank bearings is specified (the RV-stage issue)."""
+    line: the stage's compliant disc is the FreeDiscBody (hole centres free), not the
+    DiscBody held at its holes."""
     from cyclomesh.core.discbody import DiscBody
 
     body = DiscBody(np.linspace(-np.pi, 0.0, 5), np.zeros((1, TABLE1.teeth, 5, 5)), TABLE1.teeth)
     stage = StageDesign(CrankHoles(count=3, circle_radius=36e-3, radius=13e-3))
-    with pytest.raises(DesignError, match=r"^stage: the compliant disc body .* not coupled"):
+    with pytest.raises(DesignError, match=r"^stage: the compliant disc needs the crank-hole"):
         run(CASE, Model(disc_body=body, discs=2, stage=stage))
     # the same body and model without the stage: the mesh takes it (zero compliance: the
     # rigid disc's loads)

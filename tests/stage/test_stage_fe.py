@@ -142,3 +142,51 @@ def test_the_compliant_disc_balances_and_its_share_is_its_own_work(coarse, examp
             work += f @ c @ f
         worst = max(worst, abs(work - res.work["disc_body"][1, a]) / res.work["disc_body"][1, a])
     assert worst < 1e-6
+
+
+def test_run_and_stiffness_with_the_compliant_disc_end_to_end(
+    coarse, example, tmp_path, monkeypatch
+):
+    """``cyclomesh run`` and ``stiffness`` of examples/rv_stage.toml with disc_body = "fe"
+    (its first case, coarse FE meshes from the module's cache): the compliance budget
+    gets the disc body's share, the shares add up to 1, the stage is softer than with the
+    rigid disc, and the run's data sheet is the stiffness study's."""
+    from typer.testing import CliRunner
+
+    import cyclomesh.fe.influence as fe
+    from cyclomesh.cli import app
+
+    _, folder = coarse
+    for key, value in COARSE.items():  # the study's FE meshes are the coarse ones
+        monkeypatch.setitem(fe.MESH_DEFAULTS, key, value)
+    text = EXAMPLE.read_text()
+    base = text[: text.index("[[cases]]")]  # three crankshafts
+    path = tmp_path / "rv_fe.toml"
+    path.write_text(base.replace("[analysis]", '[analysis]\ndisc_body = "fe"', 1))
+    rigid_path = tmp_path / "rv.toml"
+    rigid_path.write_text(base)
+    runner = CliRunner()
+    common = ["--crank-step-deg", "30", "--figures", "none", "--cache-dir", str(folder)]
+    sheets = {}
+    for name, study in (("fe", path), ("rigid", rigid_path)):
+        out = tmp_path / f"run_{name}"
+        result = runner.invoke(app, ["run", str(study), "--out", str(out), *common])
+        assert result.exit_code == 0, result.output
+        sheets[name] = json.loads((out / "summary.json").read_text())["cases"][0]
+    fe_sheet, rigid_sheet = sheets["fe"], sheets["rigid"]
+    share = fe_sheet["compliance_share"]
+    assert share["disc_body"] > 0.005 and rigid_sheet["compliance_share"]["disc_body"] == 0
+    assert sum(share.values()) == pytest.approx(1.0, abs=1e-9)
+    assert (
+        fe_sheet["stage_torsional_rigidity_nm_per_arcmin"]
+        < rigid_sheet["stage_torsional_rigidity_nm_per_arcmin"]
+    )
+    out = tmp_path / "stiff"
+    result = runner.invoke(app, ["stiffness", str(path), "--out", str(out), *common])
+    assert result.exit_code == 0, result.output
+    stiff = json.loads((out / "summary.json").read_text())["cases"][0]
+    assert stiff["stage_torsional_rigidity_nm_per_arcmin_mean"] > 0
+    assert (
+        stiff["stage_torsional_rigidity_nm_per_arcmin_min"]
+        < stiff["torsional_rigidity_nm_per_arcmin_min"]
+    )
