@@ -36,11 +36,9 @@ from cyclomesh.drive.solve import (
     mirror_index,
 )
 from cyclomesh.exceptions import ConvergenceError
-from cyclomesh.stage.bearing import (
-    LOAD_EXPONENT,
-    roller_loads,
-)
+from cyclomesh.stage.bearing import roller_loads
 from cyclomesh.stage.design import StageDesign
+from cyclomesh.stage.newton import FORCE_TOLERANCE, newton, reducer
 from cyclomesh.stage.supports import (
     BearingLaw,
     Supports,
@@ -60,13 +58,6 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-FORCE_TOLERANCE = 1e-12
-"""Accepted residual of every equilibrium equation, relative to T/r_c (moments /r_c)."""
-_MAX_ITERATIONS = 200
-_MAX_HALVINGS = 60
-_LINEAR = (0.05, 0.12)
-"""Residual ratios of two Newton steps taken as the linear convergence of a crank bearing
-near zero load (:func:`_newton`; (1 − 9/10)^(10/9) ≈ 0.077 in the middle)."""
 _BODY_REACH = 10.0
 """Pins with an unloaded backlash below this many times the single-pin bound of the
 rotation get the compliant disc's unknowns (:func:`body_coupling`): the disc turns by
@@ -101,6 +92,7 @@ class _Problem:
     torque: float
     scale: float  # r_c
     supports: Supports | None = None
+    jacobian: FloatArray | None = None  # bearing_jacobian, (A, D, N, 2, m), or None
     body: _Body | None = None  # the compliant disc (FE), unknowns after the supports'
 
     def take(self, idx: NDArray[np.int64]) -> _Problem:
@@ -403,8 +395,7 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
     dx = ux[..., None] + rot * jx + p.ex - w[..., 0]
     dy = uy[..., None] + rot * jy + p.ey - w[..., 1]
     if p.body is not None:
-        lam = p.body.energy.shape[-1]
-        z = x[:, m - p.body.size :].reshape(n, discs, lam)
+        z = x[:, m - p.body.size :].reshape(n, discs, -1)
         wh = np.einsum("ndkcl,ndl->ndkc", p.body.hole_w, z)
         dx, dy = dx + wh[..., 0], dy + wh[..., 1]
     s = np.hypot(dx, dy)
@@ -425,28 +416,7 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
         state.update(bearing_fx=fx, bearing_fy=fy, deflection=s, bearing_part=sb)
         state.update(shaft_deflection=w, end_plate=beta)
         return energy, g, H, state
-    # ∂d/∂x, scaled unknowns (rotations × L)
-    G = np.zeros((n, discs, N, 2, m))
-    jxb = np.broadcast_to(jx, (n, discs, N)) / L
-    jyb = np.broadcast_to(jy, (n, discs, N)) / L
-    G[..., 0, 0], G[..., 1, 0] = -jxb, -jyb
-    for d in range(discs):
-        G[:, d, :, 0, 1 + 3 * d], G[:, d, :, 1, 1 + 3 * d] = jxb[:, d], jyb[:, d]
-        G[:, d, :, 0, 2 + 3 * d] = 1.0
-        G[:, d, :, 1, 3 + 3 * d] = 1.0
-    if nw:
-        idx = base + np.arange(nw).reshape(discs, N, 2)
-        for d in range(discs):
-            for k in range(N):
-                G[:, d, k, 0, idx[d, k, 0]] = -1.0
-                G[:, d, k, 1, idx[d, k, 1]] = -1.0
-    if carrier is not None:
-        G[..., 0, base + nw] = -a * jxb
-        G[..., 1, base + nw] = -a * jyb
-    if p.body is not None:
-        for d in range(discs):
-            z0 = m - p.body.size + d * lam
-            G[:, d, :, :, z0 : z0 + lam] = p.body.hole_w[:, d]
+    G = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, m)
     f = np.stack([fx, fy], axis=-1)
     g = g + np.einsum("ndkc,ndkcm->nm", f, G)
     if nw:
@@ -477,102 +447,92 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
     return energy, g, H, state
 
 
-def _rotation_index(m: int, discs: int, supports: Supports | None, tail: int = 0) -> list[int]:
-    """Unknowns that are rotations (scaled by r_c in the Newton step); ``tail``: the
-    compliant disc's unknowns after the supports'."""
-    idx = [0, *range(1, 1 + 3 * discs, 3)]
-    if supports is not None and supports.carrier is not None:
-        idx.append(m - 1 - tail)
-    return idx
+def bearing_jacobian(p: _Problem, discs: int, m: int) -> FloatArray:
+    """∂d/∂x of every hole against its crank pin with :class:`Supports` or the compliant
+    disc, (n, D, N, 2, m).
+
+    Scaled unknowns (rotations × r_c); d is affine in x, so this depends on the crank
+    angle only (:func:`solve_direction` forms it once, :attr:`_Problem.jacobian`).
+    """
+    sup = p.supports
+    n, N, L = p.hx.shape[0], p.hx.shape[-1], p.scale
+    base = 1 + 3 * discs
+    nw = 2 * discs * N if sup is not None and sup.stiffness is not None else 0
+    carrier = None if sup is None else sup.carrier
+    a = sup.fraction[None, :, None] if sup is not None else 0.0  # (1, D, 1)
+    G = np.zeros((n, discs, N, 2, m))
+    jxb = np.broadcast_to(-p.hy[:, None, :], (n, discs, N)) / L
+    jyb = np.broadcast_to(p.hx[:, None, :], (n, discs, N)) / L
+    G[..., 0, 0], G[..., 1, 0] = -jxb, -jyb
+    for d in range(discs):
+        G[:, d, :, 0, 1 + 3 * d], G[:, d, :, 1, 1 + 3 * d] = jxb[:, d], jyb[:, d]
+        G[:, d, :, 0, 2 + 3 * d] = 1.0
+        G[:, d, :, 1, 3 + 3 * d] = 1.0
+    if nw:
+        idx = base + np.arange(nw).reshape(discs, N, 2)
+        for d in range(discs):
+            for k in range(N):
+                G[:, d, k, 0, idx[d, k, 0]] = -1.0
+                G[:, d, k, 1, idx[d, k, 1]] = -1.0
+    if carrier is not None:
+        G[..., 0, base + nw] = -a * jxb
+        G[..., 1, base + nw] = -a * jyb
+    if p.body is not None:  # the hole centres' displacement by the compliant disc
+        lam = p.body.energy.shape[-1]
+        for d in range(discs):
+            z0 = m - p.body.size + d * lam
+            G[:, d, :, :, z0 : z0 + lam] = p.body.hole_w[:, d]
+    return G
 
 
-def _newton(
-    p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray
-) -> FloatArray:
-    """Newton's method with a backtracking line search on the potential, per crank angle."""
-    tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
-    reduce = np.zeros((1 + 3 * discs, 1))
-    reduce[[0, *range(1, 1 + 3 * discs, 3)], 0] = 1.0  # rigid: θ_d = c, u = 0
-    active = np.arange(x.shape[0])
-    previous = np.full(x.shape[0], np.inf)  # max |g| of the last step, per crank angle
-    extended = np.zeros(x.shape[0], bool)  # the last step was a stretched one
-    linear = np.zeros(x.shape[0], bool)  # the last residual ratio was in _LINEAR
-    for _ in range(_MAX_ITERATIONS):
-        sub = p.take(active)
-        xa = x[active]
-        energy, g, H, _state = _evaluate(sub, law, xa, discs, rigid)
-        if rigid:
-            g = g @ reduce
-            H = np.einsum("im,nij,jk->nmk", reduce, H, reduce)
-        # converged: every residual below tol, or at the round-off of the unknowns
-        # themselves (stiff bearings: a residual of H·ulp(x) cannot be resolved)
-        tail = 0 if rigid or p.body is None else p.body.size
-        rot_idx = _rotation_index(xa.shape[1], discs, None if rigid else p.supports, tail)
-        xs = np.abs(_scale(xa, 1.0 / p.scale, rot_idx))
-        if rigid:
-            xs = xs @ reduce
-        noise = 16.0 * np.finfo(float).eps * np.einsum("nij,nj->ni", np.abs(H), xs)
-        done = np.all(np.abs(g) <= np.maximum(tol, noise), axis=-1)
-        keep = ~done
-        res = np.max(np.abs(g), axis=-1)
-        # a crank bearing whose equilibrium compression is ~0 (a disc that carries almost
-        # nothing at a light torque) makes Newton linear, δ → δ·(1 − 1/p) with
-        # Q ∝ δ^p (residual ×(1 − 1/p)^p ≈ 1/13 a step); the step stretched by p is the
-        # modified Newton step of that root: try it first, every other step at most
-        ratio = (res > _LINEAR[0] * previous[active]) & (res < _LINEAR[1] * previous[active])
-        stretch = (~rigid & ~extended[active] & ratio & linear[active])[keep]
-        linear[active] = ratio & ~extended[active]
-        previous[active] = res
-        active = active[keep]
-        if active.size == 0:
-            return x
-        xa, g, H, energy = xa[keep], g[keep], H[keep], energy[keep]
-        sub = sub.take(np.flatnonzero(keep))
-        diag = np.maximum(np.max(np.abs(np.diagonal(H, axis1=1, axis2=2)), axis=-1), 1e-300)
-        eye = np.eye(H.shape[-1])
-        step = np.linalg.solve(H + 1e-14 * diag[:, None, None] * eye, -g[..., None])[..., 0]
-        slope = np.sum(g * step, axis=-1)
-        # not a descent direction (flat directions): steepest descent, scaled
-        flip = ~(slope < 0)
-        step[flip] = -g[flip] / diag[flip, None]
-        slope = np.sum(g * step, axis=-1)
-        t = np.where(stretch, LOAD_EXPONENT, 1.0)
-        extended[active] = stretch
-        todo = np.arange(xa.shape[0])
-        new = xa.copy()
-        tiny = -slope <= 1e-13 * np.maximum(np.abs(energy), 1e-300)
-        for _h in range(_MAX_HALVINGS):
-            full = _expand(step[todo] * t[todo, None], reduce if rigid else None)
-            trial = xa[todo] + _scale(full, p.scale, rot_idx)
-            e_t, _g, _H, st = _evaluate(sub.take(todo), law, trial, discs, rigid, gradient=False)
-            ok = ~st["bad"] & ((e_t <= energy[todo] + 1e-4 * t[todo] * slope[todo]) | tiny[todo])
-            new[todo[ok]] = trial[ok]
-            todo = todo[~ok]
-            if todo.size == 0:
-                break
-            extended[active[todo]] = False
-            t[todo] = np.where(t[todo] > 1.0, 1.0, 0.5 * t[todo])
-        else:
-            raise ConvergenceError(
-                f"stage: no descent at crank angle {np.degrees(phi[active[todo[0]]]):.6g}° "
-                f"(line search failed after {_MAX_HALVINGS} halvings)"
-            )
-        x[active] = new
-    raise ConvergenceError(
-        f"stage equilibrium did not converge at crank angle {np.degrees(phi[active[0]]):.6g}°: "
-        f"residual above {FORCE_TOLERANCE:.0e}·T/r_c after {_MAX_ITERATIONS} Newton steps"
-    )
+_NEAR = 10e-6
+"""Pins farther than this from contact at the start of a solve [m] are left out of its
+Newton iteration (:func:`_solve`); a left-out pin that closes all the same is taken back
+and its crank angle solved again with every pin, so this sets the speed, not the answer."""
+_PIN_FIELDS = ("bl", "arm", "nx", "ny", "alpha", "gamma", "dmax")
 
 
-def _expand(step: FloatArray, reduce: FloatArray | None) -> FloatArray:
-    return step if reduce is None else step @ reduce.T
+def _approach(p: _Problem, x: FloatArray, discs: int, rigid: bool) -> FloatArray:
+    """Pin approaches δ (A, D, pins) of :func:`_pins` at x; −inf where a pin has no law."""
+    _, theta, ux, uy = _unpack(x, discs)
+    usable = np.isfinite(p.bl)
+    delta = p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
+    if not rigid:
+        delta = delta + p.nx * ux[..., None] + p.ny * uy[..., None]
+    if not rigid and p.body is not None:  # less the compliant disc's displacement
+        z = x[:, x.shape[1] - p.body.size :].reshape(x.shape[0], discs, -1)
+        delta = delta - np.einsum("ndpl,ndl->ndp", p.body.pin_w, z)
+    return np.where(usable, delta, -np.inf)
 
 
-def _scale(step: FloatArray, L: float, rot_idx: list[int]) -> FloatArray:
-    """Scaled step (rotations × L) → unknowns (rad, m)."""
-    out = step.copy()
-    out[:, rot_idx] /= L
-    return out
+def _near(p: _Problem, x: FloatArray, discs: int, rigid: bool) -> _Problem:
+    """The problem on the pins within :data:`_NEAR` of contact at x (the others are open
+    and add exactly nothing to the potential while they stay open), padded per crank
+    angle and disc with pins without a law (φbl = inf)."""
+    near = _approach(p, x, discs, rigid) > -_NEAR
+    count = int(max(1, np.max(np.sum(near, axis=-1))))
+    order = np.argsort(~near, axis=-1, kind="stable")[..., :count]
+    kept = np.take_along_axis(near, order, axis=-1)
+    fields = {f: np.take_along_axis(getattr(p, f), order, axis=-1) for f in _PIN_FIELDS}
+    fields["bl"] = np.where(kept, fields["bl"], np.inf)
+    if p.body is not None:  # the same pins of the compliant disc's coefficients
+        pin_w = np.take_along_axis(p.body.pin_w, order[..., None], axis=2)
+        fields["body"] = dataclasses.replace(p.body, pin_w=pin_w)
+    return dataclasses.replace(p, **fields)
+
+
+def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray):
+    """:func:`~cyclomesh.stage.newton.newton` on the pins near contact (:func:`_near`),
+    then every pin checked: the crank angles where a left-out pin closed are solved
+    again from there with all pins (the answer is the whole problem's either way)."""
+    q = _near(p, x, discs, rigid)
+    x = newton(q, _evaluate, law, x, discs, rigid, phi)
+    closed = np.sum(_approach(p, x, discs, rigid) > 0.0, axis=-1)
+    counted = np.sum(_approach(q, x, discs, rigid) > 0.0, axis=-1)  # the same arithmetic
+    again = np.flatnonzero(np.any(closed != counted, axis=-1))
+    if again.size:
+        x[again] = newton(p.take(again), _evaluate, law, x[again], discs, rigid, phi[again])
+    return x
 
 
 def _mirrored(arr: FloatArray) -> FloatArray:
@@ -684,7 +644,7 @@ def solve_direction(
         )
     x[:, 1::3] = x[:, [0]]
     bound = x[:, 0].copy()  # one pin alone: an upper bound of the rigid mesh's rotation
-    x = _newton(prob, None, x, D, True, mesh.phi)
+    x = _solve(prob, None, x, D, True, mesh.phi)
     _, _, _, st = _evaluate(prob, None, x, D, True, hessian=False)
     F = st["pin_force"]
     mesh_te = transmission_error(mesh.rest, x[:, 0])
@@ -729,7 +689,9 @@ def solve_direction(
             coupling, z = body_coupling(mesh, prob, body, _BODY_REACH * bound, start)
             prob = dataclasses.replace(prob, body=coupling)
             x = np.concatenate([x, z], axis=-1)
-        x = _newton(prob, law, x, D, False, mesh.phi)
+        if supports is not None or body is not None:
+            prob.jacobian = bearing_jacobian(prob, D, x.shape[1])
+        x = _solve(prob, law, x, D, False, mesh.phi)
         energy, g, _, st = _evaluate(prob, law, x, D, False, hessian=False)
         F = st["pin_force"]
         bfx, bfy = st["bearing_fx"], st["bearing_fy"]
@@ -742,7 +704,7 @@ def solve_direction(
         sb = deflection
         work = _work(prob, stage, x, D, {"pin_force": F})
         residual = np.max(
-            np.abs(_evaluate(prob, None, x, D, True, hessian=False)[1] @ _reducer(D)), -1
+            np.abs(_evaluate(prob, None, x, D, True, hessian=False)[1] @ reducer(D)), -1
         )
     c, theta, ux, uy = _unpack(x, D)
     loaded = contact_fields(
@@ -869,9 +831,3 @@ def ring_mesh(mesh: StackMesh, ring: tuple[int, ...]) -> StackMesh:
     for name in ("rest", "reverse_rest", "backlash", "alpha", "gamma", "normal_x", "normal_y"):
         fields[name] = fields[name][ring]
     return StackMesh(**{**fields, "geo": geo, "ring_shape": ()})
-
-
-def _reducer(D: int) -> FloatArray:
-    reduce = np.zeros((1 + 3 * D, 1))
-    reduce[[0, *range(1, 1 + 3 * D, 3)], 0] = 1.0
-    return reduce
