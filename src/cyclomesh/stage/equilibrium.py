@@ -197,7 +197,7 @@ def _evaluate(
     shift = None
     if p.body is not None and not rigid:  # the body's displacement at the pins
         z = x[:, m - p.body.size :].reshape(n, discs, -1)
-        shift = np.einsum("ndpl,ndl->ndp", p.body.pin_w, z)
+        shift = np.matmul(p.body.pin_w, z[..., None])[..., 0]
     # rigid: u = 0 exactly, and only the rotations' rows of g and H enter the reduced
     # problem (the others are multiplied by 0 there), so they are left 0
     F, k, U, bad = _pins(p, theta, None if rigid else ux, None if rigid else uy, shift)
@@ -276,22 +276,22 @@ def _body_pins(p: _Problem, x, discs, cols, F, k, energy, g, H):
     lam = b.energy.shape[-1]
     z0 = m - b.size
     z = x[:, z0:].reshape(n, discs, lam)
-    ez = np.einsum("ndlk,ndk->ndl", b.energy, z)
+    ez = np.matmul(b.energy, z[..., None])[..., 0]
     energy = energy + 0.5 * np.sum(z * ez, axis=(1, 2))
     if g is None:
         return energy, g, H
     for d in range(discs):
         zi = slice(z0 + d * lam, z0 + (d + 1) * lam)
         w = b.pin_w[:, d]  # (n, 2·n1, Λ)
-        g[:, zi] += ez[:, d] - np.einsum("np,npl->nl", F[:, d], w)
+        g[:, zi] += ez[:, d] - np.matmul(F[:, d, None, :], w)[:, 0]
         if H is not None:
             kw = k[:, d, :, None] * w
-            H[:, zi, zi] += np.einsum("npl,npk->nlk", w, kw) + b.energy[:, d]
+            H[:, zi, zi] += np.matmul(np.swapaxes(w, 1, 2), kw) + b.energy[:, d]
             base = 1 + 3 * d
-            for a_i, col in enumerate(cols):
-                v = -np.einsum("np,npl->nl", col[:, d], kw)
-                H[:, base + a_i, zi] += v
-                H[:, zi, base + a_i] += v
+            rows = np.stack([col[:, d] for col in cols], axis=1)  # (n, 3, pins)
+            v = -np.matmul(rows, kw)  # (n, 3, Λ)
+            H[:, base : base + len(cols), zi] += v
+            H[:, zi, base : base + len(cols)] += np.swapaxes(v, 1, 2)
     return energy, g, H
 
 
@@ -396,7 +396,7 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
     dy = uy[..., None] + rot * jy + p.ey - w[..., 1]
     if p.body is not None:
         z = x[:, m - p.body.size :].reshape(n, discs, -1)
-        wh = np.einsum("ndkcl,ndl->ndkc", p.body.hole_w, z)
+        wh = np.matmul(p.body.hole_w, z[:, :, None, :, None])[..., 0]
         dx, dy = dx + wh[..., 0], dy + wh[..., 1]
     s = np.hypot(dx, dy)
     B, kb, Ub, sb = law.evaluate(s, stiffness=hessian)
@@ -501,7 +501,7 @@ def _approach(p: _Problem, x: FloatArray, discs: int, rigid: bool) -> FloatArray
         delta = delta + p.nx * ux[..., None] + p.ny * uy[..., None]
     if not rigid and p.body is not None:  # less the compliant disc's displacement
         z = x[:, x.shape[1] - p.body.size :].reshape(x.shape[0], discs, -1)
-        delta = delta - np.einsum("ndpl,ndl->ndp", p.body.pin_w, z)
+        delta = delta - np.matmul(p.body.pin_w, z[..., None])[..., 0]
     return np.where(usable, delta, -np.inf)
 
 
