@@ -525,14 +525,77 @@ def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatA
     """:func:`~cyclomesh.stage.newton.newton` on the pins near contact (:func:`_near`),
     then every pin checked: the crank angles where a left-out pin closed are solved
     again from there with all pins (the answer is the whole problem's either way)."""
+    solver = newton if rigid or p.body is None else _body_newton
     q = _near(p, x, discs, rigid)
-    x = newton(q, _evaluate, law, x, discs, rigid, phi)
+    x = solver(q, _evaluate, law, x, discs, rigid, phi)
     closed = np.sum(_approach(p, x, discs, rigid) > 0.0, axis=-1)
     counted = np.sum(_approach(q, x, discs, rigid) > 0.0, axis=-1)  # the same arithmetic
     again = np.flatnonzero(np.any(closed != counted, axis=-1))
     if again.size:
-        x[again] = newton(p.take(again), _evaluate, law, x[again], discs, rigid, phi[again])
+        x[again] = solver(p.take(again), _evaluate, law, x[again], discs, rigid, phi[again])
     return x
+
+
+def _body_newton(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid: bool, phi):
+    """The compliant disc's equilibrium: :func:`~cyclomesh.stage.newton.newton` (its line
+    search on the potential), and where that fails, :func:`_stationary` from the same
+    start (the stationary point is a saddle in the body's unknowns, :func:`body_coupling`,
+    so a descent on the potential can run away along them)."""
+    start = x.copy()
+    try:
+        return newton(p, evaluate, law, x, discs, rigid, phi)
+    except ConvergenceError:
+        return _stationary(p, evaluate, law, start, discs, phi)
+
+
+def _stationary(p: _Problem, evaluate, law, x: FloatArray, discs: int, phi: FloatArray):
+    """Newton's method on ∇Π = 0 with a backtracking line search on the residual ‖∇Π‖
+    (scaled unknowns as :func:`~cyclomesh.stage.newton.newton`, the same convergence test:
+    every residual below 1e-12·T/r_c or the round-off of the unknowns)."""
+    tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
+    L, m = p.scale, x.shape[1]
+    rot = [0, *range(1, 1 + 3 * discs, 3)]
+    if p.supports is not None and p.supports.carrier is not None:
+        rot.append(m - 1 - p.body.size)
+    active = np.arange(x.shape[0])
+    for _ in range(200):
+        sub = p.take(active)
+        xa = x[active]
+        _, g, H, _st = evaluate(sub, law, xa, discs, False)
+        xs = np.abs(xa)
+        xs[:, rot] *= L
+        noise = 16.0 * np.finfo(float).eps * np.einsum("nij,nj->ni", np.abs(H), xs)
+        keep = ~np.all(np.abs(g) <= np.maximum(tol, noise), axis=-1)
+        active = active[keep]
+        if active.size == 0:
+            return x
+        xa, g, H, sub = xa[keep], g[keep], H[keep], sub.take(np.flatnonzero(keep))
+        diag = np.maximum(np.max(np.abs(np.diagonal(H, axis1=1, axis2=2)), axis=-1), 1e-300)
+        step = np.linalg.solve(H + 1e-14 * diag[:, None, None] * np.eye(m), -g[..., None])[..., 0]
+        step[:, rot] /= L
+        merit = np.linalg.norm(g, axis=-1)
+        t = np.ones(xa.shape[0])
+        todo = np.arange(xa.shape[0])
+        new = xa.copy()
+        for _h in range(60):
+            trial = xa[todo] + t[todo, None] * step[todo]
+            _e, g_t, _H, st = evaluate(sub.take(todo), law, trial, discs, False, hessian=False)
+            ok = ~st["bad"] & (np.linalg.norm(g_t, axis=-1) <= (1.0 - 1e-4 * t[todo]) * merit[todo])
+            new[todo[ok]] = trial[ok]
+            todo = todo[~ok]
+            if todo.size == 0:
+                break
+            t[todo] *= 0.5
+        else:
+            raise ConvergenceError(
+                f"stage (compliant disc): no decrease of the residual at crank angle "
+                f"{np.degrees(phi[active[todo[0]]]):.6g}°"
+            )
+        x[active] = new
+    raise ConvergenceError(
+        f"stage (compliant disc) did not converge at crank angle "
+        f"{np.degrees(phi[active[0]]):.6g}°: residual above {FORCE_TOLERANCE:.0e}·T/r_c"
+    )
 
 
 def _mirrored(arr: FloatArray) -> FloatArray:
