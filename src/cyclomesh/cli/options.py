@@ -104,8 +104,11 @@ def progress_bar(
     total: int, label: str, quiet: bool, unit: str = "rings"
 ) -> Iterator[Callable[[int], None]]:
     """A progress bar on stderr (none when quiet or not a terminal); yields ``advance(n)``."""
+    if quiet:  # nothing shown: Rich not imported
+        yield lambda done: None
+        return
     console = stderr_console(quiet)
-    if quiet or not console.is_terminal:
+    if not console.is_terminal:
         yield lambda done: None
         return
     from rich.progress import (

@@ -43,8 +43,7 @@ __all__ = [
     "MAX_POINTS",
 ]
 
-FORMATS = ("png", "svg", "pdf")
-"""File formats a figure can be saved in."""
+from cyclomesh.figures.sets import FORMATS  # noqa: E402  (file formats of a figure)
 
 MAX_POINTS = 1500
 """Bins of :func:`decimate` along a line (a figure is at most ~1700 px wide at 150 dpi)."""

@@ -23,6 +23,9 @@ if TYPE_CHECKING:
     from cyclomesh.publish.report import Section
     from cyclomesh.studyfile.schema import Study
 
+FORMATS = ("png", "svg", "pdf")
+"""Figure file formats (:data:`cyclomesh.figures.render.FORMATS` is this tuple)."""
+
 __all__ = ["OutputOptions", "Published", "parse_figure_formats", "publish", "attach_figures"]
 
 
@@ -73,7 +76,7 @@ def parse_figure_formats(text: str) -> tuple[str, ...]:
         An unknown format.
     """
     from cyclomesh.exceptions import StudyError
-    from cyclomesh.figures.render import FORMATS
+    from cyclomesh.figures.sets import FORMATS
 
     parts = [p.strip().lower() for p in text.split(",") if p.strip()]
     if parts == ["none"]:
