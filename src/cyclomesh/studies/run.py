@@ -30,8 +30,8 @@ from cyclomesh.publish.report import (
     warning_sections,
 )
 from cyclomesh.quantities import QUANTITIES
-from cyclomesh.results.frame import Frame, Var, as_xarray
 from cyclomesh.results.efficiency import EFFICIENCY_METRICS
+from cyclomesh.results.frame import Frame, Var, as_xarray
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STIFFNESS_METRICS
 from cyclomesh.results.profile import profile_curves
 from cyclomesh.results.stage import STAGE_METRICS
