@@ -40,8 +40,9 @@ FiguresOption = Annotated[
     str | None,
     typer.Option(
         "--figures",
-        help="Figure formats, comma-separated: png, svg, pdf; or none "
-        "(default: figures.formats of the study file, png).",
+        help="Figures, comma-separated: formats png, svg, pdf (default: figures.formats "
+        "of the study file, png), and 'all' for every figure of a run (default: its one "
+        "overview figure); or none.",
         show_default=False,
     ),
 ]

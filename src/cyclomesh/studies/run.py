@@ -54,6 +54,7 @@ __all__ = [
     "write_run",
     "input_figures",
     "run_figures",
+    "overview_figures",
     "run_sections",
     "case_folder",
 ]
@@ -524,6 +525,66 @@ def run_figures(run: RunResult, inputs: list[FigureJob] | None = None) -> list[F
     return jobs
 
 
+_OVERVIEW_DIMS = ("torque", "crank_angle", "disc", "pin")
+
+
+def _pick(var: Any, at: dict[str, int]) -> np.ndarray:
+    """A variable (Frame or Dataset) at the torque and disc indices ``at`` (those its
+    dimensions have), axes (crank angle[, pin])."""
+    order = [dim for dim in _OVERVIEW_DIMS if dim in var.dims]
+    index = tuple(at.get(dim, slice(None)) for dim in order)
+    return np.asarray(var.transpose(*order).values[index])
+
+
+def overview_figures(run: RunResult) -> list[FigureJob]:
+    """The overview figure of a run study (:mod:`cyclomesh.figures.overview`), the one
+    figure of the default ``--figures`` set: pin loads at the first crank angle of
+    ``[figures] crank_angles_deg``, TE, peak contact stress and pins in contact over
+    the crank angle, one line per case, torque and disc (as :func:`figure_cases`
+    splits them). Built from the results' NumPy arrays: no xarray."""
+    import warnings
+
+    from cyclomesh.figures.overview import OverviewCase, plot_overview
+    from cyclomesh.figures.render import FigureJob
+
+    target = float(run.study.figures.crank_angles_deg[0])
+    cases: dict[str, OverviewCase] = {}
+    for name, ds in run.frames.items():
+        torques = ds["torque"].values if "torque" in ds.dims else [None]
+        discs = ds["disc"].values if "disc" in ds.dims else [None]
+        angles = np.asarray(ds["crank_angle"].values, dtype=float)
+        k = int(np.argmin(np.abs((angles - target + 180.0) % 360.0 - 180.0)))
+        for t, torque in enumerate(torques):
+            for d, disc in enumerate(discs):
+                at = {"torque": t, "disc": d}
+                label = name + ("" if torque is None else f", {torque:g} N·m")
+                label += "" if disc is None else f", disc {disc}"
+                with warnings.catch_warnings():  # an angle where no pin is loaded: NaN
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    peak = np.nanmax(_pick(ds["contact_stress"], at), axis=-1)
+                cases[label] = OverviewCase(
+                    crank_angle=angles,
+                    pin=np.asarray(ds["pin"].values),
+                    pin_load_at=float(angles[k]),
+                    pin_load=_pick(ds["pin_load"], at)[k],
+                    transmission_error=_pick(ds["transmission_error"], at),
+                    max_contact_stress=peak,
+                    contacts=_pick(ds["contacts"], at),
+                )
+    return [
+        FigureJob(
+            "overview",
+            plot_overview,
+            (cases,),
+            caption="Overview: load on every pin at one crank angle (Eq. 18 of Li et al. "
+            "2022), loaded transmission error (Eq. 25), peak tooth contact stress over the "
+            "pins (Eq. 24) and pins in contact over the crank angle. `--figures all` draws "
+            "every figure of the run.",
+            section="Overview",
+        )
+    ]
+
+
 def _flat(prefix: str, value: Any) -> dict[str, Any]:
     if isinstance(value, dict):
         out: dict[str, Any] = {}
@@ -655,6 +716,7 @@ RUN = StudyKind(
     figures=lambda result, early: run_figures(result, early),
     sections=lambda result: run_sections(result),
     early_figures=lambda study: input_figures(study),
+    overview=lambda result: overview_figures(result),
     preflight=refuse_friction_with_stage,
     steps=CommandSteps(progress=lambda study, o: (len(study.cases), "cases"), show=_show_run),
 )
