@@ -183,13 +183,14 @@ def publish(
         Figure workers started before the study computed (see
         :class:`~cyclomesh.figures.render.FigurePool`).
     """
-    from cyclomesh.figures.render import render_figures
     from cyclomesh.publish.report import Section, write_report
 
     seconds = {}
     start = time.perf_counter()
     rendered: list[RenderedFigure] = []
     if options.figures and jobs:
+        from cyclomesh.figures.render import render_figures
+
         rendered = render_figures(
             jobs, out / "figures", options.figures, options.dpi, options.figure_workers, pool
         )
