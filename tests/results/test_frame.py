@@ -196,13 +196,18 @@ def test_run_without_figures_imports_no_dataset_library(tmp_path):
 
 
 def test_default_figures_are_the_overview(tmp_path):
-    """The default: one overview figure, in the report under its own heading, and this
-    process imports no xarray (the worker draws from NumPy arrays)."""
+    """The default: one overview figure, in the report under the summary table (before
+    the inputs), and this process imports no xarray (the worker draws from NumPy
+    arrays)."""
     out, imported = _run(tmp_path)
     assert "xarray" not in imported and "pandas" not in imported
     assert [p.name for p in (out / "figures").iterdir()] == ["overview.png"]
     page = (out / "report.html").read_text(encoding="utf-8")
-    assert page.count("data:image/png;base64,") == 1 and "<h2>Overview</h2>" in page
+    assert page.count("data:image/png;base64,") == 1
+    summary, image, inputs = (
+        page.index(s) for s in ("<h2>Summary", "data:image/png", "<h2>Inputs")
+    )
+    assert summary < image < inputs
 
 
 def test_figures_all_draws_every_figure(tmp_path):

@@ -578,9 +578,9 @@ def overview_figures(run: RunResult) -> list[FigureJob]:
             (cases,),
             caption="Overview: load on every pin at one crank angle (Eq. 18 of Li et al. "
             "2022), loaded transmission error (Eq. 25), peak tooth contact stress over the "
-            "pins (Eq. 24) and pins in contact over the crank angle. `--figures all` draws "
+            "pins (Eq. 24) and pins in contact over the crank angle; --figures all draws "
             "every figure of the run.",
-            section="Overview",
+            section="Summary",  # under the summary table, on the report's first screen
         )
     ]
 
