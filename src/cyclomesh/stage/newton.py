@@ -27,6 +27,10 @@ FORCE_TOLERANCE = 1e-12
 """Accepted residual of every equilibrium equation, relative to T/r_c (moments /r_c)."""
 _MAX_ITERATIONS = 200
 _MAX_HALVINGS = 60
+_STEP_CAP = 1e-4
+"""Largest move of any unknown in one trial step [m] (rotations × r_c): a longer Newton
+step (a nearly flat direction of the potential) is shortened to it before the line
+search, instead of being halved down to it one potential evaluation at a time."""
 _LINEAR = (0.05, 0.12)
 """Residual ratios of two Newton steps taken as the linear convergence of a crank bearing
 near zero load (:func:`newton`; (1 − 9/10)^(10/9) ≈ 0.077 in the middle)."""
@@ -97,6 +101,8 @@ def newton(
         step[flip] = -g[flip] / diag[flip, None]
         slope = np.sum(g * step, axis=-1)
         t = np.where(stretch, LOAD_EXPONENT, 1.0)
+        reach = np.max(np.abs(step), axis=-1)  # m (rotations × r_c)
+        t = np.where(reach * t > _STEP_CAP, _STEP_CAP / np.where(reach > 0, reach, 1.0), t)
         extended[active] = stretch
         todo = np.arange(xa.shape[0])
         new = xa.copy()
