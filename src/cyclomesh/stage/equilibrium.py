@@ -350,9 +350,15 @@ def _near(p: _Problem, x: FloatArray, discs: int, rigid: bool) -> _Problem:
 def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray):
     """:func:`~cyclomesh.stage.newton.newton` on the pins near contact (:func:`_near`),
     then every pin checked: the crank angles where a left-out pin closed are solved
-    again from there with all pins (the answer is the whole problem's either way)."""
+    again from there with all pins (the answer is the whole problem's either way). If
+    the near pins alone do not converge (a left-out pin that would have held a disc),
+    the whole problem is solved from the start, so this fails only where it fails."""
     q = _near(p, x, discs, rigid)
-    x = newton(q, _evaluate, law, x, discs, rigid, phi)
+    start = x.copy()
+    try:
+        x = newton(q, _evaluate, law, x, discs, rigid, phi)
+    except ConvergenceError:
+        return newton(p, _evaluate, law, start, discs, rigid, phi)
     closed = np.sum(_approach(p, x, discs, rigid) > 0.0, axis=-1)
     counted = np.sum(_approach(q, x, discs, rigid) > 0.0, axis=-1)  # the same arithmetic
     again = np.flatnonzero(np.any(closed != counted, axis=-1))
