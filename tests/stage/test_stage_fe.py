@@ -150,7 +150,7 @@ def test_run_and_stiffness_with_the_compliant_disc_end_to_end(
     """``cyclomesh run`` and ``stiffness`` of examples/rv_stage.toml with disc_body = "fe"
     (its first case, coarse FE meshes from the module's cache): the compliance budget
     gets the disc body's share, the shares add up to 1, the stage is softer than with the
-    rigid disc, and the run's data sheet is the stiffness study's."""
+    rigid disc, and the stiffness study reports the stage below the mesh alone."""
     from typer.testing import CliRunner
 
     import cyclomesh.fe.influence as fe
