@@ -117,7 +117,8 @@ def _compiled() -> Any:
     except ImportError:
         return None
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _invert_cold, _newton_y  # compiled in place, so the kernel calls them compiled
+    global _invert_cold, _newton_y, _exp_step  # compiled in place: the kernel calls them
+    _exp_step = jit(_exp_step)
     _newton_y = jit(_newton_y)
     _invert_cold = jit(_invert_cold)
     return jit(_share_load_rows)
@@ -130,28 +131,44 @@ def _invert_cold(d, a, g, tol):  # pragma: no cover (compiled)
     y = np.log(d / a)
     y = np.log(d / (a - g * y))
     y = np.log(d / (a - g * y))
-    return _newton_y(d, a, g, y, _MAX_NEWTON, tol)
+    return _newton_y(d, a, g, y, np.exp(y), _MAX_NEWTON, tol)
 
 
-def _newton_y(d, a, g, y, steps, tol):  # pragma: no cover (compiled)
-    """Newton's method in y = ln F on δ = e^y(α − γ y) from ``y`` to a residual of
-    ``tol``·δ; at 2e-15 (round-off), one more step makes the root independent of the
-    start. A step below √(tol/100) ends it unchecked: Newton's error after it is of the
-    order of the step squared (δ'' ≈ δ' on the stiffening branch), so the residual is
-    below tol·δ without another exponential. Returns (y, F, converged)."""
+def _newton_y(d, a, g, y, f, steps, tol):  # pragma: no cover (compiled)
+    """Newton's method in y = ln F on δ = e^y(α − γ y) from ``y`` (``f`` = e^y) to a
+    residual of ``tol``·δ; at 2e-15 (round-off), one more step makes the root
+    independent of the start. A step below √(tol/100) ends it unchecked: Newton's error
+    after it is of the order of the step squared (δ'' ≈ δ' on the stiffening branch), so
+    the residual is below tol·δ without another exponential. After a step s, e^y is
+    updated as F·e^(−s) (:func:`_exp_step`, a polynomial for small steps). Returns (y,
+    F, converged)."""
     for _ in range(steps):
-        f = np.exp(y)
         resid = f * (a - g * y) - d
         if abs(resid) <= tol * d:
             if tol <= _ROUND_OFF and resid != 0.0:
-                y = y - resid / (f * (a - g - g * y))
-                f = np.exp(y)
+                step = resid / (f * (a - g - g * y))
+                y = y - step
+                f = _exp_step(f, -step, y)
             return y, f, True
         step = resid / (f * (a - g - g * y))
         y = y - step
+        f = _exp_step(f, -step, y)
         if step * step <= 0.01 * tol:
-            return y, np.exp(y), True
+            return y, f, True
     return y, 0.0, False
+
+
+_SMALL_STEP = 1e-3
+"""Largest |s| for which e^s is taken as its Taylor polynomial to s⁵ (remainder s⁶/720
+≤ 1.4e-21, below the round-off of the product)."""
+
+
+def _exp_step(f, s, y):  # pragma: no cover (compiled)
+    """e^y from f = e^(y − s): f·(1 + s + s²/2 + … + s⁵/120) for |s| ≤ :data:`_SMALL_STEP`
+    (a few units in the last place of F), else exp(y)."""
+    if abs(s) <= _SMALL_STEP:
+        return f * (1.0 + s * (1.0 + s * (0.5 + s * (1.0 / 6.0 + s * (1.0 / 24.0 + s / 120.0)))))
+    return np.exp(y)
 
 
 def _share_load_rows(bl, arm, alpha, gamma, torque, rotation, force):  # pragma: no cover
@@ -178,6 +195,7 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, rotation, force):  # pragma:
     candidates = np.empty(n_pins, np.int64)
     branch = np.empty(n_pins)  # largest approach of the law, γ·exp(α/γ − 1) [m]
     last_y = np.empty(n_pins)  # ln F of the pin's last inversion
+    last_f = np.empty(n_pins)  # F there [N]
     last_d = np.empty(n_pins)  # its approach [m]
     last_slope = np.empty(n_pins)  # dδ/dy there [m]
     failed = 0
@@ -249,9 +267,11 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, rotation, force):  # pragma:
                         break
                     converged = False
                     if last_slope[j] > 0.0:
-                        y0 = last_y[j] + (d - last_d[j]) / last_slope[j]
+                        dy = (d - last_d[j]) / last_slope[j]
+                        y0 = last_y[j] + dy
                         if y0 < a / g - 1.0:
-                            y, f, converged = _newton_y(d, a, g, y0, 8, inner)
+                            f0 = _exp_step(last_f[j], dy, y0)
+                            y, f, converged = _newton_y(d, a, g, y0, f0, 8, inner)
                     if not converged:
                         y, f, converged = _invert_cold(d, a, g, inner)
                     if not converged:
@@ -259,6 +279,7 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, rotation, force):  # pragma:
                         break
                     dddf = a - g * (1.0 + y)
                     last_y[j] = y
+                    last_f[j] = f
                     last_d[j] = d
                     last_slope[j] = f * dddf
                 force[k, i] = f
