@@ -1,6 +1,16 @@
-"""The compiled load-sharing kernel (numba) beside the NumPy reference, and the switch.
+"""The compiled pin-step (numba) beside the NumPy reference, and the switch.
 
-:func:`share_load` is the one entry of the solvers (the one-disc chain
+With ``CYCLOMESH_KERNEL=numba`` every step of the pin-step runs compiled, each the
+reference's algorithm in one pass over rings, crank angles and pins without
+temporaries: the unloaded contact (:func:`cyclomesh.core.contact.unloaded_contact`,
+undeviated profiles), the compliance (:func:`cyclomesh.core.ltca.pin_compliance`) and the
+stresses (:func:`cyclomesh.core.fields.contact_stresses`) through
+:mod:`cyclomesh.core.kernel_contact`, and the load sharing here. The contact rotations
+come out bit for bit (NumPy takes their arccos and arctangents between two compiled
+passes, as its SIMD functions differ from the C library's in the last bit, and one bit
+of a rotation moves the pin loads by about 1e-11); the rest agrees to round-off.
+
+:func:`share_load` is the one load-sharing entry of the solvers (the one-disc chain
 :func:`cyclomesh.core.ltca.ltca`, the stacks of :mod:`cyclomesh.drive.mesh`, the start of
 the compliant disc :func:`cyclomesh.core.discbody.share_load_coupled`): with the NumPy
 kernel it is :func:`cyclomesh.core.loadsharing.share_load` itself (the reference), with
@@ -9,17 +19,21 @@ the single-pin bound, the candidate pins, Newton's method on M(Δφc) = Σ l·F(
 φbl)⁺) − T (Eqs. 15–18 of [1]) with each pin's force inverted from its approach
 (δ = F(α − γ ln F), Eqs. 19–23, Newton in y = ln F as
 :func:`cyclomesh.core.hertz.force_from_approach`), without temporaries, skipping the
-unloaded pins (about three in four) and reusing ln F = y in the slope. The results
+unloaded pins (about three in four), reusing ln F = y in the slope and updating F = e^y
+after a small Newton step by a polynomial instead of a new exponential. The results
 agree with the reference to round-off (tested to 1e-13 relative on both contact laws,
 stacks, the compliant disc and the stage, ``tests/core/test_kernel.py``). Any case the
 kernel cannot finish (no usable pin, a torque too large, a force past the stiffest
-point of the law, no convergence) is handed to the reference, which raises its own
-one-line error, so the errors are those of the NumPy path.
+point of the law, no convergence, a jammed pin) is handed to the reference, which
+raises its own one-line error, so the errors are those of the NumPy path.
 
 The switch: the environment variable ``CYCLOMESH_KERNEL`` = ``numpy`` (the default) or
 ``numba`` (needs the ``fast`` extra, ``pip install 'cyclomesh[fast]'``), read at each
 call, so worker processes follow the command's environment. Friction (a torque arm
-apart from the compatibility arm) always takes the NumPy path.
+apart from the compatibility arm) always takes the NumPy load sharing; a tabulated
+profile deviation the NumPy contact. The default stays NumPy: importing numba and
+loading the compiled passes costs a process about a second, more than a short run
+takes (README, "The compiled kernel").
 
 References
 ----------
@@ -139,20 +153,24 @@ def _newton_y(d, a, g, y, f, steps, tol):  # pragma: no cover (compiled)
     residual of ``tol``·δ; at 2e-15 (round-off), one more step makes the root
     independent of the start. A step below √(tol/100) ends it unchecked: Newton's error
     after it is of the order of the step squared (δ'' ≈ δ' on the stiffening branch), so
-    the residual is below tol·δ without another exponential. After a step s, e^y is
-    updated as F·e^(−s) (:func:`_exp_step`, a polynomial for small steps). Returns (y,
-    F, converged)."""
+    the residual is below tol·δ without another exponential. While ``tol`` is loose,
+    e^y after a step s is updated as F·e^(−s) (:func:`_exp_step`, a polynomial for small
+    steps); at round-off each F is its own exponential, so the forces the torque
+    balance ends with carry half a unit in their last place, as the reference's.
+    Returns (y, F, converged)."""
+    exact = tol <= _ROUND_OFF  # the last pass: every F from its own exponential
+    if exact:
+        f = np.exp(y)
     for _ in range(steps):
         resid = f * (a - g * y) - d
         if abs(resid) <= tol * d:
-            if tol <= _ROUND_OFF and resid != 0.0:
-                step = resid / (f * (a - g - g * y))
-                y = y - step
-                f = _exp_step(f, -step, y)
+            if exact and resid != 0.0:
+                y = y - resid / (f * (a - g - g * y))
+                f = np.exp(y)
             return y, f, True
         step = resid / (f * (a - g - g * y))
         y = y - step
-        f = _exp_step(f, -step, y)
+        f = np.exp(y) if exact else _exp_step(f, -step, y)
         if step * step <= 0.01 * tol:
             return y, f, True
     return y, 0.0, False

@@ -273,7 +273,16 @@ def _compliance(
 
 
 def _stresses(
-    force, cos_beta, rp_in, rc_in, e_tooth, e_groove, pi_width, groove_radius, groove, stress,
+    force,
+    cos_beta,
+    rp_in,
+    rc_in,
+    e_tooth,
+    e_groove,
+    pi_width,
+    groove_radius,
+    groove,
+    stress,
     g_stress,
 ):  # pragma: no cover (compiled)
     """Groove load F·cos β [N] and the Hertzian pressures of tooth and groove [Pa] (Eqs.
