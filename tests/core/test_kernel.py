@@ -243,8 +243,8 @@ def test_the_compiled_compliance_and_stresses_follow_the_reference(monkeypatch, 
     monkeypatch.setenv(kernel.ENV_VAR, "numba")
     got = pin_compliance(geo, TABLE1, groove, law)
     got_stress = contact_stresses(geo, TABLE1, force)
-    for a, b in zip(ref, got):
+    for a, b in zip(ref, got, strict=True):
         assert a.shape == b.shape
         np.testing.assert_allclose(b, a, rtol=2e-15)  # inf (paper law, unreachable) alike
-    for a, b in zip(ref_stress, got_stress):
+    for a, b in zip(ref_stress, got_stress, strict=True):
         np.testing.assert_array_equal(b, a)  # products, quotients and square roots
