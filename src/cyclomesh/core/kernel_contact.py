@@ -239,6 +239,8 @@ def _compliance(
     gamma_0, g_p = (c_disc + c_pin)/(πB), (c_ring + c_pin)/(πB); poisson_term =
     ν/(2(1 − ν)) of the disc.
     """
+    last_rp = np.nan
+    a_p = 0.0
     for j in range(rp_in.size):
         rp, rc = rp_in[j], rc_in[j]
         if half_plane:
@@ -258,12 +260,14 @@ def _compliance(
         g = gamma_0
         if groove:
             cb = cb_in[j]
-            rho_g = rp * groove_radius / (groove_radius - rp)
-            kappa = math.sqrt(4.0 * rho_g / k_groove)
-            a_p = scale * (
-                c_ring * (math.log(4.0 * abs(groove_radius) / kappa) - 0.5)
-                + c_pin * (math.log(4.0 * abs(rp) / kappa) - 0.5)
-            )
+            if rp != last_rp:  # the groove pair depends on the pin radius alone
+                rho_g = rp * groove_radius / (groove_radius - rp)
+                kappa = math.sqrt(4.0 * rho_g / k_groove)
+                a_p = scale * (
+                    c_ring * (math.log(4.0 * abs(groove_radius) / kappa) - 0.5)
+                    + c_pin * (math.log(4.0 * abs(rp) / kappa) - 0.5)
+                )
+                last_rp = rp
             c2 = cb * cb
             log_cb = math.log(cb) if cb > 0 else 0.0
             a = a + c2 * (a_p - g_p * log_cb)
