@@ -248,3 +248,10 @@ def test_the_compiled_compliance_and_stresses_follow_the_reference(monkeypatch, 
         np.testing.assert_allclose(b, a, rtol=2e-15)  # inf (paper law, unreachable) alike
     for a, b in zip(ref_stress, got_stress, strict=True):
         np.testing.assert_array_equal(b, a)  # products, quotients and square roots
+
+
+def test_the_compiled_contact_keeps_the_reference_constants():
+    from cyclomesh.core import contact, kernel_contact
+
+    assert kernel_contact._TOLERANCE == contact.CONTACT_TOLERANCE
+    assert kernel_contact._MAX_ITERATIONS == contact._MAX_ITERATIONS
