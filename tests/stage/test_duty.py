@@ -1,5 +1,7 @@
 """Duty-cycle life (ISO 281 variable load) and the output ripple by orders."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -7,6 +9,8 @@ from cyclomesh.exceptions import DesignError
 from cyclomesh.results.datasheet import order_spectrum, top_orders
 from cyclomesh.stage.bearing import LIFE_EXPONENT, life_hours, rating_life
 from cyclomesh.stage.duty import DutyCycle, cycle_life
+
+EXAMPLES = Path(__file__).parents[2] / "examples"
 
 
 def test_equivalent_torque_and_speed_by_hand():
@@ -50,3 +54,50 @@ def test_order_spectrum_recovers_a_sum_of_orders():
     assert amp[40] == pytest.approx(0.5)
     assert np.max(np.delete(amp, [0, 3, 40])) < 1e-12
     assert top_orders(amp, 2, 39) == [[3, 117, pytest.approx(2.0)], [40, 1560, pytest.approx(0.5)]]
+
+
+def _study_with_cycle(tmp_path, steps: str, csv: str | None = None):
+    from cyclomesh.studyfile import load_study
+
+    text = (EXAMPLES / "rv_stage.toml").read_text()
+    start = text.index("[stage.duty_cycle]")
+    end = text.index("\n[", start) + 1
+    (tmp_path / "s.toml").write_text(
+        text[:start] + "[stage.duty_cycle]\n" + steps + "\n" + text[end:]
+    )
+    if csv is not None:
+        (tmp_path / "duty.csv").write_text(csv)
+    return load_study(tmp_path / "s.toml")
+
+
+def test_a_duty_cycle_from_a_csv_file_is_the_same_cycle(tmp_path):
+    lists = _study_with_cycle(
+        tmp_path,
+        "torque_nm = [412.0, -150.0]\noutput_speed_rpm = [10.0, 15.0]\ntime_share = [0.2, 0.8]",
+    )
+    csv = "# steps\ntorque_nm,output_speed_rpm,time_share\n412,10,0.2\n-150.0,15,0.8\n"
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    filed = _study_with_cycle(sub, 'file = "duty.csv"', csv)
+    a, b = (s.inputs[0].stage.duty_cycle for s in (lists, filed))
+    assert a == b == DutyCycle((412.0, -150.0), (10.0, 15.0), (0.2, 0.8))
+
+
+@pytest.mark.parametrize(
+    ("steps", "csv", "match"),
+    [
+        ('file = "duty.csv"', "torque_nm,output_speed_rpm,time_share\n1,10,-1\n", "time_share"),
+        ('file = "duty.csv"', "torque_nm,speed_rpm,time_share\n1,10,1\n", "columns must be"),
+        ('file = "duty.csv"', "torque_nm,output_speed_rpm,time_share\n", "at least one step"),
+        ('file = "duty.csv"', "torque_nm,output_speed_rpm,time_share\n1_0,10,1\n", "line 2"),
+        ('file = "missing.csv"', None, "not found"),
+        ('file = "duty.csv"\ntorque_nm = [1.0]', "", "not both"),
+        ("torque_nm = [1.0]", None, "or file"),
+    ],
+)
+def test_a_bad_duty_cycle_file_is_refused_in_one_line(tmp_path, steps, csv, match):
+    from cyclomesh.exceptions import StudyError
+
+    with pytest.raises(StudyError, match=match) as info:
+        _ = _study_with_cycle(tmp_path, steps, csv).inputs
+    assert "\n" not in str(info.value) and "stage.duty_cycle" in str(info.value)

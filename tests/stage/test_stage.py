@@ -274,6 +274,7 @@ def test_stretched_newton_step_keeps_the_answer_and_saves_steps(monkeypatch):
     linear. The step stretched by 10/9 (the modified Newton step of that root) must reach
     the same equilibrium (to round-off) with fewer potential evaluations."""
     import cyclomesh.stage.equilibrium as eq
+    import cyclomesh.stage.newton as nt
 
     rng = np.random.default_rng(0)
     errors = PinErrors(radial=rng.uniform(-2e-6, 2e-6, 40), angular=rng.uniform(-2e-5, 2e-5, 40))
@@ -294,8 +295,8 @@ def test_stretched_newton_step_keeps_the_answer_and_saves_steps(monkeypatch):
 
     monkeypatch.setattr(eq, "_evaluate", counted)
     results, rows = [], []
-    for linear in (eq._LINEAR, (1.0, 1.0)):  # (1, 1): never stretched
-        monkeypatch.setattr(eq, "_LINEAR", linear)
+    for linear in (nt._LINEAR, (1.0, 1.0)):  # (1, 1): never stretched
+        monkeypatch.setattr(nt, "_LINEAR", linear)
         calls.clear()
         results.append(solve_stage(RV40, sd, mod, errors, [-12.36], phi, discs=2))
         rows.append(sum(calls))

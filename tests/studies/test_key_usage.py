@@ -325,6 +325,7 @@ CHANGE.update(
         "stage.duty_cycle.torque_nm": [250.0, -100.0],
         "stage.duty_cycle.output_speed_rpm": [10.0, 30.0],
         "stage.duty_cycle.time_share": [0.3, 0.7],
+        "stage.duty_cycle.file": str(EXAMPLES / "rv_stage_duty_cycle.csv"),
     }
 )
 DUTY = {"torque_nm": [200.0, -150.0], "output_speed_rpm": [15.0, 15.0], "time_share": [0.5, 0.5]}
@@ -372,6 +373,9 @@ def change_table(key: str, kind: str = "run") -> dict[str, Any]:
     staged = ("run", "stiffness", "design", "tolerance", "allocate")
     if key.startswith("design.disc.") and kind not in staged:
         return {"design": {"disc": dict(HOLES)}}
+    if key == "stage.duty_cycle.file":  # instead of the three lists (not both)
+        steps = {"stage": {"duty_cycle": Replace({"file": CHANGE[key]})}}
+        return steps if kind in staged else merge(STAGE, steps)
     if key.startswith("stage.") and kind not in staged:
         whole = {  # a valid [stage.crankshaft] / [stage.carrier] around the key
             "stage.crankshaft.": {"stage": {"crankshaft": SHAFT}},

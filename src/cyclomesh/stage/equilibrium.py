@@ -35,11 +35,9 @@ from cyclomesh.drive.solve import (
     mirror_index,
 )
 from cyclomesh.exceptions import ConvergenceError
-from cyclomesh.stage.bearing import (
-    LOAD_EXPONENT,
-    roller_loads,
-)
+from cyclomesh.stage.bearing import roller_loads
 from cyclomesh.stage.design import StageDesign
+from cyclomesh.stage.newton import FORCE_TOLERANCE, newton, reducer
 from cyclomesh.stage.supports import (
     BearingLaw,
     Supports,
@@ -59,13 +57,6 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-FORCE_TOLERANCE = 1e-12
-"""Accepted residual of every equilibrium equation, relative to T/r_c (moments /r_c)."""
-_MAX_ITERATIONS = 200
-_MAX_HALVINGS = 60
-_LINEAR = (0.05, 0.12)
-"""Residual ratios of two Newton steps taken as the linear convergence of a crank bearing
-near zero load (:func:`_newton`; (1 − 9/10)^(10/9) ≈ 0.077 in the middle)."""
 _REACH = 0.5
 """Largest pin approach a line-search trial may reach, as a fraction of the stiffest point
 of the contact law γ·exp(α/γ − 1) (about 0.8 mm here, against µm under load): a longer
@@ -95,6 +86,7 @@ class _Problem:
     torque: float
     scale: float  # r_c
     supports: Supports | None = None
+    jacobian: FloatArray | None = None  # bearing_jacobian, (A, D, N, 2, m), or None
 
     def take(self, idx: NDArray[np.int64]) -> _Problem:
         """The problem at the crank angles ``idx`` (increasing); itself when it is all."""
@@ -263,24 +255,7 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
         state.update(bearing_fx=fx, bearing_fy=fy, deflection=s, bearing_part=sb)
         state.update(shaft_deflection=w, end_plate=beta)
         return energy, g, H, state
-    # ∂d/∂x, scaled unknowns (rotations × L)
-    G = np.zeros((n, discs, N, 2, m))
-    jxb = np.broadcast_to(jx, (n, discs, N)) / L
-    jyb = np.broadcast_to(jy, (n, discs, N)) / L
-    G[..., 0, 0], G[..., 1, 0] = -jxb, -jyb
-    for d in range(discs):
-        G[:, d, :, 0, 1 + 3 * d], G[:, d, :, 1, 1 + 3 * d] = jxb[:, d], jyb[:, d]
-        G[:, d, :, 0, 2 + 3 * d] = 1.0
-        G[:, d, :, 1, 3 + 3 * d] = 1.0
-    if nw:
-        idx = base + np.arange(nw).reshape(discs, N, 2)
-        for d in range(discs):
-            for k in range(N):
-                G[:, d, k, 0, idx[d, k, 0]] = -1.0
-                G[:, d, k, 1, idx[d, k, 1]] = -1.0
-    if sup.carrier is not None:
-        G[..., 0, base + nw] = -a * jxb
-        G[..., 1, base + nw] = -a * jyb
+    G = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, m)
     f = np.stack([fx, fy], axis=-1)
     g = g + np.einsum("ndkc,ndkcm->nm", f, G)
     if nw:
@@ -311,100 +286,79 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
     return energy, g, H, state
 
 
-def _rotation_index(m: int, discs: int, supports: Supports | None) -> list[int]:
-    """Unknowns that are rotations (scaled by r_c in the Newton step)."""
-    idx = [0, *range(1, 1 + 3 * discs, 3)]
-    if supports is not None and supports.carrier is not None:
-        idx.append(m - 1)
-    return idx
+def bearing_jacobian(p: _Problem, discs: int, m: int) -> FloatArray:
+    """∂d/∂x of every hole against its crank pin with :class:`Supports`, (n, D, N, 2, m).
+
+    Scaled unknowns (rotations × r_c); d is affine in x, so this depends on the crank
+    angle only (:func:`solve_direction` forms it once, :attr:`_Problem.jacobian`).
+    """
+    sup = p.supports
+    n, N, L = p.hx.shape[0], p.hx.shape[-1], p.scale
+    base = 1 + 3 * discs
+    nw = 2 * discs * N if sup.stiffness is not None else 0
+    a = sup.fraction[None, :, None]  # (1, D, 1)
+    G = np.zeros((n, discs, N, 2, m))
+    jxb = np.broadcast_to(-p.hy[:, None, :], (n, discs, N)) / L
+    jyb = np.broadcast_to(p.hx[:, None, :], (n, discs, N)) / L
+    G[..., 0, 0], G[..., 1, 0] = -jxb, -jyb
+    for d in range(discs):
+        G[:, d, :, 0, 1 + 3 * d], G[:, d, :, 1, 1 + 3 * d] = jxb[:, d], jyb[:, d]
+        G[:, d, :, 0, 2 + 3 * d] = 1.0
+        G[:, d, :, 1, 3 + 3 * d] = 1.0
+    if nw:
+        idx = base + np.arange(nw).reshape(discs, N, 2)
+        for d in range(discs):
+            for k in range(N):
+                G[:, d, k, 0, idx[d, k, 0]] = -1.0
+                G[:, d, k, 1, idx[d, k, 1]] = -1.0
+    if sup.carrier is not None:
+        G[..., 0, base + nw] = -a * jxb
+        G[..., 1, base + nw] = -a * jyb
+    return G
 
 
-def _newton(
-    p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray
-) -> FloatArray:
-    """Newton's method with a backtracking line search on the potential, per crank angle."""
-    tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
-    reduce = np.zeros((1 + 3 * discs, 1))
-    reduce[[0, *range(1, 1 + 3 * discs, 3)], 0] = 1.0  # rigid: θ_d = c, u = 0
-    active = np.arange(x.shape[0])
-    previous = np.full(x.shape[0], np.inf)  # max |g| of the last step, per crank angle
-    extended = np.zeros(x.shape[0], bool)  # the last step was a stretched one
-    linear = np.zeros(x.shape[0], bool)  # the last residual ratio was in _LINEAR
-    for _ in range(_MAX_ITERATIONS):
-        sub = p.take(active)
-        xa = x[active]
-        energy, g, H, _state = _evaluate(sub, law, xa, discs, rigid)
-        if rigid:
-            g = g @ reduce
-            H = np.einsum("im,nij,jk->nmk", reduce, H, reduce)
-        # converged: every residual below tol, or at the round-off of the unknowns
-        # themselves (stiff bearings: a residual of H·ulp(x) cannot be resolved)
-        rot_idx = _rotation_index(xa.shape[1], discs, None if rigid else p.supports)
-        xs = np.abs(_scale(xa, 1.0 / p.scale, rot_idx))
-        if rigid:
-            xs = xs @ reduce
-        noise = 16.0 * np.finfo(float).eps * np.einsum("nij,nj->ni", np.abs(H), xs)
-        done = np.all(np.abs(g) <= np.maximum(tol, noise), axis=-1)
-        keep = ~done
-        res = np.max(np.abs(g), axis=-1)
-        # a crank bearing whose equilibrium compression is ~0 (a disc that carries almost
-        # nothing at a light torque) makes Newton linear, δ → δ·(1 − 1/p) with
-        # Q ∝ δ^p (residual ×(1 − 1/p)^p ≈ 1/13 a step); the step stretched by p is the
-        # modified Newton step of that root: try it first, every other step at most
-        ratio = (res > _LINEAR[0] * previous[active]) & (res < _LINEAR[1] * previous[active])
-        stretch = (~rigid & ~extended[active] & ratio & linear[active])[keep]
-        linear[active] = ratio & ~extended[active]
-        previous[active] = res
-        active = active[keep]
-        if active.size == 0:
-            return x
-        xa, g, H, energy = xa[keep], g[keep], H[keep], energy[keep]
-        sub = sub.take(np.flatnonzero(keep))
-        diag = np.maximum(np.max(np.abs(np.diagonal(H, axis1=1, axis2=2)), axis=-1), 1e-300)
-        eye = np.eye(H.shape[-1])
-        step = np.linalg.solve(H + 1e-14 * diag[:, None, None] * eye, -g[..., None])[..., 0]
-        slope = np.sum(g * step, axis=-1)
-        # not a descent direction (flat directions): steepest descent, scaled
-        flip = ~(slope < 0)
-        step[flip] = -g[flip] / diag[flip, None]
-        slope = np.sum(g * step, axis=-1)
-        t = np.where(stretch, LOAD_EXPONENT, 1.0)
-        extended[active] = stretch
-        todo = np.arange(xa.shape[0])
-        new = xa.copy()
-        tiny = -slope <= 1e-13 * np.maximum(np.abs(energy), 1e-300)
-        for _h in range(_MAX_HALVINGS):
-            full = _expand(step[todo] * t[todo, None], reduce if rigid else None)
-            trial = xa[todo] + _scale(full, p.scale, rot_idx)
-            e_t, _g, _H, st = _evaluate(sub.take(todo), law, trial, discs, rigid, gradient=False)
-            ok = ~st["bad"] & ((e_t <= energy[todo] + 1e-4 * t[todo] * slope[todo]) | tiny[todo])
-            new[todo[ok]] = trial[ok]
-            todo = todo[~ok]
-            if todo.size == 0:
-                break
-            extended[active[todo]] = False
-            t[todo] = np.where(t[todo] > 1.0, 1.0, 0.5 * t[todo])
-        else:
-            raise ConvergenceError(
-                f"stage: no descent at crank angle {np.degrees(phi[active[todo[0]]]):.6g}° "
-                f"(line search failed after {_MAX_HALVINGS} halvings)"
-            )
-        x[active] = new
-    raise ConvergenceError(
-        f"stage equilibrium did not converge at crank angle {np.degrees(phi[active[0]]):.6g}°: "
-        f"residual above {FORCE_TOLERANCE:.0e}·T/r_c after {_MAX_ITERATIONS} Newton steps"
-    )
+_NEAR = 10e-6
+"""Pins farther than this from contact at the start of a solve [m] are left out of its
+Newton iteration (:func:`_solve`); a left-out pin that closes all the same is taken back
+and its crank angle solved again with every pin, so this sets the speed, not the answer."""
+_PIN_FIELDS = ("bl", "arm", "nx", "ny", "alpha", "gamma", "dmax")
 
 
-def _expand(step: FloatArray, reduce: FloatArray | None) -> FloatArray:
-    return step if reduce is None else step @ reduce.T
+def _approach(p: _Problem, x: FloatArray, discs: int, rigid: bool) -> FloatArray:
+    """Pin approaches δ (A, D, pins) of :func:`_pins` at x; −inf where a pin has no law."""
+    _, theta, ux, uy = _unpack(x, discs)
+    usable = np.isfinite(p.bl)
+    delta = p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
+    if not rigid:
+        delta = delta + p.nx * ux[..., None] + p.ny * uy[..., None]
+    return np.where(usable, delta, -np.inf)
 
 
-def _scale(step: FloatArray, L: float, rot_idx: list[int]) -> FloatArray:
-    """Scaled step (rotations × L) → unknowns (rad, m)."""
-    out = step.copy()
-    out[:, rot_idx] /= L
-    return out
+def _near(p: _Problem, x: FloatArray, discs: int, rigid: bool) -> _Problem:
+    """The problem on the pins within :data:`_NEAR` of contact at x (the others are open
+    and add exactly nothing to the potential while they stay open), padded per crank
+    angle and disc with pins without a law (φbl = inf)."""
+    near = _approach(p, x, discs, rigid) > -_NEAR
+    count = int(max(1, np.max(np.sum(near, axis=-1))))
+    order = np.argsort(~near, axis=-1, kind="stable")[..., :count]
+    kept = np.take_along_axis(near, order, axis=-1)
+    fields = {f: np.take_along_axis(getattr(p, f), order, axis=-1) for f in _PIN_FIELDS}
+    fields["bl"] = np.where(kept, fields["bl"], np.inf)
+    return dataclasses.replace(p, **fields)
+
+
+def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray):
+    """:func:`~cyclomesh.stage.newton.newton` on the pins near contact (:func:`_near`),
+    then every pin checked: the crank angles where a left-out pin closed are solved
+    again from there with all pins (the answer is the whole problem's either way)."""
+    q = _near(p, x, discs, rigid)
+    x = newton(q, _evaluate, law, x, discs, rigid, phi)
+    closed = np.sum(_approach(p, x, discs, rigid) > 0.0, axis=-1)
+    counted = np.sum(_approach(q, x, discs, rigid) > 0.0, axis=-1)  # the same arithmetic
+    again = np.flatnonzero(np.any(closed != counted, axis=-1))
+    if again.size:
+        x[again] = newton(p.take(again), _evaluate, law, x[again], discs, rigid, phi[again])
+    return x
 
 
 def _mirrored(arr: FloatArray) -> FloatArray:
@@ -512,7 +466,7 @@ def solve_direction(
             "alone within the line-contact law (Eq. 20)"
         )
     x[:, 1::3] = x[:, [0]]
-    x = _newton(prob, None, x, D, True, mesh.phi)
+    x = _solve(prob, None, x, D, True, mesh.phi)
     _, _, _, st = _evaluate(prob, None, x, D, True, hessian=False)
     F = st["pin_force"]
     mesh_te = transmission_error(mesh.rest, x[:, 0])
@@ -552,7 +506,8 @@ def solve_direction(
         if supports is not None:
             prob = dataclasses.replace(prob, supports=supports)
             x = np.concatenate([x, np.zeros((A, supports.extra(D, N)))], axis=-1)
-        x = _newton(prob, law, x, D, False, mesh.phi)
+            prob.jacobian = bearing_jacobian(prob, D, x.shape[1])
+        x = _solve(prob, law, x, D, False, mesh.phi)
         energy, g, _, st = _evaluate(prob, law, x, D, False, hessian=False)
         F = st["pin_force"]
         bfx, bfy = st["bearing_fx"], st["bearing_fy"]
@@ -565,7 +520,7 @@ def solve_direction(
         sb = deflection
         work = _work(prob, stage, x, D, {"pin_force": F})
         residual = np.max(
-            np.abs(_evaluate(prob, None, x, D, True, hessian=False)[1] @ _reducer(D)), -1
+            np.abs(_evaluate(prob, None, x, D, True, hessian=False)[1] @ reducer(D)), -1
         )
     c, theta, ux, uy = _unpack(x, D)
     loaded = contact_fields(
@@ -686,9 +641,3 @@ def ring_mesh(mesh: StackMesh, ring: tuple[int, ...]) -> StackMesh:
     for name in ("rest", "reverse_rest", "backlash", "alpha", "gamma", "normal_x", "normal_y"):
         fields[name] = fields[name][ring]
     return StackMesh(**{**fields, "geo": geo, "ring_shape": ()})
-
-
-def _reducer(D: int) -> FloatArray:
-    reduce = np.zeros((1 + 3 * D, 1))
-    reduce[[0, *range(1, 1 + 3 * D, 3)], 0] = 1.0
-    return reduce

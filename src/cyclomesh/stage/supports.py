@@ -20,8 +20,8 @@ from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.stage.bearing import (
     LOAD_EXPONENT,
     RollerSet,
-    radial_energy,
     radial_force,
+    radial_law,
     radial_stiffness,
 )
 from cyclomesh.stage.design import StageDesign
@@ -68,9 +68,7 @@ class BearingLaw:
     ) -> tuple[FloatArray, FloatArray | None, FloatArray, FloatArray]:
         """(B, dB/ds, U, s_b) at the displacements s [m]; dB/ds None if not ``stiffness``."""
         sb = self._split(s)
-        force = radial_force(self.rs, sb)
-        stiff = radial_stiffness(self.rs, sb) if stiffness else None
-        energy = radial_energy(self.rs, sb)
+        force, stiff, energy = radial_law(self.rs, sb, stiffness)
         if self.k is not None:
             if stiffness:
                 stiff = stiff / (1.0 + stiff / self.k)

@@ -9,6 +9,7 @@ models (:class:`~cyclomesh.studyfile.sections.StrictSection`), every key with it
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
@@ -227,13 +228,59 @@ class CarrierSection(StrictSection):
 
 
 class DutyCycleSection(StrictSection):
-    """``[stage.duty_cycle]``: a load spectrum of the output, one value per step."""
+    """``[stage.duty_cycle]``: a load spectrum of the output, one value per step, given
+    either as the three lists or as ``file``, a CSV with the columns ``torque_nm``,
+    ``output_speed_rpm`` and ``time_share`` (one row per step, relative to the study)."""
 
-    torque_nm: list[float] = Field(min_length=1, description="output torque of each step")
-    output_speed_rpm: list[float] = Field(min_length=1, description="output speed of each step")
-    time_share: list[float] = Field(
-        min_length=1, description="share of the time of each step (normalised)"
+    torque_nm: list[float] | None = Field(
+        None, min_length=1, description="output torque of each step [N·m]"
     )
+    output_speed_rpm: list[float] | None = Field(
+        None, min_length=1, description="output speed of each step [rpm]"
+    )
+    time_share: list[float] | None = Field(
+        None, min_length=1, description="share of the time of each step (normalised)"
+    )
+    file: str | None = Field(
+        None,
+        description="CSV of the steps (columns torque_nm, output_speed_rpm, time_share), "
+        "instead of the three lists",
+    )
+
+    @model_validator(mode="after")
+    def _lists_or_file(self) -> DutyCycleSection:
+        lists = [self.torque_nm, self.output_speed_rpm, self.time_share]
+        if self.file is not None:
+            if any(v is not None for v in lists):
+                raise ValueError(
+                    "give the steps either as file or as torque_nm, output_speed_rpm and "
+                    "time_share, not both"
+                )
+        elif any(v is None for v in lists):
+            raise ValueError(
+                "needs torque_nm, output_speed_rpm and time_share (one value per step each), "
+                "or file (a CSV with those columns)"
+            )
+        return self
+
+    def to_core(self, base_dir: Path) -> DutyCycle:
+        """The :class:`~cyclomesh.stage.duty.DutyCycle` (torque [N·m], speed [rpm], share);
+        ``file`` is read relative to ``base_dir``."""
+        if self.file is None:
+            return DutyCycle(
+                tuple(self.torque_nm or ()),
+                tuple(self.output_speed_rpm or ()),
+                tuple(self.time_share or ()),
+            )
+        from cyclomesh.studyfile.loops import read_duty_csv
+
+        key = "stage.duty_cycle.file"
+        torque, speed, share = read_duty_csv(base_dir / self.file, key)
+        try:
+            return DutyCycle(torque, speed, share)
+        except DesignError as exc:
+            what = str(exc).removeprefix("stage.duty_cycle.")
+            raise DesignError(f"{key}: {self.file}: {what}") from None
 
 
 class StageSection(StrictSection):
@@ -282,10 +329,15 @@ class StageSection(StrictSection):
         return raw
 
     def to_core(
-        self, holes: CrankHoles | None, discs: int, output_speed: float = 15.0
+        self,
+        holes: CrankHoles | None,
+        discs: int,
+        output_speed: float = 15.0,
+        base_dir: Path | None = None,
     ) -> StageDesign:
         """The :class:`~cyclomesh.stage.solve.StageDesign` in SI units; ``output_speed``
-        [rpm] from ``load.input_speed_rpm`` where ``output_speed_rpm`` is not given."""
+        [rpm] from ``load.input_speed_rpm`` where ``output_speed_rpm`` is not given;
+        ``base_dir``: the study's folder (a duty cycle's ``file`` is relative to it)."""
         if holes is None:
             raise DesignError(
                 "stage: needs the crankshafts: set [design.disc] crank_holes (2 or 3), "
@@ -333,11 +385,7 @@ class StageSection(StrictSection):
             )
         duty = None
         if self.duty_cycle is not None:
-            duty = DutyCycle(
-                tuple(self.duty_cycle.torque_nm),
-                tuple(self.duty_cycle.output_speed_rpm),
-                tuple(self.duty_cycle.time_share),
-            )
+            duty = self.duty_cycle.to_core(Path() if base_dir is None else base_dir)
         stage = StageDesign(
             holes=holes,
             bearing=bearing,

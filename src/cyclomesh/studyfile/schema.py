@@ -379,7 +379,9 @@ class CaseSpec(StrictSection):
                         f"= {speed:g} (output = input/n2 = {speed / (d.pins - 1):.6g} rpm): "
                         "give load.input_speed_rpm alone"
                     )
-                stage = self.stage.to_core(crank_holes, d.discs, speed / (d.pins - 1))
+                stage = self.stage.to_core(
+                    crank_holes, d.discs, speed / (d.pins - 1), self._base_dir
+                )
                 stage.check_fits(design, d.discs)
             friction = None
             if self.friction is not None:
