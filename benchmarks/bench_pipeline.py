@@ -3,7 +3,9 @@
 Cases (Table 1 design of Li et al. 2022, Δρ = 8 µm, groove deformation on, 250 N·m):
 
 - ``run 3600``: ``cyclomesh run`` of one case at 0.1° over a revolution (3600 × 40);
-- ``run 36``: the same at 10° (36 steps), figures and report included;
+- ``run 36``: the same at 10° (36 steps), the default figures (the overview) and the
+  report included;
+- ``run 36 --figures all``: the same with every figure;
 - ``run 36 --figures none``: the same without figures (matplotlib never imported);
 - ``tolerance``: ``cyclomesh tolerance`` of examples/tolerance.toml, 200 rings at 1°;
 - ``--help``: start of the command.
@@ -106,29 +108,32 @@ def _import_split(study_file: Path, out: Path) -> dict[str, float]:
     return dict(sorted(seconds.items(), key=lambda kv: -kv[1])[:12])
 
 
-def _stages_run(study_file: Path, out: Path) -> dict[str, float]:
+def _stages_run(study_file: Path, out: Path, figures: str | None = None) -> dict[str, float]:
     """Seconds of each stage of ``cyclomesh run`` in this process, as the CLI runs them
-    (figure workers forked before the solve, the profile drawn during the solve, the
-    other figures while the result files are written; "figures" is the wait for them)."""
-    import xarray  # noqa: F401  (as the CLI does before forking the figure workers)
-
+    (figure workers forked before the solve: with ``--figures all`` the profile drawn
+    during the solve, the other figures while the result files are written; by default
+    one worker draws the overview; "figures" is the wait for them)."""
     from cyclomesh.figures.render import FigurePool
     from cyclomesh.publish.pipeline import OutputOptions, publish
     from cyclomesh.studies import run as kind
+    from cyclomesh.studies.execute import figure_jobs
     from cyclomesh.studyfile import load_study
 
     t = {}
     start = time.perf_counter()
     study = load_study(study_file)
     t["load"] = time.perf_counter() - start
-    options = OutputOptions.from_study(study)
-    with FigurePool() as pool:
-        early = kind.input_figures(study)
+    options = OutputOptions.from_study(study, figures)
+    overview = options.figure_set == "overview"
+    if not overview:
+        import xarray  # noqa: F401  (as the CLI does before forking the figure workers)
+    with FigurePool(one=overview) as pool:
+        early = [] if overview else kind.input_figures(study)
         pool.submit(early, options.figures, options.dpi)
         start = time.perf_counter()
         result = kind.compute_run(study)
         t["solve"] = time.perf_counter() - start
-        jobs = kind.run_figures(result, early)
+        jobs = figure_jobs(kind.RUN, result, early, options)
         pool.submit(jobs, options.figures, options.dpi)
         start = time.perf_counter()
         files = kind.write_run(result, out, options)
@@ -162,6 +167,14 @@ def main() -> None:
     args = parser.parse_args()
     which = args.only or ["help", "run", "tolerance"]
     print(f"cores: {len(os.sched_getaffinity(0))}; best of {args.repeat}", flush=True)
+    if sys.flags.dont_write_bytecode:  # PYTHONDONTWRITEBYTECODE: compile once, as pip does
+        import compileall
+
+        compileall.compile_dir(ROOT / "src" / "cyclomesh", quiet=1)
+        print(
+            "(PYTHONDONTWRITEBYTECODE is set: the package's bytecode compiled first, as an "
+            "installed wheel has it; otherwise every command compiles ~60 modules, ~0.1 s)"
+        )
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         if "help" in which:
@@ -179,6 +192,12 @@ def main() -> None:
                 shutil.rmtree(out, ignore_errors=True)
                 _line(label, walls[step], _stages_run(study, out))
             study = tmp / "case_10.0.toml"
+            out = tmp / "out_all"
+            every = _wall(
+                ["run", str(study), "--out", str(out), "-q", "--figures", "all"], args.repeat
+            )
+            shutil.rmtree(out, ignore_errors=True)
+            _line("run 36 --figures all", every, _stages_run(study, out, "all"))
             out = tmp / "out_none"
             none = _wall(
                 ["run", str(study), "--out", str(out), "-q", "--figures", "none"], args.repeat

@@ -251,7 +251,7 @@ SMALL = {
 def test_designs_with_fewer_than_20_pins_run(tmp_path):
     path = study(tmp_path, "table2", SMALL)
     out = tmp_path / "out"
-    result = invoke("run", path, "--out", out, "--crank-step-deg", "5", "-q")
+    result = invoke("run", path, "--out", out, "--crank-step-deg", "5", "-q", "--figures", "all")
     assert result.exit_code == 0, result.output
     assert (out / "figures" / "profile_stress.png").exists()
 
@@ -271,7 +271,7 @@ def test_hostile_case_names_and_titles(tmp_path):
     assert invoke("check", out / "worst_ring.toml").exit_code == 0
     path = study(tmp_path, "table2", {"cases": [{"name": name}, {"name": "b\x7f"}]})
     out = tmp_path / "run"
-    result = invoke("run", path, "--out", out, "--crank-step-deg", "10", "-q")
+    result = invoke("run", path, "--out", out, "--crank-step-deg", "10", "-q", "--figures", "all")
     assert result.exit_code == 0, result.output
     assert len(list((out / "figures").glob("*.png"))) >= 5
 

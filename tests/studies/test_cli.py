@@ -61,7 +61,7 @@ def table2(tmp_path_factory) -> Path:
         STEP_DEG,
         "--csv",
         "--figures",
-        "png,svg,pdf",
+        "all,png,svg,pdf",
     )
     assert result.exit_code == 0, result.output
     return out
@@ -71,7 +71,15 @@ def table2(tmp_path_factory) -> Path:
 def section42(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("section42") / "out"
     result = invoke(
-        "run", str(EXAMPLES / "section42.toml"), "-o", str(out), "--crank-step-deg", STEP_DEG, "-q"
+        "run",
+        str(EXAMPLES / "section42.toml"),
+        "-o",
+        str(out),
+        "--crank-step-deg",
+        STEP_DEG,
+        "-q",
+        "--figures",
+        "all",
     )
     assert result.exit_code == 0, result.output
     assert result.stdout == ""  # --quiet
@@ -394,7 +402,7 @@ def test_installed_command_runs_with_forked_figure_and_ring_workers(tmp_path):
     command = [sys.executable, "-m", "cyclomesh"]
     run = subprocess.run(
         [*command, "run", str(EXAMPLES / "section42.toml"), "-o", str(out), "-q"]
-        + ["--crank-step-deg", "10", "--figures", "png,svg"],
+        + ["--crank-step-deg", "10", "--figures", "png,svg,all"],
         capture_output=True,
         text=True,
         timeout=300,

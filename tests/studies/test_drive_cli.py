@@ -89,7 +89,7 @@ def test_run_with_torque_list_and_stack(tmp_path):
     study = tmp_path / "s.toml"
     study.write_text(DESIGN + "[load]\ntorque_nm = [-250.0, 250.0]\n", encoding="utf-8")
     out = tmp_path / "out"
-    result = invoke("run", str(study), "--out", str(out))
+    result = invoke("run", str(study), "--out", str(out), "--figures", "all")
     assert result.exit_code == 0, result.output
     record = json.loads((out / "summary.json").read_text())["cases"][0]
     assert record["torque_nm"] == [-250.0, 250.0]

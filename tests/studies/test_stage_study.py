@@ -113,7 +113,9 @@ def test_one_disc_stage_and_its_figure(tmp_path):
     study = tmp_path / "s.toml"
     study.write_text(text[: text.index("[[cases]]")])
     out = tmp_path / "o"
-    result = invoke("run", str(study), "--out", str(out), "--crank-step-deg", "30")
+    result = invoke(
+        "run", str(study), "--out", str(out), "--crank-step-deg", "30", "--figures", "all"
+    )
     assert result.exit_code == 0, result.output
     case = json.loads((out / "summary.json").read_text())["cases"][0]
     ds = xr.open_dataset(out / case["results"])

@@ -40,8 +40,9 @@ FiguresOption = Annotated[
     str | None,
     typer.Option(
         "--figures",
-        help="Figure formats, comma-separated: png, svg, pdf; or none "
-        "(default: figures.formats of the study file, png).",
+        help="Figures, comma-separated: formats png, svg, pdf (default: figures.formats "
+        "of the study file, png), and 'all' for every figure of a run (default: its one "
+        "overview figure); or none.",
         show_default=False,
     ),
 ]
@@ -104,8 +105,11 @@ def progress_bar(
     total: int, label: str, quiet: bool, unit: str = "rings"
 ) -> Iterator[Callable[[int], None]]:
     """A progress bar on stderr (none when quiet or not a terminal); yields ``advance(n)``."""
+    if quiet:  # nothing shown: Rich not imported
+        yield lambda done: None
+        return
     console = stderr_console(quiet)
-    if quiet or not console.is_terminal:
+    if not console.is_terminal:
         yield lambda done: None
         return
     from rich.progress import (

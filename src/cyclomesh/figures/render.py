@@ -43,8 +43,7 @@ __all__ = [
     "MAX_POINTS",
 ]
 
-FORMATS = ("png", "svg", "pdf")
-"""File formats a figure can be saved in."""
+from cyclomesh.figures.sets import FORMATS  # noqa: E402  (file formats of a figure)
 
 MAX_POINTS = 1500
 """Bins of :func:`decimate` along a line (a figure is at most ~1700 px wide at 150 dpi)."""
@@ -291,6 +290,8 @@ class FigurePool:
     Create it before any other thread starts (a progress bar): the workers are forked
     only when this process has a single thread and ``fork`` exists; otherwise (or
     with ``workers`` ≤ 1) the pool is empty and figures are drawn in this process.
+    ``one``: a single worker (for a single figure, e.g. the overview of a run), forked
+    where this process has a second core to leave it.
     Use as a context manager; pass it to :func:`render_figures`.
 
     :meth:`submit` starts jobs as soon as their inputs exist (the profile before the
@@ -299,12 +300,14 @@ class FigurePool:
     collects them, so nothing is written for a study that fails.
     """
 
-    def __init__(self, workers: int | None = None) -> None:
+    def __init__(self, workers: int | None = None, *, one: bool = False) -> None:
         self.workers = usable_cpus() if workers is None else workers
+        if one:  # one worker beside this process (a single figure), where there are 2 cores
+            self.workers = 1 if self.workers > 1 else 0
         self._pool: ProcessPoolExecutor | None = None
         self._pending: dict[tuple[int, tuple[str, ...], int], tuple[FigureJob, Any]] = {}
         if (
-            self.workers > 1
+            self.workers >= (1 if one else 2)
             and "fork" in multiprocessing.get_all_start_methods()
             and threading.active_count() == 1
         ):

@@ -30,7 +30,7 @@ import math
 import re
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -40,6 +40,8 @@ from cyclomesh.results.arrays import nan_reduce
 if TYPE_CHECKING:
     import pyarrow as pa
     import xarray as xr
+
+    from cyclomesh.results.frame import Frame
 
 __all__ = [
     "csv_column",
@@ -211,28 +213,58 @@ def _nc_attr(value: Any) -> Any:
     return value
 
 
-def _column(values: np.ndarray, name: str, units: str, long_name: str) -> tuple[Any, Any]:
+def arrow_array(values: np.ndarray, mask: np.ndarray | None = None) -> pa.Array:
+    """``pyarrow.array(values, mask=mask)`` of a 1-d NumPy array of numbers or booleans,
+    built from its buffers: ``pyarrow.array`` imports pandas (to check for pandas
+    objects), 0.3 s of a 36-step run."""
     import pyarrow as pa
 
+    values = np.ascontiguousarray(values)
+    validity, nulls = None, 0
+    if mask is not None:
+        validity = pa.py_buffer(np.packbits(~mask, bitorder="little"))
+        nulls = int(np.count_nonzero(mask))
+    if values.dtype == np.bool_:
+        kind, data = pa.bool_(), pa.py_buffer(np.packbits(values, bitorder="little"))
+    else:
+        kind, data = pa.from_numpy_dtype(values.dtype), pa.py_buffer(values)
+    return pa.Array.from_buffers(kind, len(values), [validity, data], null_count=nulls)
+
+
+class Column(NamedTuple):
+    """One column of a table: its name, values (1-d), missing values (``mask``, True
+    where missing, or None), unit and long name."""
+
+    name: str
+    values: np.ndarray
+    mask: np.ndarray | None
+    units: str
+    long_name: str
+
+
+def _column(values: np.ndarray, name: str, units: str, long_name: str) -> Column:
     values = np.ascontiguousarray(values)
     mask = None
     if values.dtype.kind == "f":
         bad = ~np.isfinite(values)
         mask = bad if bad.any() else None
-    array = pa.array(values, mask=mask)
-    field = pa.field(
-        name, array.type, metadata={"units": units or "1", "long_name": long_name or ""}
-    )
-    return field, array
+    return Column(name, values, mask, units or "1", long_name or "")
 
 
-def _table(columns: list[tuple[Any, Any]]) -> pa.Table:
+def _table(columns: list[Column]) -> pa.Table:
+    """The columns as an Arrow table, each field's ``units`` and ``long_name`` in its
+    metadata."""
     import pyarrow as pa
 
-    return pa.Table.from_arrays([a for _, a in columns], schema=pa.schema([f for f, _ in columns]))
+    arrays = [arrow_array(c.values, c.mask) for c in columns]
+    fields = [
+        pa.field(c.name, a.type, metadata={"units": c.units, "long_name": c.long_name})
+        for c, a in zip(columns, arrays, strict=True)
+    ]
+    return pa.Table.from_arrays(arrays, schema=pa.schema(fields))
 
 
-def long_table(ds: xr.Dataset) -> pa.Table:
+def long_table(ds: xr.Dataset | Frame) -> pa.Table:
     """The Dataset's variables in long format: one row per element of the full grid.
 
     The grid is the Dataset's dimensions in order (e.g. crank angle, then pin);
@@ -240,6 +272,10 @@ def long_table(ds: xr.Dataset) -> pa.Table:
     variable, broadcast over the dimensions it lacks (per-angle values repeat on every
     pin's row). Non-finite values are missing (null).
     """
+    return _table(_long_columns(ds))
+
+
+def _long_columns(ds: xr.Dataset | Frame) -> list[Column]:
     dims = tuple(ds.sizes)
     shape = tuple(ds.sizes[d] for d in dims)
     columns = []
@@ -270,7 +306,7 @@ def long_table(ds: xr.Dataset) -> pa.Table:
                 values.ravel(), csv_column(str(name), units), units, var.attrs.get("long_name", "")
             )
         )
-    return _table(columns)
+    return columns
 
 
 def write_parquet(ds: xr.Dataset, path: Path) -> Path:
@@ -314,11 +350,15 @@ _ANGLE_PEAKS = (
 )
 
 
-def angle_table(ds: xr.Dataset) -> pa.Table:
+def angle_table(ds: xr.Dataset | Frame) -> pa.Table:
     """One row per crank angle (per torque and crank angle for a list of torques): the
     per-angle variables (TE, ratio, contacts, rotations, play, mesh force), the peak loads
     and stresses over the pins (and discs), and, for a stack of discs, one column per disc
     of each per-disc variable (``mesh_force_n_disc2``)."""
+    return _table(_angle_columns(ds))
+
+
+def _angle_columns(ds: xr.Dataset | Frame) -> list[Column]:
     if "ring" in ds.dims:
         raise ValueError("angle_table: select one ring first")
     rows = tuple(d for d in ("torque", "crank_angle") if d in ds.dims)
@@ -361,12 +401,65 @@ def angle_table(ds: xr.Dataset) -> pa.Table:
             peak = nan_reduce(var, "max", over, rows)
             units = var.attrs.get("units", "1")
             columns.append(_column(grid(peak, rows), csv_column(name, units), units, long_name))
-    return _table(columns)
+    return columns
 
 
-def write_angle_csv(ds: xr.Dataset, path: Path) -> Path:
-    """Write :func:`angle_table` of ``ds`` as CSV."""
-    return _write_csv(angle_table(ds), path)
+def write_angle_csv(ds: xr.Dataset | Frame, path: Path) -> Path:
+    """Write :func:`angle_table` of ``ds`` as CSV, as :func:`write_pin_csv` writes a
+    table (byte for byte; :func:`csv_text`), without pyarrow (a few rows: Python's
+    formatting is fast enough, and a run that writes no Parquet never imports pyarrow's
+    CSV and compute modules)."""
+    return write_text(path, csv_text(_angle_columns(ds)))
+
+
+def arrow_float(value: float) -> str:
+    """A float as Arrow's CSV writer formats it: the shortest decimal that reads back
+    to the same double (Python's ``repr``), written as Arrow's ``ToShortest`` writes it:
+    plain decimals for decimal exponents from -6 to 9 (``0.00001``, ``123456789``, no
+    ``.0``), else ``1.5e-7`` / ``1e+16`` (no padded exponent); ``nan``, ``inf``."""
+    if value != value:
+        return "nan"
+    if value in (math.inf, -math.inf):
+        return "inf" if value > 0 else "-inf"
+    text = repr(float(value))
+    sign = "-" if text.startswith("-") else ""
+    mantissa, _, exponent = text.lstrip("-").partition("e")
+    whole, _, fraction = mantissa.partition(".")
+    raw = whole + fraction
+    digits = raw.lstrip("0")
+    point = len(whole) - (len(raw) - len(digits)) + (int(exponent) if exponent else 0)
+    digits = digits.rstrip("0")
+    if not digits:
+        return sign + "0"
+    scientific = point - 1
+    if -6 <= scientific < 10:
+        if point <= 0:
+            return f"{sign}0.{'0' * -point}{digits}"
+        if point < len(digits):
+            return f"{sign}{digits[:point]}.{digits[point:]}"
+        return sign + digits + "0" * (point - len(digits))
+    head = digits[0] + ("." + digits[1:] if len(digits) > 1 else "")
+    return f"{sign}{head}e{'+' if scientific >= 0 else '-'}{abs(scientific)}"
+
+
+def csv_text(columns: Sequence[Column]) -> str:
+    """The CSV text of ``columns`` as :func:`write_pin_csv` writes a table with pyarrow:
+    a header of the names, no quotes, booleans 0/1, missing values empty,
+    floats by :func:`arrow_float`."""
+
+    def cells(column: Column) -> list[str]:
+        values = column.values
+        if values.dtype.kind == "f":
+            out = [arrow_float(v) for v in values.tolist()]
+        else:
+            out = [str(int(v)) for v in values.tolist()]
+        if column.mask is not None:
+            out = ["" if bad else cell for cell, bad in zip(out, column.mask.tolist(), strict=True)]
+        return out
+
+    rows = zip(*(cells(c) for c in columns), strict=True)
+    lines = [",".join(c.name for c in columns), *(",".join(row) for row in rows)]
+    return "\n".join(lines) + "\n"
 
 
 # --- TOML (the worst ring of a tolerance study as a study file) -------------------------

@@ -23,7 +23,17 @@ if TYPE_CHECKING:
     from cyclomesh.publish.report import Section
     from cyclomesh.studyfile.schema import Study
 
-__all__ = ["OutputOptions", "Published", "parse_figure_formats", "publish", "attach_figures"]
+FORMATS = ("png", "svg", "pdf")
+"""Figure file formats (:data:`cyclomesh.figures.render.FORMATS` is this tuple)."""
+
+__all__ = [
+    "OutputOptions",
+    "Published",
+    "parse_figure_formats",
+    "parse_figures",
+    "publish",
+    "attach_figures",
+]
 
 
 @dataclass(frozen=True)
@@ -41,50 +51,74 @@ class OutputOptions:
         numbers are in ``results.parquet`` and ``results.nc``).
     figure_workers : int or None
         Processes that draw the figures (None: decide by the number of figures).
+    figure_set : {"overview", "all"}
+        Which figures of a run study (:data:`cyclomesh.figures.sets.SETS`): the one
+        overview figure (default) or every figure; other kinds draw all theirs.
     """
 
     figures: tuple[str, ...] = ("png",)
     dpi: int = 150
     csv: bool = False
     figure_workers: int | None = None
+    figure_set: str = "overview"
 
     @classmethod
     def from_study(
         cls, study: Study, figures: str | None = None, csv: bool = False, **more: Any
     ) -> OutputOptions:
         """Options from the study's ``[figures]`` section, ``figures`` (the ``--figures``
-        option, e.g. ``"png,svg"`` or ``"none"``) overriding its formats."""
+        option, e.g. ``"png,svg"``, ``"all"`` or ``"none"``: :func:`parse_figures`)
+        overriding its formats."""
         settings = study.figures
+        figure_set = "overview"
         if figures is not None:
-            formats = parse_figure_formats(figures)
+            formats, figure_set = parse_figures(figures, tuple(settings.formats))
         elif settings.enabled:
             formats = tuple(settings.formats)
         else:
             formats = ()
-        return cls(figures=formats, dpi=settings.dpi, csv=csv, **more)
+        return cls(figures=formats, dpi=settings.dpi, csv=csv, figure_set=figure_set, **more)
 
 
 def parse_figure_formats(text: str) -> tuple[str, ...]:
-    """``"png,svg"`` → ``("png", "svg")``; ``"none"`` → ``()``.
+    """``"png,svg"`` → ``("png", "svg")``; ``"none"`` → ``()``; a figure set
+    (``"all"``) is no format (:func:`parse_figures`).
 
     Raises
     ------
     StudyError
         An unknown format.
     """
+    return parse_figures(text)[0]
+
+
+def parse_figures(text: str, default: tuple[str, ...] = ("png",)) -> tuple[tuple[str, ...], str]:
+    """The ``--figures`` option: (formats, figure set). Formats and at most one set of
+    :data:`cyclomesh.figures.sets.SETS`, comma-separated: ``"png,svg"`` →
+    ``(("png", "svg"), "overview")``; ``"all"`` → ``(default, "all")`` (every figure,
+    in the study's formats); ``"all,svg"``; ``"none"`` → ``((), "overview")``.
+
+    Raises
+    ------
+    StudyError
+        An unknown word, or two sets.
+    """
     from cyclomesh.exceptions import StudyError
-    from cyclomesh.figures.render import FORMATS
+    from cyclomesh.figures.sets import FORMATS, SETS
 
     parts = [p.strip().lower() for p in text.split(",") if p.strip()]
     if parts == ["none"]:
-        return ()
-    bad = [p for p in parts if p not in FORMATS]
-    if bad or not parts:
+        return (), "overview"
+    bad = [p for p in parts if p not in FORMATS and p not in SETS]
+    sets = list(dict.fromkeys(p for p in parts if p in SETS))
+    if bad or not parts or len(sets) > 1:
+        what = f"unknown format {bad[0]!r}" if bad else f"{text!r}"
         raise StudyError(
-            f"--figures: unknown format {bad[0] if bad else text!r}; expected a comma-separated "
-            f"list of {', '.join(FORMATS)}, or none"
+            f"--figures: {what}; expected a comma-separated list of {', '.join(FORMATS)} "
+            f"and at most one of {', '.join(SETS)} (which figures), or none"
         )
-    return tuple(dict.fromkeys(parts))
+    formats = tuple(dict.fromkeys(p for p in parts if p in FORMATS)) or tuple(default)
+    return formats, (sets[0] if sets else "overview")
 
 
 @dataclass
@@ -149,13 +183,14 @@ def publish(
         Figure workers started before the study computed (see
         :class:`~cyclomesh.figures.render.FigurePool`).
     """
-    from cyclomesh.figures.render import render_figures
     from cyclomesh.publish.report import Section, write_report
 
     seconds = {}
     start = time.perf_counter()
     rendered: list[RenderedFigure] = []
     if options.figures and jobs:
+        from cyclomesh.figures.render import render_figures
+
         rendered = render_figures(
             jobs, out / "figures", options.figures, options.dpi, options.figure_workers, pool
         )

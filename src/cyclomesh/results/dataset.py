@@ -23,7 +23,8 @@ from cyclomesh.drive.solve import Drive, check_torques, drive
 from cyclomesh.exceptions import DesignError
 from cyclomesh.execution.runtime import version
 from cyclomesh.quantities import QUANTITIES
-from cyclomesh.results.arrays import nan_reduce, variable
+from cyclomesh.results.arrays import nan_reduce
+from cyclomesh.results.frame import Frame, Var
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, summary_metrics
 
 if TYPE_CHECKING:
@@ -31,7 +32,10 @@ if TYPE_CHECKING:
 
 __all__ = [
     "analyse",
+    "analyse_frame",
     "drive_dataset",
+    "drive_frame",
+    "drive_result_frame",
     "to_dataset",
     "drive_to_dataset",
     "summarize",
@@ -159,7 +163,20 @@ def drive_to_dataset(
     groove_deformation: bool,
     torque_dim: bool,
 ) -> xr.Dataset:
-    """Label a :class:`~cyclomesh.drive.solve.Drive` result (SI) as a Dataset in engineering units.
+    """Label a :class:`~cyclomesh.drive.solve.Drive` result (SI) as a Dataset in engineering
+    units: :func:`drive_frame` as an :class:`xarray.Dataset`."""
+    return drive_frame(result, design, modification, groove_deformation, torque_dim).to_xarray()
+
+
+def drive_frame(
+    result: Drive,
+    design: PairDesign,
+    modification: Modification,
+    groove_deformation: bool,
+    torque_dim: bool,
+) -> Frame:
+    """Label a :class:`~cyclomesh.drive.solve.Drive` result (SI) in engineering units, as
+    a :class:`~cyclomesh.results.frame.Frame` (no xarray).
 
     Dimensions ``ring`` (one ring axis at most), ``torque`` [N·m] (if ``torque_dim``, else
     the one torque is the attribute ``torque_nm``), ``crank_angle`` [deg], ``disc`` (1 … N,
@@ -204,32 +221,28 @@ def drive_to_dataset(
             value = select(getattr(result, name), per)
             attrs = {"units": units, "long_name": long_name}
             attrs.update({"nonfinite": NONFINITE[name]} if name in NONFINITE else {})
-            data[name] = variable(dims, value * scale, attrs)
+            data[name] = Var(dims, value * scale, attrs)
     name, scale, units, long_name = _PLAY
-    data[name] = variable(
+    data[name] = Var(
         (*ring, "crank_angle"),
         result.play * scale,
         {"units": units, "long_name": long_name},
     )
     coords = {
-        "crank_angle": variable("crank_angle", np.degrees(result.crank_angle), {"units": "deg"}),
-        "pin": variable("pin", np.arange(1, design.pins + 1), {"units": "1"}),
+        "crank_angle": Var("crank_angle", np.degrees(result.crank_angle), {"units": "deg"}),
+        "pin": Var("pin", np.arange(1, design.pins + 1), {"units": "1"}),
     }
     if torque_dim:
-        coords["torque"] = variable(
-            "torque", result.torque, {"units": "N·m", "long_name": "torque"}
-        )
+        coords["torque"] = Var("torque", result.torque, {"units": "N·m", "long_name": "torque"})
     if stack:
-        coords["disc"] = variable("disc", np.arange(1, discs + 1), {"units": "1"})
+        coords["disc"] = Var("disc", np.arange(1, discs + 1), {"units": "1"})
     if ring:
-        coords["ring"] = variable("ring", np.arange(result.transmission_error.shape[0]))
-    import xarray as xr
-
+        coords["ring"] = Var("ring", np.arange(result.transmission_error.shape[0]))
     single = None if torque_dim else float(result.torque[0])
     attrs = result_attrs(result.crank_angle, design, modification, single, groove_deformation)
     attrs["discs"] = int(discs)
     data["contacts"].attrs["load_threshold_fraction"] = CONTACT_LOAD_FRACTION
-    return xr.Dataset(data, coords=coords, attrs=attrs)
+    return Frame(data, coords, attrs)
 
 
 def resolve_crank_angles(
@@ -319,6 +332,41 @@ def analyse(
     ----------
     [1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672.
     """
+    return analyse_frame(
+        design,
+        modification,
+        errors,
+        torque,
+        crank_angles,
+        groove_deformation,
+        crank_angles_deg=crank_angles_deg,
+        discs=discs,
+        contact_law=contact_law,
+        disc_body=disc_body,
+        crank_holes=crank_holes,
+        cache_dir=cache_dir,
+        friction=friction,
+    ).to_xarray()
+
+
+def analyse_frame(
+    design: PairDesign,
+    modification: Modification | None = None,
+    errors: PinErrors | None = None,
+    torque: float | ArrayLike = 250.0,
+    crank_angles: ArrayLike | None = None,
+    groove_deformation: bool = True,
+    *,
+    crank_angles_deg: ArrayLike | None = None,
+    discs: int = 1,
+    contact_law: str = "half_plane",
+    disc_body: Any = "rigid",
+    crank_holes: Any = None,
+    cache_dir: Any = None,
+    friction: Any = None,
+) -> Frame:
+    """:func:`analyse` as a :class:`~cyclomesh.results.frame.Frame`: the same variables,
+    coordinates and attributes, without importing xarray (``cyclomesh run``)."""
     modification = modification or Modification()
     crank_angles, degrees = resolve_crank_angles(crank_angles, crank_angles_deg)
     torque_dim = np.ndim(torque) > 0
@@ -326,7 +374,7 @@ def analyse(
     body = resolve_disc_body(disc_body, design, modification, crank_holes, cache_dir)
     case = Case(design, modification, errors, torques, crank_angles)
     model = Model(contact_law, groove_deformation, body, discs, friction=friction)
-    return drive_dataset(drive(case, model), case, model, torque_dim, degrees)
+    return drive_result_frame(drive(case, model), case, model, torque_dim, degrees)
 
 
 def drive_dataset(
@@ -337,13 +385,26 @@ def drive_dataset(
     degrees: ArrayLike | None = None,
 ) -> xr.Dataset:
     """The Dataset of :func:`analyse` from a :class:`~cyclomesh.drive.solve.Drive` of ``case``
-    and ``model`` (its disc body resolved): :func:`drive_to_dataset` with the model's
+    and ``model``: :func:`drive_result_frame` as an :class:`xarray.Dataset`."""
+    return drive_result_frame(result, case, model, torque_dim, degrees).to_xarray()
+
+
+def drive_result_frame(
+    result: Drive,
+    case: Case,
+    model: Model,
+    torque_dim: bool,
+    degrees: ArrayLike | None = None,
+) -> Frame:
+    """The :class:`~cyclomesh.results.frame.Frame` of :func:`analyse_frame` from a
+    :class:`~cyclomesh.drive.solve.Drive` of ``case`` and ``model`` (its disc body
+    resolved): :func:`drive_frame` with the model's
     ``contact_law`` and ``disc_body`` attributes, and the crank angles in [deg] as given.
     With friction (``result.friction``) the friction variables of
     :mod:`cyclomesh.results.efficiency` are added, the back-driving ones from a second solve
     of the same case and model."""
     modification = case.modification or Modification()
-    ds = drive_to_dataset(result, case.design, modification, model.groove_deformation, torque_dim)
+    ds = drive_frame(result, case.design, modification, model.groove_deformation, torque_dim)
     if result.friction is not None:
         from cyclomesh.results.efficiency import efficiency_variables, friction_attrs
 
@@ -359,11 +420,11 @@ def drive_dataset(
     if not isinstance(body, str):
         ds.attrs["disc_body_key"] = body.key
     if degrees is not None:
-        ds = ds.assign_coords(crank_angle=variable("crank_angle", degrees, {"units": "deg"}))
+        ds = ds.assign_coords(crank_angle=Var("crank_angle", np.asarray(degrees), {"units": "deg"}))
     return ds
 
 
-def summarize(ds: xr.Dataset) -> xr.Dataset:
+def summarize(ds: xr.Dataset | Frame) -> xr.Dataset:
     """Headline numbers of a result, reduced over crank angle and pin (ring kept).
 
     Returns a Dataset with the metrics of :data:`cyclomesh.results.metrics.METRICS`
@@ -377,8 +438,12 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
     torques) is kept; a ``disc`` dimension (a stack) is reduced with the pins (per-disc
     contacts with the crank angles).
     """
-    import xarray as xr
+    return summary_frame(ds).to_xarray()
 
+
+def summary_frame(ds: xr.Dataset | Frame) -> Frame:
+    """:func:`summarize` of a Dataset or a :class:`~cyclomesh.results.frame.Frame` as a
+    Frame (no xarray imported for a Frame)."""
     order = [d for d in ds["pin_load"].dims if d not in ("crank_angle", "disc", "pin")]
     stack = ("disc",) if "disc" in ds.dims else ()
 
@@ -398,12 +463,12 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
         },
         ds.attrs["teeth"],
     )
-    coords = {d: ds[d] for d in order if d in ds.coords}
-    data = {name: variable(order, values[name]) for name in METRICS}
+    coords = {d: Var(d, ds[d].values, ds[d].attrs) for d in order if d in ds.coords}
+    data = {name: Var(order, values[name]) for name in METRICS}
 
-    def reduced(name: str, how: str, over: tuple[str, ...]) -> xr.Variable:
+    def reduced(name: str, how: str, over: tuple[str, ...]) -> Var:
         keep = [d for d in order if d in ds[name].dims]  # play has no torque dimension
-        return variable(keep, nan_reduce(ds[name], how, over, keep))
+        return Var(keep, nan_reduce(ds[name], how, over, keep))
 
     if "play" in ds:
         data["play_arcsec_mean"] = reduced("play", "mean", ("crank_angle",))
@@ -413,12 +478,10 @@ def summarize(ds: xr.Dataset) -> xr.Dataset:
     if "torque_share" in ds:
         data["min_torque_share_nm"] = reduced("torque_share", "min", ("crank_angle", *stack))
         data["max_torque_share_nm"] = reduced("torque_share", "max", ("crank_angle", *stack))
-    summary = xr.Dataset(data, coords=coords)
-    for name in summary.data_vars:
+    for name, var in data.items():
         metric = METRICS.get(name) or DRIVE_METRICS[name]
-        summary[name].attrs = {"units": metric.unit, "long_name": metric.long_name}
-    summary.attrs["gear_ratio_step_deg"] = ds.attrs.get("gear_ratio_step_deg", 0.0)
-    return summary
+        var.attrs = {"units": metric.unit, "long_name": metric.long_name}
+    return Frame(data, coords, {"gear_ratio_step_deg": ds.attrs.get("gear_ratio_step_deg", 0.0)})
 
 
 def ltca_metrics(result: LTCA, teeth: int) -> dict[str, NDArray]:

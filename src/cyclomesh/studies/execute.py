@@ -35,6 +35,7 @@ __all__ = [
     "load_kind",
     "execute",
     "figure_pool",
+    "figure_jobs",
     "report_title",
     "running_backend",
 ]
@@ -113,6 +114,11 @@ class StudyKind:
     early_figures : callable, optional
         ``early_figures(study) -> list[FigureJob]``: figures of the inputs, drawn while
         the study computes.
+    overview : callable, optional
+        ``overview(result) -> list[FigureJob]``: the figures of the ``overview`` set
+        (:data:`cyclomesh.figures.sets.SETS`, the default of ``--figures``), drawn
+        instead of ``early_figures`` and ``figures``; None: the kind draws all its
+        figures in every set.
     report_name : str or None
         File name of the report; None: the kind writes its files only (no figures,
         no report), as ``export`` does.
@@ -136,6 +142,7 @@ class StudyKind:
     figures: Callable[[Any, list[Any]], list[Any]]
     sections: Callable[[Any], list[Any]]
     early_figures: Callable[[Any], list[Any]] | None = None
+    overview: Callable[[Any], list[Any]] | None = None
     report_name: str | None = "report.html"
     keys_first: Callable[[Any], None] | None = None
     preflight: Callable[[Any], None] | None = None
@@ -153,16 +160,19 @@ def load_kind(command: str) -> StudyKind:
     return getattr(import_module(module), name)
 
 
-def figure_pool(options: Any) -> AbstractContextManager[Any]:
-    """Figure workers, forked now (before any progress thread); none without figures."""
+def figure_pool(options: Any, datasets: bool = True) -> AbstractContextManager[Any]:
+    """Figure workers, forked now (before any progress thread); none without figures.
+    ``datasets``: the figures take xarray Datasets (imported first, so that the workers
+    inherit it); the overview of a run takes NumPy arrays only."""
     if not options.figures:
         return nullcontext(None)
-    import xarray  # noqa: F401  (needed anyway: inherited by the forked workers)
+    if datasets:
+        import xarray  # noqa: F401  (needed anyway: inherited by the forked workers)
 
     from cyclomesh.figures.render import FigurePool
 
     gc.freeze()  # the workers' collections then leave the inherited objects (and pages) alone
-    return FigurePool(options.figure_workers)
+    return FigurePool(options.figure_workers, one=not datasets)
 
 
 def _preload(figures: bool) -> threading.Thread:
@@ -254,17 +264,18 @@ def execute(
             pool_context: AbstractContextManager[Any] = nullcontext(None)
             with running_backend(backend, bool(options.figures)) as started, bar() as advance:
                 result = kind.compute(study, backend=started, progress=advance, **compute_options)
-        else:
-            pool_context = figure_pool(options)
+        overview = kind.overview is not None and options.figure_set == "overview"
+        if not parallel:
+            pool_context = figure_pool(options, datasets=not overview)
         with pool_context as pool:
             if not parallel:
-                if options.figures and kind.early_figures is not None:
+                if options.figures and kind.early_figures is not None and not overview:
                     early = kind.early_figures(study)
                     if pool is not None:  # drawn while the study computes
                         pool.submit(early, options.figures, options.dpi)
                 with bar() as advance:
                     result = kind.compute(study, backend=None, progress=advance, **compute_options)
-            jobs = kind.figures(result, early) if options.figures else []
+            jobs = figure_jobs(kind, result, early, options)
             if pool is not None:  # drawn while the result files are written
                 pool.submit(jobs, options.figures, options.dpi)
             files = kind.write(result, folder.path, options)  # moved into out at the end
@@ -283,6 +294,15 @@ def execute(
                 pool=pool,
             )
     return result
+
+
+def figure_jobs(kind: StudyKind, result: Any, early: list[Any], options: Any) -> list[Any]:
+    """The figures ``options`` ask of ``result`` (none, the overview, or all)."""
+    if not options.figures:
+        return []
+    if kind.overview is not None and options.figure_set == "overview":
+        return kind.overview(result)
+    return kind.figures(result, early)
 
 
 def report_title(study_title: str, kind_title: str) -> str:

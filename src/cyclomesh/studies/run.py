@@ -30,8 +30,8 @@ from cyclomesh.publish.report import (
     warning_sections,
 )
 from cyclomesh.quantities import QUANTITIES
-from cyclomesh.results.arrays import variable
 from cyclomesh.results.efficiency import EFFICIENCY_METRICS
+from cyclomesh.results.frame import Frame, Var, as_xarray
 from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STIFFNESS_METRICS
 from cyclomesh.results.profile import profile_curves
 from cyclomesh.results.stage import STAGE_METRICS
@@ -54,6 +54,7 @@ __all__ = [
     "write_run",
     "input_figures",
     "run_figures",
+    "overview_figures",
     "run_sections",
     "case_folder",
 ]
@@ -66,14 +67,26 @@ class RunResult:
     """The computed results of a run study, in memory."""
 
     study: Study
-    results: dict[str, xr.Dataset] = field(default_factory=dict)
-    """Case name → annotated Dataset of :func:`cyclomesh.analyse`."""
+    frames: dict[str, Frame | xr.Dataset] = field(default_factory=dict)
+    """Case name → annotated results of :func:`cyclomesh.results.dataset.analyse_frame`:
+    a :class:`~cyclomesh.results.frame.Frame` (no xarray), or a Dataset for a case with
+    a ``[stage]`` or ``[friction]`` (whose post-processing is xarray's)."""
     summaries: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → metrics of :data:`cyclomesh.results.metrics.METRICS` (plain JSON numbers)."""
     checks: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Case name → requirement checks and design warnings (:mod:`cyclomesh.studies.checks`)."""
     warnings: dict[str, list[str]] = field(default_factory=dict)
     """Case name → warnings (:mod:`cyclomesh.studyfile.warnings`)."""
+
+    @property
+    def results(self) -> dict[str, xr.Dataset]:
+        """Case name → annotated Dataset of :func:`cyclomesh.analyse` (the frames as
+        :class:`xarray.Dataset`, converted once when first asked for)."""
+        converted = self.__dict__.setdefault("_datasets", {})
+        for name, ds in self.frames.items():
+            if name not in converted or converted[name][0] is not ds:
+                converted[name] = (ds, as_xarray(ds))
+        return {name: converted[name][1] for name in self.frames}
 
     def study_warnings(self) -> list[str]:
         """The warnings of the study, each once (prefixed by the case where not all)."""
@@ -87,12 +100,12 @@ class RunResult:
         return self.study.inputs
 
 
-def annotate(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs, study: Study) -> xr.Dataset:
+def annotate(ds: Frame, case: CaseSpec, inputs: CaseInputs, study: Study) -> Frame:
     """Add the case's per-pin errors [µm, µrad] and its inputs (attributes) to ``ds``."""
     errors = inputs.errors_um
     out = ds.assign(
         {
-            name: variable("pin", errors[key], {"units": q.unit, "long_name": q.long_name})
+            name: Var("pin", errors[key], {"units": q.unit, "long_name": q.long_name})
             for name, key in (
                 ("pin_radial_error", "radial_um"),
                 ("pin_angular_error", "angular_urad"),
@@ -105,7 +118,7 @@ def annotate(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs, study: Study) -
     return out
 
 
-def summary_record(summary: xr.Dataset) -> dict[str, Any]:
+def summary_record(summary: xr.Dataset | Frame) -> dict[str, Any]:
     """The metrics of :func:`cyclomesh.summarize` as plain JSON values (non-finite → None).
 
     A summary with a ``torque`` dimension (a list of torques) gives ``torque_nm`` and,
@@ -148,7 +161,7 @@ def compute_run(
     ``backend`` is not used; it is there for the one signature of every kind.
     """
     from cyclomesh.exceptions import CyclomeshError
-    from cyclomesh.results.dataset import analyse, summarize
+    from cyclomesh.results.dataset import analyse_frame, summary_frame
     from cyclomesh.results.requirements import jam_warning, min_play_arcmin
     from cyclomesh.studies.checks import case_checks
     from cyclomesh.studyfile.usage import check_keys
@@ -163,18 +176,20 @@ def compute_run(
         kwargs = inputs.kwargs()
         kwargs.pop("crank_angles")
         try:
-            ds = analyse(**kwargs, crank_angles_deg=case.analysis.crank_angles_deg())
+            ds = analyse_frame(**kwargs, crank_angles_deg=case.analysis.crank_angles_deg())
         except CyclomeshError as exc:  # name the case
             raise type(exc)(f"{case.label}: {exc}") from None
         ds = annotate(ds, case, inputs, study)
+        if inputs.stage is not None or "power_loss" in ds:  # post-processed with xarray
+            ds = ds.to_xarray()
         sheet = None
         if inputs.stage is not None:
             ds, sheet = _with_stage(ds, case, inputs)
-        run.summaries[case.name] = summary_record(summarize(ds))
+        run.summaries[case.name] = summary_record(summary_frame(ds))
         run.summaries[case.name].update(efficiency_summary(ds, case))
         if sheet is not None:
             run.summaries[case.name].update(sheet)
-        run.results[case.name] = ds
+        run.frames[case.name] = ds
         run.warnings[case.name] = study_warnings(
             inputs.contact_law,
             case.analysis.crank_angles_deg(),
@@ -221,7 +236,7 @@ def refuse_friction_with_stage(study: Study) -> None:
             )
 
 
-def efficiency_summary(ds: xr.Dataset, case: CaseSpec) -> dict[str, Any]:
+def efficiency_summary(ds: xr.Dataset | Frame, case: CaseSpec) -> dict[str, Any]:
     """The friction numbers of a case (:func:`cyclomesh.results.efficiency.efficiency_record`),
     or with no friction the input speed alone."""
     from cyclomesh.results.efficiency import efficiency_record
@@ -260,7 +275,7 @@ def case_folder(name: str) -> str:
     return folder_name(name)
 
 
-def write_case(ds: xr.Dataset, folder: Path, csv: bool = False) -> dict[str, Path]:
+def write_case(ds: xr.Dataset | Frame, folder: Path, csv: bool = False) -> dict[str, Path]:
     """Write one case: ``results.nc``, ``results.parquet``, ``angles.csv`` and, with
     ``csv``, ``results.csv`` (see :mod:`cyclomesh.output.writers`)."""
     from cyclomesh.output import writers as output
@@ -288,7 +303,7 @@ def write_run(run: RunResult, out: Path, options: OutputOptions) -> list[Path]:
     records = []
     for case in study.cases:
         folder = case_folder(case.name)
-        written += write_case(run.results[case.name], out / folder, options.csv).values()
+        written += write_case(run.frames[case.name], out / folder, options.csv).values()
         records.append(
             {
                 "name": case.name,
@@ -510,6 +525,66 @@ def run_figures(run: RunResult, inputs: list[FigureJob] | None = None) -> list[F
     return jobs
 
 
+_OVERVIEW_DIMS = ("torque", "crank_angle", "disc", "pin")
+
+
+def _pick(var: Any, at: dict[str, int]) -> np.ndarray:
+    """A variable (Frame or Dataset) at the torque and disc indices ``at`` (those its
+    dimensions have), axes (crank angle[, pin])."""
+    order = [dim for dim in _OVERVIEW_DIMS if dim in var.dims]
+    index = tuple(at.get(dim, slice(None)) for dim in order)
+    return np.asarray(var.transpose(*order).values[index])
+
+
+def overview_figures(run: RunResult) -> list[FigureJob]:
+    """The overview figure of a run study (:mod:`cyclomesh.figures.overview`), the one
+    figure of the default ``--figures`` set: pin loads at the first crank angle of
+    ``[figures] crank_angles_deg``, TE, peak contact stress and pins in contact over
+    the crank angle, one line per case, torque and disc (as :func:`figure_cases`
+    splits them). Built from the results' NumPy arrays: no xarray."""
+    import warnings
+
+    from cyclomesh.figures.overview import OverviewCase, plot_overview
+    from cyclomesh.figures.render import FigureJob
+
+    target = float(run.study.figures.crank_angles_deg[0])
+    cases: dict[str, OverviewCase] = {}
+    for name, ds in run.frames.items():
+        torques = ds["torque"].values if "torque" in ds.dims else [None]
+        discs = ds["disc"].values if "disc" in ds.dims else [None]
+        angles = np.asarray(ds["crank_angle"].values, dtype=float)
+        k = int(np.argmin(np.abs((angles - target + 180.0) % 360.0 - 180.0)))
+        for t, torque in enumerate(torques):
+            for d, disc in enumerate(discs):
+                at = {"torque": t, "disc": d}
+                label = name + ("" if torque is None else f", {torque:g} N·m")
+                label += "" if disc is None else f", disc {disc}"
+                with warnings.catch_warnings():  # an angle where no pin is loaded: NaN
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    peak = np.nanmax(_pick(ds["contact_stress"], at), axis=-1)
+                cases[label] = OverviewCase(
+                    crank_angle=angles,
+                    pin=np.asarray(ds["pin"].values),
+                    pin_load_at=float(angles[k]),
+                    pin_load=_pick(ds["pin_load"], at)[k],
+                    transmission_error=_pick(ds["transmission_error"], at),
+                    max_contact_stress=peak,
+                    contacts=_pick(ds["contacts"], at),
+                )
+    return [
+        FigureJob(
+            "overview",
+            plot_overview,
+            (cases,),
+            caption="Overview: load on every pin at one crank angle (Eq. 18 of Li et al. "
+            "2022), loaded transmission error (Eq. 25), peak tooth contact stress over the "
+            "pins (Eq. 24) and pins in contact over the crank angle; --figures all draws "
+            "every figure of the run.",
+            section="Summary",  # under the summary table, on the report's first screen
+        )
+    ]
+
+
 def _flat(prefix: str, value: Any) -> dict[str, Any]:
     if isinstance(value, dict):
         out: dict[str, Any] = {}
@@ -641,6 +716,7 @@ RUN = StudyKind(
     figures=lambda result, early: run_figures(result, early),
     sections=lambda result: run_sections(result),
     early_figures=lambda study: input_figures(study),
+    overview=lambda result: overview_figures(result),
     preflight=refuse_friction_with_stage,
     steps=CommandSteps(progress=lambda study, o: (len(study.cases), "cases"), show=_show_run),
 )
