@@ -163,17 +163,16 @@ def _evaluate(
     g = np.zeros((n, m)) if gradient else None
     H = np.zeros((n, m, m)) if hessian else None
     # pins: a = (θ_d: l/L, ux: nx, uy: ny) in scaled unknowns
-    cols = [p.arm / L] if rigid else [p.arm / L, p.nx, p.ny]
-    for d in range(discs if gradient else 0):
-        base = 1 + 3 * d
-        for a_i, col in enumerate(cols):
-            g[:, base + a_i] += np.sum(F[:, d] * col[:, d], axis=-1)
+    if gradient:
+        cols = np.stack([p.arm / L] if rigid else [p.arm / L, p.nx, p.ny], axis=-2)  # (n,D,a,P)
+        g_pin = np.matmul(cols, F[..., None])[..., 0]  # Σ F·a, (n, D, a)
+        if hessian:
+            H_pin = np.matmul(cols * k[..., None, :], np.swapaxes(cols, -1, -2))  # Σ k·a·aᵀ
+        for d in range(discs):
+            block = slice(1 + 3 * d, 1 + 3 * d + cols.shape[-2])
+            g[:, block] += g_pin[:, d]
             if hessian:
-                for b_i in range(a_i, len(cols)):
-                    v = np.sum(k[:, d] * col[:, d] * cols[b_i][:, d], axis=-1)
-                    H[:, base + a_i, base + b_i] += v
-                    if b_i != a_i:
-                        H[:, base + b_i, base + a_i] += v
+                H[:, block, block] += H_pin[:, d]
     if gradient:
         g[:, 0] -= p.torque / L
     state = {"pin_force": F, "bad": bad}
@@ -257,7 +256,7 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
         return energy, g, H, state
     G = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, m)
     f = np.stack([fx, fy], axis=-1)
-    g = g + np.einsum("ndkc,ndkcm->nm", f, G)
+    g = g + np.matmul(f.reshape(n, 1, -1), G.reshape(n, -1, m))[:, 0]
     if nw:
         Kw = np.einsum("de,nekc->ndkc", sup.stiffness, w)
         energy = energy + 0.5 * np.sum(w * Kw, axis=(1, 2, 3))
@@ -270,7 +269,8 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
         kyy = kb * cy * cy + secant * cx * cx
         kxy = (kb - secant) * cx * cy
         kmat = np.stack([np.stack([kxx, kxy], -1), np.stack([kxy, kyy], -1)], -2)
-        H = H + np.einsum("ndkcm,ndkce,ndkep->nmp", G, kmat, G, optimize=True)
+        rows = G.reshape(n, -1, m)  # Gᵀ·K·G over the holes' (x, y)
+        H = H + np.matmul(np.swapaxes(rows, -1, -2), np.matmul(kmat, G).reshape(n, -1, m))
         if nw:
             H[:, base : base + nw, base : base + nw] += np.kron(sup.stiffness, np.eye(2 * N))
         if sup.carrier is not None:
@@ -350,9 +350,15 @@ def _near(p: _Problem, x: FloatArray, discs: int, rigid: bool) -> _Problem:
 def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray):
     """:func:`~cyclomesh.stage.newton.newton` on the pins near contact (:func:`_near`),
     then every pin checked: the crank angles where a left-out pin closed are solved
-    again from there with all pins (the answer is the whole problem's either way)."""
+    again from there with all pins (the answer is the whole problem's either way). If
+    the near pins alone do not converge (a left-out pin that would have held a disc),
+    the whole problem is solved from the start, so this fails only where it fails."""
     q = _near(p, x, discs, rigid)
-    x = newton(q, _evaluate, law, x, discs, rigid, phi)
+    start = x.copy()
+    try:
+        x = newton(q, _evaluate, law, x, discs, rigid, phi)
+    except ConvergenceError:
+        return newton(p, _evaluate, law, start, discs, rigid, phi)
     closed = np.sum(_approach(p, x, discs, rigid) > 0.0, axis=-1)
     counted = np.sum(_approach(q, x, discs, rigid) > 0.0, axis=-1)  # the same arithmetic
     again = np.flatnonzero(np.any(closed != counted, axis=-1))

@@ -27,6 +27,10 @@ FORCE_TOLERANCE = 1e-12
 """Accepted residual of every equilibrium equation, relative to T/r_c (moments /r_c)."""
 _MAX_ITERATIONS = 200
 _MAX_HALVINGS = 60
+_STEP_CAP = 1e-4
+"""Largest move of any unknown in one trial step [m] (rotations × r_c): a longer Newton
+step (a nearly flat direction of the potential) is shortened to it before the line
+search, instead of being halved down to it one potential evaluation at a time."""
 _LINEAR = (0.05, 0.12)
 """Residual ratios of two Newton steps taken as the linear convergence of a crank bearing
 near zero load (:func:`newton`; (1 − 9/10)^(10/9) ≈ 0.077 in the middle)."""
@@ -57,8 +61,8 @@ def newton(
     previous = np.full(x.shape[0], np.inf)  # max |g| of the last step, per crank angle
     extended = np.zeros(x.shape[0], bool)  # the last step was a stretched one
     linear = np.zeros(x.shape[0], bool)  # the last residual ratio was in _LINEAR
+    sub = p.take(active)  # the problem of the active crank angles, taken as they converge
     for _ in range(_MAX_ITERATIONS):
-        sub = p.take(active)
         xa = x[active]
         energy, g, H, _state = evaluate(sub, law, xa, discs, rigid)
         if rigid:
@@ -70,7 +74,7 @@ def newton(
         xs = np.abs(_scale(xa, 1.0 / p.scale, rot_idx))
         if rigid:
             xs = xs @ reduce
-        noise = 16.0 * np.finfo(float).eps * np.einsum("nij,nj->ni", np.abs(H), xs)
+        noise = 16.0 * np.finfo(float).eps * np.matmul(np.abs(H), xs[..., None])[..., 0]
         done = np.all(np.abs(g) <= np.maximum(tol, noise), axis=-1)
         keep = ~done
         res = np.max(np.abs(g), axis=-1)
@@ -88,14 +92,17 @@ def newton(
         xa, g, H, energy = xa[keep], g[keep], H[keep], energy[keep]
         sub = sub.take(np.flatnonzero(keep))
         diag = np.maximum(np.max(np.abs(np.diagonal(H, axis1=1, axis2=2)), axis=-1), 1e-300)
-        eye = np.eye(H.shape[-1])
-        step = np.linalg.solve(H + 1e-14 * diag[:, None, None] * eye, -g[..., None])[..., 0]
+        i = np.arange(H.shape[-1])
+        H[:, i, i] += 1e-14 * diag[:, None]  # regularised (H is a copy here, H[keep])
+        step = np.linalg.solve(H, -g[..., None])[..., 0]
         slope = np.sum(g * step, axis=-1)
         # not a descent direction (flat directions): steepest descent, scaled
         flip = ~(slope < 0)
         step[flip] = -g[flip] / diag[flip, None]
         slope = np.sum(g * step, axis=-1)
         t = np.where(stretch, LOAD_EXPONENT, 1.0)
+        reach = np.max(np.abs(step), axis=-1)  # m (rotations × r_c)
+        t = np.where(reach * t > _STEP_CAP, _STEP_CAP / np.where(reach > 0, reach, 1.0), t)
         extended[active] = stretch
         todo = np.arange(xa.shape[0])
         new = xa.copy()

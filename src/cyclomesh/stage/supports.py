@@ -129,10 +129,10 @@ def bearing_deflection(law: BearingLaw, force: FloatArray) -> FloatArray:
     rs = law.rs
     s = 0.5 * rs.clearance + (np.maximum(force, 0.0) / rs.constant) ** (1.0 / LOAD_EXPONENT)
     for _ in range(100):
-        resid = radial_force(rs, s) - force
+        value, k, _ = radial_law(rs, s)
+        resid = value - force
         if np.all(np.abs(resid) <= 1e-12 * np.maximum(force, 1e-300)):
             break
-        k = radial_stiffness(rs, s)
         s = np.where(force > 0, s - resid / np.where(k > 0, k, np.inf), 0.5 * rs.clearance)
     if law.k is not None:
         s = s + force / law.k
