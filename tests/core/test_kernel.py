@@ -13,11 +13,13 @@ import pytest
 
 from cyclomesh import TABLE1, Modification
 from cyclomesh.core import kernel
+from cyclomesh.core.contact import unloaded_contact
 from cyclomesh.core.discbody import DiscBody
-from cyclomesh.core.ltca import solve_ltca
+from cyclomesh.core.fields import contact_stresses
+from cyclomesh.core.ltca import pin_compliance, solve_ltca
 from cyclomesh.core.pair import CrankHoles, PairDesign, PinErrors
 from cyclomesh.drive.solve import solve_drive
-from cyclomesh.exceptions import ConvergenceError
+from cyclomesh.exceptions import ConvergenceError, DesignError
 from cyclomesh.stage import RollerSet, StageDesign, solve_stage
 
 pytest.importorskip("numba")
@@ -176,3 +178,80 @@ def test_the_kernel_keeps_the_reference_constants():
 
     assert kernel._MAX_ITERATIONS == loadsharing._MAX_ITERATIONS
     assert (kernel._MAX_NEWTON, kernel._ROUND_OFF) == (hertz._MAX_NEWTON, hertz._ROUND_OFF)
+
+
+CONTACT_FIELDS = (
+    "rotation",
+    "reverse_rotation",
+    "moment_arm",
+    "cos_beta",
+    "profile_angle",
+    "contact_radius",
+    "pin_radius",
+    "residual",
+    "normal_x",
+    "normal_y",
+)
+
+
+@pytest.mark.parametrize(
+    "mod, errors",
+    [
+        (MOD, None),
+        (
+            Modification(pin_radius=8e-6, pin_circle_radius=-5e-6, rotation=2e-4),
+            PinErrors(
+                radial=ERRORS.radial,
+                angular=ERRORS.angular,
+                eccentricity=RNG.uniform(-3e-6, 3e-6, 3),
+            ),
+        ),
+    ],
+)
+def test_the_compiled_contact_gives_the_reference_bits(monkeypatch, mod, errors):
+    """The contact rotations set the pin loads to 1e-11 per unit in their last bit, so the
+    compiled passes must reproduce them exactly: every field bit for bit, the curvature
+    radius (NumPy's power of 3/2 is not the C library's) to a few units in the last place."""
+    ref, got = _both(monkeypatch, lambda: unloaded_contact(TABLE1, mod, errors, PHI, normals=True))
+    for name in CONTACT_FIELDS:
+        np.testing.assert_array_equal(getattr(got, name), getattr(ref, name), err_msg=name)
+    np.testing.assert_allclose(got.curvature_radius, ref.curvature_radius, rtol=1e-15)
+    assert np.isinf(ref.rotation).any()  # the tip pins: unreachable in both
+
+
+def test_the_compiled_contact_refuses_as_the_reference(monkeypatch):
+    """A jammed pin: the compiled pass hands the case back and the reference raises."""
+    jam = PinErrors(pin_radius=np.where(np.arange(40) == 3, 20e-6, 0.0))
+    messages = []
+    for name in kernel.KERNELS:
+        monkeypatch.setenv(kernel.ENV_VAR, name)
+        with pytest.raises(DesignError) as info:
+            unloaded_contact(TABLE1, MOD, jam, PHI)
+        messages.append(str(info.value))
+    assert messages[0] == messages[1] and "pin 4 overlaps" in messages[0]
+
+
+@pytest.mark.parametrize("law", ["half_plane", "paper"])
+@pytest.mark.parametrize("groove", [True, False])
+def test_the_compiled_compliance_and_stresses_follow_the_reference(monkeypatch, law, groove):
+    """Same formulas in the same order; the logarithms may differ in their last bit."""
+    geo = unloaded_contact(TABLE1, MOD, ERRORS, PHI)
+    monkeypatch.setenv(kernel.ENV_VAR, "numpy")
+    ref = pin_compliance(geo, TABLE1, groove, law)
+    force = np.where(np.isfinite(geo.rotation), RNG.uniform(0.0, 3e3, geo.rotation.shape), 0.0)
+    ref_stress = contact_stresses(geo, TABLE1, force)
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    got = pin_compliance(geo, TABLE1, groove, law)
+    got_stress = contact_stresses(geo, TABLE1, force)
+    for a, b in zip(ref, got, strict=True):
+        assert a.shape == b.shape
+        np.testing.assert_allclose(b, a, rtol=2e-15)  # inf (paper law, unreachable) alike
+    for a, b in zip(ref_stress, got_stress, strict=True):
+        np.testing.assert_array_equal(b, a)  # products, quotients and square roots
+
+
+def test_the_compiled_contact_keeps_the_reference_constants():
+    from cyclomesh.core import contact, kernel_contact
+
+    assert kernel_contact._TOLERANCE == contact.CONTACT_TOLERANCE
+    assert kernel_contact._MAX_ITERATIONS == contact._MAX_ITERATIONS

@@ -41,6 +41,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.core.kernel import kernel_name
+from cyclomesh.core.kernel_contact import contact_arrays
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.core.profile import curvature_radius, deviated_geometry, generating_radii
 from cyclomesh.exceptions import ConvergenceError, DesignError
@@ -210,14 +212,31 @@ def unloaded_contact(
     r_pin = design.pin_radius + per_pin(errors.pin_radius)
     ecc = e + np.broadcast_to(errors.eccentricity, ring_shape)[..., None, None]
 
-    wx = pin_r * np.cos(pin_angle) - ecc * np.cos(phi)
-    wy = pin_r * np.sin(pin_angle) - ecc * np.sin(phi)
-    w2 = wx * wx + wy * wy
-    s = np.broadcast_to(r_pin - rho_gen, w2.shape)
     phi_t = -phi / n2
     # nominal tooth phase n2·(i·ψ + φ/n2) of the pin, and its nearest tooth-space bottom
     u_nominal = n2 * index * design.pitch + phi
     t_root = 2.0 * np.pi * np.round(u_nominal / (2.0 * np.pi)) / n2
+    if modification.profile is None and kernel_name() == "numba":
+        # the compiled passes (cyclomesh.core.kernel_contact); None: the reference refuses
+        shape = (*ring_shape, phi.size, n1)
+        got = contact_arrays(
+            pin_r, pin_angle, ecc, phi, r_pin - rho_gen, t_root, a, e, n1, n2, rho_gen,
+            modification.rotation, shape,
+        )  # fmt: skip
+        if got is not None:
+            pin_radius = np.broadcast_to(r_pin, shape)
+            arg_w = got.pop("arg_w")
+            normal = (None, None)
+            if normals:
+                normal = _fixed_normal(arg_w, got["profile_angle"], pin_radius, a, e, n1, rho_gen)
+            return UnloadedContact(
+                **got, pin_radius=pin_radius, normal_x=normal[0], normal_y=normal[1]
+            )
+
+    wx = pin_r * np.cos(pin_angle) - ecc * np.cos(phi)
+    wy = pin_r * np.sin(pin_angle) - ecc * np.sin(phi)
+    w2 = wx * wx + wy * wy
+    s = np.broadcast_to(r_pin - rho_gen, w2.shape)
 
     if modification.profile is not None:
         return _deviated_contact(

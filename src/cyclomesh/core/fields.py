@@ -9,7 +9,7 @@ F_i·cos β_i (Eq. 18), the interference with the unloaded flank, the torque sha
 contact. A new per-contact quantity (a friction force) is one more entry here, computed
 from the contact kinematics of :mod:`cyclomesh.core.contact`.
 
-NumPy only, SI units, no I/O.
+NumPy (or the compiled pass of the numba kernel), SI units, no I/O.
 
 References
 ----------
@@ -30,6 +30,8 @@ from cyclomesh.core.hertz import (
     pin_groove_radius,
     pin_tooth_radius,
 )
+from cyclomesh.core.kernel import kernel_name
+from cyclomesh.core.kernel_contact import stress_arrays
 from cyclomesh.core.pair import PairDesign
 
 __all__ = [
@@ -75,8 +77,11 @@ def contact_stresses(
     """Groove force Fc·cos β [N] and the Hertzian pressures of tooth and groove [Pa].
 
     Eqs. 18 and 24 of [1]: p = sqrt(F·E*/(π·b·ρ)) with the pin–tooth radius of the
-    contact and the pin–groove radius.
+    contact and the pin–groove radius (with the numba kernel, :mod:`cyclomesh.core.kernel`,
+    the same formulas in one compiled pass).
     """
+    if kernel_name() == "numba":
+        return stress_arrays(geo.pin_radius, geo.curvature_radius, geo.cos_beta, force, design)
     pin_c = design.pin_material.compliance
     groove_force = force * geo.cos_beta
     tooth_modulus = effective_modulus(pin_c, design.disc_material.compliance)

@@ -35,8 +35,9 @@ from cyclomesh.core.fields import (
     contact_stresses,
     count_contacts,
 )
-from cyclomesh.core.hertz import compliance_coefficients
-from cyclomesh.core.kernel import share_load
+from cyclomesh.core.hertz import CONTACT_LAWS, compliance_coefficients
+from cyclomesh.core.kernel import kernel_name, share_load
+from cyclomesh.core.kernel_contact import compliance_arrays
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.core.transmission import gear_ratio, transmission_error
 from cyclomesh.exceptions import ConvergenceError, DesignError
@@ -266,8 +267,20 @@ def pin_compliance(
     """Coefficients (α, γ) of δ = F(α − γ ln F) of every pin contact [m/N].
 
     Eqs. 19–23 of [1] with the tooth term of ``contact_law`` (Eq. 20, or the half-plane
-    law of :mod:`cyclomesh.core.hertz`, Johnson eq. 5.41).
+    law of :mod:`cyclomesh.core.hertz`, Johnson eq. 5.41); with the numba kernel
+    (:mod:`cyclomesh.core.kernel`) the same formulas in one compiled pass
+    (:func:`cyclomesh.core.kernel_contact.compliance_arrays`).
     """
+    if contact_law in CONTACT_LAWS and kernel_name() == "numba":
+        return compliance_arrays(
+            geo.pin_radius,
+            geo.curvature_radius,
+            geo.cos_beta,
+            geo.contact_radius,
+            design,
+            groove_deformation,
+            contact_law,
+        )
     with np.errstate(divide="ignore", invalid="ignore"):  # unreachable pins: never loaded
         return compliance_coefficients(
             geo.pin_radius,

@@ -356,6 +356,8 @@ def drive(case: Case, model: Model, backdrive: bool = False) -> Drive:
 
     def stacked(name: str) -> FloatArray:
         axis = -4 if PER_PIN.get(name, name in FRICTION_PIN) else -3 if name in PER_DISC else -2
+        if len(per_torque) == 1:  # one torque: its axis as a view, no copy
+            return np.expand_dims(per_torque[0][name], axis)
         return np.stack([fields[name] for fields in per_torque], axis=axis)
 
     out = {name: stacked(name) for name in PER_PIN}

@@ -1,0 +1,446 @@
+"""Compiled (numba) passes of the pin-step around the load sharing: the unloaded contact,
+the compliance of the contact law and the contact stresses (issue 27).
+
+Each pass is the NumPy reference's formula, element by element in one loop over rings,
+crank angles and pins, with no temporaries: :func:`cyclomesh.core.contact.unloaded_contact`
+(the undeviated profile, Eqs. 5–11 of [1]), :func:`cyclomesh.core.hertz.compliance_coefficients`
+(Eqs. 19–23 and the half-plane law) and :func:`cyclomesh.core.fields.contact_stresses`
+(Eqs. 18, 24). Additions, products, quotients and square roots are written in the
+reference's order and rounded alike (IEEE, no contraction into fused multiply-adds), so
+they give its bits. The contact rotations are differences of angles of order π whose
+last bit moves the pin loads by about 1e-11 of their size (a pin's approach is about
+1e-4 rad of disc rotation), so the inverse trigonometric functions there (arccos of the
+tooth phase, the arctangents of the pin centre and of the normal) are taken by NumPy
+between two compiled passes, on the same arrays as the reference: NumPy's SIMD arccos
+and arctan2 differ from the C library's in the last bit. Cosines are the C library's in
+both; the power 3/2 of the curvature radius and the logarithms of the compliance may
+differ in the last bit, which moves α, ρc and the pin loads by about 1e-16 of their
+size.
+
+The callers (:func:`cyclomesh.core.contact.unloaded_contact`,
+:func:`cyclomesh.core.ltca.pin_compliance`, :func:`cyclomesh.core.fields.contact_stresses`)
+take these passes when :func:`cyclomesh.core.kernel.kernel_name` is ``numba``; a case a
+pass cannot finish (a pin jammed at a tooth-space bottom, a contact that does not
+converge) is handed back to the reference, which raises its one-line error.
+
+References
+----------
+[1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672, doi:10.3390/machines10080672.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cache
+from typing import Any
+
+import numpy as np
+
+__all__ = ["compiled"]
+
+_TOLERANCE = 1e-13
+"""Residual of the contact condition [m], :data:`cyclomesh.core.contact.CONTACT_TOLERANCE`."""
+_MAX_ITERATIONS = 40
+"""Newton steps of the tooth phase, as :func:`cyclomesh.core.contact.contact_phase`."""
+
+
+@cache
+def compiled() -> Any:
+    """The compiled passes as a namespace (``contact_phase``, ``contact_finish``,
+    ``compliance``, ``stresses``), or None without numba (imported on first use)."""
+    try:
+        import numba
+    except ImportError:
+        return None
+    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    global _mod_2pi  # compiled in place, so the passes call it compiled
+    _mod_2pi = jit(_mod_2pi)
+
+    class Passes:
+        contact_phase = jit(_contact_phase)
+        contact_finish = jit(_contact_finish)
+        compliance = jit(_compliance)
+        stresses = jit(_stresses)
+
+    return Passes
+
+
+def _contact_phase(
+    pcx, pcy, ecx, ecy, s_pin, a, e, n1, wx, wy, c_out, zx, zy, nx, ny, residual, reach
+):  # pragma: no cover (compiled)
+    """Tooth phase c = cos u of every contact and the vectors whose arguments NumPy takes.
+
+    Inputs: pcx, pcy = pin_r·(cos, sin)(pin angle) (R, n1); ecx, ecy = ecc·(cos, sin)φ
+    (R, A); s_pin = r_pin − ρ' (R, n1); a', e [m], n1. Fills (R, A, n1): w = C − O2 (wx,
+    wy), c, the pin centre on the offset locus P_s (zx, zy) and the normal (nx, ny) in
+    the tooth frame, the residual [m] and ``reach``. Returns the number of jammed or
+    unconverged contacts (then the caller takes the reference, which raises).
+    """
+    n_rings, n_angles, n_pins = wx.shape
+    g0, g1 = a * a + e * e * n1, a * e * (n1 + 1)
+    d0, d1 = a * a + e * e * n1 * n1, 2.0 * a * e * n1
+    bad = 0
+    for r in range(n_rings):
+        for k in range(n_angles):
+            ex, ey = ecx[r, k], ecy[r, k]
+            for i in range(n_pins):
+                x = pcx[r, i] - ex
+                y = pcy[r, i] - ey
+                w2 = x * x + y * y
+                s = s_pin[r, i]
+                w = math.sqrt(w2)
+                if w < a - e + s - _TOLERANCE:  # jammed: the reference raises
+                    bad += 1
+                ok = w <= a + e + s
+                k0 = a * a + e * e + s * s - w2
+                c = min(max(k0 / (2.0 * a * e), -1.0), 1.0)
+                res = 0.0
+                for _ in range(_MAX_ITERATIONS):
+                    d = math.sqrt(d0 - d1 * c)
+                    g = g0 - g1 * c
+                    h = k0 - 2.0 * a * e * c + 2.0 * s * g / d
+                    res = abs(h) / (2.0 * w) if ok else 0.0
+                    if res <= _TOLERANCE:
+                        break
+                    dh = -2.0 * a * e + 2.0 * s * (-g1 * d + g * d1 / (2.0 * d)) / (d * d)
+                    c = min(max(c - h / dh, -1.0), 1.0)
+                if not res <= _TOLERANCE:
+                    bad += 1
+                sin_u = -math.sqrt(1.0 - c * c)
+                d = math.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
+                vx, vy = (a - e * n1 * c) / d, -e * n1 * sin_u / d
+                wx[r, k, i] = x
+                wy[r, k, i] = y
+                c_out[r, k, i] = c
+                nx[r, k, i] = vx
+                ny[r, k, i] = vy
+                zx[r, k, i] = a - e * c + s * vx
+                zy[r, k, i] = -e * sin_u + s * vy
+                residual[r, k, i] = res
+                reach[r, k, i] = ok
+    return bad
+
+
+def _contact_finish(
+    arg_w,
+    arg_z,
+    arg_n,
+    u,
+    c_in,
+    reach,
+    phi_t,
+    t_root,
+    pin_angle,
+    a,
+    e,
+    n1,
+    n2,
+    rho_gen,
+    turn,
+    rotation,
+    reverse,
+    moment_arm,
+    cos_beta,
+    profile_angle,
+    contact_radius,
+    curvature,
+):  # pragma: no cover (compiled)
+    """The contact quantities from the tooth phase and NumPy's angles (module doc).
+
+    arg_w, arg_z, arg_n = arg w, arg P_s, arg n; u = −arccos c (R, A, n1); phi_t (A,);
+    t_root (A, n1); pin_angle (R, n1); ``turn`` the rotation modification [rad]. Fills
+    the arrays of :class:`~cyclomesh.core.contact.UnloadedContact` (R, A, n1) as
+    :func:`~cyclomesh.core.contact.unloaded_contact` does.
+    """
+    n_rings, n_angles, n_pins = u.shape
+    two_pi = 2.0 * np.pi
+    centre = np.pi / n2
+    c0 = e * e * n1 * n1 + a * a
+    c1 = 2.0 * e * n1 * a
+    c2 = e * e * n1**3 + a * a
+    c3 = e * n1 * (1 + n1) * a
+    for r in range(n_rings):
+        for k in range(n_angles):
+            pt = phi_t[k]
+            for i in range(n_pins):
+                uu = u[r, k, i]
+                if not reach[r, k, i]:
+                    rotation[r, k, i] = np.inf
+                    reverse[r, k, i] = -np.inf
+                    moment_arm[r, k, i] = 0.0
+                    cos_beta[r, k, i] = 1.0
+                    profile_angle[r, k, i] = -np.pi
+                    contact_radius[r, k, i] = a + e - rho_gen
+                    curvature[r, k, i] = np.inf
+                    continue
+                c = c_in[r, k, i]
+                aw, az = arg_w[r, k, i], arg_z[r, k, i]
+                tr = t_root[k, i]
+                sin_u = -math.sqrt(1.0 - c * c)
+                d = math.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
+                vx, vy = (a - e * n1 * c) / d, -e * n1 * sin_u / d
+                t = tr + uu / n2
+                rot = np.pi - _mod_2pi(np.pi - (aw - t - az - pt))
+                lateral = pt + rot + t + arg_n[r, k, i] - pin_angle[r, i]
+                rot = rot + turn
+                back = np.pi - _mod_2pi(np.pi - (aw - (tr - uu / n2) + az - pt))
+                back = back - turn
+                gap = rot - back
+                turns = np.floor((centre + np.pi - gap) / two_pi)
+                if turns != 0.0:
+                    back = back - two_pi * turns
+                rho_x, rho_y = a - e * c - rho_gen * vx, -e * sin_u - rho_gen * vy
+                cos_n = math.cos(n2 * t)
+                rotation[r, k, i] = rot
+                reverse[r, k, i] = back
+                moment_arm[r, k, i] = -a * e * n2 * sin_u / d
+                cos_beta[r, k, i] = abs(math.cos(lateral))
+                profile_angle[r, k, i] = uu
+                contact_radius[r, k, i] = math.hypot(rho_x, rho_y)
+                q = c0 - c1 * cos_n  # q**1.5 as √q·q: NumPy's power differs in the last bit anyway
+                curvature[r, k, i] = q * math.sqrt(q) / (c2 - c3 * cos_n) - rho_gen
+
+
+def _mod_2pi(x):  # pragma: no cover (compiled)
+    """np.mod(x, 2π) bit for bit: fmod is x itself for |x| < 2π (then NumPy adds 2π to a
+    negative remainder); beyond, NumPy's own mod."""
+    two_pi = 2.0 * np.pi
+    if 0.0 <= x < two_pi:
+        return x
+    if -two_pi < x < 0.0:
+        return x + two_pi
+    return np.mod(x, two_pi)
+
+
+def _compliance(
+    rp_in,
+    rc_in,
+    cb_in,
+    depth_in,
+    half_plane,
+    groove,
+    k_tooth,
+    k_groove,
+    c_disc,
+    c_pin,
+    c_ring,
+    scale,
+    gamma_0,
+    g_p,
+    poisson_term,
+    groove_radius,
+    alpha,
+    gamma,
+):  # pragma: no cover (compiled)
+    """(α, γ) of δ = F(α − γ ln F) per contact, as
+    :func:`~cyclomesh.core.hertz.compliance_coefficients` (flat arrays, one pass).
+
+    k_tooth, k_groove = π·B·E* of the pin–tooth and pin–groove pairs; scale = 2/(πB);
+    gamma_0, g_p = (c_disc + c_pin)/(πB), (c_ring + c_pin)/(πB); poisson_term =
+    ν/(2(1 − ν)) of the disc.
+    """
+    last_rp = np.nan
+    a_p = 0.0
+    for j in range(rp_in.size):
+        rp, rc = rp_in[j], rc_in[j]
+        if half_plane:
+            rho_star = rp / (1.0 + rp / rc)
+            kappa = math.sqrt(4.0 * rho_star / k_tooth)
+            a = scale * (
+                c_disc * (math.log(2.0 * depth_in[j] / kappa) - poisson_term)
+                + c_pin * (math.log(4.0 * rp / kappa) - 0.5)
+            )
+        else:
+            rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
+            kappa = math.sqrt(4.0 * rho / k_tooth)
+            a = scale * (
+                c_disc * (math.log(4.0 * abs(rc) / kappa) - 0.5)
+                + c_pin * (math.log(4.0 * abs(rp) / kappa) - 0.5)
+            )
+        g = gamma_0
+        if groove:
+            cb = cb_in[j]
+            if rp != last_rp:  # the groove pair depends on the pin radius alone
+                rho_g = rp * groove_radius / (groove_radius - rp)
+                kappa = math.sqrt(4.0 * rho_g / k_groove)
+                a_p = scale * (
+                    c_ring * (math.log(4.0 * abs(groove_radius) / kappa) - 0.5)
+                    + c_pin * (math.log(4.0 * abs(rp) / kappa) - 0.5)
+                )
+                last_rp = rp
+            c2 = cb * cb
+            log_cb = math.log(cb) if cb > 0 else 0.0
+            a = a + c2 * (a_p - g_p * log_cb)
+            g = g + c2 * g_p
+        alpha[j] = a
+        gamma[j] = g
+
+
+def _stresses(
+    force,
+    cos_beta,
+    rp_in,
+    rc_in,
+    e_tooth,
+    e_groove,
+    pi_width,
+    groove_radius,
+    groove,
+    stress,
+    g_stress,
+):  # pragma: no cover (compiled)
+    """Groove load F·cos β [N] and the Hertzian pressures of tooth and groove [Pa] (Eqs.
+    18, 24 of [1]), as :func:`~cyclomesh.core.fields.contact_stresses` (flat arrays);
+    e_tooth, e_groove = E* of the two pairs [Pa], pi_width = π·B [m]."""
+    for j in range(force.size):
+        f, rp = force[j], rp_in[j]
+        gf = f * cos_beta[j]
+        if f > 0:
+            rc = rc_in[j]
+            rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
+        else:
+            rho = 1.0
+        groove[j] = gf
+        stress[j] = math.sqrt(f * e_tooth / (pi_width * rho))
+        rho_g = rp * groove_radius / (groove_radius - rp)
+        g_stress[j] = math.sqrt(gf * e_groove / (pi_width * rho_g))
+
+
+def contact_arrays(
+    pin_r, pin_angle, ecc, phi, s_pin, t_root, a, e, n1, n2, rho_gen, turn, shape
+) -> dict[str, np.ndarray] | None:
+    """The arrays of :func:`cyclomesh.core.contact.unloaded_contact` (undeviated profile)
+    from the compiled passes and NumPy's inverse trigonometric functions (module doc).
+
+    Inputs as the reference builds them: pin_r, pin_angle, s_pin = r_pin − ρ' of shape
+    (..., 1, n1), ecc (..., 1, 1), phi (A, 1) [rad], t_root (A, n1); ``shape`` the
+    contact arrays' (..., A, n1). Returns a dict of arrays of that shape (with
+    ``arg_w``, the argument of the pin centre from the disc centre, for the normals), or
+    None for a case the reference must refuse.
+    """
+    passes = compiled()
+    ring = shape[:-2]
+    n_angles = shape[-2]
+
+    def rows(x, tail):  # (..., 1 or A, n1 or 1) → (R, tail) contiguous
+        return np.ascontiguousarray(np.broadcast_to(x, (*ring, *tail)).reshape(-1, math.prod(tail)))
+
+    pcx = rows(pin_r * np.cos(pin_angle), (1, n1))
+    pcy = rows(pin_r * np.sin(pin_angle), (1, n1))
+    ecx = rows(ecc * np.cos(phi), (n_angles, 1))
+    ecy = rows(ecc * np.sin(phi), (n_angles, 1))
+    s_rows = rows(s_pin, (1, n1))
+    flat = (pcx.shape[0], n_angles, n1)
+    wx, wy, c, zx, zy, nx, ny, residual = (np.empty(flat) for _ in range(8))
+    reach = np.empty(flat, np.bool_)
+    bad = passes.contact_phase(
+        pcx, pcy, ecx, ecy, s_rows, a, e, n1, wx, wy, c, zx, zy, nx, ny, residual, reach
+    )
+    if bad:
+        return None
+    arg_w = np.arctan2(wy, wx, out=wx)
+    arg_z = np.arctan2(zy, zx, out=zx)
+    arg_n = np.arctan2(ny, nx, out=nx)
+    u = np.negative(np.arccos(c, out=zy), out=zy)
+    out = {
+        name: np.empty(flat)
+        for name in (
+            "rotation",
+            "reverse_rotation",
+            "moment_arm",
+            "cos_beta",
+            "profile_angle",
+            "contact_radius",
+            "curvature_radius",
+        )
+    }
+    passes.contact_finish(
+        arg_w,
+        arg_z,
+        arg_n,
+        u,
+        c,
+        reach,
+        np.ascontiguousarray(-phi[:, 0] / n2),
+        np.ascontiguousarray(np.broadcast_to(t_root, (n_angles, n1))),
+        rows(pin_angle, (1, n1)),
+        a,
+        e,
+        n1,
+        n2,
+        rho_gen,
+        float(turn),
+        *out.values(),
+    )
+    out["residual"] = residual
+    out["arg_w"] = arg_w
+    return {name: value.reshape(shape) for name, value in out.items()}
+
+
+def _flat(x, shape):
+    return np.ascontiguousarray(np.broadcast_to(x, shape)).reshape(-1)
+
+
+def compliance_arrays(
+    pin_radius,
+    curvature_radius,
+    cos_beta,
+    contact_radius,
+    design,
+    groove_deformation: bool,
+    contact_law: str,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(α, γ) of every contact [m/N] as :func:`cyclomesh.core.ltca.pin_compliance` (the
+    reference :func:`~cyclomesh.core.hertz.compliance_coefficients`), in one pass."""
+    from cyclomesh.core.hertz import effective_modulus
+
+    shape = np.broadcast_shapes(*(np.shape(v) for v in (pin_radius, curvature_radius, cos_beta)))
+    c_pin = design.pin_material.compliance
+    c_disc = design.disc_material.compliance
+    c_ring = design.ring_material.compliance
+    nu = design.disc_material.poisson_ratio
+    width = design.width
+    alpha, gamma = np.empty(shape), np.empty(shape)
+    compiled().compliance(
+        _flat(pin_radius, shape),
+        _flat(curvature_radius, shape),
+        _flat(cos_beta, shape),
+        _flat(contact_radius, shape),
+        contact_law == "half_plane",
+        bool(groove_deformation),
+        np.pi * width * effective_modulus(c_disc, c_pin),
+        np.pi * width * effective_modulus(c_ring, c_pin),
+        c_disc,
+        c_pin,
+        c_ring,
+        2.0 / (np.pi * width),
+        (c_disc + c_pin) / (np.pi * width),
+        (c_ring + c_pin) / (np.pi * width),
+        0.5 * nu / (1.0 - nu),
+        design.groove_radius,
+        alpha.reshape(-1),
+        gamma.reshape(-1),
+    )
+    return alpha, gamma
+
+
+def stress_arrays(pin_radius, curvature_radius, cos_beta, force, design):
+    """Groove load [N], tooth and groove pressures [Pa] as
+    :func:`cyclomesh.core.fields.contact_stresses`, in one pass."""
+    from cyclomesh.core.hertz import effective_modulus
+
+    shape = np.shape(force)
+    c_pin = design.pin_material.compliance
+    out = [np.empty(shape) for _ in range(3)]
+    compiled().stresses(
+        _flat(force, shape),
+        _flat(cos_beta, shape),
+        _flat(pin_radius, shape),
+        _flat(curvature_radius, shape),
+        effective_modulus(c_pin, design.disc_material.compliance),
+        effective_modulus(c_pin, design.ring_material.compliance),
+        np.pi * design.width,
+        design.groove_radius,
+        *(v.reshape(-1) for v in out),
+    )
+    return tuple(out)
