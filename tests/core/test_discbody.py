@@ -227,10 +227,10 @@ def test_pins_beyond_the_first_set_are_added_exactly(monkeypatch):
     np.testing.assert_allclose(r.loaded_rotation, full.loaded_rotation, rtol=1e-12)
 
 
-def test_fe_body_with_the_rv_stage_only_in_run_and_stiffness(tmp_path):
-    """disc_body = "fe" with [stage] is accepted by run and stiffness (the compliant disc
-    in the stage, tests/stage/test_stage_fe.py) and refused in one line, naming the key and
-    the fix, by the kinds that solve the stage per ring (tolerance, allocate)."""
+def test_fe_body_with_the_rv_stage_refused_by_design_only(tmp_path):
+    """disc_body = "fe" with [stage] is accepted by run and stiffness, tolerance and
+    allocate (the compliant disc in the stage, tests/stage/test_stage_fe.py) and refused in
+    one line, naming the key and the fix, by design (a free disc body per candidate)."""
     from pathlib import Path
 
     from typer.testing import CliRunner
@@ -243,14 +243,13 @@ def test_fe_body_with_the_rv_stage_only_in_run_and_stiffness(tmp_path):
     path.write_text(text)
     out = CliRunner().invoke(app, ["check", str(path)])
     assert out.exit_code == 0, out.output
-    base = text[: text.index("[[cases]]")]  # tolerance studies take the base only
-    base += (
-        "[tolerance]\nseed = 3\nrings = 4\nallowable_contact_stress_mpa = 1850.0\n"
-        'radial_um = { distribution = "uniform", half_range = 2.0 }\n'
+    base = text[: text.index("[[cases]]")]  # design maps take the base only
+    path.write_text(
+        base + '[design_space]\nobjective = "max_contact_stress"\n'
+        "pin_radius_um = { start = 0.0, stop = 10.0, points = 2 }\n"
     )
-    path.write_text(base)
-    out = CliRunner().invoke(app, ["tolerance", str(path), "--out", str(tmp_path / "out")])
-    assert out.exit_code == 2
+    out = CliRunner().invoke(app, ["design", str(path), "--out", str(tmp_path / "out")])
+    assert out.exit_code == 2, out.output
     assert 'disc_body = "fe" with [stage]' in out.output and 'disc_body = "rigid"' in out.output
     # without crank bearings (rigid bearings hold the hole centres) every kind refuses it
     text = text.replace("[stage.crank_bearing]", "[not_a_bearing]")

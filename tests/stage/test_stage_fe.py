@@ -190,3 +190,77 @@ def test_run_and_stiffness_with_the_compliant_disc_end_to_end(
         stiff["stage_torsional_rigidity_nm_per_arcmin_min"]
         < stiff["torsional_rigidity_nm_per_arcmin_min"]
     )
+
+
+def test_tolerance_and_allocate_with_the_compliant_disc_end_to_end(
+    coarse, example, tmp_path, monkeypatch
+):
+    """``cyclomesh tolerance`` of examples/rv_stage.toml with disc_body = "fe" (coarse FE
+    meshes from the module's cache, the free body resolved once and shipped to two worker
+    processes): every ring's stage is solved with the compliant disc, its worst_ring.toml
+    reruns the ring to the bit with ``cyclomesh run``, and against the same rings with the
+    rigid disc the stage is softer (lost motion not smaller) by a small amount;
+    ``cyclomesh allocate`` runs on the same ring model."""
+    import xarray as xr
+    from typer.testing import CliRunner
+
+    import cyclomesh.fe.influence as fe
+    from cyclomesh.cli import app
+
+    _, folder = coarse
+    for key, value in COARSE.items():  # the study's FE meshes are the coarse ones
+        monkeypatch.setitem(fe.MESH_DEFAULTS, key, value)
+    text = EXAMPLE.read_text()
+    base = text[: text.index("[[cases]]")] + (
+        "[tolerance]\nseed = 3\nrings = 3\nallowable_contact_stress_mpa = 1850.0\n"
+        "crank_step_deg = 30.0\n"
+        'radial_um = { distribution = "uniform", half_range = 2.0 }\n'
+        'hole_radial_um = { distribution = "uniform", half_range = 3.0 }\n'
+        "\n[tolerance.allocation]\nfactor_max = 2.0\nfactor_steps = 2\nbisections = 1\n"
+    )
+    path = tmp_path / "tol_fe.toml"
+    path.write_text(base.replace("[analysis]", '[analysis]\ndisc_body = "fe"', 1))
+    rigid_path = tmp_path / "tol.toml"
+    rigid_path.write_text(base)
+    runner = CliRunner()
+    common = ["--figures", "none", "--cache-dir", str(folder)]
+    rings = {}
+    for name, study in (("fe", path), ("rigid", rigid_path)):
+        out = tmp_path / f"tol_{name}"
+        args = ["tolerance", str(study), "--out", str(out), "--workers", "2", *common]
+        result = runner.invoke(app, args)
+        assert result.exit_code == 0, result.output
+        rings[name] = xr.load_dataset(out / "tolerance_rings.nc")
+    fe_rings, rigid_rings = rings["fe"], rings["rigid"]
+    lost = "stage_lost_motion_arcmin_max"
+    assert np.all(np.isfinite(fe_rings[lost].values))
+    # the same drawn errors; the mesh alone (the held disc) is not the stage's business
+    for name in ("max_contact_stress_mpa", "stage_max_crank_bearing_load_n"):
+        assert not np.array_equal(fe_rings[name].values, rigid_rings[name].values), name
+    softer = fe_rings[lost].values / rigid_rings[lost].values
+    assert np.all(softer >= 1.0) and np.all(softer < 1.05), softer
+    load = fe_rings["stage_max_crank_bearing_load_n"].values
+    ratio = load / rigid_rings["stage_max_crank_bearing_load_n"].values
+    assert np.all(np.abs(ratio - 1.0) < 0.05), ratio
+    # the worst ring's study file keeps disc_body = "fe" and reruns the ring to the bit
+    summary = json.loads((tmp_path / "tol_fe" / "tolerance_summary.json").read_text())
+    k = summary["worst_ring"]["ring"]
+    worst = (tmp_path / "tol_fe" / "worst_ring.toml").read_text()
+    assert 'disc_body = "fe"' in worst
+    rerun = tmp_path / "rerun"
+    args = ["run", str(tmp_path / "tol_fe" / "worst_ring.toml"), "--out", str(rerun), *common]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    case = json.loads((rerun / "summary.json").read_text())["cases"][0]
+    for name in (lost, "stage_l10_h_min", "stage_max_crank_bearing_load_n"):
+        assert case[name] == float(fe_rings[name].sel(ring=k)), name
+    out = tmp_path / "alloc"
+    args = ["allocate", str(path), "--out", str(out), "--rings", "2", *common]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    alloc = xr.load_dataset(out / "allocation_rings.nc")
+    assert np.all(np.isfinite(alloc["stage_max_contact_stress_mpa"].values))
+    # the criterion is the stage's stress: a ring not exceeding at f = 1 has f* > 1
+    above = alloc["stage_max_contact_stress_mpa"].values > 1850.0
+    assert np.all(alloc["critical_factor_upper"].values[above] <= 1.0)
+    assert not np.any(np.isnan(alloc["critical_factor_upper"].values))

@@ -103,7 +103,6 @@ def ring_model(study: Study, spec: ToleranceSection, checked: bool = False) -> R
             "[friction] is not coupled with the [stage] equilibrium yet: remove [friction] "
             "(the stage's rings) or [stage] (the rings' efficiency)"
         )
-    core.refuse_compliant_stage("tolerance/allocate")
     return RingModel(
         design=core.design,
         modification=core.modification,
@@ -120,6 +119,13 @@ def ring_model(study: Study, spec: ToleranceSection, checked: bool = False) -> R
             core.disc_body, core.design, core.modification, core.crank_holes
         ),
         stage=core.stage,
+        stage_disc_body=(
+            "rigid"
+            if core.stage is None
+            else resolve_disc_body(
+                core.disc_body, core.design, core.modification, core.crank_holes, stage=True
+            )
+        ),
         base_hole_errors_um=(
             None
             if base.stage is None

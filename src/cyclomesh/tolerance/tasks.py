@@ -118,6 +118,12 @@ class RingModel:
     base_hole_errors_um: tuple[Any, Any] | None = None
     """The base case's crank hole errors in study units (radial, tangential) [µm], each
     broadcastable to (D, N); None without a stage."""
+    stage_disc_body: Any = "rigid"
+    """The stage's disc body: "rigid", or the compliant disc with its crank-hole centres
+    free (:class:`~cyclomesh.core.discbody.FreeDiscBody`, ``disc_body = "fe"``,
+    :func:`cyclomesh.fe.influence.free_influence`). It depends on the geometry only (not
+    on the pin or hole errors), so the parent resolves it once (the FE cache) and it
+    travels to the workers with the task, like :attr:`disc_body`."""
     friction: Any = None
     backdrive: bool = False
 
@@ -180,7 +186,8 @@ class RingModel:
         µm → m as the study loader does) and is checked like a study's
         (:meth:`~cyclomesh.stage.design.StageDesign.check_fits`: hole errors that jam the
         stage raise DesignError, a jammed ring); one stage solve at the torque and at
-        ∓3 % of it (:func:`cyclomesh.stage.solve.solve`) gives:
+        ∓3 % of it (:func:`cyclomesh.stage.solve.solve`, with :attr:`stage_disc_body`:
+        the compliant disc with ``disc_body = "fe"``) gives:
 
         * ``stage_l10_h_min``: L10h of the weakest crank bearing at the torque [h];
         * ``stage_lost_motion_arcmin_max``: TE(−3 %) − TE(+3 %), the largest over the
@@ -220,7 +227,13 @@ class RingModel:
                 Case(
                     self.design, self.modification, self.pin_errors(drawn.take([i])), torques, phi
                 ),
-                Model(self.contact_law, self.groove_deformation, "rigid", self.discs, stage),
+                Model(
+                    self.contact_law,
+                    self.groove_deformation,
+                    self.stage_disc_body,
+                    self.discs,
+                    stage,
+                ),
             )
             te = res.transmission_error[0]  # (Q, A) of the one ring
             out["stage_lost_motion_arcmin_max"][i] = np.max(te[1] - te[2]) / RAD_PER_ARCMIN
