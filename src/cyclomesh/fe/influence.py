@@ -156,7 +156,7 @@ def _disc_model(
     holes: CrankHoles | None,
     bore_radius: float,
     points: int,
-    b: float,
+    load_half_width: float,
     far_size: float,
     flank_size: float,
     elements_per_half_width: float,
@@ -164,6 +164,7 @@ def _disc_model(
     """The meshed disc of :func:`compute_influence` and its grid of contact points:
     (u, period, points (n2·m, 2), outward normals, the fine (loaded) points, their element
     size, the :class:`~cyclomesh.fe.solve.Body`, meshing time [s])."""
+    b = load_half_width
     n2 = design.teeth
     u = np.linspace(-np.pi, 0.0, points)
     period = 1 if holes is None else n2 // math.gcd(n2, holes.count)
@@ -218,6 +219,59 @@ def _load_vectors(disc, pts, normals, fine, b, h_fine, flank_size):
     return g_full
 
 
+def _mesh_args(
+    design: PairDesign,
+    bore_radius: float,
+    points: int,
+    load_half_width: float | None,
+    far_size: float,
+    flank_size: float,
+    elements_per_half_width: float,
+) -> tuple[float, dict]:
+    """The half-width b of the unit loads [m] (default ρp/16) and the mesh's arguments of
+    :func:`_disc_model`, which are also the cache key's."""
+    b = design.pin_radius / 16.0 if load_half_width is None else float(load_half_width)
+    return b, dict(
+        bore_radius=bore_radius,
+        points=points,
+        load_half_width=b,
+        far_size=far_size,
+        flank_size=flank_size,
+        elements_per_half_width=elements_per_half_width,
+    )
+
+
+def _hole_edges(p: FloatArray, holes: CrankHoles) -> list[tuple[NDArray, FloatArray]]:
+    """The mesh nodes on every crank hole's edge with the hole's centre [m]."""
+    edges = []
+    for cx, cy in holes.centres:
+        on = np.flatnonzero(np.abs(np.hypot(p[0] - cx, p[1] - cy) - holes.radius) < 1e-6)
+        edges.append((on, np.array([cx, cy])))
+    return edges
+
+
+def _tooth_table(
+    design: PairDesign, resp: FloatArray, pts: FloatArray, points: int, period: int, b: float
+) -> tuple[FloatArray, FloatArray]:
+    """The influence table (period, n2, m, m) from the responses at every grid point to the
+    loads on the ``period`` loaded teeth, and its diagonal less the near field of the
+    half-plane law at the same half-width (pressure-weighted mean) [m/(N/m)], per unit
+    width not yet divided."""
+    n2 = design.teeth
+    resp = np.asarray(resp).reshape(n2, points, period, points)
+    table = np.empty((period, n2, points, points))
+    for k0 in range(period):
+        order = np.mod(k0 + np.arange(n2), n2)
+        # table[k0, d, a, b] = response at tooth k0 + d, point b, to load k0, point a
+        table[k0] = np.transpose(resp[order, :, k0, :], (0, 2, 1))
+    c = design.disc_material.compliance
+    nu = design.disc_material.poisson_ratio
+    d = np.hypot(*pts[:points].T)
+    near = 2.0 / np.pi * c * (np.log(2.0 * d / b) - nu / (2.0 * (1.0 - nu))) - c / (2.0 * np.pi)
+    diagonal = np.stack([np.diagonal(table[k0, 0]) - near for k0 in range(period)])
+    return table, diagonal
+
+
 def compute_influence(
     design: PairDesign,
     modification: Modification | None = None,
@@ -256,26 +310,12 @@ def compute_influence(
     start = time.perf_counter()
     modification = modification or Modification()
     n2 = design.teeth
-    b = design.pin_radius / 16.0 if load_half_width is None else float(load_half_width)
-    mesh_args = dict(
-        bore_radius=bore_radius,
-        points=points,
-        load_half_width=b,
-        far_size=far_size,
-        flank_size=flank_size,
-        elements_per_half_width=elements_per_half_width,
+    b, mesh_args = _mesh_args(
+        design, bore_radius, points, load_half_width, far_size, flank_size, elements_per_half_width
     )
     key = influence_key(design, modification, holes, **mesh_args)
     u, period, pts, normals, fine, h_fine, disc, mesh_t = _disc_model(
-        design,
-        modification,
-        holes,
-        bore_radius,
-        points,
-        b,
-        far_size,
-        flank_size,
-        elements_per_half_width,
+        design, modification, holes, **mesh_args
     )
     k_full = disc.stiffness().tocsc()
     ndof = k_full.shape[0]
@@ -286,10 +326,7 @@ def compute_influence(
         tied: list[tuple[NDArray, FloatArray]] = []
     else:
         fixed = np.empty(0, np.int64)
-        tied = []
-        for cx, cy in holes.centres:
-            on = np.flatnonzero(np.abs(np.hypot(p[0] - cx, p[1] - cy) - holes.radius) < 1e-6)
-            tied.append((on, np.array([cx, cy])))
+        tied = _hole_edges(p, holes)
     dead = np.zeros(ndof, bool)
     dead[disc.dof(fixed, 0)] = dead[disc.dof(fixed, 1)] = True
     for on, _ in tied:
@@ -311,19 +348,8 @@ def compute_influence(
     disp = lu.solve(np.ascontiguousarray(g_red[:, fine].toarray()))
     fact_t = time.perf_counter() - fact_t
     resp = np.asarray(g_red.T @ disp)  # (n2·m, period·m): response at all points to each load
-    resp = resp.reshape(n2, points, period, points)
     width = design.width
-    table = np.empty((period, n2, points, points))
-    for k0 in range(period):
-        order = np.mod(k0 + np.arange(n2), n2)
-        # table[k0, d, a, b] = response at tooth k0 + d, point b, to load k0, point a
-        table[k0] = np.transpose(resp[order, :, k0, :], (0, 2, 1))
-    # near field of the half-plane law at the same half-width, pressure-weighted mean
-    c = design.disc_material.compliance
-    nu = design.disc_material.poisson_ratio
-    d = np.hypot(*pts[:points].T)
-    near = 2.0 / np.pi * c * (np.log(2.0 * d / b) - nu / (2.0 * (1.0 - nu))) - c / (2.0 * np.pi)
-    diagonal = np.stack([np.diagonal(table[k0, 0]) - near for k0 in range(period)])
+    table, diagonal = _tooth_table(design, resp, pts, points, period, b)
     table = table / width
     diagonal = diagonal / width
     info = {
@@ -450,26 +476,12 @@ def compute_free_influence(
     start = time.perf_counter()
     modification = modification or Modification()
     n2 = design.teeth
-    b = design.pin_radius / 16.0 if load_half_width is None else float(load_half_width)
-    mesh_args = dict(
-        bore_radius=bore_radius,
-        points=points,
-        load_half_width=b,
-        far_size=far_size,
-        flank_size=flank_size,
-        elements_per_half_width=elements_per_half_width,
+    b, mesh_args = _mesh_args(
+        design, bore_radius, points, load_half_width, far_size, flank_size, elements_per_half_width
     )
     key = influence_key(design, modification, holes, free_holes=1.0, **mesh_args)
     u, period, pts, normals, fine, h_fine, disc, mesh_t = _disc_model(
-        design,
-        modification,
-        holes,
-        bore_radius,
-        points,
-        b,
-        far_size,
-        flank_size,
-        elements_per_half_width,
+        design, modification, holes, **mesh_args
     )
     k_full = disc.stiffness().tocsc()
     ndof = k_full.shape[0]
@@ -477,10 +489,8 @@ def compute_free_influence(
     N = holes.count
     ang = holes.angles
     dead = np.zeros(ndof, bool)
-    tied = []
-    for cx, cy in holes.centres:
-        on = np.flatnonzero(np.abs(np.hypot(p[0] - cx, p[1] - cy) - holes.radius) < 1e-6)
-        tied.append((on, np.array([cx, cy])))
+    tied = _hole_edges(p, holes)
+    for on, _ in tied:
         dead[disc.dof(on, 0)] = dead[disc.dof(on, 1)] = True
     free = np.flatnonzero(~dead)
     rows, cols, vals = list(free), list(range(free.size)), [1.0] * free.size
@@ -540,16 +550,7 @@ def compute_free_influence(
     c_holes = x_mat[:, len(fine) :]  # C[:, hole comps]
     y_mat = x_mat - (c_holes @ fit.T) @ col_rig.T  # C·Pᵀ
     c_prime = y_mat - rig @ (fit @ y_mat[npts:])  # P·C·Pᵀ
-    resp = c_prime[:npts, : len(fine)].reshape(n2, points, period, points)
-    table = np.empty((period, n2, points, points))
-    for k0 in range(period):
-        order = np.mod(k0 + np.arange(n2), n2)
-        table[k0] = np.transpose(resp[order, :, k0, :], (0, 2, 1))
-    c = design.disc_material.compliance
-    nu = design.disc_material.poisson_ratio
-    d = np.hypot(*pts[:points].T)
-    near = 2.0 / np.pi * c * (np.log(2.0 * d / b) - nu / (2.0 * (1.0 - nu))) - c / (2.0 * np.pi)
-    diagonal = np.stack([np.diagonal(table[k0, 0]) - near for k0 in range(period)])
+    table, diagonal = _tooth_table(design, c_prime[:npts, : len(fine)], pts, points, period, b)
     width = design.width
     hole_pin = c_prime[:npts, len(fine) :].reshape(n2, points, N, 2) / width
     hole_hole = c_prime[npts:, len(fine) :].reshape(N, 2, N, 2) / width
