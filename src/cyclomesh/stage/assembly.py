@@ -48,6 +48,9 @@ class Problem:
     supports: Supports | None = None
     jacobian: FloatArray | None = None  # bearing_jacobian, (A, D, N, 2, m), or None
     body: Body | None = None  # the compliant disc (FE), unknowns after the supports'
+    slip: FloatArray | None = None  # friction: μ·s of every pin (A, D, 2·n1), T = −μ·s·F
+    tangent_arm: FloatArray | None = None  # friction: m = r·n of every pin [m] (A, D, 2·n1)
+    drag: float = 0.0  # friction: s_b·μ_b·d/2 [m], crank bearing moment per unit load
 
     def take(self, idx: NDArray[np.int64]) -> Problem:
         """The problem at the crank angles ``idx`` (increasing); itself when it is all."""
@@ -173,7 +176,7 @@ def evaluate(
                 H[:, block, block] += H_pin[:, d]
     if gradient:
         g[:, 0] -= p.torque / L
-    state = {"pin_force": F, "bad": bad}
+    state = {"pin_force": F, "pin_stiffness": k, "bad": bad}
     if rigid:
         return energy, g, H, state
     if p.body is not None:

@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from cyclomesh.core.discbody import FREE_HELD, FreeDiscBody
 from cyclomesh.core.fields import contact_fields
+from cyclomesh.core.friction import Friction
 from cyclomesh.core.pair import CrankHoles
 from cyclomesh.core.transmission import transmission_error
 from cyclomesh.drive.solve import (
@@ -44,6 +45,12 @@ from cyclomesh.stage.assembly import (
 )
 from cyclomesh.stage.bearing import roller_loads
 from cyclomesh.stage.design import StageDesign
+from cyclomesh.stage.friction import (
+    friction_arrays,
+    friction_newton,
+    friction_terms,
+    power_terms,
+)
 from cyclomesh.stage.newton import FORCE_TOLERANCE, newton, reducer
 from cyclomesh.stage.supports import (
     BearingLaw,
@@ -183,7 +190,8 @@ def _near(p: _Problem, x: FloatArray, discs: int, rigid: bool) -> _Problem:
     count = int(max(1, np.max(np.sum(near, axis=-1))))
     order = np.argsort(~near, axis=-1, kind="stable")[..., :count]
     kept = np.take_along_axis(near, order, axis=-1)
-    fields = {f: np.take_along_axis(getattr(p, f), order, axis=-1) for f in _PIN_FIELDS}
+    names = _PIN_FIELDS if p.slip is None else (*_PIN_FIELDS, "slip", "tangent_arm")
+    fields = {f: np.take_along_axis(getattr(p, f), order, axis=-1) for f in names}
     fields["bl"] = np.where(kept, fields["bl"], np.inf)
     if p.body is not None:  # the same pins of the compliant disc's coefficients
         pin_w = np.take_along_axis(p.body.pin_w, order[..., None], axis=2)
@@ -199,6 +207,8 @@ def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatA
     the whole problem is solved from the start, so this fails only where it fails. The
     compliant disc's problem goes through :func:`_body_newton`."""
     solver = newton if rigid or p.body is None else _body_newton
+    if p.slip is not None:  # friction: the equations are not a potential's gradient
+        solver = friction_newton
     q = _near(p, x, discs, rigid)
     start = x.copy()
     try:
@@ -352,6 +362,9 @@ def solve_direction(
     torque: float,
     supports: Supports | None = None,
     body: FreeDiscBody | None = None,
+    friction: Friction | None = None,
+    motion: float = 1.0,
+    loading: float = 0.0,
 ) -> dict[str, FloatArray]:
     """Stage under a positive torque in the mesh's frame (``other``: the mirror problem).
 
@@ -359,10 +372,35 @@ def solve_direction(
     in this direction's disc order), None: rigid (or the override springs of ``stage``).
     ``body``: the compliant disc (:class:`~cyclomesh.core.discbody.FreeDiscBody`; ``mesh``
     then carries the tooth of every pin), None: rigid discs. It needs a crank bearing.
+    ``friction``: Coulomb friction at the pins and in the crank bearings
+    (:mod:`cyclomesh.stage.friction`) in the sense ``motion`` (±1, a drive: the crank turns
+    counter-clockwise in this frame with +1) or, with ``motion = 0``, ``loading`` (±1, a
+    torsion test: the output turning counter-clockwise with +1); None: frictionless, the
+    same arithmetic as without the argument.
     """
     D, n1 = mesh.geo.rotation.shape[-2:]
     prob = _problem(mesh, other, stage.holes, errs, torque)
     A = prob.bl.shape[0]
+    fr = None
+    if friction is not None:
+        radius = np.concatenate(
+            [
+                np.broadcast_to(mesh.geo.contact_radius, mesh.geo.rotation.shape),
+                _mirrored(np.broadcast_to(other.geo.contact_radius, other.geo.rotation.shape)),
+            ],
+            -1,
+        )
+        cos_beta = np.concatenate(
+            [
+                np.broadcast_to(mesh.geo.cos_beta, mesh.geo.rotation.shape),
+                _mirrored(np.broadcast_to(other.geo.cos_beta, other.geo.rotation.shape)),
+            ],
+            -1,
+        )
+        fr = friction_arrays(prob, mesh, radius, cos_beta, friction, motion, loading)
+        prob = dataclasses.replace(
+            prob, slip=fr["slip"], tangent_arm=fr["tangent_arm"], drag=fr["drag"]
+        )
     m = 1 + 3 * D
     # rigid stage (θ_d = c, u = 0) from the rotation at which the stiffest pin alone
     # would carry T (an upper bound of the root, as in cyclomesh.loadsharing)
@@ -389,15 +427,15 @@ def solve_direction(
     F = st["pin_force"]
     mesh_te = transmission_error(mesh.rest, x[:, 0])
     rigid = _disc_loads(mesh, prob, F)  # pins on disc
+    moment = -rigid["torque_share"]
+    rfx, rfy = rigid["mesh_force_x"], rigid["mesh_force_y"]
+    if fr is not None:  # the tangential forces T·t on the disc, their moment T·m
+        tangential = -prob.slip * F
+        rfx = rfx + np.sum(tangential * -prob.ny, -1)
+        rfy = rfy + np.sum(tangential * prob.nx, -1)
+        moment = moment + np.sum(tangential * prob.tangent_arm, -1)
     # bearings carry the pins' resultant to the crank pins and the moment Σ F·l
-    bfx, bfy = stiff_limit_split(
-        prob.hx,
-        prob.hy,
-        prob.scale,
-        rigid["mesh_force_x"],
-        rigid["mesh_force_y"],
-        -rigid["torque_share"],
-    )
+    bfx, bfy = stiff_limit_split(prob.hx, prob.hy, prob.scale, rfx, rfy, moment)
     if stage.bearing is not None:
         law = BearingLaw(stage.bearing, stage.crankshaft_stiffness)
         B = np.hypot(bfx, bfy)
@@ -437,15 +475,24 @@ def solve_direction(
         bfx, bfy = st["bearing_fx"], st["bearing_fy"]
         deflection = st["deflection"]
         sb = st["bearing_part"]
+        if fr is not None:
+            q, _ = friction_terms(prob, x, D, False, st, law, False)
+            g = g - q
         residual = np.max(np.abs(g), axis=-1)
         work = _work(prob, stage, x, D, st)
+        if fr is not None:
+            work["work_friction"] = _friction_work(prob, x, q, D)
     else:
         deflection = np.zeros_like(bfx)
         sb = deflection
         work = _work(prob, stage, x, D, {"pin_force": F})
-        residual = np.max(
-            np.abs(_evaluate(prob, None, x, D, True, hessian=False)[1] @ reducer(D)), -1
-        )
+        g = _evaluate(prob, None, x, D, True, hessian=False)[1]
+        if fr is not None:
+            q, _ = friction_terms(prob, x, D, True, {"pin_force": F}, None, False)
+            g = g - q
+            work["work_friction"] = _friction_work(prob, x, q, D)
+        residual = np.max(np.abs(g @ reducer(D)), -1)
+        st = {"pin_force": F, "bearing_fx": bfx, "bearing_fy": bfy}
     c, theta, ux, uy = _unpack(x, D)
     loaded = contact_fields(
         ("groove_load", "contact_stress", "groove_stress", "contacts"),
@@ -460,7 +507,11 @@ def solve_direction(
         if stage.bearing is not None
         else np.full(deflection.shape, np.nan)
     )
+    extra = {}
+    if fr is not None and motion != 0.0:
+        extra = _friction_fields(prob, mesh, fr, st, motion, friction.speed, n1)
     return {
+        **extra,
         "pin_load": F[..., :n1],
         "opposite_pin_load": F[..., n1:],
         "groove_load": loaded["groove_load"],
@@ -482,6 +533,38 @@ def solve_direction(
         "mesh_te": mesh_te,
         "residual": residual,
         **work,
+    }
+
+
+def _friction_work(p, x: FloatArray, q: FloatArray, discs: int) -> FloatArray:
+    """−x·Q [J], (A,): with friction x·∇Π = x·Q at equilibrium, so T·c = Σ parts − x·Q
+    (:func:`_work`): the friction's share of the output twist (Q acts on the discs' rows
+    only: their rotations, scaled by r_c, and translations)."""
+    xs = x[:, : 1 + 3 * discs].copy()
+    xs[:, 0] *= p.scale
+    xs[:, 1::3] *= p.scale
+    return -np.sum(xs * q[:, : 1 + 3 * discs], axis=-1)
+
+
+def _friction_fields(p, mesh, fr, st, motion, speed, n1) -> dict[str, FloatArray]:
+    """The friction results of a drive, per pin both flanks together (A, D, n1)."""
+    terms = power_terms(p, mesh, fr, st, motion, speed)
+
+    def fold(value):
+        return value[..., :n1] + value[..., n1:]
+
+    loss, groove = terms["power_loss_pin"], fr["groove"]
+    sliding = np.abs(fr["velocity"]) * speed
+    return {
+        "friction_force": fold(fr["mu"] * st["pin_force"]),
+        "power_loss_tooth": fold(np.where(groove, 0.0, loss)),
+        "power_loss_groove": fold(np.where(groove, loss, 0.0)),
+        "sliding_velocity_tooth": np.where(groove, 0.0, sliding)[..., :n1],
+        "sliding_velocity_groove": np.where(groove, sliding, 0.0)[..., :n1],
+        "friction_coefficient": fr["mu"][..., :n1],
+        "power_loss_bearing": terms["power_loss_bearing"],
+        "input_power": terms["input_power"],
+        "approach_power": terms["approach_power"],
     }
 
 
