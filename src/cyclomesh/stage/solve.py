@@ -464,7 +464,12 @@ def bearing_life(
 
 @dataclass(frozen=True)
 class StageTorsion:
-    """Result of :func:`stage_torsion_curve`; rotation (Q, A) [rad], metrics (A,)."""
+    """Result of :func:`stage_torsion_curve`; rotation (Q, A) [rad], metrics (A,).
+
+    With friction: ``rotation_ascending`` and ``rotation_descending`` the output's TE on the
+    branches of rising and falling torque (Q, A) [rad], ``rotation`` (and ``mesh_rotation``)
+    their mid curve, ``hysteresis`` the loop's largest width over the torques, ascending −
+    descending (A,) [rad], ``stage`` the rising branch's solve (loads at +T_r as loaded)."""
 
     torque: FloatArray
     rated_torque: float
@@ -475,6 +480,9 @@ class StageTorsion:
     mesh_lost_motion: FloatArray
     mesh_torsional_rigidity: FloatArray
     stage: Stage
+    rotation_ascending: FloatArray | None = None
+    rotation_descending: FloatArray | None = None
+    hysteresis: FloatArray | None = None
 
 
 def stage_torsion_curve(
@@ -507,19 +515,33 @@ def stage_torsion(case: Case, model: Model, points: int = 41) -> StageTorsion:
     rated torque T_r) and a :class:`~cyclomesh.core.case.Model` with a stage."""
     rated_torque = case.torque
     torques = torsion_torques(rated_torque, points)
-    result = solve(case.replace(torque=torques), model)
-    lost, rigidity = torsion_metrics(result.transmission_error, torques, rated_torque)
-    mesh_lost, mesh_rigidity = torsion_metrics(
-        result.mesh_transmission_error, torques, rated_torque
-    )
+    friction = model.friction is not None and not model.friction.frictionless
+    if not friction:
+        result = solve(case.replace(torque=torques), model)
+        rotation, mesh_rotation = result.transmission_error, result.mesh_transmission_error
+        branches = {}
+    else:  # the loop: the output turning with the torque's rise (+1) and fall (−1)
+        result = solve(case.replace(torque=torques), model, motion=0.0, loading=1.0)
+        falling = solve(case.replace(torque=torques), model, motion=0.0, loading=-1.0)
+        up, down = result.transmission_error, falling.transmission_error
+        rotation = 0.5 * (up + down)
+        mesh_rotation = 0.5 * (result.mesh_transmission_error + falling.mesh_transmission_error)
+        branches = {
+            "rotation_ascending": up,
+            "rotation_descending": down,
+            "hysteresis": np.max(up - down, axis=-2),
+        }
+    lost, rigidity = torsion_metrics(rotation, torques, rated_torque)
+    mesh_lost, mesh_rigidity = torsion_metrics(mesh_rotation, torques, rated_torque)
     return StageTorsion(
         torque=torques,
         rated_torque=float(rated_torque),
-        rotation=result.transmission_error,
-        mesh_rotation=result.mesh_transmission_error,
+        rotation=rotation,
+        mesh_rotation=mesh_rotation,
         lost_motion=lost,
         torsional_rigidity=rigidity,
         mesh_lost_motion=mesh_lost,
         mesh_torsional_rigidity=mesh_rigidity,
         stage=result,
+        **branches,
     )

@@ -168,7 +168,6 @@ def compute_run(
     from cyclomesh.studyfile.warnings import has_pin_errors, stage_warning, study_warnings
 
     check_keys(study.raw, "run")
-    refuse_friction_with_stage(study)
     run = RunResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
         if on_start:
@@ -224,16 +223,21 @@ def _zero_friction(case: Any, inputs: Any) -> str | None:
 
 
 def refuse_friction_with_stage(study: Study) -> None:
-    """One-line :class:`StudyError` for a case with both ``[friction]`` and ``[stage]``:
-    the stage's equilibrium is not coupled with friction yet."""
-    from cyclomesh.exceptions import StudyError
+    """One-line :class:`StudyError` for a case whose ``[friction]`` the ``[stage]``
+    equilibrium does not take (a lubricant, the compliant disc, a crank-bearing coefficient
+    without ``[stage.crank_bearing]``: :func:`cyclomesh.stage.friction.check_stage_friction`)."""
+    from cyclomesh.exceptions import DesignError, StudyError
+    from cyclomesh.stage.friction import check_stage_friction
 
     for case, inputs in zip(study.cases, study.inputs, strict=True):
         if inputs.friction is not None and inputs.stage is not None:
-            raise StudyError(
-                f"{case.label}: [friction] is not coupled with the [stage] equilibrium yet: "
-                "remove [stage] to see the mesh's friction, or [friction] for the stage"
-            )
+            body = inputs.model().disc_body
+            try:
+                check_stage_friction(
+                    inputs.friction, inputs.stage.bearing, None if body == "rigid" else body
+                )
+            except DesignError as exc:
+                raise StudyError(f"{case.label}: {exc}") from None
 
 
 def efficiency_summary(ds: xr.Dataset | Frame, case: CaseSpec) -> dict[str, Any]:
@@ -252,6 +256,15 @@ def _with_stage(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs) -> tuple[xr.
     result = solve_case(inputs)
     # the reported mesh (summary, verdict, figures) is the stage's, not the rigid bearings'
     ds = stage_mesh(ds, result, inputs.design.teeth)
+    if result.friction is not None:  # and so are the efficiency and the losses
+        from cyclomesh.results.stage import stage_efficiency_variables
+
+        variables = stage_efficiency_variables(
+            inputs, result, "torque" in ds.dims, ds.sizes.get("disc", 1)
+        )
+        ds = ds.assign(
+            {name: (dims, values, attrs) for name, (dims, values, attrs) in variables.items()}
+        )
     stage = stage_dataset(result, inputs.stage, inputs.design.pins)
     if "disc" not in ds.dims:  # one disc: no disc dimension, as the mesh variables
         stage = stage.isel(disc=0, drop=True)

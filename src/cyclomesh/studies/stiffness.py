@@ -327,6 +327,9 @@ def stiffness_figures(result: StiffnessResult) -> list[FigureJob]:
         "stage_lost_motion",
         "torsional_rigidity",
         "stage_torsional_rigidity",
+        "stage_rotation_ascending",
+        "stage_rotation_descending",
+        "stage_hysteresis",
     )
     staged = {k: v for k, v in _curves(result, names).items() if "stage_rotation" in v}
     if staged:
