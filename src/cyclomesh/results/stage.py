@@ -388,8 +388,9 @@ def stage_efficiency_variables(
     efficiency_variables`, the same names, dims and units) from the stage's solves: the
     crank driving every torque (``forward``, :func:`solve_case`) and every torque driving
     the crank back (a second solve). The crank bearings' loss is summed over the crank
-    pins of each disc; the input torque is the stage's total, sgn(T)·P_in/ω, P_in from the
-    crank pins' forces (:mod:`cyclomesh.stage.friction`)."""
+    pins of each disc; the input torque is the stage's total, ±sgn(T)·P_in/ω (− back-driving,
+    the crank turning the other way), P_in from the crank pins' forces
+    (:mod:`cyclomesh.stage.friction`)."""
     from types import SimpleNamespace
 
     from cyclomesh.results.efficiency import efficiency_variables
@@ -397,10 +398,10 @@ def stage_efficiency_variables(
     friction = inputs.friction
     back = solve(inputs.case(), stage_model(inputs), motion=-1.0)
 
-    def view(result: Stage) -> SimpleNamespace:
+    def view(result: Stage, motion: float) -> SimpleNamespace:
         fr = dict(result.friction)
         fr["power_loss_bearing"] = np.sum(fr["power_loss_bearing"], axis=-1)
-        sign = np.sign(result.torque)[:, None]
+        sign = motion * np.sign(result.torque)[:, None]  # the crank's turn: T_in·ω = P_in
         fr["input_torque"] = (sign * fr["input_power"] / friction.speed)[..., None]
         fr["film_parameter"] = np.zeros_like(fr["friction_coefficient"])
         return SimpleNamespace(
@@ -412,7 +413,7 @@ def stage_efficiency_variables(
         )
 
     return efficiency_variables(
-        view(forward), view(back), inputs.design.teeth, friction.speed, torque_dim
+        view(forward, 1.0), view(back, -1.0), inputs.design.teeth, friction.speed, torque_dim
     )
 
 
