@@ -193,7 +193,8 @@ def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
     and the largest stage lost motion and smallest stage rigidity that the requirements
     check, as ``cyclomesh stiffness`` does);
     the +100 % solve gives the bearing loads, L10h of the weakest bearing and the peak
-    contact stress.
+    contact stress (with friction: the crank driving the rated torque, a solve of its own;
+    the torsion curve is then the loop's mid curve, its backlash the loop's width at zero).
     """
     stage = inputs.stage
     phi = sheet_angles(np.asarray(inputs.crank_angles, float))
@@ -202,6 +203,11 @@ def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
     )
     result = curve.stage
     at = int(np.flatnonzero(result.torque == rated_torque)[0])
+    if curve.hysteresis is not None:  # friction: loads and life of the crank driving T_r
+        result = solve(
+            inputs.case().replace(torque=[rated_torque], crank_angles=phi), stage_model(inputs)
+        )
+        at = 0
     sheet: dict[str, Any] = {
         "stage_rated_torque_nm": float(rated_torque),
         "stage_output_speed_rpm": float(stage.output_speed),
@@ -484,7 +490,14 @@ def stage_torsion_variables(
         summary["stage_hysteresis_arcmin_max"] = float(np.max(curve.hysteresis) / ARCMIN)
     if inputs.stage.bearing is not None:
         at = int(np.flatnonzero(curve.torque == rated_torque)[0])
-        _, _, hours = bearing_life(curve.stage, inputs.stage, inputs.design.pins)
+        loaded = curve.stage
+        if curve.hysteresis is not None:  # friction: the crank driving T_r (as data_sheet)
+            loaded = solve(
+                inputs.case().replace(torque=[rated_torque], crank_angles=crank_angles),
+                stage_model(inputs),
+            )
+            at = 0
+        _, _, hours = bearing_life(loaded, inputs.stage, inputs.design.pins)
         summary["stage_l10_h_min"] = float(np.min(hours[at]))
     return data, summary
 

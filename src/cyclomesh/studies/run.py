@@ -36,6 +36,7 @@ from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STIFFNESS_METRICS
 from cyclomesh.results.profile import profile_curves
 from cyclomesh.results.stage import STAGE_METRICS
 from cyclomesh.studies.execute import CommandSteps, StudyKind
+from cyclomesh.studies.preflight import refuse_friction_with_stage
 from cyclomesh.studyfile.schema import CaseInputs, CaseSpec, Study, folder_name
 
 if TYPE_CHECKING:
@@ -220,24 +221,6 @@ def _zero_friction(case: Any, inputs: Any) -> str | None:
         "paper's assumption 3: efficiency 1, no loss), so no efficiency or loss is "
         "reported; give mesh_coefficient > 0 for friction"
     )
-
-
-def refuse_friction_with_stage(study: Study) -> None:
-    """One-line :class:`StudyError` for a case whose ``[friction]`` the ``[stage]``
-    equilibrium does not take (a lubricant, the compliant disc, a crank-bearing coefficient
-    without ``[stage.crank_bearing]``: :func:`cyclomesh.stage.friction.check_stage_friction`)."""
-    from cyclomesh.exceptions import DesignError, StudyError
-    from cyclomesh.stage.friction import check_stage_friction
-
-    for case, inputs in zip(study.cases, study.inputs, strict=True):
-        if inputs.friction is not None and inputs.stage is not None:
-            body = inputs.model().disc_body
-            try:
-                check_stage_friction(
-                    inputs.friction, inputs.stage.bearing, None if body == "rigid" else body
-                )
-            except DesignError as exc:
-                raise StudyError(f"{case.label}: {exc}") from None
 
 
 def efficiency_summary(ds: xr.Dataset | Frame, case: CaseSpec) -> dict[str, Any]:

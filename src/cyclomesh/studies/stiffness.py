@@ -140,7 +140,7 @@ def compute_stiffness(
 
     check_stiffness(study)
     check_keys(study.raw, "stiffness")
-    from cyclomesh.studies.run import refuse_friction_with_stage
+    from cyclomesh.studies.preflight import refuse_friction_with_stage
 
     refuse_friction_with_stage(study)
     start = time.perf_counter()
@@ -435,7 +435,7 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
 
 
 def _preflight(study: Study) -> None:
-    from cyclomesh.studies.run import refuse_friction_with_stage
+    from cyclomesh.studies.preflight import refuse_friction_with_stage
 
     refuse_friction_with_stage(study)
     check_stiffness(study)
