@@ -434,9 +434,15 @@ def stage_torsion_variables(
     ``stage_lost_motion_arcmin_mean``/``_max``, ``stage_torsional_rigidity_nm_per_arcmin_
     mean``/``_min`` and, with a bearing, ``stage_l10_h_min`` at +T_r.
     """
+    model = stage_model(inputs)
+    if model.friction is not None and model.friction.lubricant is not None:
+        # a torsion test is at rest: no film, the boundary coefficients (as the mesh's)
+        import dataclasses
+
+        model = model.replace(friction=dataclasses.replace(model.friction, lubricant=None))
     curve = stage_torsion(
         inputs.case().replace(torque=rated_torque, crank_angles=crank_angles),
-        stage_model(inputs),
+        model,
         points=points,
     )
     data: dict[str, Any] = {
@@ -493,8 +499,7 @@ def stage_torsion_variables(
         loaded = curve.stage
         if curve.hysteresis is not None:  # friction: the crank driving T_r (as data_sheet)
             loaded = solve(
-                inputs.case().replace(torque=[rated_torque], crank_angles=crank_angles),
-                stage_model(inputs),
+                inputs.case().replace(torque=[rated_torque], crank_angles=crank_angles), model
             )
             at = 0
         _, _, hours = bearing_life(loaded, inputs.stage, inputs.design.pins)

@@ -85,19 +85,26 @@ def check_kinds(study: Study, kind: str | None, *, allow_work: bool = False) -> 
     return kinds
 
 
-def refuse_friction_with_stage(study: Study) -> None:
+def refuse_friction_with_stage(study: Study, at_rest: bool = False) -> None:
     """One-line :class:`StudyError` for a case whose ``[friction]`` the ``[stage]``
     equilibrium does not take (a lubricant, the compliant disc, a crank-bearing coefficient
-    without ``[stage.crank_bearing]``: :func:`cyclomesh.stage.friction.check_stage_friction`)."""
-    from cyclomesh.exceptions import DesignError, StudyError
+    without ``[stage.crank_bearing]``: :func:`cyclomesh.stage.friction.check_stage_friction`).
+    ``at_rest``: a torsion test, whose friction is the boundary coefficients (the lubricant
+    dropped, :func:`cyclomesh.studies.stiffness.at_rest`)."""
+    import dataclasses
+
+    from cyclomesh.exceptions import DesignError
     from cyclomesh.stage.friction import check_stage_friction
 
     for case, inputs in zip(study.cases, study.inputs, strict=True):
         if inputs.friction is not None and inputs.stage is not None:
             body = inputs.model().disc_body
+            friction = inputs.friction
+            if at_rest:
+                friction = dataclasses.replace(friction, lubricant=None)
             try:
                 check_stage_friction(
-                    inputs.friction, inputs.stage.bearing, None if body == "rigid" else body
+                    friction, inputs.stage.bearing, None if body == "rigid" else body
                 )
             except DesignError as exc:
                 raise StudyError(f"{case.label}: {exc}") from None

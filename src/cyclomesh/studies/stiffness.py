@@ -142,7 +142,7 @@ def compute_stiffness(
     check_keys(study.raw, "stiffness")
     from cyclomesh.studies.preflight import refuse_friction_with_stage
 
-    refuse_friction_with_stage(study)
+    refuse_friction_with_stage(study, at_rest=True)
     start = time.perf_counter()
     result = StiffnessResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
@@ -437,7 +437,7 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
 def _preflight(study: Study) -> None:
     from cyclomesh.studies.preflight import refuse_friction_with_stage
 
-    refuse_friction_with_stage(study)
+    refuse_friction_with_stage(study, at_rest=True)
     check_stiffness(study)
 
 
