@@ -342,7 +342,9 @@ def stiffness_figures(result: StiffnessResult) -> list[FigureJob]:
                 staged,
                 caption="Torsion curve of the RV stage (mesh, crank bearings and springs in "
                 "one solve) beside the mesh alone: rotation of the output, mean over the "
-                "crank angles, against torque in % of rated (docs/stage.md).",
+                "crank angles, against torque in % of rated (docs/stage.md); with "
+                "[friction], the loop's mid curve, and its width (rising − falling branch) "
+                "on the right axis.",
             )
         )
     loops = {
