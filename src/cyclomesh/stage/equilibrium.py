@@ -38,6 +38,7 @@ from cyclomesh.drive.solve import (
 from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.stage.bearing import roller_loads
 from cyclomesh.stage.design import StageDesign
+from cyclomesh.stage.kernel import compiled, pin_law
 from cyclomesh.stage.newton import FORCE_TOLERANCE, newton, reducer
 from cyclomesh.stage.supports import (
     BearingLaw,
@@ -145,8 +146,14 @@ def _pins(
 
     The law is evaluated only where a pin closes (δ > 0; most pins of a crank angle are
     open), each element by the same arithmetic as on the whole array. ``shift``: the disc
-    body's displacement into the disc at every pin (compliant disc), subtracted.
+    body's displacement into the disc at every pin (compliant disc), subtracted. With
+    ``CYCLOMESH_KERNEL=numba``: :func:`cyclomesh.stage.kernel.pin_law` (the same law to
+    round-off; the reference where it cannot invert a pin's law).
     """
+    if compiled():
+        out = pin_law(p.bl, p.arm, p.nx, p.ny, p.alpha, p.gamma, p.dmax, theta, ux, uy, shift)
+        if out is not None:
+            return out
     usable = np.isfinite(p.bl)
     delta = p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
     if ux is not None:  # None: no translation (adding n·0 would change no bit)
@@ -432,7 +439,9 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
         rows = G.reshape(n, -1, m)  # Gᵀ·K·G over the holes' (x, y)
         H = H + np.matmul(np.swapaxes(rows, -1, -2), np.matmul(kmat, G).reshape(n, -1, m))
         if nw:
-            H[:, base : base + nw, base : base + nw] += np.kron(sup.stiffness, np.eye(2 * N))
+            # the crankshafts' K ⊗ I(2N), added on its nonzero entries only (the others +0)
+            rows, cols, vals = _shaft_entries(sup.stiffness, base, 2 * N)
+            H[:, rows, cols] += vals
         if carrier is not None:
             H[:, base + nw, base + nw] += carrier / (L * L)
     state.update(
@@ -444,6 +453,14 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
         end_plate=beta,
     )
     return energy, g, H, state
+
+
+def _shaft_entries(stiffness: FloatArray, base: int, size: int):
+    """Rows, columns and values of the nonzero entries of K ⊗ I(size) placed at ``base``
+    (the crankshafts' block of the Hessian, :func:`_evaluate_supported`)."""
+    D = stiffness.shape[0]
+    d, e, r = np.meshgrid(np.arange(D), np.arange(D), np.arange(size), indexing="ij")
+    return base + d * size + r, base + e * size + r, stiffness[d, e]
 
 
 def bearing_jacobian(p: _Problem, discs: int, m: int) -> FloatArray:

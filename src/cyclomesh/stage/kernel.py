@@ -1,0 +1,212 @@
+"""The stage equilibrium's two innermost laws compiled (numba), beside the NumPy reference.
+
+With ``CYCLOMESH_KERNEL=numba`` (the one switch of :mod:`cyclomesh.core.kernel`) every
+evaluation of the stage's potential in Newton's method
+(:func:`cyclomesh.stage.equilibrium._evaluate`) takes
+
+* the pins' law (:func:`pin_law`): the approach of every pin from the disc's motion,
+  δ = l·(θ − φbl) + n·u − (C'λ), the force by inverting δ = F·(α − γ ln F) (Eq. 20 of
+  [1], the algorithm of :func:`cyclomesh.core.hertz.force_from_approach`: two
+  fixed-point steps, then Newton in y = ln F to a residual of 2e-15·δ, each pin on its
+  own), its stiffness 1/(α − γ(1 + ln F)) and energy ½F²(α − γ/2 − γ ln F), in one pass
+  over the pins without temporaries, the law evaluated on the closed pins only;
+* the crank bearing's roller set (:func:`roller_law`, Harris & Kotzalas [2], Ch. 7):
+  δ_j = s·cos ψ_j − P_d/2, Q_j = K_n·δ_j^(10/9), its force Σ Q_j cos ψ_j, stiffness
+  Σ (10/9)K_n δ_j^(1/9) cos² ψ_j and energy Σ K_n δ_j^(19/9)/(19/9), one power a loaded
+  roller (δ^(10/9) = δ·δ^(1/9), δ^(19/9) = δ·δ^(10/9)).
+
+Both are the reference's arithmetic element by element except for the last bits of the
+C library's exp, log and pow against NumPy's SIMD functions, the powers formed from one
+root, and the roller sums taken in order (NumPy's are pairwise): the stage's results
+agree with the NumPy path to round-off (``tests/stage/test_kernel_stage.py``). A pin
+whose law cannot be inverted is handed to the reference, which raises its own error.
+
+References
+----------
+[1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672, doi:10.3390/machines10080672.
+[2] T. A. Harris, M. N. Kotzalas, Rolling Bearing Analysis, 5th ed., CRC Press 2007, Ch. 7.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cyclomesh.core.kernel import kernel_name
+
+__all__ = ["compiled", "pin_law", "roller_law"]
+
+FloatArray = NDArray[np.float64]
+
+_MAX_NEWTON = 50
+"""Newton steps of one force inversion (as :func:`cyclomesh.core.hertz.force_from_approach`)."""
+_ROUND_OFF = 2e-15
+"""Relative residual of a converged force inversion (as force_from_approach)."""
+
+
+def compiled() -> bool:
+    """True when ``CYCLOMESH_KERNEL=numba`` selects the compiled laws (read at each call)."""
+    return kernel_name() == "numba"
+
+
+@cache
+def _kernels() -> tuple[Any, Any]:
+    import numba
+
+    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    return jit(_pin_rows), jit(_roller_rows)
+
+
+def pin_law(
+    bl: FloatArray,
+    arm: FloatArray,
+    nx: FloatArray,
+    ny: FloatArray,
+    alpha: FloatArray,
+    gamma: FloatArray,
+    dmax: FloatArray,
+    theta: FloatArray,
+    ux: FloatArray | None,
+    uy: FloatArray | None,
+    shift: FloatArray | None,
+) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.bool_]] | None:
+    """Force [N], stiffness [N/m], energy [J] of every pin (A, D, P) and ``bad`` (A,): an
+    approach at or beyond ``dmax`` [m]; None if a closed pin's law cannot be inverted (the
+    caller then takes the reference). Pins with φbl = inf have no law (δ = −1).
+
+    ``bl`` [rad], ``arm`` [m], ``nx``, ``ny``, ``alpha``, ``gamma`` [m/N], ``dmax`` [m]:
+    (A, D, P); ``theta`` [rad], ``ux``, ``uy`` [m]: (A, D), ``ux`` None: no translation;
+    ``shift`` [m]: (A, D, P) or None.
+    """
+    A, D, P = bl.shape
+    force = np.zeros((A, D, P))
+    stiff = np.zeros((A, D, P))
+    energy = np.zeros((A, D, P))
+    bad = np.zeros(A, np.bool_)
+    move = ux is not None
+    zero = np.zeros((A, D))
+    ok = _kernels()[0](
+        *(np.ascontiguousarray(v) for v in (bl, arm, nx, ny, alpha, gamma, dmax, theta)),
+        np.ascontiguousarray(ux if move else zero),
+        np.ascontiguousarray(uy if move else zero),
+        move,
+        np.ascontiguousarray(shift if shift is not None else bl[..., :0]),
+        shift is not None,
+        force,
+        stiff,
+        energy,
+        bad,
+    )
+    return (force, stiff, energy, bad) if ok else None
+
+
+def _pin_rows(
+    bl,
+    arm,
+    nx,
+    ny,
+    alpha,
+    gamma,
+    dmax,
+    theta,
+    ux,
+    uy,
+    move,
+    shift,
+    shifted,
+    force,
+    stiff,
+    energy,
+    bad,
+):  # pragma: no cover (compiled)
+    """:func:`pin_law` written for numba (plain loops, scalars); False on a failed inversion."""
+    A, D, P = bl.shape
+    for i in range(A):
+        for d in range(D):
+            for j in range(P):
+                b = bl[i, d, j]
+                if not np.isfinite(b):
+                    continue  # no law: δ = −1, open
+                delta = arm[i, d, j] * (theta[i, d] - b)
+                if move:
+                    delta = delta + nx[i, d, j] * ux[i, d] + ny[i, d, j] * uy[i, d]
+                if shifted:
+                    delta = delta - shift[i, d, j]
+                if delta <= 0.0:
+                    continue
+                if delta >= dmax[i, d, j]:
+                    bad[i] = True
+                    continue
+                a, g = alpha[i, d, j], gamma[i, d, j]
+                if g == 0.0:
+                    f = delta / a
+                else:
+                    if np.log(delta / g) - a / g >= -1.0:
+                        return False  # past the stiffest point: the reference raises
+                    y = np.log(delta / a)
+                    y = np.log(delta / (a - g * y))
+                    y = np.log(delta / (a - g * y))
+                    done = False
+                    for _ in range(_MAX_NEWTON):
+                        e = np.exp(y)
+                        resid = e * (a - g * y) - delta
+                        if abs(resid) <= _ROUND_OFF * delta:
+                            done = True
+                            break
+                        y = y - resid / (e * (a - g - g * y))
+                    if not done:
+                        e = np.exp(y)
+                        resid = e * (a - g * y) - delta
+                        resolution = 4.0 * 2.220446049250313e-16 * abs(y) * abs(e * (a - g - g * y))
+                        if not (abs(resid) <= _ROUND_OFF * delta or abs(resid) <= resolution):
+                            return False
+                    f = e  # e^y of the last y (the reference's exp(y) again)
+                if f > 0.0:
+                    logf = np.log(f)
+                    force[i, d, j] = f
+                    stiff[i, d, j] = 1.0 / (a - g * (1.0 + logf))
+                    energy[i, d, j] = 0.5 * f * f * (a - 0.5 * g - g * logf)
+    return True
+
+
+def roller_law(
+    cosines: FloatArray, half_clearance: float, constant: float, s: FloatArray, stiffness: bool
+) -> tuple[FloatArray, FloatArray | None, FloatArray]:
+    """Force [N], stiffness [N/m] (None if not ``stiffness``) and energy [J] of a roller set
+    at the displacements ``s`` [m] (any shape): ``cosines`` cos ψ_j (Z,), ``half_clearance``
+    P_d/2 [m], ``constant`` K_n [N/m^(10/9)]."""
+    flat = np.ascontiguousarray(s, dtype=float).reshape(-1)
+    force, stiff, energy = (np.empty(flat.shape) for _ in range(3))
+    _kernels()[1](
+        np.ascontiguousarray(cosines), half_clearance, constant, flat, force, stiff, energy
+    )
+    shape = np.shape(s)
+    return (
+        force.reshape(shape),
+        stiff.reshape(shape) if stiffness else None,
+        energy.reshape(shape),
+    )
+
+
+def _roller_rows(cosines, half, constant, s, force, stiff, energy):  # pragma: no cover
+    """:func:`roller_law` written for numba."""
+    p = 10.0 / 9.0
+    for i in range(s.size):
+        fsum = 0.0
+        ksum = 0.0
+        usum = 0.0
+        for j in range(cosines.size):
+            c = cosines[j]
+            delta = s[i] * c - half
+            if delta > 0.0:
+                root = delta ** (1.0 / 9.0)
+                q = delta * root  # δ^(10/9)
+                fsum += constant * q * c
+                ksum += p * constant * root * c * c
+                usum += constant * (delta * q)
+        force[i] = fsum
+        stiff[i] = ksum
+        energy[i] = usum / (p + 1.0)
