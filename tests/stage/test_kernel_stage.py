@@ -22,6 +22,7 @@ PHI = np.radians(np.arange(0.0, 360.0, 6.0))
 FIELDS = (
     "twist",
     "transmission_error",
+    "mesh_transmission_error",
     "pin_load",
     "bearing_load",
     "bearing_deflection",
@@ -150,3 +151,18 @@ def test_non_convergence_still_raises(monkeypatch):
         monkeypatch.setenv(kernel.ENV_VAR, name)
         with pytest.raises(ConvergenceError, match="did not converge"):
             solve_stage(RV40, stage, MOD, errors, [LIGHT], PHI[:4], discs=2)
+
+
+def test_the_compiled_newton_does_the_work(monkeypatch):
+    """With the numba kernel every crank angle of the rigid and the bearing phase is solved
+    by the compiled iteration: the reference is not called."""
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("fell back to the NumPy Newton")
+
+    errors, stage = _hard_stage(1)
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    monkeypatch.setattr(eq, "newton", refuse)
+    got = solve_stage(RV40, stage, MOD, errors, [412.0, -LIGHT, LIGHT], PHI, discs=2)
+    tol = 1e-12 * np.array([412.0, LIGHT, LIGHT])[:, None] / HOLES.circle_radius
+    assert np.all(got.residual <= tol)

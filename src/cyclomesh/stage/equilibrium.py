@@ -39,6 +39,8 @@ from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.stage.bearing import roller_loads
 from cyclomesh.stage.design import StageDesign
 from cyclomesh.stage.kernel import compiled, pin_law
+from cyclomesh.stage.kernel import newton as kernel_newton
+from cyclomesh.stage.kernel import rigid_newton as kernel_rigid_newton
 from cyclomesh.stage.newton import FORCE_TOLERANCE, newton, reducer
 from cyclomesh.stage.supports import (
     BearingLaw,
@@ -545,6 +547,8 @@ def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatA
     the whole problem is solved from the start, so this fails only where it fails. The
     compliant disc's problem goes through :func:`_body_newton`."""
     solver = newton if rigid or p.body is None else _body_newton
+    if (rigid or (p.body is None and law.k is None)) and compiled():
+        solver = _kernel_newton  # CYCLOMESH_KERNEL=numba
     q = _near(p, x, discs, rigid)
     start = x.copy()
     try:
@@ -556,6 +560,23 @@ def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatA
     again = np.flatnonzero(np.any(closed != counted, axis=-1))
     if again.size:
         x[again] = solver(p.take(again), _evaluate, law, x[again], discs, rigid, phi[again])
+    return x
+
+
+def _kernel_newton(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid: bool, phi):
+    """:func:`~cyclomesh.stage.newton.newton` compiled (:func:`cyclomesh.stage.kernel.newton`,
+    :func:`~cyclomesh.stage.kernel.rigid_newton` for the rigid phase: each crank angle's
+    iteration in one pass); the crank angles it cannot finish are
+    solved by the reference from their start, which raises its own error if it fails."""
+    start = x.copy()
+    if rigid:
+        failed = kernel_rigid_newton(p, x, discs)
+    else:
+        jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, x.shape[1])
+        failed = kernel_newton(p, law, x, discs, jacobian)
+    if np.any(failed):
+        idx = np.flatnonzero(failed)
+        x[idx] = newton(p.take(idx), evaluate, law, start[idx], discs, rigid, phi[idx])
     return x
 
 
