@@ -546,9 +546,11 @@ def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatA
     the near pins alone do not converge (a left-out pin that would have held a disc),
     the whole problem is solved from the start, so this fails only where it fails. The
     compliant disc's problem goes through :func:`_body_newton`."""
-    solver = newton if rigid or p.body is None else _body_newton
     if (rigid or (p.body is None and law.k is None)) and compiled():
-        solver = _kernel_newton  # CYCLOMESH_KERNEL=numba
+        # CYCLOMESH_KERNEL=numba: every pin in the compiled pass (an open pin costs it a
+        # comparison, less than picking the near ones), so there is no check after
+        return _kernel_newton(p, _evaluate, law, x, discs, rigid, phi)
+    solver = newton if rigid or p.body is None else _body_newton
     q = _near(p, x, discs, rigid)
     start = x.copy()
     try:

@@ -275,32 +275,79 @@ def _kernels_newton() -> Any:
     import numba
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _evaluate_one, _pin_force
+    global _evaluate_one, _pin_force, _solve_in_place
     _pin_force = jit(_pin_force)
+    _solve_in_place = jit(_solve_in_place)
     _evaluate_one = jit(_evaluate_one)
     return jit(_newton_rows)
 
 
-def _pin_force(delta, a, g):  # pragma: no cover (compiled)
-    """F of δ = F(α − γ ln F) as :func:`_pin_rows` (γ = 0: δ/α); −1 if it cannot."""
+def _pin_force(delta, a, g, checked, memo, d, j):  # pragma: no cover (compiled)
+    """F of δ = F(α − γ ln F) as :func:`_pin_rows` (γ = 0: δ/α): Newton in y = ln F to a
+    residual of 2e-15·δ, started, when this pin's last inversion ``memo[:, d, j]`` (δ, y,
+    F) was at an approach within a factor of 2, from that solution moved along its
+    tangent (the previous step or trial is near), else as the reference (two fixed-point
+    steps from ln(δ/α)). Returns (F, ln F), F = −1 if it cannot; ``checked``: δ lies below
+    the stiffest point (δ < dmax), so its test is left out."""
     if g == 0.0:
-        return delta / a
-    if np.log(delta / g) - a / g >= -1.0:
-        return -1.0
-    y = np.log(delta / a)
-    y = np.log(delta / (a - g * y))
-    y = np.log(delta / (a - g * y))
+        return delta / a, 0.0
+    if not checked and np.log(delta / g) - a / g >= -1.0:
+        return -1.0, 0.0
+    d0 = memo[0, d, j]
+    if d0 > 0.0 and 0.5 * d0 <= delta <= 2.0 * d0:
+        y0, f0 = memo[1, d, j], memo[2, d, j]
+        y = y0 - (d0 - delta) / (f0 * (a - g - g * y0))
+    else:
+        y = np.log(delta / a)
+        y = np.log(delta / (a - g * y))
+        y = np.log(delta / (a - g * y))
     for _ in range(_MAX_NEWTON):
         e = np.exp(y)
         resid = e * (a - g * y) - delta
         if abs(resid) <= _ROUND_OFF * delta:
-            return e
+            memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, y, e
+            return e, y
         y = y - resid / (e * (a - g - g * y))
     e = np.exp(y)
     resid = e * (a - g * y) - delta
     if abs(resid) <= 4.0 * 2.220446049250313e-16 * abs(y) * abs(e * (a - g - g * y)):
-        return e
-    return -1.0
+        memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, y, e
+        return e, y
+    return -1.0, 0.0
+
+
+def _solve_in_place(H, g, step):  # pragma: no cover (compiled)
+    """step = −H⁻¹g by Gaussian elimination with partial pivoting (LAPACK's dgesv without
+    its blocking; H is overwritten); False if a pivot is 0."""
+    m = g.size
+    for r in range(m):
+        step[r] = -g[r]
+    for k in range(m):
+        piv = k
+        big = abs(H[k, k])
+        for r in range(k + 1, m):
+            if abs(H[r, k]) > big:
+                big = abs(H[r, k])
+                piv = r
+        if big == 0.0:
+            return False
+        if piv != k:
+            for c in range(m):
+                H[k, c], H[piv, c] = H[piv, c], H[k, c]
+            step[k], step[piv] = step[piv], step[k]
+        inv = 1.0 / H[k, k]
+        for r in range(k + 1, m):
+            f = H[r, k] * inv
+            if f != 0.0:
+                for c in range(k + 1, m):
+                    H[r, c] -= f * H[k, c]
+                step[r] -= f * step[k]
+    for k in range(m - 1, -1, -1):
+        acc = step[k]
+        for c in range(k + 1, m):
+            acc -= H[k, c] * step[c]
+        step[k] = acc / H[k, k]
+    return True
 
 
 def _evaluate_one(
@@ -333,6 +380,7 @@ def _evaluate_one(
     want,
     g,
     H,
+    memo,
 ):  # pragma: no cover (compiled)
     """Potential of crank angle ``i`` at x (m,), with ``want`` its gradient g and Hessian
     H (scaled: rotations × L) as equilibrium._evaluate; returns (energy, status): status
@@ -360,11 +408,12 @@ def _evaluate_one(
                 status = 1
                 continue
             a, gm = alpha[i, d, j], gamma[i, d, j]
-            f = _pin_force(delta, a, gm)
+            f, logf = _pin_force(delta, a, gm, np.isfinite(dmax[i, d, j]), memo, d, j)
             if f < 0.0:
                 return 0.0, 2
             if f > 0.0:
-                logf = np.log(f)
+                if gm == 0.0:
+                    logf = np.log(f)
                 pins += 0.5 * f * f * (a - 0.5 * gm - gm * logf)
                 if want:
                     k = 1.0 / (a - gm * (1.0 + logf))
@@ -506,7 +555,10 @@ def _newton_rows(
     gt = np.zeros(m)
     Ht = np.zeros((m, m))
     trial = np.zeros(m)
+    step = np.zeros(m)
+    memo = np.zeros((3, D, bl.shape[2]))  # each pin's last inversion (δ, y, F)
     for i in range(A):
+        memo[0] = 0.0
         xi = x[i].copy()
         previous = np.inf
         extended = False
@@ -543,6 +595,7 @@ def _newton_rows(
                 True,
                 g,
                 H,
+                memo,
             )
             if status == 2:
                 break
@@ -570,7 +623,8 @@ def _newton_rows(
             diag = max(diag, 1e-300)
             for r in range(m):
                 H[r, r] += 1e-14 * diag
-            step = np.linalg.solve(H, -g)
+            if not _solve_in_place(H, g, step):
+                break  # singular: the reference's LinAlgError, or its own way out
             slope = 0.0
             for r in range(m):
                 slope += g[r] * step[r]
@@ -621,6 +675,7 @@ def _newton_rows(
                     False,
                     gt,
                     Ht,
+                    memo,
                 )
                 if st == 2:
                     break
@@ -672,7 +727,7 @@ def _kernels_rigid() -> Any:
     return jit(_rigid_rows)
 
 
-def _rigid_one(i, x, bl, arm, alpha, gamma, dmax, torque, L):  # pragma: no cover (compiled)
+def _rigid_one(i, x, bl, arm, alpha, gamma, dmax, torque, L, memo):  # pragma: no cover (compiled)
     """(energy, ∂/∂(cL), ∂²/∂(cL)², status) of the rigid stage at crank angle ``i``; status
     as :func:`_evaluate_one`."""
     D, P = bl.shape[1], bl.shape[2]
@@ -693,11 +748,12 @@ def _rigid_one(i, x, bl, arm, alpha, gamma, dmax, torque, L):  # pragma: no cove
                 status = 1
                 continue
             a, gm = alpha[i, d, j], gamma[i, d, j]
-            f = _pin_force(delta, a, gm)
+            f, logf = _pin_force(delta, a, gm, np.isfinite(dmax[i, d, j]), memo, d, j)
             if f < 0.0:
                 return 0.0, 0.0, 0.0, 2
             if f > 0.0:
-                logf = np.log(f)
+                if gm == 0.0:
+                    logf = np.log(f)
                 pins += 0.5 * f * f * (a - 0.5 * gm - gm * logf)
                 v = arm[i, d, j] / L
                 g += f * v
@@ -713,11 +769,13 @@ def _rigid_rows(
     D = bl.shape[1]
     eps = 2.220446049250313e-16
     trial = np.zeros(m)
+    memo = np.zeros((3, D, bl.shape[2]))  # each pin's last inversion (δ, y, F)
     for i in range(A):
+        memo[0] = 0.0
         xi = x[i].copy()
         ok_angle = False
         for _ in range(iterations):
-            energy, g, h, status = _rigid_one(i, xi, bl, arm, alpha, gamma, dmax, torque, L)
+            energy, g, h, status = _rigid_one(i, xi, bl, arm, alpha, gamma, dmax, torque, L, memo)
             if status == 2:
                 break
             xs = abs(xi[0]) * L
@@ -746,7 +804,9 @@ def _rigid_rows(
                 trial[0] = xi[0] + move
                 for d in range(D):
                     trial[1 + 3 * d] = xi[1 + 3 * d] + move
-                e_t, _g, _h2, st = _rigid_one(i, trial, bl, arm, alpha, gamma, dmax, torque, L)
+                e_t, _g, _h2, st = _rigid_one(
+                    i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo
+                )
                 if st == 2:
                     break
                 if st == 0 and (e_t <= energy + 1e-4 * t * slope or tiny):
