@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cyclomesh.core.hertz import force_from_approach
+from cyclomesh.stage.kernel import compiled, pin_law
 from cyclomesh.stage.supports import Supports
 
 __all__ = ["Problem", "Body", "pin_laws", "unpack", "evaluate", "bearing_jacobian"]
@@ -102,8 +103,14 @@ def pin_laws(
 
     The law is evaluated only where a pin closes (δ > 0; most pins of a crank angle are
     open), each element by the same arithmetic as on the whole array. ``shift``: the disc
-    body's displacement into the disc at every pin (compliant disc), subtracted.
+    body's displacement into the disc at every pin (compliant disc), subtracted. With
+    ``CYCLOMESH_KERNEL=numba``: :func:`cyclomesh.stage.kernel.pin_law` (the same law to
+    round-off; the reference where it cannot invert a pin's law).
     """
+    if compiled():
+        out = pin_law(p.bl, p.arm, p.nx, p.ny, p.alpha, p.gamma, p.dmax, theta, ux, uy, shift)
+        if out is not None:
+            return out
     usable = np.isfinite(p.bl)
     delta = p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
     if ux is not None:  # None: no translation (adding n·0 would change no bit)
@@ -181,7 +188,7 @@ def evaluate(
         return energy, g, H, state
     if p.body is not None:
         state["pin_shift"] = shift
-        energy, g, H = _bodypin_laws(p, x, discs, cols if gradient else None, F, k, energy, g, H)
+        energy, g, H = _body_pins(p, x, discs, cols if gradient else None, F, k, energy, g, H)
     if p.supports is not None or p.body is not None:
         return _evaluate_supported(p, law, x, discs, hessian, energy, g, H, state)
     # bearings: d = u + (θ − c)·Jh + ε, Jh = (−hy, hx)
@@ -220,7 +227,7 @@ def evaluate(
     return energy, g, H, state
 
 
-def _bodypin_laws(p: Problem, x, discs, cols, F, k, energy, g, H):
+def _body_pins(p: Problem, x, discs, cols, F, k, energy, g, H):
     """The compliant disc at the pins and its own energy (:class:`Body`).
 
     δ_i −= (C'·λ)_i, so ∂δ/∂z = −pin_w; the body's energy ½·zᵀEz = ½·λᵀC'λ (issue 17's
@@ -314,7 +321,9 @@ def _evaluate_supported(p: Problem, law, x, discs, hessian, energy, g, H, state)
         rows = G.reshape(n, -1, m)  # Gᵀ·K·G over the holes' (x, y)
         H = H + np.matmul(np.swapaxes(rows, -1, -2), np.matmul(kmat, G).reshape(n, -1, m))
         if nw:
-            H[:, base : base + nw, base : base + nw] += np.kron(sup.stiffness, np.eye(2 * N))
+            # the crankshafts' K ⊗ I(2N), added on its nonzero entries only (the others +0)
+            rows, cols, vals = _shaft_entries(sup.stiffness, base, 2 * N)
+            H[:, rows, cols] += vals
         if carrier is not None:
             H[:, base + nw, base + nw] += carrier / (L * L)
     state.update(
@@ -326,6 +335,14 @@ def _evaluate_supported(p: Problem, law, x, discs, hessian, energy, g, H, state)
         end_plate=beta,
     )
     return energy, g, H, state
+
+
+def _shaft_entries(stiffness: FloatArray, base: int, size: int):
+    """Rows, columns and values of the nonzero entries of K ⊗ I(size) placed at ``base``
+    (the crankshafts' block of the Hessian, :func:`_evaluate_supported`)."""
+    D = stiffness.shape[0]
+    d, e, r = np.meshgrid(np.arange(D), np.arange(D), np.arange(size), indexing="ij")
+    return base + d * size + r, base + e * size + r, stiffness[d, e]
 
 
 def bearing_jacobian(p: Problem, discs: int, m: int) -> FloatArray:

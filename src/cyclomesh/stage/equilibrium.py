@@ -51,6 +51,9 @@ from cyclomesh.stage.friction import (
     friction_terms,
     power_terms,
 )
+from cyclomesh.stage.kernel import compiled
+from cyclomesh.stage.kernel import newton as kernel_newton
+from cyclomesh.stage.kernel import rigid_newton as kernel_rigid_newton
 from cyclomesh.stage.newton import FORCE_TOLERANCE, newton, reducer
 from cyclomesh.stage.supports import (
     BearingLaw,
@@ -206,6 +209,10 @@ def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatA
     the near pins alone do not converge (a left-out pin that would have held a disc),
     the whole problem is solved from the start, so this fails only where it fails. The
     compliant disc's problem goes through :func:`_body_newton`."""
+    if p.slip is None and (rigid or (p.body is None and law.k is None)) and compiled():
+        # CYCLOMESH_KERNEL=numba: every pin in the compiled pass (an open pin costs it a
+        # comparison, less than picking the near ones), so there is no check after
+        return _kernel_newton(p, _evaluate, law, x, discs, rigid, phi)
     solver = newton if rigid or p.body is None else _body_newton
     if p.slip is not None:  # friction: the equations are not a potential's gradient
         solver = friction_newton
@@ -220,6 +227,23 @@ def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatA
     again = np.flatnonzero(np.any(closed != counted, axis=-1))
     if again.size:
         x[again] = solver(p.take(again), _evaluate, law, x[again], discs, rigid, phi[again])
+    return x
+
+
+def _kernel_newton(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid: bool, phi):
+    """:func:`~cyclomesh.stage.newton.newton` compiled (:func:`cyclomesh.stage.kernel.newton`,
+    :func:`~cyclomesh.stage.kernel.rigid_newton` for the rigid phase: each crank angle's
+    iteration in one pass); the crank angles it cannot finish are
+    solved by the reference from their start, which raises its own error if it fails."""
+    start = x.copy()
+    if rigid:
+        failed = kernel_rigid_newton(p, x, discs)
+    else:
+        jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, x.shape[1])
+        failed = kernel_newton(p, law, x, discs, jacobian)
+    if np.any(failed):
+        idx = np.flatnonzero(failed)
+        x[idx] = newton(p.take(idx), evaluate, law, start[idx], discs, rigid, phi[idx])
     return x
 
 
