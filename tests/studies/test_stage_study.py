@@ -392,3 +392,42 @@ def test_tolerance_refuses_friction_with_the_stage(tmp_path):
                     str(tmp_path / "o"))  # fmt: skip
     assert result.exit_code == 2, result.output
     assert "not coupled with the [stage] equilibrium" in " ".join(result.output.split())
+
+
+def test_run_with_stage_reports_the_stages_mesh(tmp_path):
+    """Issue 23: with [stage], the σH verdict, the summary (TE p-p, pin loads), angles.csv
+    and the figures are those of the stage solve, not of the mesh on rigid bearings
+    (whose TE is kept as rigid_bearing_transmission_error)."""
+    text = EXAMPLE.read_text(encoding="utf-8").replace(
+        "[stage]\n", "[requirements]\nmax_contact_stress_mpa = 1500.0\n\n[stage]\n", 1
+    )
+    study = tmp_path / "stage.toml"
+    study.write_text(text, encoding="utf-8")
+    out = tmp_path / "out"
+    result = invoke("run", str(study), "--out", str(out), "--crank-step-deg", "10")
+    assert result.exit_code == 0, result.output
+    assert (out / "figures" / "overview.png").is_file()
+    summary = json.loads((out / "summary.json").read_text())
+    for case in summary["cases"]:
+        ds = xr.open_dataset(out / case["results"])
+        stage_te = ds["stage_transmission_error"].values
+        rigid_te = ds["rigid_bearing_transmission_error"].values
+        assert np.ptp(stage_te) != pytest.approx(np.ptp(rigid_te), rel=0.05)
+        assert case["te_pp_arcsec"] == pytest.approx(np.ptp(stage_te), rel=1e-12)
+        assert case["max_pin_load_n"] == pytest.approx(float(ds["stage_pin_load"].max()))
+        assert case["max_contact_stress_mpa"] == pytest.approx(
+            float(ds["stage_contact_stress"].max())
+            if "stage_contact_stress" in ds
+            else float(ds["contact_stress"].max())
+        )
+        np.testing.assert_allclose(ds["transmission_error"].values, stage_te, rtol=1e-12)
+        np.testing.assert_allclose(ds["pin_load"].values, ds["stage_pin_load"].values)
+        angles = np.genfromtxt(
+            out / Path(case["results"]).parent / "angles.csv",
+            delimiter=",",
+            names=True,
+            comments="#",
+        )
+        np.testing.assert_allclose(angles["transmission_error_arcsec"], stage_te, rtol=1e-9)
+        rows = {row["check"]: row for row in case["checks"]["rows"]}
+        assert rows["max_contact_stress_mpa"]["value"] == case["max_contact_stress_mpa"]

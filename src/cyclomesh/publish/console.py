@@ -206,8 +206,9 @@ def print_run(
     if any("stage_l10_h_min" in r or "stage_rated_torque_nm" in r for r in summaries.values()):
         console.print(
             "with \\[stage]: loads, stresses, TE and contacts are those of the RV stage "
-            "(discs on their crank bearings); lost motion and rigidity of the stage, without "
-            "main bearings, housing and first stage"
+            "(discs on their crank bearings and, when given, crankshafts and carrier); lost "
+            "motion and rigidity of the stage, without main bearings, housing and first stage: "
+            "the reducer is softer"
         )
     console.print(f"report: {out / 'report.html'}")
 
