@@ -484,3 +484,32 @@ def test_the_stage_solves_a_real_ring(tmp_path, errors, bearings):
                 assert np.all(np.isfinite(ds["crank_bearing_load"].values))
     for key, (run, stiffness) in values.items():  # one definition in both commands
         assert run == pytest.approx(stiffness, rel=1e-9), key
+
+
+def test_the_stage_words_and_units_in_terminal_and_report(tmp_path):
+    """Issue 23, units and words: Rich markup kept "[stage]" ("the RV stage of  (mesh +
+    crank bearings)" had lost it); stiffness says "the mesh alone" only of the mesh rows,
+    not above the stage's; play in arcmin in the terminal, the verdict and the report's
+    summary (arcsec there before); the undercut margin without a per cent of its
+    rule-of-thumb threshold."""
+    outputs = {}
+    for command in ("run", "stiffness"):
+        out = tmp_path / command
+        result = invoke(
+            command, str(EXAMPLE), "--out", str(out), "--crank-step-deg", "30", "--figures", "none"
+        )
+        assert result.exit_code == 0, result.output
+        outputs[command] = (" ".join(result.output.split()), out)
+    run_text, run_out = outputs["run"]
+    assert "with [stage]: loads, stresses, TE and contacts are those of the RV stage" in run_text
+    assert "max play [arcmin]" in run_text and "play [arcsec]" not in run_text
+    stiff_text, _ = outputs["stiffness"]
+    assert "stage rows: the RV stage of [stage] (mesh, crank bearings" in stiff_text
+    assert "the mesh alone: crank bearings" not in stiff_text
+    report = (run_out / "report.html").read_text(encoding="utf-8")
+    assert "play [arcmin]" in report and "play [arcsec]" not in report
+    summary = json.loads((run_out / "summary.json").read_text())
+    for case in summary["cases"]:
+        rows = {row["check"]: row for row in case["checks"]["rows"]}
+        assert rows["undercut_margin"]["margin_pct"] is None
+        assert "%" not in run_text.split("undercut margin", 1)[1].split("│")[3]
