@@ -53,8 +53,8 @@ from cyclomesh.stage.friction import (
     power_terms,
 )
 from cyclomesh.stage.kernel import compiled
-from cyclomesh.stage.kernel import newton as kernel_newton
-from cyclomesh.stage.kernel import rigid_newton as kernel_rigid_newton
+from cyclomesh.stage.kernel_newton import newton as kernel_newton
+from cyclomesh.stage.kernel_newton import rigid_newton as kernel_rigid_newton
 from cyclomesh.stage.newton import FORCE_TOLERANCE, newton, reducer
 from cyclomesh.stage.supports import (
     BearingLaw,
@@ -232,10 +232,11 @@ def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatA
 
 
 def _kernel_newton(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid: bool, phi):
-    """:func:`~cyclomesh.stage.newton.newton` compiled (:func:`cyclomesh.stage.kernel.newton`,
-    :func:`~cyclomesh.stage.kernel.rigid_newton` for the rigid phase: each crank angle's
-    iteration in one pass); the crank angles it cannot finish are
-    solved by the reference from their start, which raises its own error if it fails."""
+    """:func:`~cyclomesh.stage.newton.newton` compiled
+    (:func:`cyclomesh.stage.kernel_newton.newton`, and
+    :func:`~cyclomesh.stage.kernel_newton.rigid_newton` for the rigid phase: each crank
+    angle's iteration in one pass); the crank angles it cannot finish are solved by the
+    reference from their start, which raises its own error if it fails."""
     start = x.copy()
     settings = (
         reference.FORCE_TOLERANCE,
