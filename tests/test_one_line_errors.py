@@ -167,3 +167,19 @@ def test_a_forked_worker_that_catches_ctrl_c_stays_silent():
     assert done.returncode == 0, done.stderr
     assert done.stdout == "130\n"
     assert done.stderr == ""
+
+
+def test_a_rated_torque_too_small_to_turn_the_mesh_is_one_line(tmp_path):
+    """stiffness.rated_torque_nm = 1e-300: the TE at 50 % and 100 % of it is one double,
+    so the rigidity would be 0/0; it printed six lines of RuntimeWarning and wrote a
+    result with a null rigidity. Now the error line alone, naming the key."""
+    text = (EXAMPLES / "stiffness.toml").read_text()
+    text = text.replace("rated_torque_nm = 250.0", "rated_torque_nm = 1e-300", 1)
+    (tmp_path / "s.toml").write_text(text.replace("points = 41", "points = 5", 1))
+    done = cyclomesh(
+        "stiffness", "s.toml", "--out", "o", "-q", "--figures", "none",
+        "--crank-step-deg", "60", cwd=tmp_path,
+    )  # fmt: skip
+    line = only_error_line(done)
+    assert "rated torque 1e-300 N·m" in line and "stiffness.rated_torque_nm" in line
+    assert not (tmp_path / "o").exists()
