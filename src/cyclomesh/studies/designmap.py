@@ -81,18 +81,26 @@ def load_design_study(path: str | Path) -> tuple[Study, DesignSpaceSection]:
     """
     study = load_study(path)
     require_design_space(study)
-    space = study.file.design_space
+    _refuse_before_computing(study)
+    return study, study.file.design_space
+
+
+def _refuse_before_computing(study: Study) -> None:
+    """What ``cyclomesh design`` refuses before its first candidate, also for ``check
+    --kind design`` (the kind's preflight): a list of torques, a robust map without
+    ``[tolerance]``, the compliant disc with ``[stage]``."""
     torques = [case.load.torque_nm for case in study.cases]
     if any(isinstance(t, list) for t in torques):
         raise StudyError(
             "load.torque_nm: a design map takes one torque; give a number "
             "(cyclomesh stiffness sweeps torques)"
         )
-    if space.rings and study.file.tolerance is None:
+    if study.file.design_space.rings and study.file.tolerance is None:
         raise StudyError(
             "design_space.rings: a robust map needs a [tolerance] section to draw rings"
         )
-    return study, space
+    if study.base.stage is not None and study.base.analysis.disc_body != "rigid":
+        study.base.to_core().refuse_compliant_stage("design")
 
 
 def constraints(space: DesignSpaceSection) -> Constraints:
@@ -475,6 +483,7 @@ DESIGN = StudyKind(
     figures=lambda result, early: design_figures(result),
     sections=lambda result: design_sections(result),
     keys_first=require_design_space,
+    preflight=_refuse_before_computing,
     steps=CommandSteps(
         load=lambda path, options: load_design_study(path)[0],
         parallel=_parallel,
