@@ -10,8 +10,8 @@ No traceback, no "internal error", no NumPy RuntimeWarning (overflow, invalid va
 no hang. ``CYCLOMESH_FUZZ_SEED`` picks other mutations.
 
 The commands are check, run, stiffness, tolerance, allocate, design, efficiency and
-export (fe: check only, its model takes minutes). The examples are first made cheap (coarse crank steps, few rings, points and
-candidates, no figures) so that a few hundred cases run in well under a minute; the
+export (fe: check only, its model takes minutes). The examples are first made cheap
+(coarse crank steps, few rings, points and candidates, no figures) so that a few hundred cases run in well under a minute; the
 mutations then hit one key each (or add or delete one). The counts are printed
 (``pytest -s``) and checked against a floor so that the test cannot pass vacuously.
 """
