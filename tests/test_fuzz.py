@@ -11,8 +11,9 @@ no hang. ``CYCLOMESH_FUZZ_SEED`` picks other mutations.
 
 The commands are check, run, stiffness, tolerance, allocate, design, efficiency and
 export (fe: check only, its model takes minutes). The examples are first made cheap
-(coarse crank steps, few rings, points and candidates, no figures) so that a few hundred cases run in well under a minute; the
-mutations then hit one key each (or add or delete one). The counts are printed
+(coarse crank steps, few rings, points and candidates, no figures) so that a few
+hundred cases run in about a minute; the mutations then hit one key each (or add or
+delete one). The counts are printed
 (``pytest -s``) and checked against a floor so that the test cannot pass vacuously.
 """
 
