@@ -183,3 +183,39 @@ def test_a_rated_torque_too_small_to_turn_the_mesh_is_one_line(tmp_path):
     line = only_error_line(done)
     assert "rated torque 1e-300 N·m" in line and "stiffness.rated_torque_nm" in line
     assert not (tmp_path / "o").exists()
+
+
+def test_the_numba_kernel_prints_only_the_error_line(tmp_path):
+    """CYCLOMESH_KERNEL=numba (the opt-in compiled pin-step): the refusals on the way
+    through the kernel (a torque no pin can carry, a pin that overlaps the disc, a
+    clearance deeper than the teeth) are the same one line, no RuntimeWarning or
+    compiler message before it, and no folder is left."""
+    import pytest
+
+    pytest.importorskip("numba")
+    text = (
+        (EXAMPLES / "table2.toml")
+        .read_text()
+        .replace("crank_step_deg = 0.1", "crank_step_deg = 30.0")
+    )
+    cases = {
+        "torque": (text.replace("torque_nm = 250.0", "torque_nm = 1e300"), "torque too large"),
+        "overlap": (
+            text + '\n[[cases]]\nname = "x"\nmodification.pin_radius_um = -8.0\n',
+            "by 8 µm",
+        ),
+        "deep": (
+            text + '\n[[cases]]\nname = "x"\nmodification.pin_radius_um = 3400.0\n',
+            "no pin reaches",
+        ),
+    }
+    env = dict(os.environ, CYCLOMESH_KERNEL="numba")
+    for name, (study, words) in cases.items():
+        (tmp_path / f"{name}.toml").write_text(study)
+        done = subprocess.run(
+            [sys.executable, "-m", "cyclomesh", "run", f"{name}.toml", "--out", name, "-q"]
+            + ["--figures", "none"],
+            capture_output=True, text=True, cwd=tmp_path, env=env, timeout=600,
+        )  # fmt: skip
+        assert words in only_error_line(done), (name, done.stderr)
+        assert not (tmp_path / name).exists()
