@@ -219,3 +219,16 @@ def test_the_numba_kernel_prints_only_the_error_line(tmp_path):
         )  # fmt: skip
         assert words in only_error_line(done), (name, done.stderr)
         assert not (tmp_path / name).exists()
+
+
+def test_an_unknown_kernel_is_a_refusal_not_an_internal_error(tmp_path):
+    """CYCLOMESH_KERNEL=bogus was "internal error (ValueError: ...)": now the one line
+    names the variable and its values, exit 2, no folder."""
+    env = dict(os.environ, CYCLOMESH_KERNEL="bogus")
+    done = subprocess.run(
+        [sys.executable, "-m", "cyclomesh", "run", str(EXAMPLES / "table2.toml"), "--out", "o"]
+        + ["-q", "--figures", "none", "--crank-step-deg", "30"],
+        capture_output=True, text=True, cwd=tmp_path, env=env, timeout=600,
+    )  # fmt: skip
+    assert "CYCLOMESH_KERNEL='bogus': expected one of numpy, numba" in only_error_line(done)
+    assert not (tmp_path / "o").exists()
