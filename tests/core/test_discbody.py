@@ -227,30 +227,39 @@ def test_pins_beyond_the_first_set_are_added_exactly(monkeypatch):
     np.testing.assert_allclose(r.loaded_rotation, full.loaded_rotation, rtol=1e-12)
 
 
-def test_fe_body_with_the_rv_stage_refused_by_design_only(tmp_path):
-    """disc_body = "fe" with [stage] is accepted by run and stiffness, tolerance and
-    allocate (the compliant disc in the stage, tests/stage/test_stage_fe.py) and refused in
-    one line, naming the key and the fix, by design (a free disc body per candidate)."""
+@pytest.mark.parametrize("stage", [True, False])
+def test_fe_body_over_swept_geometry_refused_by_design(tmp_path, stage):
+    """disc_body = "fe" is the FE table of one geometry: a design map that sweeps the
+    geometry (design_space.pin_circle_radius_mm) refuses it in one line, naming the key
+    and the fix, with and without [stage] (it was accepted without the stage and solved
+    every candidate with the base geometry's table: 887 MPa on the map where the
+    candidate's own table gives 867). Maps over the modification take it
+    (tests/stage/test_stage_fe.py)."""
     from pathlib import Path
 
     from typer.testing import CliRunner
 
     from cyclomesh.cli import app
 
-    text = (Path(__file__).parents[2] / "examples" / "rv_stage.toml").read_text()
+    name = "rv_stage.toml" if stage else "table2.toml"
+    text = (Path(__file__).parents[2] / "examples" / name).read_text()
     text = text.replace("[analysis]", '[analysis]\ndisc_body = "fe"', 1)
+    text = text.replace('contact_law = "paper"', 'contact_law = "half_plane"')
     path = tmp_path / "rv.toml"
     path.write_text(text)
     out = CliRunner().invoke(app, ["check", str(path)])
     assert out.exit_code == 0, out.output
-    base = text[: text.index("[[cases]]")]  # design maps take the base only
-    path.write_text(
+    base = text[: text.index("[figures]" if "[figures]" in text else "[[cases]]")]
+    path.write_text(  # a design map takes the base only, and no [figures] keys
         base + '[design_space]\nobjective = "max_contact_stress"\n'
-        "pin_radius_um = { start = 0.0, stop = 10.0, points = 2 }\n"
+        "pin_circle_radius_mm = { start = 63.0, stop = 65.0, points = 2 }\n"
     )
     out = CliRunner().invoke(app, ["design", str(path), "--out", str(tmp_path / "out")])
     assert out.exit_code == 2, out.output
-    assert 'disc_body = "fe" with [stage]' in out.output and 'disc_body = "rigid"' in out.output
+    assert "design_space.pin_circle_radius_mm" in out.output
+    assert 'disc_body = "rigid"' in out.output and not (tmp_path / "out").exists()
+    if not stage:
+        return
     # without crank bearings (rigid bearings hold the hole centres) every kind refuses it
     text = text.replace("[stage.crank_bearing]", "[not_a_bearing]")
     cut = text.index("[not_a_bearing]")

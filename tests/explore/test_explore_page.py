@@ -164,3 +164,28 @@ def test_the_downloaded_study_reproduces_the_shown_numbers(page, tmp_path):
     table = tomllib.loads(study.read_text())
     assert table["load"]["torque_nm"] == -250 and table["analysis"]["groove_deformation"]
     assert table["modification"]["pin_radius_um"] == 12
+
+
+def test_tables_of_summary_json_are_shown_as_text_with_their_units(browser):
+    """A friction study's summary holds a table (losses per path, W) and the input speed
+    (rpm): every row shows its unit from the quantities registry and no row shows a raw
+    JavaScript object."""
+    from .conftest import EXAMPLES, Server
+
+    running = Server(EXAMPLES / "efficiency.toml")
+    context = browser.new_context(viewport={"width": 1366, "height": 900})
+    try:
+        tab = context.new_page()
+        tab.goto(running.url)
+        tab.wait_for_selector("#metric-power_loss_w", timeout=60_000)
+        rows = tab.eval_on_selector_all(
+            "#summary tbody tr",
+            "rows => rows.map(r => [r.id.slice(7), Array.from(r.cells, c => c.textContent)])",
+        )
+        shown = dict(rows)
+        assert not [name for name, cells in shown.items() if "object" in cells[1]]
+        assert shown["input_speed_rpm"][2] == "rpm"
+        assert shown["power_loss_w"][2] == "W" and "tooth" in shown["power_loss_w"][1]
+    finally:
+        context.close()
+        running.stop()

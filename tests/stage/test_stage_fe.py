@@ -266,6 +266,85 @@ def test_tolerance_and_allocate_with_the_compliant_disc_end_to_end(
     assert not np.any(np.isnan(alloc["critical_factor_upper"].values))
 
 
+def test_design_map_with_the_compliant_disc_in_the_stage(coarse, example, tmp_path, monkeypatch):
+    """``cyclomesh design`` of examples/rv_stage.toml with disc_body = "fe" over Δρ: every
+    candidate's stage metrics are the stage's own torsion curve and life with the study's
+    free disc body (the base geometry's, as tolerance rings use it), to 1e-12; the
+    compliant stage is softer than the rigid one of the same map. A geometry axis is
+    refused in one line naming it, before any FE table is built."""
+    import xarray as xr
+    from typer.testing import CliRunner
+
+    import cyclomesh.fe.influence as fe
+    from cyclomesh.cli import app
+    from cyclomesh.core.case import Case
+    from cyclomesh.core.pair import Modification
+    from cyclomesh.stage.solve import bearing_life, stage_torsion
+
+    _, folder = coarse
+    for key, value in COARSE.items():
+        monkeypatch.setitem(fe.MESH_DEFAULTS, key, value)
+    text = EXAMPLE.read_text()
+    base = text[: text.index("[[cases]]")].replace(
+        "crank_step_deg = 1.0",
+        "crank_start_deg = 0.0\ncrank_stop_deg = 30.0\ncrank_step_deg = 15.0",
+    )
+    space = (
+        '[design_space]\nobjective = "stage_rigidity"\n'
+        "pin_radius_um = { start = 2.0, stop = 4.0, points = 2 }\n"
+    )
+    runner = CliRunner()
+    maps = {}
+    for name, analysis in (("fe", '[analysis]\ndisc_body = "fe"'), ("rigid", "[analysis]")):
+        study = tmp_path / f"{name}.toml"
+        study.write_text(base.replace("[analysis]", analysis, 1) + space)
+        out = tmp_path / name
+        args = ["design", str(study), "--out", str(out), "--figures", "none"]
+        result = runner.invoke(app, [*args, "--cache-dir", str(folder)])
+        assert result.exit_code == 0, result.output
+        maps[name] = xr.load_dataset(out / "design.nc")
+    assert maps["fe"].attrs["stage_disc_body"] == "fe"
+    rig = "stage_torsional_rigidity_nm_per_arcmin_min"
+    assert np.all(maps["fe"][rig].values < maps["rigid"][rig].values)
+    arcmin = np.pi / (180 * 60)
+    inputs = load_study(tmp_path / "fe.toml").base.to_core()  # the map's base, not case 1
+    body = free_influence(inputs.design, inputs.modification, inputs.crank_holes, folder, **COARSE)
+    model = inputs.model().replace(disc_body=body)
+    for dr in (2.0, 4.0):
+        case = Case(
+            inputs.design,
+            Modification(pin_radius=dr * 1e-6),
+            None,
+            412.0,
+            np.deg2rad(load_study(tmp_path / "fe.toml").base.analysis.crank_angles_deg()),
+        )
+        curve = stage_torsion(case, model, points=2)
+        cell = maps["fe"].sel(pin_radius_um=dr)
+        assert float(cell[rig]) == pytest.approx(
+            np.min(curve.torsional_rigidity) * arcmin, rel=1e-12
+        )
+        assert float(cell["stage_lost_motion_arcmin_max"]) == pytest.approx(
+            np.max(curve.lost_motion) / arcmin, rel=1e-12
+        )
+        at = int(np.flatnonzero(curve.stage.torque == 412.0)[0])
+        hours = bearing_life(curve.stage, inputs.stage, inputs.design.pins)[2][at]
+        assert float(cell["stage_l10_h_min"]) == pytest.approx(np.min(hours), rel=1e-12)
+    # a geometry axis: the FE table is the study's geometry's, not each candidate's
+    called = []
+    monkeypatch.setattr(fe, "free_influence", lambda *a, **k: called.append(a))
+    study = tmp_path / "geometry.toml"
+    study.write_text(
+        base.replace("[analysis]", '[analysis]\ndisc_body = "fe"', 1)
+        + '[design_space]\nobjective = "stage_rigidity"\n'
+        "eccentricity_mm = { start = 1.2, stop = 1.3, points = 2 }\n"
+    )
+    result = runner.invoke(app, ["design", str(study), "--out", str(tmp_path / "g")])
+    assert result.exit_code == 2 and not called
+    line = result.output.strip()
+    assert "\n" not in line and "design_space.eccentricity_mm" in line
+    assert 'disc_body = "rigid"' in line and not (tmp_path / "g").exists()
+
+
 def test_a_refused_compliant_stage_keeps_the_earlier_result(coarse, tmp_path, monkeypatch):
     """Issue 23 with the compliant disc: ``cyclomesh run`` of the stage with disc_body =
     "fe" into a folder holding its complete result, refused after its first case was

@@ -214,6 +214,7 @@ def candidate_metrics(
     disc_body: Any = "rigid",
     friction: Any = None,
     stage: Any = None,
+    stage_disc_body: Any = "rigid",
 ) -> dict[str, FloatArray]:
     """Metrics of one candidate modification (see module doc), per ring, SI units.
 
@@ -223,7 +224,8 @@ def candidate_metrics(
     (:class:`~cyclomesh.core.friction.Friction`) a second solve, friction in the equilibrium,
     gives the forward ``efficiency`` and ``loss_fraction`` (the other metrics stay those of
     the frictionless model, as without it). With ``stage``
-    (:class:`~cyclomesh.stage.design.StageDesign`) :func:`stage_metrics` adds the stage's.
+    (:class:`~cyclomesh.stage.design.StageDesign`) :func:`stage_metrics` adds the stage's,
+    solved with ``stage_disc_body`` (``"rigid"`` or the free disc body).
 
     Returns
     -------
@@ -294,6 +296,7 @@ def candidate_metrics(
                 groove_deformation,
                 contact_law,
                 discs,
+                stage_disc_body,
             )
         )
     return out
@@ -309,12 +312,15 @@ def stage_metrics(
     groove_deformation: bool = True,
     contact_law: str = "half_plane",
     discs: int = 1,
+    disc_body: Any = "rigid",
 ) -> dict[str, FloatArray]:
     """The RV stage's metrics of a candidate, per ring, SI units (see the module doc).
 
     One stage solve at ±3 %, ±50 % and ±100 % of ``torque`` [N·m] (the rated torque T_r
     of the catalogue definitions, :func:`cyclomesh.drive.torsion.torsion_metrics`); L10
     [s] at +T_r (:func:`cyclomesh.stage.solve.bearing_life`), only with a crank bearing.
+    ``disc_body``: ``"rigid"`` or the free disc body of the stage
+    (:class:`~cyclomesh.core.discbody.FreeDiscBody`, ``disc_body = "fe"``).
 
     Raises
     ------
@@ -330,7 +336,7 @@ def stage_metrics(
     torques = torsion_torques(torque, 2)
     res = solve(
         Case(design, modification, errors, torques, crank_angles),
-        Model(contact_law, groove_deformation, "rigid", discs, stage),
+        Model(contact_law, groove_deformation, disc_body, discs, stage),
     )
     lost, rigidity = torsion_metrics(res.transmission_error, torques, torque)
     out = {"stage_rigidity": rigidity.min(axis=-1), "stage_lost_motion": lost.max(axis=-1)}

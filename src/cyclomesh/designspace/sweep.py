@@ -91,6 +91,7 @@ if TYPE_CHECKING:
 __all__ = [
     "PARAMETERS",
     "GEOMETRY",
+    "check_body_axes",
     "parameter",
     "parameter_value",
     "METRICS",
@@ -149,6 +150,10 @@ class DesignTask:
     """:class:`~cyclomesh.core.friction.Friction` for the efficiency metrics, or None."""
     stage: Any = None
     """:class:`~cyclomesh.stage.design.StageDesign` for the stage metrics, or None."""
+    stage_disc_body: Any = "rigid"
+    """The base design's free disc body (:class:`~cyclomesh.core.discbody.FreeDiscBody`,
+    crank-hole centres free) of the stage solves, or ``"rigid"``; like :attr:`disc_body`,
+    one for every candidate modification."""
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -228,6 +233,7 @@ class DesignTask:
                     self.disc_body,
                     self.friction,
                     self.stage,
+                    self.stage_disc_body,
                 )
             except CyclomeshError as exc:  # undercut, interfering pin, failed solve
                 reason[row] = str(exc)  # in full: design.nc keeps every character
@@ -322,6 +328,7 @@ def design_map(
     disc_body: Any = "rigid",
     friction: Any = None,
     stage: Any = None,
+    stage_disc_body: Any = "rigid",
 ) -> xr.Dataset:
     """Design map over a grid of modifications, as a labelled Dataset.
 
@@ -362,7 +369,8 @@ def design_map(
         metrics are those of the stack, per-disc ones reduced over the discs.
     disc_body : "rigid" or DiscBody
         The disc body of every candidate: the base design's coefficients (a
-        modification of a few µm leaves the body's compliance as it is).
+        modification of a few µm leaves the body's compliance as it is). A compliant
+        body refuses :data:`GEOMETRY` axes: its table belongs to one geometry.
     friction : Friction, optional
         Friction at the pins (:mod:`cyclomesh.core.friction`): adds the ``efficiency`` and
         ``loss_fraction`` metrics (a second solve per candidate, friction in the
@@ -370,6 +378,9 @@ def design_map(
     stage : StageDesign, optional
         The RV stage around the mesh: adds :data:`STAGE_METRICS` (a stage solve at six
         torques per candidate); needed by the ``stage_*`` objectives and constraints.
+    stage_disc_body : "rigid" or FreeDiscBody
+        The disc body of the stage solves (``disc_body = "fe"`` with ``[stage]``): the
+        base design's free body for every candidate modification, as ``disc_body``.
 
     Returns
     -------
@@ -406,6 +417,7 @@ def design_map(
             "the efficiency objective and min_efficiency need friction: add [friction]"
         )
     _check_stage(stage, objective, constraints, friction)
+    check_body_axes(any(not isinstance(b, str) for b in (disc_body, stage_disc_body)), tuple(axes))
     coords = {key: np.atleast_1d(np.asarray(v, dtype=float)) for key, v in axes.items()}
     task = DesignTask(
         design=design,
@@ -424,6 +436,7 @@ def design_map(
         disc_body=disc_body,
         friction=friction,
         stage=stage,
+        stage_disc_body=stage_disc_body,
     )
     metrics = evaluate_grid(task, backend, chunk, progress)
     feasible, reason = feasibility(metrics, constraints)
@@ -452,6 +465,7 @@ def design_map(
             "objective_variable": METRICS[OBJECTIVES[objective]][0],
             "torque_nm": float(torque),
             "disc_body": "rigid" if isinstance(disc_body, str) else "fe",
+            "stage_disc_body": "rigid" if isinstance(stage_disc_body, str) else "fe",
             "rings": int(rings),
             "robust": int(bool(ring_shape)),
             "robust_percentile": ROBUST_PERCENTILE,
@@ -497,6 +511,19 @@ def _constraint_attrs(constraints: Constraints) -> dict[str, float]:
     if constraints.max_stage_lost_motion is not None:
         out["max_stage_lost_motion_arcmin"] = constraints.max_stage_lost_motion / RAD_PER_ARCMIN
     return out
+
+
+def check_body_axes(compliant: bool, axes: tuple[str, ...]) -> None:
+    """One-line DesignError for a compliant disc body (``disc_body = "fe"``) over swept
+    :data:`GEOMETRY`: the body's FE table belongs to the study's one geometry, so every
+    candidate of another geometry would be solved with a body that is not its own."""
+    swept = [key for key in axes if key in GEOMETRY]
+    if compliant and swept:
+        raise DesignError(
+            f'design_space.{swept[0]}: disc_body = "fe" is the FE table of the study\'s one '
+            "geometry, not of each candidate's; sweep the modification only, or map the "
+            'geometry with disc_body = "rigid" and check the optimum with cyclomesh run'
+        )
 
 
 def _check_stage(stage: Any, objective: str, constraints: Constraints, friction: Any) -> None:

@@ -101,6 +101,16 @@ def _floats(values: Any) -> list[float]:
     return [float(v) for v in np.asarray(values, float).reshape(-1)]
 
 
+def _names(summary: dict[str, Any]) -> dict[str, dict[str, str]]:
+    """``units`` and ``labels`` of a summary's metrics, from the one quantities registry
+    (every metric a run, a stage, friction or a torsion curve writes: the names and units
+    of ``summary.json``)."""
+    from cyclomesh.quantities import QUANTITIES
+
+    known = [QUANTITIES[n] for n in summary if n in QUANTITIES]
+    return {"units": {q.name: q.unit for q in known}, "labels": {q.name: q.label for q in known}}
+
+
 def _json_array(values: Any) -> list[float | None]:
     """Numbers as a JSON list, non-finite → None (null)."""
     return [v if math.isfinite(v) else None for v in np.asarray(values, float).reshape(-1).tolist()]
@@ -325,8 +335,6 @@ class Session:
             return self._cache[key]
         import time
 
-        from cyclomesh.results.metrics import DRIVE_METRICS, METRICS
-        from cyclomesh.results.stage import STAGE_METRICS
         from cyclomesh.studies.run import compute_run
 
         start = time.perf_counter()
@@ -340,13 +348,11 @@ class Session:
         for dim in ("torque", "disc"):
             if dim in ds.dims:
                 ds = ds.isel({dim: 0})
-        units = {n: m.unit for n, m in (METRICS | DRIVE_METRICS | STAGE_METRICS).items()}
-        labels = {n: m.label for n, m in (METRICS | DRIVE_METRICS | STAGE_METRICS).items()}
+        summary = run.summaries[name]
         payload: dict[str, Any] = {
             "case": name,
-            "summary": run.summaries[name],
-            "units": units,
-            "labels": labels,
+            "summary": summary,
+            **_names(summary),
             "checks": run.checks[name],
             "warnings": run.warnings.get(name, []),
             "plots": _plots(ds, study),
@@ -366,7 +372,6 @@ class Session:
         import tomllib
 
         from cyclomesh.output.writers import toml_dumps
-        from cyclomesh.results.metrics import STIFFNESS_METRICS
         from cyclomesh.studies.stiffness import compute_stiffness
 
         table = tomllib.loads(text)
@@ -383,8 +388,7 @@ class Session:
             "torque_nm": _json_array(curve["torque"].values),
             "rotation_arcsec": _json_array(rotation.values),
             "summary": result.summaries[name],
-            "units": {n: m.unit for n, m in STIFFNESS_METRICS.items()},
-            "labels": {n: m.label for n, m in STIFFNESS_METRICS.items()},
+            **_names(result.summaries[name]),
             "rated_torque_nm": result.summaries[name].get("rated_torque_nm"),
             "checks": result.checks[name],
         }

@@ -33,7 +33,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from cyclomesh.designspace.sweep import GEOMETRY, METRICS, Constraints, parameter_value
+from cyclomesh.designspace.sweep import (
+    GEOMETRY,
+    METRICS,
+    Constraints,
+    check_body_axes,
+    parameter_value,
+)
 from cyclomesh.exceptions import DesignError, StudyError
 from cyclomesh.results.dataset import resolve_disc_body
 from cyclomesh.studies.execute import CommandSteps, StudyKind
@@ -81,26 +87,8 @@ def load_design_study(path: str | Path) -> tuple[Study, DesignSpaceSection]:
     """
     study = load_study(path)
     require_design_space(study)
-    _refuse_before_computing(study)
+    _preflight(study)
     return study, study.file.design_space
-
-
-def _refuse_before_computing(study: Study) -> None:
-    """What ``cyclomesh design`` refuses before its first candidate, also for ``check
-    --kind design`` (the kind's preflight): a list of torques, a robust map without
-    ``[tolerance]``, the compliant disc with ``[stage]``."""
-    torques = [case.load.torque_nm for case in study.cases]
-    if any(isinstance(t, list) for t in torques):
-        raise StudyError(
-            "load.torque_nm: a design map takes one torque; give a number "
-            "(cyclomesh stiffness sweeps torques)"
-        )
-    if study.file.design_space.rings and study.file.tolerance is None:
-        raise StudyError(
-            "design_space.rings: a robust map needs a [tolerance] section to draw rings"
-        )
-    if study.base.stage is not None and study.base.analysis.disc_body != "rigid":
-        study.base.to_core().refuse_compliant_stage("design")
 
 
 def constraints(space: DesignSpaceSection) -> Constraints:
@@ -168,7 +156,7 @@ def compute_design(
     from cyclomesh.studyfile.warnings import has_pin_errors, stage_warning, study_warnings
 
     base = study.base.to_core()
-    base.refuse_compliant_stage("design")
+    _preflight(study)  # before any FE table is built
     if np.ndim(base.torque):
         raise StudyError("load.torque_nm: a design map takes one torque (of the stack), not a list")
     errors = base.errors
@@ -204,6 +192,13 @@ def compute_design(
             constraints=constraints(space),
             friction=base.friction,
             stage=base.stage,
+            stage_disc_body=(
+                "rigid"
+                if base.stage is None
+                else resolve_disc_body(
+                    base.disc_body, base.design, base.modification, base.crank_holes, stage=True
+                )
+            ),
             objective=space.objective,
             lost_motion=space.lost_motion,
             backend=backend,
@@ -448,6 +443,29 @@ def design_sections(result: DesignResult) -> list[Section]:
     return warning_sections(s.get("warnings", [])) + sections
 
 
+def _preflight(study: Study) -> None:
+    """The design map's own refusals before it computes (``cyclomesh check --kind design``
+    too): a list of torques, a robust map without ``[tolerance]``, a compliant disc body
+    (``disc_body = "fe"``) over swept geometry
+    (:func:`~cyclomesh.designspace.sweep.check_body_axes`)."""
+    torques = [case.load.torque_nm for case in study.cases]
+    if any(isinstance(t, list) for t in torques):
+        raise StudyError(
+            "load.torque_nm: a design map takes one torque; give a number "
+            "(cyclomesh stiffness sweeps torques)"
+        )
+    if study.file.design_space.rings and study.file.tolerance is None:
+        raise StudyError(
+            "design_space.rings: a robust map needs a [tolerance] section to draw rings"
+        )
+    try:
+        check_body_axes(
+            study.base.analysis.disc_body == "fe", tuple(study.file.design_space.axes())
+        )
+    except DesignError as exc:
+        raise StudyError(str(exc)) from None
+
+
 def _candidates(study: Study) -> int:
     return math.prod(len(v) for v in study.file.design_space.axes().values())
 
@@ -483,7 +501,7 @@ DESIGN = StudyKind(
     figures=lambda result, early: design_figures(result),
     sections=lambda result: design_sections(result),
     keys_first=require_design_space,
-    preflight=_refuse_before_computing,
+    preflight=_preflight,
     steps=CommandSteps(
         load=lambda path, options: load_design_study(path)[0],
         parallel=_parallel,

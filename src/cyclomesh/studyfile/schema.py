@@ -202,18 +202,6 @@ class CaseInputs:
             self.friction,
         )
 
-    def refuse_compliant_stage(self, kind: str) -> None:
-        """One-line :class:`StudyError` for ``disc_body = "fe"`` with ``[stage]`` in a
-        kind that solves the stage per candidate (``kind``: design): the compliant disc
-        is coupled with the stage in run, stiffness, tolerance and allocate (one free disc
-        body for the study's one geometry); a design map is not done (docs/stage.md)."""
-        if self.stage is not None and self.disc_body != "rigid":
-            raise StudyError(
-                f'[analysis] disc_body = "fe" with [stage]: cyclomesh {kind} solves the stage '
-                "with rigid discs only (the compliant disc is in run, stiffness, tolerance "
-                'and allocate); set disc_body = "rigid"'
-            )
-
     def kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :func:`cyclomesh.analyse`."""
         return {

@@ -116,10 +116,15 @@ async function ask() {
   $("status").textContent = `answered in ${ms.toFixed(0)} ms (solve ${(1000 * data.seconds).toFixed(0)} ms)`;
 }
 
-function fmt(v) {
+function fmt(v, name = "") {
   if (v === null || v === undefined) return "—";
   if (typeof v === "boolean") return v ? "yes" : "no";
-  if (Array.isArray(v)) return v.map(fmt).join(" / ");
+  // order rows of summary.json: [crank order, output order, amplitude]
+  if (name.endsWith("_orders") && Array.isArray(v))
+    return v.map((r) => `crank ×${r[0]}: ${fmt(r[2])}`).join(", ");
+  if (Array.isArray(v)) return v.map((x) => fmt(x)).join(" / ");
+  // a table of summary.json (path -> value): compliance shares, losses per path
+  if (typeof v === "object") return Object.entries(v).map(([k, x]) => `${k} ${fmt(x)}`).join(", ");
   if (typeof v !== "number") return String(v);
   if (Number.isInteger(v)) return String(v);
   if (Math.abs(v) >= 1e5) return v.toFixed(0);
@@ -273,7 +278,7 @@ function tables(d) {
   const body = $("summary").querySelector("tbody");
   body.replaceChildren();
   const add = (name, value, unit, label) => {
-    const tr = row([[label || name, ""], [fmt(value), "v"], [unit === "1" ? "" : unit || "", ""], [name, "n"]],
+    const tr = row([[label || name, ""], [fmt(value, name), value !== null && typeof value === "object" ? "v t" : "v"], [unit === "1" ? "" : unit || "", ""], [name, "n"]],
       { id: `metric-${name}`, "data-value": JSON.stringify(value) });
     body.appendChild(tr);
   };
