@@ -116,6 +116,16 @@ def test_measured_pins_csv_refuses_python_syntax_and_pins_without_radius(
             "roller_length_mm = 50.0",
             ["roller_length_mm = 50", "disc width", "width_mm = 10"],
         ),
+        (  # was "stage.crank_bearing.pitch_diameter must be positive, got -0.004" (issue 23)
+            "roller_diameter_mm = 4.0",
+            "roller_diameter_mm = 30.0",
+            ["roller_diameter_mm = 30", "crank_hole_radius_mm = 13", "below 13 mm"],
+        ),
+        (
+            "rollers = 14",
+            "rollers = 60",
+            ["60 rollers of 4 mm do not fit on the pitch circle of 22 mm (at most 17)"],
+        ),
         (
             "output_speed_rpm = 15.0",
             "hole_error_radial_um = 1000.0\noutput_speed_rpm = 15.0",
