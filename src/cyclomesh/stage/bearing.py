@@ -47,6 +47,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.exceptions import ConvergenceError, DesignError
+from cyclomesh.stage.kernel import compiled, roller_law
 
 __all__ = [
     "RollerSet",
@@ -228,8 +229,12 @@ def radial_law(
 
     The compressions δ_j are formed once and the powers taken on the loaded rollers only
     (an unloaded roller adds an exact 0): every element, and so every sum, is the same
-    arithmetic as the three functions'. The stiffness is None if not ``stiffness``.
+    arithmetic as the three functions'. The stiffness is None if not ``stiffness``. With
+    ``CYCLOMESH_KERNEL=numba`` the compiled :func:`cyclomesh.stage.kernel.roller_law`
+    (the same law to round-off).
     """
+    if compiled():  # CYCLOMESH_KERNEL=numba: one pass, one power a loaded roller
+        return roller_law(np.cos(rs.angles), 0.5 * rs.clearance, rs.constant, s, stiffness)
     d = _compressions(rs, s)
     c = np.cos(rs.angles)
     loaded = d > 0.0

@@ -38,6 +38,9 @@ from cyclomesh.drive.solve import (
 from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.stage.bearing import roller_loads
 from cyclomesh.stage.design import StageDesign
+from cyclomesh.stage.kernel import compiled, pin_law
+from cyclomesh.stage.kernel import newton as kernel_newton
+from cyclomesh.stage.kernel import rigid_newton as kernel_rigid_newton
 from cyclomesh.stage.newton import FORCE_TOLERANCE, newton, reducer
 from cyclomesh.stage.supports import (
     BearingLaw,
@@ -145,8 +148,14 @@ def _pins(
 
     The law is evaluated only where a pin closes (δ > 0; most pins of a crank angle are
     open), each element by the same arithmetic as on the whole array. ``shift``: the disc
-    body's displacement into the disc at every pin (compliant disc), subtracted.
+    body's displacement into the disc at every pin (compliant disc), subtracted. With
+    ``CYCLOMESH_KERNEL=numba``: :func:`cyclomesh.stage.kernel.pin_law` (the same law to
+    round-off; the reference where it cannot invert a pin's law).
     """
+    if compiled():
+        out = pin_law(p.bl, p.arm, p.nx, p.ny, p.alpha, p.gamma, p.dmax, theta, ux, uy, shift)
+        if out is not None:
+            return out
     usable = np.isfinite(p.bl)
     delta = p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
     if ux is not None:  # None: no translation (adding n·0 would change no bit)
@@ -432,7 +441,9 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
         rows = G.reshape(n, -1, m)  # Gᵀ·K·G over the holes' (x, y)
         H = H + np.matmul(np.swapaxes(rows, -1, -2), np.matmul(kmat, G).reshape(n, -1, m))
         if nw:
-            H[:, base : base + nw, base : base + nw] += np.kron(sup.stiffness, np.eye(2 * N))
+            # the crankshafts' K ⊗ I(2N), added on its nonzero entries only (the others +0)
+            rows, cols, vals = _shaft_entries(sup.stiffness, base, 2 * N)
+            H[:, rows, cols] += vals
         if carrier is not None:
             H[:, base + nw, base + nw] += carrier / (L * L)
     state.update(
@@ -444,6 +455,14 @@ def _evaluate_supported(p: _Problem, law, x, discs, hessian, energy, g, H, state
         end_plate=beta,
     )
     return energy, g, H, state
+
+
+def _shaft_entries(stiffness: FloatArray, base: int, size: int):
+    """Rows, columns and values of the nonzero entries of K ⊗ I(size) placed at ``base``
+    (the crankshafts' block of the Hessian, :func:`_evaluate_supported`)."""
+    D = stiffness.shape[0]
+    d, e, r = np.meshgrid(np.arange(D), np.arange(D), np.arange(size), indexing="ij")
+    return base + d * size + r, base + e * size + r, stiffness[d, e]
 
 
 def bearing_jacobian(p: _Problem, discs: int, m: int) -> FloatArray:
@@ -527,6 +546,10 @@ def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatA
     the near pins alone do not converge (a left-out pin that would have held a disc),
     the whole problem is solved from the start, so this fails only where it fails. The
     compliant disc's problem goes through :func:`_body_newton`."""
+    if (rigid or (p.body is None and law.k is None)) and compiled():
+        # CYCLOMESH_KERNEL=numba: every pin in the compiled pass (an open pin costs it a
+        # comparison, less than picking the near ones), so there is no check after
+        return _kernel_newton(p, _evaluate, law, x, discs, rigid, phi)
     solver = newton if rigid or p.body is None else _body_newton
     q = _near(p, x, discs, rigid)
     start = x.copy()
@@ -539,6 +562,23 @@ def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatA
     again = np.flatnonzero(np.any(closed != counted, axis=-1))
     if again.size:
         x[again] = solver(p.take(again), _evaluate, law, x[again], discs, rigid, phi[again])
+    return x
+
+
+def _kernel_newton(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid: bool, phi):
+    """:func:`~cyclomesh.stage.newton.newton` compiled (:func:`cyclomesh.stage.kernel.newton`,
+    :func:`~cyclomesh.stage.kernel.rigid_newton` for the rigid phase: each crank angle's
+    iteration in one pass); the crank angles it cannot finish are
+    solved by the reference from their start, which raises its own error if it fails."""
+    start = x.copy()
+    if rigid:
+        failed = kernel_rigid_newton(p, x, discs)
+    else:
+        jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, x.shape[1])
+        failed = kernel_newton(p, law, x, discs, jacobian)
+    if np.any(failed):
+        idx = np.flatnonzero(failed)
+        x[idx] = newton(p.take(idx), evaluate, law, start[idx], discs, rigid, phi[idx])
     return x
 
 

@@ -1,0 +1,168 @@
+"""The stage's compiled laws (cyclomesh.stage.kernel, CYCLOMESH_KERNEL=numba) against the
+NumPy reference: the roller set and the pins' law element by element, and whole stage
+solves (rigid bearings, bearings with clearance, crankshafts and carrier from geometry,
+the rated torque and ±3 % of it, pin and crank hole errors) to round-off; failures are
+still raised."""
+
+import numpy as np
+import pytest
+
+import cyclomesh.stage.equilibrium as eq
+from cyclomesh.core import kernel
+from cyclomesh.exceptions import ConvergenceError
+from cyclomesh.stage import StageDesign, solve_stage
+from cyclomesh.stage.bearing import radial_law
+from cyclomesh.stage.kernel import pin_law, roller_law
+
+pytest.importorskip("numba")
+
+from tests.stage.test_newton import BEARING, HOLES, LIGHT, MOD, RV40, _hard_stage  # noqa: E402
+
+PHI = np.radians(np.arange(0.0, 360.0, 6.0))
+FIELDS = (
+    "twist",
+    "transmission_error",
+    "mesh_transmission_error",
+    "pin_load",
+    "bearing_load",
+    "bearing_deflection",
+    "disc_translation_x",
+    "disc_translation_y",
+    "contact_stress",
+)
+
+
+def test_roller_law_is_the_reference_to_round_off():
+    s = np.concatenate([np.linspace(0.0, 3e-6, 60), np.geomspace(2.5e-6, 5e-5, 60)])
+    s = s.reshape(12, 10)
+    ref = radial_law(BEARING, s)
+    got = roller_law(np.cos(BEARING.angles), 0.5 * BEARING.clearance, BEARING.constant, s, True)
+    for a, b in zip(ref, got, strict=True):
+        assert b.shape == s.shape
+        assert np.all((a == 0.0) == (b == 0.0))  # the same rollers loaded
+        assert np.all(np.abs(a - b) <= 1e-14 * np.abs(a))
+    assert roller_law(np.cos(BEARING.angles), 2.5e-6, BEARING.constant, s, False)[1] is None
+
+
+def test_pin_law_is_the_reference_to_round_off():
+    rng = np.random.default_rng(3)
+    shape = (5, 2, 30)
+    alpha = rng.uniform(1.5e-9, 2.5e-9, shape)
+    gamma = rng.uniform(0.6e-10, 1e-10, shape)
+    gamma[0, 0, :5] = 0.0  # the linear spring
+    arm = rng.uniform(-0.06, 0.06, shape)
+    nx, ny = rng.uniform(-1, 1, shape), rng.uniform(-1, 1, shape)
+    bl = rng.uniform(-2e-5, 2e-5, shape)
+    bl[1, 1, ::4] = np.inf  # pins without a law
+    with np.errstate(
+        divide="ignore", over="ignore", invalid="ignore"
+    ):  # half the stiffest point, as _problem
+        dmax = np.where(gamma > 0, 0.5 * gamma * np.exp(alpha / gamma - 1.0), np.inf)
+    dmax[2, 0, :] = 1e-9  # approaches past it: that crank angle is "bad"
+    theta = rng.uniform(-2e-5, 2e-5, shape[:2])
+    ux, uy = rng.uniform(-2e-6, 2e-6, shape[:2]), rng.uniform(-2e-6, 2e-6, shape[:2])
+    shift = rng.uniform(-1e-7, 1e-7, shape)
+    for u, sh in (((None, None), None), ((ux, uy), None), ((ux, uy), shift)):
+        p = eq._Problem(bl, arm, nx, ny, alpha, gamma, dmax, *(np.zeros((5, 3)),) * 2,
+                        *(np.zeros((5, 2, 3)),) * 2, 1.0, 1.0)  # fmt: skip
+        ref = eq._pins(p, theta, *u, sh)
+        got = pin_law(bl, arm, nx, ny, alpha, gamma, dmax, theta, *u, sh)
+        assert np.array_equal(ref[3], got[3]) and ref[3][2] and not np.all(ref[3])
+        for a, b in zip(ref[:3], got[:3], strict=True):
+            assert np.all((a == 0.0) == (b == 0.0))  # the same pins closed
+            assert np.max(np.abs(a - b)) <= 1e-13 * np.max(np.abs(a))
+        assert np.count_nonzero(ref[0]) > 50
+
+
+def test_pin_law_hands_an_uninvertible_pin_to_the_reference():
+    one = np.ones((1, 1, 1))
+    # δ = 1 mm past the stiffest point γ·exp(α/γ − 1) of this law, but below dmax
+    got = pin_law(0 * one, one * 1e-2, 0 * one, 0 * one, 2e-9 * one, 2e-10 * one,
+                  np.inf * one, np.full((1, 1), 0.1), None, None, None)  # fmt: skip
+    assert got is None
+
+
+def _both(monkeypatch, solve):
+    out = {}
+    for name in kernel.KERNELS:
+        monkeypatch.setenv(kernel.ENV_VAR, name)
+        out[name] = solve()
+    return out["numpy"], out["numba"]
+
+
+def _agree(ref, got):
+    """Every field to 1e-13 of its largest value; the translation of a disc that carries
+    nothing (all its crank bearings unloaded at ±3 % with errors: it floats in the
+    clearance, where the potential is flat) and its bearings' deflections are not unique,
+    and are only checked to be a solution there: unloaded (to round-off) in both."""
+    idle = np.max(ref.bearing_load, axis=-1) <= 1e-12 * np.max(ref.bearing_load)  # (..., D)
+    for name in FIELDS:
+        a, b = np.asarray(getattr(ref, name)), np.asarray(getattr(got, name))
+        assert a.shape == b.shape, name
+        assert np.array_equal(np.isfinite(a), np.isfinite(b)), name
+        fin = np.isfinite(a)
+        if name.startswith("disc_translation"):
+            fin &= ~idle
+        elif name == "bearing_deflection":
+            fin &= ~idle[..., None]
+        scale = np.max(np.abs(a[fin]))
+        assert np.max(np.abs(a[fin] - b[fin])) <= 1e-13 * scale, name
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_stage_with_crankshafts_carrier_and_errors_agrees(monkeypatch, seed):
+    """The tolerance study's ring: the rated torque and ∓3 % of it, pin errors and crank
+    hole errors beyond the clearance (discs that float, bearings at zero load)."""
+    errors, stage = _hard_stage(seed)
+    torques = [412.0, -LIGHT, LIGHT]
+    ref, got = _both(
+        monkeypatch, lambda: solve_stage(RV40, stage, MOD, errors, torques, PHI, discs=2)
+    )
+    _agree(ref, got)
+
+
+@pytest.mark.parametrize("bearing", [None, BEARING])
+def test_rigid_and_clearance_bearings_agree(monkeypatch, bearing):
+    stage = StageDesign(HOLES, bearing)
+    ref, got = _both(
+        monkeypatch,
+        lambda: solve_stage(RV40, stage, MOD, None, [412.0, -LIGHT], PHI, discs=2),
+    )
+    _agree(ref, got)
+
+
+def test_a_torque_too_large_still_raises(monkeypatch):
+    messages = []
+    for name in kernel.KERNELS:
+        monkeypatch.setenv(kernel.ENV_VAR, name)
+        with pytest.raises(ConvergenceError) as info:
+            solve_stage(RV40, StageDesign(HOLES, BEARING), MOD, None, 5e6, PHI[:4], discs=2)
+        messages.append(str(info.value))
+    assert messages[0] == messages[1]
+
+
+def test_non_convergence_still_raises(monkeypatch):
+    """Newton's iteration cut to one step cannot reach the tolerance: both kernels raise."""
+    import cyclomesh.stage.newton as nt
+
+    monkeypatch.setattr(nt, "_MAX_ITERATIONS", 1)
+    errors, stage = _hard_stage(0)
+    for name in kernel.KERNELS:
+        monkeypatch.setenv(kernel.ENV_VAR, name)
+        with pytest.raises(ConvergenceError, match="did not converge"):
+            solve_stage(RV40, stage, MOD, errors, [LIGHT], PHI[:4], discs=2)
+
+
+def test_the_compiled_newton_does_the_work(monkeypatch):
+    """With the numba kernel every crank angle of the rigid and the bearing phase is solved
+    by the compiled iteration: the reference is not called."""
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("fell back to the NumPy Newton")
+
+    errors, stage = _hard_stage(1)
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    monkeypatch.setattr(eq, "newton", refuse)
+    got = solve_stage(RV40, stage, MOD, errors, [412.0, -LIGHT, LIGHT], PHI, discs=2)
+    tol = 1e-12 * np.array([412.0, LIGHT, LIGHT])[:, None] / HOLES.circle_radius
+    assert np.all(got.residual <= tol)
