@@ -11,7 +11,7 @@ request to parsed JSON (the page's whole round trip minus drawing):
 Target (issue 28, on a 2-core shared machine): a 360-step case answers in < 0.3 s
 (median). Requests are bounded in number and go to 127.0.0.1 only.
 
-    python benchmarks/bench_explore.py --requests 21
+    .venv/bin/python benchmarks/bench_explore.py --requests 21
 """
 
 from __future__ import annotations

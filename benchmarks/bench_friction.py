@@ -7,7 +7,7 @@ pins and crank bearing, and the lubricated (Benedict–Kelley) coefficient; time
 alternately, best of ``--repeat``. The target of issue 25: friction within 1.5× of the
 frictionless solve.
 
-    python benchmarks/bench_friction.py [--repeat 5]
+    .venv/bin/python benchmarks/bench_friction.py [--repeat 5]
 """
 
 from __future__ import annotations

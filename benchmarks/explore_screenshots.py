@@ -1,6 +1,6 @@
 """Screenshots of the explorer for docs/explore.md (1366 px wide, headless Chromium).
 
-    python benchmarks/explore_screenshots.py docs/
+    .venv/bin/python benchmarks/explore_screenshots.py docs/
 
 Starts ``cyclomesh explore examples/requirements.toml`` on a free loopback port and
 drives the page with Playwright through Debian's ``chromium`` (never ``playwright

@@ -177,6 +177,11 @@ def test_design_map_figures_show_feasible_region_and_optimum():
     # the hatched (infeasible) region has its legend entry; failed candidates too if any
     feasible = ds["feasible"].values.astype(bool)
     assert ("infeasible (constraint)" in labels) == bool((~feasible).any())
+    # the solved candidates are marked (the contours join them only); blank is explained
+    # where failed candidates leave a gap
+    assert "solved candidate" in labels
+    failed = ~np.isfinite(ds["max_contact_stress_mpa"].values)
+    assert ("blank: not interpolated" in labels) == bool(failed.any())
     assert "Δρ" in ax.get_xlabel() and "Δa" in ax.get_ylabel()
     assert ax.get_xlabel().endswith("[µm]") and "um]" not in ax.get_ylabel()
     assert ax.get_title() == ds["max_contact_stress_mpa"].attrs["long_name"]

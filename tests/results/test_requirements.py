@@ -179,3 +179,31 @@ def test_stage_results_are_checked_before_the_mesh_alone():
     assert "reducer" in rows["min_torsional_rigidity_nm_per_arcmin"]["note"]
     assert rows["min_torsional_rigidity_nm_per_arcmin"]["verdict"] == "fail"
     assert rows["min_bearing_life_h"]["margin"] == -2000.0
+
+
+def test_a_stage_row_names_the_parts_the_stage_modelled():
+    """Issue 23: the rigidity row says what was checked. A stage with crankshafts and
+    carrier must not say they are left out; the mesh alone names crank bearings and
+    crankshafts as left out."""
+    from types import SimpleNamespace
+
+    from cyclomesh.results.requirements import stage_parts
+
+    summary = {
+        "stage_torsional_rigidity_nm_per_arcmin_min": 150.0,
+        "torsional_rigidity_nm_per_arcmin_min": 2000.0,
+    }
+    limits = {"min_torsional_rigidity_nm_per_arcmin": 200.0}
+    full = SimpleNamespace(bearing=object(), crankshaft=object(), carrier=object())
+    parts = stage_parts(full, "fe")
+    assert parts == ("crank bearings", "crankshafts", "carrier", "compliant disc")
+    note = check_requirements(limits, summary, stage=parts)[0][0]["note"]
+    assert "stage: mesh + crank bearings + crankshafts + carrier + compliant disc" in note
+    assert "(main bearings, housing, first stage not included)" in note
+    rigid = SimpleNamespace(bearing=None, crankshaft=None, carrier=None)
+    note = check_requirements(limits, summary, stage=stage_parts(rigid))[0][0]["note"]
+    assert note.startswith("stage: mesh;")
+    assert "crank bearings, crankshafts, carrier not included" in note
+    mesh = check_requirements(limits, {"torsional_rigidity_nm_per_arcmin_min": 2000.0})
+    note = mesh[0][0]["note"]
+    assert note.startswith("mesh alone") and "crank bearings, crankshafts not included" in note

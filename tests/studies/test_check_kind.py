@@ -60,6 +60,7 @@ def test_crank_holes_without_a_stage_refused_by_check_as_by_run(tmp_path):
             "rotation",
         ),
         ("stiffness.toml", "fe", None, "pin errors"),
+        ("table2.toml", "efficiency", None, "no [efficiency] section"),
     ],
 )
 def test_check_kind_refuses_as_the_command_does(tmp_path, example, kind, edit, expect):
@@ -82,7 +83,31 @@ def test_check_accepts_every_example_for_every_command_it_is_written_for():
 
 def test_check_kind_unknown_is_one_line():
     line = one_line(invoke("check", str(EXAMPLES / "table2.toml"), "--kind", "walk"))
-    assert "--kind" in line and "export" in line
+    assert "--kind" in line and "export" in line and "efficiency" in line
+
+
+def test_check_help_names_every_kind():
+    """Every command that computes from a study file is a --kind (efficiency came later)."""
+    from cyclomesh.studyfile.kinds import KINDS
+
+    text = " ".join(invoke("check", "--help").output.split())
+    for spec in KINDS:
+        if spec.command != "explore":
+            assert spec.command in text.split("--kind", 1)[1], spec.command
+
+
+def test_friction_with_a_stage_refused_by_check_as_by_run(tmp_path):
+    text = (EXAMPLES / "rv_stage.toml").read_text()
+    study = tmp_path / "s.toml"
+    study.write_text(
+        text.replace("[stage]\n", "[friction]\nmesh_coefficient = 0.1\n\n[stage]\n", 1)
+    )
+    refused = one_line(invoke("run", str(study), "--out", str(tmp_path / "o"), "-q"))
+    assert "[friction]" in refused and "[stage]" in refused
+    assert one_line(invoke("check", str(study), "--kind", "run")) == refused
+    line = one_line(invoke("check", str(study)))
+    assert line.startswith("error: cyclomesh run would refuse it: ") and "stiffness" in line
+    assert not (tmp_path / "o").exists()
 
 
 def test_allocate_refuses_a_bad_target_probability_before_the_folder(tmp_path):

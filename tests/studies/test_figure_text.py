@@ -8,7 +8,7 @@ import numpy as np
 import xarray as xr
 
 from cyclomesh.figures.drive import plot_torque_share
-from cyclomesh.figures.run import plot_contacts
+from cyclomesh.figures.run import plot_contacts, plot_loads, plot_profile_stress
 from cyclomesh.figures.tolerance import plot_stress_exceedance
 
 
@@ -60,3 +60,58 @@ def test_an_even_torque_split_is_drawn_flat_without_an_offset():
     assert high - low >= 0.01 * 206.0  # round-off is not a swing
     title = ax.title.get_window_extent()
     assert title.y1 <= fig.bbox.y1 and title.x0 >= 0 and title.x1 <= fig.bbox.x1
+
+
+def _loads(pins: int = 40, angles: int = 8) -> xr.Dataset:
+    """Pin loads with a loaded arc at the first pins (where a legend "best" placed goes)."""
+    crank = np.linspace(0.0, 360.0, angles, endpoint=False)
+    load = np.zeros((angles, pins))
+    load[:, :12] = 600.0 * np.sin(np.linspace(0.1, np.pi, 12))
+    ds = xr.Dataset(
+        {
+            "pin_load": (("crank_angle", "pin"), load),
+            "groove_load": (("crank_angle", "pin"), 0.6 * load),
+            "contact_stress": (("crank_angle", "pin"), 2.0 * load),
+            "profile_angle": (
+                ("crank_angle", "pin"),
+                np.tile(-np.arange(pins, dtype=float), (angles, 1)),
+            ),
+        },
+        coords={"crank_angle": crank, "pin": np.arange(1, pins + 1)},
+    )
+    return ds
+
+
+def test_the_pin_load_legend_is_beside_the_axes():
+    """Issue 23 (looked at again): the legend of the pin loads sat inside the first axes,
+    over the loaded pins of the RV stage's discs."""
+    ds = _loads()
+    fig = _drawn(plot_loads, {"three crankshafts, disc 1": ds, "two crankshafts, disc 2": ds})
+    legend = fig.axes[1].get_legend()
+    assert fig.axes[0].get_legend() is None and legend is not None
+    box = legend.get_window_extent()
+    for ax in fig.axes:
+        assert box.x0 >= ax.get_window_extent().x1  # beside every axes, over no curve
+    assert box.x1 <= fig.bbox.x1  # and inside the figure
+
+
+def test_the_profile_stress_of_an_unloaded_pin_says_so():
+    """A pin the pin errors lift off at every angle drew an empty frame with a legend
+    (examples/requirements.toml, pin 20): it now says why it is empty."""
+    ds = _loads()
+    fig = _drawn(plot_profile_stress, {"case": ds}, 20)
+    ax = fig.axes[0]
+    assert ax.get_legend() is None and "pin 20 carries no load" in ax.texts[0].get_text()
+    fig = _drawn(plot_profile_stress, {"a": ds, "b": ds}, 5)
+    legend = fig.axes[0].get_legend().get_window_extent()
+    assert legend.x0 >= fig.axes[0].get_window_extent().x1
+
+
+def test_the_default_stress_pin_is_a_loaded_one():
+    """Without [figures] stress_pin the figure takes pin n/2, unless no case loads it:
+    then the pin of the highest contact stress."""
+    from cyclomesh.studies.run import _stress_pin
+
+    ds = _loads()
+    assert _stress_pin({"case": ds}, 20) == 6  # the peak of the loaded arc (pins 1-12)
+    assert _stress_pin({"case": ds}, 5) == 5  # loaded: kept

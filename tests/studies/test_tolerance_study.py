@@ -400,3 +400,68 @@ def test_tolerance_with_friction_gives_efficiency_statistics(cli, tmp_path):
     result = invoke(cli, "tolerance", study, "--out", plain, "--workers", "1", "--figures", "none")
     assert result.exit_code == 0, result.output
     assert "efficiency" not in rings_nc(plain)
+
+
+def _rv_jam_study(tmp_path: Path, half_range_um: float, stage: bool) -> Path:
+    """The issue's trigger: the RV-40E-size example at the nominal optimum Δρ = 1.5 µm of
+    its design map, ±`half_range_um` radial pin errors, one case (tolerance analyses the
+    base), mesh alone or with the stage."""
+    text = (Path(__file__).parents[2] / "examples" / "rv_stage.toml").read_text("utf-8")
+    text = text[: text.index("\n[[cases]]")] + "\n"
+    assert "[modification]\npin_radius_um = 3.0" in text
+    text = text.replace(
+        "[modification]\npin_radius_um = 3.0", "[modification]\npin_radius_um = 1.5"
+    )
+    text = text.replace(
+        "[stiffness]\n",
+        "[tolerance]\nseed = 1\nallowable_contact_stress_mpa = 2000.0\ncrank_step_deg = 10.0\n"
+        f'radial_um = {{ distribution = "uniform", half_range = {half_range_um} }}\n\n'
+        "[stiffness]\n",
+        1,
+    )
+    if not stage:  # the mesh alone: no [stage...], no [design.disc]
+        for section in (
+            "[design.disc]",
+            "[stage]",
+            "[stage.crankshaft]",
+            "[stage.carrier]",
+            "[stage.duty_cycle]",
+            "[stage.crank_bearing]",
+        ):
+            i = text.index("\n" + section) + 1
+            text = text[:i] + text[text.index("\n[", i + 1) + 1 :]
+    study = tmp_path / f"rv_jam_{half_range_um:g}_{stage}.toml"
+    study.write_text(text, encoding="utf-8")
+    return study
+
+
+@pytest.mark.parametrize(
+    "half_range_um, stage", [(5.0, False), (2.0, False), (5.0, True)], ids=["5um", "2um", "stage"]
+)
+def test_the_rv_example_at_its_optimum_counts_jammed_rings(cli, tmp_path, half_range_um, stage):
+    """Issue 23: a tolerance study of the RV-40E-size map's optimum Δρ = 1.5 µm at ±5 µm
+    died at the first ring that jams ("pin 7 overlaps the disc", exit 2, no statistics).
+    It now ends with P(jam) and its interval, the first jammed ring written, and the
+    statistics said to be over the rings that do not jam (none: said so, no table of
+    NaN)."""
+    study = _rv_jam_study(tmp_path, half_range_um, stage)
+    out = tmp_path / "out"
+    rings = 6 if stage else 16
+    result = invoke(cli, "tolerance", study, "--out", out, "--rings", rings, "--workers", "1")
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "tolerance_summary.json").read_text())
+    jam = summary["jam"]
+    jammed = rings_nc(out)["jammed"].values.astype(bool)
+    assert jam["count"] == jammed.sum() > 0 and jam["rings"] == rings
+    assert jam["lower"] <= jam["probability"] == jammed.sum() / rings <= jam["upper"]
+    assert (out / "jammed_ring.toml").is_file()
+    text = " ".join(result.output.split())
+    assert "jam: P(the pins jam the disc) = " in text and "Clopper-Pearson" in text
+    assert "P(max σH tooth > 2000 MPa)" in text
+    assert "nan" not in text.split("P(max σH")[0]
+    if jammed.all():
+        assert f"no statistics: every one of the {rings} rings jams the disc" in text
+    else:
+        ran = rings - jammed.sum()
+        assert f"{ran} of {rings} rings (seed 1; {jammed.sum()} jammed" in text
+        assert f"P95 of {ran} rings that did not jam (of {rings})" in text

@@ -93,7 +93,7 @@ def check(
     """Validate a study file (every section) without running it, and refuse what the
     commands would refuse before computing: with --kind that command's refusals, else
     those of every command the file is written for (run, and stiffness, tolerance,
-    allocate, design or fe when it has their section)."""
+    allocate, design, fe or efficiency when it has their section)."""
     from cyclomesh.studies.preflight import check_kinds
     from cyclomesh.studyfile import load_study
     from cyclomesh.studyfile.kinds import check_study_work

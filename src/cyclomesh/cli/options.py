@@ -216,7 +216,7 @@ KindOption = Annotated[
     typer.Option(
         "--kind",
         help="Check for this command only: run, stiffness, tolerance, allocate, design, "
-        "fe or export (default: every command the file is written for).",
+        "fe, efficiency or export (default: every command the file is written for).",
     ),
 ]
 

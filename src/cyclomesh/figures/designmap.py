@@ -58,6 +58,7 @@ def _plane(ds: xr.Dataset, dims: Sequence[str]) -> xr.Dataset:
 
 
 def _draw(ax, ds: xr.Dataset, metric: str, marks: Marks | None) -> None:
+    from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     legend: list = []
@@ -108,6 +109,14 @@ def _draw(ax, ds: xr.Dataset, metric: str, marks: Marks | None) -> None:
                 vmax=1.0,
             )
             legend.append(Patch(facecolor="0.55", label="failed: no solution"))
+            # the contours join solved candidates only: the half step between a solved
+            # and a failed one is left blank, and said so
+            legend.append(
+                Patch(facecolor="white", edgecolor="0.6", label="blank: not interpolated")
+            )
+        xs, ys = np.meshgrid(x, y)
+        ax.plot(xs[finite], ys[finite], ".", ms=2.5, color="0.25", zorder=3)
+        legend.append(Line2D([], [], ls="", marker=".", color="0.25", label="solved candidate"))
         bad = (~feasible.reshape(z.shape) & finite).astype(float)
         if bad.any() and not bad.all():
             ax.contourf(x, y, bad, levels=[0.5, 1.5], colors="none", hatches=["///"])

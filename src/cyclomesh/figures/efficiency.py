@@ -58,6 +58,8 @@ def plot_loss_breakdown(records: Mapping[str, dict[str, Any]]) -> Figure:
         ax.annotate(
             f"η = {100 * r['rated_efficiency']:.1f} %",
             (x, bottom[x]),
+            xytext=(0, 3),  # points above the bar: the text does not sit on its edge
+            textcoords="offset points",
             ha="center",
             va="bottom",
             fontsize="small",

@@ -186,7 +186,15 @@ def plot_loads(results: Results, crank_angles_deg: Sequence[float] = (0, 60, 120
     Fc [N], right the groove load Fp [N]; one line per case in each axes.
     """
     cases = case_results(results)
-    fig = fixed_figure(10.0, 2.4 * len(crank_angles_deg) + 0.6, **{**_MARGINS, "hspace": 0.4})
+    # the legend beside the right column, where it hides no load (inside, "best" still
+    # covered the loaded pins of a stack or a stage at the first angle)
+    legend = len(cases) > 1 or any(cases)
+    room = legend_room(list(cases)) if legend else _MARGINS["right"]
+    fig = fixed_figure(
+        10.0 + room - _MARGINS["right"],
+        2.4 * len(crank_angles_deg) + 0.6,
+        **{**_MARGINS, "hspace": 0.4, "right": room},
+    )
     axes = np.atleast_2d(fig.subplots(len(crank_angles_deg), 2, sharex=True, squeeze=False))
     for row, angle in zip(axes, crank_angles_deg, strict=True):
         for i, (name, ds) in enumerate(cases.items()):
@@ -202,7 +210,7 @@ def plot_loads(results: Results, crank_angles_deg: Sequence[float] = (0, 60, 120
         row[1].set_ylabel("groove load Fp [N]")
     for ax in axes[-1]:
         ax.set_xlabel("pin")
-    case_legend(axes[0, 0], cases)
+    case_legend(axes[0, 1], cases, outside=True)
     return fig
 
 
@@ -222,11 +230,14 @@ def plot_profile_stress(results: Results, pin: int = 20, x: str = "profile_angle
     if x not in ("profile_angle", "contact_radius"):
         raise ValueError(f"x must be 'profile_angle' or 'contact_radius', got {x!r}")
     cases = case_results(results)
-    fig = fixed_figure(7.5, 4.5, **_MARGINS)
+    room = legend_room(list(cases)) if len(cases) > 1 or any(cases) else _MARGINS["right"]
+    fig = fixed_figure(7.5 + room - _MARGINS["right"], 4.5, **{**_MARGINS, "right": room})
     ax = fig.subplots()
+    anywhere = False
     for i, (name, ds) in enumerate(cases.items()):
         j = int(np.flatnonzero(ds["pin"].values == pin)[0])
         loaded = _grid(ds, "pin_load", "crank_angle", "pin")[:, j] > 0
+        anywhere |= bool(loaded.any())
         abscissa = np.where(loaded, _grid(ds, x, "crank_angle", "pin")[:, j], np.nan)
         stress = np.where(loaded, _grid(ds, "contact_stress", "crank_angle", "pin")[:, j], np.nan)
         order = np.argsort(np.where(loaded, abscissa, np.inf), kind="stable")
@@ -237,7 +248,19 @@ def plot_profile_stress(results: Results, pin: int = 20, x: str = "profile_angle
         ax.set_xlabel("radius of the contact point on the disc [mm]")
     ax.set_ylabel("contact stress σH [MPa]")
     ax.set_title(f"pin {pin}: contact stress over the tooth profile")
-    case_legend(ax, cases)
+    if not anywhere:  # an empty frame with a legend would look like a drawing fault
+        ax.text(
+            0.5,
+            0.5,
+            f"pin {pin} carries no load at any crank angle\n(choose another: [figures] stress_pin)",
+            ha="center",
+            va="center",
+            transform=ax.transAxes,
+        )
+        ax.set_yticks([])
+        ax.set_xticks([])
+        return fig
+    case_legend(ax, cases, outside=True)  # beside the axes: it hides no curve
     return fig
 
 

@@ -66,6 +66,8 @@ class RingDistributions:
         Stress levels [MPa] and the number of rings above each (for the exceedance).
     exceeding : int
         Rings above the allowable contact stress.
+    jammed : int
+        Rings that jam the disc (NaN metrics: not in the histograms, above every level).
     """
 
     rings: int
@@ -74,6 +76,7 @@ class RingDistributions:
     levels: np.ndarray
     exceedance_counts: np.ndarray
     exceeding: int
+    jammed: int = 0
 
 
 def reduce_rings(
@@ -113,7 +116,8 @@ def reduce_rings(
     )
     counts = n - np.searchsorted(stress, levels, side="right")  # #{σ > level}
     exceeding = int(np.count_nonzero(stress > allowable))
-    return RingDistributions(n, histograms, ecdfs, levels, counts, exceeding)
+    jammed = int(n - finite.size)
+    return RingDistributions(n, histograms, ecdfs, levels, counts, exceeding, jammed)
 
 
 def _metrics(ds: xr.Dataset) -> list[str]:
@@ -147,7 +151,13 @@ def plot_metric_histograms(
         ax.set_ylabel("rings")
     for ax in axes[len(names) :]:
         ax.set_visible(False)
-    fig.suptitle(f"Per-ring metrics over {dist.rings} rings")
+    if dist.jammed:
+        fig.suptitle(
+            f"Per-ring metrics over the {dist.rings - dist.jammed} of {dist.rings} rings that "
+            f"do not jam the disc"
+        )
+    else:
+        fig.suptitle(f"Per-ring metrics over {dist.rings} rings")
     return fig
 
 

@@ -206,8 +206,9 @@ def print_run(
     if any("stage_l10_h_min" in r or "stage_rated_torque_nm" in r for r in summaries.values()):
         console.print(
             "with \\[stage]: loads, stresses, TE and contacts are those of the RV stage "
-            "(discs on their crank bearings); lost motion and rigidity of the stage, without "
-            "main bearings, housing and first stage"
+            "(discs on their crank bearings and, when given, crankshafts and carrier); lost "
+            "motion and rigidity of the stage, without main bearings, housing and first stage: "
+            "the reducer is softer"
         )
     console.print(f"report: {out / 'report.html'}")
 
@@ -288,7 +289,15 @@ def print_tolerance(stats: dict[str, Any], out: Path) -> None:
 
     from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STAGE_RING_METRICS
 
-    table = Table(title=f"{stats['rings']} rings (seed {stats['seed']})")
+    jam = stats.get("jam") or {}
+    jammed = int(jam.get("count") or 0)
+    title = f"{stats['rings']} rings (seed {stats['seed']})"
+    if jammed:
+        title = (
+            f"{stats['rings'] - jammed} of {stats['rings']} rings (seed {stats['seed']}; "
+            f"{jammed} jammed, not in these statistics)"
+        )
+    table = Table(title=title)
     for col in ("metric", "mean", "std", "P5", "P50", "P95", "P99"):
         table.add_column(col, justify="left" if col == "metric" else "right")
     for name, s in stats["metrics"].items():
@@ -301,18 +310,20 @@ def print_tolerance(stats: dict[str, Any], out: Path) -> None:
             *(f"{q['estimate']:.4g}" for q in s["percentiles"]),
         )
     console = Console(highlight=False)
-    console.print(table)
+    if jammed < stats["rings"]:
+        console.print(table)
+    else:
+        console.print(f"no statistics: every one of the {stats['rings']} rings jams the disc")
     if stats.get("checks"):
         print_checks(console, {"tolerance": stats["checks"]})
     ex = stats["exceedance"]["max_contact_stress_mpa"]
     conf = stats["confidence"]
     console.print(
-        f"P(max_contact_stress_mpa > {stats['allowable_contact_stress_mpa']:g}) = "
+        f"P(max σH tooth > {stats['allowable_contact_stress_mpa']:g} MPa) = "
         f"{ex['probability']:.4g}, {conf:.0%} Clopper-Pearson [{ex['lower']:.4g}, "
         f"{ex['upper']:.4g}] ({ex['count']} of {ex['rings']} rings)"
     )
-    jam = stats.get("jam")
-    if jam and jam["count"]:
+    if jammed:
         console.print(
             f"[bold red]jam[/]: P(the pins jam the disc) = {jam['probability']:.4g}, {conf:.0%} "
             f"Clopper-Pearson [{jam['lower']:.4g}, {jam['upper']:.4g}] ({jam['count']} of "

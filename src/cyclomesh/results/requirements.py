@@ -42,6 +42,7 @@ __all__ = [
     "UNDERCUT_MARGIN_WARNING",
     "check_requirements",
     "design_warnings",
+    "stage_parts",
     "peak_stress_warning",
     "jam_row",
     "jam_warning",
@@ -165,6 +166,42 @@ _COMPLIANCE = ("max_lost_motion_arcmin", "min_torsional_rigidity_nm_per_arcmin")
 """Requirements a designer writes for the whole reducer, checked on a part of it."""
 
 
+_STAGE_PARTS = ("crank bearings", "crankshafts", "carrier")
+"""Parts of the RV stage around the mesh that a ``[stage]`` may model."""
+
+
+def stage_parts(stage: Any, disc_body: str = "rigid") -> tuple[str, ...]:
+    """The parts of an RV stage (a :class:`~cyclomesh.stage.solve.StageDesign`) that its
+    solve models around the mesh, by name: "crank bearings" (``[stage.crank_bearing]``),
+    "crankshafts" (``[stage.crankshaft]`` or a crankshaft stiffness), "carrier"
+    (``[stage.carrier]`` or a carrier stiffness), "compliant disc" (``disc_body = "fe"``).
+    """
+    parts = []
+    if getattr(stage, "bearing", None) is not None:
+        parts.append("crank bearings")
+    if getattr(stage, "crankshaft", None) is not None or (
+        getattr(stage, "crankshaft_stiffness", None) is not None
+    ):
+        parts.append("crankshafts")
+    if getattr(stage, "carrier", None) is not None or (
+        getattr(stage, "carrier_stiffness", None) is not None
+    ):
+        parts.append("carrier")
+    if disc_body == "fe":
+        parts.append("compliant disc")
+    return tuple(parts)
+
+
+def _stage_note(parts: tuple[str, ...] | None) -> tuple[str, str]:
+    """What a stage row checked ("stage: mesh + crank bearings + ...") and what the
+    reducer adds to it (the parts of the stage not modelled, main bearings, housing,
+    first stage). ``parts`` None: the stage's parts are not known (crank bearings)."""
+    parts = ("crank bearings",) if parts is None else parts
+    what = "stage: " + " + ".join(("mesh", *parts))
+    missing = [p for p in _STAGE_PARTS if p not in parts]
+    return what, ", ".join(["main bearings", "housing", "first stage", *missing])
+
+
 def _worst(value: Any, kind: str) -> float | None:
     """One number from a metric value (a list per torque: the worst of them)."""
     if value is None:
@@ -193,7 +230,10 @@ def _row(
 
 
 def check_requirements(
-    limits: dict[str, float], summary: dict[str, Any], notes: dict[str, str] | None = None
+    limits: dict[str, float],
+    summary: dict[str, Any],
+    notes: dict[str, str] | None = None,
+    stage: tuple[str, ...] | None = None,
 ) -> tuple[list[dict[str, Any]], list[str]]:
     """Hold the metrics of one case against the requirements.
 
@@ -206,6 +246,9 @@ def check_requirements(
         per torque, is checked at its worst).
     notes : dict, optional
         Requirement key → a note for its row (e.g. where a default limit came from).
+    stage : tuple of str, optional
+        The parts the stage solve modelled around the mesh (:func:`stage_parts`), named
+        in the note of a row checked on the stage; None: crank bearings.
 
     Returns
     -------
@@ -222,19 +265,17 @@ def check_requirements(
             if worst is not None:
                 value = worst * factor
                 what = ""
+                left_out = "main bearings, housing, first stage, crank bearings, crankshafts"
                 if source.startswith("drive_"):
                     what = "whole drive (mesh + series stiffness)"
                 elif source.startswith("stage_"):
-                    what = "stage: mesh + crank bearings"
+                    what, left_out = _stage_note(stage)
                 elif source.startswith("fe_"):
                     what = "FE model, at its crank angles"
                 elif key in _COMPLIANCE:
                     what = "mesh alone"
                 if key in _COMPLIANCE and not source.startswith("drive_"):
-                    what += (
-                        "; the reducer's is worse (main bearings, housing, first stage and "
-                        "crankshafts not included)"
-                    )
+                    what += f"; the reducer's is worse ({left_out} not included)"
                 if what:
                     note = (note + "; " if note else "") + what
                 break
@@ -410,7 +451,7 @@ def short_label(row: dict[str, Any]) -> str:
     note = row.get("note", "")
     if "whole drive" in note:
         name = "drive " + name
-    elif "stage: mesh + crank bearings" in note:
+    elif "stage: mesh" in note:
         name = "stage " + name
     elif "mesh alone" in note:
         name = "mesh " + name

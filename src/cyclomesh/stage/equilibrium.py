@@ -36,6 +36,7 @@ from cyclomesh.drive.solve import (
     mirror_index,
 )
 from cyclomesh.exceptions import ConvergenceError
+from cyclomesh.stage import newton as reference
 from cyclomesh.stage.bearing import roller_loads
 from cyclomesh.stage.design import StageDesign
 from cyclomesh.stage.kernel import compiled, pin_law
@@ -571,11 +572,18 @@ def _kernel_newton(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid:
     iteration in one pass); the crank angles it cannot finish are
     solved by the reference from their start, which raises its own error if it fails."""
     start = x.copy()
+    settings = (
+        reference.FORCE_TOLERANCE,
+        reference._MAX_ITERATIONS,
+        reference._MAX_HALVINGS,
+        reference._STEP_CAP,
+        *reference._LINEAR,
+    )
     if rigid:
-        failed = kernel_rigid_newton(p, x, discs)
+        failed = kernel_rigid_newton(p, x, discs, settings)
     else:
         jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, x.shape[1])
-        failed = kernel_newton(p, law, x, discs, jacobian)
+        failed = kernel_newton(p, law, x, discs, jacobian, settings)
     if np.any(failed):
         idx = np.flatnonzero(failed)
         x[idx] = newton(p.take(idx), evaluate, law, start[idx], discs, rigid, phi[idx])

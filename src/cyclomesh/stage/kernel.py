@@ -215,7 +215,9 @@ def _roller_rows(cosines, half, constant, s, force, stiff, energy):  # pragma: n
 # --- the whole Newton iteration of one crank angle ------------------------------------
 
 
-def newton(p, law, x: FloatArray, discs: int, jacobian: FloatArray) -> NDArray[np.bool_]:
+def newton(
+    p, law, x: FloatArray, discs: int, jacobian: FloatArray, settings: tuple
+) -> NDArray[np.bool_]:
     """:func:`cyclomesh.stage.newton.newton` of the rigid discs' stage (``rigid=False``, no
     compliant disc, a bearing law without a series spring), every crank angle on its own
     in one compiled pass: the potential, gradient and Hessian of
@@ -223,12 +225,13 @@ def newton(p, law, x: FloatArray, discs: int, jacobian: FloatArray) -> NDArray[n
     end plate) assembled per crank angle on the nonzero columns of ``jacobian`` (∂d/∂x of
     the holes, :func:`~cyclomesh.stage.equilibrium.bearing_jacobian`), the same step, the
     same stretched step of a bearing at zero load, step cap, line search and convergence
-    test. ``x`` (A, m) is overwritten by the solution; returns the crank angles the
-    kernel could not finish (the caller solves them with the reference, which raises its
-    own error where it fails too).
+    test. ``settings``: the reference's (FORCE_TOLERANCE, _MAX_ITERATIONS, _MAX_HALVINGS,
+    _STEP_CAP, *_LINEAR), passed in by the caller (this module is imported by the bearing
+    law, which cyclomesh.stage.newton imports). ``x`` (A, m) is overwritten by the
+    solution; returns the crank angles the kernel could not finish (the caller solves
+    them with the reference, which raises its own error where it fails too).
     """
-    from cyclomesh.stage import newton as reference
-
+    force, iterations, halvings, cap, low, high = settings
     A, m = x.shape
     sup = p.supports
     N = p.hx.shape[-1]
@@ -259,12 +262,12 @@ def newton(p, law, x: FloatArray, discs: int, jacobian: FloatArray) -> NDArray[n
         law.rs.constant,
         float(p.torque),
         float(p.scale),
-        reference.FORCE_TOLERANCE * abs(p.torque) / p.scale,
-        reference._MAX_ITERATIONS,
-        reference._MAX_HALVINGS,
-        reference._STEP_CAP,
-        reference._LINEAR[0],
-        reference._LINEAR[1],
+        force * abs(p.torque) / p.scale,
+        iterations,
+        halvings,
+        cap,
+        low,
+        high,
         failed,
     )
     return failed
@@ -694,13 +697,13 @@ def _newton_rows(
             failed[i] = True
 
 
-def rigid_newton(p, x: FloatArray, discs: int) -> NDArray[np.bool_]:
+def rigid_newton(p, x: FloatArray, discs: int, settings: tuple) -> NDArray[np.bool_]:
     """:func:`cyclomesh.stage.newton.newton` of the rigid stage (``rigid=True``: θ_d = c,
     u = 0, the one unknown c), every crank angle on its own in one compiled pass, the
     reference's step, line search and convergence test. ``x`` (A, 1 + 3D) is overwritten
-    by the solution; returns the crank angles the kernel could not finish."""
-    from cyclomesh.stage import newton as reference
-
+    by the solution; returns the crank angles the kernel could not finish. ``settings``
+    as :func:`newton`'s."""
+    force, iterations, halvings, cap = settings[:4]
     failed = np.zeros(x.shape[0], np.bool_)
     _kernels_newton()  # compiles _pin_force
     _kernels_rigid()(
@@ -708,10 +711,10 @@ def rigid_newton(p, x: FloatArray, discs: int) -> NDArray[np.bool_]:
         *(np.ascontiguousarray(v) for v in (p.bl, p.arm, p.alpha, p.gamma, p.dmax)),
         float(p.torque),
         float(p.scale),
-        reference.FORCE_TOLERANCE * abs(p.torque) / p.scale,
-        reference._MAX_ITERATIONS,
-        reference._MAX_HALVINGS,
-        reference._STEP_CAP,
+        force * abs(p.torque) / p.scale,
+        iterations,
+        halvings,
+        cap,
         failed,
     )
     return failed

@@ -21,6 +21,7 @@ from cyclomesh.results.requirements import (
     jams,
     min_play_arcmin,
     peak_stress_warning,
+    stage_parts,
     verdict_counts,
 )
 
@@ -53,7 +54,8 @@ def case_checks(
         How the values were taken (e.g. ``"P95 of 1000 rings"``), shown with the table.
     """
     limits, notes = study.file.requirements.limits(case.material)
-    rows, unchecked = check_requirements(limits, summary, notes)
+    stage = None if inputs.stage is None else stage_parts(inputs.stage, inputs.disc_body)
+    rows, unchecked = check_requirements(limits, summary, notes, stage)
     rows += design_warnings(inputs.design, inputs.modification)
     if ds is not None and "contact_stress" in ds:
         row = peak_stress_warning(ds, inputs.design.pin_radius * 1e3)

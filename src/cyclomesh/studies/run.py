@@ -211,6 +211,27 @@ def compute_run(
     return run
 
 
+def _stress_pin(results: dict[str, Any], pin: int) -> int:
+    """The pin of the stress-over-the-profile figure when [figures] stress_pin is not
+    given: ``pin`` (half the pin count) if it carries load in some case, else the pin of
+    the highest tooth contact stress of the first case (pin errors can lift a pin off at
+    every crank angle: the figure would be empty)."""
+    loaded = [
+        bool(np.any(np.asarray(ds["pin_load"].sel(pin=pin).values) > 0))
+        for ds in results.values()
+        if pin in ds["pin"].values
+    ]
+    if any(loaded) or not results:
+        return pin
+    ds = next(iter(results.values()))
+    stress = np.asarray(ds["contact_stress"].values, dtype=float)
+    axis = ds["contact_stress"].dims.index("pin")
+    peak = np.nanmax(np.moveaxis(stress, axis, -1).reshape(-1, stress.shape[axis]), axis=0)
+    if not np.any(np.isfinite(peak)) or not np.nanmax(peak) > 0:
+        return pin
+    return int(ds["pin"].values[int(np.nanargmax(peak))])
+
+
 def _zero_friction(case: Any, inputs: Any) -> str | None:
     """A ``[friction]`` whose coefficients are all 0 is the frictionless model: say so,
     as the efficiency and the losses it would give (1 and 0) are not reported."""
@@ -427,7 +448,9 @@ def run_figures(run: RunResult, inputs: list[FigureJob] | None = None) -> list[F
 
     jobs = list(input_figures(run.study) if inputs is None else inputs)
     angles = settings.crank_angles_deg
-    pin = settings.stress_pin or min(case.design.pins for case in run.study.cases) // 2
+    pin = settings.stress_pin or _stress_pin(
+        results, min(case.design.pins for case in run.study.cases) // 2
+    )
     jobs += [
         job(
             "loads",

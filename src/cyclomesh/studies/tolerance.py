@@ -387,7 +387,7 @@ def compute_tolerance(
         study.base,
         study.base.to_core(),
         percentile_summary(ds, p),
-        where=f"P{p:g} of {n} rings (P{100 - p:g} for lower limits)",
+        where=f"P{p:g} of {_ran(stats, n)} (P{100 - p:g} for lower limits)",
     )
     stats["seconds"] = seconds
     stats["rings_per_second"] = n / seconds if seconds > 0 else math.nan
@@ -601,3 +601,12 @@ TOLERANCE = StudyKind(
     ),
 )
 """``cyclomesh tolerance`` (:func:`cyclomesh.studies.execute.execute`)."""
+
+
+def _ran(stats: dict, rings: int) -> str:
+    """The rings the percentiles are over: "200 rings", or "5 rings that did not jam (of
+    200)" when some jammed (their metrics are NaN, left out of the percentiles)."""
+    jammed = int((stats.get("jam") or {}).get("count") or 0)
+    if not jammed:
+        return f"{rings} rings"
+    return f"{rings - jammed} rings that did not jam (of {rings})"

@@ -280,10 +280,11 @@ KINDS: tuple[KindSpec, ...] = (
         home="cyclomesh.studies.stiffness:STIFFNESS",
         help="""Torsion curve of every case ([stiffness] section): play, lost motion, rigidity.
 
-    Writes <case>/stiffness.nc, summary.json, the figures and report.html. The numbers
-    are those of the cycloid-pin mesh alone (docs/drive.md); with [stage], also those
-    of the RV stage (mesh + crank bearings, docs/stage.md), which the requirements
-    check. The whole reducer is softer than both.
+    Writes <case>/stiffness.nc, summary.json, the figures and report.html. Without
+    [stage] the numbers are those of the cycloid-pin mesh alone (docs/drive.md); with
+    [stage], the requirements check those of the RV stage (mesh, crank bearings and,
+    when given, crankshafts and carrier; docs/stage.md), the mesh's are shown beside
+    them. The whole reducer is softer than both.
     """,
         options=("quiet", "crank_step_deg", "figures", "cache_dir", "no_work_limit"),
         section=("stiffness", "StiffnessSection"),
