@@ -21,7 +21,12 @@ loaded machine does not distort. ``--kernel numba`` runs everything on the compi
 kernel (``CYCLOMESH_KERNEL=numba``: the pin-step of cyclomesh.core.kernel and the stage's
 Newton of cyclomesh.stage.kernel); the default is the environment's (numpy when unset).
 
+Friction in the stage (``[friction]`` with ``[stage]``, Coulomb μ = 0.05 at the pins,
+0.0025 in the crank bearings on the 18 mm crank pin, examples/rv_stage_friction.toml):
+the same solve and the torsion curve (its two branches) beside the frictionless ones.
+
     .venv/bin/python benchmarks/bench_stage.py [--repeat 5] [--rings 16] [--kernel numba]
+        [--friction-only]
 """
 
 from __future__ import annotations
@@ -151,6 +156,28 @@ def compliant_disc(phi: np.ndarray, mod: Modification, repeat: int) -> None:
     )
 
 
+def with_friction(phi: np.ndarray, mod: Modification, repeat: int) -> None:
+    """Solve time with friction in the stage's equilibrium beside the frictionless one."""
+    from cyclomesh.core.case import Case, Model
+    from cyclomesh.core.friction import Friction
+    from cyclomesh.stage.solve import solve, stage_torsion
+
+    friction = Friction(mesh=0.05, groove=0.05, bearing=0.0025, bearing_diameter=18e-3)
+    case = Case(RV40, mod, None, 412.0, phi)
+    for label, model in (
+        ("frictionless", Model(discs=2, stage=ELASTIC)),
+        ("with friction", Model(discs=2, stage=ELASTIC, friction=friction)),
+    ):
+        best, median = timed(lambda model=model: solve(case, model), repeat)
+        loop, loop_median = timed(lambda model=model: stage_torsion(case, model, 2), repeat)
+        print(
+            f"stage (crankshafts and carrier from geometry) {label}: 360 crank angles, one "
+            f"torque: best {best:.3f} s, median {median:.3f} s; torsion curve (6 torques"
+            f"{', both branches' if model.friction else ''}): best {loop:.3f} s, "
+            f"median {loop_median:.3f} s"
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
@@ -158,12 +185,16 @@ def main() -> None:
     parser.add_argument(
         "--kernel", choices=KERNELS, default=None, help=f"sets {ENV_VAR} (default: as set)"
     )
+    parser.add_argument("--friction-only", action="store_true", help="only the friction timing")
     args = parser.parse_args()
     if args.kernel is not None:
         os.environ[ENV_VAR] = args.kernel
     print(f"kernel: {kernel_name()}")
     phi = np.deg2rad(np.arange(360.0))
     mod = Modification(pin_radius=3e-6)
+    with_friction(phi, mod, args.repeat)
+    if args.friction_only:
+        return
 
     best, median = timed(
         lambda: solve_stage(RV40, STAGE, mod, None, 412.0, phi, discs=2), args.repeat

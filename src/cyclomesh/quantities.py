@@ -176,6 +176,12 @@ rotation_ascending | arcsec | torsion | - | rising | - | disc rotation, rising t
 rotation_descending | arcsec | torsion | - | falling | - | disc rotation, falling torque
     (friction loop)
 hysteresis | arcmin | - | + | hysteresis | - | largest width of the friction loop
+stage_rotation_ascending | arcsec | torsion | - | stage rising | - | output rotation of the RV
+    stage, rising torque (friction loop)
+stage_rotation_descending | arcsec | torsion | - | stage falling | - | output rotation of the RV
+    stage, falling torque (friction loop)
+stage_hysteresis | arcmin | - | + | stage hysteresis | - | largest width of the stage's friction
+    loop
 # --- metrics of a run (summary.json, tolerance rings, CLI tables)
 te_mean_arcsec | arcsec | - | + | TE mean | transmission_error mean | mean loaded transmission
     error (Eq. 25)
@@ -314,6 +320,10 @@ stage_torsional_rigidity_nm_per_arcmin_mean | N·m/arcmin | - | + | stage rigidi
     torsional rigidity of the stage
 stage_torsional_rigidity_nm_per_arcmin_min | N·m/arcmin | - | + | min stage rigidity | - | smallest
     torsional rigidity of the stage
+stage_hysteresis_arcmin_mean | arcmin | - | + | stage hysteresis | - | mean width of the stage's
+    friction loop (with [friction])
+stage_hysteresis_arcmin_max | arcmin | - | + | max stage hysteresis | - | largest width of the
+    stage's friction loop (with [friction])
 measured_torsional_rigidity_nm_per_arcmin | N·m/arcmin | - | + | measured rigidity | - | measured
     torsional rigidity (b/a, 50-100 % of rated)
 measured_lost_motion_arcmin | arcmin | - | + | measured lost motion | - | measured lost motion

@@ -295,15 +295,15 @@ def test_friction_is_refused_with_the_fe_disc_body_and_bad_coefficients():
 
 
 def test_the_model_refuses_friction_where_a_solver_does_not_model_it():
-    """Model.friction reaches every solver through check(): the stage's equilibrium and the
-    one-disc fast path refuse it in one line; all coefficients 0 is no friction."""
+    """Model.friction reaches every solver through check(): the one-disc fast path refuses
+    it in one line, the stage's equilibrium takes it (tests/stage/test_stage_friction.py);
+    all coefficients 0 is no friction."""
     from cyclomesh.core.case import Case, Model, check
     from cyclomesh.core.ltca import ltca
 
     case = Case(TABLE1, TPM, None, 250.0, [0.0])
     friction = Friction(mesh=0.05, groove=0.05)
-    with pytest.raises(DesignError, match=r"stage.*not coupled with friction"):
-        check(case, Model(stage=object(), friction=friction))
+    assert check(case, Model(stage=object(), friction=friction)).friction is friction
     with pytest.raises(DesignError, match="ltca: the one-disc fast path is frictionless"):
         ltca(case, Model(friction=friction))
     assert check(case, Model(friction=Friction())).friction is None

@@ -97,16 +97,20 @@ def test_check_help_names_every_kind():
 
 
 def test_friction_with_a_stage_refused_by_check_as_by_run(tmp_path):
+    """What the stage's equilibrium does not take with friction (a lubricant: Coulomb
+    coefficients are coupled, docs/stage.md) is refused by check as by run."""
     text = (EXAMPLES / "rv_stage.toml").read_text()
     study = tmp_path / "s.toml"
-    study.write_text(
-        text.replace("[stage]\n", "[friction]\nmesh_coefficient = 0.1\n\n[stage]\n", 1)
+    friction = (
+        "[friction]\nmesh_coefficient = 0.1\ngroove_coefficient = 0.1\n\n"
+        "[friction.lubricant]\ngrade = 220\n\n"
     )
+    study.write_text(text.replace("[stage]\n", friction + "[stage]\n", 1))
     refused = one_line(invoke("run", str(study), "--out", str(tmp_path / "o"), "-q"))
-    assert "[friction]" in refused and "[stage]" in refused
+    assert "friction.lubricant" in refused and "[stage]" in refused
     assert one_line(invoke("check", str(study), "--kind", "run")) == refused
     line = one_line(invoke("check", str(study)))
-    assert line.startswith("error: cyclomesh run would refuse it: ") and "stiffness" in line
+    assert line.startswith("error: cyclomesh run would refuse it: ") and "lubricant" in line
     assert not (tmp_path / "o").exists()
 
 

@@ -168,11 +168,6 @@ def check(case: Case, model: Model, *, torque: str = "list") -> Checked:
             "friction: the compliant (FE) disc body is not coupled with friction yet; set "
             'disc_body = "rigid" or remove [friction]'
         )
-    if friction is not None and model.stage is not None:
-        raise DesignError(
-            "friction: the RV stage's equilibrium ([stage]) is not coupled with friction yet; "
-            "remove [stage] to see the mesh's friction, or [friction] for the stage"
-        )
     return Checked(
         design=design,
         modification=modification,

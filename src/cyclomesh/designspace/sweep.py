@@ -542,8 +542,8 @@ def _check_stage(stage: Any, objective: str, constraints: Constraints, friction:
         )
     if stage is not None and friction is not None:
         raise DesignError(
-            "[friction] is not coupled with the [stage] equilibrium yet: remove [friction] "
-            "or [stage]"
+            "friction: design maps do not solve the [stage] with [friction] yet (cyclomesh "
+            "run and stiffness do); remove [friction] or [stage]"
         )
 
 

@@ -86,11 +86,16 @@ def plot_stage_torsion_curve(results: Results) -> Figure:
 
     Rotation [arcmin] (mean over the crank angles, TE sign) against torque [% of rated]:
     the mesh (rigid bearings) and the stage (mesh, crank bearings, springs in one solve),
-    with their lost motion (±3 %) and mean rigidity (secant 50–100 %) in the legend.
+    with their lost motion (±3 %) and mean rigidity (secant 50–100 %) in the legend. With
+    friction the stage's curve is the loop's mid curve, and the loop's width (rising −
+    falling branch, mean over the crank angles) is drawn on a second axis.
     """
     fig, axes, cases = _case_panels(
         results, "stage_rotation", "no results with a stage torsion curve to plot"
     )
+    if any("stage_rotation_ascending" in ds for ds in cases.values()):  # room for 2nd axis
+        width = fig.get_size_inches()[0]
+        fig.subplots_adjust(right=1 - 0.9 / width, wspace=0.55)
     for ax, (name, ds) in zip(axes, cases.items(), strict=True):
         rated = float(ds.attrs.get("rated_torque_nm", abs(ds["torque"]).max()))
         percent = 100.0 * ds["torque"].values / rated
@@ -101,6 +106,16 @@ def plot_stage_torsion_curve(results: Results) -> Figure:
             mean = ds[var].mean("crank_angle").values / 60.0  # arcsec → arcmin
             text = f"{label}: LM {float(ds[lost].mean()):.3g}′, {float(ds[rigid].mean()):.4g} N·m/′"
             ax.plot(percent, mean, "-", color=colour, label=text)
+        if "stage_rotation_ascending" in ds:  # friction: the loop's width on a second axis
+            width = (ds["stage_rotation_ascending"] - ds["stage_rotation_descending"]).mean(
+                "crank_angle"
+            )
+            twin = ax.twinx()
+            widest = float(ds["stage_hysteresis"].max())
+            twin.plot(percent, width.values, ":", color="C1",
+                      label=f"stage loop width (max {widest:.3g}′)")  # fmt: skip
+            twin.set_ylabel("loop width, rising − falling [arcsec]", fontsize="small")
+            twin.legend(fontsize="x-small", loc="lower right")
         ax.axhline(0.0, color="0.7", lw=0.6)
         ax.axvline(0.0, color="0.7", lw=0.6)
         ax.set_xlabel("torque [% of rated]")

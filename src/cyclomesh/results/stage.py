@@ -193,7 +193,8 @@ def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
     and the largest stage lost motion and smallest stage rigidity that the requirements
     check, as ``cyclomesh stiffness`` does);
     the +100 % solve gives the bearing loads, L10h of the weakest bearing and the peak
-    contact stress.
+    contact stress (with friction: the crank driving the rated torque, a solve of its own;
+    the torsion curve is then the loop's mid curve, its backlash the loop's width at zero).
     """
     stage = inputs.stage
     phi = sheet_angles(np.asarray(inputs.crank_angles, float))
@@ -202,6 +203,11 @@ def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
     )
     result = curve.stage
     at = int(np.flatnonzero(result.torque == rated_torque)[0])
+    if curve.hysteresis is not None:  # friction: loads and life of the crank driving T_r
+        result = solve(
+            inputs.case().replace(torque=[rated_torque], crank_angles=phi), stage_model(inputs)
+        )
+        at = 0
     sheet: dict[str, Any] = {
         "stage_rated_torque_nm": float(rated_torque),
         "stage_output_speed_rpm": float(stage.output_speed),
@@ -265,16 +271,21 @@ def _catalogue_extras(inputs: Any, rated_torque: float, phi: np.ndarray, curve: 
     +T_r (:mod:`cyclomesh.results.datasheet`)."""
     from cyclomesh.results.datasheet import BACKLASH_FRACTION, compliance_share
 
-    small = solve(
-        inputs.case().replace(
-            torque=[-BACKLASH_FRACTION * rated_torque, BACKLASH_FRACTION * rated_torque],
-            crank_angles=phi,
-        ),
-        stage_model(inputs),
-    )
+    model = stage_model(inputs)
+    pair = [-BACKLASH_FRACTION * rated_torque, BACKLASH_FRACTION * rated_torque]
+    if curve.hysteresis is None:
+        small = solve(inputs.case().replace(torque=pair, crank_angles=phi), model)
+        te, mesh = small.transmission_error, small.mesh_transmission_error
+    else:  # the loop's width at zero: rising from −T_r at −0.1 %, falling from +T_r at +0.1 %
+        te, mesh = [], []
+        for value, loading in zip(pair, (1.0, -1.0), strict=True):
+            one = solve(
+                inputs.case().replace(torque=[value], crank_angles=phi), model, 0.0, loading
+            )
+            te.append(one.transmission_error[0])
+            mesh.append(one.mesh_transmission_error[0])
     result = curve.stage
     at = int(np.flatnonzero(result.torque == rated_torque)[0])
-    te, mesh = small.transmission_error, small.mesh_transmission_error
     extra: dict[str, Any] = {}
     if inputs.stage.duty_cycle is not None:
         extra.update(_duty_sheet(inputs, phi))
@@ -371,8 +382,45 @@ def stage_model(inputs: Any) -> Any:
 
 
 def solve_case(inputs: Any) -> Stage:
-    """The stage of a run case at its torque(s) and crank angles."""
+    """The stage of a run case at its torque(s) and crank angles (with ``[friction]``: the
+    crank driving every torque)."""
     return solve(inputs.case(), stage_model(inputs))
+
+
+def stage_efficiency_variables(
+    inputs: Any, forward: Stage, torque_dim: bool, discs: int
+) -> dict[str, tuple]:
+    """The friction variables of a run (:func:`cyclomesh.results.efficiency.
+    efficiency_variables`, the same names, dims and units) from the stage's solves: the
+    crank driving every torque (``forward``, :func:`solve_case`) and every torque driving
+    the crank back (a second solve). The crank bearings' loss is summed over the crank
+    pins of each disc; the input torque is the stage's total, ±sgn(T)·P_in/ω (− back-driving,
+    the crank turning the other way), P_in from the crank pins' forces
+    (:mod:`cyclomesh.stage.friction`)."""
+    from types import SimpleNamespace
+
+    from cyclomesh.results.efficiency import efficiency_variables
+
+    friction = inputs.friction
+    back = solve(inputs.case(), stage_model(inputs), motion=-1.0)
+
+    def view(result: Stage, motion: float) -> SimpleNamespace:
+        fr = dict(result.friction)
+        fr["power_loss_bearing"] = np.sum(fr["power_loss_bearing"], axis=-1)
+        sign = motion * np.sign(result.torque)[:, None]  # the crank's turn: T_in·ω = P_in
+        fr["input_torque"] = (sign * fr["input_power"] / friction.speed)[..., None]
+        fr["film_parameter"] = np.zeros_like(fr["friction_coefficient"])
+        return SimpleNamespace(
+            contacts=result.contacts if discs > 1 else result.contacts[..., :1],
+            transmission_error=result.transmission_error,
+            loaded_rotation=result.transmission_error,
+            torque=result.torque,
+            friction=fr,
+        )
+
+    return efficiency_variables(
+        view(forward, 1.0), view(back, -1.0), inputs.design.teeth, friction.speed, torque_dim
+    )
 
 
 def stage_torsion_variables(
@@ -386,9 +434,15 @@ def stage_torsion_variables(
     ``stage_lost_motion_arcmin_mean``/``_max``, ``stage_torsional_rigidity_nm_per_arcmin_
     mean``/``_min`` and, with a bearing, ``stage_l10_h_min`` at +T_r.
     """
+    model = stage_model(inputs)
+    if model.friction is not None and model.friction.lubricant is not None:
+        # a torsion test is at rest: no film, the boundary coefficients (as the mesh's)
+        import dataclasses
+
+        model = model.replace(friction=dataclasses.replace(model.friction, lubricant=None))
     curve = stage_torsion(
         inputs.case().replace(torque=rated_torque, crank_angles=crank_angles),
-        stage_model(inputs),
+        model,
         points=points,
     )
     data: dict[str, Any] = {
@@ -413,6 +467,20 @@ def stage_torsion_variables(
             {"units": "N", "long_name": "crank bearing load"},
         ),
     }
+    if curve.hysteresis is not None:  # friction: the loop's branches and width
+        for name in ("rotation_ascending", "rotation_descending"):
+            q = QUANTITIES[f"stage_{name}"]
+            data[f"stage_{name}"] = (
+                ("torque", "crank_angle"),
+                getattr(curve, name) / ARCSEC,
+                {"units": q.unit, "long_name": q.long_name},
+            )
+        q = QUANTITIES["stage_hysteresis"]
+        data["stage_hysteresis"] = (
+            ("crank_angle",),
+            curve.hysteresis / ARCMIN,
+            {"units": q.unit, "long_name": q.long_name},
+        )
     summary = {
         "stage_lost_motion_arcmin_mean": float(np.mean(curve.lost_motion) / ARCMIN),
         "stage_lost_motion_arcmin_max": float(np.max(curve.lost_motion) / ARCMIN),
@@ -423,9 +491,18 @@ def stage_torsion_variables(
             np.min(curve.torsional_rigidity) * ARCMIN
         ),
     }
+    if curve.hysteresis is not None:
+        summary["stage_hysteresis_arcmin_mean"] = float(np.mean(curve.hysteresis) / ARCMIN)
+        summary["stage_hysteresis_arcmin_max"] = float(np.max(curve.hysteresis) / ARCMIN)
     if inputs.stage.bearing is not None:
         at = int(np.flatnonzero(curve.torque == rated_torque)[0])
-        _, _, hours = bearing_life(curve.stage, inputs.stage, inputs.design.pins)
+        loaded = curve.stage
+        if curve.hysteresis is not None:  # friction: the crank driving T_r (as data_sheet)
+            loaded = solve(
+                inputs.case().replace(torque=[rated_torque], crank_angles=crank_angles), model
+            )
+            at = 0
+        _, _, hours = bearing_life(loaded, inputs.stage, inputs.design.pins)
         summary["stage_l10_h_min"] = float(np.min(hours[at]))
     return data, summary
 
@@ -435,6 +512,8 @@ STAGE_STIFFNESS_METRICS: dict[str, Metric] = select(
     "stage_lost_motion_arcmin_max",
     "stage_torsional_rigidity_nm_per_arcmin_mean",
     "stage_torsional_rigidity_nm_per_arcmin_min",
+    "stage_hysteresis_arcmin_mean",
+    "stage_hysteresis_arcmin_max",
     "stage_l10_h_min",
     "measured_torsional_rigidity_nm_per_arcmin",
     "measured_lost_motion_arcmin",

@@ -82,6 +82,7 @@ from cyclomesh.stage.equilibrium import (
     solve_direction,
     stage_supports,
 )
+from cyclomesh.stage.friction import check_stage_friction
 
 __all__ = [
     "StageDesign",
@@ -149,6 +150,14 @@ class Stage:
         Rotation of the output under T from the rest position (first pin touching, no
         load) [rad], counter-clockwise in the loaded direction's frame: positive with a
         positive torque, (Q, A).
+    friction : dict of ndarray or None
+        A drive with friction (:mod:`cyclomesh.stage.friction`): per pin, both flanks
+        together, (Q, A, D, n1): ``friction_force`` [N], ``power_loss_tooth``,
+        ``power_loss_groove`` [W], ``sliding_velocity_tooth``, ``sliding_velocity_groove``
+        [m/s] (loaded flank), ``friction_coefficient`` [-]; ``power_loss_bearing`` [W]
+        (Q, A, D, N); ``input_power`` [W] (from the crank pins' forces) and
+        ``approach_power`` [W] (a non-conjugate profile's Σ F·v·n), (Q, A). With friction
+        ``work`` has a ``friction`` entry (−x·Q, so that the parts add up to T·twist).
     """
 
     crank_angle: FloatArray
@@ -174,10 +183,36 @@ class Stage:
     groove_stress: FloatArray | None = None
     work: dict[str, FloatArray] | None = None
     twist: FloatArray | None = None
+    friction: dict[str, FloatArray] | None = None
 
 
-_PER_PIN = {"pin_load", "opposite_pin_load", "groove_load", "contact_stress", "groove_stress"}
-_PER_CRANK = {"bearing_fx", "bearing_fy", "bearing_deflection", "max_roller_load"}
+FRICTION_FIELDS = (
+    "friction_force",
+    "power_loss_tooth",
+    "power_loss_groove",
+    "sliding_velocity_tooth",
+    "sliding_velocity_groove",
+    "friction_coefficient",
+    "power_loss_bearing",
+    "input_power",
+    "approach_power",
+)
+"""The friction results of a drive (:attr:`Stage.friction`)."""
+_PER_PIN = {
+    "pin_load",
+    "opposite_pin_load",
+    "groove_load",
+    "contact_stress",
+    "groove_stress",
+    *FRICTION_FIELDS[:6],
+}
+_PER_CRANK = {
+    "bearing_fx",
+    "bearing_fy",
+    "bearing_deflection",
+    "max_roller_load",
+    "power_loss_bearing",
+}
 _PER_DISC = {
     "contacts",
     "torque_share",
@@ -256,7 +291,7 @@ def solve_stage(
     )
 
 
-def solve(case: Case, model: Model) -> Stage:
+def solve(case: Case, model: Model, motion: float = 1.0, loading: float = 0.0) -> Stage:
     """:func:`solve_stage` of a :class:`~cyclomesh.core.case.Case` and a
     :class:`~cyclomesh.core.case.Model` whose ``stage`` is a :class:`StageDesign`.
 
@@ -267,6 +302,11 @@ def solve(case: Case, model: Model) -> Stage:
     (:func:`~cyclomesh.stage.equilibrium.body_coupling`); it needs
     ``[stage.crank_bearing]``. A :class:`~cyclomesh.core.discbody.DiscBody` (held holes)
     is refused in one line.
+
+    Friction (``model.friction``, Coulomb coefficients, :mod:`cyclomesh.stage.friction`):
+    ``motion`` +1 the crank drives every torque, −1 every torque drives the crank back;
+    ``motion = 0`` a torsion test with ``loading`` ±1, the output turning with (+1) or
+    against the torque's sense (the branch of rising or falling |T|).
     """
     stage = model.stage
     if not isinstance(stage, StageDesign):
@@ -288,6 +328,13 @@ def solve(case: Case, model: Model) -> Stage:
             f"stage: disc body coefficients for {body.count} crank holes, the design has "
             f"{stage.holes.count}"
         )
+    friction = c.friction
+    if friction is not None:
+        check_stage_friction(friction, stage.bearing, body)
+        if c.ring_shape:
+            raise DesignError(
+                "friction with [stage] solves one ring at a time: pass pin errors without ring axes"
+            )
     torques, discs, phi, ring_shape = c.torques, c.discs, c.phi, c.ring_shape
     rad, tan = stage.hole_errors(discs)
     fwd, rev = stack_meshes(
@@ -318,7 +365,16 @@ def solve(case: Case, model: Model) -> Stage:
             try:
                 if value > 0:
                     fields = solve_direction(
-                        f_ring, r_ring, stage, (rad, tan), float(value), supports, body
+                        f_ring,
+                        r_ring,
+                        stage,
+                        (rad, tan),
+                        float(value),
+                        supports,
+                        body,
+                        friction,
+                        motion,
+                        loading,
                     )
                 else:
                     fields = _reverse(
@@ -330,6 +386,9 @@ def solve(case: Case, model: Model) -> Stage:
                             float(-value),
                             mirror_supports,
                             body,
+                            friction,
+                            motion,
+                            -loading,
                         )
                     )
             except ConvergenceError as exc:
@@ -343,6 +402,9 @@ def solve(case: Case, model: Model) -> Stage:
     te = out.pop("carrier_te")
     work = {name: out.pop(f"work_{name}") for name in WORK_PARTS}
     twist = out.pop("twist")
+    if "work_friction" in out:
+        work["friction"] = out.pop("work_friction")
+    frictional = {name: out.pop(name) for name in FRICTION_FIELDS if name in out}
     if stage.carrier_stiffness is not None:
         te = te - torques[:, None] / stage.carrier_stiffness
         twist = twist + torques[:, None] / stage.carrier_stiffness
@@ -373,6 +435,7 @@ def solve(case: Case, model: Model) -> Stage:
         residual=out["residual"],
         work=work,
         twist=twist,
+        friction=frictional or None,
     )
 
 
@@ -401,7 +464,12 @@ def bearing_life(
 
 @dataclass(frozen=True)
 class StageTorsion:
-    """Result of :func:`stage_torsion_curve`; rotation (Q, A) [rad], metrics (A,)."""
+    """Result of :func:`stage_torsion_curve`; rotation (Q, A) [rad], metrics (A,).
+
+    With friction: ``rotation_ascending`` and ``rotation_descending`` the output's TE on the
+    branches of rising and falling torque (Q, A) [rad], ``rotation`` (and ``mesh_rotation``)
+    their mid curve, ``hysteresis`` the loop's largest width over the torques, ascending −
+    descending (A,) [rad], ``stage`` the rising branch's solve (loads at +T_r as loaded)."""
 
     torque: FloatArray
     rated_torque: float
@@ -412,6 +480,9 @@ class StageTorsion:
     mesh_lost_motion: FloatArray
     mesh_torsional_rigidity: FloatArray
     stage: Stage
+    rotation_ascending: FloatArray | None = None
+    rotation_descending: FloatArray | None = None
+    hysteresis: FloatArray | None = None
 
 
 def stage_torsion_curve(
@@ -444,19 +515,33 @@ def stage_torsion(case: Case, model: Model, points: int = 41) -> StageTorsion:
     rated torque T_r) and a :class:`~cyclomesh.core.case.Model` with a stage."""
     rated_torque = case.torque
     torques = torsion_torques(rated_torque, points)
-    result = solve(case.replace(torque=torques), model)
-    lost, rigidity = torsion_metrics(result.transmission_error, torques, rated_torque)
-    mesh_lost, mesh_rigidity = torsion_metrics(
-        result.mesh_transmission_error, torques, rated_torque
-    )
+    friction = model.friction is not None and not model.friction.frictionless
+    if not friction:
+        result = solve(case.replace(torque=torques), model)
+        rotation, mesh_rotation = result.transmission_error, result.mesh_transmission_error
+        branches = {}
+    else:  # the loop: the output turning with the torque's rise (+1) and fall (−1)
+        result = solve(case.replace(torque=torques), model, motion=0.0, loading=1.0)
+        falling = solve(case.replace(torque=torques), model, motion=0.0, loading=-1.0)
+        up, down = result.transmission_error, falling.transmission_error
+        rotation = 0.5 * (up + down)
+        mesh_rotation = 0.5 * (result.mesh_transmission_error + falling.mesh_transmission_error)
+        branches = {
+            "rotation_ascending": up,
+            "rotation_descending": down,
+            "hysteresis": np.max(up - down, axis=-2),
+        }
+    lost, rigidity = torsion_metrics(rotation, torques, rated_torque)
+    mesh_lost, mesh_rigidity = torsion_metrics(mesh_rotation, torques, rated_torque)
     return StageTorsion(
         torque=torques,
         rated_torque=float(rated_torque),
-        rotation=result.transmission_error,
-        mesh_rotation=result.mesh_transmission_error,
+        rotation=rotation,
+        mesh_rotation=mesh_rotation,
         lost_motion=lost,
         torsional_rigidity=rigidity,
         mesh_lost_motion=mesh_lost,
         mesh_torsional_rigidity=mesh_rigidity,
         stage=result,
+        **branches,
     )

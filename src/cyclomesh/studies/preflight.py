@@ -19,7 +19,7 @@ from cyclomesh.studyfile.kinds import KINDS
 if TYPE_CHECKING:
     from cyclomesh.studyfile.schema import Study
 
-__all__ = ["COMMANDS", "preflight", "kinds_of", "check_kinds"]
+__all__ = ["COMMANDS", "preflight", "kinds_of", "check_kinds", "refuse_friction_with_stage"]
 
 COMMANDS = tuple(spec.command for spec in KINDS)
 """The commands a study file can be given to."""
@@ -83,3 +83,28 @@ def check_kinds(study: Study, kind: str | None, *, allow_work: bool = False) -> 
         more = f" (also refused by: {', '.join(also)}; see check --kind)" if also else ""
         raise StudyError(f"cyclomesh {first} would refuse it: {why}{more}")
     return kinds
+
+
+def refuse_friction_with_stage(study: Study, at_rest: bool = False) -> None:
+    """One-line :class:`StudyError` for a case whose ``[friction]`` the ``[stage]``
+    equilibrium does not take (a lubricant, the compliant disc, a crank-bearing coefficient
+    without ``[stage.crank_bearing]``: :func:`cyclomesh.stage.friction.check_stage_friction`).
+    ``at_rest``: a torsion test, whose friction is the boundary coefficients (the lubricant
+    dropped, :func:`cyclomesh.studies.stiffness.at_rest`)."""
+    import dataclasses
+
+    from cyclomesh.exceptions import DesignError
+    from cyclomesh.stage.friction import check_stage_friction
+
+    for case, inputs in zip(study.cases, study.inputs, strict=True):
+        if inputs.friction is not None and inputs.stage is not None:
+            body = inputs.model().disc_body
+            friction = inputs.friction
+            if at_rest:
+                friction = dataclasses.replace(friction, lubricant=None)
+            try:
+                check_stage_friction(
+                    friction, inputs.stage.bearing, None if body == "rigid" else body
+                )
+            except DesignError as exc:
+                raise StudyError(f"{case.label}: {exc}") from None

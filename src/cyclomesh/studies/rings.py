@@ -100,8 +100,9 @@ def ring_model(study: Study, spec: ToleranceSection, checked: bool = False) -> R
         )
     if core.stage is not None and core.friction is not None:
         raise StudyError(
-            "[friction] is not coupled with the [stage] equilibrium yet: remove [friction] "
-            "(the stage's rings) or [stage] (the rings' efficiency)"
+            "friction: tolerance and allocate do not solve the [stage] with [friction] over "
+            "rings yet (cyclomesh run and stiffness do); remove [friction] (the stage's rings) "
+            "or [stage] (the rings' efficiency)"
         )
     return RingModel(
         design=core.design,

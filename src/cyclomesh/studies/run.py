@@ -36,6 +36,7 @@ from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STIFFNESS_METRICS
 from cyclomesh.results.profile import profile_curves
 from cyclomesh.results.stage import STAGE_METRICS
 from cyclomesh.studies.execute import CommandSteps, StudyKind
+from cyclomesh.studies.preflight import refuse_friction_with_stage
 from cyclomesh.studyfile.schema import CaseInputs, CaseSpec, Study, folder_name
 
 if TYPE_CHECKING:
@@ -168,7 +169,6 @@ def compute_run(
     from cyclomesh.studyfile.warnings import has_pin_errors, stage_warning, study_warnings
 
     check_keys(study.raw, "run")
-    refuse_friction_with_stage(study)
     run = RunResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
         if on_start:
@@ -244,19 +244,6 @@ def _zero_friction(case: Any, inputs: Any) -> str | None:
     )
 
 
-def refuse_friction_with_stage(study: Study) -> None:
-    """One-line :class:`StudyError` for a case with both ``[friction]`` and ``[stage]``:
-    the stage's equilibrium is not coupled with friction yet."""
-    from cyclomesh.exceptions import StudyError
-
-    for case, inputs in zip(study.cases, study.inputs, strict=True):
-        if inputs.friction is not None and inputs.stage is not None:
-            raise StudyError(
-                f"{case.label}: [friction] is not coupled with the [stage] equilibrium yet: "
-                "remove [stage] to see the mesh's friction, or [friction] for the stage"
-            )
-
-
 def efficiency_summary(ds: xr.Dataset | Frame, case: CaseSpec) -> dict[str, Any]:
     """The friction numbers of a case (:func:`cyclomesh.results.efficiency.efficiency_record`),
     or with no friction the input speed alone."""
@@ -273,6 +260,15 @@ def _with_stage(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs) -> tuple[xr.
     result = solve_case(inputs)
     # the reported mesh (summary, verdict, figures) is the stage's, not the rigid bearings'
     ds = stage_mesh(ds, result, inputs.design.teeth)
+    if result.friction is not None:  # and so are the efficiency and the losses
+        from cyclomesh.results.stage import stage_efficiency_variables
+
+        variables = stage_efficiency_variables(
+            inputs, result, "torque" in ds.dims, ds.sizes.get("disc", 1)
+        )
+        ds = ds.assign(
+            {name: (dims, values, attrs) for name, (dims, values, attrs) in variables.items()}
+        )
     stage = stage_dataset(result, inputs.stage, inputs.design.pins)
     if "disc" not in ds.dims:  # one disc: no disc dimension, as the mesh variables
         stage = stage.isel(disc=0, drop=True)

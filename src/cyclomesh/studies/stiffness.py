@@ -140,9 +140,9 @@ def compute_stiffness(
 
     check_stiffness(study)
     check_keys(study.raw, "stiffness")
-    from cyclomesh.studies.run import refuse_friction_with_stage
+    from cyclomesh.studies.preflight import refuse_friction_with_stage
 
-    refuse_friction_with_stage(study)
+    refuse_friction_with_stage(study, at_rest=True)
     start = time.perf_counter()
     result = StiffnessResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
@@ -327,6 +327,9 @@ def stiffness_figures(result: StiffnessResult) -> list[FigureJob]:
         "stage_lost_motion",
         "torsional_rigidity",
         "stage_torsional_rigidity",
+        "stage_rotation_ascending",
+        "stage_rotation_descending",
+        "stage_hysteresis",
     )
     staged = {k: v for k, v in _curves(result, names).items() if "stage_rotation" in v}
     if staged:
@@ -339,7 +342,9 @@ def stiffness_figures(result: StiffnessResult) -> list[FigureJob]:
                 staged,
                 caption="Torsion curve of the RV stage (mesh, crank bearings and springs in "
                 "one solve) beside the mesh alone: rotation of the output, mean over the "
-                "crank angles, against torque in % of rated (docs/stage.md).",
+                "crank angles, against torque in % of rated (docs/stage.md); with "
+                "[friction], the loop's mid curve, and its width (rising − falling branch) "
+                "on the right axis.",
             )
         )
     loops = {
@@ -432,9 +437,9 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
 
 
 def _preflight(study: Study) -> None:
-    from cyclomesh.studies.run import refuse_friction_with_stage
+    from cyclomesh.studies.preflight import refuse_friction_with_stage
 
-    refuse_friction_with_stage(study)
+    refuse_friction_with_stage(study, at_rest=True)
     check_stiffness(study)
 
 

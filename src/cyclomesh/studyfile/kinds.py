@@ -149,8 +149,8 @@ def _stage(kind: str) -> str:
 def _friction(kind: str) -> str:
     return (
         f"friction: [friction] is not taken by cyclomesh {kind} yet; use cyclomesh run, "
-        "stiffness, tolerance or allocate for friction and efficiency, or remove [friction] "
-        "(docs/efficiency.md)"
+        "stiffness, tolerance or allocate for friction and efficiency (run and stiffness "
+        "also with [stage]), or remove [friction] (docs/efficiency.md)"
     )
 
 
@@ -261,7 +261,7 @@ KINDS: tuple[KindSpec, ...] = (
             "requirements",
             *ALLOWABLES,
         ),
-        used=(
+        used=(  # [stage] with [friction]: Coulomb coefficients (stage/friction.py)
             *_LTCA,
             *RUN_FIGURES,
             "cases",
@@ -284,7 +284,8 @@ KINDS: tuple[KindSpec, ...] = (
     [stage] the numbers are those of the cycloid-pin mesh alone (docs/drive.md); with
     [stage], the requirements check those of the RV stage (mesh, crank bearings and,
     when given, crankshafts and carrier; docs/stage.md), the mesh's are shown beside
-    them. The whole reducer is softer than both.
+    them; with [stage] and [friction] (Coulomb coefficients) the stage's curve is a
+    friction loop. The whole reducer is softer than both.
     """,
         options=("quiet", "crank_step_deg", "figures", "cache_dir", "no_work_limit"),
         section=("stiffness", "StiffnessSection"),

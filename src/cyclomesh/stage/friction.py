@@ -1,0 +1,304 @@
+"""Friction in the RV stage's equilibrium (:mod:`cyclomesh.stage.equilibrium`): the
+Coulomb forces of :mod:`cyclomesh.core.friction` at the pins and the crank bearings'
+friction moments, and Newton's method on the equilibrium equations they make
+non-conservative.
+
+Forces
+------
+Pin i of disc d pushes the disc with −F_i·n_i + T_i·t_i, t = ẑ×n, T_i = −μ_eff,i·s_i·F_i
+(:func:`cyclomesh.core.friction.torque_arm`, the mesh-level model of docs/efficiency.md):
+μ_eff the coefficient of the sliding interface (pin–tooth, or pin–groove for a rolling pin,
+:func:`~cyclomesh.core.friction.effective_coefficient`), s_i = sgn(v_d·t) the sliding
+direction of the theoretical motion. In a drive (``motion`` ±1) the disc's material
+point at the contact moves along t at ω·(e·û(φ_d)·n − m/n2)
+(:func:`~cyclomesh.core.friction.tangential_velocity`, φ_d the disc's own eccentric
+angle); in a torsion test (the crank held, ``loading`` ±1 the sense of the output's turn)
+the disc turns about its centre and v·t = loading·m, m = r·n > 0 the tangential force's
+arm about the disc centre. The opposite flank of a tooth space (closed by a translation
+only) has its own normal, arm and m, and the same law.
+
+A virtual motion (δθ_d, δu_d) of disc d moves the contact point by δu + δθ·ẑ×r, so the
+tangential force does the virtual work T·(m·δθ + t·δu): in the scaled unknowns of
+:func:`~cyclomesh.stage.assembly.evaluate` (rotations × r_c) the generalised force
+Q = Σ_i T_i·(m_i/r_c, t_x, t_y) on the disc's block. Each crank bearing k of disc d adds the
+couple C_dk = s_b·μ_b·d/2·B_dk on the disc (SKF's constant-coefficient model,
+:func:`~cyclomesh.core.friction.bearing_moment`, B_dk its load; s_b the sense of the crank
+pin's turn against the hole: ``motion`` in a drive, −``loading`` in a torsion test, as
+:mod:`cyclomesh.drive.friction`); its reaction goes to the crankshaft, held by the input.
+
+The equilibrium is ∇Π(x) − Q(x) = 0 (Π the stage's potential); with Q(x) from the pin
+forces F(δ(x)) and the bearing loads B(s(x)) its exact Jacobian ∇²Π − ∂Q/∂x,
+
+    ∂Q/∂x = Σ_i b_i·(−μ_i·s_i·k_i)·a_iᵀ + Σ_dk e_θd·(s_b·μ_b·d/(2·r_c))·k_b,dk·(ĉ_dkᵀ·G_dk),
+
+(a_i = ∂δ_i/∂x and b_i = (m_i/r_c, t_i) on the disc's block, k_i = dF/dδ, k_b = dB/ds, ĉ the
+bearing force's direction, G = ∂d/∂x of :func:`~cyclomesh.stage.assembly.bearing_jacobian`),
+is not symmetric: :func:`friction_newton` takes full Newton steps with a backtracking line
+search on the residual norm, to the convergence test of the frictionless stage.
+
+Power
+-----
+The virtual power of the theoretical motion, disc by disc and for the carrier with the
+crankshafts (ideal support bearings), gives the input power exactly:
+
+    P_in = −Σ_dk f_dk·v_H,dk + ω·s·Σ_d C_d + T·ω·s/n2
+         = T·ω·s/n2 + Σ μ·F·|v·t|·ω + Σ_dk μ_b·d/2·B_dk·ω·(1 + 1/n2) + Σ F·(v·n)·ω,
+
+f_dk the force of disc d on crank pin k, v_H its hole centre's velocity, s = ``motion``
+(:func:`power_terms`; the last term, the power of a non-conjugate profile's approach,
+averages out over a revolution). The crank pin turns against its hole at ω·(1 + 1/n2).
+
+References
+----------
+[1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672, doi:10.3390/machines10080672.
+[2] J. W. Sensinger, J. Mech. Des. 135 (2013) 071006 (friction at the pins).
+[3] SKF, Rolling bearings catalogue (2018), "Friction": M = 0.5·μ·P·d.
+[4] J. Nocedal, S. J. Wright, Numerical Optimization, 2nd ed., Springer 2006, §11.2
+    (Newton's method on nonlinear equations with a line search on the residual).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cyclomesh.core.friction import Friction, effective_coefficient, normal_moment
+from cyclomesh.exceptions import ConvergenceError, DesignError
+from cyclomesh.stage.assembly import Problem, bearing_jacobian
+from cyclomesh.stage.newton import FORCE_TOLERANCE, reducer
+
+__all__ = [
+    "friction_arrays",
+    "friction_terms",
+    "friction_newton",
+    "power_terms",
+    "check_stage_friction",
+]
+
+FloatArray = NDArray[np.float64]
+
+_MAX_ITERATIONS = 200
+_MAX_HALVINGS = 60
+
+
+def check_stage_friction(friction: Friction, bearing: object, body: object) -> None:
+    """One-line :class:`DesignError` for friction the stage does not model."""
+    if friction.lubricant is not None:
+        raise DesignError(
+            "friction.lubricant: the lubricated coefficient is not coupled with the [stage] "
+            "equilibrium yet; give Coulomb coefficients (remove [friction.lubricant]) or "
+            "remove [stage]"
+        )
+    if body is not None:
+        raise DesignError(
+            "friction: the compliant (FE) disc body is not coupled with friction yet; set "
+            'disc_body = "rigid" or remove [friction]'
+        )
+    if friction.bearing > 0 and bearing is None:
+        raise DesignError(
+            "friction.bearing_coefficient with [stage] needs [stage.crank_bearing] (rigid "
+            "crank bearings carry a statically indeterminate split); add the crank bearing "
+            "or set bearing_coefficient = 0"
+        )
+
+
+def friction_arrays(
+    p: Problem,
+    mesh,
+    contact_radius: FloatArray,
+    cos_beta: FloatArray,
+    friction: Friction,
+    motion: float,
+    loading: float,
+) -> dict:
+    """The friction fields of :class:`~cyclomesh.stage.assembly.Problem` for one direction:
+    ``slip`` μ_eff·s and ``tangent_arm`` m of every pin (A, D, 2·n1), ``drag`` s_b·μ_b·d/2
+    [m], and (not in the problem) ``velocity`` v·t per unit input speed [m/rad] and
+    ``groove`` (the pin–groove interface slides).
+
+    ``contact_radius`` and ``cos_beta``: |r| of every contact from the disc centre [m] and
+    cos β, both flanks (A, D, 2·n1); the normals are the problem's."""
+    A, D, P = p.bl.shape
+    usable = np.isfinite(p.bl)
+    m = np.where(usable, normal_moment(contact_radius, np.where(usable, p.arm, 0.0)), 0.0)
+    if motion == 0.0:  # torsion test: the disc turns about its centre
+        velocity = loading * m
+    else:
+        teeth = mesh.design.teeth
+        e = np.asarray(mesh.eccentricity if mesh.eccentricity is not None else 0.0, float)
+        if e.size != 1:
+            raise DesignError(
+                "friction with [stage] solves one ring at a time (no eccentricity errors per ring)"
+            )
+        e = float(e.reshape(-1)[0]) if mesh.eccentricity is not None else mesh.design.eccentricity
+        crank = mesh.phi[:, None] + 2.0 * np.pi * np.arange(D) / D  # (A, D)
+        c, s = np.cos(crank)[..., None], np.sin(crank)[..., None]
+        velocity = motion * (e * (c * p.nx + s * p.ny) - m / teeth)
+    sign = np.sign(velocity)
+    mu, groove = effective_coefficient(friction, cos_beta)
+    mu = np.broadcast_to(mu, (A, D, P))
+    sense = motion if motion != 0.0 else -loading
+    return {
+        "slip": np.where(usable, mu * sign, 0.0),
+        "tangent_arm": m,
+        "drag": sense * 0.5 * friction.bearing * friction.bearing_diameter,
+        "velocity": np.where(usable, velocity, 0.0),
+        "groove": np.broadcast_to(groove, (A, D, P)),
+        "mu": np.where(usable, mu, 0.0),
+    }
+
+
+def friction_terms(p: Problem, x: FloatArray, discs: int, rigid: bool, state: dict, law, jac=True):
+    """Generalised friction forces Q (n, m) in the scaled unknowns and ∂Q/∂x (n, m, m)
+    (module doc); ``state``: :func:`~cyclomesh.stage.assembly.evaluate`'s at x. ``rigid``:
+    the rotations' rows only (the reduced problem), no bearing moment."""
+    n, m = x.shape
+    L = p.scale
+    F = state["pin_force"]
+    T = -p.slip * F  # tangential force on the disc along t, (n, D, P)
+    if rigid:
+        b = np.stack([p.tangent_arm / L], axis=-2)  # (n, D, 1, P)
+        a = np.stack([p.arm / L], axis=-2)
+    else:
+        b = np.stack([p.tangent_arm / L, -p.ny, p.nx], axis=-2)
+        a = np.stack([p.arm / L, p.nx, p.ny], axis=-2)
+    Q = np.zeros((n, m))
+    dQ = np.zeros((n, m, m)) if jac else None
+    q_pin = np.matmul(b, T[..., None])[..., 0]  # (n, D, a)
+    if jac:
+        dT = -p.slip * state["pin_stiffness"]
+        dq_pin = np.matmul(b * dT[..., None, :], np.swapaxes(a, -1, -2))  # (n, D, a, a)
+    size = b.shape[-2]
+    for d in range(discs):
+        block = slice(1 + 3 * d, 1 + 3 * d + size)
+        Q[:, block] += q_pin[:, d]
+        if jac:
+            dQ[:, block, block] += dq_pin[:, d]
+    if rigid or p.drag == 0.0:
+        return Q, dQ
+    fx, fy = state["bearing_fx"], state["bearing_fy"]
+    B = np.hypot(fx, fy)
+    for d in range(discs):
+        Q[:, 1 + 3 * d] += p.drag * np.sum(B[:, d], axis=-1) / L
+    if jac:
+        _, kb, _, _ = law.evaluate(state["deflection"], stiffness=True)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cx = np.where(B > 0, fx / B, 0.0)
+            cy = np.where(B > 0, fy / B, 0.0)
+        G = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, m)
+        ds = cx[..., None] * G[..., 0, :] + cy[..., None] * G[..., 1, :]  # (n, D, N, m)
+        for d in range(discs):
+            dQ[:, 1 + 3 * d, :] += p.drag / L * np.sum(kb[:, d, :, None] * ds[:, d], axis=-2)
+    return Q, dQ
+
+
+def _rotations(p: Problem, m: int, discs: int, rigid: bool) -> list[int]:
+    """The unknowns that are rotations (scaled by r_c)."""
+    if rigid:
+        return [0]
+    rot = [0, *range(1, 1 + 3 * discs, 3)]
+    if p.supports is not None and p.supports.carrier is not None:
+        rot.append(m - 1)
+    return rot
+
+
+def friction_newton(p: Problem, evaluate, law, x: FloatArray, discs: int, rigid: bool, phi):
+    """Newton's method on ∇Π − Q = 0 with the exact Jacobian and a backtracking line search
+    on the residual's norm ([4]); scaled unknowns and the convergence test of
+    :func:`~cyclomesh.stage.newton.newton` (every residual below 1e-12·T/r_c or the
+    round-off of the unknowns). ``rigid``: the reduced problem (θ_d = c, u = 0)."""
+    tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
+    reduce = reducer(discs) if rigid else None
+
+    def residual(sub: Problem, xa: FloatArray, jac: bool):
+        _, g, H, st = evaluate(sub, law, xa, discs, rigid, hessian=jac)
+        Q, dQ = friction_terms(sub, xa, discs, rigid, st, law, jac)
+        r = g - Q
+        J = H - dQ if jac else None
+        if rigid:
+            r = r @ reduce
+            J = np.einsum("im,nij,jk->nmk", reduce, J, reduce) if jac else None
+        return r, J, st
+
+    m = x.shape[1]
+    rot = _rotations(p, m, discs, rigid)
+    L = p.scale
+    active = np.arange(x.shape[0])
+    for _ in range(_MAX_ITERATIONS):
+        sub = p.take(active)
+        xa = x[active]
+        r, J, _st = residual(sub, xa, True)
+        xs = np.abs(xa @ reduce if rigid else xa.copy())
+        xs[:, rot] *= L
+        noise = 16.0 * np.finfo(float).eps * np.einsum("nij,nj->ni", np.abs(J), xs)
+        keep = ~np.all(np.abs(r) <= np.maximum(tol, noise), axis=-1)
+        active = active[keep]
+        if active.size == 0:
+            return x
+        xa, r, J, sub = xa[keep], r[keep], J[keep], sub.take(np.flatnonzero(keep))
+        k = J.shape[-1]
+        diag = np.maximum(np.max(np.abs(np.diagonal(J, axis1=1, axis2=2)), axis=-1), 1e-300)
+        step = np.linalg.solve(J + 1e-14 * diag[:, None, None] * np.eye(k), -r[..., None])[..., 0]
+        step[:, rot if not rigid else [0]] /= L
+        if rigid:
+            step = step @ reduce.T
+        merit = np.linalg.norm(r, axis=-1)
+        t = np.ones(xa.shape[0])
+        todo = np.arange(xa.shape[0])
+        new = xa.copy()
+        for _h in range(_MAX_HALVINGS):
+            trial = xa[todo] + t[todo, None] * step[todo]
+            r_t, _J, st = residual(sub.take(todo), trial, False)
+            ok = ~st["bad"] & (np.linalg.norm(r_t, axis=-1) <= (1.0 - 1e-4 * t[todo]) * merit[todo])
+            new[todo[ok]] = trial[ok]
+            todo = todo[~ok]
+            if todo.size == 0:
+                break
+            t[todo] *= 0.5
+        else:
+            raise ConvergenceError(
+                f"stage with friction: no decrease of the residual at crank angle "
+                f"{np.degrees(phi[active[todo[0]]]):.6g}°"
+            )
+        x[active] = new
+    raise ConvergenceError(
+        f"stage with friction did not converge at crank angle "
+        f"{np.degrees(phi[active[0]]):.6g}°: residual above {FORCE_TOLERANCE:.0e}·T/r_c"
+    )
+
+
+def power_terms(
+    p: Problem, mesh, fr: dict, state: dict, motion: float, speed: float
+) -> dict[str, FloatArray]:
+    """Powers of a drive with friction at speed ω [W] (module doc), per crank angle (A,)
+    unless said: ``power_loss_pin`` (A, D, 2·n1), ``power_loss_bearing`` (A, D, N),
+    ``approach_power`` (the non-conjugate profile's Σ F·(v·n)·ω) and ``input_power`` from the
+    crank pins' forces (−Σ f·v_H + s·ω·Σ C + T·ω·s/n2)."""
+    teeth = mesh.design.teeth
+    A, D, _ = p.bl.shape
+    F = state["pin_force"]
+    loss = fr["mu"] * F * np.abs(fr["velocity"]) * speed
+    fx, fy = state["bearing_fx"], state["bearing_fy"]
+    B = np.hypot(fx, fy)
+    couple = fr["drag"] * B  # (A, D, N), on the discs
+    bearing = np.abs(couple) * speed * (1.0 + 1.0 / teeth)
+    e = np.asarray(mesh.eccentricity if mesh.eccentricity is not None else 0.0, float)
+    e = float(e.reshape(-1)[0]) if mesh.eccentricity is not None else mesh.design.eccentricity
+    crank = mesh.phi[:, None] + 2.0 * np.pi * np.arange(D) / D  # (A, D)
+    c, s = np.cos(crank), np.sin(crank)
+    # velocity of the theoretical motion per unit ω: at the pins along n, at the holes
+    vn = motion * (e * (c[..., None] * p.ny - s[..., None] * p.nx) - p.arm / teeth)
+    vn = np.where(np.isfinite(p.bl), vn, 0.0)
+    vhx = motion * (-e * s[..., None] + p.hy[:, None, :] / teeth)
+    vhy = motion * (e * c[..., None] - p.hx[:, None, :] / teeth)
+    p_in = (
+        -np.sum(fx * vhx + fy * vhy, axis=(-2, -1))
+        + motion * np.sum(couple, axis=(-2, -1))
+        + motion * p.torque / teeth
+    ) * speed
+    return {
+        "power_loss_pin": loss,
+        "power_loss_bearing": bearing,
+        "approach_power": np.sum(F * vn, axis=(-2, -1)) * speed,
+        "input_power": p_in,
+    }

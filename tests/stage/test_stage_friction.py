@@ -1,0 +1,168 @@
+"""Friction in the RV stage's equilibrium (cyclomesh.stage.friction): the frictionless limit,
+the mesh-level friction solve as the stage's rigid one-disc limit, the power balance, the
+torsion loop's width, forward against back-driving efficiency, and the one-line refusals."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from cyclomesh.core.case import Case, Model
+from cyclomesh.core.friction import Friction, Lubricant
+from cyclomesh.core.pair import CrankHoles, Modification, PairDesign, PinErrors
+from cyclomesh.drive.solve import solve_drive, stack_meshes, torsion_curve
+from cyclomesh.exceptions import DesignError
+from cyclomesh.stage import RollerSet, StageDesign
+from cyclomesh.stage.equilibrium import solve_direction
+from cyclomesh.stage.solve import solve, stage_torsion
+
+RV40 = PairDesign(
+    pins=40,
+    pin_circle_radius=64e-3,
+    pin_radius=3e-3,
+    groove_radius=3.005e-3,
+    eccentricity=1.3e-3,
+    width=10e-3,
+)
+HOLES = CrankHoles(count=3, circle_radius=36e-3, radius=13e-3)
+MOD = Modification(pin_radius=8e-6)
+PHI = np.radians(np.arange(0.0, 360.0, 9.0))
+SPEED = 2.0 * np.pi * 585.0 / 60.0
+BEARING = RollerSet(14, 4e-3, 9e-3, 10e-6, 22e-3)
+SUPPORTED = StageDesign(HOLES, BEARING, crankshaft_stiffness=2e8)
+
+
+def test_zero_coefficients_are_the_frictionless_stage():
+    """All coefficients 0 is the frictionless model bit for bit (the same path); the
+    friction path itself (residual Newton, zero slip) gives it to round-off."""
+    case = Case(RV40, MOD, None, [-412.0, 412.0], PHI)
+    base = solve(case, Model(stage=SUPPORTED, discs=2))
+    zero = solve(case, Model(stage=SUPPORTED, discs=2, friction=Friction(speed=SPEED)))
+    for name in ("pin_load", "bearing_load", "transmission_error", "disc_translation_x"):
+        np.testing.assert_array_equal(getattr(zero, name), getattr(base, name))
+    assert zero.friction is None and "friction" not in zero.work
+    fwd, rev = stack_meshes(RV40, MOD, PinErrors(), PHI, 2, True, True, True, "half_plane", None)
+    rad = np.zeros((2, 3))
+    plain = solve_direction(fwd, rev, SUPPORTED, (rad, rad), 412.0)
+    path = solve_direction(fwd, rev, SUPPORTED, (rad, rad), 412.0, None, None, Friction())
+    scale = np.max(plain["pin_load"])
+    np.testing.assert_allclose(path["pin_load"], plain["pin_load"], rtol=0, atol=1e-10 * scale)
+    np.testing.assert_allclose(path["twist"], plain["twist"], rtol=1e-10)
+    assert np.max(path["residual"]) <= 1e-12 * 412.0 / HOLES.circle_radius * 10
+
+
+@pytest.mark.parametrize("motion", [1.0, -1.0])
+@pytest.mark.parametrize("pins", ["rolling", "fixed"])
+def test_rigid_one_disc_stage_is_the_mesh_friction_solve(motion, pins):
+    """Rigid bearings, crankshafts and carrier, one disc: the stage with friction is the
+    mesh-level friction solve of the same pair (loads, TE, losses, efficiency)."""
+    friction = Friction(mesh=0.06, groove=0.04, pins=pins, speed=SPEED)
+    torques = [-300.0, 300.0]
+    stage = solve(Case(RV40, MOD, None, torques, PHI), Model(stage=StageDesign(HOLES),
+                  friction=friction), motion=motion)  # fmt: skip
+    drive = solve_drive(RV40, MOD, None, torques, PHI, friction=friction, backdrive=motion < 0)
+    scale = np.max(drive.pin_load)
+    np.testing.assert_allclose(stage.pin_load, drive.pin_load, rtol=0, atol=1e-8 * scale)
+    np.testing.assert_allclose(stage.transmission_error, drive.transmission_error, atol=1e-12)
+    f, d = stage.friction, drive.friction
+    loss_s = np.sum(f["power_loss_tooth"] + f["power_loss_groove"], (-2, -1))
+    loss_d = np.sum(d["power_loss_tooth"] + d["power_loss_groove"], (-2, -1))
+    np.testing.assert_allclose(loss_s, loss_d, rtol=1e-8)
+    p_out = 300.0 * SPEED / RV40.teeth
+    eff = [np.mean(p_out) / (p_out + np.mean(loss)) for loss in (loss_s, loss_d)]
+    assert eff[0] == pytest.approx(eff[1], rel=1e-8) and eff[0] < 1.0
+    # the input torque from the crank pins' forces is the mesh's −O2 × R
+    t_in = motion * np.sign(stage.torque)[:, None] * f["input_power"] / SPEED
+    np.testing.assert_allclose(t_in, np.sum(d["input_torque"], -1), rtol=1e-8, atol=1e-9)
+
+
+@pytest.mark.parametrize("motion", [1.0, -1.0])
+def test_power_balance_closes_with_bearings_and_two_discs(motion):
+    """P_in from the crank pins' forces = ±P_out + pin and bearing losses + the approach
+    power, and the parts' work with friction's add up to T·twist (virtual work)."""
+    friction = Friction(mesh=0.05, groove=0.08, bearing=0.003, bearing_diameter=18e-3,
+                        speed=SPEED)  # fmt: skip
+    result = solve(Case(RV40, MOD, None, [-412.0, 412.0], PHI),
+                   Model(stage=SUPPORTED, discs=2, friction=friction), motion=motion)  # fmt: skip
+    f = result.friction
+    loss = np.sum(f["power_loss_tooth"] + f["power_loss_groove"], (-2, -1)) + np.sum(
+        f["power_loss_bearing"], (-2, -1)
+    )
+    assert np.all(np.sum(f["power_loss_bearing"], (-2, -1)) > 0)
+    p_out = 412.0 * SPEED / RV40.teeth
+    np.testing.assert_allclose(
+        f["input_power"], motion * p_out + loss + f["approach_power"], rtol=0, atol=1e-9 * p_out
+    )
+    total = sum(result.work.values())
+    np.testing.assert_allclose(total, result.torque[:, None] * result.twist, rtol=1e-9)
+    assert np.max(result.residual) < 1e-9 * 412.0 / HOLES.circle_radius
+
+
+def test_hysteresis_width_is_linear_in_small_friction():
+    widths = []
+    for mu in (0.01, 0.02):
+        friction = Friction(mesh=mu, groove=mu, bearing=mu / 4, bearing_diameter=18e-3)
+        curve = stage_torsion(
+            Case(RV40, MOD, None, 412.0, PHI[::4]),
+            Model(stage=SUPPORTED, discs=2, friction=friction),
+            points=5,
+        )
+        assert np.all(curve.hysteresis > 0)
+        # the mid curve is the loop's: lost motion barely moves from the frictionless one
+        widths.append(curve.hysteresis)
+    np.testing.assert_allclose(widths[1] / widths[0], 2.0, rtol=2e-2)
+    plain = stage_torsion(
+        Case(RV40, MOD, None, 412.0, PHI[::4]), Model(stage=SUPPORTED, discs=2), points=5
+    )
+    assert plain.hysteresis is None
+
+
+def test_rigid_one_disc_loop_is_the_mesh_loop():
+    friction = Friction(mesh=0.05, groove=0.05)
+    stage = stage_torsion(Case(RV40, MOD, None, 300.0, PHI[::2]),
+                          Model(stage=StageDesign(HOLES), friction=friction), points=5)  # fmt: skip
+    mesh = torsion_curve(RV40, MOD, None, 300.0, PHI[::2], points=5, friction=friction)
+    for name in ("rotation_ascending", "rotation_descending"):
+        np.testing.assert_allclose(getattr(stage, name), getattr(mesh, name), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(stage.hysteresis, mesh.hysteresis, rtol=1e-6)
+
+
+def test_backdriving_is_less_efficient_when_the_crank_bearings_lose_most():
+    """As the mesh-level test (tests/drive/test_friction.py): friction on the input side
+    (the crank bearings) makes η_b < η_f."""
+    friction = Friction(mesh=0.01, groove=0.01, bearing=0.02, bearing_diameter=18e-3,
+                        speed=SPEED)  # fmt: skip
+    eff = []
+    for motion in (1.0, -1.0):
+        model = Model(stage=SUPPORTED, discs=2, friction=friction)
+        result = solve(Case(RV40, MOD, None, 412.0, PHI), model, motion=motion)
+        f = result.friction
+        loss = np.sum(f["power_loss_tooth"] + f["power_loss_groove"]) + np.sum(
+            f["power_loss_bearing"]
+        )
+        p_out = 412.0 * SPEED / RV40.teeth * PHI.size
+        eff.append(p_out / (p_out + loss) if motion > 0 else (p_out - loss) / p_out)
+    forward, backward = eff
+    assert backward < forward < 1.0
+
+
+@pytest.mark.parametrize(
+    ("stage", "friction", "key"),
+    [
+        (SUPPORTED, Friction(mesh=0.05, lubricant=Lubricant(220.0, 19.0)), "friction.lubricant"),
+        (StageDesign(HOLES), Friction(bearing=0.01, bearing_diameter=0.02), "bearing_coefficient"),
+    ],
+)
+def test_what_the_stage_does_not_model_is_refused_in_one_line(stage, friction, key):
+    with pytest.raises(DesignError) as err:
+        solve(Case(RV40, MOD, None, 412.0, PHI[:3]), Model(stage=stage, friction=friction))
+    assert key in str(err.value) and "\n" not in str(err.value)
+
+
+def test_drive_without_friction_is_unchanged_by_the_motion_argument():
+    case = Case(RV40, MOD, None, 412.0, PHI[:5])
+    a = solve(case, Model(stage=SUPPORTED))
+    b = solve(case, Model(stage=SUPPORTED), motion=-1.0, loading=1.0)
+    for field in dataclasses.fields(a):
+        if isinstance(getattr(a, field.name), np.ndarray):
+            np.testing.assert_array_equal(getattr(a, field.name), getattr(b, field.name))
