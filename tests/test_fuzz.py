@@ -9,9 +9,11 @@ of an earlier one) holds that earlier result byte for byte, or nothing if there 
 No traceback, no "internal error", no NumPy RuntimeWarning (overflow, invalid value),
 no hang. ``CYCLOMESH_FUZZ_SEED`` picks other mutations.
 
-The examples are first made cheap (coarse crank steps, few rings, points and
-candidates, no figures) so that a few hundred cases run in well under a minute; the
-mutations then hit one key each (or add or delete one). The counts are printed
+The commands are check, run, stiffness, tolerance, allocate, design, efficiency and
+export (fe: check only, its model takes minutes). The examples are first made cheap
+(coarse crank steps, few rings, points and candidates, no figures) so that a few
+hundred cases run in about a minute; the mutations then hit one key each (or add or
+delete one). The counts are printed
 (``pytest -s``) and checked against a floor so that the test cannot pass vacuously.
 """
 
@@ -56,15 +58,23 @@ CHEAP = {
         "design_space.pin_radius_um.points": 3,
     },
     "fe_table1": {},
+    "efficiency": {
+        "analysis.crank_step_deg": 3.0,
+        "efficiency.torque_nm.points": 2,
+        "efficiency.input_speed_rpm.points": 2,
+        "stiffness.points": 3,
+        "tolerance.rings": 2,
+    },
 }
 COMMANDS = {
-    "table2": ["check", "run"],
+    "table2": ["check", "run", "export"],
     "section42": ["check", "run"],
     "measured": ["check", "run"],
     "stiffness": ["check", "stiffness"],
     "tolerance": ["check", "tolerance", "allocate"],
     "design": ["check", "design"],
     "fe_table1": ["check"],
+    "efficiency": ["check", "efficiency"],
 }
 EXTRA = {
     "run": ["--figures", "none"],
@@ -72,6 +82,8 @@ EXTRA = {
     "tolerance": ["--figures", "none", "--workers", "1"],
     "allocate": ["--figures", "none", "--workers", "1"],
     "design": ["--figures", "none", "--workers", "1"],
+    "efficiency": ["--figures", "none"],
+    "export": ["--format", "dxf,csv"],
 }
 
 

@@ -167,3 +167,68 @@ def test_a_forked_worker_that_catches_ctrl_c_stays_silent():
     assert done.returncode == 0, done.stderr
     assert done.stdout == "130\n"
     assert done.stderr == ""
+
+
+def test_a_rated_torque_too_small_to_turn_the_mesh_is_one_line(tmp_path):
+    """stiffness.rated_torque_nm = 1e-300: the TE at 50 % and 100 % of it is one double,
+    so the rigidity would be 0/0; it printed six lines of RuntimeWarning and wrote a
+    result with a null rigidity. Now the error line alone, naming the key."""
+    text = (EXAMPLES / "stiffness.toml").read_text()
+    text = text.replace("rated_torque_nm = 250.0", "rated_torque_nm = 1e-300", 1)
+    (tmp_path / "s.toml").write_text(text.replace("points = 41", "points = 5", 1))
+    done = cyclomesh(
+        "stiffness", "s.toml", "--out", "o", "-q", "--figures", "none",
+        "--crank-step-deg", "60", cwd=tmp_path,
+    )  # fmt: skip
+    line = only_error_line(done)
+    assert "rated torque 1e-300 N·m" in line and "stiffness.rated_torque_nm" in line
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_numba_kernel_prints_only_the_error_line(tmp_path):
+    """CYCLOMESH_KERNEL=numba (the opt-in compiled pin-step): the refusals on the way
+    through the kernel (a torque no pin can carry, a pin that overlaps the disc, a
+    clearance deeper than the teeth) are the same one line, no RuntimeWarning or
+    compiler message before it, and no folder is left."""
+    import pytest
+
+    pytest.importorskip("numba")
+    text = (
+        (EXAMPLES / "table2.toml")
+        .read_text()
+        .replace("crank_step_deg = 0.1", "crank_step_deg = 30.0")
+    )
+    cases = {
+        "torque": (text.replace("torque_nm = 250.0", "torque_nm = 1e300"), "torque too large"),
+        "overlap": (
+            text + '\n[[cases]]\nname = "x"\nmodification.pin_radius_um = -8.0\n',
+            "by 8 µm",
+        ),
+        "deep": (
+            text + '\n[[cases]]\nname = "x"\nmodification.pin_radius_um = 3400.0\n',
+            "no pin reaches",
+        ),
+    }
+    env = dict(os.environ, CYCLOMESH_KERNEL="numba")
+    for name, (study, words) in cases.items():
+        (tmp_path / f"{name}.toml").write_text(study)
+        done = subprocess.run(
+            [sys.executable, "-m", "cyclomesh", "run", f"{name}.toml", "--out", name, "-q"]
+            + ["--figures", "none"],
+            capture_output=True, text=True, cwd=tmp_path, env=env, timeout=600,
+        )  # fmt: skip
+        assert words in only_error_line(done), (name, done.stderr)
+        assert not (tmp_path / name).exists()
+
+
+def test_an_unknown_kernel_is_a_refusal_not_an_internal_error(tmp_path):
+    """CYCLOMESH_KERNEL=bogus was "internal error (ValueError: ...)": now the one line
+    names the variable and its values, exit 2, no folder."""
+    env = dict(os.environ, CYCLOMESH_KERNEL="bogus")
+    done = subprocess.run(
+        [sys.executable, "-m", "cyclomesh", "run", str(EXAMPLES / "table2.toml"), "--out", "o"]
+        + ["-q", "--figures", "none", "--crank-step-deg", "30"],
+        capture_output=True, text=True, cwd=tmp_path, env=env, timeout=600,
+    )  # fmt: skip
+    assert "CYCLOMESH_KERNEL='bogus': expected one of numpy, numba" in only_error_line(done)
+    assert not (tmp_path / "o").exists()

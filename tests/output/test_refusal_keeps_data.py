@@ -1,6 +1,7 @@
 """A refused command leaves its ``--out`` exactly as it found it (issue 23, item 1).
 
-Every kind of command (run, stiffness, tolerance, allocate, design, fe, export) first
+Every kind of command (run, stiffness, tolerance, allocate, design, fe, export,
+efficiency; run also with its figures drawn) first
 writes a complete result into a folder; the same command with an input it refuses
 only after it computed part of the study (a torque no pin can carry, a ring that jams,
 a degenerate sweep, a case that cannot be exported) must then leave every file of that
@@ -47,6 +48,11 @@ FE = (
     (r"^elements_per_half_width = .*$", "elements_per_half_width = 3.0"),
     (r"^far_size_mm = .*$", "far_size_mm = 5.0"),
 )
+EFFICIENCY = (
+    ("efficiency.toml"),
+    (r"points = 12", "points = 2"),
+    (r"points = 6 ", "points = 2 "),
+)
 LAST_CASE = '\n[[cases]]\nname = "refused"\n'  # after the cases that compute
 STAGE_TORQUE = (r"^torque_nm = .*$", "torque_nm = 1e300")
 
@@ -70,6 +76,25 @@ CASES = {
             (r"^points = .*$", "points = 5"),
             (r"^rated_torque_nm = .*$", "rated_torque_nm = 1e300"),
         ),
+    ),
+    "stiffness-tiny-torque": (  # refused after the torsion curve: the TE does not move
+        ("stiffness", "--crank-step-deg", "60"),
+        _edit("stiffness.toml", (r"^points = .*$", "points = 5")),
+        _edit(
+            "stiffness.toml",
+            (r"^points = .*$", "points = 5"),
+            (r"^rated_torque_nm = .*$", "rated_torque_nm = 1e-300"),
+        ),
+    ),
+    "run-with-figures": (  # the slow path of run (figures drawn), not results/frame.py's
+        ("run", "--crank-step-deg", "30", "--figures", "png"),
+        _edit("table2.toml"),
+        _edit("table2.toml") + LAST_CASE + "modification.pin_radius_um = -8.0\n",
+    ),
+    "efficiency": (  # the last torque of the map is one no pin can carry
+        ("efficiency",),
+        _edit(*EFFICIENCY),
+        _edit(*EFFICIENCY, (r"stop = 300\.0, points = 2", "stop = 1e300, points = 2")),
     ),
     "tolerance": (  # jammed rings are counted (issue 23): a failure after the files
         ("tolerance", "--workers", "1"),
@@ -127,7 +152,7 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
 
 def _invoke(args: tuple[str, ...], study: Path, out: Path):
     command, *more = args
-    extra = NO_FIGURES if command != "export" else ("-q",)
+    extra = NO_FIGURES if command != "export" and "--figures" not in more else ("-q",)
     return CliRunner().invoke(app, [command, str(study), "--out", str(out), *more, *extra])
 
 

@@ -343,3 +343,43 @@ def test_design_map_with_the_compliant_disc_in_the_stage(coarse, example, tmp_pa
     line = result.output.strip()
     assert "\n" not in line and "design_space.eccentricity_mm" in line
     assert 'disc_body = "rigid"' in line and not (tmp_path / "g").exists()
+
+
+def test_a_refused_compliant_stage_keeps_the_earlier_result(coarse, tmp_path, monkeypatch):
+    """Issue 23 with the compliant disc: ``cyclomesh run`` of the stage with disc_body =
+    "fe" into a folder holding its complete result, refused after its first case was
+    solved (a second case whose pins overlap the disc, Δρ = -8 µm): one error line, exit
+    2, every file of the earlier result byte-identical and loadable."""
+    from typer.testing import CliRunner
+
+    import cyclomesh.fe.influence as fe
+    from cyclomesh.cli import app
+    from cyclomesh.output.folder import LOCK, STAGING, load_results
+
+    _, folder = coarse
+    for key, value in COARSE.items():
+        monkeypatch.setitem(fe.MESH_DEFAULTS, key, value)
+    text = EXAMPLE.read_text()
+    base = text[: text.index("[[cases]]")].replace("[analysis]", '[analysis]\ndisc_body = "fe"', 1)
+    good, bad = tmp_path / "good.toml", tmp_path / "bad.toml"
+    good.write_text(base)
+    bad.write_text(
+        base
+        + '\n[[cases]]\nname = "a"\n\n[[cases]]\nname = "b"\nmodification.pin_radius_um = -8.0\n'
+    )
+    out = tmp_path / "out"
+    common = ["--out", str(out), "-q", "--crank-step-deg", "60", "--figures", "none"]
+    common += ["--cache-dir", str(folder)]
+
+    def snapshot():
+        return {p: p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file() and p.name != LOCK}
+
+    first = CliRunner().invoke(app, ["run", str(good), *common])
+    assert first.exit_code == 0, first.output
+    before = snapshot()
+    refused = CliRunner().invoke(app, ["run", str(bad), *common])
+    lines = [line for line in refused.output.splitlines() if line.strip()]
+    assert refused.exit_code == 2 and len(lines) == 1, refused.output
+    assert lines[0].startswith('error: case "b": pin 1 overlaps the disc'), lines[0]
+    assert snapshot() == before and not (out / STAGING).exists()
+    load_results(out)

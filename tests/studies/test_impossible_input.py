@@ -42,7 +42,8 @@ def test_negative_play_is_run_but_fails_the_verdict_and_warns(tmp_path):
     warnings, the terminal and the report."""
     text = (EXAMPLES / "table2.toml").read_text(encoding="utf-8")
     text = text.split("[[cases]]")[0]  # the base case only
-    text = text.replace("crank_step_deg = 0.1 ", "crank_step_deg = 4.0 ")
+    assert "crank_step_deg = 0.1\n" in text
+    text = text.replace("crank_step_deg = 0.1\n", "crank_step_deg = 4.0\n")
     text = text.replace("[load]", "[errors]\neccentricity_um = -700.0\n\n[load]")
     study = tmp_path / "jam.toml"
     study.write_text(text, encoding="utf-8")
@@ -64,7 +65,8 @@ def test_a_positive_or_zero_play_adds_no_jam_row(tmp_path):
     clearance, whose play is zero up to round-off, e.g. -4.7e-10 arcmin) no jam."""
     text = (EXAMPLES / "table2.toml").read_text(encoding="utf-8")
     study = tmp_path / "ok.toml"
-    study.write_text(text.replace("crank_step_deg = 0.1 ", "crank_step_deg = 4.0 "), "utf-8")
+    assert "crank_step_deg = 0.1\n" in text
+    study.write_text(text.replace("crank_step_deg = 0.1\n", "crank_step_deg = 4.0\n"), "utf-8")
     out = tmp_path / "out"
     assert invoke("run", study, "--out", out, "--figures", "none").exit_code == 0
     summary = json.loads((out / "summary.json").read_text())
@@ -113,6 +115,16 @@ def test_measured_pins_csv_refuses_python_syntax_and_pins_without_radius(
             "roller_length_mm = 9.0",
             "roller_length_mm = 50.0",
             ["roller_length_mm = 50", "disc width", "width_mm = 10"],
+        ),
+        (  # was "stage.crank_bearing.pitch_diameter must be positive, got -0.004" (issue 23)
+            "roller_diameter_mm = 4.0",
+            "roller_diameter_mm = 30.0",
+            ["roller_diameter_mm = 30", "crank_hole_radius_mm = 13", "below 13 mm"],
+        ),
+        (
+            "rollers = 14",
+            "rollers = 60",
+            ["60 rollers of 4 mm do not fit on the pitch circle of 22 mm (at most 17)"],
         ),
         (
             "output_speed_rpm = 15.0",
@@ -183,3 +195,29 @@ def test_run_and_stiffness_check_the_stage_by_one_definition(tmp_path):
             assert "stage: mesh + crank bearings + crankshafts + carrier" in a["note"]
             assert "the reducer's is worse" in a["note"]
             assert "crankshafts not included" not in a["note"]
+
+
+def test_no_modification_on_the_requirements_example_jams_in_run_and_stiffness(tmp_path):
+    """Issue 23: modification.pin_radius_um = 0 on examples/requirements.toml (Δa = -3 µm
+    left, random pin errors): the play at zero load is negative (about -2 arcmin) and
+    was reported with no word. Both kinds that compute the play fail a 'jam' row and
+    warn in summary.json and on the terminal."""
+    text = (EXAMPLES / "requirements.toml").read_text(encoding="utf-8")
+    for old, new in (
+        ("pin_radius_um = 5.0", "pin_radius_um = 0.0"),
+        ("crank_step_deg = 0.5\n", "crank_step_deg = 10.0\n"),
+    ):
+        assert old in text
+        text = text.replace(old, new, 1)
+    study = tmp_path / "req.toml"
+    study.write_text(text, encoding="utf-8")
+    for command, extra in (("run", ()), ("stiffness", ("--crank-step-deg", "30"))):
+        out = tmp_path / command
+        result = invoke(command, study, "--out", out, "--figures", "none", *extra)
+        assert result.exit_code == 0, result.output
+        assert "pins jam the disc" in " ".join(result.output.split()), command
+        summary = json.loads((out / "summary.json").read_text())
+        assert any("pins jam the disc" in w for w in summary["warnings"]), command
+        (case,) = summary["cases"]
+        rows = {row["check"]: row for row in case["checks"]["rows"]}
+        assert rows["jam"]["verdict"] == "fail" and rows["jam"]["value"] < -1.0, command

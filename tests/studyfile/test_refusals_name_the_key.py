@@ -107,3 +107,14 @@ def test_a_measured_pin_beyond_its_bound_names_the_file_and_the_row(tmp_path):
         line
     )
     assert "errors.pin_radius_um" not in line
+
+
+def test_a_face_width_beyond_a_double_is_not_told_to_grow(tmp_path):
+    """design.width_mm = 1e300: the contact law's coefficients (∝ 1/B) underflow, so no
+    pin carries the torque although its largest force is not reached; the line used to
+    say "raise design.width_mm". It names the width and the modulus and asks for a real
+    size instead (1e250 mm still computes)."""
+    line = _error(tmp_path, TABLE2.replace("width_mm = 12.0 ", "width_mm = 1e300 "))
+    assert "raise design.width_mm" not in line, line
+    assert "cannot be evaluated in double precision" in line
+    assert "design.width_mm and the youngs_modulus_gpa of [material]" in line

@@ -51,6 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core import loadsharing
 from cyclomesh.core.loadsharing import TORQUE_TOLERANCE
+from cyclomesh.exceptions import CyclomeshError
 
 __all__ = ["KERNELS", "ENV_VAR", "kernel_name", "share_load"]
 
@@ -67,17 +68,18 @@ def kernel_name() -> str:
 
     Raises
     ------
-    ValueError
-        One line naming the variable and its values, for any other value, or ``numba``
-        without numba installed (the fix: the ``fast`` extra).
+    CyclomeshError
+        (a ``ValueError``) One line naming the variable and its values, for any other
+        value, or ``numba`` without numba installed (the fix: the ``fast`` extra); the
+        CLI shows it as a refusal (exit 2), not as an internal error.
     """
     name = os.environ.get(ENV_VAR, "numpy").strip().lower() or "numpy"
     if name not in KERNELS:
-        raise ValueError(
+        raise CyclomeshError(
             f"{ENV_VAR}={name!r}: expected one of {', '.join(KERNELS)}; unset it for numpy"
         )
     if name == "numba" and _compiled() is None:
-        raise ValueError(
+        raise CyclomeshError(
             f"{ENV_VAR}=numba needs numba: pip install 'cyclomesh[fast]' (or unset {ENV_VAR})"
         )
     return name

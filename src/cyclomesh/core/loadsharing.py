@@ -274,13 +274,23 @@ def _newton(
 
 def _too_large(force: FloatArray, alpha: FloatArray, gamma: FloatArray, usable: NDArray) -> str:
     """The message for a torque that no pin could carry alone: by which factor the face
-    width or the moduli must grow. The largest force of the law, exp(α/γ − 1), is
+    width or the moduli must grow (or, where the law's largest force is not exceeded, that
+    B·E is beyond what a double can evaluate). The largest force of the law, exp(α/γ − 1), is
     proportional to B·E (α/γ = ln(B/C) + const. in Eqs. 20–23 of [1]; C the compliance)."""
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
         limit = np.where(gamma > 0, np.exp(alpha / np.where(gamma > 0, gamma, 1.0) - 1.0), np.inf)
         ratio = np.where(usable, force / limit, np.inf)
     factor = float(np.min(ratio))
-    need = f" by a factor above {factor:.3g}" if np.isfinite(factor) and factor > 1 else ""
+    if not (np.isfinite(factor) and factor >= 1.0):
+        # within the law's largest force, yet no pin carries it: α and γ (∝ 1/(B·E)) under-
+        # or overflow, e.g. a face width of 1e300 mm; raising B or E would only go further
+        return (
+            "the line-contact law (Eq. 20) cannot be evaluated in double precision for "
+            "this face width and Young's modulus (its compliance coefficients under- or "
+            "overflow); give design.width_mm and the youngs_modulus_gpa of [material] at "
+            "a real size (mm, GPa)"
+        )
+    need = f" by a factor above {factor:.3g}" if factor > 1 else ""
     return (
         "torque too large for the contact: no pin could carry it alone within the "
         "line-contact law (Eq. 20); lower the torque, or raise design.width_mm or the "

@@ -103,6 +103,12 @@ def torsion_metrics(
         [rad], shape of ``rotation`` without the torque axis.
     rigidity : ndarray
         [N·m/rad], same shape.
+
+    Raises
+    ------
+    DesignError
+        If the TE at 50 % and 100 % of ``rated_torque`` is the same double (a rated torque
+        so small, e.g. 1e-300 N·m, that the rigidity would be infinite).
     """
 
     def te(fraction: float) -> FloatArray:
@@ -112,9 +118,15 @@ def torsion_metrics(
     half, full = RIGIDITY_FRACTIONS
     rigidity = 0.0
     for sign in (-1.0, 1.0):
-        rigidity = rigidity + 0.5 * (
-            (full - half) * rated_torque / np.abs(te(sign * full) - te(sign * half))
-        )
+        turn = np.abs(te(sign * full) - te(sign * half))
+        if not np.all(turn > 0):  # 0 (or NaN): the torque moves the TE by less than 1 ulp
+            raise DesignError(
+                f"rated torque {rated_torque:g} N·m: the TE does not change between "
+                f"{half:.0%} and {full:.0%} of it (the mesh deflection is below the "
+                "resolution of a double), so the torsional rigidity is undefined; raise "
+                "the rated torque (stiffness.rated_torque_nm)"
+            )
+        rigidity = rigidity + 0.5 * ((full - half) * rated_torque / turn)
     return lost, rigidity
 
 

@@ -87,18 +87,8 @@ def load_design_study(path: str | Path) -> tuple[Study, DesignSpaceSection]:
     """
     study = load_study(path)
     require_design_space(study)
-    space = study.file.design_space
-    torques = [case.load.torque_nm for case in study.cases]
-    if any(isinstance(t, list) for t in torques):
-        raise StudyError(
-            "load.torque_nm: a design map takes one torque; give a number "
-            "(cyclomesh stiffness sweeps torques)"
-        )
-    if space.rings and study.file.tolerance is None:
-        raise StudyError(
-            "design_space.rings: a robust map needs a [tolerance] section to draw rings"
-        )
-    return study, space
+    _preflight(study)
+    return study, study.file.design_space
 
 
 def constraints(space: DesignSpaceSection) -> Constraints:
@@ -454,9 +444,20 @@ def design_sections(result: DesignResult) -> list[Section]:
 
 
 def _preflight(study: Study) -> None:
-    """The design map's own refusal before it computes (``cyclomesh check`` too): a
-    compliant disc body (``disc_body = "fe"``) over swept geometry
+    """The design map's own refusals before it computes (``cyclomesh check --kind design``
+    too): a list of torques, a robust map without ``[tolerance]``, a compliant disc body
+    (``disc_body = "fe"``) over swept geometry
     (:func:`~cyclomesh.designspace.sweep.check_body_axes`)."""
+    torques = [case.load.torque_nm for case in study.cases]
+    if any(isinstance(t, list) for t in torques):
+        raise StudyError(
+            "load.torque_nm: a design map takes one torque; give a number "
+            "(cyclomesh stiffness sweeps torques)"
+        )
+    if study.file.design_space.rings and study.file.tolerance is None:
+        raise StudyError(
+            "design_space.rings: a robust map needs a [tolerance] section to draw rings"
+        )
     try:
         check_body_axes(
             study.base.analysis.disc_body == "fe", tuple(study.file.design_space.axes())

@@ -346,6 +346,13 @@ class StageSection(StrictSection):
         bearing = None
         b = self.crank_bearing
         if b is not None:
+            if b.roller_diameter_mm * M_PER_MM >= holes.radius:  # the crank pin: 2R - 2d > 0
+                raise DesignError(
+                    f"stage.crank_bearing.roller_diameter_mm = {b.roller_diameter_mm:g}: two "
+                    "rollers and the crank pin between them must fit across the crank hole "
+                    f"(design.disc.crank_hole_radius_mm = {holes.radius / M_PER_MM:g}); it "
+                    f"must be below {holes.radius / M_PER_MM:g} mm"
+                )
             bearing = RollerSet(
                 rollers=b.rollers,
                 diameter=b.roller_diameter_mm * M_PER_MM,
