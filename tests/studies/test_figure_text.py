@@ -110,7 +110,7 @@ def test_the_profile_stress_of_an_unloaded_pin_says_so():
 def test_the_default_stress_pin_is_a_loaded_one():
     """Without [figures] stress_pin the figure takes pin n/2, unless no case loads it:
     then the pin of the highest contact stress."""
-    from cyclomesh.studies.run import _stress_pin
+    from cyclomesh.studies.run_figures import stress_pin as _stress_pin
 
     ds = _loads()
     assert _stress_pin({"case": ds}, 20) == 6  # the peak of the loaded arc (pins 1-12)
