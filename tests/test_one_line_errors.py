@@ -232,3 +232,17 @@ def test_an_unknown_kernel_is_a_refusal_not_an_internal_error(tmp_path):
     )  # fmt: skip
     assert "CYCLOMESH_KERNEL='bogus': expected one of numpy, numba" in only_error_line(done)
     assert not (tmp_path / "o").exists()
+
+
+def test_a_stage_that_finds_no_equilibrium_names_the_case_and_the_clearance(tmp_path):
+    """A crank-bearing clearance of 5000 µm lets the discs float (issue 23: 'no descent'):
+    one line naming the case, the crank angle and the key to check, with its value."""
+    text = (EXAMPLES / "rv_stage.toml").read_text()
+    assert "radial_clearance_um = 5.0" in text and "crank_step_deg = 1.0" in text
+    text = text.replace("radial_clearance_um = 5.0", "radial_clearance_um = 5000.0")
+    (tmp_path / "s.toml").write_text(text.replace("crank_step_deg = 1.0", "crank_step_deg = 30.0"))
+    done = cyclomesh("run", "s.toml", "--out", "o", "-q", "--figures", "none", cwd=tmp_path)
+    line = only_error_line(done)
+    assert line.startswith('error: case "') and "crank angle" in line
+    assert "stage.crank_bearing.radial_clearance_um (now 5000 µm" in line
+    assert not (tmp_path / "o").exists()

@@ -392,7 +392,9 @@ def solve(case: Case, model: Model, motion: float = 1.0, loading: float = 0.0) -
                         )
                     )
             except ConvergenceError as exc:
-                raise ConvergenceError(f"{where}torque {value:g} N·m: {exc}") from None
+                raise ConvergenceError(
+                    f"{where}torque {value:g} N·m: {exc}{_hint(stage)}"
+                ) from None
             results.append(fields)
         per_ring.append({name: np.stack([r[name] for r in results]) for name in results[0]})
     out = {
@@ -507,6 +509,20 @@ def stage_torsion_curve(
         Case(design, modification, errors, rated_torque, crank_angles),
         Model(contact_law, groove_deformation, "rigid", discs, stage),
         points,
+    )
+
+
+def _hint(stage: StageDesign) -> str:
+    """What a failed stage solve asks the user to check: the keys that let the discs float
+    (the crank bearings' clearance, the crank-hole errors)."""
+    if stage.bearing is None:
+        return (
+            "; check the crank-hole errors (stage.hole_error_radial_um, hole_error_tangential_um)"
+        )
+    return (
+        "; check stage.crank_bearing.radial_clearance_um (now "
+        f"{stage.bearing.clearance * 1e6:.6g} µm; a needle bearing's is a few µm) and the "
+        "crank-hole errors"
     )
 
 

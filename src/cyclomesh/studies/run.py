@@ -187,7 +187,10 @@ def compute_run(
             ds = ds.to_xarray()
         sheet = None
         if inputs.stage is not None:
-            ds, sheet = _with_stage(ds, case, inputs)
+            try:
+                ds, sheet = _with_stage(ds, case, inputs)
+            except CyclomeshError as exc:  # name the case
+                raise type(exc)(f"{case.label}: {exc}") from None
         run.summaries[case.name] = summary_record(summary_frame(ds))
         run.summaries[case.name].update(efficiency_summary(ds, case))
         if sheet is not None:
