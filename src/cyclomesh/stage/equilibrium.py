@@ -55,7 +55,13 @@ from cyclomesh.stage.friction import (
 from cyclomesh.stage.kernel import compiled
 from cyclomesh.stage.kernel_newton import newton as kernel_newton
 from cyclomesh.stage.kernel_newton import rigid_newton as kernel_rigid_newton
-from cyclomesh.stage.newton import FORCE_TOLERANCE, newton, reducer
+from cyclomesh.stage.newton import (
+    FORCE_TOLERANCE,
+    newton,
+    reducer,
+    residual_newton,
+    rotation_index,
+)
 from cyclomesh.stage.supports import (
     BearingLaw,
     Supports,
@@ -270,52 +276,16 @@ def _body_newton(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid: b
 
 def _stationary(p: _Problem, evaluate, law, x: FloatArray, discs: int, phi: FloatArray):
     """Newton's method on ∇Π = 0 with a backtracking line search on the residual ‖∇Π‖
-    (scaled unknowns as :func:`~cyclomesh.stage.newton.newton`, the same convergence test:
-    every residual below 1e-12·T/r_c or the round-off of the unknowns)."""
-    tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
-    L, m = p.scale, x.shape[1]
-    rot = [0, *range(1, 1 + 3 * discs, 3)]
-    if p.supports is not None and p.supports.carrier is not None:
-        rot.append(m - 1 - p.body.size)
-    active = np.arange(x.shape[0])
-    for _ in range(200):
-        sub = p.take(active)
-        xa = x[active]
-        _, g, H, _st = evaluate(sub, law, xa, discs, False)
-        xs = np.abs(xa)
-        xs[:, rot] *= L
-        noise = 16.0 * np.finfo(float).eps * np.einsum("nij,nj->ni", np.abs(H), xs)
-        keep = ~np.all(np.abs(g) <= np.maximum(tol, noise), axis=-1)
-        active = active[keep]
-        if active.size == 0:
-            return x
-        xa, g, H, sub = xa[keep], g[keep], H[keep], sub.take(np.flatnonzero(keep))
-        diag = np.maximum(np.max(np.abs(np.diagonal(H, axis1=1, axis2=2)), axis=-1), 1e-300)
-        step = np.linalg.solve(H + 1e-14 * diag[:, None, None] * np.eye(m), -g[..., None])[..., 0]
-        step[:, rot] /= L
-        merit = np.linalg.norm(g, axis=-1)
-        t = np.ones(xa.shape[0])
-        todo = np.arange(xa.shape[0])
-        new = xa.copy()
-        for _h in range(60):
-            trial = xa[todo] + t[todo, None] * step[todo]
-            _e, g_t, _H, st = evaluate(sub.take(todo), law, trial, discs, False, hessian=False)
-            ok = ~st["bad"] & (np.linalg.norm(g_t, axis=-1) <= (1.0 - 1e-4 * t[todo]) * merit[todo])
-            new[todo[ok]] = trial[ok]
-            todo = todo[~ok]
-            if todo.size == 0:
-                break
-            t[todo] *= 0.5
-        else:
-            raise ConvergenceError(
-                f"stage (compliant disc): no decrease of the residual at crank angle "
-                f"{np.degrees(phi[active[todo[0]]]):.6g}°"
-            )
-        x[active] = new
-    raise ConvergenceError(
-        f"stage (compliant disc) did not converge at crank angle "
-        f"{np.degrees(phi[active[0]]):.6g}°: residual above {FORCE_TOLERANCE:.0e}·T/r_c"
-    )
+    (:func:`~cyclomesh.stage.newton.residual_newton`: scaled unknowns and the convergence
+    test of :func:`~cyclomesh.stage.newton.newton`, every residual below 1e-12·T/r_c or
+    the round-off of the unknowns)."""
+
+    def gradient(sub: _Problem, xa: FloatArray, jacobian: bool):
+        _, g, H, st = evaluate(sub, law, xa, discs, False, hessian=jacobian)
+        return g, H, st
+
+    rot = rotation_index(x.shape[1], discs, p.supports, p.body.size)
+    return residual_newton(p, gradient, x, phi, rot, "stage (compliant disc)")
 
 
 def _mirrored(arr: FloatArray) -> FloatArray:

@@ -63,9 +63,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from cyclomesh.core.friction import Friction, effective_coefficient, normal_moment
-from cyclomesh.exceptions import ConvergenceError, DesignError
+from cyclomesh.exceptions import DesignError
 from cyclomesh.stage.assembly import Problem, bearing_jacobian
-from cyclomesh.stage.newton import FORCE_TOLERANCE, reducer
+from cyclomesh.stage.newton import reducer, residual_newton, rotation_index
 
 __all__ = [
     "friction_arrays",
@@ -76,9 +76,6 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-
-_MAX_ITERATIONS = 200
-_MAX_HALVINGS = 60
 
 
 def check_stage_friction(friction: Friction, bearing: object, body: object) -> None:
@@ -192,22 +189,11 @@ def friction_terms(p: Problem, x: FloatArray, discs: int, rigid: bool, state: di
     return Q, dQ
 
 
-def _rotations(p: Problem, m: int, discs: int, rigid: bool) -> list[int]:
-    """The unknowns that are rotations (scaled by r_c)."""
-    if rigid:
-        return [0]
-    rot = [0, *range(1, 1 + 3 * discs, 3)]
-    if p.supports is not None and p.supports.carrier is not None:
-        rot.append(m - 1)
-    return rot
-
-
 def friction_newton(p: Problem, evaluate, law, x: FloatArray, discs: int, rigid: bool, phi):
     """Newton's method on ∇Π − Q = 0 with the exact Jacobian and a backtracking line search
     on the residual's norm ([4]); scaled unknowns and the convergence test of
     :func:`~cyclomesh.stage.newton.newton` (every residual below 1e-12·T/r_c or the
     round-off of the unknowns). ``rigid``: the reduced problem (θ_d = c, u = 0)."""
-    tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
     reduce = reducer(discs) if rigid else None
 
     def residual(sub: Problem, xa: FloatArray, jac: bool):
@@ -220,51 +206,8 @@ def friction_newton(p: Problem, evaluate, law, x: FloatArray, discs: int, rigid:
             J = np.einsum("im,nij,jk->nmk", reduce, J, reduce) if jac else None
         return r, J, st
 
-    m = x.shape[1]
-    rot = _rotations(p, m, discs, rigid)
-    L = p.scale
-    active = np.arange(x.shape[0])
-    for _ in range(_MAX_ITERATIONS):
-        sub = p.take(active)
-        xa = x[active]
-        r, J, _st = residual(sub, xa, True)
-        xs = np.abs(xa @ reduce if rigid else xa.copy())
-        xs[:, rot] *= L
-        noise = 16.0 * np.finfo(float).eps * np.einsum("nij,nj->ni", np.abs(J), xs)
-        keep = ~np.all(np.abs(r) <= np.maximum(tol, noise), axis=-1)
-        active = active[keep]
-        if active.size == 0:
-            return x
-        xa, r, J, sub = xa[keep], r[keep], J[keep], sub.take(np.flatnonzero(keep))
-        k = J.shape[-1]
-        diag = np.maximum(np.max(np.abs(np.diagonal(J, axis1=1, axis2=2)), axis=-1), 1e-300)
-        step = np.linalg.solve(J + 1e-14 * diag[:, None, None] * np.eye(k), -r[..., None])[..., 0]
-        step[:, rot if not rigid else [0]] /= L
-        if rigid:
-            step = step @ reduce.T
-        merit = np.linalg.norm(r, axis=-1)
-        t = np.ones(xa.shape[0])
-        todo = np.arange(xa.shape[0])
-        new = xa.copy()
-        for _h in range(_MAX_HALVINGS):
-            trial = xa[todo] + t[todo, None] * step[todo]
-            r_t, _J, st = residual(sub.take(todo), trial, False)
-            ok = ~st["bad"] & (np.linalg.norm(r_t, axis=-1) <= (1.0 - 1e-4 * t[todo]) * merit[todo])
-            new[todo[ok]] = trial[ok]
-            todo = todo[~ok]
-            if todo.size == 0:
-                break
-            t[todo] *= 0.5
-        else:
-            raise ConvergenceError(
-                f"stage with friction: no decrease of the residual at crank angle "
-                f"{np.degrees(phi[active[todo[0]]]):.6g}°"
-            )
-        x[active] = new
-    raise ConvergenceError(
-        f"stage with friction did not converge at crank angle "
-        f"{np.degrees(phi[active[0]]):.6g}°: residual above {FORCE_TOLERANCE:.0e}·T/r_c"
-    )
+    rot = [0] if rigid else rotation_index(x.shape[1], discs, p.supports)
+    return residual_newton(p, residual, x, phi, rot, "stage with friction", reduce)
 
 
 def power_terms(

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.stage.bearing import LOAD_EXPONENT
 
-__all__ = ["newton", "FORCE_TOLERANCE", "reducer"]
+__all__ = ["newton", "residual_newton", "rotation_index", "FORCE_TOLERANCE", "reducer"]
 
 FloatArray = NDArray[np.float64]
 Evaluate = Callable[..., tuple[Any, Any, Any, dict]]
@@ -36,7 +36,7 @@ _LINEAR = (0.05, 0.12)
 near zero load (:func:`newton`; (1 − 9/10)^(10/9) ≈ 0.077 in the middle)."""
 
 
-def _rotation_index(m: int, discs: int, supports, tail: int = 0) -> list[int]:
+def rotation_index(m: int, discs: int, supports, tail: int = 0) -> list[int]:
     """Unknowns that are rotations (scaled by r_c in the Newton step); ``tail``: the
     compliant disc's unknowns after the supports' (:class:`~cyclomesh.stage.equilibrium.
     _Body`)."""
@@ -74,7 +74,7 @@ def newton(
         # themselves (stiff bearings: a residual of H·ulp(x) cannot be resolved)
         body = None if rigid else getattr(p, "body", None)
         tail = 0 if body is None else body.size
-        rot_idx = _rotation_index(xa.shape[1], discs, None if rigid else p.supports, tail)
+        rot_idx = rotation_index(xa.shape[1], discs, None if rigid else p.supports, tail)
         xs = np.abs(_scale(xa, 1.0 / p.scale, rot_idx))
         if rigid:
             xs = xs @ reduce
@@ -131,6 +131,73 @@ def newton(
     raise ConvergenceError(
         f"stage equilibrium did not converge at crank angle {np.degrees(phi[active[0]]):.6g}°: "
         f"residual above {FORCE_TOLERANCE:.0e}·T/r_c after {_MAX_ITERATIONS} Newton steps"
+    )
+
+
+def residual_newton(
+    p,
+    residual: Callable[..., tuple[Any, Any, dict]],
+    x: FloatArray,
+    phi: FloatArray,
+    rot: list[int],
+    what: str,
+    reduce: FloatArray | None = None,
+) -> FloatArray:
+    """Newton's method on r(x) = 0 with a backtracking line search on the residual's norm
+    (Nocedal & Wright §11.2), per crank angle: where no potential decreases along the step
+    (the compliant disc's saddle, friction's non-symmetric Jacobian).
+
+    ``residual(sub, xa, jacobian)`` → ``(r, J, st)`` (``J`` only with ``jacobian``; ``st``
+    with the trial's ``bad`` flags) of the problem ``p`` at the scaled unknowns (rotations
+    × r_c at ``rot``); ``reduce``: the reduced problem's unknowns (``r`` and ``J`` given in
+    them, the step expanded to ``x``'s). The convergence test of :func:`newton`: every
+    residual below :data:`FORCE_TOLERANCE`·T/r_c or the round-off of the unknowns. ``x``:
+    the start (A, m), overwritten by the solution. Raises ConvergenceError naming ``what``
+    and the crank angle ``phi``.
+    """
+    tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
+    L = p.scale
+    active = np.arange(x.shape[0])
+    for _ in range(_MAX_ITERATIONS):
+        sub = p.take(active)
+        xa = x[active]
+        r, J, _st = residual(sub, xa, True)
+        xs = np.abs(xa @ reduce if reduce is not None else xa.copy())
+        xs[:, rot] *= L
+        noise = 16.0 * np.finfo(float).eps * np.einsum("nij,nj->ni", np.abs(J), xs)
+        keep = ~np.all(np.abs(r) <= np.maximum(tol, noise), axis=-1)
+        active = active[keep]
+        if active.size == 0:
+            return x
+        xa, r, J, sub = xa[keep], r[keep], J[keep], sub.take(np.flatnonzero(keep))
+        k = J.shape[-1]
+        diag = np.maximum(np.max(np.abs(np.diagonal(J, axis1=1, axis2=2)), axis=-1), 1e-300)
+        step = np.linalg.solve(J + 1e-14 * diag[:, None, None] * np.eye(k), -r[..., None])[..., 0]
+        step[:, rot] /= L
+        if reduce is not None:
+            step = step @ reduce.T
+        merit = np.linalg.norm(r, axis=-1)
+        t = np.ones(xa.shape[0])
+        todo = np.arange(xa.shape[0])
+        new = xa.copy()
+        for _h in range(_MAX_HALVINGS):
+            trial = xa[todo] + t[todo, None] * step[todo]
+            r_t, _J, st = residual(sub.take(todo), trial, False)
+            ok = ~st["bad"] & (np.linalg.norm(r_t, axis=-1) <= (1.0 - 1e-4 * t[todo]) * merit[todo])
+            new[todo[ok]] = trial[ok]
+            todo = todo[~ok]
+            if todo.size == 0:
+                break
+            t[todo] *= 0.5
+        else:
+            raise ConvergenceError(
+                f"{what}: no decrease of the residual at crank angle "
+                f"{np.degrees(phi[active[todo[0]]]):.6g}°"
+            )
+        x[active] = new
+    raise ConvergenceError(
+        f"{what} did not converge at crank angle "
+        f"{np.degrees(phi[active[0]]):.6g}°: residual above {FORCE_TOLERANCE:.0e}·T/r_c"
     )
 
 
