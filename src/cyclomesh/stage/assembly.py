@@ -196,21 +196,12 @@ def evaluate(
     rot = (theta - c[:, None])[..., None]
     dx = ux[..., None] + rot * jx + p.ex
     dy = uy[..., None] + rot * jy + p.ey
-    s = np.hypot(dx, dy)
-    B, kb, Ub, sb = law.evaluate(s, stiffness=hessian)
+    s, fx, fy, Ub, sb, kmat = _bearings(law, dx, dy, hessian, hessian and g is not None)
     energy = energy + np.sum(Ub, axis=(-2, -1))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cx = np.where(s > 0, dx / s, 1.0)
-        cy = np.where(s > 0, dy / s, 0.0)
-        if hessian:
-            secant = np.where(s > 0, B / s, kb)
-    fx, fy = B * cx, B * cy  # force of the disc on the crank pin
     # columns of ∂d/∂(c, θ_d, ux_d, uy_d), scaled (c, θ by L)
     gc = [(-jx / L, -jy / L), (jx / L, jy / L), (1.0, 0.0), (0.0, 1.0)]
-    if hessian:
-        kxx = kb * cx * cx + secant * cy * cy
-        kyy = kb * cy * cy + secant * cx * cx
-        kxy = (kb - secant) * cx * cy
+    if kmat is not None:
+        kxx, kyy, kxy = kmat
     for d in range(discs if g is not None else 0):
         idx = [0, 1 + 3 * d, 2 + 3 * d, 3 + 3 * d]
         vec = [
@@ -257,6 +248,29 @@ def _body_pins(p: Problem, x, discs, cols, F, k, energy, g, H):
     return energy, g, H
 
 
+def _bearings(law, dx, dy, stiffness: bool, matrix: bool):
+    """The crank bearings at the hole-against-pin vectors (dx, dy) [m]: the deflection s,
+    the force of the disc on the crank pin (fx, fy) [N] along d/s, the energy and the
+    bearing law's part split (``law.evaluate``, its stiffness with ``stiffness``) and, with
+    ``matrix``, the 2×2 stiffness (kxx, kyy, kxy) [N/m]: the law's dB/ds along d, the
+    secant B/s across it."""
+    s = np.hypot(dx, dy)
+    B, kb, Ub, sb = law.evaluate(s, stiffness=stiffness)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cx = np.where(s > 0, dx / s, 1.0)
+        cy = np.where(s > 0, dy / s, 0.0)
+        if matrix:
+            secant = np.where(s > 0, B / s, kb)
+    k = None
+    if matrix:
+        k = (
+            kb * cx * cx + secant * cy * cy,
+            kb * cy * cy + secant * cx * cx,
+            (kb - secant) * cx * cy,
+        )
+    return s, B * cx, B * cy, Ub, sb, k
+
+
 def _evaluate_supported(p: Problem, law, x, discs, hessian, energy, g, H, state):
     """Bearings, crankshafts and end plate of :func:`evaluate` with :class:`Supports`.
 
@@ -285,15 +299,8 @@ def _evaluate_supported(p: Problem, law, x, discs, hessian, energy, g, H, state)
         z = x[:, m - p.body.size :].reshape(n, discs, -1)
         wh = np.matmul(p.body.hole_w, z[:, :, None, :, None])[..., 0]
         dx, dy = dx + wh[..., 0], dy + wh[..., 1]
-    s = np.hypot(dx, dy)
-    B, kb, Ub, sb = law.evaluate(s, stiffness=hessian)
+    s, fx, fy, Ub, sb, k = _bearings(law, dx, dy, hessian, hessian and g is not None)
     energy = energy + np.sum(Ub, axis=(-2, -1))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cx = np.where(s > 0, dx / s, 1.0)
-        cy = np.where(s > 0, dy / s, 0.0)
-        if hessian:
-            secant = np.where(s > 0, B / s, kb)
-    fx, fy = B * cx, B * cy
     if g is None:  # the potential only (a line-search trial)
         if nw:
             Kw = np.einsum("de,nekc->ndkc", sup.stiffness, w)
@@ -314,9 +321,7 @@ def _evaluate_supported(p: Problem, law, x, discs, hessian, energy, g, H, state)
         energy = energy + 0.5 * carrier * beta * beta
         g[:, base + nw] += carrier * beta / L
     if hessian:
-        kxx = kb * cx * cx + secant * cy * cy
-        kyy = kb * cy * cy + secant * cx * cx
-        kxy = (kb - secant) * cx * cy
+        kxx, kyy, kxy = k
         kmat = np.stack([np.stack([kxx, kxy], -1), np.stack([kxy, kyy], -1)], -2)
         rows = G.reshape(n, -1, m)  # Gᵀ·K·G over the holes' (x, y)
         H = H + np.matmul(np.swapaxes(rows, -1, -2), np.matmul(kmat, G).reshape(n, -1, m))
