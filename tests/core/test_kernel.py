@@ -171,6 +171,14 @@ def test_numba_solves_without_the_reference(monkeypatch):
     monkeypatch.setattr(kernel.loadsharing, "share_load", refuse)
     got = solve_ltca(TABLE1, MOD, ERRORS, 250.0, PHI, True, "paper")
     np.testing.assert_allclose(np.sum(got.pin_load * got.moment_arm, axis=-1), 250.0, rtol=1e-12)
+    # a tolerance study's rings at a 10° step: the inversions start from the angle
+    # before, 10° away, from where Newton may cross the stiffest point of the law
+    rng = np.random.default_rng(7)
+    rings = PinErrors(
+        radial=rng.uniform(-4e-6, 4e-6, (400, 40)), angular=rng.uniform(-5e-5, 5e-5, (400, 40))
+    )
+    got = solve_ltca(TABLE1, MOD, rings, 250.0, np.deg2rad(np.arange(0.0, 360.0, 10.0)))
+    np.testing.assert_allclose(np.sum(got.pin_load * got.moment_arm, axis=-1), 250.0, rtol=1e-12)
 
 
 def test_the_kernel_keeps_the_reference_constants():
@@ -189,8 +197,6 @@ CONTACT_FIELDS = (
     "contact_radius",
     "pin_radius",
     "residual",
-    "normal_x",
-    "normal_y",
 )
 
 
@@ -211,11 +217,22 @@ CONTACT_FIELDS = (
 def test_the_compiled_contact_gives_the_reference_bits(monkeypatch, mod, errors):
     """The contact rotations set the pin loads to 1e-11 per unit in their last bit, so the
     compiled passes must reproduce them exactly: every field bit for bit, the curvature
-    radius (NumPy's power of 3/2 is not the C library's) to a few units in the last place."""
+    radius (NumPy's power of 3/2 is not the C library's) to a few units in the last place,
+    the flank normals (the reference takes arg n and arg P_s again from cos and sin of
+    φ1 = −arccos c, the kernel from c itself) to round-off: unit vectors, within 1e-13
+    of 1 (the arccos near a tooth-space bottom, c → 1, amplifies the last bit of c)."""
     ref, got = _both(monkeypatch, lambda: unloaded_contact(TABLE1, mod, errors, PHI, normals=True))
     for name in CONTACT_FIELDS:
         np.testing.assert_array_equal(getattr(got, name), getattr(ref, name), err_msg=name)
     np.testing.assert_allclose(got.curvature_radius, ref.curvature_radius, rtol=1e-15)
+    for name in ("normal_x", "normal_y"):
+        a, b = getattr(ref, name), getattr(got, name)
+        assert np.max(np.abs(a - b)) <= 1e-13, name
+        assert np.mean(a == b) > 0.5, name  # most to the bit: the same angle, not a new one
+    np.testing.assert_allclose(np.hypot(got.normal_x, got.normal_y), 1.0, rtol=1e-15)
+    tip = np.isinf(ref.rotation)  # the reference's bits: they decide ±π of the force angle
+    np.testing.assert_array_equal(got.normal_x[tip], ref.normal_x[tip])
+    np.testing.assert_array_equal(got.normal_y[tip], ref.normal_y[tip])
     assert np.isinf(ref.rotation).any()  # the tip pins: unreachable in both
 
 
@@ -255,3 +272,50 @@ def test_the_compiled_contact_keeps_the_reference_constants():
 
     assert kernel_contact._TOLERANCE == contact.CONTACT_TOLERANCE
     assert kernel_contact._MAX_ITERATIONS == contact._MAX_ITERATIONS
+
+
+def test_the_compiled_mod_2pi_is_numpys():
+    """The wrap of the contact rotations (np.mod(x, 2π)) bit for bit, sign of zero
+    included, on and next to every multiple of 2π up to ±8π and beyond."""
+    from cyclomesh.core import kernel_contact
+
+    kernel_contact.compiled()  # compiles _mod_2pi in place
+    two_pi = 2.0 * np.pi
+    k = np.arange(-10, 11) * two_pi
+    x = np.concatenate(
+        [RNG.uniform(-70.0, 70.0, 20_000), k, np.nextafter(k, np.inf), np.nextafter(k, -np.inf)]
+    )
+    got = np.array([kernel_contact._mod_2pi(v) for v in x])
+    ref = np.mod(x, two_pi)
+    np.testing.assert_array_equal(got, ref)
+    assert np.array_equal(np.signbit(got), np.signbit(ref))
+
+
+def test_the_force_angle_of_a_tip_pin_on_the_x_axis_is_the_references(monkeypatch):
+    """Pin 1 at crank angle 180° sits at a tooth tip on the x-axis: its normal is along
+    −x, and the last bits of sin(−π) decide whether its force angle reads +180° or −180°
+    (it did differ while the kernel took the normal along w)."""
+    angles = np.deg2rad([0.0, 90.0, 180.0, 270.0])
+    ref, got = _both(monkeypatch, lambda: solve_drive(TABLE1, MOD, None, 250.0, angles, discs=2))
+    assert np.max(np.abs(got.force_angle - ref.force_angle)) <= 1e-13  # not 2π apart
+
+
+def test_a_rings_bits_do_not_depend_on_its_batch(monkeypatch):
+    """The compiled load sharing starts its force inversions from the crank angle before,
+    within a ring only: a ring solved alone or with others, one disc or a stack, gives
+    the same bits (docs/pipeline.md, reproducibility)."""
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    batch = solve_ltca(TABLE1, MOD, ERRORS, 250.0, PHI)
+    stack = solve_drive(TABLE1, MOD, ERRORS, 250.0, PHI, discs=2)
+    for r in range(ERRORS.radial.shape[0]):
+        ring = PinErrors(radial=ERRORS.radial[r], angular=ERRORS.angular[r])
+        alone = solve_ltca(TABLE1, MOD, ring, 250.0, PHI)
+        np.testing.assert_array_equal(alone.pin_load, batch.pin_load[r])
+        np.testing.assert_array_equal(alone.loaded_rotation, batch.loaded_rotation[r])
+        two = solve_drive(TABLE1, MOD, ring, 250.0, PHI, discs=2)
+        np.testing.assert_array_equal(two.pin_load, stack.pin_load[r])
+    # and the angles before matter only to round-off: every angle solved on its own
+    single = [solve_ltca(TABLE1, MOD, None, 250.0, PHI[k : k + 1]) for k in range(0, PHI.size, 17)]
+    whole = solve_ltca(TABLE1, MOD, None, 250.0, PHI)
+    for k, one in zip(range(0, PHI.size, 17), single, strict=True):
+        np.testing.assert_allclose(one.pin_load[0], whole.pin_load[k], rtol=0, atol=1e-13 * 3e3)

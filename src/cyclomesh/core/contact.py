@@ -96,9 +96,10 @@ class UnloadedContact:
         Residual of the contact condition, as a distance [m].
     normal_x, normal_y : ndarray or None
         Outward flank normal n at the contact, fixed frame (unit vector, as
-        :func:`contact_normal` gives it, bit for bit), when asked for
-        (``unloaded_contact(..., normals=True)``), else None: computed once here, from
-        the contact's own intermediates, for the mesh force and the friction of a stack.
+        :func:`contact_normal` gives it, bit for bit; with the numba kernel,
+        :mod:`cyclomesh.core.kernel_contact`, from the contact's own angles, to a unit or
+        two in the last place), when asked for (``unloaded_contact(..., normals=True)``),
+        else None: computed once here, for the mesh force and the friction of a stack.
     """
 
     rotation: FloatArray
@@ -221,17 +222,19 @@ def unloaded_contact(
         shape = (*ring_shape, phi.size, n1)
         got = contact_arrays(
             pin_r, pin_angle, ecc, phi, r_pin - rho_gen, t_root, a, e, n1, n2, rho_gen,
-            modification.rotation, shape,
+            modification.rotation, shape, normals,
         )  # fmt: skip
         if got is not None:
             pin_radius = np.broadcast_to(r_pin, shape)
             arg_w = got.pop("arg_w")
-            normal = (None, None)
-            if normals:
-                normal = _fixed_normal(arg_w, got["profile_angle"], pin_radius, a, e, n1, rho_gen)
-            return UnloadedContact(
-                **got, pin_radius=pin_radius, normal_x=normal[0], normal_y=normal[1]
-            )
+            tip = np.isinf(got["rotation"])
+            if normals and np.any(tip):  # the reference's normal of an unreachable pin:
+                # along w but for the last bits of sin(−π), which decide the side of ±π
+                # of its force angle when w lies on the x-axis
+                angle = got["profile_angle"][tip]  # −π
+                nx, ny = _fixed_normal(arg_w[tip], angle, pin_radius[tip], a, e, n1, rho_gen)
+                got["normal_x"][tip], got["normal_y"][tip] = nx, ny
+            return UnloadedContact(**got, pin_radius=pin_radius)
 
     wx = pin_r * np.cos(pin_angle) - ecc * np.cos(phi)
     wy = pin_r * np.sin(pin_angle) - ecc * np.sin(phi)

@@ -20,7 +20,11 @@ the single-pin bound, the candidate pins, Newton's method on M(Δφc) = Σ l·F(
 (δ = F(α − γ ln F), Eqs. 19–23, Newton in y = ln F as
 :func:`cyclomesh.core.hertz.force_from_approach`), without temporaries, skipping the
 unloaded pins (about three in four), reusing ln F = y in the slope and updating F = e^y
-after a small Newton step by a polynomial instead of a new exponential. The results
+after a small Newton step by a polynomial instead of a new exponential, and starting
+each pin's inversion from the nearer of its last one and its own at the same Newton
+step of the crank angle before (``angle_axis``: that angle's steps are nearly the same
+ones, so its forces are nearer than the step before while the steps are large; within
+one ring only, so a ring's bits do not depend on the rings solved with it). The results
 agree with the reference to round-off (tested to 1e-13 relative on both contact laws,
 stacks, the compliant disc and the stage, ``tests/core/test_kernel.py``). Any case the
 kernel cannot finish (no usable pin, a torque too large, a force past the stiffest
@@ -91,11 +95,16 @@ def share_load(
     alpha: ArrayLike,
     gamma: ArrayLike,
     torque: float,
+    angle_axis: bool = False,
 ) -> tuple[FloatArray, FloatArray]:
     """:func:`cyclomesh.core.loadsharing.share_load` (frictionless) on the selected kernel.
 
     Parameters and returns as there: φbl [rad], l [m], α, γ [m/N] of shape
     (..., n_pins), T [N·m]; Δφc (...) [rad] and the pin loads (..., n_pins) [N].
+    ``angle_axis``: the last leading axis is one ring's crank angles in order, whose
+    neighbours the numba kernel starts its force inversions from (the cases of one
+    ring, never across rings, so a ring's bits do not depend on its batch); False:
+    every case on its own. The NumPy kernel ignores it.
     """
     if kernel_name() == "numpy":
         return loadsharing.share_load(backlash, moment_arm, alpha, gamma, torque)
@@ -106,7 +115,8 @@ def share_load(
     flat = [np.ascontiguousarray(v).reshape(-1, n_pins) for v in (bl, arm, a, g)]
     rotation = np.empty(flat[0].shape[0])
     force = np.zeros(flat[0].shape)
-    failed = _compiled()(*flat, float(torque), rotation, force)
+    block = lead[-1] if angle_axis and lead else 1
+    failed = _compiled()(*flat, float(torque), max(block, 1), rotation, force)
     if failed:  # the reference raises its one-line error (or solves the case)
         return loadsharing.share_load(backlash, moment_arm, alpha, gamma, torque)
     return rotation.reshape(lead), force.reshape(*lead, n_pins)
@@ -123,6 +133,9 @@ _LOOSE = 1e-10
 :data:`_LOOSE_UNTIL`·T: Newton's steps there are far from the root, and an error of
 1e-10 in their forces is squared away by the steps that follow."""
 _LOOSE_UNTIL = 1e-3
+_WARM_STEPS = 12
+"""Newton steps on Δφc whose force inversions start from the case before's (the
+neighbouring crank angle of the same ring) at the same step."""
 
 
 @cache
@@ -153,27 +166,28 @@ def _invert_cold(d, a, g, tol):  # pragma: no cover (compiled)
 def _newton_y(d, a, g, y, f, steps, tol):  # pragma: no cover (compiled)
     """Newton's method in y = ln F on δ = e^y(α − γ y) from ``y`` (``f`` = e^y) to a
     residual of ``tol``·δ; at 2e-15 (round-off), one more step makes the root
-    independent of the start. A step below √(tol/100) ends it unchecked: Newton's error
-    after it is of the order of the step squared (δ'' ≈ δ' on the stiffening branch), so
-    the residual is below tol·δ without another exponential. While ``tol`` is loose,
-    e^y after a step s is updated as F·e^(−s) (:func:`_exp_step`, a polynomial for small
-    steps); at round-off each F is its own exponential, so the forces the torque
-    balance ends with carry half a unit in their last place, as the reference's.
-    Returns (y, F, converged)."""
-    exact = tol <= _ROUND_OFF  # the last pass: every F from its own exponential
-    if exact:
-        f = np.exp(y)
+    independent of the start. A step below √tol (√(tol/100) at round-off) ends it
+    unchecked: Newton's error after a step s is about (δ''/2δ')·s² ≈ s²/2 (δ'' ≈ δ' on
+    the stiffening branch), so the residual is below tol·δ without another pass (at
+    round-off, 100 times below). After a step s, e^y is
+    updated as F·e^(−s) (:func:`_exp_step`, a polynomial for small steps): F then
+    differs from e^y by a few units in its last place, which moves the converged force
+    by a fraction of that (the residual is taken with F itself: F(α − γ y) = δ holds
+    to round-off, and y enters only through γ y, γ/(α − γ(1 + y)) ≈ 1/15 of F's
+    weight). Returns (y, F, converged)."""
+    exact = tol <= _ROUND_OFF
     for _ in range(steps):
         resid = f * (a - g * y) - d
         if abs(resid) <= tol * d:
             if exact and resid != 0.0:
-                y = y - resid / (f * (a - g - g * y))
-                f = np.exp(y)
+                step = resid / (f * (a - g - g * y))
+                y = y - step
+                f = _exp_step(f, -step, y)
             return y, f, True
         step = resid / (f * (a - g - g * y))
         y = y - step
-        f = np.exp(y) if exact else _exp_step(f, -step, y)
-        if step * step <= 0.01 * tol:
+        f = _exp_step(f, -step, y)
+        if step * step <= (0.01 * tol if exact else tol):
             return y, f, True
     return y, 0.0, False
 
@@ -181,17 +195,23 @@ def _newton_y(d, a, g, y, f, steps, tol):  # pragma: no cover (compiled)
 _SMALL_STEP = 1e-3
 """Largest |s| for which e^s is taken as its Taylor polynomial to s⁵ (remainder s⁶/720
 ≤ 1.4e-21, below the round-off of the product)."""
+_SIXTH, _TWENTY_FOURTH, _ONE_20TH = 1.0 / 6.0, 1.0 / 24.0, 1.0 / 120.0
+"""The polynomial's coefficients, multiplied (a quotient by 120 would be a division,
+10–20 cycles, in the chain of every Newton step)."""
 
 
 def _exp_step(f, s, y):  # pragma: no cover (compiled)
     """e^y from f = e^(y − s): f·(1 + s + s²/2 + … + s⁵/120) for |s| ≤ :data:`_SMALL_STEP`
-    (a few units in the last place of F), else exp(y)."""
+    (a few units in the last place of F), else exp(y); the polynomial in Estrin's form
+    (two independent halves in s², a shorter chain of dependent operations than
+    Horner's)."""
     if abs(s) <= _SMALL_STEP:
-        return f * (1.0 + s * (1.0 + s * (0.5 + s * (1.0 / 6.0 + s * (1.0 / 24.0 + s / 120.0)))))
+        s2 = s * s
+        return f * ((1.0 + s) + s2 * ((0.5 + s * _SIXTH) + s2 * (_TWENTY_FOURTH + s * _ONE_20TH)))
     return np.exp(y)
 
 
-def _share_load_rows(bl, arm, alpha, gamma, torque, rotation, force):  # pragma: no cover
+def _share_load_rows(bl, arm, alpha, gamma, torque, block, rotation, force):  # pragma: no cover
     """Load sharing of every case (row), written for numba (plain loops, scalars).
 
     The algorithm of :func:`cyclomesh.core.loadsharing.share_load` (same start, same
@@ -199,25 +219,37 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, rotation, force):  # pragma:
     leave every converged value at round-off: a pin whose backlash is already above
     the bound cannot lower it (its single-pin rotation is larger), so its logarithm is
     not taken; an unloaded pin (Δφc ≤ φbl) is skipped; and each pin's force inversion
-    starts from its own last solution moved along the tangent, y₀ = y + Δδ/(dδ/dy),
-    which Newton's method in y finishes in one or two exponentials (the convex δ(y)
-    puts that start right of the root, from where Newton descends monotonically);
-    while the torque residual is above 1e-3·T the inversions stop at 1e-10·δ (the
+    starts from a nearby solution moved along the tangent, y₀ = y + Δδ/(dδ/dy), which
+    Newton's method in y finishes in a step or two (the convex δ(y) puts that start
+    right of the root, from where Newton descends monotonically): while the torque
+    residual is large, the same pin at the same Newton step of the case before when
+    that is the neighbouring crank angle of the same ring (``block``: cases per ring,
+    consecutive angles; 1: none), as Δφc's Newton steps move little from one angle to
+    the next, else the pin's own last inversion; while the torque residual is above
+    1e-3·T the inversions stop at 1e-10·δ (the
     steps that follow square that error away), then the step is taken again with
     every force at round-off, so Δφc follows the reference's Newton steps and stops
     where it stops (at a residual within 1e-12·T, not at the exact root).
 
     Fills ``rotation`` (n_cases) and ``force`` (n_cases, n_pins, zero on entry); returns
-    the number of cases it could not finish (then the caller uses the reference).
+    the number of cases it could not finish (then the caller uses the reference). A
+    case's bits depend on its ring's cases before it (through the starts, at round-off),
+    never on other rings.
     """
     n_cases, n_pins = bl.shape
     tol = TORQUE_TOLERANCE * torque
     candidates = np.empty(n_pins, np.int64)
-    branch = np.empty(n_pins)  # largest approach of the law, γ·exp(α/γ − 1) [m]
+    peak = np.empty(n_pins)  # ln F at the stiffest point of the law, α/γ − 1
     last_y = np.empty(n_pins)  # ln F of the pin's last inversion
     last_f = np.empty(n_pins)  # F there [N]
     last_d = np.empty(n_pins)  # its approach [m]
-    last_slope = np.empty(n_pins)  # dδ/dy there [m]
+    last_inv = np.empty(n_pins)  # 1/(dδ/dy) there [1/m], 0: none yet
+    # each pin's inversion at each of the first Newton steps of the case before
+    warm_case = np.full((_WARM_STEPS, n_pins), -1, np.int64)  # that case, -1: none
+    warm_y = np.empty((_WARM_STEPS, n_pins))
+    warm_f = np.empty((_WARM_STEPS, n_pins))
+    warm_d = np.empty((_WARM_STEPS, n_pins))
+    warm_inv = np.empty((_WARM_STEPS, n_pins))
     failed = 0
     for k in range(n_cases):
         # start: the rotation at which one pin alone carries T (an upper bound), the pin
@@ -255,13 +287,14 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, rotation, force):  # pragma:
             b = bl[k, i]
             if np.isfinite(b) and arm[k, i] > 0.0 and b < x:
                 candidates[n_cand] = i
-                branch[n_cand] = -1.0  # computed when the pin first carries load
-                last_slope[n_cand] = 0.0  # no inversion yet
+                peak[n_cand] = np.nan  # computed when the pin first carries load
+                last_inv[n_cand] = 0.0  # no inversion yet
                 n_cand += 1
         ok = False
         bad = False
         inner = _LOOSE  # the inversions' tolerance: loose while the torque is far off
-        for _ in range(_MAX_ITERATIONS):
+        before = k - 1 if k % block != 0 else -2  # the case before, of the same ring
+        for it in range(_MAX_ITERATIONS):
             moment = 0.0
             slope = 0.0
             for j in range(n_cand):
@@ -280,28 +313,46 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, rotation, force):  # pragma:
                     f = d / a
                     dddf = a
                 else:
-                    if branch[j] < 0.0:
-                        branch[j] = g * np.exp(a / g - 1.0) if g > 0.0 else np.inf
-                    if d >= branch[j] * (1.0 - 1e-12):  # at or past the stiffest point
-                        bad = True
-                        break
+                    if np.isnan(peak[j]):
+                        peak[j] = a / g - 1.0
                     converged = False
-                    if last_slope[j] > 0.0:
-                        dy = (d - last_d[j]) / last_slope[j]
-                        y0 = last_y[j] + dy
-                        if y0 < a / g - 1.0:
-                            f0 = _exp_step(last_f[j], dy, y0)
+                    # the start: of this pin's last inversion here and its inversion at
+                    # the same Newton step of the case before, the nearer (the smaller
+                    # tangent step), moved along its tangent
+                    dy = np.inf
+                    if last_inv[j] > 0.0:
+                        dy = (d - last_d[j]) * last_inv[j]
+                        y_s, f_s = last_y[j], last_f[j]
+                    if it < _WARM_STEPS and warm_case[it, i] == before:
+                        dw = (d - warm_d[it, i]) * warm_inv[it, i]
+                        if abs(dw) < abs(dy):
+                            dy, y_s, f_s = dw, warm_y[it, i], warm_f[it, i]
+                    if dy < np.inf:
+                        y0 = y_s + dy
+                        if y0 < peak[j]:
+                            f0 = _exp_step(f_s, dy, y0)
                             y, f, converged = _newton_y(d, a, g, y0, f0, 8, inner)
-                    if not converged:
+                    # the stiffening branch ends at the stiffest point δmax = γ·e^(α/γ − 1)
+                    # (ln F = α/γ − 1): a warm start that Newton carried past it (to the
+                    # other root) is started again cold; no root below it, or one within
+                    # 1e-6 of it in ln F (δ within 1e-12 of δmax), the reference decides
+                    # (it raises, or solves a pin that barely fits)
+                    if not (converged and (g < 0.0 or y < peak[j] - 1e-6)):
                         y, f, converged = _invert_cold(d, a, g, inner)
-                    if not converged:
+                    if not (converged and (g < 0.0 or y < peak[j] - 1e-6)):
                         bad = True
                         break
                     dddf = a - g * (1.0 + y)
                     last_y[j] = y
                     last_f[j] = f
                     last_d[j] = d
-                    last_slope[j] = f * dddf
+                    last_inv[j] = 1.0 / (f * dddf)
+                    if it < _WARM_STEPS:
+                        warm_case[it, i] = k
+                        warm_y[it, i] = y
+                        warm_f[it, i] = f
+                        warm_d[it, i] = d
+                        warm_inv[it, i] = last_inv[j]
                 force[k, i] = f
                 moment += f * lk
                 slope += lk * lk / dddf

@@ -17,6 +17,14 @@ both; the power 3/2 of the curvature radius and the logarithms of the compliance
 differ in the last bit, which moves α, ρc and the pin loads by about 1e-16 of their
 size.
 
+The tooth phase's Newton steps run one crank angle's pins at a time in a loop free of
+branches, which the compiler turns into SIMD lanes (their square roots and quotients are
+correctly rounded there too: the same bits), each pin keeping its c once converged, as
+the reference's ``np.where``. The flank normals of a stack (``normals``) come from the
+contact's own angles, cos and sin of arg w + arg n − arg P_s, not recomputed from φ1 as
+:func:`cyclomesh.core.contact.contact_normal` does: the same angle to a unit or two in
+its last place (more near a tooth-space bottom, where arccos c is ill-conditioned).
+
 The callers (:func:`cyclomesh.core.contact.unloaded_contact`,
 :func:`cyclomesh.core.ltca.pin_compliance`, :func:`cyclomesh.core.fields.contact_stresses`)
 take these passes when :func:`cyclomesh.core.kernel.kernel_name` is ``numba``; a case a
@@ -80,6 +88,16 @@ def _contact_phase(
     g0, g1 = a * a + e * e * n1, a * e * (n1 + 1)
     d0, d1 = a * a + e * e * n1 * n1, 2.0 * a * e * n1
     bad = 0
+    # one crank angle's pins at a time, each loop over them free of branches so that
+    # the compiler runs it in SIMD lanes (square roots and quotients are correctly
+    # rounded there as well, so the bits are the per-element loop's): Newton's steps
+    # run until every pin of the angle has converged, a converged pin recomputing its
+    # residual at its own c and keeping it, as the reference's ``np.where(done, c, …)``
+    c_row = np.empty(n_pins)
+    w_row = np.empty(n_pins)
+    k0_row = np.empty(n_pins)
+    res_row = np.empty(n_pins)
+    ok_row = np.empty(n_pins, np.bool_)
     for r in range(n_rings):
         for k in range(n_angles):
             ex, ey = ecx[r, k], ecy[r, k]
@@ -89,35 +107,45 @@ def _contact_phase(
                 w2 = x * x + y * y
                 s = s_pin[r, i]
                 w = math.sqrt(w2)
-                if w < a - e + s - _TOLERANCE:  # jammed: the reference raises
-                    bad += 1
-                ok = w <= a + e + s
+                bad += w < a - e + s - _TOLERANCE  # jammed: the reference raises
+                ok_row[i] = w <= a + e + s
                 k0 = a * a + e * e + s * s - w2
-                c = min(max(k0 / (2.0 * a * e), -1.0), 1.0)
-                res = 0.0
-                for _ in range(_MAX_ITERATIONS):
+                k0_row[i] = k0
+                w_row[i] = w
+                c_row[i] = min(max(k0 / (2.0 * a * e), -1.0), 1.0)
+                wx[r, k, i] = x
+                wy[r, k, i] = y
+            for _ in range(_MAX_ITERATIONS):
+                active = 0
+                for i in range(n_pins):
+                    c = c_row[i]
+                    s = s_pin[r, i]
                     d = math.sqrt(d0 - d1 * c)
                     g = g0 - g1 * c
-                    h = k0 - 2.0 * a * e * c + 2.0 * s * g / d
-                    res = abs(h) / (2.0 * w) if ok else 0.0
-                    if res <= _TOLERANCE:
-                        break
+                    h = k0_row[i] - 2.0 * a * e * c + 2.0 * s * g / d
+                    res = abs(h) / (2.0 * w_row[i]) if ok_row[i] else 0.0
+                    res_row[i] = res
+                    done = res <= _TOLERANCE
                     dh = -2.0 * a * e + 2.0 * s * (-g1 * d + g * d1 / (2.0 * d)) / (d * d)
-                    c = min(max(c - h / dh, -1.0), 1.0)
-                if not res <= _TOLERANCE:
-                    bad += 1
+                    step = min(max(c - h / dh, -1.0), 1.0)
+                    c_row[i] = c if done else step
+                    active += not done
+                if active == 0:
+                    break
+            for i in range(n_pins):
+                c = c_row[i]
+                s = s_pin[r, i]
+                bad += not res_row[i] <= _TOLERANCE  # unconverged: the reference raises
                 sin_u = -math.sqrt(1.0 - c * c)
                 d = math.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
                 vx, vy = (a - e * n1 * c) / d, -e * n1 * sin_u / d
-                wx[r, k, i] = x
-                wy[r, k, i] = y
                 c_out[r, k, i] = c
                 nx[r, k, i] = vx
                 ny[r, k, i] = vy
                 zx[r, k, i] = a - e * c + s * vx
                 zy[r, k, i] = -e * sin_u + s * vy
-                residual[r, k, i] = res
-                reach[r, k, i] = ok
+                residual[r, k, i] = res_row[i]
+                reach[r, k, i] = ok_row[i]
     return bad
 
 
@@ -144,13 +172,20 @@ def _contact_finish(
     profile_angle,
     contact_radius,
     curvature,
+    normals,
+    normal_x,
+    normal_y,
 ):  # pragma: no cover (compiled)
     """The contact quantities from the tooth phase and NumPy's angles (module doc).
 
     arg_w, arg_z, arg_n = arg w, arg P_s, arg n; u = −arccos c (R, A, n1); phi_t (A,);
     t_root (A, n1); pin_angle (R, n1); ``turn`` the rotation modification [rad]. Fills
     the arrays of :class:`~cyclomesh.core.contact.UnloadedContact` (R, A, n1) as
-    :func:`~cyclomesh.core.contact.unloaded_contact` does.
+    :func:`~cyclomesh.core.contact.unloaded_contact` does, and with ``normals`` the
+    outward flank normal in the fixed frame, (cos, sin)(arg w + arg n − arg P_s), from
+    the contact's own angles (the reference,
+    :func:`cyclomesh.core.contact._fixed_normal`, takes arg n and arg P_s again from
+    cos and sin of φ1 = −arccos c: the same angle to a unit or two in its last place).
     """
     n_rings, n_angles, n_pins = u.shape
     two_pi = 2.0 * np.pi
@@ -164,6 +199,11 @@ def _contact_finish(
             pt = phi_t[k]
             for i in range(n_pins):
                 uu = u[r, k, i]
+                aw, az = arg_w[r, k, i], arg_z[r, k, i]
+                if normals:  # an unreachable pin: along w here, the caller's from φ1 = −π
+                    angle = aw + arg_n[r, k, i] - az if reach[r, k, i] else aw
+                    normal_x[r, k, i] = math.cos(angle)
+                    normal_y[r, k, i] = math.sin(angle)
                 if not reach[r, k, i]:
                     rotation[r, k, i] = np.inf
                     reverse[r, k, i] = -np.inf
@@ -174,7 +214,6 @@ def _contact_finish(
                     curvature[r, k, i] = np.inf
                     continue
                 c = c_in[r, k, i]
-                aw, az = arg_w[r, k, i], arg_z[r, k, i]
                 tr = t_root[k, i]
                 sin_u = -math.sqrt(1.0 - c * c)
                 d = math.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
@@ -202,13 +241,23 @@ def _contact_finish(
 
 
 def _mod_2pi(x):  # pragma: no cover (compiled)
-    """np.mod(x, 2π) bit for bit: fmod is x itself for |x| < 2π (then NumPy adds 2π to a
-    negative remainder); beyond, NumPy's own mod."""
+    """np.mod(x, 2π) bit for bit: NumPy takes r = fmod(x, 2π), exact, and adds 2π to a
+    negative r (rounded) or gives +0 for r = 0. For |x| < 8π the exact remainder is a
+    subtraction of 4π and/or 2π, each exact (Sterbenz: y/2 ≤ x ≤ 2y gives x − y
+    exactly), which spares the C library's fmod; beyond, NumPy's own mod."""
     two_pi = 2.0 * np.pi
     if 0.0 <= x < two_pi:
         return x
     if -two_pi < x < 0.0:
         return x + two_pi
+    four_pi = 2.0 * two_pi
+    if two_pi <= x < 2.0 * four_pi:
+        r = x - four_pi if x >= four_pi else x
+        return r - two_pi if r >= two_pi else r
+    if -2.0 * four_pi < x <= -two_pi:
+        r = x + four_pi if x <= -four_pi else x
+        r = r + two_pi if r <= -two_pi else r
+        return r + two_pi if r < 0.0 else 0.0
     return np.mod(x, two_pi)
 
 
@@ -307,16 +356,18 @@ def _stresses(
 
 
 def contact_arrays(
-    pin_r, pin_angle, ecc, phi, s_pin, t_root, a, e, n1, n2, rho_gen, turn, shape
+    pin_r, pin_angle, ecc, phi, s_pin, t_root, a, e, n1, n2, rho_gen, turn, shape, normals=False
 ) -> dict[str, np.ndarray] | None:
     """The arrays of :func:`cyclomesh.core.contact.unloaded_contact` (undeviated profile)
     from the compiled passes and NumPy's inverse trigonometric functions (module doc).
 
     Inputs as the reference builds them: pin_r, pin_angle, s_pin = r_pin − ρ' of shape
     (..., 1, n1), ecc (..., 1, 1), phi (A, 1) [rad], t_root (A, n1); ``shape`` the
-    contact arrays' (..., A, n1). Returns a dict of arrays of that shape (with
-    ``arg_w``, the argument of the pin centre from the disc centre, for the normals), or
-    None for a case the reference must refuse.
+    contact arrays' (..., A, n1); ``normals``: also the outward flank normals in the
+    fixed frame (``normal_x``, ``normal_y``; those of the unreachable pins, φ1 = −π, the
+    caller takes from the reference, see :func:`cyclomesh.core.contact.unloaded_contact`).
+    Returns a dict of arrays of that shape (with ``arg_w``, the argument of the pin
+    centre from the disc centre), or None for a case the reference must refuse.
     """
     passes = compiled()
     ring = shape[:-2]
@@ -354,6 +405,7 @@ def contact_arrays(
             "curvature_radius",
         )
     }
+    normal = [np.empty(flat if normals else (0, 0, 0)) for _ in range(2)]
     passes.contact_finish(
         arg_w,
         arg_z,
@@ -371,9 +423,13 @@ def contact_arrays(
         rho_gen,
         float(turn),
         *out.values(),
+        bool(normals),
+        *normal,
     )
     out["residual"] = residual
     out["arg_w"] = arg_w
+    if normals:
+        out["normal_x"], out["normal_y"] = normal
     return {name: value.reshape(shape) for name, value in out.items()}
 
 

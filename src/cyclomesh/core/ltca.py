@@ -222,7 +222,9 @@ def ltca(case: Case, model: Model) -> LTCA:
     alpha, gamma = pin_compliance(geo, design, c.groove_deformation, c.contact_law)
     try:
         if body is None:
-            loaded, force = share_load(backlash, geo.moment_arm, alpha, gamma, torque)
+            loaded, force = share_load(
+                backlash, geo.moment_arm, alpha, gamma, torque, angle_axis=True
+            )
         else:
             tooth = tooth_index(design.pins, design.pitch, phi)
             loaded, force = share_load_coupled(

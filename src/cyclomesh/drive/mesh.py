@@ -183,8 +183,13 @@ def load_stack(
         if friction is not None:
             loaded, force, state = friction.share(torque)
         elif mesh.body is None:
-            loaded, force = share_load(
-                mesh.backlash, geo.moment_arm.reshape(flat_arm), mesh.alpha, mesh.gamma, torque
+            loaded, force = share_load(  # (..., A, N·n1): a ring's crank angles in order
+                mesh.backlash,
+                geo.moment_arm.reshape(flat_arm),
+                mesh.alpha,
+                mesh.gamma,
+                torque,
+                angle_axis=True,
             )
         else:
             loaded, force = share_load_coupled(
