@@ -227,11 +227,11 @@ def unloaded_contact(
         if got is not None:
             pin_radius = np.broadcast_to(r_pin, shape)
             arg_w = got.pop("arg_w")
-            tip = np.isinf(got["rotation"])
-            if normals and np.any(tip):  # the reference's normal of an unreachable pin:
-                # along w but for the last bits of sin(−π), which decide the side of ±π
-                # of its force angle when w lies on the x-axis
-                angle = got["profile_angle"][tip]  # −π
+            tip = got["profile_angle"] == -np.pi  # at a tip, or unreachable (φ1 = −π)
+            if normals and np.any(tip):  # there the reference's normal: along w but for
+                # the last bits of sin(−π) (the kernel's sin φ1 = −√(1 − c²) is 0), which
+                # decide the side of ±π of its force angle when w lies on the x-axis
+                angle = got["profile_angle"][tip]
                 nx, ny = _fixed_normal(arg_w[tip], angle, pin_radius[tip], a, e, n1, rho_gen)
                 got["normal_x"][tip], got["normal_y"][tip] = nx, ny
             return UnloadedContact(**got, pin_radius=pin_radius)
