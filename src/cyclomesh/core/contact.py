@@ -98,8 +98,9 @@ class UnloadedContact:
         Outward flank normal n at the contact, fixed frame (unit vector, as
         :func:`contact_normal` gives it, bit for bit; with the numba kernel,
         :mod:`cyclomesh.core.kernel_contact`, from the contact's own angles, to round-off,
-        1e-14; at a tooth tip, φ1 = −π, the reference's own), when asked for (``unloaded_contact(..., normals=True)``),
-        else None: computed once here, for the mesh force and the friction of a stack.
+        1e-14; at a tooth tip, φ1 = −π, the reference's own), when asked for
+        (``unloaded_contact(..., normals=True)``), else None: computed once here, for
+        the mesh force and the friction of a stack.
     """
 
     rotation: FloatArray
