@@ -586,7 +586,7 @@ def _fast_hint(study: Study) -> str:
         return ""
     return (
         f"; the stage solves run on NumPy: with the fast extra (pip install 'cyclomesh[fast]') "
-        f"{ENV_VAR}=numba makes them about 4x faster (docs/tolerance.md)"
+        f"{ENV_VAR}=numba makes them about 2.5x faster (docs/tolerance.md)"
     )
 
 
