@@ -77,9 +77,10 @@ def main(
     ] = False,
 ) -> None:
     """Loaded tooth contact analysis of cycloid-pin gear pairs (Li et al., Machines 2022)."""
-    from cyclomesh.execution.runtime import tune_allocator
+    from cyclomesh.execution.runtime import skip_pydantic_plugins, tune_allocator
 
     tune_allocator()
+    skip_pydantic_plugins()
 
 
 @app.command()
