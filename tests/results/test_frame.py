@@ -135,6 +135,9 @@ def test_arrow_float_formats_as_arrow_does():
     pacsv.write_csv(pa.table({"x": values}), buffer, options)
     expected = buffer.getvalue().decode().splitlines()[1:]
     assert [writers.arrow_float(v) for v in values.tolist()] == expected
+    assert writers.arrow_floats(values.tolist()) == expected  # the fast path, the same
+    negative = (-values).tolist() + [np.nan, np.inf, -np.inf, 1e9, 1e10 - 1, 1e10, 0.5]
+    assert writers.arrow_floats(negative) == [writers.arrow_float(v) for v in negative]
 
 
 def test_arrow_array_is_pyarrows_array():

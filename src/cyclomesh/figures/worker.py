@@ -5,14 +5,15 @@ Importing matplotlib and drawing the overview take longer than everything else a
 run does (a 36-step case: ~0.35 s of imports and ~0.25 s of drawing, against ~0.4 s for
 loading, solving and writing). :class:`FigureProcess` forks one process before the
 study is loaded (this module imports nothing heavy: the fork is the first thing the
-command does after parsing its options and importing NumPy, which both processes need);
-the process imports matplotlib while this one imports, loads, solves and writes, then draws the one batch of figures it is
-sent and sends the drawn file contents back. It has the interface of
-:class:`cyclomesh.figures.render.FigurePool` that :func:`~cyclomesh.figures.render.render_figures`
-and :func:`cyclomesh.studies.execute.execute` use (``active``, ``submit``, ``map``,
+command does after parsing its options and importing NumPy, which both processes
+need); the process imports matplotlib while this one imports, loads, solves and
+writes, then draws the one batch of figures it is sent and sends the drawn file
+contents back. It has the interface of :class:`~cyclomesh.figures.render.FigurePool`
+that :func:`~cyclomesh.figures.render.render_figures` and
+:func:`cyclomesh.studies.execute.execute` use (``active``, ``submit``, ``map``,
 ``close``, a context manager); files are written by this process only, so nothing is
-written for a study that fails, and :meth:`close` kills the process (a refused study
-does not wait for matplotlib's import).
+written for a study that fails, and :meth:`~FigureProcess.close` kills the process (a
+refused study does not wait for matplotlib's import).
 """
 
 from __future__ import annotations
@@ -81,6 +82,7 @@ class FigureProcess:
         if not hasattr(os, "fork") or threading.active_count() != 1 or usable_cpus() < 2:
             return
         import numpy  # noqa: F401  (needed here anyway: inherited, not imported twice)
+
         jobs_r, jobs_w = os.pipe()
         done_r, done_w = os.pipe()
         parent = os.getpid()

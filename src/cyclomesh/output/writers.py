@@ -478,6 +478,23 @@ def arrow_float(value: float) -> str:
     return f"{sign}{head}e{'+' if scientific >= 0 else '-'}{abs(scientific)}"
 
 
+def arrow_floats(values: Sequence[float]) -> list[str]:
+    """:func:`arrow_float` of every value, fast: where Python's ``repr`` is a plain
+    decimal (no exponent, magnitude below 1e10) Arrow writes the same digits, without a
+    trailing ``.0``; only the rest goes through :func:`arrow_float` (a 3600-step run's
+    ``angles.csv``: 43,200 numbers in 0.03 s instead of 0.2 s)."""
+    out = []
+    for value in values:
+        text = repr(value)
+        if "e" in text or "n" in text or not -1e10 < value < 1e10:  # exponent, inf, nan
+            out.append(arrow_float(value))
+        elif text.endswith(".0"):
+            out.append(text[:-2])
+        else:
+            out.append(text)
+    return out
+
+
 def csv_text(columns: Sequence[Column]) -> str:
     """The CSV text of ``columns`` as :func:`write_pin_csv` writes a table with pyarrow:
     a header of the names, no quotes, booleans 0/1, missing values empty,
@@ -486,7 +503,7 @@ def csv_text(columns: Sequence[Column]) -> str:
     def cells(column: Column) -> list[str]:
         values = column.values
         if values.dtype.kind == "f":
-            out = [arrow_float(v) for v in values.tolist()]
+            out = arrow_floats(values.tolist())
         else:
             out = [str(int(v)) for v in values.tolist()]
         if column.mask is not None:
