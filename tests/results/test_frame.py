@@ -201,9 +201,11 @@ def test_run_without_figures_imports_no_dataset_library(tmp_path):
 def test_default_figures_are_the_overview(tmp_path):
     """The default: one overview figure, in the report under the summary table (before
     the inputs), and this process imports no xarray (the worker draws from NumPy
-    arrays)."""
+    arrays) nor matplotlib (the figure process forked as the command starts draws it,
+    cyclomesh.figures.worker), and the run draws no figure but the overview (issue 27)."""
     out, imported = _run(tmp_path)
     assert "xarray" not in imported and "pandas" not in imported
+    assert "matplotlib" not in imported
     assert [p.name for p in (out / "figures").iterdir()] == ["overview.png"]
     page = (out / "report.html").read_text(encoding="utf-8")
     assert page.count("data:image/png;base64,") == 1

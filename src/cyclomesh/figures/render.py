@@ -15,11 +15,9 @@ it. Plot functions never write files.
 from __future__ import annotations
 
 import io
-import multiprocessing
 import os
 import threading
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -304,8 +302,11 @@ class FigurePool:
         self.workers = usable_cpus() if workers is None else workers
         if one:  # one worker beside this process (a single figure), where there are 2 cores
             self.workers = 1 if self.workers > 1 else 0
-        self._pool: ProcessPoolExecutor | None = None
+        self._pool: Any = None  # a ProcessPoolExecutor
         self._pending: dict[tuple[int, tuple[str, ...], int], tuple[FigureJob, Any]] = {}
+        import multiprocessing  # here: a process that only draws never imports them
+        from concurrent.futures import ProcessPoolExecutor
+
         if (
             self.workers >= (1 if one else 2)
             and "fork" in multiprocessing.get_all_start_methods()
