@@ -39,6 +39,8 @@ __all__ = [
     "render_figures",
     "FigurePool",
     "MAX_POINTS",
+    "render_job",
+    "save_job",
 ]
 
 from cyclomesh.figures.sets import FORMATS  # noqa: E402  (file formats of a figure)
@@ -197,7 +199,7 @@ def decimate(
     return x[keep], y[keep]
 
 
-def _render(job: FigureJob, formats: Sequence[str], dpi: int) -> dict[str, bytes]:
+def render_job(job: FigureJob, formats: Sequence[str], dpi: int) -> dict[str, bytes]:
     """Draw ``job`` and return its file contents: PNG (always, for the report) and
     every other format of ``formats``."""
     import matplotlib
@@ -214,7 +216,7 @@ def _render(job: FigureJob, formats: Sequence[str], dpi: int) -> dict[str, bytes
     return contents
 
 
-def _save(
+def save_job(
     job: FigureJob, contents: Mapping[str, bytes], folder: Path | None, formats: Sequence[str]
 ) -> RenderedFigure:
     """Write the drawn ``contents`` of ``job`` into ``folder`` (in this process, atomically)."""
@@ -230,7 +232,7 @@ def _save(
 
 
 def _draw(job: FigureJob, folder: Path | None, formats: Sequence[str], dpi: int) -> RenderedFigure:
-    return _save(job, _render(job, formats, dpi), folder, formats)
+    return save_job(job, render_job(job, formats, dpi), folder, formats)
 
 
 _WARM = False
@@ -333,7 +335,7 @@ class FigurePool:
         for job in jobs:
             key = (id(job), tuple(formats), dpi)
             if key not in self._pending:
-                future = self._pool.submit(_render, job, tuple(formats), dpi)
+                future = self._pool.submit(render_job, job, tuple(formats), dpi)
                 self._pending[key] = (job, future)  # the job is kept: its id stays unique
 
     def map(
@@ -345,7 +347,7 @@ class FigurePool:
         self.submit(jobs, formats, dpi)
         futures = [self._pending.pop((id(job), tuple(formats), dpi))[1] for job in jobs]
         return [
-            _save(job, future.result(), folder, formats)
+            save_job(job, future.result(), folder, formats)
             for job, future in zip(jobs, futures, strict=True)
         ]
 

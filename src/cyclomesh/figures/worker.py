@@ -45,14 +45,14 @@ def _serve(jobs_fd: int, done_fd: int, parent: int) -> None:
     import matplotlib.backends.backend_agg  # noqa: F401  (while the parent computes)
     import matplotlib.figure  # noqa: F401
 
-    from cyclomesh.figures.render import _render
+    from cyclomesh.figures.render import render_job
 
     data = _read_all(jobs_fd)
     if not data:  # closed without jobs: nothing to draw
         return
     try:
         jobs, formats, dpi = pickle.loads(data)
-        reply: tuple[str, Any] = ("ok", [_render(job, formats, dpi) for job in jobs])
+        reply: tuple[str, Any] = ("ok", [render_job(job, formats, dpi) for job in jobs])
         payload = pickle.dumps(reply)
     except Exception as exc:  # re-raised in the parent, as a drawing there would raise
         try:
@@ -132,7 +132,7 @@ class FigureProcess:
         """Draw ``jobs`` (in the figure process if they are its batch, else here), write
         their files into ``folder`` and return them
         (:class:`~cyclomesh.figures.render.RenderedFigure`) in order of the jobs."""
-        from cyclomesh.figures.render import _render, _save
+        from cyclomesh.figures.render import render_job, save_job
 
         self.submit(jobs, formats, dpi)
         key = (tuple(id(job) for job in jobs), tuple(formats), int(dpi))
@@ -140,8 +140,8 @@ class FigureProcess:
         if self._pid is not None and self._sent == key:
             contents = self._collect()
         if contents is None:  # another batch, or the process is gone: drawn here
-            contents = [_render(job, tuple(formats), dpi) for job in jobs]
-        return [_save(job, c, folder, formats) for job, c in zip(jobs, contents, strict=True)]
+            contents = [render_job(job, tuple(formats), dpi) for job in jobs]
+        return [save_job(job, c, folder, formats) for job, c in zip(jobs, contents, strict=True)]
 
     def _collect(self) -> list[dict[str, bytes]] | None:
         """The drawn contents of the batch (None if the process ended without them);
