@@ -518,11 +518,11 @@ def fe_notice(study: Study, workers: int = 1) -> str:
     if not missing:
         return f'disc_body = "fe": {total} FE disc bodies of {geometries} geometries, all cached'
     minutes = seconds / max(workers, 1) / 60.0
+    kinds = ", held and free for the stage" if len(builders) > 1 else ""
     return (
         f'disc_body = "fe": {missing} of {total} FE disc bodies to build ({geometries} '
-        f"geometries{', held and free for [stage]' if len(builders) > 1 else ''}; "
-        f"{total - missing} cached), roughly {minutes:.1f} min on {workers} worker(s) "
-        "before their candidates; a re-run reads them from the cache"
+        f"geometries{kinds}), roughly {minutes:.1f} min on {workers} worker(s); "
+        "cached for a re-run"
     )
 
 
