@@ -660,11 +660,12 @@ def free_influence(
         return FreeDiscBody(pins, z["hole_pin"], z["hole_hole"], int(z["hole_pin"].shape[2]))
 
 
-SECONDS_PER_BODY = {"held": 20.0, "free": 25.0}
-"""Rough wall time of one FE disc body at :data:`MESH_DEFAULTS` [s]: measured on a
-2-core machine shared with other jobs (the Table 1 pair held at its bore 16 s, the
-RV-40E-size disc of ``examples/rv_stage.toml`` held at its crank holes 22 s and with its
-hole centres free 25 s, gmsh's start included); for the notice of a design map."""
+SECONDS_PER_BODY = {"held": 20.0, "free": 80.0}
+"""Rough wall time of one FE disc body at :data:`MESH_DEFAULTS` [s], for the notice of a
+design map: measured on a 2-core machine shared with other jobs (load 2.5), gmsh's
+start included: the Table 1 pair held at its bore 16 s, the RV-40E-size disc of
+``examples/rv_stage.toml`` held at its crank holes 22 s and with its hole centres free
+(the stage's body) 77 s."""
 
 
 @dataclass(frozen=True)
