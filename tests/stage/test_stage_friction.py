@@ -146,17 +146,63 @@ def test_backdriving_is_less_efficient_when_the_crank_bearings_lose_most():
     assert backward < forward < 1.0
 
 
-@pytest.mark.parametrize(
-    ("stage", "friction", "key"),
-    [
-        (SUPPORTED, Friction(mesh=0.05, lubricant=Lubricant(220.0, 19.0)), "friction.lubricant"),
-        (StageDesign(HOLES), Friction(bearing=0.01, bearing_diameter=0.02), "bearing_coefficient"),
-    ],
-)
-def test_what_the_stage_does_not_model_is_refused_in_one_line(stage, friction, key):
+#: A lubricant whose coefficient falls below the boundary cap 0.12 at 1500 rpm with
+#: rolling pins (μ 0.057-0.092 at the grooves, λ 1.8-6.8): the lubricated branch, not the cap
+SMOOTH = Lubricant(150.0, 14.7, 70.0, roughness=0.1e-6, composite_roughness=0.15e-6)
+FAST = 2.0 * np.pi * 1500.0 / 60.0
+
+
+@pytest.mark.parametrize("motion", [1.0, -1.0])
+def test_rigid_one_disc_stage_is_the_mesh_friction_solve_with_a_lubricant(motion):
+    """With a lubricant the pins' coefficient is μ(F) of each pin's load: the rigid one-disc
+    stage gives the mesh-level lubricated solve's loads, coefficients, film parameters and
+    losses, and the lubricant really acts (less loss than its boundary coefficients)."""
+    friction = Friction(mesh=0.12, groove=0.12, speed=FAST, lubricant=SMOOTH)
+    case, torques = Case(RV40, MOD, None, [-300.0, 300.0], PHI), [-300.0, 300.0]
+    stage = solve(case, Model(stage=StageDesign(HOLES), friction=friction), motion=motion)
+    drive = solve_drive(RV40, MOD, None, torques, PHI, friction=friction, backdrive=motion < 0)
+    scale = np.max(drive.pin_load)
+    np.testing.assert_allclose(stage.pin_load, drive.pin_load, rtol=0, atol=1e-12 * scale)
+    on = drive.pin_load > 0
+    f, d = stage.friction, drive.friction
+    for name in ("friction_coefficient", "film_parameter", "power_loss_groove"):
+        top = np.max(np.abs(d[name][on]))
+        np.testing.assert_allclose(f[name][on], d[name][on], rtol=0, atol=1e-12 * top)
+    assert np.all(f["power_loss_tooth"] == 0.0)  # rolling pins slide in their grooves
+    boundary = solve(case, Model(stage=StageDesign(HOLES), friction=dataclasses.replace(
+        friction, lubricant=None)), motion=motion)  # fmt: skip
+    mu, cap = f["friction_coefficient"][on], boundary.friction["friction_coefficient"][on]
+    assert np.all(mu <= cap) and np.mean(mu) < 0.9 * np.mean(cap)
+    assert np.sum(f["power_loss_groove"]) < 0.9 * np.sum(boundary.friction["power_loss_groove"])
+
+
+def test_power_balance_closes_with_a_lubricant_bearings_and_two_discs():
+    """The lubricated stage on crank bearings: P_in = P_out + losses + approach power, and
+    the parts' work adds to T·twist, as with Coulomb friction; λ > 0 at every loaded pin."""
+    friction = Friction(mesh=0.12, groove=0.12, bearing=0.003, bearing_diameter=18e-3,
+                        speed=FAST, lubricant=SMOOTH)  # fmt: skip
+    result = solve(Case(RV40, MOD, None, [-412.0, 412.0], PHI),
+                   Model(stage=SUPPORTED, discs=2, friction=friction))  # fmt: skip
+    f = result.friction
+    loss = np.sum(f["power_loss_tooth"] + f["power_loss_groove"], (-2, -1)) + np.sum(
+        f["power_loss_bearing"], (-2, -1)
+    )
+    p_out = 412.0 * FAST / RV40.teeth
+    np.testing.assert_allclose(
+        f["input_power"], p_out + loss + f["approach_power"], rtol=0, atol=1e-9 * p_out
+    )
+    total = sum(result.work.values())
+    np.testing.assert_allclose(total, result.torque[:, None] * result.twist, rtol=1e-9)
+    assert np.all(f["film_parameter"][result.pin_load > 0] > 0)
+    assert np.max(result.residual) < 1e-9 * 412.0 / HOLES.circle_radius
+
+
+def test_what_the_stage_does_not_model_is_refused_in_one_line():
+    friction = Friction(bearing=0.01, bearing_diameter=0.02)
     with pytest.raises(DesignError) as err:
-        solve(Case(RV40, MOD, None, 412.0, PHI[:3]), Model(stage=stage, friction=friction))
-    assert key in str(err.value) and "\n" not in str(err.value)
+        solve(Case(RV40, MOD, None, 412.0, PHI[:3]), Model(stage=StageDesign(HOLES),
+              friction=friction))  # fmt: skip
+    assert "bearing_coefficient" in str(err.value) and "\n" not in str(err.value)
 
 
 def test_drive_without_friction_is_unchanged_by_the_motion_argument():

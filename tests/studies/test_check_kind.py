@@ -97,20 +97,24 @@ def test_check_help_names_every_kind():
 
 
 def test_friction_with_a_stage_refused_by_check_as_by_run(tmp_path):
-    """What the stage's equilibrium does not take with friction (a lubricant: Coulomb
-    coefficients are coupled, docs/stage.md) is refused by check as by run."""
+    """What the stage's equilibrium does not take with friction (a crank-bearing coefficient
+    with rigid crank bearings, docs/stage.md) is refused by check as by run."""
     text = (EXAMPLES / "rv_stage.toml").read_text()
-    study = tmp_path / "s.toml"
+    for head in ("[stage.crank_bearing]", "[stage.crankshaft]", "[stage.duty_cycle]",
+                 "[stage.carrier]"):  # fmt: skip
+        start = text.index("\n" + head) + 1
+        text = text[:start] + text[text.index("\n[", start + 1) + 1 :]
     friction = (
-        "[friction]\nmesh_coefficient = 0.1\ngroove_coefficient = 0.1\n\n"
-        "[friction.lubricant]\ngrade = 220\n\n"
+        "[friction]\nmesh_coefficient = 0.1\ngroove_coefficient = 0.1\n"
+        "bearing_coefficient = 0.0025\nbearing_diameter_mm = 18.0\n\n"
     )
-    study.write_text(text.replace("[stage]\n", friction + "[stage]\n", 1))
+    study = tmp_path / "s.toml"
+    study.write_text(text.replace("\n[stage]\n", "\n" + friction + "[stage]\n", 1))
     refused = one_line(invoke("run", str(study), "--out", str(tmp_path / "o"), "-q"))
-    assert "friction.lubricant" in refused and "[stage]" in refused
+    assert "bearing_coefficient" in refused and "[stage.crank_bearing]" in refused
     assert one_line(invoke("check", str(study), "--kind", "run")) == refused
     line = one_line(invoke("check", str(study)))
-    assert line.startswith("error: cyclomesh run would refuse it: ") and "lubricant" in line
+    assert line.startswith("error: cyclomesh run would refuse it: ") and "bearing" in line
     assert not (tmp_path / "o").exists()
 
 

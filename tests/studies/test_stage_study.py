@@ -431,6 +431,46 @@ def test_run_and_stiffness_with_friction_in_the_stage(tmp_path):
     np.testing.assert_allclose(mid.values, ds["stage_rotation"].values, rtol=1e-12)
 
 
+def test_run_with_a_lubricant_in_the_stage(tmp_path):
+    """The friction example with a lubricant and a higher boundary cap at 1500 rpm: the run
+    writes the film parameter (units 1, > 0 where a pin carries load) and its summary
+    keys, the lubricated coefficient stays below the cap, and the power balance holds;
+    the stiffness study takes the boundary coefficients (at rest) and says so."""
+    text = FRICTION_EXAMPLE.read_text(encoding="utf-8")
+    text = text.replace("mesh_coefficient = 0.05", "mesh_coefficient = 0.12")
+    text = text.replace("groove_coefficient = 0.05", "groove_coefficient = 0.12")
+    text = text.replace(
+        "[stage]\n",
+        "[friction.lubricant]\ngrade = 150\ntemperature_c = 70.0\nroughness_um = 0.1\n"
+        "composite_roughness_um = 0.15\n\n[stage]\n",
+        1,
+    )
+    text = text.replace("input_speed_rpm = 585.0", "input_speed_rpm = 1500.0")
+    text = text.replace("output_speed_rpm = 15.0", "# output_speed_rpm = 15.0")  # the load's
+    study = tmp_path / "lubricated.toml"
+    study.write_text(text, encoding="utf-8")
+    out = tmp_path / "run"
+    result = invoke("run", str(study), "--out", str(out), "--crank-step-deg", "20",
+                    "--figures", "none")  # fmt: skip
+    assert result.exit_code == 0, result.output
+    case = json.loads((out / "summary.json").read_text())["cases"][0]
+    assert 0 < case["film_parameter_min"] <= case["film_parameter_mean"]
+    loss = case["power_loss_w"]
+    assert case["input_power_w"] == pytest.approx(
+        case["output_power_w"] + loss["pin_tooth"] + loss["pin_groove"] + loss["crank_bearings"]
+    )
+    ds = xr.open_dataset(out / case["results"])
+    on = ds["pin_load"] > 0
+    assert ds["film_parameter"].attrs["units"] == "1"
+    assert float(ds["film_parameter"].where(on).min()) > 0
+    assert float(ds["friction_coefficient"].where(on).max()) < 0.12
+    out = tmp_path / "stiff"
+    result = invoke("stiffness", str(study), "--out", str(out), "--crank-step-deg", "30",
+                    "--figures", "none")  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "at rest" in " ".join(result.output.split())
+
+
 def test_run_with_stage_reports_the_stages_mesh(tmp_path):
     """Issue 23: with [stage], the σH verdict, the summary (TE p-p, pin loads), angles.csv
     and the figures are those of the stage solve, not of the mesh on rigid bearings

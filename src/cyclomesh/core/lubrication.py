@@ -260,6 +260,29 @@ class Film:
     groove_modulus: float
     width: float
 
+    @classmethod
+    def of_contacts(cls, design, pin_radius: ArrayLike, curvature_radius: ArrayLike) -> Film:
+        """The film of a pair's pin contacts: ``design`` a
+        :class:`~cyclomesh.core.pair.PairDesign` (groove radius, materials, width),
+        ``pin_radius`` and the tooth's ``curvature_radius`` ρ of every contact [m]
+        (Eqs. 22, 23 of [1]); E' = 2/((1 − ν1²)/E1 + (1 − ν2²)/E2) [Pa] of pin–disc and
+        pin–ring."""
+        from cyclomesh.core.hertz import pin_groove_radius, pin_tooth_radius
+
+        def modulus(a, b) -> float:
+            return 2.0 / (
+                (1 - a.poisson_ratio**2) / a.youngs_modulus
+                + (1 - b.poisson_ratio**2) / b.youngs_modulus
+            )
+
+        return cls(
+            pin_tooth_radius(pin_radius, curvature_radius),
+            pin_groove_radius(pin_radius, design.groove_radius),
+            modulus(design.pin_material, design.disc_material),
+            modulus(design.pin_material, design.ring_material),
+            design.width,
+        )
+
 
 def film_parameters(
     lubricant: Lubricant,

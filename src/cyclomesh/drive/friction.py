@@ -44,7 +44,6 @@ from cyclomesh.core.friction import (
     tangential_velocity,
     torque_arm,
 )
-from cyclomesh.core.hertz import pin_groove_radius, pin_tooth_radius
 from cyclomesh.core.loadsharing import share_load
 
 __all__ = ["FrictionCoupling", "FRICTION_FIELDS"]
@@ -108,22 +107,9 @@ class FrictionCoupling:
         return self.motion * v
 
     def _film(self) -> Film:
-        """Reduced radii and E' of the pin contacts (:class:`~cyclomesh.core.friction.Film`)."""
-        design, geo = self.mesh.design, self.mesh.geo
-
-        def modulus(a, b) -> float:  # E' = 2/((1 − ν1²)/E1 + (1 − ν2²)/E2)
-            return 2.0 / (
-                (1 - a.poisson_ratio**2) / a.youngs_modulus
-                + (1 - b.poisson_ratio**2) / b.youngs_modulus
-            )
-
-        return Film(
-            pin_tooth_radius(geo.pin_radius, geo.curvature_radius),
-            pin_groove_radius(geo.pin_radius, design.groove_radius),
-            modulus(design.pin_material, design.disc_material),
-            modulus(design.pin_material, design.ring_material),
-            design.width,
-        )
+        """Reduced radii and E' of the pin contacts (:meth:`.Film.of_contacts`)."""
+        geo = self.mesh.geo
+        return Film.of_contacts(self.mesh.design, geo.pin_radius, geo.curvature_radius)
 
     def _resultant(
         self, force: FloatArray, tangential: FloatArray

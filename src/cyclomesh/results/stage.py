@@ -409,7 +409,6 @@ def stage_efficiency_variables(
         fr["power_loss_bearing"] = np.sum(fr["power_loss_bearing"], axis=-1)
         sign = motion * np.sign(result.torque)[:, None]  # the crank's turn: T_in·ω = P_in
         fr["input_torque"] = (sign * fr["input_power"] / friction.speed)[..., None]
-        fr["film_parameter"] = np.zeros_like(fr["friction_coefficient"])
         return SimpleNamespace(
             contacts=result.contacts if discs > 1 else result.contacts[..., :1],
             transmission_error=result.transmission_error,

@@ -14,6 +14,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -52,6 +53,9 @@ class Problem:
     slip: FloatArray | None = None  # friction: μ·s of every pin (A, D, 2·n1), T = −μ·s·F
     tangent_arm: FloatArray | None = None  # friction: m = r·n of every pin [m] (A, D, 2·n1)
     drag: float = 0.0  # friction: s_b·μ_b·d/2 [m], crank bearing moment per unit load
+    # a lubricant: per-pin constants of μ(F) (stage.friction.friction_arrays), (A, D, 2·n1)
+    lubrication: dict[str, FloatArray] | None = None
+    friction_law: Any = None  # the Friction of ``lubrication``
 
     def take(self, idx: NDArray[np.int64]) -> Problem:
         """The problem at the crank angles ``idx`` (increasing); itself when it is all."""
@@ -65,6 +69,8 @@ class Problem:
             )
             for name in self.__dataclass_fields__
         }
+        if self.lubrication is not None:
+            kw["lubrication"] = {key: value[idx] for key, value in self.lubrication.items()}
         return Problem(**kw)
 
 

@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from cyclomesh.core.discbody import FREE_HELD, FreeDiscBody
 from cyclomesh.core.fields import contact_fields
 from cyclomesh.core.friction import Friction
+from cyclomesh.core.lubrication import Film
 from cyclomesh.core.pair import CrankHoles
 from cyclomesh.core.transmission import transmission_error
 from cyclomesh.drive.solve import (
@@ -50,6 +51,8 @@ from cyclomesh.stage.friction import (
     friction_arrays,
     friction_newton,
     friction_terms,
+    lubricated_state,
+    pin_slip,
     power_terms,
 )
 from cyclomesh.stage.kernel import compiled
@@ -202,6 +205,10 @@ def _near(p: _Problem, x: FloatArray, discs: int, rigid: bool) -> _Problem:
     kept = np.take_along_axis(near, order, axis=-1)
     names = _PIN_FIELDS if p.slip is None else (*_PIN_FIELDS, "slip", "tangent_arm")
     fields = {f: np.take_along_axis(getattr(p, f), order, axis=-1) for f in names}
+    if p.lubrication is not None:
+        fields["lubrication"] = {
+            key: np.take_along_axis(value, order, axis=-1) for key, value in p.lubrication.items()
+        }
     fields["bl"] = np.where(kept, fields["bl"], np.inf)
     if p.body is not None:  # the same pins of the compliant disc's coefficients
         pin_w = np.take_along_axis(p.body.pin_w, order[..., None], axis=2)
@@ -386,23 +393,26 @@ def solve_direction(
     A = prob.bl.shape[0]
     fr = None
     if friction is not None:
-        radius = np.concatenate(
-            [
-                np.broadcast_to(mesh.geo.contact_radius, mesh.geo.rotation.shape),
-                _mirrored(np.broadcast_to(other.geo.contact_radius, other.geo.rotation.shape)),
-            ],
-            -1,
-        )
-        cos_beta = np.concatenate(
-            [
-                np.broadcast_to(mesh.geo.cos_beta, mesh.geo.rotation.shape),
-                _mirrored(np.broadcast_to(other.geo.cos_beta, other.geo.rotation.shape)),
-            ],
-            -1,
-        )
-        fr = friction_arrays(prob, mesh, radius, cos_beta, friction, motion, loading)
+
+        def flanks(name: str) -> FloatArray:  # (A, D, 2·n1): this flank, then the other's
+            this = np.broadcast_to(getattr(mesh.geo, name), mesh.geo.rotation.shape)
+            that = np.broadcast_to(getattr(other.geo, name), other.geo.rotation.shape)
+            return np.concatenate([this, _mirrored(that)], -1)
+
+        film = None
+        if friction.lubricant is not None and motion != 0.0:
+            film = Film.of_contacts(mesh.design, flanks("pin_radius"), flanks("curvature_radius"))
+        fr = friction_arrays(
+            prob, mesh, flanks("contact_radius"), flanks("cos_beta"), friction, motion, loading,
+            film,
+        )  # fmt: skip
         prob = dataclasses.replace(
-            prob, slip=fr["slip"], tangent_arm=fr["tangent_arm"], drag=fr["drag"]
+            prob,
+            slip=fr["slip"],
+            tangent_arm=fr["tangent_arm"],
+            drag=fr["drag"],
+            lubrication=fr.get("lubrication"),
+            friction_law=fr.get("friction"),
         )
     m = 1 + 3 * D
     # rigid stage (θ_d = c, u = 0) from the rotation at which the stiffest pin alone
@@ -433,7 +443,7 @@ def solve_direction(
     moment = -rigid["torque_share"]
     rfx, rfy = rigid["mesh_force_x"], rigid["mesh_force_y"]
     if fr is not None:  # the tangential forces T·t on the disc, their moment T·m
-        tangential = -prob.slip * F
+        tangential = -pin_slip(prob, F)[0] * F
         rfx = rfx + np.sum(tangential * -prob.ny, -1)
         rfy = rfy + np.sum(tangential * prob.nx, -1)
         moment = moment + np.sum(tangential * prob.tangent_arm, -1)
@@ -512,6 +522,8 @@ def solve_direction(
     )
     extra = {}
     if fr is not None and motion != 0.0:
+        if prob.lubrication is not None:  # the coefficients of the returned loads
+            fr = {**fr, **lubricated_state(prob, F)}
         extra = _friction_fields(prob, mesh, fr, st, motion, friction.speed, n1)
     return {
         **extra,
@@ -565,6 +577,7 @@ def _friction_fields(p, mesh, fr, st, motion, speed, n1) -> dict[str, FloatArray
         "sliding_velocity_tooth": np.where(groove, 0.0, sliding)[..., :n1],
         "sliding_velocity_groove": np.where(groove, sliding, 0.0)[..., :n1],
         "friction_coefficient": fr["mu"][..., :n1],
+        "film_parameter": fr["film_parameter"][..., :n1],
         "power_loss_bearing": terms["power_loss_bearing"],
         "input_power": terms["input_power"],
         "approach_power": terms["approach_power"],

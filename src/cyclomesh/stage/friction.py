@@ -62,7 +62,14 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from cyclomesh.core.friction import Friction, effective_coefficient, normal_moment
+from cyclomesh.core.friction import (
+    Friction,
+    coefficients,
+    effective_coefficient,
+    lubrication_constants,
+    normal_moment,
+)
+from cyclomesh.core.lubrication import Film
 from cyclomesh.exceptions import DesignError
 from cyclomesh.stage.assembly import Problem, bearing_jacobian
 from cyclomesh.stage.newton import reducer, residual_newton, rotation_index
@@ -80,12 +87,6 @@ FloatArray = NDArray[np.float64]
 
 def check_stage_friction(friction: Friction, bearing: object, body: object) -> None:
     """One-line :class:`DesignError` for friction the stage does not model."""
-    if friction.lubricant is not None:
-        raise DesignError(
-            "friction.lubricant: the lubricated coefficient is not coupled with the [stage] "
-            "equilibrium yet; give Coulomb coefficients (remove [friction.lubricant]) or "
-            "remove [stage]"
-        )
     if body is not None:
         raise DesignError(
             "friction: the compliant (FE) disc body is not coupled with friction yet; set "
@@ -107,14 +108,22 @@ def friction_arrays(
     friction: Friction,
     motion: float,
     loading: float,
+    film: Film | None = None,
 ) -> dict:
     """The friction fields of :class:`~cyclomesh.stage.assembly.Problem` for one direction:
     ``slip`` μ_eff·s and ``tangent_arm`` m of every pin (A, D, 2·n1), ``drag`` s_b·μ_b·d/2
-    [m], and (not in the problem) ``velocity`` v·t per unit input speed [m/rad] and
-    ``groove`` (the pin–groove interface slides).
+    [m], with a lubricant in a drive ``lubrication`` (the load-independent parts of the
+    lubricated coefficient of every pin, :func:`~cyclomesh.core.friction.lubrication_constants`,
+    with ``cos_beta`` and the sliding sense ``sign``; ``slip`` is then the boundary
+    coefficient's, replaced by μ(F) wherever the loads are known: :func:`pin_slip`), and (not
+    in the problem) ``velocity`` v·t per unit input speed [m/rad], ``groove`` (the pin–groove
+    interface slides), ``mu`` and ``film_parameter`` (0: no lubricant).
 
     ``contact_radius`` and ``cos_beta``: |r| of every contact from the disc centre [m] and
-    cos β, both flanks (A, D, 2·n1); the normals are the problem's."""
+    cos β, both flanks (A, D, 2·n1); the normals are the problem's. ``film``: the pin
+    contacts' radii and moduli (:meth:`~cyclomesh.core.lubrication.Film.of_contacts`), both
+    flanks, for the mixed regime of a lubricant (None: Benedict–Kelley's alone, as the mesh
+    solver without a film)."""
     A, D, P = p.bl.shape
     usable = np.isfinite(p.bl)
     m = np.where(usable, normal_moment(contact_radius, np.where(usable, p.arm, 0.0)), 0.0)
@@ -135,14 +144,55 @@ def friction_arrays(
     mu, groove = effective_coefficient(friction, cos_beta)
     mu = np.broadcast_to(mu, (A, D, P))
     sense = motion if motion != 0.0 else -loading
-    return {
+    out = {
         "slip": np.where(usable, mu * sign, 0.0),
         "tangent_arm": m,
         "drag": sense * 0.5 * friction.bearing * friction.bearing_diameter,
         "velocity": np.where(usable, velocity, 0.0),
         "groove": np.broadcast_to(groove, (A, D, P)),
         "mu": np.where(usable, mu, 0.0),
+        "film_parameter": np.zeros((A, D, P)),
     }
+    if friction.lubricant is not None and motion != 0.0:
+        speed = np.abs(out["velocity"]) * friction.speed
+        cb = np.where(usable, cos_beta, 1.0)
+        lub = lubrication_constants(friction, cb, speed, mesh.design.width, film)
+        lub["cos_beta"] = np.broadcast_to(cb, (A, D, P)).copy()
+        lub["sign"] = np.where(usable, sign, 0.0)
+        lub["moving"] = np.asarray(lub["moving"], float)
+        out["lubrication"] = lub
+        out["friction"] = friction
+    return out
+
+
+def pin_slip(p: Problem, force: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """μ_eff·s of every pin at the pin loads ``force`` [N] and its derivative
+    d(μ_eff·F)/dF·s (the tangential force is T = −μ_eff·s·F): the problem's Coulomb
+    ``slip`` twice, or with a lubricant the coefficient of these loads
+    (:func:`~cyclomesh.core.friction.coefficients`, Benedict–Kelley's in the mixed regime)
+    and μ_eff + F·dμ_eff/dF, its elasticity added (the Jacobian of the lubricated
+    tangential forces)."""
+    if p.lubrication is None:
+        return p.slip, p.slip
+    lub = p.lubrication
+    mu, _, el = coefficients(p.friction_law, lub["cos_beta"], force, constants=lub)
+    return mu * lub["sign"], (mu + el) * lub["sign"]
+
+
+def lubricated_state(p: Problem, force: FloatArray) -> dict[str, FloatArray]:
+    """``mu`` μ_eff, ``groove`` (the pin–groove interface slides) and ``film_parameter`` λ
+    of the sliding interface of every pin at the loads ``force`` [N] of a lubricated
+    problem (as :class:`~cyclomesh.drive.friction.DriveFriction` reports them: the
+    boundary coefficient and λ = 0 where a pin carries no load)."""
+    lub = p.lubrication
+    mu, groove, _ = coefficients(p.friction_law, lub["cos_beta"], force, constants=lub)
+    usable = lub["sign"] != 0.0
+    on = (force > 0) & (lub["moving"] > 0)
+    lam = np.zeros(force.shape)
+    if "lam0_tooth" in lub:  # λ(F) = λ(1 N)·F^−0.1 (Dowson–Toyoda)
+        scale = np.where(on, force, 1.0) ** -0.1
+        lam = np.where(on, np.where(groove, lub["lam0_groove"], lub["lam0_tooth"]) * scale, 0.0)
+    return {"mu": np.where(usable, mu, 0.0), "groove": groove, "film_parameter": lam}
 
 
 def friction_terms(p: Problem, x: FloatArray, discs: int, rigid: bool, state: dict, law, jac=True):
@@ -152,7 +202,8 @@ def friction_terms(p: Problem, x: FloatArray, discs: int, rigid: bool, state: di
     n, m = x.shape
     L = p.scale
     F = state["pin_force"]
-    T = -p.slip * F  # tangential force on the disc along t, (n, D, P)
+    slip, dslip = pin_slip(p, F)
+    T = -slip * F  # tangential force on the disc along t, (n, D, P)
     if rigid:
         b = np.stack([p.tangent_arm / L], axis=-2)  # (n, D, 1, P)
         a = np.stack([p.arm / L], axis=-2)
@@ -163,7 +214,7 @@ def friction_terms(p: Problem, x: FloatArray, discs: int, rigid: bool, state: di
     dQ = np.zeros((n, m, m)) if jac else None
     q_pin = np.matmul(b, T[..., None])[..., 0]  # (n, D, a)
     if jac:
-        dT = -p.slip * state["pin_stiffness"]
+        dT = -dslip * state["pin_stiffness"]
         dq_pin = np.matmul(b * dT[..., None, :], np.swapaxes(a, -1, -2))  # (n, D, a, a)
     size = b.shape[-2]
     for d in range(discs):

@@ -154,7 +154,8 @@ class Stage:
         A drive with friction (:mod:`cyclomesh.stage.friction`): per pin, both flanks
         together, (Q, A, D, n1): ``friction_force`` [N], ``power_loss_tooth``,
         ``power_loss_groove`` [W], ``sliding_velocity_tooth``, ``sliding_velocity_groove``
-        [m/s] (loaded flank), ``friction_coefficient`` [-]; ``power_loss_bearing`` [W]
+        [m/s] (loaded flank), ``friction_coefficient`` [-], ``film_parameter`` λ [-] of
+        the sliding interface (0 without a lubricant or load); ``power_loss_bearing`` [W]
         (Q, A, D, N); ``input_power`` [W] (from the crank pins' forces) and
         ``approach_power`` [W] (a non-conjugate profile's Σ F·v·n), (Q, A). With friction
         ``work`` has a ``friction`` entry (−x·Q, so that the parts add up to T·twist).
@@ -193,6 +194,7 @@ FRICTION_FIELDS = (
     "sliding_velocity_tooth",
     "sliding_velocity_groove",
     "friction_coefficient",
+    "film_parameter",
     "power_loss_bearing",
     "input_power",
     "approach_power",
@@ -204,7 +206,7 @@ _PER_PIN = {
     "groove_load",
     "contact_stress",
     "groove_stress",
-    *FRICTION_FIELDS[:6],
+    *FRICTION_FIELDS[:7],
 }
 _PER_CRANK = {
     "bearing_fx",
@@ -303,10 +305,11 @@ def solve(case: Case, model: Model, motion: float = 1.0, loading: float = 0.0) -
     ``[stage.crank_bearing]``. A :class:`~cyclomesh.core.discbody.DiscBody` (held holes)
     is refused in one line.
 
-    Friction (``model.friction``, Coulomb coefficients, :mod:`cyclomesh.stage.friction`):
-    ``motion`` +1 the crank drives every torque, −1 every torque drives the crank back;
-    ``motion = 0`` a torsion test with ``loading`` ±1, the output turning with (+1) or
-    against the torque's sense (the branch of rising or falling |T|).
+    Friction (``model.friction``, Coulomb coefficients or a lubricant's μ(F) in a drive,
+    :mod:`cyclomesh.stage.friction`): ``motion`` +1 the crank drives every torque, −1
+    every torque drives the crank back; ``motion = 0`` a torsion test with ``loading`` ±1,
+    the output turning with (+1) or against the torque's sense (the branch of rising or
+    falling |T|).
     """
     stage = model.stage
     if not isinstance(stage, StageDesign):

@@ -87,7 +87,7 @@ def check_kinds(study: Study, kind: str | None, *, allow_work: bool = False) -> 
 
 def refuse_friction_with_stage(study: Study, at_rest: bool = False) -> None:
     """One-line :class:`StudyError` for a case whose ``[friction]`` the ``[stage]``
-    equilibrium does not take (a lubricant, the compliant disc, a crank-bearing coefficient
+    equilibrium does not take (the compliant disc, a crank-bearing coefficient
     without ``[stage.crank_bearing]``: :func:`cyclomesh.stage.friction.check_stage_friction`).
     ``at_rest``: a torsion test, whose friction is the boundary coefficients (the lubricant
     dropped, :func:`cyclomesh.studies.stiffness.at_rest`)."""
