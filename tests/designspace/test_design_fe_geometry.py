@@ -47,14 +47,15 @@ def _table2(tmp_path: Path) -> str:
     )
 
 
-def test_geometry_map_with_the_fe_disc_equals_run_of_each_candidate(tmp_path, coarse):
+def test_geometry_map_with_the_fe_disc_equals_run_of_each_candidate(tmp_path, coarse, cluster):
     """A map over the pin-circle radius a (80 and 82 mm) of the Table 1 pair with
-    disc_body = "fe": each candidate's peak stress, TE and play equal `cyclomesh run` of
-    that candidate (its own FE body) to 1e-12, on one process and on two worker
-    processes alike; the notice before the map says 2 bodies to build, then all cached;
-    the two geometries' bodies are two cache files, which the runs reuse. Without its own
-    body (the base geometry's table for both, as the map did before it refused) the 80 mm
-    candidate's stress is another number."""
+    disc_body = "fe": each candidate's peak stress and TE equal `cyclomesh run` of that
+    candidate (its own FE body) to 1e-12; the map is the same to the bit in one process,
+    on two local worker processes and on a Dask cluster, each building the two bodies
+    in a cache folder of its own (the workers build them with the parent's coarse
+    settings); the notice before the map says 2 bodies to build, then all cached; the
+    runs reuse the bodies. Without its own body (the base geometry's table for both, as
+    the map did before it refused) the 80 mm candidate's stress is another number."""
     from cyclomesh.core.pair import Modification
     from cyclomesh.designspace.candidate import candidate_metrics
 
@@ -64,22 +65,30 @@ def test_geometry_map_with_the_fe_disc_equals_run_of_each_candidate(tmp_path, co
         base + '[design_space]\nobjective = "max_contact_stress"\n'
         "pin_circle_radius_mm = { start = 80.0, stop = 82.0, points = 2 }\n"
     )
-    cache = tmp_path / "cache"
     runner = CliRunner()
     maps, outputs = {}, {}
-    for name, more in (("serial", []), ("workers", ["--workers", "2"])):
+    engines = {
+        "serial": [],
+        "workers": ["--workers", "2"],
+        "dask": ["--scheduler", cluster[0].scheduler_address],
+    }
+    for name, more in engines.items():
         out = tmp_path / name
         args = ["design", str(study), "--out", str(out), "--figures", "none"]
-        result = runner.invoke(app, [*args, "--cache-dir", str(cache), *more])
+        result = runner.invoke(app, [*args, "--cache-dir", str(tmp_path / f"cache-{name}"), *more])
         assert result.exit_code == 0, result.output
         maps[name], outputs[name] = xr.load_dataset(out / "design.nc"), result.output
-    assert "2 of 2 FE disc bodies to build" in " ".join(outputs["serial"].split())
-    assert "2 FE disc bodies of 2 geometries, all cached" in " ".join(outputs["workers"].split())
-    assert len(list(cache.glob("influence-*.npz"))) == 2
+        assert "2 of 2 FE disc bodies to build" in " ".join(result.output.split())
+        assert len(list((tmp_path / f"cache-{name}").glob("influence-*.npz"))) == 2
+    cache = tmp_path / "cache-serial"
+    args = ["design", str(study), "--out", str(tmp_path / "again"), "--figures", "none"]
+    again = runner.invoke(app, [*args, "--cache-dir", str(cache)])
+    assert "2 FE disc bodies of 2 geometries, all cached" in " ".join(again.output.split())
     ds = maps["serial"]
     assert ds.attrs["disc_body"] == "fe" and ds.attrs["feasible_candidates"] == 2
-    for var in ("max_contact_stress_mpa", "te_pp_arcsec", "play_arcmin"):
-        np.testing.assert_array_equal(maps["workers"][var].values, ds[var].values)
+    for name in ("workers", "dask"):
+        for var in ("max_contact_stress_mpa", "te_pp_arcsec", "play_arcmin"):
+            np.testing.assert_array_equal(maps[name][var].values, ds[var].values)
     for a in (80.0, 82.0):
         one = tmp_path / f"a{a:g}.toml"
         one.write_text(base.replace("pin_circle_radius_mm = 82.0", f"pin_circle_radius_mm = {a}"))
