@@ -308,6 +308,13 @@ def test_the_model_refuses_friction_where_a_solver_does_not_model_it():
         ltca(case, Model(friction=friction))
     assert check(case, Model(friction=Friction())).friction is None
     assert ltca(case, Model(friction=Friction())).pin_load.shape[-1] == TABLE1.pins
+    # the compliant disc takes friction in the stage only (tests/stage/test_stage_fe.py)
+    from cyclomesh.core.discbody import DiscBody
+
+    body = DiscBody(np.linspace(-np.pi, 0, 5), np.zeros((1, TABLE1.teeth, 5, 5)), TABLE1.teeth)
+    with pytest.raises(DesignError, match=r"only in the RV stage \(\[stage\]\)") as err:
+        check(case, Model(disc_body=body, friction=friction))
+    assert "\n" not in str(err.value)
 
 
 def test_loop_hysteresis_grows_linearly_with_the_coefficient():

@@ -369,3 +369,75 @@ def test_a_refused_compliant_stage_keeps_the_earlier_result(coarse, tmp_path, mo
     assert lines[0].startswith('error: case "b": pin 1 overlaps the disc'), lines[0]
     assert snapshot() == before and not (out / STAGING).exists()
     load_results(out)
+
+
+@pytest.mark.parametrize("motion", [1.0, -1.0])
+def test_friction_with_the_compliant_disc_closes_its_power_and_work(coarse, example, motion):
+    """Friction with the compliant disc (the body's unknowns in ∂Q/∂x): P_in from the crank
+    pins' forces = ±P_out + losses + the approach power, the parts' work (the disc body's
+    and friction's included) adds to T·twist, and the equilibrium converges to the test
+    of the frictionless stage; all coefficients 0 is the frictionless compliant stage."""
+    from cyclomesh.core.friction import Friction
+
+    body, _ = coarse
+    speed = 2.0 * np.pi * 585.0 / 60.0
+    case = example.case().replace(torque=[-412.0, 412.0], crank_angles=PHI)
+    model = example.model().replace(disc_body=body)
+    plain = solve(case, model)
+    zero = solve(case, model.replace(friction=Friction(speed=speed)), motion=motion)
+    np.testing.assert_array_equal(zero.pin_load, plain.pin_load)
+    friction = Friction(mesh=0.05, groove=0.05, bearing=0.0025, bearing_diameter=18e-3,
+                        speed=speed)  # fmt: skip
+    res = solve(case, model.replace(friction=friction), motion=motion)
+    f = res.friction
+    loss = np.sum(f["power_loss_tooth"] + f["power_loss_groove"], (-2, -1)) + np.sum(
+        f["power_loss_bearing"], (-2, -1)
+    )
+    p_out = 412.0 * speed / example.design.teeth
+    np.testing.assert_allclose(
+        f["input_power"], motion * p_out + loss + f["approach_power"], rtol=0, atol=1e-9 * p_out
+    )
+    assert np.all(res.work["disc_body"] > 0) and "friction" in res.work
+    total = sum(res.work.values())
+    np.testing.assert_allclose(total, res.torque[:, None] * res.twist, rtol=1e-9)
+    assert np.max(res.residual) < 1e-9 * 412.0 / example.crank_holes.circle_radius
+    # friction changes the loads by a few per cent at most at mu = 0.05, not their pattern
+    scale = np.max(plain.pin_load)
+    assert 0 < np.max(np.abs(res.pin_load - plain.pin_load)) < 0.1 * scale
+
+
+def test_friction_with_the_compliant_disc_end_to_end(coarse, tmp_path, monkeypatch):
+    """``cyclomesh run`` and ``stiffness`` of examples/rv_stage_friction.toml with
+    disc_body = "fe" (coarse meshes): the stage's efficiency and loop with the compliant
+    disc, a warning that the mesh alone on rigid bearings is frictionless, and the
+    efficiency a little below the rigid disc's (more pins share the load and slide)."""
+    from typer.testing import CliRunner
+
+    import cyclomesh.fe.influence as fe
+    from cyclomesh.cli import app
+
+    _, folder = coarse
+    for key, value in COARSE.items():
+        monkeypatch.setitem(fe.MESH_DEFAULTS, key, value)
+    text = EXAMPLE.with_name("rv_stage_friction.toml").read_text()
+    path = tmp_path / "rvf_fe.toml"
+    path.write_text(text.replace("[analysis]", '[analysis]\ndisc_body = "fe"', 1))
+    rigid = tmp_path / "rvf.toml"
+    rigid.write_text(text)
+    runner = CliRunner()
+    common = ["--crank-step-deg", "30", "--figures", "none", "--cache-dir", str(folder)]
+    eff = {}
+    for name, study in (("fe", path), ("rigid", rigid)):
+        out = tmp_path / f"run_{name}"
+        result = runner.invoke(app, ["run", str(study), "--out", str(out), *common])
+        assert result.exit_code == 0, result.output
+        summary = json.loads((out / "summary.json").read_text())
+        eff[name] = summary["cases"][0]["efficiency"]
+        noted = any("mesh alone on rigid bearings" in w for w in summary.get("warnings", []))
+        assert noted == (name == "fe")
+    assert 0.9 < eff["fe"] < eff["rigid"] < 1.0
+    out = tmp_path / "stiff"
+    result = runner.invoke(app, ["stiffness", str(path), "--out", str(out), *common])
+    assert result.exit_code == 0, result.output
+    case = json.loads((out / "summary.json").read_text())["cases"][0]
+    assert case["stage_hysteresis_arcmin_max"] > 0

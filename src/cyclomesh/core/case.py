@@ -163,10 +163,10 @@ def check(case: Case, model: Model, *, torque: str = "list") -> Checked:
     friction = model.friction
     if friction is not None and friction.frictionless:
         friction = None  # the paper's model, bit for bit
-    if friction is not None and body is not None:
+    if friction is not None and body is not None and model.stage is None:
         raise DesignError(
-            "friction: the compliant (FE) disc body is not coupled with friction yet; set "
-            'disc_body = "rigid" or remove [friction]'
+            "friction: the compliant (FE) disc body is coupled with friction only in the RV "
+            'stage ([stage]); set disc_body = "rigid", add [stage] or remove [friction]'
         )
     return Checked(
         design=design,

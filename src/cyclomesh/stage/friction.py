@@ -26,6 +26,12 @@ couple C_dk = s_b·μ_b·d/2·B_dk on the disc (SKF's constant-coefficient model
 pin's turn against the hole: ``motion`` in a drive, −``loading`` in a torsion test, as
 :mod:`cyclomesh.drive.friction`); its reaction goes to the crankshaft, held by the input.
 
+With the compliant disc (:class:`~cyclomesh.stage.assembly.Body`) a pin's approach has
+the body's displacement −(C'·λ)_i, so ∂δ_i/∂z = −pin_w enters ∂Q/∂x below; the body is
+loaded by the pins' normal forces and the hole centres' forces (issue 17's coefficients),
+not by the pins' tangential forces μ·F, whose own deformation of the disc is left out
+(the disc's rigid motion and the bearing loads carry them).
+
 The equilibrium is ∇Π(x) − Q(x) = 0 (Π the stage's potential); with Q(x) from the pin
 forces F(δ(x)) and the bearing loads B(s(x)) its exact Jacobian ∇²Π − ∂Q/∂x,
 
@@ -86,12 +92,8 @@ FloatArray = NDArray[np.float64]
 
 
 def check_stage_friction(friction: Friction, bearing: object, body: object) -> None:
-    """One-line :class:`DesignError` for friction the stage does not model."""
-    if body is not None:
-        raise DesignError(
-            "friction: the compliant (FE) disc body is not coupled with friction yet; set "
-            'disc_body = "rigid" or remove [friction]'
-        )
+    """One-line :class:`DesignError` for friction the stage does not model (``body``, the
+    compliant disc, takes friction: the module doc)."""
     if friction.bearing > 0 and bearing is None:
         raise DesignError(
             "friction.bearing_coefficient with [stage] needs [stage.crank_bearing] (rigid "
@@ -217,11 +219,16 @@ def friction_terms(p: Problem, x: FloatArray, discs: int, rigid: bool, state: di
         dT = -dslip * state["pin_stiffness"]
         dq_pin = np.matmul(b * dT[..., None, :], np.swapaxes(a, -1, -2))  # (n, D, a, a)
     size = b.shape[-2]
+    body = None if rigid else p.body
     for d in range(discs):
         block = slice(1 + 3 * d, 1 + 3 * d + size)
         Q[:, block] += q_pin[:, d]
         if jac:
             dQ[:, block, block] += dq_pin[:, d]
+        if jac and body is not None:  # ∂δ/∂z = −pin_w: the body's unknowns move the loads
+            lam = body.energy.shape[-1]
+            zi = slice(m - body.size + d * lam, m - body.size + (d + 1) * lam)
+            dQ[:, block, zi] -= np.matmul(b[:, d] * dT[:, d, None, :], body.pin_w[:, d])
     if rigid or p.drag == 0.0:
         return Q, dQ
     fx, fy = state["bearing_fx"], state["bearing_fy"]
@@ -257,7 +264,8 @@ def friction_newton(p: Problem, evaluate, law, x: FloatArray, discs: int, rigid:
             J = np.einsum("im,nij,jk->nmk", reduce, J, reduce) if jac else None
         return r, J, st
 
-    rot = [0] if rigid else rotation_index(x.shape[1], discs, p.supports)
+    tail = 0 if rigid or p.body is None else p.body.size
+    rot = [0] if rigid else rotation_index(x.shape[1], discs, p.supports, tail)
     return residual_newton(p, residual, x, phi, rot, "stage with friction", reduce)
 
 

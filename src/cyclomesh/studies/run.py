@@ -169,7 +169,12 @@ def compute_run(
     from cyclomesh.results.requirements import jam_warning, min_play_arcmin
     from cyclomesh.studies.checks import case_checks
     from cyclomesh.studyfile.usage import check_keys
-    from cyclomesh.studyfile.warnings import has_pin_errors, stage_warning, study_warnings
+    from cyclomesh.studyfile.warnings import (
+        has_pin_errors,
+        stage_friction_note,
+        stage_warning,
+        study_warnings,
+    )
 
     check_keys(study.raw, "run")
     run = RunResult(study=study)
@@ -205,6 +210,7 @@ def compute_run(
             for w in (
                 jam_warning(min_play_arcmin(ds)),
                 stage_warning(inputs),
+                stage_friction_note(inputs),
                 _zero_friction(case, inputs),
             )
             if w
@@ -246,6 +252,7 @@ def _with_stage(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs) -> tuple[xr.
     # the reported mesh (summary, verdict, figures) is the stage's, not the rigid bearings'
     ds = stage_mesh(ds, result, inputs.design.teeth)
     if result.friction is not None:  # and so are the efficiency and the losses
+        from cyclomesh.results.efficiency import friction_attrs
         from cyclomesh.results.stage import stage_efficiency_variables
 
         variables = stage_efficiency_variables(
@@ -254,6 +261,7 @@ def _with_stage(ds: xr.Dataset, case: CaseSpec, inputs: CaseInputs) -> tuple[xr.
         ds = ds.assign(
             {name: (dims, values, attrs) for name, (dims, values, attrs) in variables.items()}
         )
+        ds.attrs.update(friction_attrs(inputs.friction))  # the mesh alone may have had none
     stage = stage_dataset(result, inputs.stage, inputs.design.pins)
     if "disc" not in ds.dims:  # one disc: no disc dimension, as the mesh variables
         stage = stage.isel(disc=0, drop=True)

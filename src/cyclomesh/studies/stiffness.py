@@ -136,7 +136,12 @@ def compute_stiffness(
     from cyclomesh.results.torsion import stiffness, summarize_stiffness
     from cyclomesh.studies.checks import case_checks
     from cyclomesh.studyfile.usage import check_keys
-    from cyclomesh.studyfile.warnings import has_pin_errors, stage_warning, study_warnings
+    from cyclomesh.studyfile.warnings import (
+        has_pin_errors,
+        stage_friction_note,
+        stage_warning,
+        study_warnings,
+    )
 
     check_stiffness(study)
     check_keys(study.raw, "stiffness")
@@ -161,7 +166,7 @@ def compute_stiffness(
                 contact_law=inputs.contact_law,
                 disc_body=inputs.disc_body,
                 crank_holes=inputs.crank_holes,
-                friction=at_rest(inputs.friction),
+                friction=at_rest(inputs.mesh_friction),
             )
         except CyclomeshError as exc:  # name the case
             raise type(exc)(f"{case.label}: {exc}") from None
@@ -199,6 +204,7 @@ def compute_stiffness(
             for w in (
                 jam_warning(min_play_arcmin(ds)),
                 stage_warning(inputs),
+                stage_friction_note(inputs),
                 _lubricant_note(inputs.friction),
             )
             if w

@@ -202,8 +202,19 @@ class CaseInputs:
             self.friction,
         )
 
+    @property
+    def mesh_friction(self) -> Friction | None:
+        """The friction of the mesh alone (on rigid bearings): ``friction``, except with the
+        compliant disc beside ``[stage]``, whose friction is solved in the stage's
+        equilibrium only (:mod:`cyclomesh.stage.friction`): then None, frictionless."""
+        if self.stage is not None and self.disc_body != "rigid":
+            return None
+        return self.friction
+
     def kwargs(self) -> dict[str, Any]:
-        """Keyword arguments of :func:`cyclomesh.analyse`."""
+        """Keyword arguments of :func:`cyclomesh.analyse` (the mesh alone: friction
+        :attr:`mesh_friction`)."""
+        friction = self.mesh_friction
         return {
             "design": self.design,
             "modification": self.modification,
@@ -218,7 +229,7 @@ class CaseInputs:
                 if self.disc_body != "rigid"
                 else {}
             ),
-            **({"friction": self.friction} if self.friction is not None else {}),
+            **({"friction": friction} if friction is not None else {}),
         }
 
 

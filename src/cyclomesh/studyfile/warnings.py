@@ -89,6 +89,19 @@ def stage_warning(inputs: Any) -> str | None:
     return inputs.stage.preload_warning(inputs.discs)
 
 
+def stage_friction_note(inputs: Any) -> str | None:
+    """Friction with the compliant disc is solved in the RV stage only: say that the mesh
+    alone on rigid bearings is frictionless (:attr:`~cyclomesh.studyfile.schema.CaseInputs.
+    mesh_friction`), or None."""
+    if getattr(inputs, "friction", None) is None or inputs.mesh_friction is not None:
+        return None
+    return (
+        'friction with disc_body = "fe" is solved in the RV stage\'s equilibrium only: the '
+        "stage's results carry it, the mesh alone on rigid bearings "
+        "(rigid_bearing_transmission_error, the stiffness study's mesh values) is frictionless"
+    )
+
+
 def merge_warnings(per_case: Mapping[str, Iterable[str]]) -> list[str]:
     """One list for a study: a warning of every case once, the others prefixed by case."""
     lists = {name: list(ws) for name, ws in per_case.items()}
