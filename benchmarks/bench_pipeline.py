@@ -112,14 +112,17 @@ def _stages_run(study_file: Path, out: Path, figures: str | None = None) -> dict
     """Seconds of each stage of ``cyclomesh run`` in this process, as the CLI runs them
     (figure workers forked before the solve: with ``--figures all`` the profile drawn
     during the solve, the other figures while the result files are written; by default
-    one worker draws the overview; "figures" is the wait for them)."""
+    the overview's figure process is forked before the study is loaded, as the command
+    forks it when it starts; "figures" is the wait for them)."""
     from cyclomesh.figures.render import FigurePool
+    from cyclomesh.figures.worker import FigureProcess
     from cyclomesh.publish.pipeline import OutputOptions, publish
     from cyclomesh.studies import run as kind
     from cyclomesh.studies.execute import figure_jobs
     from cyclomesh.studyfile import load_study
 
     t = {}
+    early = FigureProcess() if figures is None else None
     start = time.perf_counter()
     study = load_study(study_file)
     t["load"] = time.perf_counter() - start
@@ -127,7 +130,7 @@ def _stages_run(study_file: Path, out: Path, figures: str | None = None) -> dict
     overview = options.figure_set == "overview"
     if not overview:
         import xarray  # noqa: F401  (as the CLI does before forking the figure workers)
-    with FigurePool(one=overview) as pool:
+    with early if early is not None else FigurePool(one=overview) as pool:
         early = [] if overview else kind.input_figures(study)
         pool.submit(early, options.figures, options.dpi)
         start = time.perf_counter()

@@ -292,7 +292,7 @@ def test_core_error_names_the_case(tmp_path):
 # --- 8: pool workers die with their parent -------------------------------------------------
 
 
-@pytest.mark.parametrize("pool", ["ProcessBackend", "FigurePool"])
+@pytest.mark.parametrize("pool", ["ProcessBackend", "FigurePool", "FigureProcess"])
 def test_pool_workers_die_with_their_parent(pool):
     code = textwrap.dedent(
         f"""
@@ -302,6 +302,10 @@ def test_pool_workers_die_with_their_parent(pool):
             backend = ProcessBackend(2)
             backend.start()
             pids = backend.worker_pids()
+        elif {pool!r} == "FigureProcess":  # the overview's, forked as a run starts
+            from cyclomesh.figures.worker import FigureProcess
+            p = FigureProcess()
+            pids = [p._pid] if p.active else []
         else:
             from cyclomesh.figures.render import FigurePool
             p = FigurePool(2)

@@ -15,6 +15,8 @@ HEAVY = ("xarray", "pandas", "matplotlib", "pyarrow", "netCDF4", "distributed")
         ("cyclomesh.stage.solve, cyclomesh.results.stage", HEAVY),  # the RV stage, same
         ("cyclomesh.drive.solve, cyclomesh.results.torsion", HEAVY),  # drive characteristics, same
         ("cyclomesh, cyclomesh.cli", (*HEAVY, "scipy", "pydantic")),  # --help
+        # the overview's figure process: forked before the kind's modules are imported
+        ("cyclomesh.figures.worker", (*HEAVY, "numpy", "pydantic", "cyclomesh.studyfile.schema")),
         ("cyclomesh.tolerance.tasks", HEAVY),  # what tolerance workers run
         ("cyclomesh.studies.run, cyclomesh.studies.tolerance, cyclomesh.publish.pipeline", HEAVY),
         ("cyclomesh.studies.allocate, cyclomesh.studies.rings", HEAVY),

@@ -228,18 +228,19 @@ def test_pins_beyond_the_first_set_are_added_exactly(monkeypatch):
 
 
 @pytest.mark.parametrize("stage", [True, False])
-def test_fe_body_over_swept_geometry_refused_by_design(tmp_path, stage):
-    """disc_body = "fe" is the FE table of one geometry: a design map that sweeps the
-    geometry (design_space.pin_circle_radius_mm) refuses it in one line, naming the key
-    and the fix, with and without [stage] (it was accepted without the stage and solved
-    every candidate with the base geometry's table: 887 MPa on the map where the
-    candidate's own table gives 867). Maps over the modification take it
-    (tests/stage/test_stage_fe.py)."""
+def test_fe_body_over_swept_geometry_checked_for_design(tmp_path, stage):
+    """disc_body = "fe" over swept geometry (design_space.pin_circle_radius_mm) passes
+    `cyclomesh check --kind design`, with and without [stage]: each candidate geometry gets
+    its own FE body (tests/designspace/test_design_fe_geometry.py; it was once solved with
+    the base geometry's table, 887 MPa on the map where the candidate's own table gives
+    867, then refused). One DiscBody over geometry is still refused by the core map, in
+    one line naming the key."""
     from pathlib import Path
 
     from typer.testing import CliRunner
 
     from cyclomesh.cli import app
+    from cyclomesh.designspace.sweep import design_map
 
     name = "rv_stage.toml" if stage else "table2.toml"
     text = (Path(__file__).parents[2] / "examples" / name).read_text()
@@ -254,10 +255,13 @@ def test_fe_body_over_swept_geometry_refused_by_design(tmp_path, stage):
         base + '[design_space]\nobjective = "max_contact_stress"\n'
         "pin_circle_radius_mm = { start = 63.0, stop = 65.0, points = 2 }\n"
     )
-    out = CliRunner().invoke(app, ["design", str(path), "--out", str(tmp_path / "out")])
-    assert out.exit_code == 2, out.output
-    assert "design_space.pin_circle_radius_mm" in out.output
-    assert 'disc_body = "rigid"' in out.output and not (tmp_path / "out").exists()
+    out = CliRunner().invoke(app, ["check", str(path), "--kind", "design"])
+    assert out.exit_code == 0, out.output
+    u = np.linspace(-np.pi, 0.0, 5)
+    body = DiscBody(u, np.zeros((1, TABLE1.teeth, 5, 5)), TABLE1.teeth)
+    with pytest.raises(DesignError, match="design_space.pin_radius_mm: a DiscBody") as info:
+        design_map(TABLE1, {"pin_radius_mm": [3.5, 3.6]}, disc_body=body)
+    assert "\n" not in str(info.value)
     if not stage:
         return
     # without crank bearings (rigid bearings hold the hole centres) every kind refuses it

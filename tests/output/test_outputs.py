@@ -25,6 +25,7 @@ import cyclomesh
 from cyclomesh.cli import app
 from cyclomesh.exceptions import OutputError
 from cyclomesh.output.folder import LOCK, MARKER, ResultFolder, load_results
+from cyclomesh.output.writers import jsonable
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 QUICK = ("--crank-step-deg", "10", "--figures", "none", "-q")
@@ -105,7 +106,8 @@ def test_disk_full_is_one_line_naming_the_path(tmp_path, monkeypatch, target):
     """A writer failing with ENOSPC (as on a full disk) midway: one line, exit 2, no
     partial file under a final name, no temporary file, no marker."""
     import netCDF4
-    import pyarrow.parquet as pq
+
+    from cyclomesh.output import writers
 
     def full(*args, **kwargs):
         path = next(a for a in args if isinstance(a, str | Path))
@@ -121,7 +123,7 @@ def test_disk_full_is_one_line_naming_the_path(tmp_path, monkeypatch, target):
         monkeypatch.setattr(netCDF4, "Dataset", hdf_error)
         monkeypatch.setattr("shutil.disk_usage", lambda p: type("U", (), {"free": 0})())
     elif target == "parquet":
-        monkeypatch.setattr(pq, "write_table", lambda table, path, **k: full(path))
+        monkeypatch.setattr(writers, "write_parquet_table", lambda table, path: full(path))
     else:  # report.html and the marker
         real_write = Path.write_bytes
 
@@ -185,6 +187,35 @@ def test_result_folder_keeps_the_marker_for_last(tmp_path):
     marker = json.loads((tmp_path / MARKER).read_text())
     assert marker["answer"] == 42.0 and marker["bad"] is None
     assert [f["path"] for f in marker["files"]] == ["other.json"]
+
+
+@pytest.mark.parametrize("steps", [36, 360])
+def test_parquet_bytes_as_pyarrow_parquet_writes_them(tmp_path, steps):
+    """The Parquet file of a run is byte for byte what ``pyarrow.parquet.write_table``
+    (zstd) writes of the same table (the writer of ``pyarrow._parquet`` is called
+    directly, without pyarrow's file systems): a NaN column (missing values), integers,
+    booleans, field and file metadata."""
+    import pyarrow.parquet as pq
+
+    from cyclomesh.output.writers import long_table, write_parquet
+
+    ds = cyclomesh.analyse(
+        cyclomesh.TABLE1,
+        cyclomesh.Modification(pin_radius=8e-6),
+        torque=250.0,
+        crank_angles=np.linspace(0.0, 2 * np.pi, steps, endpoint=False),
+    )
+    ds["backlash"].values[0, :3] = np.inf  # missing values in the table
+    write_parquet(ds, tmp_path / "ours.parquet")
+    table = long_table(ds)
+    attrs = json.dumps(jsonable(dict(ds.attrs)), ensure_ascii=False)
+    table = table.replace_schema_metadata({"cyclomesh.attrs": attrs})
+    pq.write_table(table, tmp_path / "theirs.parquet", compression="zstd")
+    ours = (tmp_path / "ours.parquet").read_bytes()
+    assert ours == (tmp_path / "theirs.parquet").read_bytes()
+    back = pq.read_table(tmp_path / "ours.parquet")
+    assert back.num_rows == steps * 40 and back.column("backlash_arcsec").null_count >= 3
+    assert back.schema.field("pin_load_n").metadata[b"units"] == b"N"
 
 
 def test_netcdf_variables_have_a_fill_value(tmp_path):

@@ -135,6 +135,9 @@ def test_arrow_float_formats_as_arrow_does():
     pacsv.write_csv(pa.table({"x": values}), buffer, options)
     expected = buffer.getvalue().decode().splitlines()[1:]
     assert [writers.arrow_float(v) for v in values.tolist()] == expected
+    assert writers.arrow_floats(values.tolist()) == expected  # the fast path, the same
+    negative = (-values).tolist() + [np.nan, np.inf, -np.inf, 1e9, 1e10 - 1, 1e10, 0.5]
+    assert writers.arrow_floats(negative) == [writers.arrow_float(v) for v in negative]
 
 
 def test_arrow_array_is_pyarrows_array():
@@ -198,9 +201,11 @@ def test_run_without_figures_imports_no_dataset_library(tmp_path):
 def test_default_figures_are_the_overview(tmp_path):
     """The default: one overview figure, in the report under the summary table (before
     the inputs), and this process imports no xarray (the worker draws from NumPy
-    arrays)."""
+    arrays) nor matplotlib (the figure process forked as the command starts draws it,
+    cyclomesh.figures.worker), and the run draws no figure but the overview (issue 27)."""
     out, imported = _run(tmp_path)
     assert "xarray" not in imported and "pandas" not in imported
+    assert "matplotlib" not in imported
     assert [p.name for p in (out / "figures").iterdir()] == ["overview.png"]
     page = (out / "report.html").read_text(encoding="utf-8")
     assert page.count("data:image/png;base64,") == 1

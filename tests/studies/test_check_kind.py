@@ -136,13 +136,6 @@ def test_allocate_refuses_a_bad_target_probability_before_the_folder(tmp_path):
 @pytest.mark.parametrize(
     ("example", "old", "new", "expect"),
     [
-        (  # the compliant disc over swept geometry: refused before any FE table
-            "rv_stage.toml",
-            "[analysis]\n",
-            "[design_space]\npin_radius_mm = { start = 3.0, stop = 3.5, points = 2 }\n\n"
-            '[analysis]\ndisc_body = "fe"\n',
-            "design_space.pin_radius_mm",
-        ),
         ("design.toml", "torque_nm = 250.0", "torque_nm = [100.0, 250.0]", "load.torque_nm"),
         ("design.toml", "[design_space]\n", "[design_space]\nrings = 4\n", "needs a [tolerance]"),
     ],
@@ -153,7 +146,8 @@ def test_check_kind_design_refuses_what_design_refuses_before_computing(
     """`check --kind design` (and plain `check` of a file with [design_space]) accepted
     the list of torques and the robust map without [tolerance], and `cyclomesh design`
     then refused them (issue 23: check refuses whatever the command would refuse before
-    computing); the compliant disc over swept geometry is main's refusal, held here too."""
+    computing). (The compliant disc over swept geometry, once refused here, is taken:
+    tests/designspace/test_design_fe_geometry.py.)"""
     text = (EXAMPLES / example).read_text()
     text = text[: text.index("[[cases]]")] if "[[cases]]" in text else text
     assert old in text

@@ -590,3 +590,20 @@ def test_the_stage_words_and_units_in_terminal_and_report(tmp_path):
         rows = {row["check"]: row for row in case["checks"]["rows"]}
         assert rows["undercut_margin"]["margin_pct"] is None
         assert "%" not in run_text.split("undercut margin", 1)[1].split("│")[3]
+
+
+def test_a_stage_tolerance_study_says_how_to_get_the_compiled_solve(tmp_path, monkeypatch):
+    """On the NumPy path the banner of a [stage] tolerance study names the fast extra and
+    the switch; with the switch set, or without [stage], it says nothing of it."""
+    from cyclomesh.core.kernel import ENV_VAR
+    from cyclomesh.studies.tolerance import _banner, load_tolerance_study
+
+    stage, _ = load_tolerance_study(_stage_tolerance_study(tmp_path))
+    plain, _ = load_tolerance_study(Path(__file__).parents[2] / "examples" / "tolerance.toml")
+    options = {"rings": 4}
+    monkeypatch.setenv(ENV_VAR, "numpy")
+    assert f"{ENV_VAR}=numba" in _banner(stage, options, 2)
+    assert "cyclomesh[fast]" in _banner(stage, options, 2)
+    assert ENV_VAR not in _banner(plain, options, 2)
+    monkeypatch.setenv(ENV_VAR, "numba")
+    assert ENV_VAR not in _banner(stage, options, 2)

@@ -77,9 +77,10 @@ def main(
     ] = False,
 ) -> None:
     """Loaded tooth contact analysis of cycloid-pin gear pairs (Li et al., Machines 2022)."""
-    from cyclomesh.execution.runtime import tune_allocator
+    from cyclomesh.execution.runtime import skip_pydantic_plugins, tune_allocator
 
     tune_allocator()
+    skip_pydantic_plugins()
 
 
 @app.command()
@@ -128,6 +129,36 @@ def run_kind(command: str, options: dict[str, Any]) -> None:
     the kind's own (:class:`~cyclomesh.studies.execute.CommandSteps`) between them."""
     if "cache_dir" in options:
         use_cache_dir(options["cache_dir"])
+    with early_figures(command, options.get("figures")) as figures:
+        _run_kind(command, options, figures)
+
+
+def early_figures(command: str, figures: str | None) -> Any:
+    """The process that draws the overview, forked now (before the kind's modules are
+    imported) where the command draws one by default and ``--figures`` does
+    not ask for none or for all (:class:`cyclomesh.figures.worker.FigureProcess`); else
+    an empty context."""
+    from contextlib import nullcontext
+
+    from cyclomesh.studyfile.kinds import kind_spec
+
+    if not kind_spec(command).overview:
+        return nullcontext(None)
+    if figures is not None:
+        from cyclomesh.publish.pipeline import parse_figures
+
+        try:
+            formats, figure_set = parse_figures(figures)
+        except StudyError:  # refused later, in its turn (after the study's own errors)
+            return nullcontext(None)
+        if not formats or figure_set != "overview":
+            return nullcontext(None)
+    from cyclomesh.figures.worker import FigureProcess
+
+    return FigureProcess()
+
+
+def _run_kind(command: str, options: dict[str, Any], figures: Any) -> None:
     from cyclomesh.studies.execute import execute, load_kind
     from cyclomesh.studyfile.kinds import check_study_work
 
@@ -166,6 +197,8 @@ def run_kind(command: str, options: dict[str, Any]) -> None:
         compute["log"] = stderr_console(quiet).print
     if steps.compute is not None:
         compute.update(steps.compute(loaded, options, backend))
+    if figures is not None:
+        run["figure_process"] = figures
     result = execute(kind, loaded, options["out"], output, **run, **compute)
     if not quiet and steps.show is not None:
         steps.show(result, options["out"], options)

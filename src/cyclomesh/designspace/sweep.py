@@ -46,7 +46,9 @@ face width B: :data:`GEOMETRY`); each such candidate is checked like a study's d
 (K1 < 1, pins that do not overlap, a profile that is not undercut and seats the pin).
 A candidate whose geometry is refused, whose profile is undercut, whose pins interfere
 with the disc, or whose solve fails is infeasible with the reason recorded in full,
-never dropped.
+never dropped. With a compliant disc (``disc_body``) over swept geometry each candidate
+geometry gets its own FE body from a builder, built where the candidate is computed
+(:func:`candidate_bodies`); over the modification one body serves every candidate.
 
 References
 ----------
@@ -92,6 +94,8 @@ __all__ = [
     "PARAMETERS",
     "GEOMETRY",
     "check_body_axes",
+    "is_builder",
+    "candidate_bodies",
     "parameter",
     "parameter_value",
     "METRICS",
@@ -145,7 +149,9 @@ class DesignTask:
     discs: int = 1
     disc_body: Any = "rigid"
     """The base design's disc body for every candidate (Δa, Δρ, δ of a few µm leave the
-    body's compliance as it is)."""
+    body's compliance as it is), or a builder ``(design, modification) -> DiscBody``
+    (:class:`cyclomesh.fe.influence.GeometryBody`) called with each candidate's design and
+    the base modification: each geometry its own body (:func:`candidate_bodies`)."""
     friction: Any = None
     """:class:`~cyclomesh.core.friction.Friction` for the efficiency metrics, or None."""
     stage: Any = None
@@ -153,7 +159,7 @@ class DesignTask:
     stage_disc_body: Any = "rigid"
     """The base design's free disc body (:class:`~cyclomesh.core.discbody.FreeDiscBody`,
     crank-hole centres free) of the stage solves, or ``"rigid"``; like :attr:`disc_body`,
-    one for every candidate modification."""
+    one for every candidate modification, or a builder of each candidate geometry's."""
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -220,6 +226,7 @@ class DesignTask:
         for row, index in enumerate(range(start, stop)):
             try:
                 design, modification = self.candidate(index)
+                disc_body, stage_disc_body = candidate_bodies(self, design)
                 values = candidate_metrics(
                     design,
                     modification,
@@ -230,10 +237,10 @@ class DesignTask:
                     self.lost_motion,
                     self.contact_law,
                     self.discs,
-                    self.disc_body,
+                    disc_body,
                     self.friction,
                     self.stage,
-                    self.stage_disc_body,
+                    stage_disc_body,
                 )
             except CyclomeshError as exc:  # undercut, interfering pin, failed solve
                 reason[row] = str(exc)  # in full: design.nc keeps every character
@@ -242,6 +249,25 @@ class DesignTask:
                 out[m][row] = robust_value(m, values[m])
         out["reason"] = np.asarray(reason, dtype=str)
         return out
+
+
+def is_builder(body: Any) -> bool:
+    """Whether a disc body is a builder of each geometry's body (a callable), not
+    ``"rigid"`` or one geometry's :class:`~cyclomesh.core.discbody.DiscBody`."""
+    return not isinstance(body, str) and callable(body)
+
+
+def candidate_bodies(task: DesignTask, design: PairDesign) -> tuple[Any, Any]:
+    """The disc bodies (mesh, stage) of a candidate of ``design``: a builder's body of
+    that geometry with the base modification (one body for every modification of a
+    geometry, as a map over the modification shares the base design's), the task's
+    own otherwise. Raises DesignError (the candidate's reason) when the body cannot be
+    built; the stage's body only with a stage."""
+    mesh = task.disc_body(design, task.base) if is_builder(task.disc_body) else task.disc_body
+    stage = task.stage_disc_body
+    if task.stage is not None and is_builder(stage):
+        stage = stage(design, task.base)
+    return mesh, stage
 
 
 def evaluate_grid(
@@ -367,10 +393,13 @@ def design_map(
     discs : int
         Identical discs on the pin ring (:func:`cyclomesh.drive.solve.solve_drive`); the
         metrics are those of the stack, per-disc ones reduced over the discs.
-    disc_body : "rigid" or DiscBody
+    disc_body : "rigid", DiscBody or a builder
         The disc body of every candidate: the base design's coefficients (a
-        modification of a few µm leaves the body's compliance as it is). A compliant
-        body refuses :data:`GEOMETRY` axes: its table belongs to one geometry.
+        modification of a few µm leaves the body's compliance as it is). One body
+        refuses :data:`GEOMETRY` axes (its table belongs to one geometry); a builder
+        ``(design, modification) -> DiscBody``
+        (:class:`cyclomesh.fe.influence.GeometryBody`) gives each candidate geometry its
+        own body, built with the base modification where the candidate is computed.
     friction : Friction, optional
         Friction at the pins (:mod:`cyclomesh.core.friction`): adds the ``efficiency`` and
         ``loss_fraction`` metrics (a second solve per candidate, friction in the
@@ -378,9 +407,10 @@ def design_map(
     stage : StageDesign, optional
         The RV stage around the mesh: adds :data:`STAGE_METRICS` (a stage solve at six
         torques per candidate); needed by the ``stage_*`` objectives and constraints.
-    stage_disc_body : "rigid" or FreeDiscBody
+    stage_disc_body : "rigid", FreeDiscBody or a builder
         The disc body of the stage solves (``disc_body = "fe"`` with ``[stage]``): the
-        base design's free body for every candidate modification, as ``disc_body``.
+        base design's free body for every candidate modification, or a builder of each
+        geometry's, as ``disc_body``.
 
     Returns
     -------
@@ -417,7 +447,8 @@ def design_map(
             "the efficiency objective and min_efficiency need friction: add [friction]"
         )
     _check_stage(stage, objective, constraints, friction)
-    check_body_axes(any(not isinstance(b, str) for b in (disc_body, stage_disc_body)), tuple(axes))
+    fixed = any(not (isinstance(b, str) or is_builder(b)) for b in (disc_body, stage_disc_body))
+    check_body_axes(fixed, tuple(axes))
     coords = {key: np.atleast_1d(np.asarray(v, dtype=float)) for key, v in axes.items()}
     task = DesignTask(
         design=design,
@@ -514,15 +545,17 @@ def _constraint_attrs(constraints: Constraints) -> dict[str, float]:
 
 
 def check_body_axes(compliant: bool, axes: tuple[str, ...]) -> None:
-    """One-line DesignError for a compliant disc body (``disc_body = "fe"``) over swept
-    :data:`GEOMETRY`: the body's FE table belongs to the study's one geometry, so every
-    candidate of another geometry would be solved with a body that is not its own."""
+    """One-line DesignError for one compliant disc body (a
+    :class:`~cyclomesh.core.discbody.DiscBody`, not a builder) over swept
+    :data:`GEOMETRY`: its FE table belongs to one geometry, so every candidate of another
+    geometry would be solved with a body that is not its own (``cyclomesh design`` passes
+    a builder, :class:`cyclomesh.fe.influence.GeometryBody`, instead)."""
     swept = [key for key in axes if key in GEOMETRY]
     if compliant and swept:
         raise DesignError(
-            f'design_space.{swept[0]}: disc_body = "fe" is the FE table of the study\'s one '
-            "geometry, not of each candidate's; sweep the modification only, or map the "
-            'geometry with disc_body = "rigid" and check the optimum with cyclomesh run'
+            f"design_space.{swept[0]}: a DiscBody is the FE table of one geometry, not of "
+            "each candidate's; pass a builder of each geometry's body "
+            "(cyclomesh.fe.influence.GeometryBody) or sweep the modification only"
         )
 
 

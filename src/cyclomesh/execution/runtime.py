@@ -17,6 +17,7 @@ __all__ = [
     "usable_cpus",
     "version",
     "tune_allocator",
+    "skip_pydantic_plugins",
     "die_with_parent",
     "start_worker",
 ]
@@ -56,6 +57,15 @@ def tune_allocator() -> None:
         libc.mallopt(-1, TRIM_THRESHOLD)  # M_TRIM_THRESHOLD
     except (OSError, AttributeError):  # pragma: no cover - not glibc
         pass
+
+
+def skip_pydantic_plugins() -> None:
+    """Build the study file's models without looking for pydantic plugins: pydantic
+    reads the entry points of every installed distribution when it builds its first
+    model (0.02 s of a 36-step run), for observability plugins the command has no use
+    for. Left alone when the user set ``PYDANTIC_DISABLE_PLUGINS`` themselves; the
+    command's entry only (library calls leave the process alone)."""
+    os.environ.setdefault("PYDANTIC_DISABLE_PLUGINS", "__all__")
 
 
 PR_SET_PDEATHSIG = 1

@@ -40,6 +40,7 @@ import math
 import os
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -49,6 +50,7 @@ from scipy.sparse.linalg import splu
 
 from cyclomesh.core.discbody import FREE_HELD, DiscBody, FreeDiscBody
 from cyclomesh.core.pair import CrankHoles, Modification, PairDesign
+from cyclomesh.exceptions import DesignError
 from cyclomesh.fe.mesh import Refinement, mesh_profile_disc
 from cyclomesh.fe.solve import Body, boundary_chain
 from cyclomesh.fe.tooth import disc_outline, profile_point
@@ -63,6 +65,9 @@ __all__ = [
     "MESH_DEFAULTS",
     "compute_free_influence",
     "free_influence",
+    "cache_file",
+    "GeometryBody",
+    "SECONDS_PER_BODY",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -369,6 +374,36 @@ def _cache_file(cache_dir: Path, key: str) -> Path:
     return Path(cache_dir) / f"influence-{key}.npz"
 
 
+def _cache_args(design: PairDesign, holes: CrankHoles | None, mesh: dict, name: str) -> dict:
+    """The FE model's arguments of :func:`influence` and :func:`free_influence` (and of
+    their cache key): :data:`MESH_DEFAULTS` with the bore of :func:`bore_radius_for`,
+    overridden by ``mesh``; the load half-width ρp/16 unless given [SI]."""
+    unknown = set(mesh) - set(MESH_DEFAULTS)
+    if unknown:
+        raise TypeError(f"{name}: unknown mesh settings {sorted(unknown)}")
+    args = {**MESH_DEFAULTS, "bore_radius": bore_radius_for(holes), **mesh}
+    if args["load_half_width"] is None:
+        args["load_half_width"] = design.pin_radius / 16.0
+    return args
+
+
+def cache_file(
+    design: PairDesign,
+    modification: Modification | None = None,
+    holes: CrankHoles | None = None,
+    cache_dir: str | Path | None = None,
+    free: bool = False,
+    **mesh: float,
+) -> Path:
+    """The cache file of :func:`influence` (``free``: of :func:`free_influence`) for these
+    inputs; it exists once the body was built (nothing is computed here)."""
+    folder = Path(cache_dir) if cache_dir is not None else default_cache_dir()
+    modification = modification or Modification()
+    args = _cache_args(design, holes, mesh, "free_influence" if free else "influence")
+    extra = {"free_holes": 1.0} if free else {}
+    return _cache_file(folder, influence_key(design, modification, holes, **extra, **args))
+
+
 def load_coefficients(path: str | Path) -> DiscBody:
     """A :class:`DiscBody` from a cache file written by :func:`influence`."""
     with np.load(path, allow_pickle=False) as z:
@@ -399,14 +434,8 @@ def influence(
     """
     modification = modification or Modification()
     folder = Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    unknown = set(mesh) - set(MESH_DEFAULTS)
-    if unknown:
-        raise TypeError(f"influence: unknown mesh settings {sorted(unknown)}")
-    args = {**MESH_DEFAULTS, "bore_radius": bore_radius_for(holes), **mesh}
-    if args["load_half_width"] is None:
-        args["load_half_width"] = design.pin_radius / 16.0
-    key = influence_key(design, modification, holes, **args)
-    path = _cache_file(folder, key)
+    args = _cache_args(design, holes, mesh, "influence")
+    path = _cache_file(folder, influence_key(design, modification, holes, **args))
     if path.exists():
         return load_coefficients(path)
     body = compute_influence(design, modification, holes, **args)
@@ -595,14 +624,8 @@ def free_influence(
     same cache folder and atomic write as :func:`influence`)."""
     modification = modification or Modification()
     folder = Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    unknown = set(mesh) - set(MESH_DEFAULTS)
-    if unknown:
-        raise TypeError(f"free_influence: unknown mesh settings {sorted(unknown)}")
-    args = {**MESH_DEFAULTS, "bore_radius": bore_radius_for(holes), **mesh}
-    if args["load_half_width"] is None:
-        args["load_half_width"] = design.pin_radius / 16.0
-    key = influence_key(design, modification, holes, free_holes=1.0, **args)
-    path = _cache_file(folder, key)
+    args = _cache_args(design, holes, mesh, "free_influence")
+    path = _cache_file(folder, influence_key(design, modification, holes, free_holes=1.0, **args))
     if not path.exists():
         body = compute_free_influence(design, modification, holes, **args)
         folder.mkdir(parents=True, exist_ok=True)
@@ -635,3 +658,79 @@ def free_influence(
             diagonal=z["diagonal"],
         )
         return FreeDiscBody(pins, z["hole_pin"], z["hole_hole"], int(z["hole_pin"].shape[2]))
+
+
+SECONDS_PER_BODY = {"held": 20.0, "free": 80.0}
+"""Rough wall time of one FE disc body at :data:`MESH_DEFAULTS` [s], for the notice of a
+design map: measured on a 2-core machine shared with other jobs (load 2.5), gmsh's
+start included: the Table 1 pair held at its bore 16 s, the RV-40E-size disc of
+``examples/rv_stage.toml`` held at its crank holes 22 s and with its hole centres free
+(the stage's body) 77 s."""
+
+
+@dataclass(frozen=True)
+class GeometryBody:
+    """The compliant disc body of whatever geometry it is given: a design map over the
+    geometry builds each candidate's own body with it (``disc_body = "fe"``), in the
+    map's worker processes, through the cache of :func:`influence`.
+
+    Picklable (it travels with the map's task to local or Dask workers); the FE model's
+    settings are fixed when it is made, so every worker builds with the parent's.
+
+    Parameters
+    ----------
+    holes : CrankHoles or None
+        Where the disc is held (:func:`influence`); None: at its bore.
+    free : bool
+        The free body of the RV stage (:func:`free_influence`, the hole centres free).
+    cache_dir : str, optional
+        The cache folder (default: :func:`default_cache_dir` of the worker).
+    mesh : tuple of (name, value)
+        Settings of :data:`MESH_DEFAULTS` (SI); those not given take the defaults, the
+        bore :func:`bore_radius_for` the holes, the load half-width ρp/16 of each design.
+    """
+
+    holes: CrankHoles | None = None
+    free: bool = False
+    cache_dir: str | None = None
+    mesh: tuple[tuple[str, float | None], ...] = ()
+
+    @classmethod
+    def with_defaults(
+        cls, holes: CrankHoles | None, free: bool = False, cache_dir: str | Path | None = None
+    ) -> GeometryBody:
+        """A builder with today's :data:`MESH_DEFAULTS` (less the bore, which the holes
+        fix) and the cache folder resolved now, as ``cyclomesh run`` would build."""
+        folder = str(Path(cache_dir) if cache_dir is not None else default_cache_dir())
+        mesh = tuple((k, v) for k, v in MESH_DEFAULTS.items() if k != "bore_radius")
+        return cls(holes, free, folder, mesh)
+
+    def path(self, design: PairDesign, modification: Modification | None = None) -> Path:
+        """The cache file of this geometry's body (it exists once built)."""
+        return cache_file(
+            design, modification, self.holes, self.cache_dir, self.free, **dict(self.mesh)
+        )
+
+    def __call__(
+        self, design: PairDesign, modification: Modification | None = None
+    ) -> DiscBody | FreeDiscBody:
+        """The body of ``design`` (from the cache, else built and stored).
+
+        Raises
+        ------
+        DesignError
+            Holes or a bore that do not fit the geometry, or an FE model that cannot be
+            built (the reason in one line): the candidate is infeasible with it.
+        """
+        from cyclomesh.core.pair import check_bore
+
+        mesh = dict(self.mesh)
+        if self.holes is not None:
+            self.holes.check_fits(design)
+        check_bore(design, self.holes, float(mesh.get("bore_radius", bore_radius_for(self.holes))))
+        build = free_influence if self.free else influence
+        try:
+            return build(design, modification, self.holes, self.cache_dir, **mesh)
+        except Exception as exc:  # noqa: BLE001 (gmsh raises a bare Exception)
+            reason = " ".join(str(exc).split()) or type(exc).__name__
+            raise DesignError(f'disc_body = "fe": no FE body of this geometry: {reason}') from None

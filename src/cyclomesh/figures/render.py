@@ -15,11 +15,9 @@ it. Plot functions never write files.
 from __future__ import annotations
 
 import io
-import multiprocessing
 import os
 import threading
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -41,6 +39,8 @@ __all__ = [
     "render_figures",
     "FigurePool",
     "MAX_POINTS",
+    "render_job",
+    "save_job",
 ]
 
 from cyclomesh.figures.sets import FORMATS  # noqa: E402  (file formats of a figure)
@@ -199,7 +199,7 @@ def decimate(
     return x[keep], y[keep]
 
 
-def _render(job: FigureJob, formats: Sequence[str], dpi: int) -> dict[str, bytes]:
+def render_job(job: FigureJob, formats: Sequence[str], dpi: int) -> dict[str, bytes]:
     """Draw ``job`` and return its file contents: PNG (always, for the report) and
     every other format of ``formats``."""
     import matplotlib
@@ -216,7 +216,7 @@ def _render(job: FigureJob, formats: Sequence[str], dpi: int) -> dict[str, bytes
     return contents
 
 
-def _save(
+def save_job(
     job: FigureJob, contents: Mapping[str, bytes], folder: Path | None, formats: Sequence[str]
 ) -> RenderedFigure:
     """Write the drawn ``contents`` of ``job`` into ``folder`` (in this process, atomically)."""
@@ -232,7 +232,7 @@ def _save(
 
 
 def _draw(job: FigureJob, folder: Path | None, formats: Sequence[str], dpi: int) -> RenderedFigure:
-    return _save(job, _render(job, formats, dpi), folder, formats)
+    return save_job(job, render_job(job, formats, dpi), folder, formats)
 
 
 _WARM = False
@@ -304,8 +304,11 @@ class FigurePool:
         self.workers = usable_cpus() if workers is None else workers
         if one:  # one worker beside this process (a single figure), where there are 2 cores
             self.workers = 1 if self.workers > 1 else 0
-        self._pool: ProcessPoolExecutor | None = None
+        self._pool: Any = None  # a ProcessPoolExecutor
         self._pending: dict[tuple[int, tuple[str, ...], int], tuple[FigureJob, Any]] = {}
+        import multiprocessing  # here: a process that only draws never imports them
+        from concurrent.futures import ProcessPoolExecutor
+
         if (
             self.workers >= (1 if one else 2)
             and "fork" in multiprocessing.get_all_start_methods()
@@ -332,7 +335,7 @@ class FigurePool:
         for job in jobs:
             key = (id(job), tuple(formats), dpi)
             if key not in self._pending:
-                future = self._pool.submit(_render, job, tuple(formats), dpi)
+                future = self._pool.submit(render_job, job, tuple(formats), dpi)
                 self._pending[key] = (job, future)  # the job is kept: its id stays unique
 
     def map(
@@ -344,7 +347,7 @@ class FigurePool:
         self.submit(jobs, formats, dpi)
         futures = [self._pending.pop((id(job), tuple(formats), dpi))[1] for job in jobs]
         return [
-            _save(job, future.result(), folder, formats)
+            save_job(job, future.result(), folder, formats)
             for job, future in zip(jobs, futures, strict=True)
         ]
 

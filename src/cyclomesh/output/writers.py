@@ -309,16 +309,52 @@ def _long_columns(ds: xr.Dataset | Frame) -> list[Column]:
     return columns
 
 
+PARQUET_OPTIONS = {
+    "version": "2.6",
+    "use_dictionary": True,
+    "compression": "zstd",
+    "write_statistics": True,
+    "use_deprecated_int96_timestamps": False,
+    "writer_engine_version": "V2",
+    "data_page_version": "1.0",
+    "use_compliant_nested_type": True,
+    "store_schema": True,
+}
+"""The options of every Parquet file: ``pyarrow.parquet.write_table(table, path,
+compression="zstd")`` with pyarrow's defaults spelled out, as its ``ParquetWriter``
+passes them on to the writer of ``pyarrow._parquet``."""
+
+
+def write_parquet_table(table: pa.Table, path: Path) -> None:
+    """Write ``table`` to the Parquet file ``path``, byte for byte as
+    ``pyarrow.parquet.write_table(table, path, compression="zstd")`` does
+    (``tests/output/test_outputs.py``), through the writer of ``pyarrow._parquet``:
+    ``pyarrow.parquet`` imports pyarrow's file systems (S3, GCS, Azure, HDFS) and
+    ``ssl`` to resolve the path, 0.04-0.05 s of a 36-step run. Should a pyarrow version
+    not take these options, ``pyarrow.parquet`` writes the file."""
+    try:
+        from pyarrow import _parquet
+
+        writer = _parquet.ParquetWriter(str(path), table.schema, **PARQUET_OPTIONS)
+    except (ImportError, AttributeError, TypeError):  # another pyarrow: its public writer
+        import pyarrow.parquet as pq
+
+        pq.write_table(table, path, compression="zstd")
+        return
+    try:
+        writer.write_table(table, row_group_size=None)
+    finally:
+        writer.close()
+
+
 def write_parquet(ds: xr.Dataset, path: Path) -> Path:
     """Write :func:`long_table` of ``ds`` to Parquet (zstd), the Dataset's attributes as
     the file's key-value metadata (``cyclomesh.attrs``, JSON)."""
-    import pyarrow.parquet as pq
-
     table = long_table(ds)
     attrs = json.dumps(jsonable(dict(ds.attrs)), ensure_ascii=False)
     table = table.replace_schema_metadata({"cyclomesh.attrs": attrs})
     with atomic_write(path) as tmp:
-        pq.write_table(table, tmp, compression="zstd")
+        write_parquet_table(table, tmp)
     return path
 
 
@@ -442,6 +478,23 @@ def arrow_float(value: float) -> str:
     return f"{sign}{head}e{'+' if scientific >= 0 else '-'}{abs(scientific)}"
 
 
+def arrow_floats(values: Sequence[float]) -> list[str]:
+    """:func:`arrow_float` of every value, fast: where Python's ``repr`` is a plain
+    decimal (no exponent, magnitude below 1e10) Arrow writes the same digits, without a
+    trailing ``.0``; only the rest goes through :func:`arrow_float` (a 3600-step run's
+    ``angles.csv``: 43,200 numbers in 0.03 s instead of 0.2 s)."""
+    out = []
+    for value in values:
+        text = repr(value)
+        if "e" in text or "n" in text or not -1e10 < value < 1e10:  # exponent, inf, nan
+            out.append(arrow_float(value))
+        elif text.endswith(".0"):
+            out.append(text[:-2])
+        else:
+            out.append(text)
+    return out
+
+
 def csv_text(columns: Sequence[Column]) -> str:
     """The CSV text of ``columns`` as :func:`write_pin_csv` writes a table with pyarrow:
     a header of the names, no quotes, booleans 0/1, missing values empty,
@@ -450,7 +503,7 @@ def csv_text(columns: Sequence[Column]) -> str:
     def cells(column: Column) -> list[str]:
         values = column.values
         if values.dtype.kind == "f":
-            out = [arrow_float(v) for v in values.tolist()]
+            out = arrow_floats(values.tolist())
         else:
             out = [str(int(v)) for v in values.tolist()]
         if column.mask is not None:

@@ -27,6 +27,7 @@ __all__ = [
     "METRICS",
     "DRIVE_METRICS",
     "STAGE_RING_METRICS",
+    "STAGE_METRICS",
     "STIFFNESS_METRICS",
     "FE_METRICS",
     "STRESS_METRIC",
@@ -73,6 +74,32 @@ STAGE_RING_METRICS: dict[str, Metric] = select(
 )
 """The RV stage's metrics of a ring of a tolerance study with ``[stage]``
 (:meth:`cyclomesh.tolerance.tasks.RingModel.stage_metrics`)."""
+
+STAGE_METRICS: dict[str, Metric] = select(
+    "stage_rated_torque_nm",
+    "stage_output_speed_rpm",
+    "stage_l10_h_min",
+    "stage_equivalent_load_n_max",
+    "stage_dynamic_load_rating_kn",
+    "stage_torsional_rigidity_nm_per_arcmin",
+    "mesh_torsional_rigidity_nm_per_arcmin",
+    "stage_lost_motion_arcmin",
+    "mesh_lost_motion_arcmin",
+    "stage_backlash_arcmin",
+    "mesh_backlash_arcmin",
+    "stage_duty_equivalent_torque_nm",
+    "stage_duty_equivalent_speed_rpm",
+    "stage_duty_l10_h_min",
+    "stage_l10_h_at_equivalent_torque",
+    "stage_lost_motion_arcmin_max",
+    "stage_torsional_rigidity_nm_per_arcmin_min",
+    "stage_max_contact_stress_mpa",
+    "stage_max_crank_bearing_load_n",
+    "stage_max_roller_load_n",
+)
+"""The catalogue data sheet of a case with ``[stage]`` (:func:`cyclomesh.results.stage.data_sheet`),
+in ``summary.json`` and the report; here, not in :mod:`cyclomesh.results.stage`, so that a
+run without a stage does not import the stage's solver."""
 
 STIFFNESS_METRICS: dict[str, Metric] = select(
     "play_arcmin_mean",

@@ -17,7 +17,7 @@ import numpy as np
 
 from cyclomesh.core.transmission import gear_ratio
 from cyclomesh.quantities import QUANTITIES, select
-from cyclomesh.results.metrics import Metric
+from cyclomesh.results.metrics import STAGE_METRICS, Metric
 from cyclomesh.stage.solve import (
     Stage,
     StageDesign,
@@ -48,29 +48,6 @@ ARCMIN = RAD_PER_ARCMIN
 
 SHEET_ANGLES = 360
 """At most this many crank angles (evenly subsampled from the case's) for the data sheet."""
-
-STAGE_METRICS: dict[str, Metric] = select(
-    "stage_rated_torque_nm",
-    "stage_output_speed_rpm",
-    "stage_l10_h_min",
-    "stage_equivalent_load_n_max",
-    "stage_dynamic_load_rating_kn",
-    "stage_torsional_rigidity_nm_per_arcmin",
-    "mesh_torsional_rigidity_nm_per_arcmin",
-    "stage_lost_motion_arcmin",
-    "mesh_lost_motion_arcmin",
-    "stage_backlash_arcmin",
-    "mesh_backlash_arcmin",
-    "stage_duty_equivalent_torque_nm",
-    "stage_duty_equivalent_speed_rpm",
-    "stage_duty_l10_h_min",
-    "stage_l10_h_at_equivalent_torque",
-    "stage_lost_motion_arcmin_max",
-    "stage_torsional_rigidity_nm_per_arcmin_min",
-    "stage_max_contact_stress_mpa",
-    "stage_max_crank_bearing_load_n",
-    "stage_max_roller_load_n",
-)
 
 
 def sheet_angles(crank_angles: np.ndarray) -> np.ndarray:

@@ -47,6 +47,7 @@ from cyclomesh.stage.assembly import (
 )
 from cyclomesh.stage.bearing import roller_loads
 from cyclomesh.stage.design import StageDesign
+from cyclomesh.stage.floating import FLOATING_LOAD, canonical_positions, floating_discs
 from cyclomesh.stage.friction import (
     friction_arrays,
     friction_newton,
@@ -375,6 +376,7 @@ def solve_direction(
     friction: Friction | None = None,
     motion: float = 1.0,
     loading: float = 0.0,
+    positions: bool = True,
 ) -> dict[str, FloatArray]:
     """Stage under a positive torque in the mesh's frame (``other``: the mirror problem).
 
@@ -386,7 +388,9 @@ def solve_direction(
     (:mod:`cyclomesh.stage.friction`) in the sense ``motion`` (±1, a drive: the crank turns
     counter-clockwise in this frame with +1) or, with ``motion = 0``, ``loading`` (±1, a
     torsion test: the output turning counter-clockwise with +1); None: frictionless, the
-    same arithmetic as without the argument.
+    same arithmetic as without the argument. ``positions``: the discs that carry nothing
+    get their canonical position (:mod:`cyclomesh.stage.floating`); False leaves them
+    where the solve stopped (a caller that reports no positions saves the work).
     """
     D, n1 = mesh.geo.rotation.shape[-2:]
     prob = _problem(mesh, other, stage.holes, errs, torque)
@@ -495,6 +499,13 @@ def solve_direction(
         work = _work(prob, stage, x, D, st)
         if fr is not None:
             work["work_friction"] = _friction_work(prob, x, q, D)
+        if body is None and positions:  # a disc that carries nothing: its canonical position
+            idle = floating_discs(F, np.hypot(bfx, bfy), FLOATING_LOAD * abs(torque) / prob.scale)
+            x, idle_deflection = canonical_positions(
+                prob, x, D, idle, 0.5 * stage.bearing.clearance
+            )
+            deflection = deflection.copy()
+            deflection[idle] = idle_deflection
     else:
         deflection = np.zeros_like(bfx)
         sb = deflection

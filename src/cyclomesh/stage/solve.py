@@ -293,7 +293,9 @@ def solve_stage(
     )
 
 
-def solve(case: Case, model: Model, motion: float = 1.0, loading: float = 0.0) -> Stage:
+def solve(
+    case: Case, model: Model, motion: float = 1.0, loading: float = 0.0, positions: bool = True
+) -> Stage:
     """:func:`solve_stage` of a :class:`~cyclomesh.core.case.Case` and a
     :class:`~cyclomesh.core.case.Model` whose ``stage`` is a :class:`StageDesign`.
 
@@ -310,6 +312,13 @@ def solve(case: Case, model: Model, motion: float = 1.0, loading: float = 0.0) -
     every torque drives the crank back; ``motion = 0`` a torsion test with ``loading`` ±1,
     the output turning with (+1) or against the torque's sense (the branch of rising or
     falling |T|).
+
+    A disc that carries nothing (it floats in its crank bearings' clearance at a light
+    torque) has no position determined by equilibrium: it is reported at the point of its
+    free set nearest to it centred on its crank pins (:mod:`cyclomesh.stage.floating`),
+    whatever the solver's path; ``positions=False`` leaves it where the solve stopped
+    (its loads, the twist and every other output are the same; for a caller that reports
+    no disc positions, such as the tolerance study).
     """
     stage = model.stage
     if not isinstance(stage, StageDesign):
@@ -378,6 +387,7 @@ def solve(case: Case, model: Model, motion: float = 1.0, loading: float = 0.0) -
                         friction,
                         motion,
                         loading,
+                        positions,
                     )
                 else:
                     fields = _reverse(
@@ -392,6 +402,7 @@ def solve(case: Case, model: Model, motion: float = 1.0, loading: float = 0.0) -
                             friction,
                             motion,
                             -loading,
+                            positions,
                         )
                     )
             except ConvergenceError as exc:

@@ -37,7 +37,6 @@ from cyclomesh.designspace.sweep import (
     GEOMETRY,
     METRICS,
     Constraints,
-    check_body_axes,
     parameter_value,
 )
 from cyclomesh.exceptions import DesignError, StudyError
@@ -176,6 +175,7 @@ def compute_design(
         "rings drawn from [tolerance]" if space.rings else "pin errors",
     ) + [w for w in (stage_warning(base),) if w]
     try:
+        bodies = map_bodies(study)
         ds = design_map(
             base.design,
             space.axes(),
@@ -186,19 +186,11 @@ def compute_design(
             groove_deformation=base.groove_deformation,
             contact_law=base.contact_law,
             discs=base.discs,
-            disc_body=resolve_disc_body(
-                base.disc_body, base.design, base.modification, base.crank_holes
-            ),
+            disc_body=bodies[0],
             constraints=constraints(space),
             friction=base.friction,
             stage=base.stage,
-            stage_disc_body=(
-                "rigid"
-                if base.stage is None
-                else resolve_disc_body(
-                    base.disc_body, base.design, base.modification, base.crank_holes, stage=True
-                )
-            ),
+            stage_disc_body=bodies[1],
             objective=space.objective,
             lost_motion=space.lost_motion,
             backend=backend,
@@ -443,11 +435,100 @@ def design_sections(result: DesignResult) -> list[Section]:
     return warning_sections(s.get("warnings", [])) + sections
 
 
+def map_bodies(study: Study) -> tuple[Any, Any]:
+    """The disc bodies (mesh, stage) of a map's candidates: ``"rigid"``; with
+    ``disc_body = "fe"`` over the modification the base design's bodies, resolved here
+    once (from the cache or built); over swept geometry a builder of each candidate
+    geometry's body (:class:`~cyclomesh.fe.influence.GeometryBody`, the FE model's
+    settings and the cache folder fixed now), called in the map's workers.
+
+    Raises
+    ------
+    DesignError
+        ``disc_body = "fe"`` without the fe extra.
+    """
+    base = study.base.to_core()
+    if not fe_geometry(study):
+        mesh = resolve_disc_body(base.disc_body, base.design, base.modification, base.crank_holes)
+        stage = "rigid"
+        if base.stage is not None:
+            stage = resolve_disc_body(
+                base.disc_body, base.design, base.modification, base.crank_holes, stage=True
+            )
+        return mesh, stage
+    from cyclomesh.results.dataset import FE_EXTRA_MESSAGE, fe_extra_available
+
+    if not fe_extra_available():
+        raise DesignError(FE_EXTRA_MESSAGE)
+    from cyclomesh.fe.influence import GeometryBody
+
+    holes = base.crank_holes
+    stage = "rigid" if base.stage is None else GeometryBody.with_defaults(holes, free=True)
+    return GeometryBody.with_defaults(holes), stage
+
+
+def fe_geometry(study: Study) -> bool:
+    """Whether the map builds an FE disc body per candidate geometry (``disc_body =
+    "fe"`` with a :data:`~cyclomesh.designspace.sweep.GEOMETRY` axis)."""
+    swept = set(study.file.design_space.axes()) & set(GEOMETRY)
+    return study.base.analysis.disc_body == "fe" and bool(swept)
+
+
+def fe_notice(study: Study, workers: int = 1) -> str:
+    """The one-line notice of a map that builds FE disc bodies per geometry: how many
+    bodies (those not in the cache), and roughly how long
+    (:data:`~cyclomesh.fe.influence.SECONDS_PER_BODY` each, over ``workers``); "" for
+    any other map. Geometries the design or the profile check refuses are not counted
+    (their candidates are infeasible before any FE)."""
+    if not fe_geometry(study):
+        return ""
+    from cyclomesh.designspace.sweep import DesignTask, parameter
+    from cyclomesh.fe.influence import SECONDS_PER_BODY, GeometryBody
+
+    base = study.base.to_core()
+    builders = {"held": GeometryBody.with_defaults(base.crank_holes)}
+    if base.stage is not None:
+        builders["free"] = GeometryBody.with_defaults(base.crank_holes, free=True)
+    axes = {k: v for k, v in study.file.design_space.axes().items() if k in GEOMETRY}
+    geometry = DesignTask(  # the map's geometries, made as the map makes them
+        base.design,
+        base.modification,
+        tuple(
+            (parameter(k)[0], tuple(float(x) * parameter(k)[1] for x in np.atleast_1d(v)))
+            for k, v in axes.items()
+        ),
+        None,
+        1.0,
+        (0.0,),
+    )
+    geometries, missing, seconds = 0, 0, 0.0
+    for index in range(geometry.size):
+        try:
+            design = geometry.candidate(index)[0]
+        except DesignError:
+            continue
+        geometries += 1
+        for kind, builder in builders.items():
+            if not builder.path(design, base.modification).exists():
+                missing += 1
+                seconds += SECONDS_PER_BODY[kind]
+    total = geometries * len(builders)
+    if not geometries:
+        return 'disc_body = "fe": no geometry passes the design checks, no FE body to build'
+    if not missing:
+        return f'disc_body = "fe": {total} FE disc bodies of {geometries} geometries, all cached'
+    minutes = seconds / max(workers, 1) / 60.0
+    kinds = ", held and free for the stage" if len(builders) > 1 else ""
+    return (
+        f'disc_body = "fe": {missing} of {total} FE disc bodies to build ({geometries} '
+        f"geometries{kinds}), roughly {minutes:.1f} min on {workers} worker(s); "
+        "cached for a re-run"
+    )
+
+
 def _preflight(study: Study) -> None:
     """The design map's own refusals before it computes (``cyclomesh check --kind design``
-    too): a list of torques, a robust map without ``[tolerance]``, a compliant disc body
-    (``disc_body = "fe"``) over swept geometry
-    (:func:`~cyclomesh.designspace.sweep.check_body_axes`)."""
+    too): a list of torques, a robust map without ``[tolerance]``."""
     torques = [case.load.torque_nm for case in study.cases]
     if any(isinstance(t, list) for t in torques):
         raise StudyError(
@@ -458,12 +539,6 @@ def _preflight(study: Study) -> None:
         raise StudyError(
             "design_space.rings: a robust map needs a [tolerance] section to draw rings"
         )
-    try:
-        check_body_axes(
-            study.base.analysis.disc_body == "fe", tuple(study.file.design_space.axes())
-        )
-    except DesignError as exc:
-        raise StudyError(str(exc)) from None
 
 
 def _candidates(study: Study) -> int:
@@ -480,10 +555,12 @@ def _parallel(study: Study, options: Any) -> bool:
 
 def _banner(study: Study, options: Any, workers: int) -> str:
     rings = study.file.design_space.rings
+    notice = fe_notice(study, workers)
     return (
         f"design map: {_candidates(study)} candidates"
         + (f" x {rings} rings" if rings else "")
         + f", {workers} worker(s)"
+        + (f"\n{notice}" if notice else "")
     )
 
 

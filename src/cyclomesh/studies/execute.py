@@ -226,6 +226,7 @@ def execute(
     backend: Any = None,
     parallel: bool = False,
     progress: Callable[[], AbstractContextManager[Progress]] | None = None,
+    figure_process: Any = None,
     **compute_options: Any,
 ) -> Any:
     """Run ``kind`` on ``study`` into the folder ``out``; return the computed result.
@@ -250,6 +251,10 @@ def execute(
     progress : callable, optional
         ``progress() -> context manager yielding advance(n)``, entered once the workers
         are forked (a progress bar is a thread).
+    figure_process : FigureProcess, optional
+        The process the command forked as it started to draw the overview
+        (:func:`cyclomesh.cli.early_figures`): it draws the overview set of a kind with
+        ``overview``; otherwise (no figures, or all of them) it is stopped.
     **compute_options
         Passed on to ``kind.compute``.
     """
@@ -266,7 +271,14 @@ def execute(
                 result = kind.compute(study, backend=started, progress=advance, **compute_options)
         overview = kind.overview is not None and options.figure_set == "overview"
         if not parallel:
-            pool_context = figure_pool(options, datasets=not overview)
+            if figure_process is not None and overview and options.figures:
+                pool_context = figure_process  # forked as the command started
+            else:
+                if figure_process is not None:  # not wanted after all
+                    figure_process.close()
+                pool_context = figure_pool(options, datasets=not overview)
+        elif figure_process is not None:
+            figure_process.close()
         with pool_context as pool:
             if not parallel:
                 if options.figures and kind.early_figures is not None and not overview:

@@ -94,10 +94,11 @@ def refuse_friction_with_stage(study: Study, at_rest: bool = False) -> None:
     import dataclasses
 
     from cyclomesh.exceptions import DesignError
-    from cyclomesh.stage.friction import check_stage_friction
 
     for case, inputs in zip(study.cases, study.inputs, strict=True):
         if inputs.friction is not None and inputs.stage is not None:
+            from cyclomesh.stage.friction import check_stage_friction
+
             body = inputs.model().disc_body
             friction = inputs.friction
             if at_rest:

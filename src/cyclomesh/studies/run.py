@@ -32,8 +32,7 @@ from cyclomesh.publish.report import (
 from cyclomesh.quantities import QUANTITIES
 from cyclomesh.results.efficiency import EFFICIENCY_METRICS
 from cyclomesh.results.frame import Frame, Var, as_xarray
-from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STIFFNESS_METRICS
-from cyclomesh.results.stage import STAGE_METRICS
+from cyclomesh.results.metrics import DRIVE_METRICS, METRICS, STAGE_METRICS, STIFFNESS_METRICS
 from cyclomesh.studies.execute import CommandSteps, StudyKind
 from cyclomesh.studies.preflight import refuse_friction_with_stage
 from cyclomesh.studies.run_figures import (  # split from here: old paths work

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
 from pydantic import BeforeValidator, Field, model_validator
@@ -18,15 +18,14 @@ from pydantic import BeforeValidator, Field, model_validator
 from cyclomesh.core.friction import ISO_VG, MIN_VISCOSITY_CST, Friction, Lubricant
 from cyclomesh.core.pair import CrankHoles
 from cyclomesh.exceptions import DesignError
-from cyclomesh.stage.bearing import RollerSet
-from cyclomesh.stage.carrier import Carrier
-from cyclomesh.stage.crankshaft import Crankshaft
-from cyclomesh.stage.duty import DutyCycle
-from cyclomesh.stage.solve import StageDesign
 from cyclomesh.studyfile.limits import MAX_STIFFNESS_POINTS
 from cyclomesh.studyfile.messages import show
 from cyclomesh.studyfile.sections import StrictSection
 from cyclomesh.units import M_PER_MM, M_PER_UM, RAD_PER_ARCMIN
+
+if TYPE_CHECKING:
+    from cyclomesh.stage.duty import DutyCycle
+    from cyclomesh.stage.solve import StageDesign
 
 __all__ = [
     "LubricantSection",
@@ -266,6 +265,8 @@ class DutyCycleSection(StrictSection):
     def to_core(self, base_dir: Path) -> DutyCycle:
         """The :class:`~cyclomesh.stage.duty.DutyCycle` (torque [N·m], speed [rpm], share);
         ``file`` is read relative to ``base_dir``."""
+        from cyclomesh.stage.duty import DutyCycle  # the stage only where a study has one
+
         if self.file is None:
             return DutyCycle(
                 tuple(self.torque_nm or ()),
@@ -338,6 +339,11 @@ class StageSection(StrictSection):
         """The :class:`~cyclomesh.stage.solve.StageDesign` in SI units; ``output_speed``
         [rpm] from ``load.input_speed_rpm`` where ``output_speed_rpm`` is not given;
         ``base_dir``: the study's folder (a duty cycle's ``file`` is relative to it)."""
+        from cyclomesh.stage.bearing import RollerSet  # the stage only where a study has one
+        from cyclomesh.stage.carrier import Carrier
+        from cyclomesh.stage.crankshaft import Crankshaft
+        from cyclomesh.stage.solve import StageDesign
+
         if holes is None:
             raise DesignError(
                 "stage: needs the crankshafts: set [design.disc] crank_holes (2 or 3), "

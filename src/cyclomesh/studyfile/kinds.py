@@ -80,6 +80,10 @@ class KindSpec:
         ``work(study, rings) -> Work or None`` (None: no work limit, or no section).
     in_check : bool
         ``cyclomesh check`` applies its work limit.
+    overview : bool
+        Its default figures are one overview drawn from NumPy arrays (``run``): the
+        command forks the process that draws it as it starts, before the study is loaded
+        (:class:`cyclomesh.figures.worker.FigureProcess`).
     """
 
     command: str
@@ -95,6 +99,7 @@ class KindSpec:
     needs: Mapping[str, tuple[str, str]] = field(default_factory=dict)
     work: Callable[[Any, int | None], Work | None] | None = None
     in_check: bool = False
+    overview: bool = False
 
 
 # --- the keys: groups several kinds use, and the common refusals --------------------------
@@ -244,6 +249,7 @@ KINDS: tuple[KindSpec, ...] = (
         command="run",
         home="cyclomesh.studies.run:RUN",
         help="Run every case of a study; write results, figures, summary.json and report.html.",
+        overview=True,
         options=(
             "quiet",
             "crank_step_deg",

@@ -47,7 +47,7 @@ import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -72,7 +72,6 @@ from cyclomesh.core.pair import (
 )
 from cyclomesh.core.profile import check_profile
 from cyclomesh.exceptions import DesignError, StudyError
-from cyclomesh.stage.solve import StageDesign
 from cyclomesh.studyfile import drive_sections, kind_sections
 from cyclomesh.studyfile.drive_sections import (
     FrictionSection,
@@ -121,6 +120,9 @@ from cyclomesh.studyfile.sections import (
     tangential_urad,
 )
 from cyclomesh.units import M_PER_MM, M_PER_UM, RAD_PER_URAD
+
+if TYPE_CHECKING:
+    from cyclomesh.stage.solve import StageDesign
 
 __all__ = [
     "DesignSection",

@@ -234,6 +234,7 @@ class RingModel:
                     self.discs,
                     stage,
                 ),
+                positions=False,  # no disc position is a metric: the floating ones left as solved
             )
             te = res.transmission_error[0]  # (Q, A) of the one ring
             out["stage_lost_motion_arcmin_max"][i] = np.max(te[1] - te[2]) / RAD_PER_ARCMIN

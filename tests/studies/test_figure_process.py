@@ -1,0 +1,106 @@
+"""The overview's figure process (cyclomesh.figures.worker.FigureProcess): forked as
+``cyclomesh run`` starts, it draws the one batch it is sent exactly as this process
+would, re-raises a plot's error here, and is gone after ``close`` (a refused study)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cyclomesh.figures.overview import OverviewCase, plot_overview
+from cyclomesh.figures.render import FigureJob, render_figures
+from cyclomesh.figures.worker import FigureProcess
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def _overview(shift: float = 0.0) -> FigureJob:
+    angles = np.arange(0.0, 360.0, 30.0)
+    case = OverviewCase(
+        crank_angle=angles,
+        pin=np.arange(1, 41),
+        pin_load_at=0.0,
+        pin_load=np.linspace(0.0, 900.0, 40) + shift,
+        transmission_error=np.cos(np.radians(angles)) + shift,
+        max_contact_stress=900.0 + 10.0 * np.sin(np.radians(angles)),
+        contacts=np.full(angles.size, 9),
+    )
+    return FigureJob("overview", plot_overview, ({"case": case},), caption="c", section="s")
+
+
+def _boom(*args: object) -> None:
+    raise ValueError("a plot that fails")
+
+
+def _process() -> FigureProcess:
+    process = FigureProcess()
+    if not process.active:  # one CPU, or threads running: figures drawn in this process
+        pytest.skip("no figure process here (one usable CPU or a second thread)")
+    return process
+
+
+def _gone(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    return False
+
+
+def test_draws_its_batch_as_this_process_does(tmp_path):
+    job = _overview()
+    with _process() as process:
+        process.submit([job], ("png", "svg"), 60)
+        (drawn,) = process.map([job], tmp_path, ("png", "svg"), 60)
+        assert not process.active
+    (here,) = render_figures([job], None, ("png", "svg"), 60, workers=1)
+    assert drawn.png == here.png and drawn.png.startswith(b"\x89PNG")
+    assert [p.name for p in drawn.files] == ["overview.png", "overview.svg"]
+    assert (tmp_path / "overview.png").read_bytes() == here.png
+
+
+def test_a_second_batch_is_drawn_here(tmp_path):
+    first, second = _overview(), _overview(shift=50.0)
+    with _process() as process:
+        process.submit([first], ("png",), 50)
+        (drawn,) = process.map([second], None, ("png",), 50)
+    (here,) = render_figures([second], None, ("png",), 50, workers=1)
+    assert drawn.png == here.png
+
+
+def test_a_plot_error_is_raised_here():
+    job = FigureJob("broken", _boom)
+    with _process() as process, pytest.raises(ValueError, match="a plot that fails"):
+        process.map([job], None, ("png",), 50)
+
+
+def test_close_stops_the_process_at_once():
+    process = _process()
+    pid = process._pid
+    process.submit([_overview()], ("png",), 50)
+    process.close()  # as after a refused study: killed, not waited for
+    assert not process.active and _gone(pid)
+    process.close()  # twice is harmless
+
+
+def test_refused_run_leaves_no_figure_process(tmp_path):
+    """``cyclomesh run`` of a study it refuses, with the default figures: one error line,
+    exit 2, nothing written, and no process of it left behind (its stderr pipe closes)."""
+    study = tmp_path / "bad.toml"
+    text = (EXAMPLES / "table2.toml").read_text(encoding="utf-8")
+    study.write_text(text.replace("pins = 40", "pins = 2", 1), encoding="utf-8")
+    out = tmp_path / "out"
+    done = subprocess.run(
+        [sys.executable, "-m", "cyclomesh", "run", str(study), "--out", str(out), "-q"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.startswith("error: ") and len(done.stderr.strip().splitlines()) == 1
+    assert not out.exists()
