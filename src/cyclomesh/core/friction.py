@@ -141,6 +141,7 @@ __all__ = [
     "effective_coefficient",
     "coefficients",
     "lubrication_constants",
+    "loaded_film_parameter",
     "FrictionBalance",
     "Film",
     "central_film_thickness",
@@ -382,6 +383,18 @@ def coefficients(
         slides_in_groove,
         np.where(slides_in_groove, el_groove, el_mesh),
     )
+
+
+def loaded_film_parameter(constants: dict, force: ArrayLike, groove: ArrayLike) -> FloatArray:
+    """The film parameter λ [-] of every pin's sliding interface (the groove where
+    ``groove``, else the tooth) at the loads ``force`` [N]: λ(F) = λ(1 N)·F^−0.1
+    (Dowson–Toyoda, w^−0.1; ``constants`` of :func:`lubrication_constants` with a film),
+    0 where a pin carries no load."""
+    f = np.asarray(force, float)
+    on = f > 0
+    scale = np.where(on, f, 1.0) ** -0.1
+    lam0 = np.where(groove, constants["lam0_groove"], constants["lam0_tooth"])
+    return np.where(on, lam0 * scale, 0.0)
 
 
 def _mixed(

@@ -38,6 +38,7 @@ from cyclomesh.core.friction import (
     contact_losses,
     effective_coefficient,
     input_torque,
+    loaded_film_parameter,
     lubrication_constants,
     normal_moment,
     pin_resultant,
@@ -195,11 +196,8 @@ class FrictionCoupling:
                 mu[on] = mu_on
                 groove = np.array(np.broadcast_to(groove, shape)).reshape(flat)
                 groove[on] = groove_on
+                lam = loaded_film_parameter(constants, force, groove).reshape(shape)
                 groove = groove.reshape(shape)
-                scale = force[on] ** -0.1
-                lam = np.zeros(flat)
-                lam[on] = np.where(groove_on, sub["lam0_groove"] * scale, sub["lam0_tooth"] * scale)
-                lam = lam.reshape(shape)
             if bearing:
                 rx, ry = self._resultant(f, -sign.reshape(shape) * mu.reshape(shape) * f)
                 moment = bearing_moment(self.friction, np.hypot(rx, ry))

@@ -416,7 +416,7 @@ def solve_direction(
             tangent_arm=fr["tangent_arm"],
             drag=fr["drag"],
             lubrication=fr.get("lubrication"),
-            friction_law=fr.get("friction"),
+            friction_law=friction if "lubrication" in fr else None,
         )
     m = 1 + 3 * D
     # rigid stage (θ_d = c, u = 0) from the rotation at which the stiffest pin alone

@@ -27,8 +27,9 @@ stated point instead, computed after the solve from the problem alone
   line search from z₀.
 
 A disc counts as floating when every force on it (pins on both flanks, crank bearings) is
-at most the equilibrium's tolerance, FORCE_TOLERANCE·T/r_c: a load below it is not
-resolved by the solve. Its reported loads stay the solve's (0, or below the tolerance).
+at most :data:`FLOATING_LOAD`·T/r_c, a thousand times the equilibrium's tolerance
+(FORCE_TOLERANCE·T/r_c, below which a load is not resolved by the solve). Its reported
+loads stay the solve's (0, or below the tolerance).
 """
 
 from __future__ import annotations
@@ -204,11 +205,8 @@ def _penalty(z0, a, b, Mx, My, ex, ey, half_clearance):
     method with a backtracking line search from z₀ (the fallback of :func:`_polish`)."""
 
     def parts(z, k):
-        delta = np.einsum("kpi,ki->kp", a[k], z) + b[k]
-        dx = np.einsum("kni,ki->kn", Mx[k], z) + ex[k]
-        dy = np.einsum("kni,ki->kn", My[k], z) + ey[k]
-        s = np.hypot(dx, dy)
-        return delta, dx, dy, s
+        delta, dx, dy = _constraints(z, a[k], b[k], Mx[k], My[k], ex[k], ey[k])
+        return delta, dx, dy, np.hypot(dx, dy)
 
     def merit(z, k):
         delta, _, _, s = parts(z, k)

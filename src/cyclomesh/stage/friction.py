@@ -72,6 +72,7 @@ from cyclomesh.core.friction import (
     Friction,
     coefficients,
     effective_coefficient,
+    loaded_film_parameter,
     lubrication_constants,
     normal_moment,
 )
@@ -91,9 +92,9 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 
 
-def check_stage_friction(friction: Friction, bearing: object, body: object) -> None:
-    """One-line :class:`DesignError` for friction the stage does not model (``body``, the
-    compliant disc, takes friction: the module doc)."""
+def check_stage_friction(friction: Friction, bearing: object) -> None:
+    """One-line :class:`DesignError` for friction the stage does not model (the rigid and
+    the compliant disc both take it: the module doc)."""
     if friction.bearing > 0 and bearing is None:
         raise DesignError(
             "friction.bearing_coefficient with [stage] needs [stage.crank_bearing] (rigid "
@@ -159,11 +160,9 @@ def friction_arrays(
         speed = np.abs(out["velocity"]) * friction.speed
         cb = np.where(usable, cos_beta, 1.0)
         lub = lubrication_constants(friction, cb, speed, mesh.design.width, film)
-        lub["cos_beta"] = np.broadcast_to(cb, (A, D, P)).copy()
+        lub["cos_beta"] = cb
         lub["sign"] = np.where(usable, sign, 0.0)
-        lub["moving"] = np.asarray(lub["moving"], float)
         out["lubrication"] = lub
-        out["friction"] = friction
     return out
 
 
@@ -188,13 +187,11 @@ def lubricated_state(p: Problem, force: FloatArray) -> dict[str, FloatArray]:
     boundary coefficient and λ = 0 where a pin carries no load)."""
     lub = p.lubrication
     mu, groove, _ = coefficients(p.friction_law, lub["cos_beta"], force, constants=lub)
-    usable = lub["sign"] != 0.0
-    on = (force > 0) & (lub["moving"] > 0)
-    lam = np.zeros(force.shape)
-    if "lam0_tooth" in lub:  # λ(F) = λ(1 N)·F^−0.1 (Dowson–Toyoda)
-        scale = np.where(on, force, 1.0) ** -0.1
-        lam = np.where(on, np.where(groove, lub["lam0_groove"], lub["lam0_tooth"]) * scale, 0.0)
-    return {"mu": np.where(usable, mu, 0.0), "groove": groove, "film_parameter": lam}
+    return {
+        "mu": np.where(lub["sign"] != 0.0, mu, 0.0),
+        "groove": groove,
+        "film_parameter": loaded_film_parameter(lub, force, groove),
+    }
 
 
 def friction_terms(p: Problem, x: FloatArray, discs: int, rigid: bool, state: dict, law, jac=True):

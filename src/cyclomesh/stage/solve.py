@@ -342,7 +342,7 @@ def solve(
         )
     friction = c.friction
     if friction is not None:
-        check_stage_friction(friction, stage.bearing, body)
+        check_stage_friction(friction, stage.bearing)
         if c.ring_shape:
             raise DesignError(
                 "friction with [stage] solves one ring at a time: pass pin errors without ring axes"

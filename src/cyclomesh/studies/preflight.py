@@ -85,27 +85,17 @@ def check_kinds(study: Study, kind: str | None, *, allow_work: bool = False) -> 
     return kinds
 
 
-def refuse_friction_with_stage(study: Study, at_rest: bool = False) -> None:
+def refuse_friction_with_stage(study: Study) -> None:
     """One-line :class:`StudyError` for a case whose ``[friction]`` the ``[stage]``
-    equilibrium does not take (the compliant disc, a crank-bearing coefficient
-    without ``[stage.crank_bearing]``: :func:`cyclomesh.stage.friction.check_stage_friction`).
-    ``at_rest``: a torsion test, whose friction is the boundary coefficients (the lubricant
-    dropped, :func:`cyclomesh.studies.stiffness.at_rest`)."""
-    import dataclasses
-
+    equilibrium does not take (a crank-bearing coefficient without
+    ``[stage.crank_bearing]``: :func:`cyclomesh.stage.friction.check_stage_friction`)."""
     from cyclomesh.exceptions import DesignError
 
     for case, inputs in zip(study.cases, study.inputs, strict=True):
         if inputs.friction is not None and inputs.stage is not None:
             from cyclomesh.stage.friction import check_stage_friction
 
-            body = inputs.model().disc_body
-            friction = inputs.friction
-            if at_rest:
-                friction = dataclasses.replace(friction, lubricant=None)
             try:
-                check_stage_friction(
-                    friction, inputs.stage.bearing, None if body == "rigid" else body
-                )
+                check_stage_friction(inputs.friction, inputs.stage.bearing)
             except DesignError as exc:
                 raise StudyError(f"{case.label}: {exc}") from None

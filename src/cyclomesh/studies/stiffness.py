@@ -147,7 +147,7 @@ def compute_stiffness(
     check_keys(study.raw, "stiffness")
     from cyclomesh.studies.preflight import refuse_friction_with_stage
 
-    refuse_friction_with_stage(study, at_rest=True)
+    refuse_friction_with_stage(study)
     start = time.perf_counter()
     result = StiffnessResult(study=study)
     for case, inputs in zip(study.cases, study.inputs, strict=True):
@@ -445,7 +445,7 @@ def stiffness_sections(result: StiffnessResult) -> list[Section]:
 def _preflight(study: Study) -> None:
     from cyclomesh.studies.preflight import refuse_friction_with_stage
 
-    refuse_friction_with_stage(study, at_rest=True)
+    refuse_friction_with_stage(study)
     check_stiffness(study)
 
 
