@@ -117,6 +117,13 @@ METRICS: dict[str, tuple[str, float, str, str, bool]] = {
         "power loss over input power, 1 - efficiency (with friction)",
         True,
     ),
+    "stage_efficiency": (
+        "stage_efficiency",
+        1.0,
+        "1",
+        "forward efficiency of the RV stage (with friction)",
+        False,
+    ),
 }
 METRICS = {
     key: (var, si, QUANTITIES[var].unit, QUANTITIES[var].long_name, worse)
@@ -134,12 +141,13 @@ OBJECTIVES: dict[str, str] = {
     "stage_l10": "stage_l10",
     "stage_rigidity": "stage_rigidity",
     "stage_lost_motion": "stage_lost_motion",
+    "stage_efficiency": "stage_efficiency",
 }
 """Objective names of a study → metric, minimised where larger is worse, else maximised
-(``stage_l10``, ``stage_rigidity``)."""
+(``stage_l10``, ``stage_rigidity``, ``stage_efficiency``)."""
 
-STAGE_METRICS = ("stage_l10", "stage_rigidity", "stage_lost_motion")
-"""Metrics of the RV stage (a map with ``stage``)."""
+STAGE_METRICS = ("stage_l10", "stage_rigidity", "stage_lost_motion", "stage_efficiency")
+"""Metrics of the RV stage (a map with ``stage``; ``stage_efficiency`` with friction too)."""
 
 ROBUST_PERCENTILE = 95.0
 
@@ -168,6 +176,8 @@ class Constraints:
         Lower bound on the stage's smallest torsional rigidity [N·m/rad] (needs a stage).
     max_stage_lost_motion : float, optional
         Upper bound on the stage's largest lost motion [rad] (needs a stage).
+    min_stage_efficiency : float, optional
+        Lower bound on the stage's forward efficiency [-] (needs a stage and friction).
     """
 
     max_play: float | None = None
@@ -180,6 +190,7 @@ class Constraints:
     min_stage_l10: float | None = None
     min_stage_rigidity: float | None = None
     max_stage_lost_motion: float | None = None
+    min_stage_efficiency: float | None = None
 
     def checks(self) -> list[tuple[str, str, float, str]]:
         """(metric, "<=" or ">=", limit [SI], name) of every limit set."""
@@ -195,6 +206,7 @@ class Constraints:
             ("stage_l10", ">=", self.min_stage_l10, "min_stage_l10"),
             ("stage_rigidity", ">=", self.min_stage_rigidity, "min_stage_rigidity"),
             ("stage_lost_motion", "<=", self.max_stage_lost_motion, "max_stage_lost_motion"),
+            ("stage_efficiency", ">=", self.min_stage_efficiency, "min_stage_efficiency"),
         ):
             if value is not None:
                 out.append((metric, op, float(value), name))
@@ -225,7 +237,8 @@ def candidate_metrics(
     gives the forward ``efficiency`` and ``loss_fraction`` (the other metrics stay those of
     the frictionless model, as without it). With ``stage``
     (:class:`~cyclomesh.stage.design.StageDesign`) :func:`stage_metrics` adds the stage's,
-    solved with ``stage_disc_body`` (``"rigid"`` or the free disc body).
+    solved with ``stage_disc_body`` (``"rigid"`` or the free disc body); with friction too,
+    the stage's forward ``stage_efficiency``.
 
     Returns
     -------
@@ -266,7 +279,8 @@ def candidate_metrics(
         out["min_torque_share"] = share.min(axis=angles_discs)
     if lost_motion:
         out["lost_motion"] = np.max(te[..., 1, :] - te[..., 2, :], axis=-1)
-    if friction is not None and not friction.frictionless:
+    mesh_friction = stage is None or isinstance(disc_body, str)  # not the FE disc's
+    if friction is not None and not friction.frictionless and mesh_friction:
         fr = solve_drive(
             design,
             modification,
@@ -297,6 +311,7 @@ def candidate_metrics(
                 contact_law,
                 discs,
                 stage_disc_body,
+                friction,
             )
         )
     return out
@@ -313,6 +328,7 @@ def stage_metrics(
     contact_law: str = "half_plane",
     discs: int = 1,
     disc_body: Any = "rigid",
+    friction: Any = None,
 ) -> dict[str, FloatArray]:
     """The RV stage's metrics of a candidate, per ring, SI units (see the module doc).
 
@@ -320,7 +336,11 @@ def stage_metrics(
     of the catalogue definitions, :func:`cyclomesh.drive.torsion.torsion_metrics`); L10
     [s] at +T_r (:func:`cyclomesh.stage.solve.bearing_life`), only with a crank bearing.
     ``disc_body``: ``"rigid"`` or the free disc body of the stage
-    (:class:`~cyclomesh.core.discbody.FreeDiscBody`, ``disc_body = "fe"``).
+    (:class:`~cyclomesh.core.discbody.FreeDiscBody`, ``disc_body = "fe"``). With
+    ``friction`` (:class:`~cyclomesh.core.friction.Friction`, not frictionless) one more
+    solve per ring at +T_r, the crank driving it with friction in the stage's equilibrium,
+    gives ``stage_efficiency`` [-] (:func:`cyclomesh.stage.friction.stage_efficiency`,
+    as a tolerance ring's); the other metrics stay those of the frictionless stage.
 
     Raises
     ------
@@ -344,6 +364,35 @@ def stage_metrics(
         at = int(np.flatnonzero(torques == torque)[0])
         _, _, hours = bearing_life(res, stage, design.pins)  # (..., Q, D, N)
         out["stage_l10"] = hours[..., at, :, :].min(axis=(-2, -1)) * 3600.0
+    if friction is not None and not friction.frictionless:
+        out["stage_efficiency"] = _stage_efficiency(
+            Case(design, modification, errors, [torque], crank_angles),
+            Model(contact_law, groove_deformation, disc_body, discs, stage, friction),
+        )
+    return out
+
+
+def _stage_efficiency(case: Any, model: Any) -> FloatArray:
+    """``stage_efficiency`` of every ring of ``case`` (the ring shape of its errors; the
+    stage with friction solves one ring at a time)."""
+    from cyclomesh.core.pair import PinErrors
+    from cyclomesh.stage.friction import stage_efficiency
+
+    errors = case.errors if case.errors is not None else PinErrors()
+    pins = case.design.pins
+    shape = errors.ring_shape(pins)
+    out = np.empty(shape)
+    for ring in np.ndindex(shape):
+        one = PinErrors(
+            *(
+                np.broadcast_to(np.asarray(getattr(errors, k), float), (*shape, pins))[ring]
+                if np.ndim(getattr(errors, k))
+                else getattr(errors, k)
+                for k in ("radial", "angular", "pin_radius")
+            ),
+            np.broadcast_to(np.asarray(errors.eccentricity, float), shape)[ring],
+        )
+        out[ring] = stage_efficiency(case.replace(errors=one), model)["stage_efficiency"]
     return out
 
 

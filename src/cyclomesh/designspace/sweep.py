@@ -39,7 +39,11 @@ rated torque of the stage metrics) adds (docs/stage.md):
   speed (ISO 281, equivalent load over the crank angles) [s; h in the Dataset];
 * ``stage_rigidity`` — smallest torsional rigidity of the stage over the crank angles
   (secant 50–100 %, mean of both directions) [N·m/rad];
-* ``stage_lost_motion`` — largest lost motion of the stage, TE(−3 %) − TE(+3 %) [rad].
+* ``stage_lost_motion`` — largest lost motion of the stage, TE(−3 %) − TE(+3 %) [rad];
+* ``stage_efficiency`` (with ``friction`` too) — forward efficiency of the stage [-]: one
+  more stage solve at the torque, the crank driving it with friction in the stage's
+  equilibrium (:mod:`cyclomesh.stage.friction`); the other stage metrics stay those of
+  the frictionless stage.
 
 The geometry may be swept too (pin-circle radius a, pin radius ρp, eccentricity e,
 face width B: :data:`GEOMETRY`); each such candidate is checked like a study's design
@@ -211,6 +215,8 @@ class DesignTask:
         if self.discs == 1:
             skip |= {"max_torque_share", "min_torque_share"}
         if self.friction is None:
+            skip |= {"efficiency", "loss_fraction", "stage_efficiency"}
+        elif not mesh_friction(self.stage, self.disc_body):
             skip |= {"efficiency", "loss_fraction"}
         if self.stage is None:
             skip |= set(STAGE_METRICS)
@@ -249,6 +255,14 @@ class DesignTask:
                 out[m][row] = robust_value(m, values[m])
         out["reason"] = np.asarray(reason, dtype=str)
         return out
+
+
+def mesh_friction(stage: Any, disc_body: Any) -> bool:
+    """Whether the mesh on rigid bearings is solved with friction (its ``efficiency``):
+    not with the compliant disc beside a stage, whose friction only the stage's
+    equilibrium takes (as a study's
+    :attr:`~cyclomesh.studyfile.schema.CaseInputs.mesh_friction`)."""
+    return stage is None or isinstance(disc_body, str)
 
 
 def is_builder(body: Any) -> bool:
@@ -406,7 +420,9 @@ def design_map(
         equilibrium); needed by the ``efficiency`` objective and ``min_efficiency``.
     stage : StageDesign, optional
         The RV stage around the mesh: adds :data:`STAGE_METRICS` (a stage solve at six
-        torques per candidate); needed by the ``stage_*`` objectives and constraints.
+        torques per candidate; with ``friction`` one more, friction in the stage's
+        equilibrium, for ``stage_efficiency``); needed by the ``stage_*`` objectives and
+        constraints.
     stage_disc_body : "rigid", FreeDiscBody or a builder
         The disc body of the stage solves (``disc_body = "fe"`` with ``[stage]``): the
         base design's free body for every candidate modification, or a builder of each
@@ -447,6 +463,13 @@ def design_map(
             "the efficiency objective and min_efficiency need friction: add [friction]"
         )
     _check_stage(stage, objective, constraints, friction)
+    if friction is not None and not mesh_friction(stage, disc_body):
+        if objective == "efficiency" or constraints.min_efficiency:
+            raise DesignError(
+                "the efficiency objective and min_efficiency are the mesh's on rigid "
+                'bearings, which has no friction with disc_body = "fe" beside [stage] (the '
+                "stage's equilibrium takes it): use stage_efficiency and min_stage_efficiency"
+            )
     fixed = any(not (isinstance(b, str) or is_builder(b)) for b in (disc_body, stage_disc_body))
     check_body_axes(fixed, tuple(axes))
     coords = {key: np.atleast_1d(np.asarray(v, dtype=float)) for key, v in axes.items()}
@@ -541,6 +564,8 @@ def _constraint_attrs(constraints: Constraints) -> dict[str, float]:
         out["min_stage_rigidity_nm_per_arcmin"] = constraints.min_stage_rigidity * RAD_PER_ARCMIN
     if constraints.max_stage_lost_motion is not None:
         out["max_stage_lost_motion_arcmin"] = constraints.max_stage_lost_motion / RAD_PER_ARCMIN
+    if constraints.min_stage_efficiency is not None:
+        out["min_stage_efficiency"] = float(constraints.min_stage_efficiency)
     return out
 
 
@@ -560,7 +585,8 @@ def check_body_axes(compliant: bool, axes: tuple[str, ...]) -> None:
 
 
 def _check_stage(stage: Any, objective: str, constraints: Constraints, friction: Any) -> None:
-    """One-line DesignError for stage objectives or limits without a stage (or bearing)."""
+    """One-line DesignError for stage objectives or limits without a stage (or bearing,
+    or friction for the stage's efficiency), and for friction the stage does not take."""
     wanted = [m for m in STAGE_METRICS if OBJECTIVES[objective] == m]
     wanted += [m for m, _, _, _ in constraints.checks() if m in STAGE_METRICS]
     if stage is None and wanted:
@@ -573,11 +599,14 @@ def _check_stage(stage: Any, objective: str, constraints: Constraints, friction:
             "the stage_l10 objective or min_stage_l10_h needs a crank bearing: add "
             "[stage.crank_bearing]"
         )
-    if stage is not None and friction is not None:
+    if "stage_efficiency" in wanted and stage is not None and friction is None:
         raise DesignError(
-            "friction: design maps do not solve the [stage] with [friction] yet (cyclomesh "
-            "run and stiffness do); remove [friction] or [stage]"
+            "the stage_efficiency objective or min_stage_efficiency needs friction: add [friction]"
         )
+    if stage is not None and friction is not None:
+        from cyclomesh.stage.friction import check_stage_friction
+
+        check_stage_friction(friction, stage.bearing)
 
 
 def grid_points(axes: Mapping[str, Sequence[float]]) -> list[dict[str, float]]:

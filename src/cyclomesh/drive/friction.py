@@ -47,7 +47,7 @@ from cyclomesh.core.friction import (
 )
 from cyclomesh.core.loadsharing import share_load
 
-__all__ = ["FrictionCoupling", "FRICTION_FIELDS"]
+__all__ = ["FrictionCoupling", "FRICTION_FIELDS", "mean_efficiency", "mean_backdrive_efficiency"]
 
 FloatArray = NDArray[np.float64]
 
@@ -245,3 +245,31 @@ class FrictionCoupling:
             "input_torque": t_in,
             "power_loss_bearing": moment * relative,
         }
+
+
+def mean_efficiency(result, teeth: int, speed: float) -> NDArray[np.float64]:
+    """Forward efficiency of every ring of a one-torque drive with friction [-]:
+    P_out/(P_out + P_loss), P_out = |T|·ω/n2 [W] (``teeth`` n2, ``speed`` ω [rad/s]),
+    P_loss the mean over the crank angles of the pins' and the crank bearings' losses (as
+    :func:`cyclomesh.results.efficiency.efficiency_record` takes it for one case).
+    ``result``: a :class:`~cyclomesh.drive.solve.Drive` (or the RV stage read as one,
+    :func:`cyclomesh.stage.friction.as_drive`); the tolerance rings' and the stage's
+    efficiency."""
+    f = result.friction
+    loss = np.sum(f["power_loss_tooth"] + f["power_loss_groove"], axis=(-2, -1))
+    loss = loss + np.sum(f["power_loss_bearing"], axis=-1)  # (..., Q, A)
+    p_out = np.abs(result.torque[0]) * speed / teeth
+    return p_out / (p_out + np.mean(loss[..., 0, :], axis=-1))
+
+
+def mean_backdrive_efficiency(forward, backward, teeth: int, speed: float) -> NDArray[np.float64]:
+    """Back-driving efficiency of every ring [-]: (P_out − P_loss,b)/P_out with P_out =
+    |T|·ω/n2 of the forward drive and P_loss,b the mean over the crank angles of the
+    back-driven solve's losses (pins and crank bearings), as
+    :func:`cyclomesh.results.efficiency.efficiency_record` takes it for one case: the
+    output shaft delivers P_out, the crank receives what the losses leave of it."""
+    b = backward.friction
+    loss = np.sum(b["power_loss_tooth"] + b["power_loss_groove"], axis=(-2, -1))
+    loss = loss + np.sum(b["power_loss_bearing"], axis=-1)  # (..., Q, A)
+    p_out = np.abs(forward.torque[0]) * speed / teeth
+    return (p_out - np.mean(loss[..., 0, :], axis=-1)) / p_out

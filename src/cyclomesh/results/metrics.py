@@ -71,9 +71,12 @@ STAGE_RING_METRICS: dict[str, Metric] = select(
     "stage_lost_motion_arcmin_max",
     "stage_max_crank_bearing_load_n",
     "stage_max_contact_stress_mpa",
+    "stage_efficiency",
+    "stage_backdrive_efficiency",
 )
 """The RV stage's metrics of a ring of a tolerance study with ``[stage]``
-(:meth:`cyclomesh.tolerance.tasks.RingModel.stage_metrics`)."""
+(:meth:`cyclomesh.tolerance.tasks.RingModel.stage_metrics`; the efficiencies with
+``[friction]``)."""
 
 STAGE_METRICS: dict[str, Metric] = select(
     "stage_rated_torque_nm",

@@ -148,14 +148,18 @@ REQUIREMENTS: dict[str, Requirement] = {
             "min",
             "1",
             "forward efficiency (with [friction])",
-            (("efficiency", 1.0), ("efficiency_min", 1.0)),
+            (("stage_efficiency", 1.0), ("efficiency", 1.0), ("efficiency_min", 1.0)),
         ),
         Requirement(
             "min_backdrive_efficiency",
             "min",
             "1",
             "back-driving efficiency (with [friction])",
-            (("backdrive_efficiency", 1.0), ("backdrive_efficiency_min", 1.0)),
+            (
+                ("stage_backdrive_efficiency", 1.0),
+                ("backdrive_efficiency", 1.0),
+                ("backdrive_efficiency_min", 1.0),
+            ),
         ),
     )
 }

@@ -370,29 +370,21 @@ def stage_efficiency_variables(
     """The friction variables of a run (:func:`cyclomesh.results.efficiency.
     efficiency_variables`, the same names, dims and units) from the stage's solves: the
     crank driving every torque (``forward``, :func:`solve_case`) and every torque driving
-    the crank back (a second solve). The crank bearings' loss is summed over the crank
-    pins of each disc; the input torque is the stage's total, ±sgn(T)·P_in/ω (− back-driving,
-    the crank turning the other way), P_in from the crank pins' forces
-    (:mod:`cyclomesh.stage.friction`)."""
-    from types import SimpleNamespace
-
+    the crank back (a second solve), each read as a drive's by
+    :func:`cyclomesh.stage.friction.as_drive` (the crank bearings' loss summed over the
+    crank pins of each disc; the input torque the stage's total, ±sgn(T)·P_in/ω), as the
+    tolerance rings' and design maps' stage efficiency read them."""
     from cyclomesh.results.efficiency import efficiency_variables
+    from cyclomesh.stage.friction import as_drive
 
     friction = inputs.friction
     back = solve(inputs.case(), stage_model(inputs), motion=-1.0)
 
-    def view(result: Stage, motion: float) -> SimpleNamespace:
-        fr = dict(result.friction)
-        fr["power_loss_bearing"] = np.sum(fr["power_loss_bearing"], axis=-1)
-        sign = motion * np.sign(result.torque)[:, None]  # the crank's turn: T_in·ω = P_in
-        fr["input_torque"] = (sign * fr["input_power"] / friction.speed)[..., None]
-        return SimpleNamespace(
-            contacts=result.contacts if discs > 1 else result.contacts[..., :1],
-            transmission_error=result.transmission_error,
-            loaded_rotation=result.transmission_error,
-            torque=result.torque,
-            friction=fr,
-        )
+    def view(result: Stage, motion: float):
+        drive = as_drive(result, motion, friction.speed)
+        if discs == 1:
+            drive.contacts = drive.contacts[..., :1]
+        return drive
 
     return efficiency_variables(
         view(forward, 1.0), view(back, -1.0), inputs.design.teeth, friction.speed, torque_dim

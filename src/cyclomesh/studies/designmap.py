@@ -107,6 +107,7 @@ def constraints(space: DesignSpaceSection) -> Constraints:
         min_stage_l10=scaled(space.min_stage_l10_h, 3600.0),
         min_stage_rigidity=scaled(space.min_stage_rigidity_nm_per_arcmin, 1.0 / RAD_PER_ARCMIN),
         max_stage_lost_motion=scaled(space.max_stage_lost_motion_arcmin, RAD_PER_ARCMIN),
+        min_stage_efficiency=space.min_stage_efficiency,
     )
 
 
@@ -222,6 +223,7 @@ _AS_SUMMARY = {  # design-map variable -> the summary metric the requirements re
     "stage_l10_h_min": "stage_l10_h_min",
     "stage_torsional_rigidity_nm_per_arcmin_min": "stage_torsional_rigidity_nm_per_arcmin_min",
     "stage_lost_motion_arcmin_max": "stage_lost_motion_arcmin_max",
+    "stage_efficiency": "stage_efficiency",
 }
 
 

@@ -84,7 +84,9 @@ def ring_model(study: Study, spec: ToleranceSection, checked: bool = False) -> R
 
     ``checked``: the kind checks ``[requirements]`` (``cyclomesh tolerance``); then
     ``min_backdrive_efficiency`` with ``[friction]`` asks for every ring's back-driving
-    efficiency (a second solve per ring, :attr:`RingModel.backdrive`)."""
+    efficiency (a second solve per ring, :attr:`RingModel.backdrive`; the stage's too with
+    ``[stage]``). With ``[stage]`` and ``[friction]`` every ring's stage is also solved
+    with friction (:attr:`RingModel.stage_friction`)."""
     base = study.base
     core = base.to_core()
     if np.ndim(core.torque):
@@ -98,12 +100,16 @@ def ring_model(study: Study, spec: ToleranceSection, checked: bool = False) -> R
             f"tolerance.{holes[0]}: crank hole errors need the RV stage with its bearings: "
             "add [stage] and [stage.crank_bearing] (docs/stage.md), or remove the key"
         )
+    stage_friction = None
     if core.stage is not None and core.friction is not None:
-        raise StudyError(
-            "friction: tolerance and allocate do not solve the [stage] with [friction] over "
-            "rings yet (cyclomesh run and stiffness do); remove [friction] (the stage's rings) "
-            "or [stage] (the rings' efficiency)"
-        )
+        from cyclomesh.exceptions import DesignError
+        from cyclomesh.stage.friction import check_stage_friction
+
+        try:  # before the rings: a DesignError of a ring's solve is a jammed ring
+            check_stage_friction(core.friction, core.stage.bearing)
+        except DesignError as exc:
+            raise StudyError(str(exc)) from None
+        stage_friction = core.friction
     return RingModel(
         design=core.design,
         modification=core.modification,
@@ -132,10 +138,11 @@ def ring_model(study: Study, spec: ToleranceSection, checked: bool = False) -> R
             if base.stage is None
             else (base.stage.hole_error_radial_um, base.stage.hole_error_tangential_um)
         ),
-        friction=core.friction,
+        friction=core.mesh_friction,
         backdrive=checked
         and core.friction is not None
         and study.file.requirements.min_backdrive_efficiency is not None,
+        stage_friction=stage_friction,
     )
 
 

@@ -294,6 +294,12 @@ class DesignSpaceSection(StrictSection):
     max_stage_lost_motion_arcmin: float | None = Field(
         None, gt=0, description="largest stage lost motion allowed [arcmin] ([stage])"
     )
+    min_stage_efficiency: float | None = Field(
+        None,
+        gt=0,
+        le=1,
+        description="smallest forward efficiency of the stage allowed ([stage] and [friction])",
+    )
     objective: Literal[
         "max_contact_stress",
         "te_pp",
@@ -303,9 +309,11 @@ class DesignSpaceSection(StrictSection):
         "stage_l10",
         "stage_rigidity",
         "stage_lost_motion",
+        "stage_efficiency",
     ] = Field(
         "max_contact_stress",
-        description="metric minimised (efficiency, stage_l10, stage_rigidity: maximised)",
+        description="metric minimised (efficiency, stage_l10, stage_rigidity, "
+        "stage_efficiency: maximised)",
     )
     rings: int = Field(
         0, ge=0, le=MAX_RINGS, description="rings drawn from [tolerance] (0: nominal map)"
@@ -368,5 +376,6 @@ class DesignSpaceSection(StrictSection):
             "min_stage_l10_h",
             "min_stage_rigidity_nm_per_arcmin",
             "max_stage_lost_motion_arcmin",
+            "min_stage_efficiency",
         )
         return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}

@@ -154,8 +154,8 @@ def _stage(kind: str) -> str:
 def _friction(kind: str) -> str:
     return (
         f"friction: [friction] is not taken by cyclomesh {kind} yet; use cyclomesh run, "
-        "stiffness, tolerance or allocate for friction and efficiency (run and stiffness "
-        "also with [stage]), or remove [friction] (docs/efficiency.md)"
+        "stiffness, tolerance, allocate or design for friction and efficiency (each also "
+        "with [stage]), or remove [friction] (docs/efficiency.md)"
     )
 
 

@@ -34,6 +34,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors, pin_errors_si
+from cyclomesh.drive.friction import mean_backdrive_efficiency as ring_backdrive_efficiency
+from cyclomesh.drive.friction import mean_efficiency as ring_efficiency
 from cyclomesh.drive.solve import solve_drive
 from cyclomesh.exceptions import CyclomeshError, DesignError
 from cyclomesh.results.dataset import drive_metrics
@@ -47,6 +49,8 @@ __all__ = [
     "ToleranceTask",
     "AllocationTask",
     "STRESS_METRIC",
+    "ring_efficiency",
+    "ring_backdrive_efficiency",
 ]
 
 BLOCK_PIN_STEPS = 16 * 360 * 40
@@ -126,6 +130,13 @@ class RingModel:
     travels to the workers with the task, like :attr:`disc_body`."""
     friction: Any = None
     backdrive: bool = False
+    stage_friction: Any = None
+    """Friction in the stage's equilibrium (:mod:`cyclomesh.stage.friction`), or None:
+    with a stage, every ring's ``stage_efficiency`` (and with :attr:`backdrive`
+    ``stage_backdrive_efficiency``) joins its metrics
+    (:func:`cyclomesh.stage.friction.stage_efficiency`).
+    :attr:`friction` is the mesh's on rigid bearings (None with the compliant disc, whose
+    friction only the stage solves)."""
 
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
@@ -162,8 +173,11 @@ class RingModel:
             total["eccentricity_um"],
         )
 
-    def metrics(self, drawn: RingErrors) -> dict[str, NDArray[Any]]:
+    def metrics(self, drawn: RingErrors, efficiency: bool = True) -> dict[str, NDArray[Any]]:
         """Per-ring metrics of ``summarize(analyse(...))``, all rings in one core call.
+
+        ``efficiency=False`` leaves out the stage's efficiency (its friction solves), which
+        no other metric depends on (an allocation's steps).
 
         Raises
         ------
@@ -173,13 +187,13 @@ class RingModel:
         try:
             out = self._solve(drawn)
             if self.stage is not None:
-                out.update(self.stage_metrics(drawn))
+                out.update(self.stage_metrics(drawn, efficiency))
             return out
         except CyclomeshError:
             self._blame(drawn)
             raise
 
-    def stage_metrics(self, drawn: RingErrors) -> dict[str, NDArray[Any]]:
+    def stage_metrics(self, drawn: RingErrors, efficiency: bool = True) -> dict[str, NDArray[Any]]:
         """The RV stage's metrics of every ring, solved one after the other.
 
         Each ring's stage carries its crank hole errors (the base's plus the drawn ones,
@@ -194,11 +208,19 @@ class RingModel:
           crank angles [arcmin];
         * ``stage_max_crank_bearing_load_n``: the largest crank bearing load [N];
         * ``stage_max_contact_stress_mpa``: the largest pin–tooth pressure in the stage [MPa].
+
+        With :attr:`stage_friction` (and ``efficiency``) one more solve at the torque, the
+        crank driving it with friction in the equilibrium, gives ``stage_efficiency``, and
+        with :attr:`backdrive` one with the torque driving the crank back
+        ``stage_backdrive_efficiency`` (:func:`cyclomesh.stage.friction.stage_efficiency`).
+        The metrics above stay those of the frictionless stage (as a design map's, and the
+        same whether or not friction is given).
         """
         import dataclasses
 
         from cyclomesh.core.case import Case, Model
         from cyclomesh.drive.torsion import LOST_MOTION_FRACTION
+        from cyclomesh.stage.friction import stage_efficiency
         from cyclomesh.stage.solve import bearing_life, solve
         from cyclomesh.units import M_PER_UM, RAD_PER_ARCMIN
 
@@ -212,6 +234,11 @@ class RingModel:
             "stage_max_crank_bearing_load_n",
             "stage_max_contact_stress_mpa",
         )
+        friction = self.stage_friction if efficiency else None
+        if friction is not None:
+            names += ("stage_efficiency",) + (
+                ("stage_backdrive_efficiency",) if self.backdrive else ()
+            )
         out = {name: np.full(drawn.rings.size, np.nan) for name in names}
         for i in range(drawn.rings.size):
             stage = self.stage
@@ -243,6 +270,23 @@ class RingModel:
             if stage.bearing is not None:
                 hours = bearing_life(res, stage, self.design.pins)[2][0, 0]
                 out["stage_l10_h_min"][i] = np.min(hours)
+            if friction is not None:  # one ring at a time: the errors without a ring axis
+                errors = pin_errors_si(
+                    *(total[k][i] for k in ("radial_um", "angular_urad", "pin_radius_um")),
+                    total["eccentricity_um"][i],
+                )
+                model = Model(
+                    self.contact_law,
+                    self.groove_deformation,
+                    self.stage_disc_body,
+                    self.discs,
+                    stage,
+                    friction,
+                )
+                case = Case(self.design, self.modification, errors, [self.torque_nm], phi)
+                eff = stage_efficiency(case, model, self.backdrive)
+                for name, value in eff.items():
+                    out[name][i] = value
         if self.stage.bearing is None:
             del out["stage_l10_h_min"]
         return out
@@ -286,33 +330,6 @@ class RingModel:
                 self._solve(block.take([i]))
             except CyclomeshError as exc:
                 raise type(exc)(f"ring {k} (seed {self.spec.seed}): {exc}") from None
-
-
-def ring_efficiency(result: Any, teeth: int, speed: float) -> NDArray[np.float64]:
-    """Forward efficiency of every ring of a one-torque drive with friction [-]:
-    P_out/(P_out + P_loss), P_out = |T|·ω/n2, P_loss the mean over the crank angles of the
-    pins' and the crank bearings' losses (as :func:`cyclomesh.results.efficiency.efficiency_record`
-    takes it for one case)."""
-    f = result.friction
-    loss = np.sum(f["power_loss_tooth"] + f["power_loss_groove"], axis=(-2, -1))
-    loss = loss + np.sum(f["power_loss_bearing"], axis=-1)  # (..., Q, A)
-    p_out = np.abs(result.torque[0]) * speed / teeth
-    return p_out / (p_out + np.mean(loss[..., 0, :], axis=-1))
-
-
-def ring_backdrive_efficiency(
-    forward: Any, backward: Any, teeth: int, speed: float
-) -> NDArray[np.float64]:
-    """Back-driving efficiency of every ring [-]: (P_out − P_loss,b)/P_out with P_out =
-    |T|·ω/n2 of the forward drive and P_loss,b the mean over the crank angles of the
-    back-driven solve's losses (pins and crank bearings), as
-    :func:`cyclomesh.results.efficiency.efficiency_record` takes it for one case: the
-    output shaft delivers P_out, the crank receives what the losses leave of it."""
-    b = backward.friction
-    loss = np.sum(b["power_loss_tooth"] + b["power_loss_groove"], axis=(-2, -1))
-    loss = loss + np.sum(b["power_loss_bearing"], axis=-1)  # (..., Q, A)
-    p_out = np.abs(forward.torque[0]) * speed / teeth
-    return (p_out - np.mean(loss[..., 0, :], axis=-1)) / p_out
 
 
 def _by_blocks(start: int, stop: int, solve: Any, size: int) -> dict[str, NDArray[Any]]:
@@ -381,9 +398,12 @@ STATED_METRICS = (
     "stage_max_contact_stress_mpa",
     "efficiency",
     "backdrive_efficiency",
+    "stage_efficiency",
+    "stage_backdrive_efficiency",
 )
 """Per-ring metrics an allocation also reports at the stated tolerances (f = 1); the
-stage's with ``[stage]``, the forward efficiency with ``[friction]``."""
+stage's with ``[stage]``, the forward efficiency with ``[friction]`` (the stage's with
+both)."""
 
 
 @dataclass(frozen=True)
@@ -425,7 +445,7 @@ class AllocationTask:
         the same bits (a ring's result does not depend on its batch).
         """
         try:
-            stress = self.model.metrics(drawn.scaled(factor))[self.metric]
+            stress = self.model.metrics(drawn.scaled(factor), efficiency=False)[self.metric]
         except DesignError:
             if drawn.rings.size == 1:
                 return np.array([True])
