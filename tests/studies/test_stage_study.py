@@ -386,14 +386,6 @@ def test_tolerance_with_the_stage_checks_its_requirements_on_the_percentiles(tmp
     )
 
 
-def test_tolerance_refuses_friction_with_the_stage(tmp_path):
-    extra = "\n[friction]\nmesh_coefficient = 0.05\ngroove_coefficient = 0.06\n" + STAGE_TOLERANCE
-    result = invoke("tolerance", str(_stage_tolerance_study(tmp_path, extra)), "--out",
-                    str(tmp_path / "o"))  # fmt: skip
-    assert result.exit_code == 2, result.output
-    assert "do not solve the [stage] with [friction] over rings" in " ".join(result.output.split())
-
-
 FRICTION_EXAMPLE = EXAMPLE.with_name("rv_stage_friction.toml")
 
 
