@@ -223,3 +223,45 @@ def test_the_stage_efficiency_needs_friction(tmp_path):
     result = invoke("design", study, "--out", tmp_path / "o")
     assert result.exit_code == 2, result.output
     assert "needs friction: add [friction]" in " ".join(result.output.split())
+
+
+def test_a_robust_map_takes_each_rings_stage_efficiency(tmp_path):
+    """Over K rings a candidate's stage efficiency is the 5th percentile (order statistic)
+    of the rings' own, each ring's stage solved with its pin errors."""
+    import dataclasses
+
+    from cyclomesh.core.pair import PinErrors
+    from cyclomesh.results.stage import stage_model
+    from cyclomesh.stage.friction import stage_efficiency
+    from cyclomesh.studies.rings import ring_model
+    from cyclomesh.studyfile.schema import load_study
+
+    space = MAP.replace("min_stage_efficiency = 0.944\n", "rings = 2\n")
+    space = space.replace("points = 3", "points = 1")
+    space += TOLERANCE.format(rings=2).replace("crank_step_deg = 30.0", "")
+    space += 'radial_um = { distribution = "uniform", half_range = 2.0 }\n'
+    study = _study(tmp_path, space, text=_map_text())
+    out = tmp_path / "out"
+    result = invoke("design", study, "--out", out, "--figures", "none", "-q", "--workers", 1)
+    assert result.exit_code == 0, result.output
+    value = float(xr.open_dataset(out / "design.nc")["stage_efficiency"].values[0])
+    loaded = load_study(study)
+    inputs = loaded.base.to_core()
+    model = ring_model(loaded, loaded.tolerance)
+    errors = model.pin_errors(model.draw(np.arange(2)))
+    modification = dataclasses.replace(inputs.modification, pin_radius=2.0e-6)
+    case = inputs.case().replace(modification=modification, torque=[412.0])
+    rings = [
+        stage_efficiency(
+            case.replace(
+                errors=PinErrors(
+                    errors.radial[k], errors.angular[k], errors.pin_radius[k],
+                    errors.eccentricity[k],
+                )
+            ),
+            stage_model(inputs),
+        )["stage_efficiency"]
+        for k in range(2)
+    ]  # fmt: skip
+    assert np.ptp(rings) > 0
+    assert value == pytest.approx(min(rings), rel=1e-12)
