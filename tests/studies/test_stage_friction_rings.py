@@ -265,3 +265,17 @@ def test_a_robust_map_takes_each_rings_stage_efficiency(tmp_path):
     ]  # fmt: skip
     assert np.ptp(rings) > 0
     assert value == pytest.approx(min(rings), rel=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["tolerance", "design"])
+def test_a_bearing_coefficient_needs_the_crank_bearings(tmp_path, kind):
+    """Refused in one line before any ring or candidate (a ring's DesignError would count
+    as a jammed ring)."""
+    text = _map_text()
+    for section in ("[stage.crank_bearing]", "[stage.crankshaft]", "[stage.carrier]"):
+        start = text.index(section)
+        text = text[:start] + text[text.index("\n[", start + 1) + 1 :]
+    extra = TOLERANCE.format(rings=1).replace("30.0", "3.0") if kind == "tolerance" else MAP
+    result = invoke(kind, _study(tmp_path, extra, text=text), "--out", tmp_path / "o")
+    assert result.exit_code == 2, result.output
+    assert "needs [stage.crank_bearing]" in " ".join(result.output.split())
