@@ -313,10 +313,9 @@ stage_max_contact_stress_mpa | MPa | - | + | max σH | - | peak pin-tooth contac
 stage_max_crank_bearing_load_n | N | - | + | max bearing load | - | largest crank bearing load
     at rated torque
 stage_max_roller_load_n | N | - | + | max Q | - | largest needle roller load at rated torque
-stage_efficiency | 1 | - | + | stage efficiency | - | forward efficiency of the RV stage (the crank
-    driving the torque, with [friction]): P_out/P_in over the angles, pins and crank bearings
+stage_efficiency | 1 | - | + | stage efficiency | - | forward efficiency of the RV stage
 stage_backdrive_efficiency | 1 | - | + | stage back-drive eff. | - | back-driving efficiency of
-    the RV stage (the torque driving the crank, with [friction]) over the angles
+    the RV stage
 stage_lost_motion_arcmin_mean | arcmin | - | + | stage LM | - | mean lost motion of the stage
 stage_lost_motion_arcmin_max | arcmin | - | + | max stage lost motion | - | largest lost motion
     of the stage
