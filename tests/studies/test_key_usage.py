@@ -281,6 +281,7 @@ CHANGE.update(
         "design_space.min_stage_l10_h": 1e9,
         "design_space.min_stage_rigidity_nm_per_arcmin": 1e9,
         "design_space.max_stage_lost_motion_arcmin": 1e-6,
+        "design_space.min_stage_efficiency": 0.999,
     }
 )
 FRICTION = {
@@ -349,6 +350,7 @@ CONTEXT: dict[tuple[str | None, str], dict[str, Any]] = {
         if k.startswith("friction.")
     },
     ("design", "design_space.min_efficiency"): FRICTION,
+    ("design", "design_space.min_stage_efficiency"): {**STAGE, **FRICTION},
     **{
         (kind, f"tolerance.{k}"): STAGE
         for kind in ("tolerance", "allocate", "design")

@@ -93,7 +93,7 @@ def test_the_stage_efficiency_over_rings_and_its_requirements(tmp_path):
     # the worst ring's study file carries its pin and hole errors and the friction: its
     # case's stage, solved as cyclomesh run solves it, has the ring's efficiency
     from cyclomesh.results.stage import solve_case
-    from cyclomesh.stage.friction import as_drive
+    from cyclomesh.stage.efficiency import as_drive
     from cyclomesh.studyfile.schema import load_study
     from cyclomesh.tolerance.tasks import ring_efficiency
 
@@ -111,7 +111,7 @@ def test_zero_sliding_friction_gives_efficiency_one_and_no_loss():
     import dataclasses
 
     from cyclomesh.results.stage import stage_model
-    from cyclomesh.stage.friction import as_drive, stage_efficiency
+    from cyclomesh.stage.efficiency import as_drive, stage_efficiency
     from cyclomesh.stage.solve import solve
     from cyclomesh.studyfile.schema import load_study
 
@@ -191,7 +191,7 @@ def test_design_map_with_the_stage_efficiency(tmp_path):
     modification."""
     from cyclomesh.core.pair import Modification
     from cyclomesh.results.stage import stage_model
-    from cyclomesh.stage.friction import stage_efficiency
+    from cyclomesh.stage.efficiency import stage_efficiency
     from cyclomesh.studyfile.schema import load_study
 
     study = _study(tmp_path, MAP, text=_map_text())
@@ -232,7 +232,7 @@ def test_a_robust_map_takes_each_rings_stage_efficiency(tmp_path):
 
     from cyclomesh.core.pair import PinErrors
     from cyclomesh.results.stage import stage_model
-    from cyclomesh.stage.friction import stage_efficiency
+    from cyclomesh.stage.efficiency import stage_efficiency
     from cyclomesh.studies.rings import ring_model
     from cyclomesh.studyfile.schema import load_study
 

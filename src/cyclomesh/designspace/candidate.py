@@ -339,7 +339,7 @@ def stage_metrics(
     (:class:`~cyclomesh.core.discbody.FreeDiscBody`, ``disc_body = "fe"``). With
     ``friction`` (:class:`~cyclomesh.core.friction.Friction`, not frictionless) one more
     solve per ring at +T_r, the crank driving it with friction in the stage's equilibrium,
-    gives ``stage_efficiency`` [-] (:func:`cyclomesh.stage.friction.stage_efficiency`,
+    gives ``stage_efficiency`` [-] (:func:`cyclomesh.stage.efficiency.stage_efficiency`,
     as a tolerance ring's); the other metrics stay those of the frictionless stage.
 
     Raises
@@ -376,7 +376,7 @@ def _stage_efficiency(case: Any, model: Any) -> FloatArray:
     """``stage_efficiency`` of every ring of ``case`` (the ring shape of its errors; the
     stage with friction solves one ring at a time)."""
     from cyclomesh.core.pair import PinErrors
-    from cyclomesh.stage.friction import stage_efficiency
+    from cyclomesh.stage.efficiency import stage_efficiency
 
     errors = case.errors if case.errors is not None else PinErrors()
     pins = case.design.pins

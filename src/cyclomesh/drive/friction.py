@@ -253,7 +253,7 @@ def mean_efficiency(result, teeth: int, speed: float) -> NDArray[np.float64]:
     P_loss the mean over the crank angles of the pins' and the crank bearings' losses (as
     :func:`cyclomesh.results.efficiency.efficiency_record` takes it for one case).
     ``result``: a :class:`~cyclomesh.drive.solve.Drive` (or the RV stage read as one,
-    :func:`cyclomesh.stage.friction.as_drive`); the tolerance rings' and the stage's
+    :func:`cyclomesh.stage.efficiency.as_drive`); the tolerance rings' and the stage's
     efficiency."""
     f = result.friction
     loss = np.sum(f["power_loss_tooth"] + f["power_loss_groove"], axis=(-2, -1))

@@ -371,11 +371,11 @@ def stage_efficiency_variables(
     efficiency_variables`, the same names, dims and units) from the stage's solves: the
     crank driving every torque (``forward``, :func:`solve_case`) and every torque driving
     the crank back (a second solve), each read as a drive's by
-    :func:`cyclomesh.stage.friction.as_drive` (the crank bearings' loss summed over the
+    :func:`cyclomesh.stage.efficiency.as_drive` (the crank bearings' loss summed over the
     crank pins of each disc; the input torque the stage's total, ±sgn(T)·P_in/ω), as the
     tolerance rings' and design maps' stage efficiency read them."""
     from cyclomesh.results.efficiency import efficiency_variables
-    from cyclomesh.stage.friction import as_drive
+    from cyclomesh.stage.efficiency import as_drive
 
     friction = inputs.friction
     back = solve(inputs.case(), stage_model(inputs), motion=-1.0)

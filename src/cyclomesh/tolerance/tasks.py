@@ -134,7 +134,7 @@ class RingModel:
     """Friction in the stage's equilibrium (:mod:`cyclomesh.stage.friction`), or None:
     with a stage, every ring's ``stage_efficiency`` (and with :attr:`backdrive`
     ``stage_backdrive_efficiency``) joins its metrics
-    (:func:`cyclomesh.stage.friction.stage_efficiency`).
+    (:func:`cyclomesh.stage.efficiency.stage_efficiency`).
     :attr:`friction` is the mesh's on rigid bearings (None with the compliant disc, whose
     friction only the stage solves)."""
 
@@ -212,7 +212,7 @@ class RingModel:
         With :attr:`stage_friction` (and ``efficiency``) one more solve at the torque, the
         crank driving it with friction in the equilibrium, gives ``stage_efficiency``, and
         with :attr:`backdrive` one with the torque driving the crank back
-        ``stage_backdrive_efficiency`` (:func:`cyclomesh.stage.friction.stage_efficiency`).
+        ``stage_backdrive_efficiency`` (:func:`cyclomesh.stage.efficiency.stage_efficiency`).
         The metrics above stay those of the frictionless stage (as a design map's, and the
         same whether or not friction is given).
         """
@@ -220,7 +220,7 @@ class RingModel:
 
         from cyclomesh.core.case import Case, Model
         from cyclomesh.drive.torsion import LOST_MOTION_FRACTION
-        from cyclomesh.stage.friction import stage_efficiency
+        from cyclomesh.stage.efficiency import stage_efficiency
         from cyclomesh.stage.solve import bearing_life, solve
         from cyclomesh.units import M_PER_UM, RAD_PER_ARCMIN
 
