@@ -54,7 +54,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core import loadsharing
-from cyclomesh.core.loadsharing import TORQUE_TOLERANCE
+from cyclomesh.core.loadsharing import ROUND_OFF_TORQUE, TORQUE_TOLERANCE
 from cyclomesh.exceptions import CyclomeshError
 
 __all__ = ["KERNELS", "ENV_VAR", "kernel_name", "share_load"]
@@ -229,7 +229,7 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, block, rotation, force):  # 
     1e-3·T the inversions stop at 1e-10·δ (the
     steps that follow square that error away), then the step is taken again with
     every force at round-off, so Δφc follows the reference's Newton steps and stops
-    where it stops (at a residual within 1e-12·T, not at the exact root).
+    where it stops (the root at round-off, the reference's test).
 
     Fills ``rotation`` (n_cases) and ``force`` (n_cases, n_pins, zero on entry); returns
     the number of cases it could not finish (then the caller uses the reference). A
@@ -238,6 +238,7 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, block, rotation, force):  # 
     """
     n_cases, n_pins = bl.shape
     tol = TORQUE_TOLERANCE * torque
+    floor = ROUND_OFF_TORQUE * torque
     candidates = np.empty(n_pins, np.int64)
     peak = np.empty(n_pins)  # ln F at the stiffest point of the law, α/γ − 1
     last_y = np.empty(n_pins)  # ln F of the pin's last inversion
@@ -292,6 +293,7 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, block, rotation, force):  # 
                 n_cand += 1
         ok = False
         bad = False
+        last = np.inf  # |residual| of the step before (at round-off forces)
         inner = _LOOSE  # the inversions' tolerance: loose while the torque is far off
         before = k - 1 if k % block != 0 else -2  # the case before, of the same ring
         for it in range(_MAX_ITERATIONS):
@@ -362,9 +364,11 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, block, rotation, force):  # 
             if inner > _ROUND_OFF and abs(resid) <= _LOOSE_UNTIL * torque:
                 inner = _ROUND_OFF  # near the root: this step again, forces to round-off
                 continue
-            if abs(resid) <= tol:
+            size = abs(resid)
+            if size <= floor or (size <= tol and size >= last):  # the reference's test
                 ok = True
                 break
+            last = size
             x = x - (resid / slope if slope > 0.0 else 0.0)
         if not ok:
             failed += 1
