@@ -359,24 +359,24 @@ def _stresses(
 
 def _row_min(x, arm, cond, sign, j0, m):  # pragma: no cover (compiled)
     """np.min over the row of sign·x where arm ≥ cond (else inf), NaN propagating; if
-    that is not finite, np.min over the row of sign·x (the reference's fallback)."""
+    that is not finite, np.min over the row of sign·x (the reference's fallback).
+    Branch-free loops: the smaller value kept, a NaN remembered."""
     best = math.inf
+    nan = False
     for j in range(j0, j0 + m):
         v = sign * x[j] if arm[j] >= cond else math.inf
-        if not (best <= v):  # v smaller, or either NaN: NaN stays
-            if math.isnan(best):
-                break
-            best = v
+        nan |= v != v
+        best = v if v < best else best
+    if nan:
+        return math.nan
     if math.isfinite(best):
         return best
-    best = sign * x[j0]
-    for j in range(j0 + 1, j0 + m):
+    best = math.inf
+    for j in range(j0, j0 + m):
         v = sign * x[j]
-        if not (best <= v):
-            if math.isnan(best):
-                break
-            best = v
-    return best
+        nan |= v != v
+        best = v if v < best else best
+    return math.nan if nan else best
 
 
 def _rests(rotation, reverse_rotation, arm, cond, m, rest, reverse):  # pragma: no cover

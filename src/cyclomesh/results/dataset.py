@@ -520,9 +520,11 @@ def drive_metrics(result: Drive, teeth: int) -> dict[str, NDArray]:
         value = getattr(result, name)[..., 0, :, :, :]
         scale = _PER_PIN[name][0]
         if name in _PIN_MAX_SOURCES and scale > 0:
-            # the largest over the discs and pins of every crank angle first, then the
-            # unit: fl(s·x) is monotone in x for s > 0, so max(s·x) = s·max(x), bit for bit
-            return np.max(value, axis=(-2, -1))[..., None] * scale
+            # the largest over the crank angles, discs and pins first (one pass over each
+            # ring's values), then the unit: fl(s·x) is monotone in x for s > 0, so
+            # max(s·x) = s·max(x), bit for bit
+            whole = value.reshape(*value.shape[:-3], 1, angles * discs * pins)
+            return np.max(whole, axis=-1, keepdims=True) * scale
         value = value * scale
         return value.reshape(*value.shape[:-2], discs * pins)
 
