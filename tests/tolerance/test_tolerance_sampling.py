@@ -272,10 +272,8 @@ def _per_ring(s, pins, a, rings, holes=None):
     ],
 )
 def test_batched_draws_are_the_per_ring_generators_bit_for_bit(seed, kinds):
-    """The uniform draws of a batch come from integer arithmetic over its rings
-    (uniform_doubles), the others from the ring's own generator: every number is that
-    of the ring's own NumPy generators, for large seeds and ring indices too (2^32 and
-    more take the generators)."""
+    """Every number of a batch's draws is that of the ring's own NumPy generators (the
+    reproducibility contract of the module doc), for large seeds and ring indices too."""
     s = spec(**kinds).model_copy(update={"seed": seed})
     for rings in ([0, 1, 2, 3, 17, 2**31, 2**32 - 1], [5, 2**32, 2**33 + 1], []):
         got = draw_ring_errors(s, 40, A_M, rings, holes=(2, 3))
@@ -289,14 +287,3 @@ def test_batched_draws_are_the_per_ring_generators_bit_for_bit(seed, kinds):
             ("hole_tangential_um", got.hole_tangential_um),
         ):
             np.testing.assert_array_equal(value, ref[name], strict=True, err_msg=name)
-
-
-def test_uniform_doubles_are_the_generator_doubles():
-    from cyclomesh.tolerance.sampling import uniform_doubles
-
-    rings = [0, 9, 123456, 2**32 - 1]
-    got = uniform_doubles(20220810, rings, 3, 100)
-    for j, k in enumerate(rings):
-        rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence([20220810, k, 3])))
-        np.testing.assert_array_equal(got[j], rng.random(100))
-    assert uniform_doubles(1, [2**32], 1, 4) is None and uniform_doubles(-1, [0], 1, 4) is None
