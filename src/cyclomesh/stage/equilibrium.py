@@ -441,7 +441,7 @@ def solve_direction(
     bound = x[:, 0].copy()  # one pin alone: an upper bound of the rigid mesh's rotation
     x = _solve(prob, None, x, D, True, mesh.phi)
     _, _, _, st = _evaluate(prob, None, x, D, True, hessian=False)
-    F = st["pin_force"]
+    F, k_pin = st["pin_force"], st["pin_stiffness"]
     mesh_te = transmission_error(mesh.rest, x[:, 0])
     rigid = _disc_loads(mesh, prob, F)  # pins on disc
     moment = -rigid["torque_share"]
@@ -467,7 +467,7 @@ def solve_direction(
         ux, uy = dx.mean(-1), dy.mean(-1)
         # turn each disc so that its pins keep (in the least-squares sense, weighted by
         # their stiffness) the approach of the rigid solution despite the translation
-        _, k_pin, _, _ = _pins(prob, x[:, 1::3], None, None)
+        # k_pin: the pins' stiffness at the rigid solution (the rigid evaluate's, u = 0)
         shift = prob.nx * ux[..., None] + prob.ny * uy[..., None]
         weight = np.sum(k_pin * prob.arm * prob.arm, -1)
         turn = -np.sum(k_pin * prob.arm * shift, -1) / np.where(weight > 0, weight, np.inf)
