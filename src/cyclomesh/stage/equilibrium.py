@@ -217,17 +217,27 @@ def _near(p: _Problem, x: FloatArray, discs: int, rigid: bool) -> _Problem:
     return dataclasses.replace(p, **fields)
 
 
-def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray):
+def _solve(
+    p: _Problem,
+    law,
+    x: FloatArray,
+    discs: int,
+    rigid: bool,
+    phi: FloatArray,
+    state: dict | None = None,
+):
     """:func:`~cyclomesh.stage.newton.newton` on the pins near contact (:func:`_near`),
     then every pin checked: the crank angles where a left-out pin closed are solved
     again from there with all pins (the answer is the whole problem's either way). If
     the near pins alone do not converge (a left-out pin that would have held a disc),
     the whole problem is solved from the start, so this fails only where it fails. The
-    compliant disc's problem goes through :func:`_body_newton`."""
+    compliant disc's problem goes through :func:`_body_newton`. ``state``: a dict that
+    the compiled iteration fills with the state at the solution (:func:`_kernel_newton`),
+    left empty otherwise."""
     if p.slip is None and (rigid or (p.body is None and law.k is None)) and compiled():
         # CYCLOMESH_KERNEL=numba: every pin in the compiled pass (an open pin costs it a
         # comparison, less than picking the near ones), so there is no check after
-        return _kernel_newton(p, _evaluate, law, x, discs, rigid, phi)
+        return _kernel_newton(p, _evaluate, law, x, discs, rigid, phi, state)
     solver = newton if rigid or p.body is None else _body_newton
     if p.slip is not None:  # friction: the equations are not a potential's gradient
         solver = friction_newton
@@ -245,12 +255,23 @@ def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatA
     return x
 
 
-def _kernel_newton(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid: bool, phi):
+def _kernel_newton(
+    p: _Problem,
+    evaluate,
+    law,
+    x: FloatArray,
+    discs: int,
+    rigid: bool,
+    phi,
+    state: dict | None = None,
+):
     """:func:`~cyclomesh.stage.newton.newton` compiled
     (:func:`cyclomesh.stage.kernel_newton.newton`, and
     :func:`~cyclomesh.stage.kernel_newton.rigid_newton` for the rigid phase: each crank
     angle's iteration in one pass); the crank angles it cannot finish are solved by the
-    reference from their start, which raises its own error if it fails."""
+    reference from their start, which raises its own error if it fails. ``state``, when
+    every crank angle was finished by the kernel, receives its state at the solution
+    (the kernels' ``state``)."""
     start = x.copy()
     settings = (
         reference.FORCE_TOLERANCE,
@@ -259,11 +280,14 @@ def _kernel_newton(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid:
         reference._STEP_CAP,
         *reference._LINEAR,
     )
+    found: dict = {}
     if rigid:
-        failed = kernel_rigid_newton(p, x, discs, settings)
+        failed = kernel_rigid_newton(p, x, discs, settings, found)
     else:
         jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, x.shape[1])
-        failed = kernel_newton(p, law, x, discs, jacobian, settings)
+        failed = kernel_newton(p, law, x, discs, jacobian, settings, found)
+    if state is not None and not np.any(failed):
+        state.update(found)
     if np.any(failed):
         idx = np.flatnonzero(failed)
         x[idx] = newton(p.take(idx), evaluate, law, start[idx], discs, rigid, phi[idx])
@@ -439,8 +463,10 @@ def solve_direction(
         )
     x[:, 1::3] = x[:, [0]]
     bound = x[:, 0].copy()  # one pin alone: an upper bound of the rigid mesh's rotation
-    x = _solve(prob, None, x, D, True, mesh.phi)
-    _, _, _, st = _evaluate(prob, None, x, D, True, hessian=False)
+    st: dict = {}  # the compiled iteration's state at the solution, else evaluated here
+    x = _solve(prob, None, x, D, True, mesh.phi, st)
+    if not st:
+        _, _, _, st = _evaluate(prob, None, x, D, True, hessian=False)
     F, k_pin = st["pin_force"], st["pin_stiffness"]
     mesh_te = transmission_error(mesh.rest, x[:, 0])
     rigid = _disc_loads(mesh, prob, F)  # pins on disc
@@ -486,8 +512,21 @@ def solve_direction(
             x = np.concatenate([x, z], axis=-1)
         if supports is not None or body is not None:
             prob.jacobian = bearing_jacobian(prob, D, x.shape[1])
-        x = _solve(prob, law, x, D, False, mesh.phi)
-        energy, g, _, st = _evaluate(prob, law, x, D, False, hessian=False)
+        st = {}
+        x = _solve(prob, law, x, D, False, mesh.phi, st)
+        if st:  # the compiled iteration's state at the solution (the rigid discs' stage)
+            g = st.pop("gradient")
+            st["bearing_part"] = st["deflection"]  # no series spring in the kernel
+            if prob.supports is not None:  # as _evaluate_supported's
+                sup, N = prob.supports, stage.holes.count
+                nw = 2 * D * N if sup.stiffness is not None else 0
+                base = 1 + 3 * D
+                st["shaft_deflection"] = (
+                    x[:, base : base + nw].reshape(A, D, N, 2) if nw else np.zeros((A, D, N, 2))
+                )
+                st["end_plate"] = x[:, base + nw] if sup.carrier is not None else np.zeros(A)
+        else:
+            _, g, _, st = _evaluate(prob, law, x, D, False, hessian=False)
         F = st["pin_force"]
         bfx, bfy = st["bearing_fx"], st["bearing_fy"]
         deflection = st["deflection"]
