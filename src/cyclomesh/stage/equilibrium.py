@@ -401,6 +401,7 @@ def solve_direction(
     motion: float = 1.0,
     loading: float = 0.0,
     positions: bool = True,
+    cache: dict | None = None,
 ) -> dict[str, FloatArray]:
     """Stage under a positive torque in the mesh's frame (``other``: the mirror problem).
 
@@ -415,9 +416,18 @@ def solve_direction(
     same arithmetic as without the argument. ``positions``: the discs that carry nothing
     get their canonical position (:mod:`cyclomesh.stage.floating`); False leaves them
     where the solve stopped (a caller that reports no positions saves the work).
+    ``cache``: a dict kept by a caller that solves this direction (the same ``mesh``,
+    ``other``, ``stage``, ``errs`` and ``supports``) at several torques: the problem's
+    arrays and the bearings' Jacobian, which do not depend on the torque, are formed once
+    (the same arrays, so the same numbers).
     """
     D, n1 = mesh.geo.rotation.shape[-2:]
-    prob = _problem(mesh, other, stage.holes, errs, torque)
+    if cache is not None and "problem" in cache:  # the torque's arrays are the same
+        prob = dataclasses.replace(cache["problem"], torque=torque)
+    else:
+        prob = _problem(mesh, other, stage.holes, errs, torque)
+        if cache is not None:
+            cache["problem"] = prob
     A = prob.bl.shape[0]
     fr = None
     if friction is not None:
@@ -511,7 +521,13 @@ def solve_direction(
             prob = dataclasses.replace(prob, body=coupling)
             x = np.concatenate([x, z], axis=-1)
         if supports is not None or body is not None:
-            prob.jacobian = bearing_jacobian(prob, D, x.shape[1])
+            if cache is None or "jacobian" not in cache:
+                jacobian = bearing_jacobian(prob, D, x.shape[1])
+                if cache is not None and body is None:  # the body's depends on the torque
+                    cache["jacobian"] = jacobian
+            else:
+                jacobian = cache["jacobian"]
+            prob.jacobian = jacobian
         st = {}
         x = _solve(prob, law, x, D, False, mesh.phi, st)
         if st:  # the compiled iteration's state at the solution (the rigid discs' stage)
