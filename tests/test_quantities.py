@@ -16,7 +16,7 @@ from cyclomesh.quantities import QUANTITIES, REDUCTIONS, label, quantity
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 UNITS = {
-    "1", "N", "MPa", "kN", "arcsec", "arcmin", "deg", "mm", "um", "h", "rpm", "%",
+    "1", "N", "MPa", "kN", "arcsec", "arcmin", "deg", "mm", "um", "N/um", "h", "rpm", "%",
     "N·m", "N·m/arcmin", "arcmin/kN·m", "urad", "", "W", "m/s",
 }  # fmt: skip
 """The spellings of units in every output (one per unit: ``N·m``, never ``N m``)."""

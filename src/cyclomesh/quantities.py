@@ -313,6 +313,12 @@ stage_max_contact_stress_mpa | MPa | - | + | max σH | - | peak pin-tooth contac
 stage_max_crank_bearing_load_n | N | - | + | max bearing load | - | largest crank bearing load
     at rated torque
 stage_max_roller_load_n | N | - | + | max Q | - | largest needle roller load at rated torque
+stage_max_support_bearing_load_n | N | - | + | max support load | - | largest radial load of a
+    crankshaft's support bearing at rated torque
+stage_support_bearing_stiffness_n_per_um | N/um | - | + | support k_r | - | radial stiffness of
+    each support bearing (given, or the tangent of the preloaded tapered roller bearing)
+stage_support_bearing_linear_limit_n | N | - | + | support limit | - | radial load up to which
+    the support bearing's tangent stiffness holds (no roller unloaded)
 stage_lost_motion_arcmin_mean | arcmin | - | + | stage LM | - | mean lost motion of the stage
 stage_lost_motion_arcmin_max | arcmin | - | + | max stage lost motion | - | largest lost motion
     of the stage

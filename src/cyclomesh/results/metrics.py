@@ -96,6 +96,9 @@ STAGE_METRICS: dict[str, Metric] = select(
     "stage_max_contact_stress_mpa",
     "stage_max_crank_bearing_load_n",
     "stage_max_roller_load_n",
+    "stage_max_support_bearing_load_n",
+    "stage_support_bearing_stiffness_n_per_um",
+    "stage_support_bearing_linear_limit_n",
 )
 """The catalogue data sheet of a case with ``[stage]`` (:func:`cyclomesh.results.stage.data_sheet`),
 in ``summary.json`` and the report; here, not in :mod:`cyclomesh.results.stage`, so that a

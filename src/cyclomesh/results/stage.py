@@ -25,7 +25,7 @@ from cyclomesh.stage.solve import (
     solve,
     stage_torsion,
 )
-from cyclomesh.units import RAD_PER_ARCMIN, RAD_PER_ARCSEC
+from cyclomesh.units import M_PER_UM, RAD_PER_ARCMIN, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -202,6 +202,20 @@ def data_sheet(inputs: Any, rated_torque: float) -> dict[str, Any]:
         "stage_max_contact_stress_mpa": float(np.max(result.contact_stress[at]) / 1e6),
         "stage_max_crank_bearing_load_n": float(np.max(result.bearing_load[at])),
     }
+    shaft = stage.crankshaft
+    if shaft is not None:  # the support bearings' radial loads (statics of the beam)
+        angle = result.bearing_load_angle[at]
+        force = result.bearing_load[at][..., None] * np.stack([np.cos(angle), np.sin(angle)], -1)
+        loads = shaft.support_loads(np.moveaxis(force, 1, 2))  # (A, C, D, 2) -> (A, C, 2)
+        sheet["stage_max_support_bearing_load_n"] = float(np.max(loads))
+        if shaft.support_stiffness is not None:
+            sheet["stage_support_bearing_stiffness_n_per_um"] = float(
+                shaft.support_stiffness * M_PER_UM
+            )
+        if shaft.support_bearing is not None:
+            sheet["stage_support_bearing_linear_limit_n"] = float(
+                shaft.support_bearing.linear_limit()
+            )
     if stage.bearing is not None:
         p, _, hours = bearing_life(result, stage, inputs.design.pins)
         sheet.update(

@@ -51,6 +51,7 @@ from cyclomesh.stage.kernel import compiled, roller_law
 
 __all__ = [
     "RollerSet",
+    "TaperedRollerBearing",
     "LOAD_EXPONENT",
     "LIFE_EXPONENT",
     "PALMGREN_LINE_CONTACT",
@@ -191,6 +192,82 @@ def roller_constant(length: float) -> float:
     """
     length_mm = length * 1e3
     return (1e3 * length_mm**0.8 / (2.0 * PALMGREN_LINE_CONTACT)) ** LOAD_EXPONENT
+
+
+@dataclass(frozen=True)
+class TaperedRollerBearing:
+    """One of a crankshaft's two support bearings: a tapered roller bearing of a pair
+    preloaded against each other (back to back, as in RV reducers), SI units.
+
+    Model (Harris & Kotzalas [1], Ch. 6 and 7, with the line-contact law of
+    :func:`roller_constant`): the axial preload F_a0 loads every roller alike,
+
+        Q_0 = F_a0/(Z·sin α),          δ_0 = (Q_0/K_n)^(9/10),
+
+    δ_0 the roller's normal approach of both raceways. A small radial displacement δ_r
+    of the cone against the cup compresses roller j (at ψ_j = 2πj/Z from the
+    displacement) by δ_r·cos α·cos ψ_j along its contact normal; the rollers' axial
+    components cancel to first order (Σ cos ψ_j = 0), so the preload holds the shaft
+    axially and the radial tangent stiffness of the bearing is
+
+        k_r = K'·cos²α·Σ_j cos²ψ_j = (Z/2)·(10/9)·(Q_0/δ_0)·cos²α          [N/m]
+
+    (Σ cos²ψ_j = Z/2 for Z ≥ 3). Assumptions, stated where the key is documented
+    (docs/stage.md): one contact angle α for cone and cup (their mean), the rib contact
+    and the rollers' tilt neglected (the crankshaft is a beam simply supported on radial
+    springs: no moment stiffness), and the stiffness is the tangent at the preload, which
+    holds while the radial load stays below :meth:`linear_limit`.
+
+    Parameters
+    ----------
+    rollers : int
+        Number of rollers Z (≥ 3).
+    length : float
+        Effective contact length of a roller l_we [m].
+    contact_angle : float
+        Contact angle α of the raceways against the radial plane [rad], in (0, π/2).
+    preload : float
+        Axial preload F_a0 of the pair [N] (each bearing carries it).
+    """
+
+    rollers: int
+    length: float
+    contact_angle: float
+    preload: float
+
+    def __post_init__(self) -> None:
+        where = "stage.crankshaft.support_bearing"
+        if isinstance(self.rollers, bool) or not isinstance(self.rollers, int | np.integer):
+            raise DesignError(f"{where}.rollers must be a whole number, got {self.rollers!r}")
+        if self.rollers < 3:
+            raise DesignError(f"{where}.rollers: at least 3 rollers, got {self.rollers}")
+        for name, value in (("roller_length_mm", self.length), ("preload_n", self.preload)):
+            if not (math.isfinite(value) and value > 0):
+                raise DesignError(f"{where}.{name} must be positive, got {value!r}")
+        if not (math.isfinite(self.contact_angle) and 0.0 < self.contact_angle < 0.5 * math.pi):
+            raise DesignError(
+                f"{where}.contact_angle_deg must lie strictly between 0 and 90 degrees, got "
+                f"{math.degrees(self.contact_angle)!r}"
+            )
+
+    def roller_load(self) -> float:
+        """Q_0 = F_a0/(Z·sin α) [N]: each roller's load under the preload alone."""
+        return self.preload / (self.rollers * math.sin(self.contact_angle))
+
+    def approach(self) -> float:
+        """δ_0 = (Q_0/K_n)^(9/10) [m]: each roller's normal approach under the preload."""
+        return (self.roller_load() / roller_constant(self.length)) ** (1.0 / LOAD_EXPONENT)
+
+    def radial_stiffness(self) -> float:
+        """k_r = (Z/2)·(10/9)·(Q_0/δ_0)·cos²α [N/m]: the radial tangent stiffness at the
+        preload (Harris & Kotzalas [1], Ch. 7; see the class)."""
+        normal = LOAD_EXPONENT * self.roller_load() / self.approach()
+        return 0.5 * self.rollers * normal * math.cos(self.contact_angle) ** 2
+
+    def linear_limit(self) -> float:
+        """Radial load [N] at which the tangent model unloads the roller opposite the load
+        (δ_r·cos α = δ_0): above it the spring is outside its range (a warning says so)."""
+        return self.radial_stiffness() * self.approach() / math.cos(self.contact_angle)
 
 
 def _compressions(rs: RollerSet, s: ArrayLike) -> FloatArray:

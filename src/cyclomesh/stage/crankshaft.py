@@ -7,7 +7,9 @@ plate), ``support_span`` apart. The discs' bearing forces act on it at their mid
 In each transverse direction the crankshaft is a uniform Timoshenko beam (bending and
 shear, Timoshenko & Gere, *Mechanics of Materials*; shear coefficient of a solid circle
 κ = 6(1 + ν)/(7 + 6ν), Cowper, J. Appl. Mech. 33 (1966) 335), simply supported on two
-radial springs (the support bearings, ``support_stiffness`` each; None: rigid). Its
+radial springs (the support bearings, ``support_stiffness`` each, given or the tangent
+stiffness of a preloaded tapered roller bearing from its geometry,
+:class:`~cyclomesh.stage.bearing.TaperedRollerBearing`; None: rigid). Its
 round section makes it isotropic: x and y bend alike and independently.
 
 :func:`beam_compliance` assembles exact two-node Timoshenko elements (nodes at the supports
@@ -27,11 +29,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.exceptions import DesignError
+
+if TYPE_CHECKING:
+    from cyclomesh.stage.bearing import TaperedRollerBearing
 
 __all__ = [
     "Crankshaft",
@@ -74,7 +80,12 @@ class Crankshaft:
     pin_diameter : float
         Crank pin diameter [m] (crank hole diameter less two roller diameters).
     support_stiffness : float or None
-        Radial stiffness of each support bearing [N/m]; None: rigid supports.
+        Radial stiffness of each support bearing [N/m]; None: rigid supports (or, with
+        ``support_bearing``, its tangent stiffness).
+    support_bearing : TaperedRollerBearing or None
+        The support bearings' geometry and preload; gives ``support_stiffness``
+        (:meth:`~cyclomesh.stage.bearing.TaperedRollerBearing.radial_stiffness`), which
+        must then be omitted.
     youngs_modulus, poisson_ratio : float
         Steel by default (206 GPa, 0.3).
     """
@@ -83,10 +94,18 @@ class Crankshaft:
     disc_pitch: float
     pin_diameter: float
     support_stiffness: float | None = None
+    support_bearing: TaperedRollerBearing | None = None
     youngs_modulus: float = 206e9
     poisson_ratio: float = 0.3
 
     def __post_init__(self) -> None:
+        if self.support_bearing is not None:
+            if self.support_stiffness is not None:
+                raise DesignError(
+                    "stage.crankshaft: give support_bearing_stiffness_n_per_um or "
+                    "[stage.crankshaft.support_bearing], not both"
+                )
+            object.__setattr__(self, "support_stiffness", self.support_bearing.radial_stiffness())
         _positive("support_span_mm", self.support_span)
         _positive("disc_pitch_mm", self.disc_pitch)
         _positive("crank pin diameter (crank hole less two rollers)", self.pin_diameter)
@@ -98,6 +117,21 @@ class Crankshaft:
     def positions(self, discs: int) -> FloatArray:
         """Axial places of the discs' mid-planes from the output-flange support [m]."""
         return disc_positions(self.support_span, self.disc_pitch, discs)
+
+    def support_loads(self, force: FloatArray) -> FloatArray:
+        """Radial loads of the two support bearings [N], (..., 2): output flange, end plate.
+
+        ``force`` (..., D, 2): the discs' forces on the crank pin [N] (x, y), disc d at
+        :meth:`positions`. A beam simply supported on two springs is statically
+        determinate: R_0 = |Σ_d F_d·(1 − x_d/L)|, R_1 = |Σ_d F_d·x_d/L|.
+        """
+        force = np.asarray(force, float)
+        x = self.positions(force.shape[-2]) / self.support_span
+        far = np.einsum("...dk,d->...k", force, x)
+        near = np.sum(force, axis=-2) - far
+        return np.stack(
+            [np.hypot(near[..., 0], near[..., 1]), np.hypot(far[..., 0], far[..., 1])], -1
+        )
 
     def compliance(self, discs: int) -> FloatArray:
         """Flexibility matrix at the discs' mid-planes [m/N], (D, D)."""

@@ -211,6 +211,7 @@ def compute_run(
                 stage_warning(inputs),
                 stage_friction_note(inputs),
                 _zero_friction(case, inputs),
+                _support_range(sheet),
             )
             if w
         ]
@@ -220,6 +221,23 @@ def compute_run(
         if progress:
             progress(1)
     return run
+
+
+def _support_range(sheet: dict[str, Any] | None) -> str | None:
+    """The support bearings' radial load at rated torque beyond the range of their tangent
+    stiffness from the preload (:meth:`~cyclomesh.stage.bearing.TaperedRollerBearing.
+    linear_limit`), or None."""
+    if sheet is None or "stage_support_bearing_linear_limit_n" not in sheet:
+        return None
+    load = sheet["stage_max_support_bearing_load_n"]
+    limit = sheet["stage_support_bearing_linear_limit_n"]
+    if load <= limit:
+        return None
+    return (
+        f"stage.crankshaft.support_bearing: a support bearing carries {load:.4g} N at rated "
+        f"torque, beyond the {limit:.4g} N up to which its stiffness from the preload holds "
+        "(a roller unloads); raise preload_n, or give support_bearing_stiffness_n_per_um"
+    )
 
 
 def _zero_friction(case: Any, inputs: Any) -> str | None:

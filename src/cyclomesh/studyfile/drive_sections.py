@@ -32,6 +32,7 @@ __all__ = [
     "FrictionSection",
     "StiffnessSection",
     "CrankBearingSection",
+    "SupportBearingSection",
     "CrankshaftSection",
     "CarrierSection",
     "DutyCycleSection",
@@ -203,6 +204,19 @@ class CrankBearingSection(StrictSection):
     rating_factor: float = Field(1.1, gt=0, description="b_m of ISO 281 (1.1 machined raceways)")
 
 
+class SupportBearingSection(StrictSection):
+    """``[stage.crankshaft.support_bearing]``: each of a crankshaft's two support bearings,
+    a tapered roller bearing preloaded against the other (its radial stiffness from the
+    geometry, :class:`cyclomesh.stage.bearing.TaperedRollerBearing`)."""
+
+    rollers: int = Field(ge=3, description="number of rollers Z")
+    roller_length_mm: float = Field(gt=0, description="effective contact length l_we [mm]")
+    contact_angle_deg: float = Field(
+        gt=0, lt=90, description="contact angle α of the raceways (mean of cone and cup) [deg]"
+    )
+    preload_n: float = Field(gt=0, description="axial preload of the pair [N]")
+
+
 class CrankshaftSection(StrictSection):
     """``[stage.crankshaft]``: every crankshaft as a beam on two support bearings."""
 
@@ -213,8 +227,23 @@ class CrankshaftSection(StrictSection):
         gt=0, description="axial distance between neighbouring discs' mid-planes [mm]"
     )
     support_bearing_stiffness_n_per_um: float | None = Field(
-        None, gt=0, description="radial stiffness of each support bearing [N/µm] (omitted: rigid)"
+        None,
+        gt=0,
+        description="radial stiffness of each support bearing [N/µm] (omitted: rigid, or "
+        "from [stage.crankshaft.support_bearing])",
     )
+    support_bearing: SupportBearingSection | None = Field(
+        None, description="the support bearings' geometry, instead of their stiffness"
+    )
+
+    @model_validator(mode="after")
+    def _stiffness_or_geometry(self) -> CrankshaftSection:
+        if self.support_bearing is not None and self.support_bearing_stiffness_n_per_um is not None:
+            raise ValueError(
+                "give support_bearing_stiffness_n_per_um or [stage.crankshaft.support_bearing], "
+                "not both"
+            )
+        return self
 
 
 class CarrierSection(StrictSection):
@@ -339,7 +368,10 @@ class StageSection(StrictSection):
         """The :class:`~cyclomesh.stage.solve.StageDesign` in SI units; ``output_speed``
         [rpm] from ``load.input_speed_rpm`` where ``output_speed_rpm`` is not given;
         ``base_dir``: the study's folder (a duty cycle's ``file`` is relative to it)."""
-        from cyclomesh.stage.bearing import RollerSet  # the stage only where a study has one
+        from cyclomesh.stage.bearing import (
+            RollerSet,
+            TaperedRollerBearing,
+        )  # the stage only where a study has one
         from cyclomesh.stage.carrier import Carrier
         from cyclomesh.stage.crankshaft import Crankshaft
         from cyclomesh.stage.solve import StageDesign
@@ -385,6 +417,16 @@ class StageSection(StrictSection):
                     None
                     if self.crankshaft.support_bearing_stiffness_n_per_um is None
                     else self.crankshaft.support_bearing_stiffness_n_per_um / M_PER_UM
+                ),
+                support_bearing=(
+                    None
+                    if (sb := self.crankshaft.support_bearing) is None
+                    else TaperedRollerBearing(
+                        rollers=sb.rollers,
+                        length=sb.roller_length_mm * M_PER_MM,
+                        contact_angle=math.radians(sb.contact_angle_deg),
+                        preload=sb.preload_n,
+                    )
                 ),
             )
             crankshaft.positions(discs)  # the stack fits between the supports
