@@ -16,7 +16,7 @@ from cyclomesh.core import kernel
 from cyclomesh.core.contact import unloaded_contact
 from cyclomesh.core.discbody import DiscBody
 from cyclomesh.core.fields import contact_stresses
-from cyclomesh.core.ltca import pin_compliance, solve_ltca
+from cyclomesh.core.ltca import pin_compliance, rest_position, solve_ltca
 from cyclomesh.core.pair import CrankHoles, PairDesign, PinErrors
 from cyclomesh.drive.solve import solve_drive
 from cyclomesh.exceptions import ConvergenceError, DesignError
@@ -306,9 +306,9 @@ def test_the_force_angle_of_a_tip_pin_on_the_x_axis_is_the_references(monkeypatc
 
 
 def test_a_rings_bits_do_not_depend_on_its_batch(monkeypatch):
-    """The compiled load sharing starts its force inversions from the crank angle before,
-    within a ring only: a ring solved alone or with others, one disc or a stack, gives
-    the same bits (docs/pipeline.md, reproducibility)."""
+    """The compiled load sharing starts from the crank angles before, within a ring
+    only: a ring solved alone or with others, one disc or a stack, gives the same bits
+    (docs/pipeline.md, reproducibility)."""
     monkeypatch.setenv(kernel.ENV_VAR, "numba")
     batch = solve_ltca(TABLE1, MOD, ERRORS, 250.0, PHI)
     stack = solve_drive(TABLE1, MOD, ERRORS, 250.0, PHI, discs=2)
@@ -324,3 +324,27 @@ def test_a_rings_bits_do_not_depend_on_its_batch(monkeypatch):
     whole = solve_ltca(TABLE1, MOD, None, 250.0, PHI)
     for k, one in zip(range(0, PHI.size, 17), single, strict=True):
         np.testing.assert_allclose(one.pin_load[0], whole.pin_load[k], rtol=0, atol=1e-13 * 3e3)
+
+
+@pytest.mark.parametrize("law", ["half_plane", "paper"])
+def test_the_warm_start_reaches_the_roots_of_the_cold_one_and_the_reference(monkeypatch, law):
+    """Each crank angle after a ring's first starts from the roots of the angles before,
+    extrapolated; Newton's method run to round-off makes the start irrelevant: the same
+    rotations and loads as each angle started from the single-pin bound (``angle_axis``
+    False) and as the reference, also where the angles jump (the extrapolation far off,
+    from either side of the root)."""
+    phi = np.deg2rad([0.0, 0.1, 0.2, 0.3, 47.0, 47.1, 200.0, 200.05, 200.1, 359.9, 1.0])
+    monkeypatch.setenv(kernel.ENV_VAR, "numpy")  # the same inputs for all three
+    geo = unloaded_contact(TABLE1, MOD, ERRORS, np.sort(phi))
+    backlash = geo.rotation - rest_position(geo.rotation, geo.moment_arm)[..., None]
+    alpha, gamma = pin_compliance(geo, TABLE1, True, law)
+    problem = (backlash, geo.moment_arm, alpha, gamma, 250.0)
+    ref_rot, ref_force = kernel.share_load(*problem)
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    warm_rot, warm_force = kernel.share_load(*problem, angle_axis=True)
+    cold_rot, cold_force = kernel.share_load(*problem)
+    top = np.max(ref_force)
+    np.testing.assert_allclose(warm_rot, cold_rot, rtol=1e-14, atol=0)
+    np.testing.assert_allclose(warm_force, cold_force, rtol=0, atol=1e-14 * top)
+    np.testing.assert_allclose(warm_rot, ref_rot, rtol=1e-13, atol=0)
+    np.testing.assert_allclose(warm_force, ref_force, rtol=0, atol=1e-13 * top)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from cyclomesh import ConvergenceError
-from cyclomesh.core.loadsharing import TORQUE_TOLERANCE, share_load
+from cyclomesh.core.loadsharing import ROUND_OFF_TORQUE, TORQUE_TOLERANCE, column_sum, share_load
 
 ARMS = np.array([0.0, 30e-3, 48e-3, 55e-3, 58e-3, 57e-3, 50e-3, 40e-3, 25e-3, 10e-3])
 
@@ -60,3 +60,23 @@ def test_no_pin_can_carry_the_torque():
 def test_torque_beyond_the_contact_law_is_refused():
     with pytest.raises(ConvergenceError, match="torque too large"):
         share_load(np.zeros(3), np.full(3, 1e-3), 5e-9, 4e-10, 1e12)
+
+
+def test_the_root_is_reached_at_round_off_whatever_the_start():
+    """Newton runs past 1e-12·T to the root: the torque residual is at round-off, and a
+    start left or right of the root (a neighbouring crank angle's) gives the same root to
+    a few units in the last place, not merely another point within 1e-12·T."""
+    rng = np.random.default_rng(11)
+    backlash = rng.uniform(0, 2e-5, (40, 10))
+    backlash[:, 2] = 0.0
+    alpha = rng.uniform(5.2e-9, 6.6e-9, (40, 10))
+    gamma = rng.uniform(3.4e-10, 4.0e-10, (40, 10))
+    for torque in (1.0, 250.0, 2000.0):
+        rot, force = share_load(backlash, ARMS, alpha, gamma, torque)
+        total = column_sum(force * ARMS)
+        # each case's last step did not reduce a residual already at the sum's round-off
+        assert np.all(np.abs(total - torque) <= 8 * ROUND_OFF_TORQUE * torque)
+        for factor in (0.7, 0.999, 1.001, 1.3):
+            again, moved = share_load(backlash, ARMS, alpha, gamma, torque, start=factor * rot)
+            np.testing.assert_allclose(again, rot, rtol=1e-14, atol=0)
+            np.testing.assert_allclose(moved, force, rtol=0, atol=1e-14 * np.max(force))

@@ -306,6 +306,7 @@ CHANGE["design.disc.bore_radius_mm"] = 20.0  # drawn by export, another kind's k
 
 # issue 26: crankshafts and carrier from their geometry, measured loops
 SHAFT = {"support_span_mm": 40.0, "disc_pitch_mm": 11.0}
+TAPERED = {"rollers": 13, "roller_length_mm": 8.0, "contact_angle_deg": 13.1, "preload_n": 3e3}
 PILLARS = {
     "pillars": 3,
     "pillar_diameter_mm": 14.0,
@@ -317,6 +318,10 @@ CHANGE.update(
         "stage.crankshaft.support_span_mm": 45.0,
         "stage.crankshaft.disc_pitch_mm": 12.0,
         "stage.crankshaft.support_bearing_stiffness_n_per_um": 300.0,
+        "stage.crankshaft.support_bearing.rollers": 15,
+        "stage.crankshaft.support_bearing.roller_length_mm": 6.0,
+        "stage.crankshaft.support_bearing.contact_angle_deg": 20.0,
+        "stage.crankshaft.support_bearing.preload_n": 1e3,
         "stage.carrier.pillars": 4,
         "stage.carrier.pillar_diameter_mm": 12.0,
         "stage.carrier.pillar_length_mm": 20.0,
@@ -378,6 +383,9 @@ def change_table(key: str, kind: str = "run") -> dict[str, Any]:
         return steps if kind in staged else merge(STAGE, steps)
     if key.startswith("stage.") and kind not in staged:
         whole = {  # a valid [stage.crankshaft] / [stage.carrier] around the key
+            "stage.crankshaft.support_bearing.": {
+                "stage": {"crankshaft": {**SHAFT, "support_bearing": TAPERED}}
+            },
             "stage.crankshaft.": {"stage": {"crankshaft": SHAFT}},
             "stage.carrier.": {"stage": {"crankshaft": SHAFT, "carrier": PILLARS}},
             "stage.duty_cycle.": {"stage": {"duty_cycle": DUTY}},
@@ -431,7 +439,15 @@ def merge(base: dict[str, Any], change: dict[str, Any]) -> dict[str, Any]:
 
 for _kind in ("run", "stiffness", "design", "tolerance", "allocate"):
     for _key in schema_keys():
-        if _key.startswith("stage.crankshaft."):
+        if _key.startswith("stage.crankshaft.support_bearing."):
+            CONTEXT[(_kind, _key)] = merge(
+                STAGE,
+                {
+                    "design": {"discs": 2},
+                    "stage": {"crankshaft": {**SHAFT, "support_bearing": TAPERED}},
+                },
+            )
+        elif _key.startswith("stage.crankshaft."):
             CONTEXT[(_kind, _key)] = merge(
                 STAGE, {"design": {"discs": 2}, "stage": {"crankshaft": SHAFT}}
             )

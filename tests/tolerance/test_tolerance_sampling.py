@@ -204,3 +204,86 @@ def test_crank_hole_errors_have_their_own_streams_per_disc_and_crank():
     # the same distribution on 2000 draws: uniform on ±4 µm (Kolmogorov–Smirnov)
     many = draw_ring_errors(spec(hole_radial_um=UNIFORM), 40, A_M, range(400), holes=(1, 5))
     assert stats.kstest(many.hole_radial_um.ravel(), stats.uniform(-4.0, 8.0).cdf).pvalue > 1e-3
+
+
+def _per_ring(s, pins, a, rings, holes=None):
+    """The draws ring by ring from the ring's own NumPy generators (the contract of the
+    module doc), written out independently of draw_ring_errors."""
+    from cyclomesh.tolerance import sampling as smp
+
+    def gen(k, kind):
+        return np.random.Generator(np.random.PCG64(np.random.SeedSequence([s.seed, k, kind])))
+
+    def standard(dist, rng, size):
+        if dist.distribution == "uniform":
+            return rng.uniform(-1.0, 1.0, size) * dist.half_range
+        return rng.standard_normal(size) * dist.sigma
+
+    out = {name: np.zeros((len(rings), pins)) for name in ("radial", "angular", "pin_radius")}
+    out["eccentricity"] = np.zeros(len(rings))
+    for name in ("hole_radial_um", "hole_tangential_um"):
+        out[name] = np.zeros((len(rings), *(holes or (0, 0))))
+    for j, k in enumerate(rings):
+        if s.radial_um is not None:
+            out["radial"][j] = standard(s.radial_um, gen(k, smp._RADIAL), pins)
+        if s.angular_urad is not None:
+            out["angular"][j] = standard(s.angular_urad, gen(k, smp._ANGULAR), pins)
+        if s.tangential_um is not None:
+            out["angular"][j] = standard(s.tangential_um, gen(k, smp._TANGENTIAL), pins) / a
+        if s.position is not None:
+            u = gen(k, smp._POSITION).random((2, pins))
+            r, theta = np.sqrt(u[0]), 2.0 * np.pi * u[1]
+            half = 0.5 * s.position.zone_diameter_um
+            out["radial"][j] = half * (r * np.cos(theta))
+            out["angular"][j] = half * (r * np.sin(theta)) / a
+        if s.pin_radius_um is not None:
+            out["pin_radius"][j] = standard(s.pin_radius_um, gen(k, smp._PIN_RADIUS), pins)
+        if s.eccentricity_um is not None:
+            out["eccentricity"][j] = standard(s.eccentricity_um, gen(k, smp._ECCENTRICITY), 1)[0]
+        for name, kind in (
+            ("hole_radial_um", smp._HOLE_RADIAL),
+            ("hole_tangential_um", smp._HOLE_TANGENTIAL),
+        ):
+            if holes and getattr(s, name) is not None:
+                size = holes[0] * holes[1]
+                out[name][j] = standard(getattr(s, name), gen(k, kind), size).reshape(holes)
+    return out
+
+
+@pytest.mark.parametrize("seed", [0, 11, 2**32 - 1, 2**40 + 5, 2**70 + 3])
+@pytest.mark.parametrize(
+    "kinds",
+    [
+        {
+            "radial_um": UNIFORM,
+            "angular_urad": {"distribution": "uniform", "half_range": 50.0},
+            "pin_radius_um": {"distribution": "normal", "sigma": 1.0},
+            "eccentricity_um": {"distribution": "uniform", "half_range": 2.0},
+            "hole_radial_um": UNIFORM,
+            "hole_tangential_um": {"distribution": "normal", "sigma": 2.0},
+        },
+        {
+            "position": {"distribution": "true_position", "zone_diameter_um": 8.0},
+            "pin_radius_um": {"distribution": "uniform", "half_range": 1.5},
+            "eccentricity_um": {"distribution": "normal", "sigma": 1.0},
+            "hole_tangential_um": UNIFORM,
+        },
+        {"tangential_um": UNIFORM, "radial_um": {"distribution": "normal", "sigma": 2.0}},
+    ],
+)
+def test_batched_draws_are_the_per_ring_generators_bit_for_bit(seed, kinds):
+    """Every number of a batch's draws is that of the ring's own NumPy generators (the
+    reproducibility contract of the module doc), for large seeds and ring indices too."""
+    s = spec(**kinds).model_copy(update={"seed": seed})
+    for rings in ([0, 1, 2, 3, 17, 2**31, 2**32 - 1], [5, 2**32, 2**33 + 1], []):
+        got = draw_ring_errors(s, 40, A_M, rings, holes=(2, 3))
+        ref = _per_ring(s, 40, A_M, rings, holes=(2, 3))
+        for name, value in (
+            ("radial", got.radial_um),
+            ("angular", got.angular_urad),
+            ("pin_radius", got.pin_radius_um),
+            ("eccentricity", got.eccentricity_um),
+            ("hole_radial_um", got.hole_radial_um),
+            ("hole_tangential_um", got.hole_tangential_um),
+        ):
+            np.testing.assert_array_equal(value, ref[name], strict=True, err_msg=name)

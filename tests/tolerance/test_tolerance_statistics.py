@@ -115,3 +115,39 @@ def test_allocation_censored_when_no_ring_exceeds():
     a = allocate_factor(lower, upper, 0.01, 0.95, factor_max=2.0)
     assert a.factor == 2.0 and a.factor_censored
     assert "or more" in a.statement()
+
+
+def _ranks_over_the_whole_range(n, p, confidence):
+    """The ranks of order_statistic_ranks from the binomial CDF at every rank 0 .. n + 1."""
+    r = np.arange(0, n + 2)
+    cdf = np.where(r - 1 < 0, 0.0, stats.binom.cdf(r - 1, n, p))
+    alpha = 1.0 - confidence
+    low = np.nonzero(cdf <= alpha / 2)[0]
+    high = np.nonzero(cdf >= 1.0 - alpha / 2)[0]
+    return (int(r[low[-1]]) if low.size else 0, int(r[high[0]]) if high.size else n + 1)
+
+
+@pytest.mark.parametrize("n", [1, 5, 50, 299, 1000, 20000, 250000])
+@pytest.mark.parametrize("confidence", [0.5, 0.95, 0.9999])
+def test_order_statistic_ranks_searched_in_a_window_are_those_of_the_whole_range(n, confidence):
+    for p in (0.0, 0.001, 0.05, 0.5, 0.95, 0.99, 1.0):
+        assert order_statistic_ranks(n, p, confidence) == _ranks_over_the_whole_range(
+            n, p, confidence
+        )
+
+
+def test_percentiles_of_a_partial_sort_are_those_of_a_full_sort():
+    """One partition at the needed ranks and one percentile call give the numbers of a
+    full sort and one call per percentile, bit for bit (ties and NaN included)."""
+    rng = np.random.default_rng(11)
+    for n in (3, 40, 1001):
+        for x in (rng.normal(size=n), np.round(rng.gamma(2.0, 3.0, n))):
+            s = np.sort(x)
+            for p in percentile_with_interval(x, (1, 5, 50, 95, 99)):
+                lo, hi = order_statistic_ranks(n, p.percent / 100.0)
+                assert p.estimate == np.percentile(s, p.percent)
+                assert p.lower == s[lo - 1] if lo >= 1 else np.isnan(p.lower)
+                assert p.upper == s[hi - 1] if hi <= n else np.isnan(p.upper)
+    x = rng.normal(size=50)
+    x[7] = np.nan
+    assert all(np.isnan(p.estimate) for p in percentile_with_interval(x))

@@ -61,14 +61,16 @@ def compiled() -> Any:
     except ImportError:
         return None
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _mod_2pi  # compiled in place, so the passes call it compiled
+    global _mod_2pi, _row_min  # compiled in place, so the passes call them compiled
     _mod_2pi = jit(_mod_2pi)
+    _row_min = jit(_row_min)
 
     class Passes:
         contact_phase = jit(_contact_phase)
         contact_finish = jit(_contact_finish)
         compliance = jit(_compliance)
         stresses = jit(_stresses)
+        rests = jit(_rests)
 
     return Passes
 
@@ -353,6 +355,56 @@ def _stresses(
         stress[j] = math.sqrt(f * e_tooth / (pi_width * rho))
         rho_g = rp * groove_radius / (groove_radius - rp)
         g_stress[j] = math.sqrt(gf * e_groove / (pi_width * rho_g))
+
+
+def _row_min(x, arm, cond, sign, j0, m):  # pragma: no cover (compiled)
+    """np.min over the row of sign·x where arm ≥ cond (else inf), NaN propagating; if
+    that is not finite, np.min over the row of sign·x (the reference's fallback).
+    Branch-free loops: the smaller value kept, a NaN remembered."""
+    best = math.inf
+    nan = False
+    for j in range(j0, j0 + m):
+        v = sign * x[j] if arm[j] >= cond else math.inf
+        nan |= v != v
+        best = v if v < best else best
+    if nan:
+        return math.nan
+    if math.isfinite(best):
+        return best
+    best = math.inf
+    for j in range(j0, j0 + m):
+        v = sign * x[j]
+        nan |= v != v
+        best = v if v < best else best
+    return math.nan if nan else best
+
+
+def _rests(rotation, reverse_rotation, arm, cond, m, rest, reverse):  # pragma: no cover
+    """Rest positions on the loaded and on the opposite flanks of every row of m
+    contacts (flat arrays), as :func:`cyclomesh.drive.mesh.rest_positions` takes them
+    with :func:`cyclomesh.core.ltca.rest_position`: the smallest conditioned contact
+    rotation, and minus the smallest conditioned negated reverse rotation."""
+    for i in range(rest.size):
+        rest[i] = _row_min(rotation, arm, cond, 1.0, i * m, m)
+        reverse[i] = -_row_min(reverse_rotation, arm, cond, -1.0, i * m, m)
+
+
+def rest_arrays(rotation, reverse_rotation, moment_arm, cond):
+    """(rest, reverse rest) [rad] of contacts (..., m) in one compiled pass over the rows
+    (:func:`_rests`): min, negation and comparisons only, so the reference's bits."""
+    shape = rotation.shape
+    m = shape[-1]
+    rest, reverse = np.empty(shape[:-1]), np.empty(shape[:-1])
+    compiled().rests(
+        _flat(rotation, shape),
+        _flat(reverse_rotation, shape),
+        _flat(moment_arm, shape),
+        float(cond),
+        m,
+        rest.reshape(-1),
+        reverse.reshape(-1),
+    )
+    return rest, reverse
 
 
 def contact_arrays(

@@ -10,7 +10,13 @@ backlash φbl,i and moment arm l_i, deforms by δi = l_i·(Δφc − φbl,i) whe
 M is increasing and convex in Δφc (each F is convex in δ, (·)⁺ is convex), so Newton's
 method started right of the root decreases monotonically onto it. The start is the
 rotation at which any single pin alone would carry T, which bounds the root from above.
-The iteration runs to a torque residual below 1e-12·T (the paper stops at 1 %).
+The iteration runs to the root at round-off (the paper stops at 1 %): once the torque
+residual is below 1e-12·T, Newton's steps go on while they still reduce it, and stop at
+a residual of a few units in the last place of T (:data:`ROUND_OFF_TORQUE`) or at the
+first step that does not reduce it (the residual's round-off floor, the sum of the pin
+moments). From 1e-12·T one step (quadratic convergence) reaches that floor, so the
+result no longer depends on the path Newton took: any start gives the same root to
+round-off.
 
 References
 ----------
@@ -28,12 +34,18 @@ from numpy.typing import ArrayLike, NDArray
 from cyclomesh.core.hertz import force_from_approach
 from cyclomesh.exceptions import ConvergenceError
 
-__all__ = ["share_load", "Balance", "column_sum", "TORQUE_TOLERANCE"]
+__all__ = ["share_load", "Balance", "column_sum", "TORQUE_TOLERANCE", "ROUND_OFF_TORQUE"]
 
 FloatArray = NDArray[np.float64]
 
 TORQUE_TOLERANCE = 1e-12
-"""Relative torque residual |Σ F·l − T|/T at which equilibrium is accepted."""
+"""Relative torque residual |Σ F·l − T|/T below which Newton's steps are near the root:
+from there they go on to round-off (:data:`ROUND_OFF_TORQUE`, or a step that no longer
+reduces the residual)."""
+ROUND_OFF_TORQUE = 4.0 * float(np.finfo(float).eps)
+"""Relative torque residual |Σ F·l − T|/T at which the root is reached (four units in
+the last place of T, about 8.9e-16); a residual within :data:`TORQUE_TOLERANCE`·T that a
+Newton step does not reduce ends the iteration as well (the round-off of the sum)."""
 _MAX_ITERATIONS = 100
 
 
@@ -129,6 +141,7 @@ def share_load(
     subtract loads that are small because their l is, and can move the root right of the
     start: a case whose root passes the backlash of a pin left out is solved again with
     every usable pin. With l' = l the loop is the paper's, bit for bit (l·l' = l·l = l²).
+    The loop runs to the root at round-off (the module's note), not only to 1e-12·T.
     """
     bl = np.asarray(backlash, float)
     arm = np.asarray(moment_arm, float)
@@ -229,6 +242,8 @@ def _newton(
     c_data = {key: take(value, order, -1) for key, value in (data or {}).items()}
 
     tol = TORQUE_TOLERANCE * torque
+    floor = ROUND_OFF_TORQUE * torque
+    last = np.full(x.shape, np.inf)  # |residual| of each case's step before
     active = np.ones(x.shape, bool)
     force = np.zeros_like(c_bl)
     for _ in range(_MAX_ITERATIONS):
@@ -253,9 +268,13 @@ def _newton(
                 c_data if every else {key: value[active] for key, value in c_data.items()},
             )
             resid = moment - torque[active]
-        done = np.abs(resid) <= tol[active]
+        # at the root: a residual at round-off, or one near the root that the step
+        # before did not reduce (the floor of the sum's round-off)
+        size = np.abs(resid)
+        done = (size <= floor[active]) | ((size <= tol[active]) & (size >= last[active]))
         step = np.where(done, 0.0, resid / np.where(slope > 0, slope, np.inf))
         idx = np.flatnonzero(active)
+        last[idx] = size
         x[idx] = xa - step
         active[idx[done]] = False
         if not np.any(active):
@@ -263,7 +282,7 @@ def _newton(
     else:
         err = ConvergenceError(
             f"load sharing did not converge: torque residual above "
-            f"{TORQUE_TOLERANCE:.0e}·T after {_MAX_ITERATIONS} Newton steps"
+            f"{TORQUE_TOLERANCE:.0e}·T or still falling after {_MAX_ITERATIONS} Newton steps"
         )
         err.case_index = int(np.flatnonzero(active)[0])
         raise err

@@ -131,8 +131,8 @@ class FrictionCoupling:
         friction moment (on the bearing load, the resultant of the pin forces) are
         functions of the pin loads, hence of the rotation alone: they enter the same
         Newton loop (:class:`~cyclomesh.core.friction.FrictionBalance`), so that μ and M_b
-        are those of the returned loads exactly and the torque residual is below
-        1e-12·T, in one load sharing."""
+        are those of the returned loads exactly and the torque residual is at round-off
+        (:data:`~cyclomesh.core.loadsharing.ROUND_OFF_TORQUE`), in one load sharing."""
         mesh, geo = self.mesh, self.mesh.geo
         flat = mesh.backlash.shape
         shape = geo.rotation.shape

@@ -24,8 +24,14 @@ from numpy.typing import NDArray
 from cyclomesh.core.contact import UnloadedContact, unloaded_contact
 from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
 from cyclomesh.core.fields import CONTACT_FIELDS, PIN_FIELDS, contact_fields
-from cyclomesh.core.kernel import share_load
-from cyclomesh.core.ltca import locate_failure, pin_compliance, rest_position
+from cyclomesh.core.kernel import kernel_name, share_load
+from cyclomesh.core.kernel_contact import rest_arrays
+from cyclomesh.core.ltca import (
+    CONDITIONED_ARM,
+    locate_failure,
+    pin_compliance,
+    rest_position,
+)
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.drive.friction import FRICTION_FIELDS, FrictionCoupling
 from cyclomesh.drive.mirror import mirror_problem, unmirror
@@ -120,6 +126,10 @@ def rest_positions(geo: UnloadedContact, pins: int, discs: int) -> tuple[FloatAr
     """
     flat = (*geo.rotation.shape[:-2], discs * pins)
     arm = geo.moment_arm.reshape(flat)
+    if kernel_name() == "numba":  # the same min and comparisons in one compiled pass
+        return rest_arrays(
+            geo.rotation.reshape(flat), geo.reverse_rotation.reshape(flat), arm, CONDITIONED_ARM
+        )
     rest = rest_position(geo.rotation.reshape(flat), arm)
     reverse_rest = -rest_position(-geo.reverse_rotation.reshape(flat), arm)
     return rest, reverse_rest

@@ -81,6 +81,13 @@ _PLAY = ("play", *_table("play")["play"])
 _METRIC_SOURCES = {metric.reduce[0] for metric in METRICS.values()}
 """The variables :data:`METRICS` reduce."""
 _METRIC_PIN_SOURCES = tuple(name for name in _PER_PIN if name in _METRIC_SOURCES)
+_PIN_MAX_SOURCES = frozenset(
+    name
+    for name in _METRIC_PIN_SOURCES
+    if all(m.reduce[1] in ("max", "positive") for m in METRICS.values() if m.reduce[0] == name)
+)
+"""Per-pin sources that :data:`METRICS` only reduce by their largest value (``max``,
+``positive``): :func:`drive_metrics` may take each crank angle's largest first."""
 
 
 def to_dataset(
@@ -510,7 +517,15 @@ def drive_metrics(result: Drive, teeth: int) -> dict[str, NDArray]:
     angles, discs, pins = result.pin_load.shape[-3:]
 
     def per_pin(name: str) -> NDArray:
-        value = getattr(result, name)[..., 0, :, :, :] * _PER_PIN[name][0]
+        value = getattr(result, name)[..., 0, :, :, :]
+        scale = _PER_PIN[name][0]
+        if name in _PIN_MAX_SOURCES and scale > 0:
+            # the largest over the crank angles, discs and pins first (one pass over each
+            # ring's values), then the unit: fl(s·x) is monotone in x for s > 0, so
+            # max(s·x) = s·max(x), bit for bit
+            whole = value.reshape(*value.shape[:-3], 1, angles * discs * pins)
+            return np.max(whole, axis=-1, keepdims=True) * scale
+        value = value * scale
         return value.reshape(*value.shape[:-2], discs * pins)
 
     out = summary_metrics(

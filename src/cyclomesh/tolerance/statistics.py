@@ -20,8 +20,10 @@ Methods (stated in every output that uses them):
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -75,15 +77,46 @@ def order_statistic_ranks(n: int, p: float, confidence: float = 0.95) -> tuple[i
     """1-based ranks (l, u) of the order-statistic interval for the p-quantile.
 
     A rank of 0 (lower) or n + 1 (upper) means the bound is not available.
+
+    The binomial distribution function is evaluated on the ranks within
+    :data:`RANK_WINDOW_SD` standard deviations of n·p only (:func:`_rank_window`), where
+    it crosses α/2 and 1 − α/2; outside it, it is within about 1e-30 of 0 or 1, so the
+    ranks are those of the whole range 0 .. n + 1, which is taken instead whenever the
+    window's ends do not bracket both crossings. Cached: a study asks for the same
+    (n, p, confidence) once per metric.
     """
+    return _order_statistic_ranks(int(n), float(p), float(confidence))
+
+
+RANK_WINDOW_SD = 12.0
+"""Half-width of the window of ranks around n·p that :func:`order_statistic_ranks` searches,
+in standard deviations sqrt(n·p·(1 − p)) of the binomial distribution [-]."""
+
+
+@cache
+def _order_statistic_ranks(n: int, p: float, confidence: float) -> tuple[int, int]:
     alpha = 1.0 - confidence
-    r = np.arange(0, n + 2)
+    first, stop = _rank_window(n, p)
+    r = np.arange(first, stop)
     cdf = binomial_cdf(r - 1, n, p)  # P(B ≤ r − 1)
+    brackets = (first == 0 or cdf[0] <= alpha / 2) and (stop == n + 2 or cdf[-1] >= 1.0 - alpha / 2)
+    if not brackets:  # the crossings outside the window: the whole range
+        r = np.arange(0, n + 2)
+        cdf = binomial_cdf(r - 1, n, p)
     lower_ok = np.nonzero(cdf <= alpha / 2)[0]
     lower = int(r[lower_ok[-1]]) if lower_ok.size else 0
     upper_ok = np.nonzero(cdf >= 1.0 - alpha / 2)[0]
     upper = int(r[upper_ok[0]]) if upper_ok.size else n + 1
     return max(lower, 0), min(upper, n + 1)
+
+
+def _rank_window(n: int, p: float) -> tuple[int, int]:
+    """Ranks first .. stop − 1 within :data:`RANK_WINDOW_SD` standard deviations (and 2
+    ranks) of n·p, clipped to 0 .. n + 1."""
+    half = RANK_WINDOW_SD * math.sqrt(n * p * (1.0 - p)) + 2.0
+    first = max(0, math.floor(n * p - half))
+    stop = min(n + 2, math.ceil(n * p + half) + 1)
+    return first, stop
 
 
 def percentile_with_interval(
@@ -99,16 +132,25 @@ def percentile_with_interval(
         Percentiles in [0, 100].
     confidence : float
         Two-sided confidence level of the intervals [-].
+
+    The order statistics the intervals need are found by one partial sort
+    (``numpy.partition`` at those ranks: the same values as a full sort's), and the
+    estimates by one ``numpy.percentile`` call for all ``percents`` (elementwise the
+    same interpolation as one call per percentile).
     """
-    x = np.sort(np.asarray(values, dtype=float).reshape(-1))
+    x = np.asarray(values, dtype=float).reshape(-1)
     n = x.size
+    if not n:
+        return [Percentile(float(q), *(float("nan"),) * 3) for q in percents]
+    ranks = [order_statistic_ranks(n, q / 100.0, confidence) for q in percents]
+    kth = sorted({k - 1 for pair in ranks for k in pair if 1 <= k <= n})
+    part = np.partition(x, kth) if kth else x
+    estimates = np.percentile(x, list(percents)) if len(percents) else []
     out = []
-    for q in percents:
-        est = float(np.percentile(x, q)) if n else float("nan")
-        lo_rank, hi_rank = order_statistic_ranks(n, q / 100.0, confidence) if n else (0, 1)
-        lo = float(x[lo_rank - 1]) if 1 <= lo_rank <= n else float("nan")
-        hi = float(x[hi_rank - 1]) if 1 <= hi_rank <= n else float("nan")
-        out.append(Percentile(float(q), est, lo, hi))
+    for q, est, (lo_rank, hi_rank) in zip(percents, estimates, ranks, strict=True):
+        lo = float(part[lo_rank - 1]) if 1 <= lo_rank <= n else float("nan")
+        hi = float(part[hi_rank - 1]) if 1 <= hi_rank <= n else float("nan")
+        out.append(Percentile(float(q), float(est), lo, hi))
     return out
 
 
