@@ -83,6 +83,48 @@ def test_pin_law_hands_an_uninvertible_pin_to_the_reference():
     assert got is None
 
 
+def test_stiff_limit_split_is_the_reference_to_round_off(monkeypatch):
+    """The start's split of each disc's load over its bearings, compiled and NumPy: the
+    same forces to round-off, each disc's resultant and moment carried (Σ B·d̂ = target)."""
+    from cyclomesh.stage.supports import stiff_limit_split
+
+    rng = np.random.default_rng(5)
+    A, D, N, L = 40, 2, 3, 36e-3
+    ang = rng.uniform(0, 2 * np.pi, (A, 1)) + 2 * np.pi * np.arange(N) / N
+    hx, hy = L * np.cos(ang), L * np.sin(ang)
+    fx, fy = rng.normal(0, 3e3, (A, D)), rng.normal(0, 3e3, (A, D))
+    moment = rng.normal(0, 200.0, (A, D))
+    fx[3, 1] = fy[3, 1] = moment[3, 1] = 0.0  # a disc that carries nothing
+    out = {}
+    for name in kernel.KERNELS:
+        monkeypatch.setenv(kernel.ENV_VAR, name)
+        out[name] = stiff_limit_split(hx, hy, L, fx, fy, moment)
+    for a, b in zip(out["numpy"], out["numba"], strict=True):
+        assert np.max(np.abs(a - b)) <= 1e-13 * np.max(np.abs(a))
+    bx, by = out["numba"]
+    assert np.allclose(bx.sum(-1), fx, rtol=0, atol=1e-9 * 3e3)
+    assert np.allclose(by.sum(-1), fy, rtol=0, atol=1e-9 * 3e3)
+    assert np.allclose(np.sum(hx[:, None] * by - hy[:, None] * bx, -1), moment, atol=1e-9 * 200)
+    assert np.all(bx[3, 1] == 0.0) and np.all(by[3, 1] == 0.0)
+
+
+@pytest.mark.parametrize("spring", [None, 300e6])
+def test_bearing_deflection_is_the_reference_to_round_off(monkeypatch, spring):
+    """The start's bearing deflection at a load, compiled and NumPy, with and without a
+    series spring: the same s to round-off, and the law gives back the load."""
+    from cyclomesh.stage.supports import BearingLaw, bearing_deflection
+
+    law = BearingLaw(BEARING, spring)
+    force = np.concatenate([[0.0, 1e-3, 1.0], np.geomspace(10.0, 2e4, 57)]).reshape(6, 10)
+    out = {}
+    for name in kernel.KERNELS:
+        monkeypatch.setenv(kernel.ENV_VAR, name)
+        out[name] = bearing_deflection(law, force)
+    assert np.max(np.abs(out["numpy"] - out["numba"])) <= 1e-14 * np.max(out["numpy"])
+    back = law.evaluate(out["numba"])[0]
+    assert np.allclose(back, force, rtol=1e-11, atol=1e-12)
+
+
 def _both(monkeypatch, solve):
     out = {}
     for name in kernel.KERNELS:

@@ -217,17 +217,27 @@ def _near(p: _Problem, x: FloatArray, discs: int, rigid: bool) -> _Problem:
     return dataclasses.replace(p, **fields)
 
 
-def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray):
+def _solve(
+    p: _Problem,
+    law,
+    x: FloatArray,
+    discs: int,
+    rigid: bool,
+    phi: FloatArray,
+    state: dict | None = None,
+):
     """:func:`~cyclomesh.stage.newton.newton` on the pins near contact (:func:`_near`),
     then every pin checked: the crank angles where a left-out pin closed are solved
     again from there with all pins (the answer is the whole problem's either way). If
     the near pins alone do not converge (a left-out pin that would have held a disc),
     the whole problem is solved from the start, so this fails only where it fails. The
-    compliant disc's problem goes through :func:`_body_newton`."""
+    compliant disc's problem goes through :func:`_body_newton`. ``state``: a dict that
+    the compiled iteration fills with the state at the solution (:func:`_kernel_newton`),
+    left empty otherwise."""
     if p.slip is None and (rigid or (p.body is None and law.k is None)) and compiled():
         # CYCLOMESH_KERNEL=numba: every pin in the compiled pass (an open pin costs it a
         # comparison, less than picking the near ones), so there is no check after
-        return _kernel_newton(p, _evaluate, law, x, discs, rigid, phi)
+        return _kernel_newton(p, _evaluate, law, x, discs, rigid, phi, state)
     solver = newton if rigid or p.body is None else _body_newton
     if p.slip is not None:  # friction: the equations are not a potential's gradient
         solver = friction_newton
@@ -245,12 +255,23 @@ def _solve(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatA
     return x
 
 
-def _kernel_newton(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid: bool, phi):
+def _kernel_newton(
+    p: _Problem,
+    evaluate,
+    law,
+    x: FloatArray,
+    discs: int,
+    rigid: bool,
+    phi,
+    state: dict | None = None,
+):
     """:func:`~cyclomesh.stage.newton.newton` compiled
     (:func:`cyclomesh.stage.kernel_newton.newton`, and
     :func:`~cyclomesh.stage.kernel_newton.rigid_newton` for the rigid phase: each crank
     angle's iteration in one pass); the crank angles it cannot finish are solved by the
-    reference from their start, which raises its own error if it fails."""
+    reference from their start, which raises its own error if it fails. ``state``, when
+    every crank angle was finished by the kernel, receives its state at the solution
+    (the kernels' ``state``)."""
     start = x.copy()
     settings = (
         reference.FORCE_TOLERANCE,
@@ -259,11 +280,14 @@ def _kernel_newton(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid:
         reference._STEP_CAP,
         *reference._LINEAR,
     )
+    found: dict = {}
     if rigid:
-        failed = kernel_rigid_newton(p, x, discs, settings)
+        failed = kernel_rigid_newton(p, x, discs, settings, found)
     else:
         jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, x.shape[1])
-        failed = kernel_newton(p, law, x, discs, jacobian, settings)
+        failed = kernel_newton(p, law, x, discs, jacobian, settings, found)
+    if state is not None and not np.any(failed):
+        state.update(found)
     if np.any(failed):
         idx = np.flatnonzero(failed)
         x[idx] = newton(p.take(idx), evaluate, law, start[idx], discs, rigid, phi[idx])
@@ -377,6 +401,7 @@ def solve_direction(
     motion: float = 1.0,
     loading: float = 0.0,
     positions: bool = True,
+    cache: dict | None = None,
 ) -> dict[str, FloatArray]:
     """Stage under a positive torque in the mesh's frame (``other``: the mirror problem).
 
@@ -391,9 +416,18 @@ def solve_direction(
     same arithmetic as without the argument. ``positions``: the discs that carry nothing
     get their canonical position (:mod:`cyclomesh.stage.floating`); False leaves them
     where the solve stopped (a caller that reports no positions saves the work).
+    ``cache``: a dict kept by a caller that solves this direction (the same ``mesh``,
+    ``other``, ``stage``, ``errs`` and ``supports``) at several torques: the problem's
+    arrays and the bearings' Jacobian, which do not depend on the torque, are formed once
+    (the same arrays, so the same numbers).
     """
     D, n1 = mesh.geo.rotation.shape[-2:]
-    prob = _problem(mesh, other, stage.holes, errs, torque)
+    if cache is not None and "problem" in cache:  # the torque's arrays are the same
+        prob = dataclasses.replace(cache["problem"], torque=torque)
+    else:
+        prob = _problem(mesh, other, stage.holes, errs, torque)
+        if cache is not None:
+            cache["problem"] = prob
     A = prob.bl.shape[0]
     fr = None
     if friction is not None:
@@ -439,9 +473,11 @@ def solve_direction(
         )
     x[:, 1::3] = x[:, [0]]
     bound = x[:, 0].copy()  # one pin alone: an upper bound of the rigid mesh's rotation
-    x = _solve(prob, None, x, D, True, mesh.phi)
-    _, _, _, st = _evaluate(prob, None, x, D, True, hessian=False)
-    F = st["pin_force"]
+    st: dict = {}  # the compiled iteration's state at the solution, else evaluated here
+    x = _solve(prob, None, x, D, True, mesh.phi, st)
+    if not st:
+        _, _, _, st = _evaluate(prob, None, x, D, True, hessian=False)
+    F, k_pin = st["pin_force"], st["pin_stiffness"]
     mesh_te = transmission_error(mesh.rest, x[:, 0])
     rigid = _disc_loads(mesh, prob, F)  # pins on disc
     moment = -rigid["torque_share"]
@@ -467,7 +503,7 @@ def solve_direction(
         ux, uy = dx.mean(-1), dy.mean(-1)
         # turn each disc so that its pins keep (in the least-squares sense, weighted by
         # their stiffness) the approach of the rigid solution despite the translation
-        _, k_pin, _, _ = _pins(prob, x[:, 1::3], None, None)
+        # k_pin: the pins' stiffness at the rigid solution (the rigid evaluate's, u = 0)
         shift = prob.nx * ux[..., None] + prob.ny * uy[..., None]
         weight = np.sum(k_pin * prob.arm * prob.arm, -1)
         turn = -np.sum(k_pin * prob.arm * shift, -1) / np.where(weight > 0, weight, np.inf)
@@ -485,9 +521,28 @@ def solve_direction(
             prob = dataclasses.replace(prob, body=coupling)
             x = np.concatenate([x, z], axis=-1)
         if supports is not None or body is not None:
-            prob.jacobian = bearing_jacobian(prob, D, x.shape[1])
-        x = _solve(prob, law, x, D, False, mesh.phi)
-        energy, g, _, st = _evaluate(prob, law, x, D, False, hessian=False)
+            if cache is None or "jacobian" not in cache:
+                jacobian = bearing_jacobian(prob, D, x.shape[1])
+                if cache is not None and body is None:  # the body's depends on the torque
+                    cache["jacobian"] = jacobian
+            else:
+                jacobian = cache["jacobian"]
+            prob.jacobian = jacobian
+        st = {}
+        x = _solve(prob, law, x, D, False, mesh.phi, st)
+        if st:  # the compiled iteration's state at the solution (the rigid discs' stage)
+            g = st.pop("gradient")
+            st["bearing_part"] = st["deflection"]  # no series spring in the kernel
+            if prob.supports is not None:  # as _evaluate_supported's
+                sup, N = prob.supports, stage.holes.count
+                nw = 2 * D * N if sup.stiffness is not None else 0
+                base = 1 + 3 * D
+                st["shaft_deflection"] = (
+                    x[:, base : base + nw].reshape(A, D, N, 2) if nw else np.zeros((A, D, N, 2))
+                )
+                st["end_plate"] = x[:, base + nw] if sup.carrier is not None else np.zeros(A)
+        else:
+            _, g, _, st = _evaluate(prob, law, x, D, False, hessian=False)
         F = st["pin_force"]
         bfx, bfy = st["bearing_fx"], st["bearing_fy"]
         deflection = st["deflection"]

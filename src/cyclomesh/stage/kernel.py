@@ -210,3 +210,226 @@ def _roller_rows(cosines, half, constant, s, force, stiff, energy):  # pragma: n
         force[i] = fsum
         stiff[i] = ksum
         energy[i] = usum / (p + 1.0)
+
+
+# --- the start of the bearing phase (stiff-limit split, bearing deflection) ---------------
+
+
+@cache
+def _start_kernels() -> tuple[Any, Any]:
+    import numba
+
+    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    global _roller_rows_c, _solve3
+    _roller_rows_c = jit(_roller_rows)
+    _solve3 = jit(_solve3)
+    return jit(_split_rows), jit(_deflection_rows)
+
+
+def split(
+    hx: FloatArray,
+    hy: FloatArray,
+    L: float,
+    mesh_fx: FloatArray,
+    mesh_fy: FloatArray,
+    moment: FloatArray,
+    exponent: float,
+    iterations: int,
+) -> tuple[FloatArray, FloatArray] | None:
+    """:func:`cyclomesh.stage.supports.stiff_limit_split` compiled: the forces on the crank
+    pins [N] (A, D, N) each, or None if a (crank angle, disc) does not converge within
+    ``iterations`` Newton steps (the caller then raises). The reference's arithmetic
+    element by element (its start, step and test for each (crank angle, disc) on its own,
+    as its active set does) except the 3 × 3 solve by Gaussian elimination with partial
+    pivoting (LAPACK's dgesv unblocked) and the C library's pow."""
+    A, D = mesh_fx.shape
+    fx, fy = np.zeros((A, D, hx.shape[-1])), np.zeros((A, D, hx.shape[-1]))
+    ok = _start_kernels()[0](
+        *(np.ascontiguousarray(v, dtype=float) for v in (hx, hy, mesh_fx, mesh_fy, moment)),
+        float(L),
+        float(exponent),
+        int(iterations),
+        fx,
+        fy,
+    )
+    return (fx, fy) if ok else None
+
+
+def _split_rows(hx, hy, mfx, mfy, moment, L, p, iterations, fx, fy):  # pragma: no cover
+    """:func:`split` written for numba."""
+    A, D = mfx.shape
+    N = hx.shape[1]
+    jx = np.zeros(N)
+    jy = np.zeros(N)
+    dx = np.zeros(N)
+    dy = np.zeros(N)
+    B = np.zeros(N)
+    kb = np.zeros(N)
+    cx = np.zeros(N)
+    cy = np.zeros(N)
+    sec = np.zeros(N)
+    vx = np.zeros((3, N))
+    vy = np.zeros((3, N))
+    H = np.zeros((3, 3))
+    g = np.zeros(3)
+    y = np.zeros(3)
+    step = np.zeros(3)
+    for i in range(A):
+        for k in range(N):
+            jx[k] = -hy[i, k]
+            jy[k] = hx[i, k]
+            vx[0, k] = jx[k] / L
+            vy[0, k] = jy[k] / L
+            vx[1, k], vy[1, k] = 1.0, 0.0
+            vx[2, k], vy[2, k] = 0.0, 1.0
+        for d in range(D):
+            t0, t1, t2 = moment[i, d] / L, mfx[i, d], mfy[i, d]
+            if t0 == 0.0 and t1 == 0.0 and t2 == 0.0:
+                continue  # carries nothing: B = 0 exactly
+            # start: the linear (least-norm) split, its magnitude through the power law
+            a0 = 0.0
+            a1 = 0.0
+            a2 = 0.0
+            for k in range(N):
+                lin_x = mfx[i, d] / N + moment[i, d] * jx[k] / (N * L * L)
+                lin_y = mfy[i, d] / N + moment[i, d] * jy[k] / (N * L * L)
+                mag = np.hypot(lin_x, lin_y)
+                s0 = mag ** (1.0 / p)
+                dx0 = lin_x / mag * s0 if mag > 0 else 0.0
+                dy0 = lin_y / mag * s0 if mag > 0 else 0.0
+                a0 += dx0 * jx[k] + dy0 * jy[k]
+                a1 += dx0
+                a2 += dy0
+            y[0], y[1], y[2] = a0 / (N * L), a1 / N, a2 / N
+            scale = max(max(abs(t0), max(abs(t1), abs(t2))), 1e-300)
+            done = False
+            for _ in range(iterations):
+                for k in range(N):
+                    dx[k] = y[1] + y[0] * jx[k] / L
+                    dy[k] = y[2] + y[0] * jy[k] / L
+                    s = np.hypot(dx[k], dy[k])
+                    B[k] = s**p
+                    kb[k] = p * s ** (p - 1.0)
+                    if s > 0:
+                        cx[k], cy[k], sec[k] = dx[k] / s, dy[k] / s, B[k] / s
+                    else:
+                        cx[k], cy[k], sec[k] = 1.0, 0.0, 0.0
+                    fx[i, d, k] = B[k] * cx[k]
+                    fy[i, d, k] = B[k] * cy[k]
+                small = True
+                for r in range(3):
+                    acc = 0.0
+                    for k in range(N):
+                        acc += B[k] * cx[k] * vx[r, k] + B[k] * cy[k] * vy[r, k]
+                    g[r] = acc - (t0 if r == 0 else (t1 if r == 1 else t2))
+                    if not (abs(g[r]) <= 1e-13 * scale):
+                        small = False
+                if small:
+                    done = True
+                    break
+                for r in range(3):
+                    for c in range(3):
+                        acc = 0.0
+                        for k in range(N):
+                            kxx = kb[k] * cx[k] * cx[k] + sec[k] * cy[k] * cy[k]
+                            kyy = kb[k] * cy[k] * cy[k] + sec[k] * cx[k] * cx[k]
+                            kxy = (kb[k] - sec[k]) * cx[k] * cy[k]
+                            acc += (kxx * vx[r, k] + kxy * vy[r, k]) * vx[c, k] + (
+                                kxy * vx[r, k] + kyy * vy[r, k]
+                            ) * vy[c, k]
+                        H[r, c] = acc
+                if not _solve3(H, g, step):
+                    return False
+                for r in range(3):
+                    y[r] = y[r] - step[r]
+            if not done:
+                return False
+    return True
+
+
+def _solve3(H, g, out):  # pragma: no cover (compiled)
+    """out = H⁻¹g (3 × 3) by Gaussian elimination with partial pivoting; False if a pivot
+    is 0 (H is overwritten)."""
+    n = g.size
+    for r in range(n):
+        out[r] = g[r]
+    for k in range(n):
+        piv = k
+        big = abs(H[k, k])
+        for r in range(k + 1, n):
+            if abs(H[r, k]) > big:
+                big = abs(H[r, k])
+                piv = r
+        if big == 0.0:
+            return False
+        if piv != k:
+            for c in range(n):
+                H[k, c], H[piv, c] = H[piv, c], H[k, c]
+            out[k], out[piv] = out[piv], out[k]
+        for r in range(k + 1, n):
+            f = H[r, k] / H[k, k]
+            for c in range(k + 1, n):
+                H[r, c] -= f * H[k, c]
+            out[r] -= f * out[k]
+    for k in range(n - 1, -1, -1):
+        acc = out[k]
+        for c in range(k + 1, n):
+            acc -= H[k, c] * out[c]
+        out[k] = acc / H[k, k]
+    return True
+
+
+def deflection(
+    cosines: FloatArray,
+    half_clearance: float,
+    constant: float,
+    exponent: float,
+    force: FloatArray,
+    iterations: int,
+) -> FloatArray:
+    """:func:`cyclomesh.stage.supports.bearing_deflection`'s roller set compiled: the
+    displacement s [m] at which the roller set (:func:`roller_law`) carries ``force`` [N]
+    ≥ 0 (any shape), by the reference's Newton iteration (every element stepped until all
+    have converged, the reference's whole-array test, or ``iterations`` steps, after which
+    the reference too returns where it is)."""
+    flat = np.ascontiguousarray(force, dtype=float).reshape(-1)
+    s = np.empty(flat.shape)
+    _start_kernels()[1](
+        np.ascontiguousarray(cosines),
+        float(half_clearance),
+        float(constant),
+        float(exponent),
+        flat,
+        int(iterations),
+        s,
+    )
+    return s.reshape(np.shape(force))
+
+
+_roller_rows_c = _roller_rows  # compiled by _start_kernels
+
+
+def _deflection_rows(cosines, half, constant, p, force, iterations, s):  # pragma: no cover
+    """:func:`deflection` written for numba."""
+    n = force.size
+    value = np.zeros(n)
+    stiff = np.zeros(n)
+    energy = np.zeros(n)
+    for i in range(n):
+        s[i] = half + (max(force[i], 0.0) / constant) ** (1.0 / p)
+    for _ in range(iterations):
+        _roller_rows_c(cosines, half, constant, s, value, stiff, energy)
+        done = True
+        for i in range(n):
+            if not (abs(value[i] - force[i]) <= 1e-12 * max(force[i], 1e-300)):
+                done = False
+                break
+        if done:
+            return True
+        for i in range(n):
+            if force[i] > 0:
+                k = stiff[i] if stiff[i] > 0 else np.inf
+                s[i] = s[i] - (value[i] - force[i]) / k
+            else:
+                s[i] = half
+    return False

@@ -33,7 +33,13 @@ FloatArray = NDArray[np.float64]
 
 
 def newton(
-    p, law, x: FloatArray, discs: int, jacobian: FloatArray, settings: tuple
+    p,
+    law,
+    x: FloatArray,
+    discs: int,
+    jacobian: FloatArray,
+    settings: tuple,
+    state: dict | None = None,
 ) -> NDArray[np.bool_]:
     """:func:`cyclomesh.stage.newton.newton` of the rigid discs' stage (``rigid=False``, no
     compliant disc, a bearing law without a series spring), every crank angle on its own
@@ -46,7 +52,11 @@ def newton(
     _STEP_CAP, *_LINEAR), passed in by the caller (this module is imported by the bearing
     law, which cyclomesh.stage.newton imports). ``x`` (A, m) is overwritten by the
     solution; returns the crank angles the kernel could not finish (the caller solves
-    them with the reference, which raises its own error where it fails too).
+    them with the reference, which raises its own error where it fails too). ``state``: a
+    dict that receives the state at the solution of the crank angles it finished, as
+    equilibrium._evaluate's: ``pin_force`` [N] (A, D, P), ``bearing_fx``, ``bearing_fy``
+    [N] and ``deflection`` [m] (A, D, N), and ``gradient`` (A, m), the scaled gradient of
+    its convergence test (the evaluation at the solution the caller need not repeat).
     """
     force, iterations, halvings, cap, low, high = settings
     A, m = x.shape
@@ -62,6 +72,8 @@ def newton(
         for k in range(N):
             cols[d, k, : count[d, k]] = np.flatnonzero(nonzero[d, k])
     failed = np.zeros(A, np.bool_)
+    D, P = p.bl.shape[1], p.bl.shape[2]
+    pf, bf, gout = np.zeros((A, D, P)), np.zeros((A, D, N, 3)), np.zeros((A, m))
     _kernels_newton()(
         x,
         *(np.ascontiguousarray(v) for v in (p.bl, p.arm, p.nx, p.ny, p.alpha, p.gamma, p.dmax)),
@@ -86,7 +98,18 @@ def newton(
         low,
         high,
         failed,
+        pf,
+        bf,
+        gout,
     )
+    if state is not None:
+        state.update(
+            pin_force=pf,
+            bearing_fx=bf[..., 0],
+            bearing_fy=bf[..., 1],
+            deflection=bf[..., 2],
+            gradient=gout,
+        )
     return failed
 
 
@@ -201,10 +224,14 @@ def _evaluate_one(
     g,
     H,
     memo,
+    pf,
+    bf,
 ):  # pragma: no cover (compiled)
     """Potential of crank angle ``i`` at x (m,), with ``want`` its gradient g and Hessian
-    H (scaled: rotations × L) as equilibrium._evaluate; returns (energy, status): status
-    0 usable, 1 an approach at or past dmax (bad), 2 a pin law that cannot be inverted."""
+    H (scaled: rotations × L) as equilibrium._evaluate, and then the state: the pins'
+    forces ``pf[i]`` (D, P) and the bearings' force on the crank pins and deflection
+    ``bf[i]`` (D, N, 3: fx, fy, s); returns (energy, status): status 0 usable, 1 an
+    approach at or past dmax (bad), 2 a pin law that cannot be inverted."""
     m = x.size
     D, P = bl.shape[1], bl.shape[2]
     N = hx.shape[1]
@@ -213,6 +240,9 @@ def _evaluate_one(
             g[r] = 0.0
             for s in range(m):
                 H[r, s] = 0.0
+        for d in range(D):
+            for j in range(P):
+                pf[i, d, j] = 0.0
     status = 0
     pins = 0.0
     for d in range(D):
@@ -236,6 +266,7 @@ def _evaluate_one(
                     logf = np.log(f)
                 pins += 0.5 * f * f * (a - 0.5 * gm - gm * logf)
                 if want:
+                    pf[i, d, j] = f
                     k = 1.0 / (a - gm * (1.0 + logf))
                     v0, v1, v2 = arm[i, d, j] / L, nx[i, d, j], ny[i, d, j]
                     r0 = 1 + 3 * d
@@ -288,6 +319,7 @@ def _evaluate_one(
             else:
                 cx, cy, secant = 1.0, 0.0, kb
             fx, fy = B * cx, B * cy
+            bf[i, d, k, 0], bf[i, d, k, 1], bf[i, d, k, 2] = fx, fy, s
             kxx = kb * cx * cx + secant * cy * cy
             kyy = kb * cy * cy + secant * cx * cx
             kxy = (kb - secant) * cx * cy
@@ -357,6 +389,9 @@ def _newton_rows(
     low,
     high,
     failed,
+    pf,
+    bf,
+    gout,
 ):  # pragma: no cover (compiled)
     """:func:`newton` written for numba: each crank angle's iteration of
     cyclomesh.stage.newton.newton (rigid=False) to the end, on its own."""
@@ -416,6 +451,8 @@ def _newton_rows(
                 g,
                 H,
                 memo,
+                pf,
+                bf,
             )
             if status == 2:
                 break
@@ -436,6 +473,8 @@ def _newton_rows(
             previous = res
             if done:
                 ok_angle = True
+                for r in range(m):
+                    gout[i, r] = g[r]
                 break
             diag = 0.0
             for r in range(m):
@@ -496,6 +535,8 @@ def _newton_rows(
                     gt,
                     Ht,
                     memo,
+                    pf,
+                    bf,
                 )
                 if st == 2:
                     break
@@ -514,14 +555,18 @@ def _newton_rows(
             failed[i] = True
 
 
-def rigid_newton(p, x: FloatArray, discs: int, settings: tuple) -> NDArray[np.bool_]:
+def rigid_newton(
+    p, x: FloatArray, discs: int, settings: tuple, state: dict | None = None
+) -> NDArray[np.bool_]:
     """:func:`cyclomesh.stage.newton.newton` of the rigid stage (``rigid=True``: θ_d = c,
     u = 0, the one unknown c), every crank angle on its own in one compiled pass, the
     reference's step, line search and convergence test. ``x`` (A, 1 + 3D) is overwritten
     by the solution; returns the crank angles the kernel could not finish. ``settings``
-    as :func:`newton`'s."""
+    as :func:`newton`'s; ``state`` receives ``pin_force`` [N] and ``pin_stiffness``
+    [N/m] (A, D, P) at the solution of the crank angles it finished."""
     force, iterations, halvings, cap = settings[:4]
     failed = np.zeros(x.shape[0], np.bool_)
+    pf, pk = np.zeros(p.bl.shape), np.zeros(p.bl.shape)
     _kernels_newton()  # compiles _pin_force
     _kernels_rigid()(
         x,
@@ -533,7 +578,11 @@ def rigid_newton(p, x: FloatArray, discs: int, settings: tuple) -> NDArray[np.bo
         halvings,
         cap,
         failed,
+        pf,
+        pk,
     )
+    if state is not None:
+        state.update(pin_force=pf, pin_stiffness=pk)
     return failed
 
 
@@ -547,14 +596,22 @@ def _kernels_rigid() -> Any:
     return jit(_rigid_rows)
 
 
-def _rigid_one(i, x, bl, arm, alpha, gamma, dmax, torque, L, memo):  # pragma: no cover (compiled)
+def _rigid_one(
+    i, x, bl, arm, alpha, gamma, dmax, torque, L, memo, store, pf, pk
+):  # pragma: no cover (compiled)
     """(energy, ∂/∂(cL), ∂²/∂(cL)², status) of the rigid stage at crank angle ``i``; status
-    as :func:`_evaluate_one`."""
+    as :func:`_evaluate_one`. With ``store`` the pins' forces and stiffnesses in
+    ``pf[i]``, ``pk[i]`` (D, P)."""
     D, P = bl.shape[1], bl.shape[2]
     pins = 0.0
     g = 0.0
     h = 0.0
     status = 0
+    if store:
+        for d in range(D):
+            for j in range(P):
+                pf[i, d, j] = 0.0
+                pk[i, d, j] = 0.0
     for d in range(D):
         th = x[1 + 3 * d]
         for j in range(P):
@@ -578,11 +635,14 @@ def _rigid_one(i, x, bl, arm, alpha, gamma, dmax, torque, L, memo):  # pragma: n
                 v = arm[i, d, j] / L
                 g += f * v
                 h += v * v / (a - gm * (1.0 + logf))
+                if store:
+                    pf[i, d, j] = f
+                    pk[i, d, j] = 1.0 / (a - gm * (1.0 + logf))
     return pins - torque * x[0], g - torque / L, h, status
 
 
 def _rigid_rows(
-    x, bl, arm, alpha, gamma, dmax, torque, L, tol, iterations, halvings, cap, failed
+    x, bl, arm, alpha, gamma, dmax, torque, L, tol, iterations, halvings, cap, failed, pf, pk
 ):  # pragma: no cover (compiled)
     """:func:`rigid_newton` written for numba."""
     A, m = x.shape
@@ -595,7 +655,9 @@ def _rigid_rows(
         xi = x[i].copy()
         ok_angle = False
         for _ in range(iterations):
-            energy, g, h, status = _rigid_one(i, xi, bl, arm, alpha, gamma, dmax, torque, L, memo)
+            energy, g, h, status = _rigid_one(
+                i, xi, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
+            )
             if status == 2:
                 break
             xs = abs(xi[0]) * L
@@ -625,7 +687,7 @@ def _rigid_rows(
                 for d in range(D):
                     trial[1 + 3 * d] = xi[1 + 3 * d] + move
                 e_t, _g, _h2, st = _rigid_one(
-                    i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo
+                    i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, False, pf, pk
                 )
                 if st == 2:
                     break

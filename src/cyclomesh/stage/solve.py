@@ -372,6 +372,7 @@ def solve(
     for ring in np.ndindex(ring_shape):  # rings one after the other (one ring: ())
         results = []
         f_ring, r_ring = ring_mesh(fwd, ring), ring_mesh(rev, ring)
+        caches: tuple[dict, dict] = ({}, {})  # each direction's torque-free arrays
         where = f"ring {np.ravel_multi_index(ring, ring_shape)}, " if ring_shape else ""
         for value in torques:
             try:
@@ -388,6 +389,7 @@ def solve(
                         motion,
                         loading,
                         positions,
+                        caches[0],
                     )
                 else:
                     fields = _reverse(
@@ -403,6 +405,7 @@ def solve(
                             motion,
                             -loading,
                             positions,
+                            caches[1],
                         )
                     )
             except ConvergenceError as exc:

@@ -25,6 +25,7 @@ from cyclomesh.stage.bearing import (
     radial_stiffness,
 )
 from cyclomesh.stage.design import StageDesign
+from cyclomesh.stage.kernel import compiled, deflection, split
 
 __all__ = [
     "BearingLaw",
@@ -127,6 +128,11 @@ def stage_supports(stage: StageDesign, discs: int, order: NDArray[np.int64]) -> 
 def bearing_deflection(law: BearingLaw, force: FloatArray) -> FloatArray:
     """Total displacement s at which the bearing (+ spring) carries ``force`` [m]."""
     rs = law.rs
+    if compiled():  # CYCLOMESH_KERNEL=numba: the same iteration in one compiled pass
+        s = deflection(
+            np.cos(rs.angles), 0.5 * rs.clearance, rs.constant, LOAD_EXPONENT, force, 100
+        )
+        return s + force / law.k if law.k is not None else s
     s = 0.5 * rs.clearance + (np.maximum(force, 0.0) / rs.constant) ** (1.0 / LOAD_EXPONENT)
     for _ in range(100):
         value, k, _ = radial_law(rs, s)
@@ -155,6 +161,11 @@ def stiff_limit_split(
     (A, N); ``L``: their length scale [m]; forces [N], moment [N·m]. Returns the forces on
     the crank pins [N], (A, D, N) each (Harris & Kotzalas's roller law, B = s^(10/9)).
     """
+    if compiled():  # CYCLOMESH_KERNEL=numba: each (crank angle, disc) in one compiled pass
+        out = split(hx, hy, L, mesh_fx, mesh_fy, moment, LOAD_EXPONENT, _SPLIT_ITERATIONS)
+        if out is None:
+            raise ConvergenceError("stage: the stiff-limit bearing load split did not converge")
+        return out
     law = PowerLaw()
     A, D = mesh_fx.shape
     N = hx.shape[-1]
