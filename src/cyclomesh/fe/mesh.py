@@ -10,6 +10,9 @@ absolute) and scaled to metres on return. The element size is ``h_fine`` within
 
 from __future__ import annotations
 
+import ctypes
+import signal
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -51,11 +54,29 @@ class Refinement:
     grow_radius: float
 
 
+def _ignore_sigpipe() -> None:
+    """Set SIGPIPE back to ignored, as Python starts (a write to a closed pipe raises
+    BrokenPipeError): ``gmsh.initialize`` resets it to the default action, which
+    terminates the process. Without this, a process that has meshed once dies (exit
+    141) when it writes to the pipe of a worker that died, instead of rebuilding its
+    pool (:class:`cyclomesh.execution.backends.ProcessBackend`)."""
+    if not hasattr(signal, "SIGPIPE"):  # Windows
+        return
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGPIPE, signal.SIG_IGN)
+    else:  # signal.signal is the main thread's only: the C call, process-wide as well
+        libc = ctypes.CDLL(None)
+        libc.signal.restype = ctypes.c_void_p
+        libc.signal.argtypes = (ctypes.c_int, ctypes.c_void_p)
+        libc.signal(int(signal.SIGPIPE), 1)  # SIG_IGN
+
+
 @contextmanager
 def _session() -> Iterator[None]:
     initialised = gmsh.isInitialized()
     if not initialised:
         gmsh.initialize(interruptible=False)
+        _ignore_sigpipe()
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.option.setNumber("General.NumThreads", 1)
     gmsh.model.add("cyclomesh")
