@@ -247,6 +247,14 @@ class FrictionCoupling:
         }
 
 
+def _mean_loss(friction: dict) -> NDArray[np.float64]:
+    """Power loss of the pins and the crank bearings [W], the mean over the crank angles of
+    the first torque, (...) of every ring."""
+    loss = np.sum(friction["power_loss_tooth"] + friction["power_loss_groove"], axis=(-2, -1))
+    loss = loss + np.sum(friction["power_loss_bearing"], axis=-1)  # (..., Q, A)
+    return np.mean(loss[..., 0, :], axis=-1)
+
+
 def mean_efficiency(result, teeth: int, speed: float) -> NDArray[np.float64]:
     """Forward efficiency of every ring of a one-torque drive with friction [-]:
     P_out/(P_out + P_loss), P_out = |T|·ω/n2 [W] (``teeth`` n2, ``speed`` ω [rad/s]),
@@ -255,11 +263,8 @@ def mean_efficiency(result, teeth: int, speed: float) -> NDArray[np.float64]:
     ``result``: a :class:`~cyclomesh.drive.solve.Drive` (or the RV stage read as one,
     :func:`cyclomesh.stage.efficiency.as_drive`); the tolerance rings' and the stage's
     efficiency."""
-    f = result.friction
-    loss = np.sum(f["power_loss_tooth"] + f["power_loss_groove"], axis=(-2, -1))
-    loss = loss + np.sum(f["power_loss_bearing"], axis=-1)  # (..., Q, A)
     p_out = np.abs(result.torque[0]) * speed / teeth
-    return p_out / (p_out + np.mean(loss[..., 0, :], axis=-1))
+    return p_out / (p_out + _mean_loss(result.friction))
 
 
 def mean_backdrive_efficiency(forward, backward, teeth: int, speed: float) -> NDArray[np.float64]:
@@ -268,8 +273,5 @@ def mean_backdrive_efficiency(forward, backward, teeth: int, speed: float) -> ND
     back-driven solve's losses (pins and crank bearings), as
     :func:`cyclomesh.results.efficiency.efficiency_record` takes it for one case: the
     output shaft delivers P_out, the crank receives what the losses leave of it."""
-    b = backward.friction
-    loss = np.sum(b["power_loss_tooth"] + b["power_loss_groove"], axis=(-2, -1))
-    loss = loss + np.sum(b["power_loss_bearing"], axis=-1)  # (..., Q, A)
     p_out = np.abs(forward.torque[0]) * speed / teeth
-    return (p_out - np.mean(loss[..., 0, :], axis=-1)) / p_out
+    return (p_out - _mean_loss(backward.friction)) / p_out

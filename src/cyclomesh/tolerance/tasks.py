@@ -250,17 +250,14 @@ class RingModel:
                     * M_PER_UM,
                 )
             stage.check_fits(self.design, self.discs)
+            model = Model(
+                self.contact_law, self.groove_deformation, self.stage_disc_body, self.discs, stage
+            )
             res = solve(
                 Case(
                     self.design, self.modification, self.pin_errors(drawn.take([i])), torques, phi
                 ),
-                Model(
-                    self.contact_law,
-                    self.groove_deformation,
-                    self.stage_disc_body,
-                    self.discs,
-                    stage,
-                ),
+                model,
                 positions=False,  # no disc position is a metric: the floating ones left as solved
             )
             te = res.transmission_error[0]  # (Q, A) of the one ring
@@ -275,16 +272,10 @@ class RingModel:
                     *(total[k][i] for k in ("radial_um", "angular_urad", "pin_radius_um")),
                     total["eccentricity_um"][i],
                 )
-                model = Model(
-                    self.contact_law,
-                    self.groove_deformation,
-                    self.stage_disc_body,
-                    self.discs,
-                    stage,
-                    friction,
-                )
                 case = Case(self.design, self.modification, errors, [self.torque_nm], phi)
-                eff = stage_efficiency(case, model, self.backdrive)
+                eff = stage_efficiency(
+                    case, dataclasses.replace(model, friction=friction), self.backdrive
+                )
                 for name, value in eff.items():
                     out[name][i] = value
         if self.stage.bearing is None:
