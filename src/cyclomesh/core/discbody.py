@@ -36,8 +36,9 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from cyclomesh.core import kernel_discbody
 from cyclomesh.core.hertz import force_from_approach
-from cyclomesh.core.kernel import share_load
+from cyclomesh.core.kernel import kernel_name, share_load
 from cyclomesh.core.loadsharing import TORQUE_TOLERANCE
 from cyclomesh.exceptions import ConvergenceError
 
@@ -174,6 +175,13 @@ class DiscBody:
         win = np.lib.stride_tricks.sliding_window_view(padded, (4, 4), axis=(2, 3))
         return np.ascontiguousarray(win.reshape(p * n2 * (m - 1) ** 2, 16).T)
 
+    @cached_property
+    def _window_rows(self) -> FloatArray:
+        """:attr:`_windows` window-major, shape (p·n2·(m − 1)², 16): the compiled load
+        sharing (:mod:`cyclomesh.core.kernel_discbody`) reads one window's 16 values in a
+        row."""
+        return np.ascontiguousarray(self._windows.T)
+
     def matrix(self, tooth: ArrayLike, angle: ArrayLike) -> FloatArray:
         """C_ij of contacts at (tooth, profile angle), shape (..., n) → (..., n, n) [m/N].
 
@@ -275,6 +283,7 @@ def share_load_coupled(
     tooth: ArrayLike,
     profile_angle: ArrayLike,
     groups: int = 1,
+    angle_axis: bool = False,
 ) -> tuple[FloatArray, FloatArray]:
     """Load sharing with the compliant disc body (Eqs. 15–18 of [1] plus Σ C_ij F_j).
 
@@ -304,6 +313,10 @@ def share_load_coupled(
         Generating angle u of each contact on the forward flank [rad], (..., n).
     groups : int
         Number of discs along the pin axis (the pins of disc g are the g-th block).
+    angle_axis : bool
+        The last leading axis is one ring's crank angles in order (as
+        :func:`cyclomesh.core.kernel.share_load`'s: the compiled kernel starts the rigid
+        disc's solution of each from the angles before; the NumPy kernel ignores it).
 
     Returns
     -------
@@ -326,25 +339,24 @@ def share_load_coupled(
     flat = (-1, n)
     bl, arm, alpha, gamma = (x.reshape(flat) for x in (bl, arm, alpha, gamma))
     tooth, angle = tooth.reshape(flat), angle.reshape(flat)
-    x0, f0 = share_load(bl, arm, alpha, gamma, torque)  # the rigid disc: the start
-
+    # the rigid disc: the start (a ring's crank angles in order along the last leading
+    # axis: the compiled kernel starts each from the angles before)
+    x0, f0 = share_load(
+        *(v.reshape(*lead, n) for v in (bl, arm, alpha, gamma)), torque, angle_axis=angle_axis
+    )
+    x0, f0 = x0.reshape(-1), f0.reshape(flat)
     usable = np.isfinite(bl) & (arm > 0)
-    # single-pin bound with the body's own compliance (as share_load's start)
-    diag = body.self_compliance(tooth, angle)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        single = np.where(usable, torque / np.where(usable, arm, 1.0), 0.0)
-        log_single = np.log(np.where(usable, single, 1.0))
-        hertz = single * (alpha - gamma * log_single)
-        # as in share_load: a force past the stiffest point of the law bounds nothing
-        valid = usable & ((gamma == 0) | (log_single < alpha / gamma - 1.0))
-        alone = bl + (hertz + diag * single) / np.where(valid, arm, 1.0)
-        alone = np.where(valid & (alone > bl), alone, np.inf)
-    bound = np.min(alone, axis=-1)
-    # the pins that can engage below the single-pin bound; the solution is then checked
-    # for every other pin that could touch (its body displacement may be negative by at
-    # most the table's most negative coefficient times the total load), and re-solved
-    # with the pins that would penetrate, so the result is that of all pins
-    candidate = usable & (bl < bound[:, None])
+    if kernel_name() == "numba":  # the own coefficients and the candidates, compiled
+        diag = np.empty(bl.shape)
+        candidate = np.empty(bl.shape, bool)
+        u = body.profile_angles
+        grid = np.array([u[0], u[-1], u[1] - u[0], u.size], float)
+        kernel_discbody.compiled().candidates(
+            *(np.ascontiguousarray(v) for v in (bl, arm, alpha, gamma, tooth, angle)),
+            body.diagonal, grid, float(torque), diag, candidate
+        )  # fmt: skip
+    else:
+        diag, candidate = _candidates(bl, arm, alpha, gamma, tooth, angle, torque, body)
     arrays = (bl, arm, alpha, gamma, tooth, angle, diag)
     x, full = _solve_set(candidate, arrays, x0, f0, torque, body, n // groups)
     lowest = max(0.0, -float(np.min(body.table)), -float(np.min(body.diagonal)))
@@ -387,6 +399,27 @@ def share_load_coupled(
     return x.reshape(lead), full.reshape(*lead, n)
 
 
+def _candidates(bl, arm, alpha, gamma, tooth, angle, torque, body):
+    """The own coefficients C_ii (B, n) [m/N] and the pins that can engage below the
+    single-pin bound with the body's own compliance (as share_load's start), (B, n) bool."""
+    usable = np.isfinite(bl) & (arm > 0)
+    diag = body.self_compliance(tooth, angle)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        single = np.where(usable, torque / np.where(usable, arm, 1.0), 0.0)
+        log_single = np.log(np.where(usable, single, 1.0))
+        hertz = single * (alpha - gamma * log_single)
+        # as in share_load: a force past the stiffest point of the law bounds nothing
+        valid = usable & ((gamma == 0) | (log_single < alpha / gamma - 1.0))
+        alone = bl + (hertz + diag * single) / np.where(valid, arm, 1.0)
+        alone = np.where(valid & (alone > bl), alone, np.inf)
+    bound = np.min(alone, axis=-1)
+    # the pins that can engage below the single-pin bound; the solution is then checked
+    # for every other pin that could touch (its body displacement may be negative by at
+    # most the table's most negative coefficient times the total load), and re-solved
+    # with the pins that would penetrate, so the result is that of all pins
+    return diag, usable & (bl < bound[:, None])
+
+
 def _solve_set(
     candidate: NDArray,
     arrays: tuple,
@@ -396,7 +429,39 @@ def _solve_set(
     body: DiscBody,
     per_disc: int,
 ) -> tuple[FloatArray, FloatArray]:
-    """Newton's method of :func:`share_load_coupled` on the ``candidate`` pins, (B, n).
+    """Newton's method of :func:`share_load_coupled` on the ``candidate`` pins, (B, n), on
+    the selected kernel: :func:`_solve_set_numpy` (the reference), or with
+    ``CYCLOMESH_KERNEL=numba`` the same iteration compiled, case by case
+    (:mod:`cyclomesh.core.kernel_discbody`); if it cannot finish a case, the reference
+    solves the whole set (and raises its own error where it fails too)."""
+    if kernel_name() == "numba":
+        bl, arm, alpha, gamma, tooth, angle, own = (np.ascontiguousarray(a) for a in arrays)
+        u = body.profile_angles
+        grid = np.array([u[0], u[-1], u[1] - u[0], u.size], float)
+        rotation = np.empty(bl.shape[0])
+        force = np.zeros(bl.shape)
+        failed = kernel_discbody.compiled().solve_sets(
+            np.ascontiguousarray(candidate), bl, arm, alpha, gamma, tooth, angle, own,
+            np.ascontiguousarray(x0, float), np.ascontiguousarray(f0, float), body._window_rows, grid, body.teeth,
+            body.period, per_disc, float(torque), TORQUE_TOLERANCE, COMPATIBILITY_TOLERANCE,
+            _MAX_ITERATIONS, rotation, force
+        )  # fmt: skip
+        if not failed:
+            return rotation, force
+    return _solve_set_numpy(candidate, arrays, x0, f0, torque, body, per_disc)
+
+
+def _solve_set_numpy(
+    candidate: NDArray,
+    arrays: tuple,
+    x0: FloatArray,
+    f0: FloatArray,
+    torque: float,
+    body: DiscBody,
+    per_disc: int,
+) -> tuple[FloatArray, FloatArray]:
+    """Newton's method of :func:`share_load_coupled` on the ``candidate`` pins, (B, n):
+    the NumPy reference.
 
     The Newton step of the unknowns (w, Δφc) solves
 

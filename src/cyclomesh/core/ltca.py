@@ -228,7 +228,15 @@ def ltca(case: Case, model: Model) -> LTCA:
         else:
             tooth = tooth_index(design.pins, design.pitch, phi)
             loaded, force = share_load_coupled(
-                backlash, geo.moment_arm, alpha, gamma, torque, body, tooth, geo.profile_angle
+                backlash,
+                geo.moment_arm,
+                alpha,
+                gamma,
+                torque,
+                body,
+                tooth,
+                geo.profile_angle,
+                angle_axis=True,
             )
     except ConvergenceError as exc:
         raise locate_failure(exc, (*ring_shape, phi.size), phi) from None

@@ -212,6 +212,7 @@ def load_stack(
                 mesh.tooth,
                 geo.profile_angle.reshape(flat_arm),
                 groups=geo.rotation.shape[-2],
+                angle_axis=True,
             )
     except ConvergenceError as exc:
         err = locate_failure(exc, (*mesh.ring_shape, mesh.phi.size), mesh.phi)

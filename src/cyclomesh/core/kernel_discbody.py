@@ -1,0 +1,402 @@
+"""The compliant disc's coupled load sharing compiled (numba), beside the NumPy reference
+(issue 27).
+
+With ``CYCLOMESH_KERNEL=numba`` (:func:`cyclomesh.core.kernel.kernel_name`) the Newton
+iteration of :func:`cyclomesh.core.discbody.share_load_coupled` on a set of candidate
+pins (its ``_solve_set``) runs case by case (crank angles × rings) in one compiled pass:
+the reciprocal coefficients of the candidate pins
+(:meth:`cyclomesh.core.discbody.DiscBody.reciprocal_matrix`: each pair's 4×4 window of
+the symmetrised table and its Catmull–Rom weights, the own coefficients on the
+diagonal, 0 between the discs of a stack), the same start (the rigid disc's Δφc, w = 0),
+the same Newton step (the symmetric system (D⁻¹ + C)_EE·ΔF_E − l_E·Δx = r_w,E,
+l_Eᵀ·ΔF_E = −r_t on the engaged pins E, two right-hand sides, solved by Gaussian
+elimination with partial pivoting), the same backtracking line search on the same
+scaled residual and the same convergence test, with each force the exact inverse of
+the contact law as :func:`cyclomesh.core.hertz.force_from_approach` (two fixed-point
+steps and Newton's method in ln F to 2e-15·δ). The sums run in pin order and the
+logarithms and exponentials are the C library's, not NumPy's SIMD ones, so the result
+agrees with the reference to round-off, not bit for bit (tested to 1e-13 of each field's
+scale, ``tests/core/test_kernel_discbody.py``).
+
+A case the pass cannot finish (no candidate pin, a force past the stiffest point of the
+law, a singular Newton system, no convergence) makes the caller take the reference for
+the whole set, which raises its own one-line error (or solves it), so the errors are
+those of the NumPy path.
+
+References
+----------
+[1] X. Li, L. Tang, H. He, L. Sun, Machines 10 (2022) 672, doi:10.3390/machines10080672.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cache
+from typing import Any
+
+import numpy as np
+
+__all__ = ["compiled"]
+
+_MAX_NEWTON = 50
+"""Newton steps of one force inversion (as :func:`cyclomesh.core.hertz.force_from_approach`)."""
+_ROUND_OFF = 2e-15
+"""Relative residual of a converged force inversion (as force_from_approach)."""
+_EPS = float(np.finfo(float).eps)
+_HALVINGS = 30
+"""Step halvings of the line search (as the reference's)."""
+_SMALLEST_STEP = 1e-6
+"""The line search accepts any step once it is this short (as the reference)."""
+
+
+@cache
+def compiled() -> Any:
+    """The compiled passes as a namespace (``candidates``: :func:`_candidates`,
+    ``solve_sets``: :func:`_solve_sets`), or None without numba (imported on first use)."""
+    try:
+        import numba
+    except ImportError:
+        return None
+    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    global _force, _evaluate, _solve2  # compiled in place: the passes call them
+    _force = jit(_force)
+    _evaluate = jit(_evaluate)
+    _solve2 = jit(_solve2)
+
+    class Passes:
+        candidates = jit(_candidates)
+        solve_sets = jit(_solve_sets)
+
+    return Passes
+
+
+def _candidates(bl, arm, alpha, gamma, tooth, angle, diagonal, grid, torque, own, candidate):
+    """The start of :func:`cyclomesh.core.discbody.share_load_coupled` for every case
+    (row), written for numba: each pin's own coefficient C_ii
+    (:meth:`~cyclomesh.core.discbody.DiscBody.self_compliance`, ``diagonal`` (p, m) its
+    table) into ``own`` (B, n), the single-pin bound with the body's own compliance and
+    the pins below it into ``candidate`` (B, n) (as the reference's, whose logarithms
+    are NumPy's: a pin within a unit in the last place of the bound may fall the other
+    way, and the check after the solve adds any pin that could touch)."""  # fmt: skip
+    n_cases, n = bl.shape
+    u0, u_last, h, m = grid[0], grid[1], grid[2], int(grid[3])
+    period = diagonal.shape[0]
+    for k in range(n_cases):
+        bound = np.inf
+        for i in range(n):
+            ang = angle[k, i]
+            if np.isnan(ang):
+                ang = u0
+            s = (min(max(ang, u0), u_last) - u0) / h
+            c = min(max(int(np.floor(s)), 0), m - 2)
+            t = s - c
+            t2, t3 = t * t, t * t * t
+            row = tooth[k, i] % period
+            own[k, i] = (
+                diagonal[row, max(c - 1, 0)] * (0.5 * (-t3 + 2.0 * t2 - t))
+                + diagonal[row, c] * (0.5 * (3.0 * t3 - 5.0 * t2 + 2.0))
+                + diagonal[row, c + 1] * (0.5 * (-3.0 * t3 + 4.0 * t2 + t))
+                + diagonal[row, min(c + 2, m - 1)] * (0.5 * (t3 - t2))
+            )
+            b, lk = bl[k, i], arm[k, i]
+            if not (np.isfinite(b) and lk > 0.0):
+                continue
+            a, g = alpha[k, i], gamma[k, i]
+            single = torque / lk
+            log_single = math.log(single)
+            if not (g == 0.0 or log_single < a / g - 1.0):
+                continue
+            alone = b + (single * (a - g * log_single) + own[k, i] * single) / lk
+            if alone > b and alone < bound:
+                bound = alone
+        for i in range(n):
+            b = bl[k, i]
+            candidate[k, i] = np.isfinite(b) and arm[k, i] > 0.0 and b < bound
+
+
+def _force(d, a, g, dmax, y_last, d_last, f_last):  # pragma: no cover (compiled)
+    """F of δ = F(α − γ ln F) as :func:`cyclomesh.core.hertz.force_from_approach`, δ ≥ 0
+    [m], to the same residual (2e-15·δ); returns (F [N], ln F, ok), ok False where the
+    reference raises (past the stiffest point of the law, or no convergence).
+
+    ``dmax`` γ·e^(α/γ − 1), the stiffest point (the reference's test, ln(δ/γ) − α/γ ≥ −1,
+    is taken exactly within 1e-12 of it). Newton's method in y = ln F starts from the
+    pin's last inversion (``y_last`` at δ = ``d_last``, F = ``f_last``; d_last ≤ 0: none)
+    moved along its tangent, y₀ = y + Δδ/(dδ/dy), which the convex δ(y) puts right of the
+    root, from where Newton's steps descend monotonically (a step or two near the root);
+    without one, or if that start does not converge in 8 steps, from the reference's
+    start (two fixed-point steps from ln(δ/α)). The root is the reference's to round-off.
+    """
+    if not d > 0.0:
+        return 0.0, 0.0, True
+    if g == 0.0:
+        return d / a, 0.0, True
+    if d >= dmax * (1.0 - 1e-12) and math.log(d / g) - a / g >= -1.0:
+        return 0.0, 0.0, False
+    if d_last > 0.0:
+        y = y_last + (d - d_last) / (f_last * (a - g - g * y_last))
+        if np.isfinite(y) and (g < 0.0 or y < a / g - 1.0):
+            for _ in range(8):
+                f = math.exp(y)
+                resid = f * (a - g * y) - d
+                if abs(resid) <= _ROUND_OFF * d:
+                    return f, y, True
+                y = y - resid / (f * (a - g - g * y))
+    y = math.log(d / a)
+    y = math.log(d / (a - g * y))
+    y = math.log(d / (a - g * y))
+    for _ in range(_MAX_NEWTON):
+        f = math.exp(y)
+        resid = f * (a - g * y) - d
+        if abs(resid) <= _ROUND_OFF * d:
+            return f, y, True
+        y = y - resid / (f * (a - g - g * y))
+    f = math.exp(y)
+    resid = f * (a - g * y) - d
+    resolution = 4.0 * _EPS * abs(y) * abs(f * (a - g - g * y))
+    if abs(resid) <= _ROUND_OFF * d or abs(resid) <= resolution:
+        return f, y, True
+    return 0.0, 0.0, False
+
+
+def _evaluate(
+    nc, x, w, c_bl, c_arm, c_alpha, c_gamma, c_dmax, cmat, torque, last, delta, f, y, r_w
+):  # fmt: skip  # pragma: no cover (compiled)
+    """The residuals of the coupled system at (Δφc, w) on the ``nc`` candidates, as the
+    reference's ``evaluate``: fills δ, F, ln F and r_w = w − C·F, each force inverted
+    from the state ``last`` (δ, F, ln F of the last accepted step); returns (r_t = Σ l·F
+    − T, the scaled residual of the line search, ok)."""
+    d_last, f_last, y_last = last
+    for i in range(nc):
+        di = c_arm[i] * (x - c_bl[i]) - w[i]
+        delta[i] = di if di > 0.0 else 0.0
+        fi, yi, ok = _force(
+            delta[i], c_alpha[i], c_gamma[i], c_dmax[i], y_last[i], d_last[i], f_last[i]
+        )
+        if not ok:
+            return 0.0, 0.0, False
+        f[i] = fi
+        y[i] = yi
+    moment = 0.0
+    largest = 0.0
+    worst = 0.0
+    for i in range(nc):
+        s = 0.0
+        for j in range(nc):
+            s += cmat[i, j] * f[j]
+        r_w[i] = w[i] - s
+        moment += f[i] * c_arm[i]
+        largest = max(largest, delta[i])
+        worst = max(worst, abs(r_w[i]))
+    r_t = moment - torque
+    return r_t, worst / max(largest, 1e-300) + abs(r_t) / torque, True
+
+
+def _solve2(ne, system, rhs):  # pragma: no cover (compiled)
+    """Solve system[:ne, :ne]·X = rhs[:ne, :2] in place (Gaussian elimination with
+    partial pivoting, as LAPACK's getrf/getrs); X in ``rhs``. False if a pivot is 0."""
+    for c in range(ne):
+        p = c
+        big = abs(system[c, c])
+        for r in range(c + 1, ne):
+            v = abs(system[r, c])
+            if v > big:
+                big = v
+                p = r
+        if big == 0.0 or not np.isfinite(big):
+            return False
+        if p != c:
+            for j in range(ne):
+                system[c, j], system[p, j] = system[p, j], system[c, j]
+            rhs[c, 0], rhs[p, 0] = rhs[p, 0], rhs[c, 0]
+            rhs[c, 1], rhs[p, 1] = rhs[p, 1], rhs[c, 1]
+        inv = 1.0 / system[c, c]
+        for r in range(c + 1, ne):
+            m = system[r, c] * inv
+            if m != 0.0:
+                for j in range(c + 1, ne):
+                    system[r, j] -= m * system[c, j]
+                rhs[r, 0] -= m * rhs[c, 0]
+                rhs[r, 1] -= m * rhs[c, 1]
+    for c in range(ne - 1, -1, -1):
+        s0, s1 = rhs[c, 0], rhs[c, 1]
+        for j in range(c + 1, ne):
+            s0 -= system[c, j] * rhs[j, 0]
+            s1 -= system[c, j] * rhs[j, 1]
+        rhs[c, 0] = s0 / system[c, c]
+        rhs[c, 1] = s1 / system[c, c]
+    return True
+
+
+def _solve_sets(
+    candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, windows, grid, n2, period,
+    per_disc, torque, tol_torque, tol_compat, max_iterations, rotation, force
+):  # fmt: skip  # pragma: no cover (compiled)
+    """The reference's ``_solve_set`` of every case (row), written for numba.
+
+    ``candidate`` (B, n) bool, ``bl``, ``arm``, ``alpha``, ``gamma``, ``angle``, ``own``
+    (B, n) float, ``tooth`` (B, n) int, ``x0`` (B,) and ``f0`` (B, n) the rigid disc's
+    Δφc [rad] and loads [N] (the start; the loads start the force inversions);
+    ``windows`` (W, 16): the reciprocal table's Catmull–Rom windows (the transpose of
+    ``DiscBody._windows``); ``grid`` (u₀, u_last, h, m) of the profile angles. Fills
+    ``rotation`` (B,) and ``force`` (B, n) (zero on entry); returns the number of cases
+    it could not finish (the caller then takes the reference).
+    """
+    n_cases, n = bl.shape
+    u0, u_last, h, m = grid[0], grid[1], grid[2], int(grid[3])
+    cells = m - 1
+    idx = np.empty(n, np.int64)
+    cell = np.empty(n, np.int64)
+    wts = np.empty((n, 4))
+    base = np.empty(n, np.int64)
+    km = np.empty(n, np.int64)
+    cmat = np.zeros((n, n))
+    c_bl, c_arm = np.empty(n), np.empty(n)
+    c_alpha, c_gamma, c_dmax = np.empty(n), np.empty(n), np.empty(n)
+    w, delta, f, y, r_w = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
+    wn, dn, fn, yn, rwn = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
+    step_f, step_w = np.zeros(n), np.zeros(n)
+    eng = np.empty(n, np.int64)
+    system = np.empty((n, n))
+    rhs = np.empty((n, 2))
+    failed = 0
+    for k in range(n_cases):
+        nc = 0
+        for i in range(n):
+            if candidate[k, i]:
+                idx[nc] = i
+                nc += 1
+        if nc == 0:
+            failed += 1
+            continue
+        # the candidates' Catmull–Rom cells and weights (DiscBody._cells)
+        for a in range(nc):
+            i = idx[a]
+            c_bl[a], c_arm[a] = bl[k, i], arm[k, i]
+            c_alpha[a], c_gamma[a] = alpha[k, i], gamma[k, i]
+            g = gamma[k, i]
+            c_dmax[a] = g * math.exp(alpha[k, i] / g - 1.0) if g > 0.0 else np.inf
+            ang = angle[k, i]
+            if np.isnan(ang):
+                ang = u0
+            s = (min(max(ang, u0), u_last) - u0) / h
+            c = min(max(int(np.floor(s)), 0), m - 2)
+            t = s - c
+            t2, t3 = t * t, t * t * t
+            wts[a, 0] = 0.5 * (-t3 + 2.0 * t2 - t)
+            wts[a, 1] = 0.5 * (3.0 * t3 - 5.0 * t2 + 2.0)
+            wts[a, 2] = 0.5 * (-3.0 * t3 + 4.0 * t2 + t)
+            wts[a, 3] = 0.5 * (t3 - t2)
+            cell[a] = c
+            base[a] = ((tooth[k, i] % period) * n2 * cells + c) * cells
+            km[a] = tooth[k, i] % n2
+        # the reciprocal matrix (DiscBody.reciprocal_matrix): pairs i < j from their
+        # windows, the own coefficients on the diagonal, 0 between discs
+        for a in range(nc):
+            cmat[a, a] = own[k, idx[a]]
+            for b in range(a + 1, nc):
+                if idx[a] // per_disc != idx[b] // per_disc:
+                    cmat[a, b] = 0.0
+                    cmat[b, a] = 0.0
+                    continue
+                offset = km[a] - km[b]  # response a, load b
+                if offset < 0:
+                    offset += n2
+                row = offset * (cells * cells) + base[b] + cell[a]
+                pair = 0.0
+                for q in range(4):  # the load's nodes first, as the reference
+                    half = 0.0
+                    for r in range(4):
+                        half += windows[row, 4 * r + q] * wts[b, r]
+                    pair += half * wts[a, q]
+                cmat[a, b] = pair
+                cmat[b, a] = pair
+        # the start: the rigid disc's Δφc and w = 0
+        x = x0[k]
+        for a in range(nc):  # the rigid disc's loads: the inversions' starts
+            w[a] = 0.0
+            fa = f0[k, idx[a]]
+            fn[a] = fa
+            yn[a] = math.log(fa) if fa > 0.0 else 0.0
+            dn[a] = fa * (c_alpha[a] - c_gamma[a] * yn[a]) if fa > 0.0 else 0.0
+        r_t, current, ok = _evaluate(
+            nc, x, w, c_bl, c_arm, c_alpha, c_gamma, c_dmax, cmat, torque, (dn, fn, yn),
+            delta, f, y, r_w
+        )  # fmt: skip
+        solved = False
+        for _ in range(max_iterations):
+            if not ok:
+                break
+            scale = 0.0
+            worst = 0.0
+            for a in range(nc):
+                gap = x - c_bl[a]
+                scale = max(scale, c_arm[a] * (gap if gap > 0.0 else 0.0))
+                worst = max(worst, abs(r_w[a]))
+            if abs(r_t) <= tol_torque * torque and worst <= tol_compat * scale:
+                solved = True
+                break
+            # the Newton step on the engaged pins: (D⁻¹ + C)_EE, right-hand sides r_w, l
+            ne = 0
+            for a in range(nc):
+                if f[a] > 0.0:
+                    eng[ne] = a
+                    ne += 1
+            for e in range(ne):
+                a = eng[e]
+                for q in range(ne):
+                    system[e, q] = cmat[a, eng[q]]
+                d = 1.0 / (c_alpha[a] - c_gamma[a] * (1.0 + y[a]))
+                system[e, e] += 1.0 / d
+                rhs[e, 0] = r_w[a]
+                rhs[e, 1] = c_arm[a]
+            if not _solve2(ne, system, rhs):
+                ok = False
+                break
+            den = 0.0
+            top = 0.0
+            for e in range(ne):
+                den += c_arm[eng[e]] * rhs[e, 1]
+                top += c_arm[eng[e]] * rhs[e, 0]
+            if not (np.isfinite(den) and den != 0.0):
+                ok = False
+                break
+            step_x = -(r_t + top) / den
+            for a in range(nc):
+                step_f[a] = 0.0
+            for e in range(ne):
+                step_f[eng[e]] = rhs[e, 0] + rhs[e, 1] * step_x
+            for a in range(nc):
+                s = 0.0
+                for b in range(nc):
+                    s += cmat[a, b] * step_f[b]
+                step_w[a] = s - r_w[a]
+            # backtracking on the scaled residual
+            lam = 1.0
+            for _ in range(_HALVINGS):
+                xn = x + lam * step_x
+                for a in range(nc):
+                    wn[a] = w[a] + lam * step_w[a]
+                rtn, new, ok = _evaluate(
+                    nc, xn, wn, c_bl, c_arm, c_alpha, c_gamma, c_dmax, cmat, torque,
+                    (delta, f, y), dn, fn, yn, rwn
+                )  # fmt: skip
+                if not ok:
+                    break
+                if not (new > current and lam > _SMALLEST_STEP):
+                    break
+                lam = 0.5 * lam
+            if not ok:
+                break
+            x = xn
+            r_t = rtn
+            current = new
+            for a in range(nc):
+                w[a], delta[a], f[a], y[a], r_w[a] = wn[a], dn[a], fn[a], yn[a], rwn[a]
+        if not solved:
+            failed += 1
+            continue
+        rotation[k] = x
+        for a in range(nc):
+            force[k, idx[a]] = f[a]
+    return failed
