@@ -442,9 +442,9 @@ def _solve_set(
         force = np.zeros(bl.shape)
         failed = kernel_discbody.compiled().solve_sets(
             np.ascontiguousarray(candidate), bl, arm, alpha, gamma, tooth, angle, own,
-            np.ascontiguousarray(x0, float), np.ascontiguousarray(f0, float), body._window_rows, grid, body.teeth,
-            body.period, per_disc, float(torque), TORQUE_TOLERANCE, COMPATIBILITY_TOLERANCE,
-            _MAX_ITERATIONS, rotation, force
+            np.ascontiguousarray(x0, float), np.ascontiguousarray(f0, float),
+            body._window_rows, grid, body.teeth, body.period, per_disc, float(torque),
+            TORQUE_TOLERANCE, COMPATIBILITY_TOLERANCE, _MAX_ITERATIONS, rotation, force
         )  # fmt: skip
         if not failed:
             return rotation, force
