@@ -105,8 +105,8 @@ def test_the_core_imports_only_numpy_scipy_and_itself(module):
     stdlib = {"__future__", "dataclasses", "math", "typing", "functools", "collections"}
     if module == "cyclomesh.core.kernel":  # the kernel switch (CYCLOMESH_KERNEL) and the
         stdlib |= {"os", "numba"}  # optional compiled kernel, imported on first use
-    if module == "cyclomesh.core.kernel_contact":  # its compiled passes, on first use
-        stdlib |= {"numba"}
+    if module in ("cyclomesh.core.kernel_contact", "cyclomesh.core.kernel_discbody"):
+        stdlib |= {"numba"}  # their compiled passes, on first use
     assert third <= CORE_THIRD_PARTY | stdlib, f"{module} imports {third - stdlib}"
 
 

@@ -58,7 +58,8 @@ def compiled() -> Any:
     except ImportError:
         return None
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _force, _evaluate, _solve2  # compiled in place: the passes call them
+    global _exp_step, _force, _evaluate, _solve2  # compiled in place: the passes call them
+    _exp_step = jit(_exp_step)
     _force = jit(_force)
     _evaluate = jit(_evaluate)
     _solve2 = jit(_solve2)
@@ -134,14 +135,28 @@ def _force(d, a, g, dmax, y_last, d_last, f_last):  # pragma: no cover (compiled
     if d >= dmax * (1.0 - 1e-12) and math.log(d / g) - a / g >= -1.0:
         return 0.0, 0.0, False
     if d_last > 0.0:
-        y = y_last + (d - d_last) / (f_last * (a - g - g * y_last))
-        if np.isfinite(y) and (g < 0.0 or y < a / g - 1.0):
+        dy = (d - d_last) / (f_last * (a - g - g * y_last))
+        y = y_last + dy
+        peak = a / g - 1.0 - 1e-6 if g > 0.0 else np.inf  # ln F short of the stiffest point
+        if y < peak:
+            f = _exp_step(f_last, dy, y)
             for _ in range(8):
-                f = math.exp(y)
                 resid = f * (a - g * y) - d
                 if abs(resid) <= _ROUND_OFF * d:
-                    return f, y, True
-                y = y - resid / (f * (a - g - g * y))
+                    if resid != 0.0:  # one more step: the root, not where the start left it
+                        step = resid / (f * (a - g - g * y))
+                        y = y - step
+                        f = _exp_step(f, -step, y)
+                    if y < peak:
+                        return f, y, True
+                    break
+                step = resid / (f * (a - g - g * y))
+                y = y - step
+                f = _exp_step(f, -step, y)
+                if step * step <= 0.01 * _ROUND_OFF:  # the next residual ≈ step²/2
+                    if y < peak:
+                        return f, y, True
+                    break
     y = math.log(d / a)
     y = math.log(d / (a - g * y))
     y = math.log(d / (a - g * y))
@@ -157,6 +172,21 @@ def _force(d, a, g, dmax, y_last, d_last, f_last):  # pragma: no cover (compiled
     if abs(resid) <= _ROUND_OFF * d or abs(resid) <= resolution:
         return f, y, True
     return 0.0, 0.0, False
+
+
+_SMALL_STEP = 1e-3
+"""Largest |s| for which e^s is taken as its Taylor polynomial to s⁵ (remainder s⁶/720 ≤
+1.4e-21, below the round-off of the product), as :mod:`cyclomesh.core.kernel`'s."""
+_SIXTH, _TWENTY_FOURTH, _ONE_20TH = 1.0 / 6.0, 1.0 / 24.0, 1.0 / 120.0
+
+
+def _exp_step(f, s, y):  # pragma: no cover (compiled)
+    """e^y from f = e^(y − s): f·(1 + s + … + s⁵/120) for |s| ≤ :data:`_SMALL_STEP` (a few
+    units in the last place of F), else exp(y); :mod:`cyclomesh.core.kernel`'s update."""
+    if abs(s) <= _SMALL_STEP:
+        s2 = s * s
+        return f * ((1.0 + s) + s2 * ((0.5 + s * _SIXTH) + s2 * (_TWENTY_FOURTH + s * _ONE_20TH)))
+    return math.exp(y)
 
 
 def _evaluate(

@@ -1,0 +1,177 @@
+"""The compiled coupled load sharing of the compliant disc (numba) against the NumPy
+reference (issue 27).
+
+Both solve the same equations with the same start, Newton steps, line search and
+convergence test; the kernel's logarithms and exponentials are the C library's and its
+force inversions start from each pin's last one, so the results agree to round-off:
+the per-pin fields to 1e-13 of their largest value, the rotations and the transmission
+error to 1e-13 elementwise (as ``tests/core/test_kernel.py``).
+"""
+
+import numpy as np
+import pytest
+
+from cyclomesh import TABLE1, Modification
+from cyclomesh.core import kernel, kernel_discbody
+from cyclomesh.core.contact import unloaded_contact
+from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
+from cyclomesh.core.ltca import pin_compliance, rest_position, solve_ltca
+from cyclomesh.core.pair import PinErrors
+from cyclomesh.drive.solve import solve_drive
+from cyclomesh.exceptions import ConvergenceError
+
+pytest.importorskip("numba")
+
+MOD = Modification(pin_radius=8e-6)
+PHI = np.deg2rad(np.arange(0.0, 360.0, 2.5))
+RNG = np.random.default_rng(28)
+ERRORS = PinErrors(
+    radial=RNG.uniform(-4e-6, 4e-6, (2, 40)), angular=RNG.uniform(-5e-5, 5e-5, (2, 40))
+)
+
+
+def _body(period: int = 1, far: float = 0.0) -> DiscBody:
+    """A reciprocal, positive-definite table (web torsion plus a local term decaying with
+    the tooth offset), its local term varying with the tooth after which the support
+    repeats (``period``); ``far``: a coefficient on the teeth 5 apart [m/N] (negative:
+    pins outside the first candidate set that a load elsewhere could bring to touch)."""
+    n2 = TABLE1.teeth
+    u = np.linspace(-np.pi, 0.0, 13)
+    arm = 0.05 * np.abs(np.sin(u)) + 0.01
+    d = np.arange(n2)
+    dist = np.minimum(d, n2 - d)
+    local = 3e-10 * np.exp(-dist)[:, None, None] * np.exp(-((u[:, None] - u[None, :]) ** 2))
+    web = 1e-7 * arm[:, None] * arm[None, :]
+    table = np.stack([(1.0 + 0.2 * k) * local + web[None] for k in range(period)])
+    table[:, 5] += far
+    table[:, n2 - 5] += far
+    return DiscBody(u, table, n2)
+
+
+def _both(monkeypatch, solve):
+    """The solution on each kernel; the numba kernel must not need the reference."""
+    import cyclomesh.core.discbody as cdb
+
+    out = {}
+    real = cdb._solve_set_numpy
+    for name in kernel.KERNELS:
+        monkeypatch.setenv(kernel.ENV_VAR, name)
+        calls = []
+
+        def spy(*args, calls=calls):
+            calls.append(1)
+            return real(*args)
+
+        monkeypatch.setattr(cdb, "_solve_set_numpy", spy)
+        out[name] = solve()
+        assert bool(calls) == (name == "numpy"), name
+    return out["numpy"], out["numba"]
+
+
+def _agree(ref, got, fields):
+    for name in fields:
+        a, b = np.asarray(getattr(ref, name)), np.asarray(getattr(got, name))
+        assert a.shape == b.shape, name
+        fin = np.isfinite(a)
+        assert np.array_equal(fin, np.isfinite(b)), name
+        a, b = a[fin], b[fin]
+        assert np.max(np.abs(a - b)) <= 1e-13 * np.max(np.abs(a)), name
+        if name in ("loaded_rotation", "transmission_error", "torque_share"):
+            assert np.all(np.abs(a - b) <= 1e-13 * np.abs(a)), name  # elementwise
+
+
+@pytest.mark.parametrize("period", [1, 3])
+def test_compliant_disc_agrees(monkeypatch, period):
+    body = _body(period)
+    ref, got = _both(
+        monkeypatch, lambda: solve_ltca(TABLE1, MOD, ERRORS, 250.0, PHI, True, "half_plane", body)
+    )
+    _agree(
+        ref,
+        got,
+        ("pin_load", "contact_stress", "groove_stress", "loaded_rotation", "transmission_error"),
+    )
+    # the kernel's solution is an equilibrium in its own right, and the body yields
+    np.testing.assert_allclose(np.sum(got.pin_load * got.moment_arm, axis=-1), 250.0, rtol=1e-12)
+    rigid = solve_ltca(TABLE1, MOD, ERRORS, 250.0, PHI, True, "half_plane")
+    assert np.all(got.loaded_rotation > rigid.loaded_rotation)
+
+
+@pytest.mark.parametrize("law", ["half_plane", "paper"])
+def test_the_coupled_load_sharing_agrees_on_both_laws(monkeypatch, law):
+    """share_load_coupled itself on either law's coefficients (the model pairs the FE
+    body with the half-plane law only; the solve takes any α, γ)."""
+    monkeypatch.setenv(kernel.ENV_VAR, "numpy")  # the same inputs for both
+    geo = unloaded_contact(TABLE1, MOD, ERRORS, PHI)
+    backlash = geo.rotation - rest_position(geo.rotation, geo.moment_arm)[..., None]
+    alpha, gamma = pin_compliance(geo, TABLE1, True, law)
+    tooth = np.broadcast_to(tooth_index(TABLE1.pins, TABLE1.pitch, PHI), backlash.shape)
+    problem = (backlash, geo.moment_arm, alpha, gamma, 250.0, _body(), tooth, geo.profile_angle)
+    ref = share_load_coupled(*problem)
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    got = share_load_coupled(*problem, angle_axis=True)
+    np.testing.assert_allclose(got[0], ref[0], rtol=1e-13, atol=0)
+    np.testing.assert_allclose(got[1], ref[1], rtol=0, atol=1e-13 * np.max(ref[1]))
+    assert np.any(ref[1] != got[1])  # the kernel's own arithmetic, not the reference's
+
+
+def test_a_compliant_stack_on_both_flanks_agrees(monkeypatch):
+    body = _body()
+    ref, got = _both(
+        monkeypatch,
+        lambda: solve_drive(
+            TABLE1, MOD, ERRORS, [-250.0, 250.0], PHI[::2], True, 2, "half_plane", body
+        ),
+    )
+    _agree(
+        ref, got, ("pin_load", "contact_stress", "transmission_error", "mesh_force", "torque_share")
+    )
+
+
+def test_pins_added_after_the_first_set_agree(monkeypatch):
+    """A negative coefficient between teeth 5 apart: pins outside the first candidate set
+    are checked, and those that would penetrate added and solved again, on both kernels."""
+    body = _body(far=-2e-11)
+    ref, got = _both(
+        monkeypatch, lambda: solve_ltca(TABLE1, MOD, ERRORS, 250.0, PHI, True, "half_plane", body)
+    )
+    _agree(ref, got, ("pin_load", "loaded_rotation", "transmission_error"))
+
+
+def test_failures_are_the_reference_errors(monkeypatch):
+    """A case the kernel cannot finish (here a force past the stiffest point of the law)
+    goes to the reference, which raises its own error."""
+    body = _body()
+    messages = []
+    for name in kernel.KERNELS:
+        monkeypatch.setenv(kernel.ENV_VAR, name)
+        with pytest.raises(ConvergenceError) as info:
+            solve_ltca(TABLE1, MOD, None, 5e6, PHI[:4], True, "half_plane", body)
+        messages.append(str(info.value))
+    assert messages[0] == messages[1] and "torque too large" in messages[0]
+
+
+def test_the_single_case_and_the_batch_agree(monkeypatch):
+    """share_load_coupled on one case (no leading axes) and on a batch, numba kernel."""
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    body = _body()
+    bl = np.array([[0.0, 1e-4, 2e-4, np.inf], [0.0, 5e-5, 3e-4, 1e-3]])
+    arm = np.full((2, 4), 0.04)
+    alpha, gamma = np.full((2, 4), 2e-9), np.full((2, 4), 1e-10)
+    tooth, angle = np.array([[0, 1, 2, 3]] * 2), np.full((2, 4), -1.0)
+    x, f = share_load_coupled(bl, arm, alpha, gamma, 200.0, body, tooth, angle)
+    for k in range(2):
+        xk, fk = share_load_coupled(bl[k], arm[k], alpha[k], gamma[k], 200.0, body, tooth[k], -1.0)
+        np.testing.assert_array_equal(xk, x[k])
+        np.testing.assert_array_equal(fk, f[k])
+    monkeypatch.setenv(kernel.ENV_VAR, "numpy")
+    x_ref, f_ref = share_load_coupled(bl, arm, alpha, gamma, 200.0, body, tooth, angle)
+    np.testing.assert_allclose(x, x_ref, rtol=1e-13, atol=0)
+    np.testing.assert_allclose(f, f_ref, rtol=0, atol=1e-13 * np.max(f_ref))
+
+
+def test_the_kernel_keeps_the_reference_constants():
+    from cyclomesh.core import hertz
+
+    pair = (kernel_discbody._MAX_NEWTON, kernel_discbody._ROUND_OFF)
+    assert pair == (hertz._MAX_NEWTON, hertz._ROUND_OFF)
