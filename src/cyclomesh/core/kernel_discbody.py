@@ -115,25 +115,26 @@ def _candidates(bl, arm, alpha, gamma, tooth, angle, diagonal, grid, torque, own
             candidate[k, i] = np.isfinite(b) and arm[k, i] > 0.0 and b < bound
 
 
-def _force(d, a, g, dmax, y_last, d_last, f_last):  # pragma: no cover (compiled)
+def _force(d, a, g, y_last, d_last, f_last):  # pragma: no cover (compiled)
     """F of δ = F(α − γ ln F) as :func:`cyclomesh.core.hertz.force_from_approach`, δ ≥ 0
     [m], to the same residual (2e-15·δ); returns (F [N], ln F, ok), ok False where the
     reference raises (past the stiffest point of the law, or no convergence).
 
-    ``dmax`` γ·e^(α/γ − 1), the stiffest point (the reference's test, ln(δ/γ) − α/γ ≥ −1,
-    is taken exactly within 1e-12 of it). Newton's method in y = ln F starts from the
+    Newton's method in y = ln F starts from the
     pin's last inversion (``y_last`` at δ = ``d_last``, F = ``f_last``; d_last ≤ 0: none)
     moved along its tangent, y₀ = y + Δδ/(dδ/dy), which the convex δ(y) puts right of the
     root, from where Newton's steps descend monotonically (a step or two near the root);
     without one, or if that start does not converge in 8 steps, from the reference's
-    start (two fixed-point steps from ln(δ/α)). The root is the reference's to round-off.
+    start (two fixed-point steps from ln(δ/α)), after the reference's test of the
+    stiffest point of the law, ln(δ/γ) − α/γ ≥ −1. The root is the reference's to
+    round-off. A root from the last inversion is accepted at ln F below α/γ − 1 − 1e-6
+    only, where δ is below the stiffest point by 5e-13 of it (δ''/δ = −1 there), well
+    clear of the test's round-off: the reference would not raise there either.
     """
     if not d > 0.0:
         return 0.0, 0.0, True
     if g == 0.0:
         return d / a, 0.0, True
-    if d >= dmax * (1.0 - 1e-12) and math.log(d / g) - a / g >= -1.0:
-        return 0.0, 0.0, False
     if d_last > 0.0:
         dy = (d - d_last) / (f_last * (a - g - g * y_last))
         y = y_last + dy
@@ -157,6 +158,8 @@ def _force(d, a, g, dmax, y_last, d_last, f_last):  # pragma: no cover (compiled
                     if y < peak:
                         return f, y, True
                     break
+    if math.log(d / g) - a / g >= -1.0:  # past the stiffest point: the reference raises
+        return 0.0, 0.0, False
     y = math.log(d / a)
     y = math.log(d / (a - g * y))
     y = math.log(d / (a - g * y))
@@ -190,29 +193,33 @@ def _exp_step(f, s, y):  # pragma: no cover (compiled)
 
 
 def _evaluate(
-    nc, x, w, c_bl, c_arm, c_alpha, c_gamma, c_dmax, cmat, torque, last, delta, f, y, r_w
+    nc, x, w, c_bl, c_arm, c_alpha, c_gamma, cmat, torque, last, delta, f, y, r_w, loaded
 ):  # fmt: skip  # pragma: no cover (compiled)
     """The residuals of the coupled system at (Δφc, w) on the ``nc`` candidates, as the
     reference's ``evaluate``: fills δ, F, ln F and r_w = w − C·F, each force inverted
     from the state ``last`` (δ, F, ln F of the last accepted step); returns (r_t = Σ l·F
-    − T, the scaled residual of the line search, ok)."""
+    − T, the scaled residual of the line search, ok). C·F is summed over the loaded
+    pins only (``loaded``: scratch for their indices), in pin order."""
     d_last, f_last, y_last = last
+    n_loaded = 0
     for i in range(nc):
         di = c_arm[i] * (x - c_bl[i]) - w[i]
         delta[i] = di if di > 0.0 else 0.0
-        fi, yi, ok = _force(
-            delta[i], c_alpha[i], c_gamma[i], c_dmax[i], y_last[i], d_last[i], f_last[i]
-        )
+        fi, yi, ok = _force(delta[i], c_alpha[i], c_gamma[i], y_last[i], d_last[i], f_last[i])
         if not ok:
             return 0.0, 0.0, False
         f[i] = fi
         y[i] = yi
+        if fi != 0.0:
+            loaded[n_loaded] = i
+            n_loaded += 1
     moment = 0.0
     largest = 0.0
     worst = 0.0
     for i in range(nc):
         s = 0.0
-        for j in range(nc):
+        for q in range(n_loaded):
+            j = loaded[q]
             s += cmat[i, j] * f[j]
         r_w[i] = w[i] - s
         moment += f[i] * c_arm[i]
@@ -282,11 +289,12 @@ def _solve_sets(
     km = np.empty(n, np.int64)
     cmat = np.zeros((n, n))
     c_bl, c_arm = np.empty(n), np.empty(n)
-    c_alpha, c_gamma, c_dmax = np.empty(n), np.empty(n), np.empty(n)
+    c_alpha, c_gamma = np.empty(n), np.empty(n)
     w, delta, f, y, r_w = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     wn, dn, fn, yn, rwn = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     step_f, step_w = np.zeros(n), np.zeros(n)
     eng = np.empty(n, np.int64)
+    loaded = np.empty(n, np.int64)
     system = np.empty((n, n))
     rhs = np.empty((n, 2))
     failed = 0
@@ -304,8 +312,6 @@ def _solve_sets(
             i = idx[a]
             c_bl[a], c_arm[a] = bl[k, i], arm[k, i]
             c_alpha[a], c_gamma[a] = alpha[k, i], gamma[k, i]
-            g = gamma[k, i]
-            c_dmax[a] = g * math.exp(alpha[k, i] / g - 1.0) if g > 0.0 else np.inf
             ang = angle[k, i]
             if np.isnan(ang):
                 ang = u0
@@ -322,23 +328,25 @@ def _solve_sets(
             km[a] = tooth[k, i] % n2
         # the reciprocal matrix (DiscBody.reciprocal_matrix): pairs i < j from their
         # windows, the own coefficients on the diagonal, 0 between discs
-        for a in range(nc):
-            cmat[a, a] = own[k, idx[a]]
-            for b in range(a + 1, nc):
-                if idx[a] // per_disc != idx[b] // per_disc:
+        for b in range(nc):  # the load
+            cmat[b, b] = own[k, idx[b]]
+            wb0, wb1, wb2, wb3 = wts[b, 0], wts[b, 1], wts[b, 2], wts[b, 3]
+            disc = idx[b] // per_disc
+            for a in range(b):  # the response
+                if idx[a] // per_disc != disc:
                     cmat[a, b] = 0.0
                     cmat[b, a] = 0.0
                     continue
-                offset = km[a] - km[b]  # response a, load b
+                offset = km[a] - km[b]
                 if offset < 0:
                     offset += n2
-                row = offset * (cells * cells) + base[b] + cell[a]
-                pair = 0.0
-                for q in range(4):  # the load's nodes first, as the reference
-                    half = 0.0
-                    for r in range(4):
-                        half += windows[row, 4 * r + q] * wts[b, r]
-                    pair += half * wts[a, q]
+                v = windows[offset * (cells * cells) + base[b] + cell[a]]
+                # the load's nodes first, as the reference: the sum over them in order
+                h0 = ((v[0] * wb0 + v[4] * wb1) + v[8] * wb2) + v[12] * wb3
+                h1 = ((v[1] * wb0 + v[5] * wb1) + v[9] * wb2) + v[13] * wb3
+                h2 = ((v[2] * wb0 + v[6] * wb1) + v[10] * wb2) + v[14] * wb3
+                h3 = ((v[3] * wb0 + v[7] * wb1) + v[11] * wb2) + v[15] * wb3
+                pair = ((h0 * wts[a, 0] + h1 * wts[a, 1]) + h2 * wts[a, 2]) + h3 * wts[a, 3]
                 cmat[a, b] = pair
                 cmat[b, a] = pair
         # the start: the rigid disc's Δφc and w = 0
@@ -350,8 +358,8 @@ def _solve_sets(
             yn[a] = math.log(fa) if fa > 0.0 else 0.0
             dn[a] = fa * (c_alpha[a] - c_gamma[a] * yn[a]) if fa > 0.0 else 0.0
         r_t, current, ok = _evaluate(
-            nc, x, w, c_bl, c_arm, c_alpha, c_gamma, c_dmax, cmat, torque, (dn, fn, yn),
-            delta, f, y, r_w
+            nc, x, w, c_bl, c_arm, c_alpha, c_gamma, cmat, torque, (dn, fn, yn),
+            delta, f, y, r_w, loaded
         )  # fmt: skip
         solved = False
         for _ in range(max_iterations):
@@ -396,10 +404,10 @@ def _solve_sets(
                 step_f[a] = 0.0
             for e in range(ne):
                 step_f[eng[e]] = rhs[e, 0] + rhs[e, 1] * step_x
-            for a in range(nc):
+            for a in range(nc):  # C·ΔF over the engaged pins (ΔF = 0 elsewhere)
                 s = 0.0
-                for b in range(nc):
-                    s += cmat[a, b] * step_f[b]
+                for e in range(ne):
+                    s += cmat[a, eng[e]] * step_f[eng[e]]
                 step_w[a] = s - r_w[a]
             # backtracking on the scaled residual
             lam = 1.0
@@ -408,8 +416,8 @@ def _solve_sets(
                 for a in range(nc):
                     wn[a] = w[a] + lam * step_w[a]
                 rtn, new, ok = _evaluate(
-                    nc, xn, wn, c_bl, c_arm, c_alpha, c_gamma, c_dmax, cmat, torque,
-                    (delta, f, y), dn, fn, yn, rwn
+                    nc, xn, wn, c_bl, c_arm, c_alpha, c_gamma, cmat, torque,
+                    (delta, f, y), dn, fn, yn, rwn, loaded
                 )  # fmt: skip
                 if not ok:
                     break
