@@ -71,14 +71,16 @@ def compiled() -> Any:
     return Passes
 
 
-def _candidates(bl, arm, alpha, gamma, tooth, angle, diagonal, grid, torque, own, candidate):
+def _candidates(
+    bl, arm, alpha, gamma, tooth, angle, diagonal, grid, torque, own, candidate
+):  # fmt: skip  # pragma: no cover (compiled)
     """The start of :func:`cyclomesh.core.discbody.share_load_coupled` for every case
     (row), written for numba: each pin's own coefficient C_ii
     (:meth:`~cyclomesh.core.discbody.DiscBody.self_compliance`, ``diagonal`` (p, m) its
     table) into ``own`` (B, n), the single-pin bound with the body's own compliance and
     the pins below it into ``candidate`` (B, n) (as the reference's, whose logarithms
     are NumPy's: a pin within a unit in the last place of the bound may fall the other
-    way, and the check after the solve adds any pin that could touch)."""  # fmt: skip
+    way, and the check after the solve adds any pin that could touch)."""
     n_cases, n = bl.shape
     u0, u_last, h, m = grid[0], grid[1], grid[2], int(grid[3])
     period = diagonal.shape[0]
@@ -99,8 +101,19 @@ def _candidates(bl, arm, alpha, gamma, tooth, angle, diagonal, grid, torque, own
                 + diagonal[row, c + 1] * (0.5 * (-3.0 * t3 + 4.0 * t2 + t))
                 + diagonal[row, min(c + 2, m - 1)] * (0.5 * (t3 - t2))
             )
+        # the bound: the pin with the smallest backlash first, then only the pins below
+        # the bound so far (a counted pin's rotation alone is above its backlash)
+        first = -1
+        for i in range(n):
+            b = bl[k, i]
+            if np.isfinite(b) and arm[k, i] > 0.0 and (first < 0 or b < bl[k, first]):
+                first = i
+        for jj in range(-1, n):
+            i = first if jj < 0 else jj
+            if i < 0 or (jj >= 0 and jj == first):
+                continue
             b, lk = bl[k, i], arm[k, i]
-            if not (np.isfinite(b) and lk > 0.0):
+            if not (np.isfinite(b) and lk > 0.0) or b >= bound:
                 continue
             a, g = alpha[k, i], gamma[k, i]
             single = torque / lk
@@ -122,8 +135,8 @@ def _force(d, a, g, y_last, d_last, f_last):  # pragma: no cover (compiled)
 
     Newton's method in y = ln F starts from the
     pin's last inversion (``y_last`` at δ = ``d_last``, F = ``f_last``; d_last ≤ 0: none)
-    moved along its tangent, y₀ = y + Δδ/(dδ/dy), which the convex δ(y) puts right of the
-    root, from where Newton's steps descend monotonically (a step or two near the root);
+    moved along its second-order expansion, y₀ = y + u − ½(δ''/δ')u², u = Δδ/(dδ/dy) (a
+    step or two of Newton's method near the root);
     without one, or if that start does not converge in 8 steps, from the reference's
     start (two fixed-point steps from ln(δ/α)), after the reference's test of the
     stiffest point of the law, ln(δ/γ) − α/γ ≥ −1. The root is the reference's to
@@ -136,7 +149,10 @@ def _force(d, a, g, y_last, d_last, f_last):  # pragma: no cover (compiled)
     if g == 0.0:
         return d / a, 0.0, True
     if d_last > 0.0:
-        dy = (d - d_last) / (f_last * (a - g - g * y_last))
+        inv = 1.0 / (f_last * (a - g - g * y_last))  # 1/(dδ/dy)
+        u = (d - d_last) * inv
+        # second order: y = y_last + u − ½·(δ''/δ')·u², δ''/δ' = 1 − γ·F/(dδ/dy)
+        dy = u - 0.5 * (1.0 - g * f_last * inv) * u * u
         y = y_last + dy
         peak = a / g - 1.0 - 1e-6 if g > 0.0 else np.inf  # ln F short of the stiffest point
         if y < peak:
