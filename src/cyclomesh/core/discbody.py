@@ -21,7 +21,10 @@ and interpolates it with a local bicubic (Catmull–Rom) in the two profile angl
 the pins in contact), to a torque residual of 1e-12·T and a compatibility residual of
 1e-12 of the largest approach, or raises :class:`~cyclomesh.exceptions.ConvergenceError`.
 
-NumPy only, SI units, no I/O.
+NumPy, SI units, no I/O; with ``CYCLOMESH_KERNEL=numba``
+(:func:`cyclomesh.core.kernel.kernel_name`) the Newton iteration on the candidate pins and
+the single-pin bound run compiled (:mod:`cyclomesh.core.kernel_discbody`), to round-off
+of this NumPy reference, which stays the fallback.
 
 References
 ----------
