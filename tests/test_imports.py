@@ -17,6 +17,12 @@ HEAVY = ("xarray", "pandas", "matplotlib", "pyarrow", "netCDF4", "distributed")
         ("cyclomesh, cyclomesh.cli", (*HEAVY, "scipy", "pydantic")),  # --help
         # the overview's figure process: forked before the kind's modules are imported
         ("cyclomesh.figures.worker", (*HEAVY, "numpy", "pydantic", "cyclomesh.studyfile.schema")),
+        # ... by the command's entry, from the raw command line, before typer is imported
+        (
+            "cyclomesh.__main__, cyclomesh.figures.early; "
+            "cyclomesh.figures.early.wants_overview('run', 'png,svg')",
+            (*HEAVY, "numpy", "pydantic", "typer", "cyclomesh.cli"),
+        ),
         ("cyclomesh.tolerance.tasks", HEAVY),  # what tolerance workers run
         ("cyclomesh.studies.run, cyclomesh.studies.tolerance, cyclomesh.publish.pipeline", HEAVY),
         ("cyclomesh.studies.allocate, cyclomesh.studies.rings", HEAVY),

@@ -179,10 +179,9 @@ def test_the_process_imports_no_3d_toolkit(request):
 def test_which_commands_fork_early(command, args, forked, monkeypatch):
     """The command group forks the overview's process from the raw command line exactly
     when the command will draw the overview (the parsed ``--figures`` decides the same,
-    :func:`cyclomesh.cli.early.wants_overview`); not after an option of the group
+    :func:`cyclomesh.figures.early.wants_overview`); not after an option of the group
     (``--help``, ``--version``: no command runs)."""
-    from cyclomesh.cli import early
-    from cyclomesh.figures import worker
+    from cyclomesh.figures import early, worker
 
     made = []
 
@@ -206,30 +205,40 @@ def test_which_commands_fork_early(command, args, forked, monkeypatch):
     assert (usable and early.wants_overview(command, figures)) is forked
 
 
-def test_the_command_forks_before_numpy(tmp_path):
-    """``cyclomesh run`` with the default figures forks the overview's process before
-    this process imports NumPy (both import it at once) and before the options are
-    converted, with OpenBLAS's idle spin shortened; the process is the one that draws
-    the overview, which is written."""
+@pytest.mark.parametrize("entry", ["main", "app"])
+def test_the_command_forks_before_numpy(tmp_path, entry):
+    """``cyclomesh run`` with the default figures forks the overview's process once,
+    before this process imports NumPy (both import it at once) and before the options
+    are converted (pydantic), with OpenBLAS's idle spin shortened; from the command's
+    entry (``cyclomesh.__main__.main``) also before typer is imported, from a command
+    line run in a process (``app([...])``) by the command group. The process draws the
+    overview, which is written."""
     out = tmp_path / "out"
+    args = ["run", str(EXAMPLES / "table2.toml"), "--out", str(out), "-q"]
+    args += ["--crank-step-deg", "30"]
+    run = (
+        f"sys.argv = ['cyclomesh', *{args!r}]\nfrom cyclomesh.__main__ import main\nmain()\n"
+        if entry == "main"
+        else f"from cyclomesh.cli import app\napp({args!r})\n"
+    )
     code = (
         "import os, sys\n"
         "from cyclomesh.figures import worker\n"
         "seen = []\n"
         "init = worker.FigureProcess.__init__\n"
         "def spy(self):\n"
-        "    seen.append(('numpy' in sys.modules, 'pydantic' in sys.modules,\n"
-        "                 os.environ.get('OPENBLAS_THREAD_TIMEOUT')))\n"
+        "    seen.append(tuple(m in sys.modules for m in ('numpy', 'pydantic', 'typer'))\n"
+        "                + (os.environ.get('OPENBLAS_THREAD_TIMEOUT'),))\n"
         "    init(self)\n"
         "worker.FigureProcess.__init__ = spy\n"
-        "from cyclomesh.cli import app\n"
-        f"args = ['run', {str(EXAMPLES / 'table2.toml')!r}, '--out', {str(out)!r}, '-q',"
-        " '--crank-step-deg', '30']\n"
-        "try:\n    app(args)\nexcept SystemExit as exc:\n    assert not exc.code, exc.code\n"
+        "try:\n"
+        + "".join(f"    {line}\n" for line in run.splitlines())
+        + "except SystemExit as exc:\n    assert not exc.code, exc.code\n"
         "print(seen)\n"
     )
     env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_THREAD_TIMEOUT"}
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert done.returncode == 0, done.stderr
-    assert done.stdout.strip().splitlines()[-1] == "[(False, False, '20')]", done.stdout
+    typer = entry == "app"
+    assert done.stdout.strip().splitlines()[-1] == f"[(False, False, {typer}, '20')]", done.stdout
     assert (out / "figures" / "overview.png").read_bytes().startswith(b"\x89PNG")

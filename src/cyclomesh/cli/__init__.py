@@ -24,7 +24,6 @@ from typing import Annotated, Any
 
 import typer
 
-from cyclomesh.cli.early import early_figures
 from cyclomesh.cli.errors import EXIT_INPUT_ERROR, OneLineUsage, cli_errors, fail
 from cyclomesh.cli.options import (
     ARGUMENTS,
@@ -46,6 +45,7 @@ from cyclomesh.cli.options import (
 )
 from cyclomesh.exceptions import StudyError
 from cyclomesh.explore.options import NoBrowserOption, PortOption
+from cyclomesh.figures.early import early_figures
 from cyclomesh.studies.preflight import preflight
 from cyclomesh.studyfile.kinds import KINDS, KindSpec
 

@@ -39,9 +39,9 @@ class OneLineUsage(typer.core.TyperGroup):
 
     def main(self, *args: Any, standalone_mode: bool = True, **kwargs: Any) -> Any:
         """Run the command line ``args`` (default ``sys.argv[1:]``); the overview's figure
-        process is forked first when they ask for it (:func:`cyclomesh.cli.early.fork_early`:
+        process is forked first when they ask for it (:func:`cyclomesh.figures.early.fork_early`:
         before the options are converted, which imports pydantic, and before NumPy)."""
-        from cyclomesh.cli.early import close_early, fork_early
+        from cyclomesh.figures.early import close_early, fork_early
 
         argv = args[0] if args else kwargs.get("args")
         fork_early(sys.argv[1:] if argv is None else list(argv))

@@ -1,14 +1,16 @@
 """The overview's figure process, forked as early as the command can know it will draw
 the overview (issue 27).
 
-:func:`fork_early` is called by the command group
-(:class:`cyclomesh.cli.errors.OneLineUsage`) with the raw command line, before the
-options are converted (typer imports pydantic to convert them) and before NumPy is
-imported: the figure process then imports NumPy and matplotlib while this one imports
-the rest, loads, solves and writes. :func:`early_figures` hands the process to the
-command when its parsed ``--figures`` is the one the process was forked for; any other
-outcome (another value, a usage error, ``--help``) closes it (:func:`close_early`, also
-at exit), and a process that was not forked early is forked there as before.
+:func:`fork_early` is called with the raw command line by the command's entry
+(``cyclomesh.__main__.main``, before typer and the command line's modules are
+imported) and, for a command line run in a process (``app([...])``), by the command
+group (:class:`cyclomesh.cli.errors.OneLineUsage`): before the options are converted
+(typer imports pydantic to convert them) and before NumPy is imported. The figure
+process then imports NumPy and matplotlib while this one imports the rest, loads,
+solves and writes. :func:`early_figures` hands the process to the command when its
+parsed ``--figures`` is the one the process was forked for; any other outcome
+(another value, a usage error, ``--help``) closes it (:func:`close_early`, also at
+exit), and a process that was not forked early is forked there as before.
 """
 
 from __future__ import annotations
@@ -20,8 +22,8 @@ from typing import Any
 
 __all__ = ["fork_early", "early_figures", "close_early", "wants_overview"]
 
-_EARLY: tuple[str, str | None, Any] | None = None
-"""(command, raw ``--figures`` value, FigureProcess) forked by :func:`fork_early`."""
+_EARLY: tuple[str, str | None, Any, tuple[str, ...]] | None = None
+"""(command, raw ``--figures`` value, FigureProcess, command line) of :func:`fork_early`."""
 
 
 def wants_overview(command: str, figures: str | None) -> bool:
@@ -73,6 +75,8 @@ def fork_early(argv: Sequence[str]) -> None:
     with it. Does nothing where the process cannot fork (see
     :class:`~cyclomesh.figures.worker.FigureProcess`)."""
     global _EARLY
+    if _EARLY is not None and _EARLY[3] == tuple(argv):  # forked by the entry already
+        return
     close_early()
     if not argv or argv[0].startswith("-"):
         return
@@ -86,7 +90,7 @@ def fork_early(argv: Sequence[str]) -> None:
     tune_blas()
     process = FigureProcess()
     if process.active:
-        _EARLY = (command, figures, process)
+        _EARLY = (command, figures, process, tuple(argv))
         atexit.register(close_early)
 
 
