@@ -109,14 +109,18 @@ def test_the_command_ends_its_process_after_atexit(thread):
     the standard streams are flushed, with the command's exit status; with another
     thread alive it leaves the exit to Python, which waits for the thread."""
     code = (
-        "import atexit, sys, threading, time\n"
+        "import atexit, sys, threading\n"
+        "import cyclomesh.__main__ as entry\n"
         "atexit.register(lambda: print('atexit ran'))\n"
-        "def late():\n    time.sleep(0.3)\n    print('thread done')\n"
+        "go = threading.Event()\n"
+        "def late():\n    go.wait(60)\n    print('thread done')\n"
         f"if {thread}:\n    threading.Thread(target=late).start()\n"
+        "end = entry.end_process\n"
+        "def spy(code):\n    end(code)  # the thread is alive here\n    go.set()\n"
+        "entry.end_process = spy\n"
         "sys.stdout.write('buffered, no newline')\n"
         "sys.argv = ['cyclomesh', '--version']\n"
-        "from cyclomesh.__main__ import main\n"
-        "main()\n"
+        "entry.main()\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
