@@ -222,9 +222,10 @@ def test_the_command_forks_before_numpy(tmp_path, entry):
         else f"from cyclomesh.cli import app\napp({args!r})\n"
     )
     code = (
-        "import os, sys\n"
+        "import atexit, os, sys\n"
         "from cyclomesh.figures import worker\n"
         "seen = []\n"
+        "atexit.register(lambda: print(seen))  # the entry ends the process after atexit\n"
         "init = worker.FigureProcess.__init__\n"
         "def spy(self):\n"
         "    seen.append(tuple(m in sys.modules for m in ('numpy', 'pydantic', 'typer'))\n"
@@ -234,7 +235,6 @@ def test_the_command_forks_before_numpy(tmp_path, entry):
         "try:\n"
         + "".join(f"    {line}\n" for line in run.splitlines())
         + "except SystemExit as exc:\n    assert not exc.code, exc.code\n"
-        "print(seen)\n"
     )
     env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_THREAD_TIMEOUT"}
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
