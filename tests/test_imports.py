@@ -17,6 +17,12 @@ HEAVY = ("xarray", "pandas", "matplotlib", "pyarrow", "netCDF4", "distributed")
         ("cyclomesh, cyclomesh.cli", (*HEAVY, "scipy", "pydantic")),  # --help
         # the overview's figure process: forked before the kind's modules are imported
         ("cyclomesh.figures.worker", (*HEAVY, "numpy", "pydantic", "cyclomesh.studyfile.schema")),
+        # ... by the command's entry, from the raw command line, before typer is imported
+        (
+            "cyclomesh.__main__, cyclomesh.figures.early; "
+            "cyclomesh.figures.early.wants_overview('run', 'png,svg')",
+            (*HEAVY, "numpy", "pydantic", "typer", "cyclomesh.cli"),
+        ),
         ("cyclomesh.tolerance.tasks", HEAVY),  # what tolerance workers run
         ("cyclomesh.studies.run, cyclomesh.studies.tolerance, cyclomesh.publish.pipeline", HEAVY),
         ("cyclomesh.studies.allocate, cyclomesh.studies.rings", HEAVY),
@@ -94,3 +100,36 @@ def test_run_figures_index_numpy_not_xarray():
     assert done.returncode == 0, done.stderr
     count, absent = done.stdout.strip().splitlines()[-1].split(" ", 1)
     assert int(count) >= 9 and absent == "[]", done.stdout
+
+
+@pytest.mark.parametrize("thread", [False, True])
+def test_the_command_ends_its_process_after_atexit(thread):
+    """The command's entry ends its process without the interpreter's teardown
+    (``cyclomesh.__main__.end_process``) only after the ``atexit`` functions have run and
+    the standard streams are flushed, with the command's exit status; with another
+    thread alive it leaves the exit to Python, which waits for the thread."""
+    code = (
+        "import atexit, sys, threading\n"
+        "import cyclomesh.__main__ as entry\n"
+        "atexit.register(lambda: print('atexit ran'))\n"
+        "go = threading.Event()\n"
+        "def late():\n    go.wait(60)\n    print('thread done')\n"
+        f"if {thread}:\n    threading.Thread(target=late).start()\n"
+        "end = entry.end_process\n"
+        "def spy(code):\n    end(code)  # the thread is alive here\n    go.set()\n"
+        "entry.end_process = spy\n"
+        "sys.stdout.write('buffered, no newline')\n"
+        "sys.argv = ['cyclomesh', '--version']\n"
+        "entry.main()\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0].startswith("buffered, no newlinecyclomesh ")
+    assert lines[1:] == (["thread done", "atexit ran"] if thread else ["atexit ran"])
+    refused = subprocess.run(
+        [sys.executable, "-m", "cyclomesh", "run", "no-such-study.toml", "--out", "x"],
+        capture_output=True,
+        text=True,
+    )
+    assert refused.returncode == 2 and refused.stderr.startswith("error: ")

@@ -138,3 +138,107 @@ def test_refused_run_leaves_no_figure_process(tmp_path):
     assert done.returncode == 2, done.stderr
     assert done.stderr.startswith("error: ") and len(done.stderr.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def test_the_process_imports_no_3d_toolkit(request):
+    """The figure process imports matplotlib without ``mpl_toolkits.mplot3d`` (no figure
+    is 3D), silently, and draws the overview as this process does (above)."""
+    if not _fresh(request):
+        return
+    import warnings
+
+    from cyclomesh.figures import worker
+
+    assert "matplotlib" not in sys.modules  # else the import below would test nothing
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        worker._import_matplotlib()
+    assert sys.modules["mpl_toolkits.mplot3d"] is None
+    assert "matplotlib.figure" in sys.modules
+
+
+@pytest.mark.parametrize(
+    "command, args, forked",
+    [
+        ("run", ["s.toml"], True),
+        ("run", ["s.toml", "--out", "o", "-q"], True),
+        ("run", ["s.toml", "--figures", "svg,png"], True),
+        ("run", ["s.toml", "--figures=overview"], True),
+        ("run", ["s.toml", "--figures", "none"], False),
+        ("run", ["s.toml", "--figures", "all"], False),
+        ("run", ["s.toml", "--figures=all,svg"], False),
+        ("run", ["s.toml", "--figures", "nonsense"], False),  # refused later
+        ("run", ["s.toml", "--figures"], False),  # a usage error
+        ("run", ["s.toml", "--help"], False),
+        ("run", ["--figures", "none", "s.toml", "--figures", "png"], True),  # the last one
+        ("check", ["s.toml"], False),
+        ("stiffness", ["s.toml"], False),
+        ("tolerance", ["s.toml"], False),
+    ],
+)
+def test_which_commands_fork_early(command, args, forked, monkeypatch):
+    """The command group forks the overview's process from the raw command line exactly
+    when the command will draw the overview (the parsed ``--figures`` decides the same,
+    :func:`cyclomesh.figures.early.wants_overview`); not after an option of the group
+    (``--help``, ``--version``: no command runs)."""
+    from cyclomesh.figures import early, worker
+
+    made = []
+
+    class Spy:
+        active = True
+
+        def __init__(self) -> None:
+            made.append(self)
+
+        def close(self) -> None:
+            made.remove(self)
+
+    monkeypatch.setattr(worker, "FigureProcess", Spy)
+    early.fork_early([command, *args])
+    assert len(made) == int(forked)
+    early.close_early()
+    assert not made
+    early.fork_early(["--version", command, *args])
+    assert not made
+    usable, figures = early._raw_figures(args)
+    assert (usable and early.wants_overview(command, figures)) is forked
+
+
+@pytest.mark.parametrize("entry", ["main", "app"])
+def test_the_command_forks_before_numpy(tmp_path, entry):
+    """``cyclomesh run`` with the default figures forks the overview's process once,
+    before this process imports NumPy (both import it at once) and before the options
+    are converted (pydantic), with OpenBLAS's idle spin shortened; from the command's
+    entry (``cyclomesh.__main__.main``) also before typer is imported, from a command
+    line run in a process (``app([...])``) by the command group. The process draws the
+    overview, which is written."""
+    out = tmp_path / "out"
+    args = ["run", str(EXAMPLES / "table2.toml"), "--out", str(out), "-q"]
+    args += ["--crank-step-deg", "30"]
+    run = (
+        f"sys.argv = ['cyclomesh', *{args!r}]\nfrom cyclomesh.__main__ import main\nmain()\n"
+        if entry == "main"
+        else f"from cyclomesh.cli import app\napp({args!r})\n"
+    )
+    code = (
+        "import atexit, os, sys\n"
+        "from cyclomesh.figures import worker\n"
+        "seen = []\n"
+        "atexit.register(lambda: print(seen))  # the entry ends the process after atexit\n"
+        "init = worker.FigureProcess.__init__\n"
+        "def spy(self):\n"
+        "    seen.append(tuple(m in sys.modules for m in ('numpy', 'pydantic', 'typer'))\n"
+        "                + (os.environ.get('OPENBLAS_THREAD_TIMEOUT'),))\n"
+        "    init(self)\n"
+        "worker.FigureProcess.__init__ = spy\n"
+        "try:\n"
+        + "".join(f"    {line}\n" for line in run.splitlines())
+        + "except SystemExit as exc:\n    assert not exc.code, exc.code\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_THREAD_TIMEOUT"}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert done.returncode == 0, done.stderr
+    typer = entry == "app"
+    assert done.stdout.strip().splitlines()[-1] == f"[(False, False, {typer}, '20')]", done.stdout
+    assert (out / "figures" / "overview.png").read_bytes().startswith(b"\x89PNG")

@@ -45,6 +45,7 @@ from cyclomesh.cli.options import (
 )
 from cyclomesh.exceptions import StudyError
 from cyclomesh.explore.options import NoBrowserOption, PortOption
+from cyclomesh.figures.early import early_figures
 from cyclomesh.studies.preflight import preflight
 from cyclomesh.studyfile.kinds import KINDS, KindSpec
 
@@ -77,8 +78,9 @@ def main(
     ] = False,
 ) -> None:
     """Loaded tooth contact analysis of cycloid-pin gear pairs (Li et al., Machines 2022)."""
-    from cyclomesh.execution.runtime import skip_pydantic_plugins, tune_allocator
+    from cyclomesh.execution.runtime import skip_pydantic_plugins, tune_allocator, tune_blas
 
+    tune_blas()
     tune_allocator()
     skip_pydantic_plugins()
 
@@ -131,31 +133,6 @@ def run_kind(command: str, options: dict[str, Any]) -> None:
         use_cache_dir(options["cache_dir"])
     with early_figures(command, options.get("figures")) as figures:
         _run_kind(command, options, figures)
-
-
-def early_figures(command: str, figures: str | None) -> Any:
-    """The process that draws the overview, forked now (before the kind's modules are
-    imported) where the command draws one by default and ``--figures`` does
-    not ask for none or for all (:class:`cyclomesh.figures.worker.FigureProcess`); else
-    an empty context."""
-    from contextlib import nullcontext
-
-    from cyclomesh.studyfile.kinds import kind_spec
-
-    if not kind_spec(command).overview:
-        return nullcontext(None)
-    if figures is not None:
-        from cyclomesh.publish.pipeline import parse_figures
-
-        try:
-            formats, figure_set = parse_figures(figures)
-        except StudyError:  # refused later, in its turn (after the study's own errors)
-            return nullcontext(None)
-        if not formats or figure_set != "overview":
-            return nullcontext(None)
-    from cyclomesh.figures.worker import FigureProcess
-
-    return FigureProcess()
 
 
 def _run_kind(command: str, options: dict[str, Any], figures: Any) -> None:

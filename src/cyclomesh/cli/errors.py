@@ -38,6 +38,19 @@ class OneLineUsage(typer.core.TyperGroup):
     argument) as one line ``error: ...`` and exit status 2, like every refused input."""
 
     def main(self, *args: Any, standalone_mode: bool = True, **kwargs: Any) -> Any:
+        """Run the command line ``args`` (default ``sys.argv[1:]``); the overview's figure
+        process is forked first when they ask for it (:func:`cyclomesh.figures.early.fork_early`:
+        before the options are converted, which imports pydantic, and before NumPy)."""
+        from cyclomesh.figures.early import close_early, fork_early
+
+        argv = args[0] if args else kwargs.get("args")
+        fork_early(sys.argv[1:] if argv is None else list(argv))
+        try:
+            return self._main(*args, standalone_mode=standalone_mode, **kwargs)
+        finally:
+            close_early()  # a command that did not take the early figure process
+
+    def _main(self, *args: Any, standalone_mode: bool = True, **kwargs: Any) -> Any:
         if not standalone_mode:
             return super().main(*args, standalone_mode=False, **kwargs)
         try:

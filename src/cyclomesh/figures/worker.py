@@ -4,12 +4,13 @@ drawn from NumPy arrays (the overview of ``cyclomesh run``, issue 27).
 Importing matplotlib and drawing the overview take longer than everything else a short
 run does (a 36-step case: ~0.35 s of imports and ~0.25 s of drawing, against ~0.4 s for
 loading, solving and writing). :class:`FigureProcess` forks one process before the
-study is loaded (this module imports nothing heavy: the fork is the first thing the
-command does after parsing its options and importing NumPy, which both processes
-need); the process imports matplotlib while this one imports, loads, solves and
-writes, then draws the one batch of figures it is sent and sends the drawn file
-contents back. It has the interface of :class:`~cyclomesh.figures.render.FigurePool`
-that :func:`~cyclomesh.figures.render.render_figures` and
+study is loaded (this module imports nothing heavy: the command forks it as soon as
+it knows its name and raw options, :mod:`cyclomesh.cli.early`, before NumPy is
+imported, so that both processes import NumPy at once on two cores); the process
+imports NumPy and matplotlib while this one imports, loads, solves and writes, then
+draws the one batch of figures it is sent and sends the drawn file contents back. It
+has the interface of :class:`~cyclomesh.figures.render.FigurePool` that
+:func:`~cyclomesh.figures.render.render_figures` and
 :func:`cyclomesh.studies.execute.execute` use (``active``, ``submit``, ``map``,
 ``close``, a context manager); files are written by this process only, so nothing is
 written for a study that fails, and :meth:`~FigureProcess.close` kills the process (a
@@ -35,6 +36,23 @@ def _read_all(fd: int) -> bytes:
         return pipe.read()
 
 
+def _import_matplotlib() -> None:
+    """Import what the figure process draws with (while the parent computes), without
+    matplotlib's 3D toolkit: ``matplotlib.projections`` imports ``mpl_toolkits.mplot3d``
+    only to register the ``"3d"`` projection, which no figure of cyclomesh uses (about
+    a tenth of matplotlib's import). This process only draws figures, so its
+    ``sys.modules`` is its own to change; matplotlib's warning that Axes3D is missing is
+    silenced."""
+    import sys
+    import warnings
+
+    sys.modules.setdefault("mpl_toolkits.mplot3d", None)  # type: ignore[arg-type]
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Unable to import Axes3D")
+        import matplotlib.backends.backend_agg  # noqa: F401
+        import matplotlib.figure  # noqa: F401
+
+
 def _serve(jobs_fd: int, done_fd: int, parent: int) -> None:
     """The figure process: import the renderer, wait for one batch of jobs, draw them,
     send back ``("ok", contents)`` or ``("error", exception)``."""
@@ -42,8 +60,7 @@ def _serve(jobs_fd: int, done_fd: int, parent: int) -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C: the parent stops it
     die_with_parent(parent)
-    import matplotlib.backends.backend_agg  # noqa: F401  (while the parent computes)
-    import matplotlib.figure  # noqa: F401
+    _import_matplotlib()
 
     from cyclomesh.figures.render import render_job
 
@@ -81,8 +98,6 @@ class FigureProcess:
         self._sender: threading.Thread | None = None
         if not hasattr(os, "fork") or threading.active_count() != 1 or usable_cpus() < 2:
             return
-        import numpy  # noqa: F401  (needed here anyway: inherited, not imported twice)
-
         jobs_r, jobs_w = os.pipe()
         done_r, done_w = os.pipe()
         parent = os.getpid()
