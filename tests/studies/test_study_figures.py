@@ -273,38 +273,3 @@ def test_figure_formats_option():
     assert parse_figure_formats("none") == ()
     with pytest.raises(StudyError, match="--figures: unknown format 'jpg'"):
         parse_figure_formats("png,jpg")
-
-
-@pytest.mark.parametrize("dpi", [50, 150, 99.5])
-def test_png_files_hold_matplotlibs_pixels(dpi):
-    """The PNG of a figure (:func:`cyclomesh.figures.render.encode_png`, unfiltered rows)
-    decodes to the pixels, size, resolution and Software text of matplotlib's own PNG
-    of the same figure; a partly transparent image keeps its alpha."""
-    import io
-
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from PIL import Image
-
-    from cyclomesh.figures.render import encode_png, new_figure
-
-    def plot() -> object:
-        fig = new_figure(4.0, 3.0)
-        ax = fig.subplots()
-        ax.plot([0.0, 1.0, 2.0], [1.0, -1.0, 0.5], ".-", label="φ1 µm")
-        ax.fill_between([0.0, 2.0], [0.0, 0.0], [1.0, 1.0], alpha=0.3)
-        ax.set_title("a title")
-        ax.legend()
-        return fig
-
-    ours, theirs = io.BytesIO(), io.BytesIO()
-    plot().savefig(ours, format="png", dpi=dpi)
-    fig = plot()
-    FigureCanvasAgg(fig)  # matplotlib's own canvas and PNG writer
-    fig.savefig(theirs, format="png", dpi=dpi)
-    a, b = Image.open(io.BytesIO(ours.getvalue())), Image.open(io.BytesIO(theirs.getvalue()))
-    assert (a.mode, a.size, a.info) == (b.mode, b.size, b.info)
-    assert np.array_equal(np.asarray(a), np.asarray(b))
-    rgba = np.random.default_rng(1).integers(0, 256, (7, 5, 4), dtype=np.uint8)
-    back = Image.open(io.BytesIO(encode_png(rgba, 72.0, None)))
-    assert back.mode == "RGBA" and "Software" not in back.info
-    assert np.array_equal(np.asarray(back), rgba)
