@@ -56,6 +56,8 @@ class Problem:
     # a lubricant: per-pin constants of μ(F) (stage.friction.friction_arrays), (A, D, 2·n1)
     lubrication: dict[str, FloatArray] | None = None
     friction_law: Any = None  # the Friction of ``lubrication``
+    # friction: the fraction of the coefficients applied (stage.friction.friction_continuation)
+    friction_scale: float = 1.0
 
     def take(self, idx: NDArray[np.int64]) -> Problem:
         """The problem at the crank angles ``idx`` (increasing); itself when it is all."""

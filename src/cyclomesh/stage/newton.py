@@ -142,6 +142,7 @@ def residual_newton(
     rot: list[int],
     what: str,
     reduce: FloatArray | None = None,
+    failed: NDArray[np.bool_] | None = None,
 ) -> FloatArray:
     """Newton's method on r(x) = 0 with a backtracking line search on the residual's norm
     (Nocedal & Wright §11.2), per crank angle: where no potential decreases along the step
@@ -153,7 +154,10 @@ def residual_newton(
     them, the step expanded to ``x``'s). The convergence test of :func:`newton`: every
     residual below :data:`FORCE_TOLERANCE`·T/r_c or the round-off of the unknowns. ``x``:
     the start (A, m), overwritten by the solution. Raises ConvergenceError naming ``what``
-    and the crank angle ``phi``.
+    and the crank angle ``phi``; with ``failed`` (a boolean array (A,), False on entry)
+    it does not: the crank angles it cannot solve are set True there and left at their
+    last iterate, the others solved by the same arithmetic as without it (a caller that
+    solves those angles another way, :func:`~cyclomesh.stage.friction.friction_continuation`).
     """
     tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
     L = p.scale
@@ -190,11 +194,21 @@ def residual_newton(
                 break
             t[todo] *= 0.5
         else:
-            raise ConvergenceError(
-                f"{what}: no decrease of the residual at crank angle "
-                f"{np.degrees(phi[active[todo[0]]]):.6g}°"
-            )
+            if failed is None:
+                raise ConvergenceError(
+                    f"{what}: no decrease of the residual at crank angle "
+                    f"{np.degrees(phi[active[todo[0]]]):.6g}°"
+                )
+            failed[active[todo]] = True  # left at this iteration's start
+            x[active] = new
+            active = active[~failed[active]]
+            if active.size == 0:
+                return x
+            continue
         x[active] = new
+    if failed is not None:
+        failed[active] = True
+        return x
     raise ConvergenceError(
         f"{what} did not converge at crank angle "
         f"{np.degrees(phi[active[0]]):.6g}°: residual above {FORCE_TOLERANCE:.0e}·T/r_c"
