@@ -274,7 +274,8 @@ def test_light_torque_loop_tends_to_the_frictionless_curve_as_friction_vanishes(
 
 def test_continuation_from_the_frictionless_solution_is_the_direct_solve():
     """Where Newton's method solves the friction equilibrium from the rigid start, the
-    fallback's continuation from the frictionless solution reaches the same equilibrium
+    fallbacks from the frictionless solution (continuation in μ; the fixed-point iteration
+    on the friction forces, finished by Newton) reach the same equilibrium
     (loads to 1e-9 of the largest, TE to 1e-12 rad); and giving Newton a ``failed`` array
     changes no bit of the angles it solves."""
     from cyclomesh.stage import equilibrium as eq
@@ -283,27 +284,31 @@ def test_continuation_from_the_frictionless_solution_is_the_direct_solve():
     fwd, rev = stack_meshes(RV40, MOD, RING, PHI[::3], 2, True, True, True, "half_plane", None)
     errs = PRELOADED.hole_errors(2)
     direct = solve_direction(fwd, rev, PRELOADED, errs, 41.2, None, None, LOOP, 0.0, 1.0)
-    calls = []
     solve_ = eq._solve
+    for method in ("continuation", "picard"):
+        calls = []
 
-    def via_continuation(p, law, x, discs, rigid, phi, state=None):
-        if p.slip is None or rigid:
-            return solve_(p, law, x, discs, rigid, phi, state)
-        plain = dataclasses.replace(p, slip=None, tangent_arm=None, drag=0.0)
-        x0 = solve_(plain, law, x.copy(), discs, rigid, phi)
-        calls.append(phi.size)
-        return fr.friction_continuation(p, eq._evaluate, law, x0, discs, rigid, phi)
+        def fallback(p, law, x, discs, rigid, phi, state=None, method=method, calls=calls):
+            if p.slip is None or rigid:
+                return solve_(p, law, x, discs, rigid, phi, state)
+            plain = dataclasses.replace(p, slip=None, tangent_arm=None, drag=0.0)
+            x0 = solve_(plain, law, x.copy(), discs, rigid, phi)
+            calls.append(phi.size)
+            if method == "continuation":
+                return fr.friction_continuation(p, eq._evaluate, law, x0, discs, rigid, phi)
+            x1 = fr.friction_picard(p, eq.newton, eq._evaluate, law, x0, discs, rigid, phi)
+            return fr.friction_newton(p, eq._evaluate, law, x1, discs, rigid, phi)
 
-    eq._solve = via_continuation
-    try:
-        cont = solve_direction(fwd, rev, PRELOADED, errs, 41.2, None, None, LOOP, 0.0, 1.0)
-    finally:
-        eq._solve = solve_
-    assert calls == [PHI[::3].size]
-    top = np.max(direct["pin_load"])
-    np.testing.assert_allclose(cont["pin_load"], direct["pin_load"], rtol=0, atol=1e-9 * top)
-    np.testing.assert_allclose(cont["twist"], direct["twist"], rtol=0, atol=1e-12)
-    assert np.max(cont["residual"]) <= 2e-12 * 41.2 / HOLES.circle_radius
+        eq._solve = fallback
+        try:
+            other = solve_direction(fwd, rev, PRELOADED, errs, 41.2, None, None, LOOP, 0.0, 1.0)
+        finally:
+            eq._solve = solve_
+        assert calls == [PHI[::3].size]
+        top = np.max(direct["pin_load"])
+        np.testing.assert_allclose(other["pin_load"], direct["pin_load"], rtol=0, atol=1e-9 * top)
+        np.testing.assert_allclose(other["twist"], direct["twist"], rtol=0, atol=1e-12)
+        assert np.max(other["residual"]) <= 2e-12 * 41.2 / HOLES.circle_radius
     newton_ = eq.friction_newton
     marked = []
 

@@ -52,6 +52,7 @@ from cyclomesh.stage.friction import (
     friction_arrays,
     friction_continuation,
     friction_newton,
+    friction_picard,
     friction_terms,
     lubricated_state,
     pin_slip,
@@ -261,9 +262,13 @@ def _friction_solve(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid
     """:func:`~cyclomesh.stage.friction.friction_newton` from ``x``; the crank angles where
     it cannot decrease its residual are solved again from the same start without friction
     (:func:`_solve`: Newton's method on the convex potential, whose line search converges
-    from any start) and then with friction by continuation in the coefficients from that
-    solution (:func:`~cyclomesh.stage.friction.friction_continuation`). The angles it
-    solves are solved by the same arithmetic as :func:`friction_newton` alone.
+    from any start), then with friction by fixed-point iteration on the friction forces
+    from that solution (:func:`~cyclomesh.stage.friction.friction_picard`, each step a
+    convex minimisation with the friction forces as a dead load), finished and tested by
+    :func:`friction_newton`; where that still fails, by continuation in the coefficients
+    from the frictionless solution (:func:`~cyclomesh.stage.friction.friction_continuation`,
+    which raises where it cannot reach them). The angles the first iteration solves keep
+    its arithmetic.
 
     Why: at a light torque (the data sheet's ±0.1 % of T_r) with crank-hole errors beyond
     the bearings' play, the rigid-stage start is far from the solution (pin and bearing
@@ -282,7 +287,16 @@ def _friction_solve(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid
             sub, slip=None, tangent_arm=None, drag=0.0, lubrication=None, friction_law=None
         )
         x0 = _solve(plain, law, start[idx], discs, rigid, phi[idx])
-        x[idx] = friction_continuation(sub, evaluate, law, x0, discs, rigid, phi[idx])
+        minimise = newton if rigid or p.body is None else _body_newton
+        x1 = friction_picard(sub, minimise, evaluate, law, x0.copy(), discs, rigid, phi[idx])
+        again = np.zeros(idx.size, bool)
+        x1 = friction_newton(sub, evaluate, law, x1, discs, rigid, phi[idx], again)
+        if np.any(again):  # the fixed point did not settle: continuation in μ
+            j = np.flatnonzero(again)
+            x1[j] = friction_continuation(
+                sub.take(j), evaluate, law, x0[j], discs, rigid, phi[idx][j]
+            )
+        x[idx] = x1
     return x
 
 

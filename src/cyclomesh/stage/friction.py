@@ -88,6 +88,7 @@ __all__ = [
     "friction_terms",
     "friction_newton",
     "friction_continuation",
+    "friction_picard",
     "power_terms",
     "check_stage_friction",
 ]
@@ -277,6 +278,74 @@ def friction_newton(
     tail = 0 if rigid or p.body is None else p.body.size
     rot = [0] if rigid else rotation_index(x.shape[1], discs, p.supports, tail)
     return residual_newton(p, residual, x, phi, rot, "stage with friction", reduce, failed)
+
+
+_PICARD_ITERATIONS = 200
+
+
+def friction_picard(
+    p: Problem, minimise, evaluate, law, x: FloatArray, discs: int, rigid: bool, phi
+) -> FloatArray:
+    """Fixed-point iteration on the friction forces from ``x`` (A, m), the frictionless
+    solution: each step holds Q at the last iterate and minimises the convex potential
+    Π(x) − Q·x (the friction forces as a dead load, ``frozen``) by ``minimise`` (the
+    frictionless stage's Newton method, :func:`~cyclomesh.stage.newton.newton`, whose line
+    search on the potential crosses the contact laws' kinks, a pin closing or a bearing
+    leaving its clearance, where Newton on the residual can stall). The residual ∇Π − Q
+    falls by the ratio of Q's change to the step's (μ times the tangential over the normal
+    lever, about 0.05–0.1 here) per step; a crank angle stops at :func:`friction_newton`'s
+    tolerance or when its residual no longer falls to 0.9 of its best. Returns ``x``
+    (overwritten), for :func:`friction_newton` to finish and test."""
+    from cyclomesh.stage.newton import FORCE_TOLERANCE
+
+    tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
+    L = p.scale
+    tail = 0 if rigid or p.body is None else p.body.size
+    rot = (
+        [0, *range(1, 1 + 3 * discs, 3)]
+        if rigid
+        else rotation_index(x.shape[1], discs, p.supports, tail)
+    )
+
+    def loaded(sub: Problem, law_, xa, d, r, hessian=True, gradient=True):
+        e, g, H, st = evaluate(sub, law_, xa, d, r, hessian=hessian, gradient=gradient)
+        xs = xa.copy()
+        xs[:, rot] *= L
+        e = e - np.sum(sub.frozen * xs, axis=-1)
+        return e, (None if g is None else g - sub.frozen), H, st
+
+    plain = dataclasses.replace(p, slip=None, tangent_arm=None, drag=0.0, lubrication=None)
+    active = np.arange(x.shape[0])
+    best = np.full(x.shape[0], np.inf)
+    for _ in range(_PICARD_ITERATIONS):
+        if active.size == 0:
+            return x
+        sub = p.take(active)
+        _, g, _, st = evaluate(sub, law, x[active], discs, rigid, hessian=False)
+        Q, _ = friction_terms(sub, x[active], discs, rigid, st, law, False)
+        r = g - Q
+        if rigid:
+            r = r @ reducer(discs)
+        res = np.max(np.abs(r), axis=-1)
+        keep = (res > tol) & (res < 0.9 * best[active])
+        best[active] = np.minimum(best[active], res)
+        active = active[keep]
+        if active.size == 0:
+            return x
+        step = dataclasses.replace(plain.take(active), frozen=Q[keep])
+        try:
+            x[active] = minimise(step, loaded, law, x[active], discs, rigid, phi[active])
+        except ConvergenceError:  # one angle at a time; an angle that fails stops here
+            ok = np.ones(active.size, bool)
+            for i in range(active.size):
+                try:
+                    x[active[i : i + 1]] = minimise(step.take(np.array([i])), loaded, law,
+                                                    x[active[i : i + 1]], discs, rigid,
+                                                    phi[active[i : i + 1]])  # fmt: skip
+                except ConvergenceError:
+                    ok[i] = False
+            active = active[ok]
+    return x
 
 
 _CONTINUATION_HALVINGS = 12
