@@ -287,15 +287,20 @@ def _friction_solve(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid
             sub, slip=None, tangent_arm=None, drag=0.0, lubrication=None, friction_law=None
         )
         x0 = _solve(plain, law, start[idx], discs, rigid, phi[idx])
-        minimise = newton if rigid or p.body is None else _body_newton
-        x1 = friction_picard(sub, minimise, evaluate, law, x0.copy(), discs, rigid, phi[idx])
-        again = np.zeros(idx.size, bool)
-        x1 = friction_newton(sub, evaluate, law, x1, discs, rigid, phi[idx], again)
-        if np.any(again):  # the fixed point did not settle: continuation in μ
+        again = np.zeros(idx.size, bool)  # Newton from the frictionless solution
+        x1 = friction_newton(sub, evaluate, law, x0.copy(), discs, rigid, phi[idx], again)
+        if np.any(again):  # the fixed point on the friction forces, finished by Newton
             j = np.flatnonzero(again)
-            x1[j] = friction_continuation(
-                sub.take(j), evaluate, law, x0[j], discs, rigid, phi[idx][j]
-            )
+            part, at = sub.take(j), phi[idx][j]
+            minimise = newton if rigid or p.body is None else _body_newton
+            xj = friction_picard(part, minimise, evaluate, law, x0[j], discs, rigid, at)
+            last = np.zeros(j.size, bool)
+            x1[j] = friction_newton(part, evaluate, law, xj, discs, rigid, at, last)
+            if np.any(last):  # continuation in μ, the last resort (raises where it fails)
+                k = j[last]
+                x1[k] = friction_continuation(
+                    sub.take(k), evaluate, law, x0[k], discs, rigid, phi[idx][k]
+                )
         x[idx] = x1
     return x
 
