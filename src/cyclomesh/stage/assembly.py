@@ -56,6 +56,11 @@ class Problem:
     # a lubricant: per-pin constants of μ(F) (stage.friction.friction_arrays), (A, D, 2·n1)
     lubrication: dict[str, FloatArray] | None = None
     friction_law: Any = None  # the Friction of ``lubrication``
+    # friction: the fraction of the coefficients applied (stage.friction.friction_continuation)
+    friction_scale: float = 1.0
+    # friction: generalised forces held fixed in a step of stage.friction.friction_picard,
+    # (A, m) in the scaled unknowns (added to the potential as the work of a dead load)
+    frozen: FloatArray | None = None
 
     def take(self, idx: NDArray[np.int64]) -> Problem:
         """The problem at the crank angles ``idx`` (increasing); itself when it is all."""

@@ -65,6 +65,8 @@ References
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -77,7 +79,7 @@ from cyclomesh.core.friction import (
     normal_moment,
 )
 from cyclomesh.core.lubrication import Film
-from cyclomesh.exceptions import DesignError
+from cyclomesh.exceptions import ConvergenceError, DesignError
 from cyclomesh.stage.assembly import Problem, bearing_jacobian
 from cyclomesh.stage.newton import reducer, residual_newton, rotation_index
 
@@ -85,6 +87,8 @@ __all__ = [
     "friction_arrays",
     "friction_terms",
     "friction_newton",
+    "friction_continuation",
+    "friction_picard",
     "power_terms",
     "check_stage_friction",
 ]
@@ -172,12 +176,17 @@ def pin_slip(p: Problem, force: FloatArray) -> tuple[FloatArray, FloatArray]:
     ``slip`` twice, or with a lubricant the coefficient of these loads
     (:func:`~cyclomesh.core.friction.coefficients`, Benedict–Kelley's in the mixed regime)
     and μ_eff + F·dμ_eff/dF, its elasticity added (the Jacobian of the lubricated
-    tangential forces)."""
+    tangential forces). A problem's ``friction_scale`` below 1 (a step of
+    :func:`friction_continuation`) multiplies both."""
     if p.lubrication is None:
-        return p.slip, p.slip
-    lub = p.lubrication
-    mu, _, el = coefficients(p.friction_law, lub["cos_beta"], force, constants=lub)
-    return mu * lub["sign"], (mu + el) * lub["sign"]
+        slip, dslip = p.slip, p.slip
+    else:
+        lub = p.lubrication
+        mu, _, el = coefficients(p.friction_law, lub["cos_beta"], force, constants=lub)
+        slip, dslip = mu * lub["sign"], (mu + el) * lub["sign"]
+    if p.friction_scale != 1.0:
+        return p.friction_scale * slip, p.friction_scale * dslip
+    return slip, dslip
 
 
 def lubricated_state(p: Problem, force: FloatArray) -> dict[str, FloatArray]:
@@ -228,10 +237,11 @@ def friction_terms(p: Problem, x: FloatArray, discs: int, rigid: bool, state: di
             dQ[:, block, zi] -= np.matmul(b[:, d] * dT[:, d, None, :], body.pin_w[:, d])
     if rigid or p.drag == 0.0:
         return Q, dQ
+    drag = p.drag if p.friction_scale == 1.0 else p.friction_scale * p.drag
     fx, fy = state["bearing_fx"], state["bearing_fy"]
     B = np.hypot(fx, fy)
     for d in range(discs):
-        Q[:, 1 + 3 * d] += p.drag * np.sum(B[:, d], axis=-1) / L
+        Q[:, 1 + 3 * d] += drag * np.sum(B[:, d], axis=-1) / L
     if jac:
         _, kb, _, _ = law.evaluate(state["deflection"], stiffness=True)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -240,15 +250,19 @@ def friction_terms(p: Problem, x: FloatArray, discs: int, rigid: bool, state: di
         G = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, m)
         ds = cx[..., None] * G[..., 0, :] + cy[..., None] * G[..., 1, :]  # (n, D, N, m)
         for d in range(discs):
-            dQ[:, 1 + 3 * d, :] += p.drag / L * np.sum(kb[:, d, :, None] * ds[:, d], axis=-2)
+            dQ[:, 1 + 3 * d, :] += drag / L * np.sum(kb[:, d, :, None] * ds[:, d], axis=-2)
     return Q, dQ
 
 
-def friction_newton(p: Problem, evaluate, law, x: FloatArray, discs: int, rigid: bool, phi):
+def friction_newton(
+    p: Problem, evaluate, law, x: FloatArray, discs: int, rigid: bool, phi, failed=None
+):
     """Newton's method on ∇Π − Q = 0 with the exact Jacobian and a backtracking line search
     on the residual's norm ([4]); scaled unknowns and the convergence test of
     :func:`~cyclomesh.stage.newton.newton` (every residual below 1e-12·T/r_c or the
-    round-off of the unknowns). ``rigid``: the reduced problem (θ_d = c, u = 0)."""
+    round-off of the unknowns). ``rigid``: the reduced problem (θ_d = c, u = 0).
+    ``failed``: as :func:`~cyclomesh.stage.newton.residual_newton`'s (the crank angles it
+    cannot solve marked there instead of an error)."""
     reduce = reducer(discs) if rigid else None
 
     def residual(sub: Problem, xa: FloatArray, jac: bool):
@@ -263,7 +277,119 @@ def friction_newton(p: Problem, evaluate, law, x: FloatArray, discs: int, rigid:
 
     tail = 0 if rigid or p.body is None else p.body.size
     rot = [0] if rigid else rotation_index(x.shape[1], discs, p.supports, tail)
-    return residual_newton(p, residual, x, phi, rot, "stage with friction", reduce)
+    return residual_newton(p, residual, x, phi, rot, "stage with friction", reduce, failed)
+
+
+_PICARD_ITERATIONS = 200
+
+
+def friction_picard(
+    p: Problem, minimise, evaluate, law, x: FloatArray, discs: int, rigid: bool, phi
+) -> FloatArray:
+    """Fixed-point iteration on the friction forces from ``x`` (A, m), the frictionless
+    solution: each step holds Q at the last iterate and minimises the convex potential
+    Π(x) − Q·x (the friction forces as a dead load, ``frozen``) by ``minimise`` (the
+    frictionless stage's Newton method, :func:`~cyclomesh.stage.newton.newton`, whose line
+    search on the potential crosses the contact laws' kinks, a pin closing or a bearing
+    leaving its clearance, where Newton on the residual can stall). The residual ∇Π − Q
+    falls by the ratio of Q's change to the step's (μ times the tangential over the normal
+    lever, about 0.05–0.1 here) per step; a crank angle stops at :func:`friction_newton`'s
+    tolerance or when its residual no longer falls to 0.9 of its best. Returns ``x``
+    (overwritten), for :func:`friction_newton` to finish and test."""
+    from cyclomesh.stage.newton import FORCE_TOLERANCE
+
+    tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
+    L = p.scale
+    tail = 0 if rigid or p.body is None else p.body.size
+    rot = (
+        [0, *range(1, 1 + 3 * discs, 3)]
+        if rigid
+        else rotation_index(x.shape[1], discs, p.supports, tail)
+    )
+
+    def loaded(sub: Problem, law_, xa, d, r, hessian=True, gradient=True):
+        e, g, H, st = evaluate(sub, law_, xa, d, r, hessian=hessian, gradient=gradient)
+        xs = xa.copy()
+        xs[:, rot] *= L
+        e = e - np.sum(sub.frozen * xs, axis=-1)
+        return e, (None if g is None else g - sub.frozen), H, st
+
+    plain = dataclasses.replace(p, slip=None, tangent_arm=None, drag=0.0, lubrication=None)
+    active = np.arange(x.shape[0])
+    best = np.full(x.shape[0], np.inf)
+    for _ in range(_PICARD_ITERATIONS):
+        if active.size == 0:
+            return x
+        sub = p.take(active)
+        _, g, _, st = evaluate(sub, law, x[active], discs, rigid, hessian=False)
+        Q, _ = friction_terms(sub, x[active], discs, rigid, st, law, False)
+        r = g - Q
+        if rigid:
+            r = r @ reducer(discs)
+        res = np.max(np.abs(r), axis=-1)
+        keep = (res > tol) & (res < 0.9 * best[active])
+        best[active] = np.minimum(best[active], res)
+        active = active[keep]
+        if active.size == 0:
+            return x
+        step = dataclasses.replace(plain.take(active), frozen=Q[keep])
+        try:
+            x[active] = minimise(step, loaded, law, x[active], discs, rigid, phi[active])
+        except ConvergenceError:  # one angle at a time; an angle that fails stops here
+            ok = np.ones(active.size, bool)
+            for i in range(active.size):
+                try:
+                    x[active[i : i + 1]] = minimise(step.take(np.array([i])), loaded, law,
+                                                    x[active[i : i + 1]], discs, rigid,
+                                                    phi[active[i : i + 1]])  # fmt: skip
+                except ConvergenceError:
+                    ok[i] = False
+            active = active[ok]
+    return x
+
+
+_CONTINUATION_HALVINGS = 12
+"""Smallest step of :func:`friction_continuation`: 2⁻¹² of the coefficients."""
+
+
+def friction_continuation(
+    p: Problem, evaluate, law, x: FloatArray, discs: int, rigid: bool, phi
+) -> FloatArray:
+    """The equilibrium with friction from the frictionless one ``x`` (A, m), by continuation
+    in the coefficients: :func:`friction_newton` at a fraction s of every coefficient
+    (``friction_scale``), s from 0 to 1, each step from the last solution; a step whose
+    Newton iteration fails is halved (down to 2⁻¹² of the coefficients), a step that
+    succeeds doubles the next, per crank angle. The first step is the whole of the
+    coefficients: friction of 0.05 moves the frictionless solution by a few per cent of
+    the loads, well within Newton's reach of it. Returns the solution at s = 1 (``x``
+    overwritten), to :func:`friction_newton`'s convergence test; raises ConvergenceError
+    naming the crank angle and the fraction reached where even the smallest step fails
+    (no sliding solution near the path)."""
+    A = x.shape[0]
+    level = np.zeros(A)  # the fraction of the coefficients of each angle's x
+    step = np.ones(A)
+    while True:
+        todo = np.flatnonzero(level < 1.0)
+        if todo.size == 0:
+            return x
+        target = np.minimum(level + step, 1.0)
+        for value in np.unique(target[todo]):
+            idx = todo[target[todo] == value]
+            sub = dataclasses.replace(p.take(idx), friction_scale=float(value))
+            failed = np.zeros(idx.size, bool)
+            trial = friction_newton(sub, evaluate, law, x[idx], discs, rigid, phi[idx], failed)
+            ok, bad = idx[~failed], idx[failed]
+            x[ok] = trial[~failed]
+            level[ok] = value
+            step[ok] *= 2.0
+            step[bad] *= 0.5
+            if np.any(step[bad] < 2.0**-_CONTINUATION_HALVINGS):
+                worst = bad[np.argmin(step[bad])]
+                raise ConvergenceError(
+                    f"stage with friction: no sliding equilibrium at crank angle "
+                    f"{np.degrees(phi[worst]):.6g}° beyond {level[worst]:.4g} of the friction "
+                    "coefficients (continuation from the frictionless solution)"
+                )
 
 
 def power_terms(

@@ -27,6 +27,10 @@ FORCE_TOLERANCE = 1e-12
 """Accepted residual of every equilibrium equation, relative to T/r_c (moments /r_c)."""
 _MAX_ITERATIONS = 200
 _MAX_HALVINGS = 60
+_STALL_HALVINGS = 30
+"""With a ``failed`` array (:func:`residual_newton`), a crank angle whose line search has not
+decreased the residual within this many halvings (a step of 10⁻⁹ of Newton's: the
+direction is the regularisation's, not the problem's) is given up to its caller."""
 _STEP_CAP = 1e-4
 """Largest move of any unknown in one trial step [m] (rotations × r_c): a longer Newton
 step (a nearly flat direction of the potential) is shortened to it before the line
@@ -142,6 +146,7 @@ def residual_newton(
     rot: list[int],
     what: str,
     reduce: FloatArray | None = None,
+    failed: NDArray[np.bool_] | None = None,
 ) -> FloatArray:
     """Newton's method on r(x) = 0 with a backtracking line search on the residual's norm
     (Nocedal & Wright §11.2), per crank angle: where no potential decreases along the step
@@ -153,7 +158,11 @@ def residual_newton(
     them, the step expanded to ``x``'s). The convergence test of :func:`newton`: every
     residual below :data:`FORCE_TOLERANCE`·T/r_c or the round-off of the unknowns. ``x``:
     the start (A, m), overwritten by the solution. Raises ConvergenceError naming ``what``
-    and the crank angle ``phi``.
+    and the crank angle ``phi``; with ``failed`` (a boolean array (A,), False on entry)
+    it does not: the crank angles it cannot solve (no decrease within
+    :data:`_STALL_HALVINGS` halvings) are set True there and left at their last iterate,
+    the others solved by the same arithmetic as without it (a caller that solves those
+    angles another way, :func:`~cyclomesh.stage.equilibrium._friction_solve`).
     """
     tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
     L = p.scale
@@ -180,7 +189,7 @@ def residual_newton(
         t = np.ones(xa.shape[0])
         todo = np.arange(xa.shape[0])
         new = xa.copy()
-        for _h in range(_MAX_HALVINGS):
+        for _h in range(_MAX_HALVINGS if failed is None else _STALL_HALVINGS):
             trial = xa[todo] + t[todo, None] * step[todo]
             r_t, _J, st = residual(sub.take(todo), trial, False)
             ok = ~st["bad"] & (np.linalg.norm(r_t, axis=-1) <= (1.0 - 1e-4 * t[todo]) * merit[todo])
@@ -190,11 +199,21 @@ def residual_newton(
                 break
             t[todo] *= 0.5
         else:
-            raise ConvergenceError(
-                f"{what}: no decrease of the residual at crank angle "
-                f"{np.degrees(phi[active[todo[0]]]):.6g}°"
-            )
+            if failed is None:
+                raise ConvergenceError(
+                    f"{what}: no decrease of the residual at crank angle "
+                    f"{np.degrees(phi[active[todo[0]]]):.6g}°"
+                )
+            failed[active[todo]] = True  # left at this iteration's start
+            x[active] = new
+            active = active[~failed[active]]
+            if active.size == 0:
+                return x
+            continue
         x[active] = new
+    if failed is not None:
+        failed[active] = True
+        return x
     raise ConvergenceError(
         f"{what} did not converge at crank angle "
         f"{np.degrees(phi[active[0]]):.6g}°: residual above {FORCE_TOLERANCE:.0e}·T/r_c"
