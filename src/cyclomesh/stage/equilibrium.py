@@ -279,6 +279,7 @@ def _kernel_newton(
         reference._MAX_HALVINGS,
         reference._STEP_CAP,
         *reference._LINEAR,
+        reference.ROUND_OFF_FORCE,
     )
     found: dict = {}
     if rigid:

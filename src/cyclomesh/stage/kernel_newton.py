@@ -49,16 +49,17 @@ def newton(
     the holes, :func:`~cyclomesh.stage.equilibrium.bearing_jacobian`), the same step, the
     same stretched step of a bearing at zero load, step cap, line search and convergence
     test. ``settings``: the reference's (FORCE_TOLERANCE, _MAX_ITERATIONS, _MAX_HALVINGS,
-    _STEP_CAP, *_LINEAR), passed in by the caller (this module is imported by the bearing
-    law, which cyclomesh.stage.newton imports). ``x`` (A, m) is overwritten by the
-    solution; returns the crank angles the kernel could not finish (the caller solves
-    them with the reference, which raises its own error where it fails too). ``state``: a
-    dict that receives the state at the solution of the crank angles it finished, as
-    equilibrium._evaluate's: ``pin_force`` [N] (A, D, P), ``bearing_fx``, ``bearing_fy``
-    [N] and ``deflection`` [m] (A, D, N), and ``gradient`` (A, m), the scaled gradient of
-    its convergence test (the evaluation at the solution the caller need not repeat).
+    _STEP_CAP, *_LINEAR, ROUND_OFF_FORCE), passed in by the caller (this module is
+    imported by the bearing law, which cyclomesh.stage.newton imports). ``x`` (A, m) is
+    overwritten by the solution; returns the crank angles the kernel could not finish
+    (the caller solves them with the reference, which raises its own error where it fails
+    too). ``state``: a dict that receives the state at the solution of the crank angles
+    it finished, as equilibrium._evaluate's: ``pin_force`` [N] (A, D, P), ``bearing_fx``,
+    ``bearing_fy`` [N] and ``deflection`` [m] (A, D, N), and ``gradient`` (A, m), the
+    scaled gradient of its convergence test (the evaluation at the solution the caller
+    need not repeat).
     """
-    force, iterations, halvings, cap, low, high = settings
+    force, iterations, halvings, cap, low, high, round_off = settings
     A, m = x.shape
     sup = p.supports
     N = p.hx.shape[-1]
@@ -92,6 +93,7 @@ def newton(
         float(p.torque),
         float(p.scale),
         force * abs(p.torque) / p.scale,
+        round_off * abs(p.torque) / p.scale,
         iterations,
         halvings,
         cap,
@@ -383,6 +385,7 @@ def _newton_rows(
     torque,
     L,
     tol,
+    floor,
     iterations,
     halvings,
     cap,
@@ -467,6 +470,8 @@ def _newton_rows(
                 if not (abs(g[r]) <= max(tol, noise)):
                     done = False
                 res = max(res, abs(g[r]))
+            # near the root (done): on to round-off, as the reference
+            done = done and (res <= floor or res >= previous)
             ratio = res > low * previous and res < high * previous
             stretch = (not extended) and ratio and linear
             linear = ratio and not extended
@@ -565,6 +570,7 @@ def rigid_newton(
     as :func:`newton`'s; ``state`` receives ``pin_force`` [N] and ``pin_stiffness``
     [N/m] (A, D, P) at the solution of the crank angles it finished."""
     force, iterations, halvings, cap = settings[:4]
+    round_off = settings[6]
     failed = np.zeros(x.shape[0], np.bool_)
     pf, pk = np.zeros(p.bl.shape), np.zeros(p.bl.shape)
     _kernels_newton()  # compiles _pin_force
@@ -574,6 +580,7 @@ def rigid_newton(
         float(p.torque),
         float(p.scale),
         force * abs(p.torque) / p.scale,
+        round_off * abs(p.torque) / p.scale,
         iterations,
         halvings,
         cap,
@@ -642,7 +649,7 @@ def _rigid_one(
 
 
 def _rigid_rows(
-    x, bl, arm, alpha, gamma, dmax, torque, L, tol, iterations, halvings, cap, failed, pf, pk
+    x, bl, arm, alpha, gamma, dmax, torque, L, tol, floor, iterations, halvings, cap, failed, pf, pk
 ):  # pragma: no cover (compiled)
     """:func:`rigid_newton` written for numba."""
     A, m = x.shape
@@ -654,6 +661,7 @@ def _rigid_rows(
         memo[0] = 0.0
         xi = x[i].copy()
         ok_angle = False
+        previous = np.inf
         for _ in range(iterations):
             energy, g, h, status = _rigid_one(
                 i, xi, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
@@ -663,9 +671,12 @@ def _rigid_rows(
             xs = abs(xi[0]) * L
             for d in range(D):
                 xs += abs(xi[1 + 3 * d]) * L
-            if abs(g) <= max(tol, 16.0 * eps * abs(h) * xs):
+            if abs(g) <= max(tol, 16.0 * eps * abs(h) * xs) and (
+                abs(g) <= floor or abs(g) >= previous
+            ):  # near the root, then on to round-off, as the reference
                 ok_angle = True
                 break
+            previous = abs(g)
             diag = max(abs(h), 1e-300)
             h = h + 1e-14 * diag
             step = -g / h
