@@ -9,6 +9,11 @@ Hessian of :func:`cyclomesh.stage.equilibrium._evaluate` with the laws of
 :mod:`cyclomesh.stage.kernel` (the pins' Eq. 20 of [1], the crank bearing's roller set of
 [2]), the same step, stretched step, step cap, line search and convergence test. The
 crank angles it cannot finish go back to the reference, which raises its own error.
+Two savings the reference's arithmetic does not see: an accepted line-search trial is
+evaluated with its gradient and Hessian, which the next step then uses (the reference
+evaluates that point again and gets the same numbers: each pin's inversion starts from
+its memo at the same approach), and the round-off of the unknowns (16ε·|H|·|x|) is
+formed only for a residual above the tolerance, the only place it decides.
 Split from :mod:`cyclomesh.stage.kernel` (the laws) as a pure move.
 
 References
@@ -416,60 +421,67 @@ def _newton_rows(
     step = np.zeros(m)
     memo = np.zeros((3, D, bl.shape[2]))  # each pin's last inversion (δ, y, F)
     for i in range(A):
-        memo[0] = 0.0
         xi = x[i].copy()
+        # g, H, energy and status hold the evaluation at xi (an accepted trial's, with
+        # its gradient and Hessian): the next iteration need not repeat it
+        have = False
+        energy, status = 0.0, 0
+        memo[0] = 0.0
         previous = np.inf
         extended = False
         linear = False
         ok_angle = False
         for _ in range(iterations):
-            energy, status = _evaluate_one(
-                i,
-                xi,
-                bl,
-                arm,
-                nx,
-                ny,
-                alpha,
-                gamma,
-                dmax,
-                ex,
-                ey,
-                hx,
-                hy,
-                G,
-                cols,
-                count,
-                kshaft,
-                nw,
-                frac,
-                kcarrier,
-                carrier,
-                cosines,
-                half,
-                kn,
-                torque,
-                L,
-                True,
-                g,
-                H,
-                memo,
-                pf,
-                bf,
-            )
+            if not have:
+                energy, status = _evaluate_one(
+                    i,
+                    xi,
+                    bl,
+                    arm,
+                    nx,
+                    ny,
+                    alpha,
+                    gamma,
+                    dmax,
+                    ex,
+                    ey,
+                    hx,
+                    hy,
+                    G,
+                    cols,
+                    count,
+                    kshaft,
+                    nw,
+                    frac,
+                    kcarrier,
+                    carrier,
+                    cosines,
+                    half,
+                    kn,
+                    torque,
+                    L,
+                    True,
+                    g,
+                    H,
+                    memo,
+                    pf,
+                    bf,
+                )
+            have = False
             if status == 2:
                 break
             done = True
             res = 0.0
             for r in range(m):
-                noise = 0.0
-                for s in range(m):
-                    xs = abs(xi[s]) * L if rot[s] else abs(xi[s])
-                    noise += abs(H[r, s]) * xs
-                noise *= 16.0 * eps
-                if not (abs(g[r]) <= max(tol, noise)):
-                    done = False
                 res = max(res, abs(g[r]))
+                if done and not (abs(g[r]) <= tol):  # the round-off of the unknowns?
+                    noise = 0.0
+                    for s in range(m):
+                        xs = abs(xi[s]) * L if rot[s] else abs(xi[s])
+                        noise += abs(H[r, s]) * xs
+                    noise *= 16.0 * eps
+                    if not (abs(g[r]) <= max(tol, noise)):
+                        done = False
             # near the root (done): on to round-off, as the reference
             done = done and (res <= floor or res >= previous)
             ratio = res > low * previous and res < high * previous
@@ -536,7 +548,7 @@ def _newton_rows(
                     kn,
                     torque,
                     L,
-                    False,
+                    True,
                     gt,
                     Ht,
                     memo,
@@ -548,6 +560,9 @@ def _newton_rows(
                 if st == 0 and (e_t <= energy + 1e-4 * t * slope or tiny):
                     for r in range(m):
                         xi[r] = trial[r]
+                    g, gt = gt, g  # the trial's gradient and Hessian: the next iteration's
+                    H, Ht = Ht, H
+                    energy, status, have = e_t, st, True
                     moved = True
                     break
                 extended = False
@@ -658,14 +673,18 @@ def _rigid_rows(
     trial = np.zeros(m)
     memo = np.zeros((3, D, bl.shape[2]))  # each pin's last inversion (δ, y, F)
     for i in range(A):
-        memo[0] = 0.0
         xi = x[i].copy()
+        have = False  # energy, g, h, status (and pf, pk) hold the evaluation at xi
+        energy, g, h, status = 0.0, 0.0, 0.0, 0
+        memo[0] = 0.0
         ok_angle = False
         previous = np.inf
         for _ in range(iterations):
-            energy, g, h, status = _rigid_one(
-                i, xi, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
-            )
+            if not have:
+                energy, g, h, status = _rigid_one(
+                    i, xi, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
+                )
+            have = False
             if status == 2:
                 break
             xs = abs(xi[0]) * L
@@ -697,14 +716,15 @@ def _rigid_rows(
                 trial[0] = xi[0] + move
                 for d in range(D):
                     trial[1 + 3 * d] = xi[1 + 3 * d] + move
-                e_t, _g, _h2, st = _rigid_one(
-                    i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, False, pf, pk
+                e_t, g_t, h_t, st = _rigid_one(
+                    i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
                 )
                 if st == 2:
                     break
                 if st == 0 and (e_t <= energy + 1e-4 * t * slope or tiny):
                     for r in range(m):
                         xi[r] = trial[r]
+                    energy, g, h, status, have = e_t, g_t, h_t, st, True  # the next's
                     moved = True
                     break
                 t = 1.0 if t > 1.0 else 0.5 * t
