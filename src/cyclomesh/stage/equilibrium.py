@@ -555,13 +555,18 @@ def solve_direction(
         work = _work(prob, stage, x, D, st)
         if fr is not None:
             work["work_friction"] = _friction_work(prob, x, q, D)
-        if body is None and positions:  # a disc that carries nothing: its canonical position
+        if body is None:  # a disc that carries nothing: no load, its canonical position
             idle = floating_discs(F, np.hypot(bfx, bfy), FLOATING_LOAD * abs(torque) / prob.scale)
-            x, idle_deflection = canonical_positions(
-                prob, x, D, idle, 0.5 * stage.bearing.clearance
-            )
-            deflection = deflection.copy()
-            deflection[idle] = idle_deflection
+            if np.any(idle):  # the solve's loads on it are its round-off: reported as 0
+                F = np.where(idle[..., None], 0.0, F)
+                bfx = np.where(idle[..., None], 0.0, bfx)
+                bfy = np.where(idle[..., None], 0.0, bfy)
+            if positions:
+                x, idle_deflection = canonical_positions(
+                    prob, x, D, idle, 0.5 * stage.bearing.clearance
+                )
+                deflection = deflection.copy()
+                deflection[idle] = idle_deflection
     else:
         deflection = np.zeros_like(bfx)
         sb = deflection
