@@ -9,11 +9,16 @@ Hessian of :func:`cyclomesh.stage.equilibrium._evaluate` with the laws of
 :mod:`cyclomesh.stage.kernel` (the pins' Eq. 20 of [1], the crank bearing's roller set of
 [2]), the same step, stretched step, step cap, line search and convergence test. The
 crank angles it cannot finish go back to the reference, which raises its own error.
-Two savings the reference's arithmetic does not see: an accepted line-search trial is
-evaluated with its gradient and Hessian, which the next step then uses (the reference
-evaluates that point again and gets the same numbers: each pin's inversion starts from
-its memo at the same approach), and the round-off of the unknowns (16ε·|H|·|x|) is
-formed only for a residual above the tolerance, the only place it decides.
+The crank angles are solved in order, each run of
+:data:`~cyclomesh.stage.newton.WARM_RUN` started from the solution of the crank angle
+before where the potential is lower there (the reference's warm start,
+:func:`cyclomesh.stage.equilibrium._warm`, which solves the same runs in vectorised
+passes), the pins' inversion memo kept. Two savings the reference's arithmetic does not
+see: an accepted line-search trial is evaluated with its gradient and Hessian, which the
+next step then uses (the reference evaluates that point again and gets the same numbers:
+each pin's inversion starts from its memo at the same approach), and the round-off of
+the unknowns (16ε·|H|·|x|) is formed only for a residual above the tolerance, the only
+place it decides.
 Split from :mod:`cyclomesh.stage.kernel` (the laws) as a pure move.
 
 References
@@ -64,7 +69,7 @@ def newton(
     scaled gradient of its convergence test (the evaluation at the solution the caller
     need not repeat).
     """
-    force, iterations, halvings, cap, low, high, round_off = settings
+    force, iterations, halvings, cap, low, high, round_off, run = settings
     A, m = x.shape
     sup = p.supports
     N = p.hx.shape[-1]
@@ -104,6 +109,7 @@ def newton(
         cap,
         low,
         high,
+        run,
         failed,
         pf,
         bf,
@@ -396,6 +402,7 @@ def _newton_rows(
     cap,
     low,
     high,
+    run,
     failed,
     pf,
     bf,
@@ -422,11 +429,32 @@ def _newton_rows(
     memo = np.zeros((3, D, bl.shape[2]))  # each pin's last inversion (δ, y, F)
     for i in range(A):
         xi = x[i].copy()
-        # g, H, energy and status hold the evaluation at xi (an accepted trial's, with
-        # its gradient and Hessian): the next iteration need not repeat it
+        # g, H, energy and status hold the evaluation at xi (a trial's, or the warm
+        # start's, with its gradient and Hessian): the next iteration need not repeat it
         have = False
         energy, status = 0.0, 0
-        memo[0] = 0.0
+        if i % run != 0 and not failed[i - 1]:
+            # warm start (WARM_RUN): the previous crank angle's solution where its
+            # potential here is lower than the given start's (the pins' memo kept: its
+            # inversions are near)
+            e0, s0 = _evaluate_one(
+                i, xi, bl, arm, nx, ny, alpha, gamma, dmax, ex, ey, hx, hy, G, cols, count,
+                kshaft, nw, frac, kcarrier, carrier, cosines, half, kn, torque, L, False, gt,
+                Ht, memo, pf, bf,
+            )  # fmt: skip
+            for r in range(m):
+                trial[r] = x[i - 1, r]
+            e1, s1 = _evaluate_one(
+                i, trial, bl, arm, nx, ny, alpha, gamma, dmax, ex, ey, hx, hy, G, cols, count,
+                kshaft, nw, frac, kcarrier, carrier, cosines, half, kn, torque, L, True, g,
+                H, memo, pf, bf,
+            )  # fmt: skip
+            if s1 == 0 and (s0 != 0 or e1 < e0):
+                for r in range(m):
+                    xi[r] = trial[r]
+                energy, status, have = e1, s1, True
+        else:
+            memo[0] = 0.0
         previous = np.inf
         extended = False
         linear = False
@@ -585,7 +613,7 @@ def rigid_newton(
     as :func:`newton`'s; ``state`` receives ``pin_force`` [N] and ``pin_stiffness``
     [N/m] (A, D, P) at the solution of the crank angles it finished."""
     force, iterations, halvings, cap = settings[:4]
-    round_off = settings[6]
+    round_off, run = settings[6], settings[7]
     failed = np.zeros(x.shape[0], np.bool_)
     pf, pk = np.zeros(p.bl.shape), np.zeros(p.bl.shape)
     _kernels_newton()  # compiles _pin_force
@@ -599,6 +627,7 @@ def rigid_newton(
         iterations,
         halvings,
         cap,
+        run,
         failed,
         pf,
         pk,
@@ -664,8 +693,9 @@ def _rigid_one(
 
 
 def _rigid_rows(
-    x, bl, arm, alpha, gamma, dmax, torque, L, tol, floor, iterations, halvings, cap, failed, pf, pk
-):  # pragma: no cover (compiled)
+    x, bl, arm, alpha, gamma, dmax, torque, L, tol, floor, iterations, halvings, cap, run, failed,
+    pf, pk,
+):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`rigid_newton` written for numba."""
     A, m = x.shape
     D = bl.shape[1]
@@ -676,7 +706,21 @@ def _rigid_rows(
         xi = x[i].copy()
         have = False  # energy, g, h, status (and pf, pk) hold the evaluation at xi
         energy, g, h, status = 0.0, 0.0, 0.0, 0
-        memo[0] = 0.0
+        if i % run != 0 and not failed[i - 1]:  # warm start, as _newton_rows
+            e0, _g, _h2, s0 = _rigid_one(
+                i, xi, bl, arm, alpha, gamma, dmax, torque, L, memo, False, pf, pk
+            )
+            for r in range(m):
+                trial[r] = x[i - 1, r]
+            e1, g1, h1, s1 = _rigid_one(
+                i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
+            )
+            if s1 == 0 and (s0 != 0 or e1 < e0):
+                for r in range(m):
+                    xi[r] = trial[r]
+                energy, g, h, status, have = e1, g1, h1, s1, True
+        else:
+            memo[0] = 0.0
         ok_angle = False
         previous = np.inf
         for _ in range(iterations):

@@ -25,6 +25,7 @@ __all__ = [
     "rotation_index",
     "FORCE_TOLERANCE",
     "ROUND_OFF_FORCE",
+    "WARM_RUN",
     "reducer",
 ]
 
@@ -40,6 +41,13 @@ ROUND_OFF_FORCE = 4.0 * float(np.finfo(float).eps)
 reached (four units in the last place, about 8.9e-16); a residual within
 :data:`FORCE_TOLERANCE`·T/r_c (or the round-off of the unknowns) that a Newton step does
 not reduce ends the iteration as well (the round-off of the sums of forces)."""
+WARM_RUN = 4
+"""Crank angles solved in a run from the one before (a warm start): every WARM_RUN-th
+crank angle (0, WARM_RUN, ...) starts from its own start, each of the next WARM_RUN − 1
+from the solution of the crank angle before it where the potential is lower there
+(:func:`cyclomesh.stage.equilibrium._solve`; the compiled iteration goes through them in
+order, the NumPy reference in WARM_RUN vectorised passes). The root does not depend on the
+start (the iteration runs to round-off)."""
 _MAX_ITERATIONS = 200
 _MAX_HALVINGS = 60
 _STEP_CAP = 1e-4
