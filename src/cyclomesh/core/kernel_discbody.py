@@ -58,7 +58,8 @@ def compiled() -> Any:
     except ImportError:
         return None
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _exp_step, _force, _evaluate, _solve2  # compiled in place: the passes call them
+    global _cell, _exp_step, _force, _evaluate, _solve2  # compiled in place: passes call them
+    _cell = jit(_cell)
     _exp_step = jit(_exp_step)
     _force = jit(_force)
     _evaluate = jit(_evaluate)
@@ -87,19 +88,13 @@ def _candidates(
     for k in range(n_cases):
         bound = np.inf
         for i in range(n):
-            ang = angle[k, i]
-            if np.isnan(ang):
-                ang = u0
-            s = (min(max(ang, u0), u_last) - u0) / h
-            c = min(max(int(np.floor(s)), 0), m - 2)
-            t = s - c
-            t2, t3 = t * t, t * t * t
+            c, w0, w1, w2, w3 = _cell(angle[k, i], u0, u_last, h, m)
             row = tooth[k, i] % period
             own[k, i] = (
-                diagonal[row, max(c - 1, 0)] * (0.5 * (-t3 + 2.0 * t2 - t))
-                + diagonal[row, c] * (0.5 * (3.0 * t3 - 5.0 * t2 + 2.0))
-                + diagonal[row, c + 1] * (0.5 * (-3.0 * t3 + 4.0 * t2 + t))
-                + diagonal[row, min(c + 2, m - 1)] * (0.5 * (t3 - t2))
+                diagonal[row, max(c - 1, 0)] * w0
+                + diagonal[row, c] * w1
+                + diagonal[row, c + 1] * w2
+                + diagonal[row, min(c + 2, m - 1)] * w3
             )
         # the bound: the pin with the smallest backlash first, then only the pins below
         # the bound so far (a counted pin's rotation alone is above its backlash)
@@ -126,6 +121,26 @@ def _candidates(
         for i in range(n):
             b = bl[k, i]
             candidate[k, i] = np.isfinite(b) and arm[k, i] > 0.0 and b < bound
+
+
+def _cell(ang, u0, u_last, h, m):  # pragma: no cover (compiled)
+    """The Catmull–Rom cell c of profile angle ``ang`` [rad] (NaN: u₀) on the grid
+    (u₀, u_last, h, m) and its four weights, as ``DiscBody._cells``: the one formula of
+    the own coefficients (:func:`_candidates`) and the reciprocal windows
+    (:func:`_solve_sets`)."""
+    if np.isnan(ang):
+        ang = u0
+    s = (min(max(ang, u0), u_last) - u0) / h
+    c = min(max(int(np.floor(s)), 0), m - 2)
+    t = s - c
+    t2, t3 = t * t, t * t * t
+    return (
+        c,
+        0.5 * (-t3 + 2.0 * t2 - t),
+        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+        0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+        0.5 * (t3 - t2),
+    )
 
 
 def _force(d, a, g, y_last, d_last, f_last):  # pragma: no cover (compiled)
@@ -328,17 +343,7 @@ def _solve_sets(
             i = idx[a]
             c_bl[a], c_arm[a] = bl[k, i], arm[k, i]
             c_alpha[a], c_gamma[a] = alpha[k, i], gamma[k, i]
-            ang = angle[k, i]
-            if np.isnan(ang):
-                ang = u0
-            s = (min(max(ang, u0), u_last) - u0) / h
-            c = min(max(int(np.floor(s)), 0), m - 2)
-            t = s - c
-            t2, t3 = t * t, t * t * t
-            wts[a, 0] = 0.5 * (-t3 + 2.0 * t2 - t)
-            wts[a, 1] = 0.5 * (3.0 * t3 - 5.0 * t2 + 2.0)
-            wts[a, 2] = 0.5 * (-3.0 * t3 + 4.0 * t2 + t)
-            wts[a, 3] = 0.5 * (t3 - t2)
+            c, wts[a, 0], wts[a, 1], wts[a, 2], wts[a, 3] = _cell(angle[k, i], u0, u_last, h, m)
             cell[a] = c
             base[a] = ((tooth[k, i] % period) * n2 * cells + c) * cells
             km[a] = tooth[k, i] % n2
