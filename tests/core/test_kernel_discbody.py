@@ -19,6 +19,7 @@ from cyclomesh.core.ltca import pin_compliance, rest_position, solve_ltca
 from cyclomesh.core.pair import PinErrors
 from cyclomesh.drive.solve import solve_drive
 from cyclomesh.exceptions import ConvergenceError
+from tests.core.test_kernel import _agree  # the kernels' one agreement rule
 
 pytest.importorskip("numba")
 
@@ -66,18 +67,6 @@ def _both(monkeypatch, solve):
         out[name] = solve()
         assert bool(calls) == (name == "numpy"), name
     return out["numpy"], out["numba"]
-
-
-def _agree(ref, got, fields):
-    for name in fields:
-        a, b = np.asarray(getattr(ref, name)), np.asarray(getattr(got, name))
-        assert a.shape == b.shape, name
-        fin = np.isfinite(a)
-        assert np.array_equal(fin, np.isfinite(b)), name
-        a, b = a[fin], b[fin]
-        assert np.max(np.abs(a - b)) <= 1e-13 * np.max(np.abs(a)), name
-        if name in ("loaded_rotation", "transmission_error", "torque_share"):
-            assert np.all(np.abs(a - b) <= 1e-13 * np.abs(a)), name  # elementwise
 
 
 @pytest.mark.parametrize("period", [1, 3])
