@@ -17,10 +17,11 @@ from cyclomesh.core.contact import unloaded_contact
 from cyclomesh.core.discbody import DiscBody
 from cyclomesh.core.fields import contact_stresses
 from cyclomesh.core.ltca import pin_compliance, rest_position, solve_ltca
-from cyclomesh.core.pair import CrankHoles, PairDesign, PinErrors
+from cyclomesh.core.pair import PinErrors
 from cyclomesh.drive.solve import solve_drive
 from cyclomesh.exceptions import ConvergenceError, DesignError
 from cyclomesh.stage import RollerSet, StageDesign, solve_stage
+from tests.stage.rv40 import HOLES, RV40
 
 pytest.importorskip("numba")
 
@@ -118,15 +119,6 @@ def test_compliant_disc_agrees(monkeypatch):
 
 
 def test_stage_agrees(monkeypatch):
-    rv40 = PairDesign(
-        pins=40,
-        pin_circle_radius=64e-3,
-        pin_radius=3e-3,
-        groove_radius=3.005e-3,
-        eccentricity=1.3e-3,
-        width=10e-3,
-    )
-    holes = CrankHoles(count=3, circle_radius=36e-3, radius=13e-3)
     rollers = RollerSet(
         rollers=14, diameter=4e-3, length=9e-3, clearance=5e-6, pitch_diameter=22e-3
     )
@@ -134,7 +126,7 @@ def test_stage_agrees(monkeypatch):
     ref, got = _both(
         monkeypatch,
         lambda: solve_stage(
-            rv40, StageDesign(holes, rollers), mod, None, (-412.0, 412.0), PHI[::8], discs=2
+            RV40, StageDesign(HOLES, rollers), mod, None, (-412.0, 412.0), PHI[::8], discs=2
         ),
     )
     _agree(ref, got, ("pin_load", "transmission_error", "bearing_load"))

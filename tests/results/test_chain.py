@@ -10,11 +10,11 @@ import xarray as xr
 from cyclomesh import TABLE1, Modification, PinErrors, analyse, stiffness
 from cyclomesh.core.case import Case, Model
 from cyclomesh.core.ltca import ltca, solve_ltca
-from cyclomesh.core.pair import CrankHoles
 from cyclomesh.exceptions import DesignError
 from cyclomesh.results.chain import run
 from cyclomesh.stage.bearing import RollerSet
 from cyclomesh.stage.solve import StageDesign, solve_stage
+from tests.stage.rv40 import HOLES
 
 TPM = Modification(pin_radius=8e-6)
 PHI_DEG = np.arange(0.0, 9.0, 1.5)
@@ -58,7 +58,7 @@ def test_solve_ltca_is_the_chain_of_a_case_and_a_model():
 
 def test_the_stage_goes_through_the_same_chain_and_reports_the_groove_stress():
     stage = StageDesign(
-        CrankHoles(count=3, circle_radius=36e-3, radius=13e-3),
+        HOLES,
         RollerSet(14, 4e-3, 9e-3, 5e-6, 22e-3),
     )
     case = CASE.replace(torque=[-250.0, 250.0])
@@ -88,7 +88,7 @@ def test_the_stage_takes_the_disc_body_through_the_model_and_names_what_is_missi
     from cyclomesh.core.discbody import DiscBody
 
     body = DiscBody(np.linspace(-np.pi, 0.0, 5), np.zeros((1, TABLE1.teeth, 5, 5)), TABLE1.teeth)
-    stage = StageDesign(CrankHoles(count=3, circle_radius=36e-3, radius=13e-3))
+    stage = StageDesign(HOLES)
     with pytest.raises(DesignError, match=r"^stage: the compliant disc needs the crank-hole"):
         run(CASE, Model(disc_body=body, discs=2, stage=stage))
     # the same body and model without the stage: the mesh takes it (zero compliance: the

@@ -5,23 +5,15 @@ import math
 import numpy as np
 import pytest
 
-from cyclomesh.core.pair import CrankHoles, Modification, PairDesign
+from cyclomesh.core.pair import Modification
 from cyclomesh.exceptions import DesignError
 from cyclomesh.stage import RollerSet, StageDesign, solve_stage
 from cyclomesh.stage import solve as stage_solve
 from cyclomesh.stage.carrier import Carrier, pillar_stiffness
 from cyclomesh.stage.crankshaft import Crankshaft, beam_compliance, shear_coefficient
 from cyclomesh.stage.equilibrium import Supports
+from tests.stage.rv40 import HOLES, RV40
 
-RV40 = PairDesign(
-    pins=40,
-    pin_circle_radius=64e-3,
-    pin_radius=3e-3,
-    groove_radius=3.005e-3,
-    eccentricity=1.3e-3,
-    width=10e-3,
-)
-HOLES = CrankHoles(count=3, circle_radius=36e-3, radius=13e-3)
 ROLLERS = RollerSet(rollers=14, diameter=4e-3, length=9e-3, clearance=5e-6, pitch_diameter=22e-3)
 MOD = Modification(pin_radius=3e-6)
 PHI = np.deg2rad(np.arange(0.0, 360.0, 15.0))

@@ -8,21 +8,13 @@ import pytest
 
 import cyclomesh.stage.equilibrium as eq
 import cyclomesh.stage.newton as nt
-from cyclomesh.core.pair import CrankHoles, Modification, PairDesign, PinErrors
+from cyclomesh.core.pair import Modification, PinErrors
 from cyclomesh.stage import RollerSet, StageDesign, solve_stage
 from cyclomesh.stage.bearing import radial_energy, radial_force, radial_law, radial_stiffness
 from cyclomesh.stage.carrier import Carrier
 from cyclomesh.stage.crankshaft import Crankshaft
+from tests.stage.rv40 import HOLES, RV40
 
-RV40 = PairDesign(
-    pins=40,
-    pin_circle_radius=64e-3,
-    pin_radius=3e-3,
-    groove_radius=3.005e-3,
-    eccentricity=1.3e-3,
-    width=10e-3,
-)
-HOLES = CrankHoles(count=3, circle_radius=36e-3, radius=13e-3)
 BEARING = RollerSet(14, 4e-3, 9e-3, 5e-6, 22e-3)
 MOD = Modification(pin_radius=3e-6)
 PHI = np.radians(np.arange(0.0, 360.0, 3.0))

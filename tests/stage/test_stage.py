@@ -3,20 +3,12 @@
 import numpy as np
 import pytest
 
-from cyclomesh.core.pair import CrankHoles, Modification, PairDesign, PinErrors
+from cyclomesh.core.pair import Modification, PinErrors
 from cyclomesh.drive.solve import solve_drive, torsion_curve
 from cyclomesh.exceptions import DesignError
 from cyclomesh.stage import RollerSet, StageDesign, bearing_life, solve_stage, stage_torsion_curve
+from tests.stage.rv40 import HOLES, RV40
 
-RV40 = PairDesign(
-    pins=40,
-    pin_circle_radius=64e-3,
-    pin_radius=3e-3,
-    groove_radius=3.005e-3,
-    eccentricity=1.3e-3,
-    width=10e-3,
-)
-HOLES = CrankHoles(count=3, circle_radius=36e-3, radius=13e-3)
 MOD = Modification(pin_radius=8e-6)
 PHI = np.radians(np.arange(0.0, 360.0, 9.0))
 

@@ -9,22 +9,14 @@ import pytest
 
 from cyclomesh.core.case import Case, Model
 from cyclomesh.core.friction import Friction, Lubricant
-from cyclomesh.core.pair import CrankHoles, Modification, PairDesign, PinErrors
+from cyclomesh.core.pair import Modification, PinErrors
 from cyclomesh.drive.solve import solve_drive, stack_meshes, torsion_curve
 from cyclomesh.exceptions import DesignError
 from cyclomesh.stage import RollerSet, StageDesign
 from cyclomesh.stage.equilibrium import solve_direction
 from cyclomesh.stage.solve import solve, stage_torsion
+from tests.stage.rv40 import HOLES, RV40
 
-RV40 = PairDesign(
-    pins=40,
-    pin_circle_radius=64e-3,
-    pin_radius=3e-3,
-    groove_radius=3.005e-3,
-    eccentricity=1.3e-3,
-    width=10e-3,
-)
-HOLES = CrankHoles(count=3, circle_radius=36e-3, radius=13e-3)
 MOD = Modification(pin_radius=8e-6)
 PHI = np.radians(np.arange(0.0, 360.0, 9.0))
 SPEED = 2.0 * np.pi * 585.0 / 60.0
