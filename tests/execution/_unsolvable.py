@@ -1,0 +1,89 @@
+"""Rings a solver cannot solve, on purpose (importable by worker processes).
+
+The real rings that fail to converge get fixed as the solvers improve, so the tests of
+"an unsolved ring is an outcome of the study" make chosen rings fail deterministically:
+
+* :func:`fail_rings` (in this process, serial backend and ``cyclomesh run``): wraps the
+  one validation every mesh solve passes (``cyclomesh.drive.solve.check``), and the RV
+  stage's solve (``cyclomesh.stage.solve.solve``), to raise a
+  :class:`~cyclomesh.exceptions.ConvergenceError` for a case whose pin errors are those of
+  a chosen ring (its radial errors, bit for bit, as the study loader and the ring model
+  give them);
+* :class:`UnsolvableRings` (worker processes, local pool and Dask): a
+  :class:`~cyclomesh.tolerance.tasks.RingModel` whose mesh solve raises the same error
+  for chosen rings; it travels to the workers with the task and is imported there from
+  this module.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from cyclomesh.exceptions import ConvergenceError
+from cyclomesh.tolerance.tasks import RingModel
+
+MESSAGE = (
+    "torque 250 N·m: crank angle 330°: the load sharing (Eq. 21) did not converge "
+    "(a ring made unsolvable by the test)"
+)
+STAGE_MESSAGE = "stage: the stiff-limit bearing load split did not converge (made so by the test)"
+
+
+def ring_radial_m(model: RingModel, rings: Any) -> list[np.ndarray]:
+    """The radial pin errors [m] of the given rings, as their solves see them."""
+    return [np.asarray(model.pin_errors(model.draw([k])).radial, float)[0] for k in rings]
+
+
+def _hit(errors: Any, targets: list[np.ndarray]) -> bool:
+    radial = None if errors is None else np.asarray(errors.radial, float)
+    if radial is None or radial.ndim == 0:
+        return False
+    rows = radial.reshape(-1, radial.shape[-1])
+    return any(np.array_equal(row, t) for row in rows for t in targets)
+
+
+def fail_rings(monkeypatch: Any, model: RingModel, rings: Any, stage: bool = False) -> None:
+    """Make the mesh solve (or, ``stage``, the stage solve) of ``rings`` raise."""
+    targets = ring_radial_m(model, rings)
+    if stage:
+        import cyclomesh.stage.solve as where
+
+        original = where.solve
+
+        def solve(case: Any, *args: Any, **kwargs: Any) -> Any:
+            if _hit(case.errors, targets):
+                raise ConvergenceError(STAGE_MESSAGE)
+            return original(case, *args, **kwargs)
+
+        monkeypatch.setattr(where, "solve", solve)
+        return
+    import cyclomesh.drive.solve as where
+
+    original_check = where.check
+
+    def check(case: Any, *args: Any, **kwargs: Any) -> Any:
+        if _hit(case.errors, targets):
+            raise ConvergenceError(MESSAGE)
+        return original_check(case, *args, **kwargs)
+
+    monkeypatch.setattr(where, "check", check)
+
+
+@dataclasses.dataclass(frozen=True)
+class UnsolvableRings(RingModel):
+    """A ring model whose mesh solve does not converge for the rings in ``fail``."""
+
+    fail: tuple[int, ...] = ()
+
+    @classmethod
+    def of(cls, model: RingModel, fail: Any) -> UnsolvableRings:
+        fields = {f.name: getattr(model, f.name) for f in dataclasses.fields(RingModel)}
+        return cls(**fields, fail=tuple(int(k) for k in fail))
+
+    def _solve(self, block: Any) -> dict[str, Any]:
+        if any(int(k) in self.fail for k in block.rings):
+            raise ConvergenceError(MESSAGE)
+        return super()._solve(block)
