@@ -81,6 +81,7 @@ __all__ = [
     "unsolved_rings",
     "unsolved_summary",
     "check_some_solved",
+    "nonfinite_reason",
     "write_unsolved_ring",
     "worst_ring_study",
     "run_tolerance",
@@ -131,7 +132,7 @@ def metrics_dataset(
         elif name == "unsolved_reason":
             attrs_["long_name"] = "the solver's one-line error of an unsolved ring ('' if solved)"
         elif arr.dtype.kind == "f" and np.any(np.isnan(arr)):
-            attrs_["nonfinite"] = _nonfinite(per_ring, np.isnan(arr))
+            attrs_["nonfinite"] = nonfinite_reason(per_ring, np.isnan(arr))
         data[name] = xr.DataArray(arr, dims=("ring",), attrs=attrs_)
     ds = xr.Dataset(data, coords={"ring": ("ring", ring, {"units": "1"})})
     ds.attrs.update(
@@ -146,7 +147,7 @@ def metrics_dataset(
     return ds
 
 
-def _nonfinite(per_ring: Mapping[str, np.ndarray], nan: np.ndarray) -> str:
+def nonfinite_reason(per_ring: Mapping[str, np.ndarray], nan: np.ndarray) -> str:
     """The ``nonfinite`` attribute of a metric that is NaN at the rings ``nan``: why."""
     why = []
     if np.any(np.asarray(per_ring.get("jammed", False))[nan]):

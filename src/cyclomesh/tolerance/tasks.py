@@ -449,8 +449,9 @@ class AllocationTask:
     The nominal ring (f = 0) must not exceed the allowable (checked by the caller). A
     ring whose scaled errors jam the disc (a pin overlaps it at every rotation), or on
     which a solver does not converge, counts as exceeding at that factor; ``unsolved`` and
-    ``unsolved_reason`` (the first such message, naming the factor) mark the rings where a
-    solve the allocation needed did not converge, and ``jammed`` the rings that jam at
+    ``unsolved_reason`` (the first such message, naming the factor; ``unsolved_factor`` that
+    factor, NaN for the other rings) mark the rings where a solve the allocation needed
+    did not converge, and ``jammed`` the rings that jam at
     the stated tolerances (their stated metrics NaN, as those of a ring unsolved there).
     Every step solves the whole batch (rings already settled ride along and their
     results are ignored). One more solve at the stated tolerances (f = 1) gives each
@@ -503,16 +504,18 @@ class AllocationTask:
         upper = np.full(n, np.inf)
         active = np.ones(n, dtype=bool)  # not yet seen exceeding
         reason = [""] * n  # the first failed solve of a ring that the allocation needed
+        at = np.full(n, np.nan)  # and its scale factor
 
-        def note(needed: NDArray[np.bool_], why: list[str]) -> None:
+        def note(needed: NDArray[np.bool_], why: list[str], factor: NDArray[np.float64]) -> None:
             for i in np.flatnonzero(needed):
-                reason[i] = reason[i] or why[i]
+                if why[i] and not reason[i]:
+                    reason[i], at[i] = why[i], factor[i]
 
         for f in self.factors:
             if not active.any():
                 break
             exceeded, why = self._exceeds(drawn, np.full(n, f))
-            note(active, why)
+            note(active, why, np.full(n, f))
             upper[active & exceeded] = f
             lower[active & ~exceeded] = f
             active &= ~exceeded
@@ -522,11 +525,15 @@ class AllocationTask:
                 break
             mid = np.where(bracketed, 0.5 * (lower + upper), 0.0)
             exceeded, why = self._exceeds(drawn, mid)
-            note(bracketed, why)
+            note(bracketed, why, mid)
             upper = np.where(bracketed & exceeded, mid, upper)
             lower = np.where(bracketed & ~exceeded, mid, lower)
         stated = ring_outcomes(self.model, drawn)
-        note(stated["unsolved"], [f"scale factor 1: {w}" for w in stated["unsolved_reason"]])
+        note(
+            stated["unsolved"],
+            [f"scale factor 1: {w}" if w else "" for w in stated["unsolved_reason"]],
+            np.ones(n),
+        )
         return {
             "ring": drawn.rings,
             "critical_factor_lower": lower,
@@ -535,6 +542,7 @@ class AllocationTask:
             "jammed": stated["jammed"],
             "unsolved": np.array([bool(r) for r in reason], dtype=bool),
             "unsolved_reason": np.asarray(reason, dtype=str),
+            "unsolved_factor": at,
         }
 
     def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
