@@ -619,7 +619,7 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
     from cyclomesh.publish.report import description_html
 
     worst_text = (
-        "no ring was solved"
+        "every ring jams the disc"
         if worst is None
         else f"Worst ring: {worst['ring']} ({worst[STRESS_METRIC]:.5g} MPa), written to "
         f"<code>{html.escape(worst['file'])}</code>"

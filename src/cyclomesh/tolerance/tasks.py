@@ -389,10 +389,14 @@ def _one_by_one(model: RingModel, drawn: RingErrors, efficiency: bool) -> dict[s
 
 
 def _unprefixed(message: str, ring: int, seed: int) -> str:
-    """The solver's message without the "ring k (seed s): " that :meth:`RingModel.metrics`
-    puts in front (the ring is named beside it)."""
-    prefix = f"ring {ring} (seed {seed}): "
-    return message[len(prefix) :] if message.startswith(prefix) else message
+    """The solver's message of ring ``ring`` solved alone, without the "ring k (seed s): "
+    that :meth:`RingModel.metrics` puts in front (the ring is named beside it) and without
+    the core's "ring 0, " (the index of the ring in a batch of one): the message that
+    ``cyclomesh run`` gives for the ring's study file."""
+    for prefix in (f"ring {ring} (seed {seed}): ", "ring 0, "):
+        if message.startswith(prefix):
+            message = message[len(prefix) :]
+    return message
 
 
 @dataclass(frozen=True)
