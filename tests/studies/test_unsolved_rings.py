@@ -272,3 +272,33 @@ def test_a_robust_design_map_candidate_with_an_unsolved_ring_is_infeasible(tmp_p
     failed = task(0, 2)
     assert failed["reason"].tolist() == [MESSAGE, MESSAGE]
     assert np.all(np.isnan(failed["max_contact_stress"]))
+
+
+def test_an_allocation_with_rings_that_jam_at_the_stated_tolerances_goes_on(tmp_path):
+    """At ±9 µm radial errors on the example's 8 µm modification some rings jam the disc at
+    the stated tolerances (factor 1): they count as exceeding (their brackets end at or
+    below 1), their stated metrics are NaN (attributed, ``jammed`` = 1) and the statistics
+    there are over the others (the allocation used to stop at the first such ring)."""
+    from test_tolerance_study import EXAMPLE
+
+    text = (
+        EXAMPLE.read_text(encoding="utf-8")
+        .replace("half_range = 4.0 }", "half_range = 9.0 }")
+        .replace("crank_step_deg = 1.0 ", "crank_step_deg = 10.0 ")
+    )
+    study = tmp_path / "jam.toml"
+    study.write_text(text, encoding="utf-8")
+    out = tmp_path / "alloc"
+    args = ("--rings", "16", "--workers", "1", "--figures", "none")
+    result = invoke("allocate", study, "--out", out, *args)
+    assert result.exit_code == 0, result.output
+    ds = _load(out / "allocation_rings.nc")
+    jammed = ds["jammed"].values.astype(bool)
+    assert 0 < jammed.sum() < jammed.size and not ds["unsolved"].values.any()
+    assert np.all(ds["critical_factor_upper"].values[jammed] <= 1.0)
+    assert np.all(np.isnan(ds["max_contact_stress_mpa"].values[jammed]))
+    assert "jams the disc" in ds["max_contact_stress_mpa"].attrs["nonfinite"]
+    record = json.loads((out / "allocation.json").read_text())
+    stated = record["at_stated_tolerances"]["max_contact_stress_mpa"]
+    assert stated["count"] == (~jammed).sum()
+    assert record["unsolved"]["count"] == 0 and not (out / "unsolved_ring.toml").exists()

@@ -110,6 +110,30 @@ def _stress_metric(model: RingModel) -> str:
     return STRESS_METRIC if model.stage is None else STAGE_STRESS_METRIC
 
 
+def _check_stated(per_ring: dict[str, np.ndarray], model: RingModel, metric: str) -> None:
+    """Refuse, in one line, an allocation in which no ring can be solved at the stated
+    tolerances (factor 1: every ring jams the disc or does not converge there): it has no
+    statistics there. The line is the first ring's own error.
+
+    Raises
+    ------
+    CyclomeshError
+        That of the first ring, solved again alone.
+    """
+    if np.any(np.isfinite(per_ring[metric])):
+        return
+    from cyclomesh.exceptions import CyclomeshError
+
+    first = int(per_ring["ring"][0])
+    try:
+        model.metrics(model.draw([first]))
+    except CyclomeshError as exc:
+        raise type(exc)(
+            f"no ring of the {per_ring['ring'].size} can be solved at the stated tolerances "
+            f"(factor 1); {exc}"
+        ) from None
+
+
 def compute_allocation(
     study: Study,
     *,
@@ -153,6 +177,7 @@ def compute_allocation(
     task = AllocationTask(model, factors, alloc.bisections, allowable, _stress_metric(model))
     per_ring = run_rings(task, n, model, backend, chunk_rings, progress)
     check_some_solved(per_ring, spec.seed)
+    _check_stated(per_ring, model, _stress_metric(model))
     seconds = time.perf_counter() - start
     result = allocate_factor(
         per_ring["critical_factor_lower"],
