@@ -441,3 +441,54 @@ def test_friction_with_the_compliant_disc_end_to_end(coarse, tmp_path, monkeypat
     assert result.exit_code == 0, result.output
     case = json.loads((out / "summary.json").read_text())["cases"][0]
     assert case["stage_hysteresis_arcmin_max"] > 0
+
+
+def test_a_compliant_stage_ring_that_does_not_converge_is_unsolved(coarse, tmp_path, monkeypatch):
+    """The compliant disc in a stage tolerance study: a ring whose stage solve does not
+    converge (made so, tests/execution/_unsolvable.py) is flagged ``unsolved`` with the
+    solver's message, its metrics NaN (attributed), and the other rings keep the bits of
+    the study without the failure."""
+    import sys
+
+    import xarray as xr
+    from typer.testing import CliRunner
+
+    import cyclomesh.fe.influence as fe
+    from cyclomesh.cli import app
+    from cyclomesh.studies.tolerance import load_tolerance_study, ring_model
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "execution"))
+    from _unsolvable import STAGE_MESSAGE, fail_rings
+
+    _, folder = coarse
+    for key, value in COARSE.items():
+        monkeypatch.setitem(fe.MESH_DEFAULTS, key, value)
+    text = EXAMPLE.read_text()
+    path = tmp_path / "tol_fe.toml"
+    path.write_text(
+        text[: text.index("[[cases]]")].replace("[analysis]", '[analysis]\ndisc_body = "fe"', 1)
+        + "[tolerance]\nseed = 3\nrings = 3\nallowable_contact_stress_mpa = 1850.0\n"
+        "crank_step_deg = 30.0\n"
+        'radial_um = { distribution = "uniform", half_range = 2.0 }\n'
+    )
+    args = ["--workers", "1", "--figures", "none", "--cache-dir", str(folder), "-q"]
+    runner = CliRunner()
+    rings = {}
+    for name in ("clean", "failing"):
+        if name == "failing":
+            study, spec = load_tolerance_study(path)
+            fail_rings(monkeypatch, ring_model(study, spec), [1], stage=True)
+        out = tmp_path / name
+        result = runner.invoke(app, ["tolerance", str(path), "--out", str(out), *args])
+        assert result.exit_code == 0, result.output
+        rings[name] = xr.load_dataset(out / "tolerance_rings.nc")
+    ds, clean = rings["failing"], rings["clean"]
+    assert ds["unsolved"].values.tolist() == [0, 1, 0]
+    assert str(ds["unsolved_reason"].values[1]) == STAGE_MESSAGE
+    keep = [0, 2]
+    for name, var in ds.data_vars.items():
+        if var.dtype.kind == "f" and np.isnan(var.values).any():
+            assert "nonfinite" in var.attrs, name
+        if name not in ("unsolved", "unsolved_reason", "jammed"):
+            assert np.isnan(var.values[1]) or var.dtype.kind != "f", name
+            np.testing.assert_array_equal(var.values[keep], clean[name].values[keep], name)

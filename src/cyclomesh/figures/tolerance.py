@@ -67,7 +67,8 @@ class RingDistributions:
     exceeding : int
         Rings above the allowable contact stress.
     jammed : int
-        Rings that jam the disc (NaN metrics: not in the histograms, above every level).
+        Rings that jam the disc or that a solver did not converge on (NaN metrics: not in
+        the histograms, above every level).
     """
 
     rings: int
@@ -102,7 +103,7 @@ def reduce_rings(
         counts, edges = np.histogram(finite, bins=bins)
         histograms[name] = (counts, edges, integer)
         ecdfs[name] = (values[take], (take + 1) / n)
-    # a ring that jams the disc (NaN metrics) exceeds every stress level
+    # a ring that jams the disc or was not solved (NaN metrics) exceeds every stress level
     stress = np.asarray(ds[STRESS_METRIC].values, dtype=float)
     stress = np.sort(np.where(np.isnan(stress), np.inf, stress))
     finite = stress[np.isfinite(stress)]
@@ -154,7 +155,7 @@ def plot_metric_histograms(
     if dist.jammed:
         fig.suptitle(
             f"Per-ring metrics over the {dist.rings - dist.jammed} of {dist.rings} rings that "
-            f"do not jam the disc"
+            f"were solved (the others jam the disc or did not converge)"
         )
     else:
         fig.suptitle(f"Per-ring metrics over {dist.rings} rings")

@@ -24,6 +24,7 @@ __all__ = [
     "print_run",
     "print_stiffness",
     "print_tolerance",
+    "unsolved_text",
     "print_allocation",
     "print_design",
     "print_fe",
@@ -282,6 +283,19 @@ def print_efficiency(summaries: dict, out: Path, checks: dict | None = None) -> 
     console.print(f"report: {out / 'report.html'}")
 
 
+def unsolved_text(block: dict[str, Any]) -> str:
+    """The sentence on the rings a solver did not converge on (``block``: the ``unsolved``
+    of a summary): "N rings did not converge (first: ring k, <message>), written to
+    unsolved_ring.toml", plain text; "" when every ring converged."""
+    n = int(block.get("count") or 0)
+    if not n:
+        return ""
+    return (
+        f"{n} ring{'s' if n > 1 else ''} did not converge (first: ring {block['first_ring']}, "
+        f"{block['message']}), written to {block['file']}"
+    )
+
+
 def print_tolerance(stats: dict[str, Any], out: Path) -> None:
     from rich.console import Console
     from rich.markup import escape
@@ -291,11 +305,16 @@ def print_tolerance(stats: dict[str, Any], out: Path) -> None:
 
     jam = stats.get("jam") or {}
     jammed = int(jam.get("count") or 0)
+    unsolved = stats.get("unsolved") or {}
+    failed = int(unsolved.get("count") or 0)
     title = f"{stats['rings']} rings (seed {stats['seed']})"
-    if jammed:
+    if jammed or failed:
+        left = ", ".join(
+            ([f"{jammed} jammed"] if jammed else []) + ([f"{failed} unsolved"] if failed else [])
+        )
         title = (
-            f"{stats['rings'] - jammed} of {stats['rings']} rings (seed {stats['seed']}; "
-            f"{jammed} jammed, not in these statistics)"
+            f"{stats['rings'] - jammed - failed} of {stats['rings']} rings (seed "
+            f"{stats['seed']}; {left}, not in these statistics)"
         )
     table = Table(title=title)
     for col in ("metric", "mean", "std", "P5", "P50", "P95", "P99"):
@@ -310,7 +329,7 @@ def print_tolerance(stats: dict[str, Any], out: Path) -> None:
             *(f"{q['estimate']:.4g}" for q in s["percentiles"]),
         )
     console = Console(highlight=False)
-    if jammed < stats["rings"]:
+    if jammed + failed < stats["rings"]:
         console.print(table)
     else:
         console.print(f"no statistics: every one of the {stats['rings']} rings jams the disc")
@@ -329,6 +348,9 @@ def print_tolerance(stats: dict[str, Any], out: Path) -> None:
             f"Clopper-Pearson [{jam['lower']:.4g}, {jam['upper']:.4g}] ({jam['count']} of "
             f"{jam['rings']} rings; counted as exceeding) -> {escape(str(out / jam['file']))}"
         )
+    if failed:
+        said = unsolved_text({**unsolved, "file": str(out / unsolved["file"])})
+        console.print(f"[bold red]unsolved[/]: {escape(said)}; counted as exceeding")
     print_warnings(stats.get("warnings", []))
     worst = stats["worst_ring"]
     if worst is not None:

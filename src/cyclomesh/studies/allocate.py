@@ -44,6 +44,12 @@ from cyclomesh.studies.rings import (
     run_rings,
     run_whole,
 )
+from cyclomesh.studies.tolerance import (
+    check_some_solved,
+    nonfinite_reason,
+    unsolved_summary,
+    write_unsolved_ring,
+)
 from cyclomesh.studyfile.schema import Study
 from cyclomesh.studyfile.usage import check_keys
 from cyclomesh.tolerance.allocation import Allocation
@@ -78,6 +84,7 @@ class AllocationResult:
     rings: xr.Dataset
     record: dict[str, Any]
     seconds: float
+    model: RingModel | None = None
 
 
 def _nominal_stress(model: RingModel) -> float:
@@ -101,6 +108,30 @@ def _stress_metric(model: RingModel) -> str:
     """The allocation's criterion: the peak tooth contact stress, with ``[stage]`` the one
     of the stage solve (pins loaded through the crank bearings, the hole errors in)."""
     return STRESS_METRIC if model.stage is None else STAGE_STRESS_METRIC
+
+
+def _check_stated(per_ring: dict[str, np.ndarray], model: RingModel, metric: str) -> None:
+    """Refuse, in one line, an allocation in which no ring can be solved at the stated
+    tolerances (factor 1: every ring jams the disc or does not converge there): it has no
+    statistics there. The line is the first ring's own error.
+
+    Raises
+    ------
+    CyclomeshError
+        That of the first ring, solved again alone.
+    """
+    if np.any(np.isfinite(per_ring[metric])):
+        return
+    from cyclomesh.exceptions import CyclomeshError
+
+    first = int(per_ring["ring"][0])
+    try:
+        model.metrics(model.draw([first]))
+    except CyclomeshError as exc:
+        raise type(exc)(
+            f"no ring of the {per_ring['ring'].size} can be solved at the stated tolerances "
+            f"(factor 1); {exc}"
+        ) from None
 
 
 def compute_allocation(
@@ -145,6 +176,8 @@ def compute_allocation(
     )
     task = AllocationTask(model, factors, alloc.bisections, allowable, _stress_metric(model))
     per_ring = run_rings(task, n, model, backend, chunk_rings, progress)
+    check_some_solved(per_ring, spec.seed)
+    _check_stated(per_ring, model, _stress_metric(model))
     seconds = time.perf_counter() - start
     result = allocate_factor(
         per_ring["critical_factor_lower"],
@@ -174,6 +207,29 @@ def compute_allocation(
                 "long_name": every[name].long_name + " at the stated tolerances (factor 1)",
             },
         )
+        nan = np.isnan(per_ring[name])
+        if nan.any():
+            data[name].attrs["nonfinite"] = nonfinite_reason(per_ring, nan)
+    data["jammed"] = xr.DataArray(
+        per_ring["jammed"].astype(np.int8),
+        dims=("ring",),
+        attrs={"units": "1", "long_name": "1: the ring jams the disc at the stated tolerances"},
+    )
+    data["unsolved"] = xr.DataArray(
+        per_ring["unsolved"].astype(np.int8),
+        dims=("ring",),
+        attrs={
+            "units": "1",
+            "long_name": "1: a solver did not converge on the ring at a scale factor the "
+            "allocation needed (it counts as exceeding there; the message in unsolved_reason)",
+        },
+    )
+    data["unsolved_reason"] = xr.DataArray(
+        per_ring["unsolved_reason"],
+        dims=("ring",),
+        attrs={"units": "1", "long_name": "the solver's one-line error of an unsolved ring"},
+    )
+    runs = ~(np.asarray(per_ring["jammed"]) | np.isnan(per_ring[stated[0]]))
     ds = xr.Dataset(
         data,
         coords={"ring": ("ring", per_ring["ring"])},
@@ -199,24 +255,43 @@ def compute_allocation(
             name: {
                 "unit": every[name].unit,
                 "description": every[name].long_name,
-                **describe(per_ring[name], confidence=alloc.confidence),
+                **describe(per_ring[name][runs], confidence=alloc.confidence),
             }
             for name in stated
         },
         warnings=ring_warnings(model),
+        unsolved=unsolved_summary(ds, alloc.confidence),
     )
-    return AllocationResult(study, result, ds, record, seconds)
+    first = record["unsolved"]["first_ring"]
+    if first is not None:
+        record["unsolved"]["scale_factor"] = float(
+            per_ring["unsolved_factor"][np.flatnonzero(per_ring["ring"] == first)[0]]
+        )
+        record["unsolved"]["meaning"] = (
+            "a solver did not converge on the ring at a scale factor the allocation needed "
+            "(ConvergenceError): the ring counts as exceeding the allowable from that factor "
+            "on; its metrics at the stated tolerances are NaN if it failed there"
+        )
+    return AllocationResult(study, result, ds, record, seconds, model)
 
 
 def write_allocation(result: AllocationResult, out: Path) -> list[Path]:
-    """Write ``allocation_rings.nc`` and ``allocation.json`` into ``out``."""
+    """Write ``allocation_rings.nc`` and ``allocation.json`` into ``out``, and
+    ``unsolved_ring.toml`` (the first ring a solver did not converge on, its errors scaled
+    by the factor where it failed) if there is one."""
     from cyclomesh.output.writers import write_json, write_netcdf
 
     out.mkdir(parents=True, exist_ok=True)
-    return [
+    files = [
         write_netcdf(result.rings, out / "allocation_rings.nc"),
         write_json(out / "allocation.json", result.record),
     ]
+    unsolved = result.record.get("unsolved") or {}
+    if unsolved.get("count") and result.model is not None:
+        files.append(
+            write_unsolved_ring(result.model, result.study, unsolved, out, unsolved["scale_factor"])
+        )
+    return files
 
 
 def allocation_figures(result: AllocationResult) -> list[FigureJob]:
@@ -251,6 +326,14 @@ def allocation_sections(result: AllocationResult) -> list[Section]:
         percents = [p["percent"] for p in next(iter(stated.values()))["percentiles"]]
         table = "<p>The rings at the stated tolerances (factor 1):</p>" + table_html(
             ["metric", "unit", "mean", "min", "max", *(f"P{p:g}" for p in percents)], rows
+        )
+    from cyclomesh.publish.console import unsolved_text
+
+    said = unsolved_text(result.record.get("unsolved") or {})
+    if said:
+        statement += (
+            f" {html.escape(said)}; such a ring counts as exceeding the allowable from the "
+            "scale factor where it failed (conservative)."
         )
     return warning_sections(result.record.get("warnings", [])) + [
         Section(
@@ -309,9 +392,14 @@ def _banner(study: Study, options: Any, workers: int) -> str:
 
 
 def _show(result: AllocationResult, out: Path, options: Any) -> None:
-    from cyclomesh.publish.console import print_allocation
+    from cyclomesh.publish.console import print_allocation, unsolved_text
 
-    print_allocation(result.allocation.statement(), result.record.get("warnings", []), out)
+    statement = result.allocation.statement()
+    unsolved = result.record.get("unsolved") or {}
+    if unsolved.get("count"):
+        said = unsolved_text({**unsolved, "file": str(out / unsolved["file"])})
+        statement += f" {said}; counted as exceeding."
+    print_allocation(statement, result.record.get("warnings", []), out)
 
 
 ALLOCATE = StudyKind(

@@ -12,6 +12,9 @@ falling back key by key to ``[analysis]``'s. Stages (see ``docs/pipeline.md``):
    (per-ring metrics, units in attributes / field metadata), ``tolerance_summary.json``
    (statistics) and ``worst_ring.toml`` (the ring with the highest peak tooth contact
    stress as an ordinary study file: ``cyclomesh run worst_ring.toml`` reproduces it);
+   ``jammed_ring.toml`` and ``unsolved_ring.toml``, the first ring that jams the disc and
+   the first one on which a solver did not converge (an outcome of the study, not its
+   end: flagged ``jammed`` / ``unsolved`` per ring, NaN metrics, counted as exceeding);
 3. :func:`tolerance_figures` and :func:`tolerance_sections` give the figures and the
    report (``report.html``).
 
@@ -75,6 +78,11 @@ __all__ = [
     "ring_statistics",
     "worst_ring",
     "jammed_rings",
+    "unsolved_rings",
+    "unsolved_summary",
+    "check_some_solved",
+    "nonfinite_reason",
+    "write_unsolved_ring",
     "worst_ring_study",
     "run_tolerance",
     "TOLERANCE",
@@ -116,8 +124,15 @@ def metrics_dataset(
         )
         if name == "jammed":
             attrs_["long_name"] = "1: the ring's errors jam the disc (a pin overlaps it)"
+        elif name == "unsolved":
+            attrs_["long_name"] = (
+                "1: a solver did not converge on the ring (its metrics are NaN, the message "
+                "in unsolved_reason)"
+            )
+        elif name == "unsolved_reason":
+            attrs_["long_name"] = "the solver's one-line error of an unsolved ring ('' if solved)"
         elif arr.dtype.kind == "f" and np.any(np.isnan(arr)):
-            attrs_["nonfinite"] = "NaN: the ring jams the disc (jammed = 1), no contact"
+            attrs_["nonfinite"] = nonfinite_reason(per_ring, np.isnan(arr))
         data[name] = xr.DataArray(arr, dims=("ring",), attrs=attrs_)
     ds = xr.Dataset(data, coords={"ring": ("ring", ring, {"units": "1"})})
     ds.attrs.update(
@@ -130,6 +145,16 @@ def metrics_dataset(
     )
     ds.attrs.update(dict(attrs or {}))
     return ds
+
+
+def nonfinite_reason(per_ring: Mapping[str, np.ndarray], nan: np.ndarray) -> str:
+    """The ``nonfinite`` attribute of a metric that is NaN at the rings ``nan``: why."""
+    why = []
+    if np.any(np.asarray(per_ring.get("jammed", False))[nan]):
+        why.append("the ring jams the disc (jammed = 1), no contact")
+    if np.any(np.asarray(per_ring.get("unsolved", False))[nan]):
+        why.append("a solver did not converge on the ring (unsolved = 1, see unsolved_reason)")
+    return "NaN: " + ("; or ".join(why) or "the ring jams the disc (jammed = 1), no contact")
 
 
 def worst_ring(ds: xr.Dataset, metric: str = STRESS_METRIC) -> int | None:
@@ -148,6 +173,36 @@ def jammed_rings(ds: xr.Dataset) -> np.ndarray:
     return np.asarray(ds["ring"].values[np.asarray(ds["jammed"].values) != 0], dtype=np.int64)
 
 
+def unsolved_rings(ds: xr.Dataset) -> np.ndarray:
+    """Indices k of the rings on which a solver did not converge (``unsolved``)."""
+    if "unsolved" not in ds:
+        return np.zeros(0, dtype=np.int64)
+    return np.asarray(ds["ring"].values[np.asarray(ds["unsolved"].values) != 0], dtype=np.int64)
+
+
+def unsolved_summary(ds: xr.Dataset, confidence: float) -> dict[str, Any]:
+    """The ``unsolved`` block of a summary (JSON-ready): how many rings did not converge,
+    the probability of it with its Clopper–Pearson interval, the first such ring, the
+    solver's one-line message for it and the file that reproduces it."""
+    from cyclomesh.tolerance.statistics import exceedance_probability
+
+    unsolved = unsolved_rings(ds)
+    p = exceedance_probability(unsolved.size, ds.sizes["ring"], confidence)
+    first = int(unsolved[0]) if unsolved.size else None
+    return {
+        "count": p.count,
+        "rings": p.total,
+        "probability": p.estimate,
+        "lower": p.lower,
+        "upper": p.upper,
+        "first_ring": first,
+        "message": None if first is None else str(ds["unsolved_reason"].sel(ring=first).values),
+        "file": "unsolved_ring.toml" if unsolved.size else None,
+        "meaning": "a solver did not converge on the ring (ConvergenceError): its metrics "
+        "are NaN, it is left out of the percentiles and counts as exceeding",
+    }
+
+
 def ring_statistics(
     ds: xr.Dataset, spec: ToleranceSection, confidence: float = 0.95
 ) -> dict[str, Any]:
@@ -157,7 +212,10 @@ def ring_statistics(
 
     n = ds.sizes["ring"]
     jammed = jammed_rings(ds)
-    runs = np.asarray(ds["jammed"].values) == 0 if "jammed" in ds else np.ones(n, dtype=bool)
+    runs = np.ones(n, dtype=bool)
+    for flag in ("jammed", "unsolved"):
+        if flag in ds:
+            runs &= np.asarray(ds[flag].values) == 0
     stats = {}
     for name, metric in RING_METRICS.items():
         if name in ds and name != "any_overlap":
@@ -170,8 +228,10 @@ def ring_statistics(
     exceed = {}
     for name in ("max_contact_stress_mpa", "max_groove_stress_mpa"):
         if name in ds:
-            # a ring that jams the disc meets no allowable: it counts as exceeding
-            count = int(np.count_nonzero(ds[name].values[runs] > allowable)) + jammed.size
+            # a ring that jams the disc meets no allowable, and nothing shows that one
+            # the solver could not solve meets it: both count as exceeding (conservative)
+            count = int(np.count_nonzero(ds[name].values[runs] > allowable))
+            count += int(np.count_nonzero(~runs))
             p = exceedance_probability(count, n, confidence)
             exceed[name] = {
                 "count": p.count,
@@ -200,6 +260,7 @@ def ring_statistics(
             "meaning": "a pin overlaps the disc at every rotation (the pins jam the disc): "
             "the ring cannot be assembled; its metrics are NaN and it counts as exceeding",
         },
+        "unsolved": unsolved_summary(ds, confidence),
         "worst_ring": (
             None
             if k is None
@@ -249,7 +310,12 @@ def _stage_worst(ds: xr.Dataset) -> dict[str, Any]:
 
 
 def worst_ring_study(
-    model: RingModel, base: Mapping[str, Any], ring: int, title: str, note: str = ""
+    model: RingModel,
+    base: Mapping[str, Any],
+    ring: int,
+    title: str,
+    note: str = "",
+    factor: float = 1.0,
 ) -> str:
     """The study file (TOML text) that ``cyclomesh run`` needs to reproduce one ring.
 
@@ -267,10 +333,15 @@ def worst_ring_study(
         Title of the new study.
     note : str
         Comment lines put at the top.
+    factor : float
+        Scale factor on the ring's drawn errors (an allocation's; 1: as drawn).
     """
     from cyclomesh.output.writers import toml_dumps
 
-    total = model.total_errors_um(model.draw([ring]))
+    drawn = model.draw([ring])
+    if factor != 1.0:
+        drawn = drawn.scaled(np.array([factor]))
+    total = model.total_errors_um(drawn)
     spec = model.spec
     sections: dict[str, Any] = {"title": title}
     for name in ("design", "modification", "material", "load", "friction"):
@@ -362,6 +433,7 @@ def compute_tolerance(
     n = ring_count(spec, rings)
     model = ring_model(study, spec, checked=True)
     per_ring = run_rings(ToleranceTask(model), n, model, backend, chunk_rings, progress)
+    check_some_solved(per_ring, spec.seed)
     seconds = time.perf_counter() - start
     ds = metrics_dataset(
         per_ring,
@@ -394,6 +466,32 @@ def compute_tolerance(
     return ToleranceResult(study, spec, model, ds, stats, seconds)
 
 
+def check_some_solved(per_ring: Mapping[str, np.ndarray], seed: int) -> None:
+    """Refuse, in one line, a study in which a solver failed on some rings and no ring
+    was solved (jammed or unsolved, every one): it has no result. (Every ring jamming the
+    disc is a result: P(jam) = 1.)
+
+    Raises
+    ------
+    ConvergenceError
+        Naming the first unsolved ring and the solver's message.
+    """
+    from cyclomesh.exceptions import ConvergenceError
+
+    unsolved = np.asarray(per_ring["unsolved"], dtype=bool)
+    jammed = np.asarray(per_ring["jammed"], dtype=bool)
+    if not unsolved.any() or not np.all(unsolved | jammed):
+        return
+    i = int(np.argmax(unsolved))
+    n, jam = unsolved.size, int(jammed.sum())
+    raise ConvergenceError(
+        f"no ring of the {n} could be solved ({int(unsolved.sum())} did not converge"
+        + (f", {jam} jam the disc" if jam else "")
+        + f"); first: ring {int(per_ring['ring'][i])} (seed {seed}): "
+        + str(per_ring["unsolved_reason"][i])
+    )
+
+
 def write_tolerance(result: ToleranceResult, out: Path) -> list[Path]:
     """Write ``tolerance_rings.nc``, ``tolerance_rings.parquet``, ``tolerance_summary.json``
     and ``worst_ring.toml`` into ``out``."""
@@ -404,7 +502,10 @@ def write_tolerance(result: ToleranceResult, out: Path) -> list[Path]:
     ds, study, spec = result.rings, result.study, result.spec
     files = [
         write_netcdf(ds, out / "tolerance_rings.nc"),
-        write_parquet(ds, out / "tolerance_rings.parquet"),
+        # the table of numbers: the solver's messages stay in the NetCDF file
+        write_parquet(
+            ds.drop_vars("unsolved_reason", errors="ignore"), out / "tolerance_rings.parquet"
+        ),
         write_json(out / "tolerance_summary.json", result.summary),
     ]
     k = worst_ring(ds)
@@ -432,7 +533,34 @@ def write_tolerance(result: ToleranceResult, out: Path) -> list[Path]:
             result.model, study.base.model_dump(), j, f"{study.title}: jammed ring {j}", note
         )
         files.append(write_text(out / "jammed_ring.toml", text))
+    unsolved = result.summary.get("unsolved") or {}
+    if unsolved.get("count"):
+        files.append(write_unsolved_ring(result.model, study, unsolved, out))
     return files
+
+
+def write_unsolved_ring(
+    model: RingModel, study: Study, block: Mapping[str, Any], out: Path, factor: float = 1.0
+) -> Path:
+    """Write ``unsolved_ring.toml``: the first ring on which a solver did not converge
+    (``block``: :func:`unsolved_summary`), its errors scaled by ``factor`` (an allocation's
+    scale factor), as an ordinary study file that ``cyclomesh run`` refuses with the
+    solver's one-line error."""
+    from cyclomesh.output.folder import write_text
+
+    k = int(block["first_ring"])
+    scaled = "" if factor == 1.0 else f", its errors scaled by {factor:.6g}"
+    note = (
+        f"First ring of the study {study.title!r} "
+        f"({study.path.name}) on which a solver did not converge: ring {k} of seed "
+        f"{model.spec.seed}{scaled} ({block['count']} of {block['rings']} rings did not "
+        f"converge).\n{block['message']}\n"
+        "cyclomesh run unsolved_ring.toml stops with this error (exit status 2)."
+    )
+    text = worst_ring_study(
+        model, study.base.model_dump(), k, f"{study.title}: unsolved ring {k}", note, factor
+    )
+    return write_text(out / "unsolved_ring.toml", text)
 
 
 def tolerance_figures(result: ToleranceResult) -> list[FigureJob]:
@@ -508,6 +636,14 @@ def tolerance_sections(result: ToleranceResult) -> list[Section]:
             else "no ring jams."
         )
     )
+    from cyclomesh.publish.console import unsolved_text
+
+    said = unsolved_text(stats.get("unsolved") or {})
+    if said:
+        jam_text += (
+            f" {html.escape(said)}; unsolved rings count as exceeding and are left out of "
+            "the statistics below."
+        )
     stage = stats.get("stage_worst_ring")
     if stage:
         life = stage.get("stage_l10_h_min")
@@ -619,8 +755,13 @@ TOLERANCE = StudyKind(
 
 def _ran(stats: dict, rings: int) -> str:
     """The rings the percentiles are over: "200 rings", or "5 rings that did not jam (of
-    200)" when some jammed (their metrics are NaN, left out of the percentiles)."""
+    200)" when some jammed, "198 rings that converged (of 200)" when a solver failed on
+    some (their metrics are NaN, left out of the percentiles)."""
     jammed = int((stats.get("jam") or {}).get("count") or 0)
-    if not jammed:
+    unsolved = int((stats.get("unsolved") or {}).get("count") or 0)
+    if not jammed and not unsolved:
         return f"{rings} rings"
-    return f"{rings - jammed} rings that did not jam (of {rings})"
+    which = " and ".join(
+        ([] if not jammed else ["did not jam"]) + ([] if not unsolved else ["converged"])
+    )
+    return f"{rings - jammed - unsolved} rings that {which} (of {rings})"

@@ -37,7 +37,7 @@ from cyclomesh.core.pair import Modification, PairDesign, PinErrors, pin_errors_
 from cyclomesh.drive.friction import mean_backdrive_efficiency as ring_backdrive_efficiency
 from cyclomesh.drive.friction import mean_efficiency as ring_efficiency
 from cyclomesh.drive.solve import solve_drive
-from cyclomesh.exceptions import CyclomeshError, DesignError
+from cyclomesh.exceptions import ConvergenceError, CyclomeshError, DesignError
 from cyclomesh.results.dataset import drive_metrics
 from cyclomesh.results.metrics import STRESS_METRIC
 from cyclomesh.tolerance.sampling import RingErrors, ToleranceSpec, draw_ring_errors
@@ -46,6 +46,7 @@ __all__ = [
     "BLOCK_PIN_STEPS",
     "block_rings",
     "RingModel",
+    "ring_outcomes",
     "ToleranceTask",
     "AllocationTask",
     "STRESS_METRIC",
@@ -330,48 +331,89 @@ def _by_blocks(start: int, stop: int, solve: Any, size: int) -> dict[str, NDArra
     return {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}
 
 
+def ring_outcomes(
+    model: RingModel, drawn: RingErrors, efficiency: bool = True
+) -> dict[str, NDArray[Any]]:
+    """Per-ring metrics of ``drawn`` (:meth:`RingModel.metrics`) with the rings that cannot
+    be solved kept as outcomes, not errors.
+
+    * ``jammed`` (bool per ring): the ring's errors jam the disc (a pin overlaps it at
+      every rotation, :class:`~cyclomesh.exceptions.DesignError`): there is no contact to
+      analyse;
+    * ``unsolved`` (bool per ring): a solver did not converge on the ring
+      (:class:`~cyclomesh.exceptions.ConvergenceError`), and ``unsolved_reason`` (str per
+      ring) is the solver's one-line message ('' for every other ring).
+
+    Either way the ring's metrics are NaN. A batch with such a ring is solved again ring by
+    ring, which gives the other rings the same bits (a ring's result does not depend on
+    its batch). Any other error propagates, as does one of the base case (no drawn
+    errors), solved when no ring of the batch runs: the study stops there.
+    """
+    try:
+        out = model.metrics(drawn, efficiency)
+    except (DesignError, ConvergenceError):
+        return _one_by_one(model, drawn, efficiency)
+    out["jammed"] = np.zeros(drawn.rings.size, dtype=bool)
+    out["unsolved"] = np.zeros(drawn.rings.size, dtype=bool)
+    out["unsolved_reason"] = np.full(drawn.rings.size, "", dtype=str)
+    return out
+
+
+def _one_by_one(model: RingModel, drawn: RingErrors, efficiency: bool) -> dict[str, NDArray[Any]]:
+    """:func:`ring_outcomes` ring by ring."""
+    parts: list[dict[str, NDArray[Any]] | None] = []
+    jammed, reason = [], []
+    for i, k in enumerate(drawn.rings.tolist()):
+        part, jam, why = None, False, ""
+        try:
+            part = model.metrics(drawn.take([i]), efficiency)
+        except DesignError:
+            jam = True
+        except ConvergenceError as exc:
+            why = _unprefixed(str(exc), k, model.spec.seed) or "did not converge"
+        parts.append(part)
+        jammed.append(jam)
+        reason.append(why)
+    solved = [p for p in parts if p is not None]
+    # the metric names and shapes of a ring that runs (the base case's own if none: a
+    # failure of the base case is not a ring's, it stops the study)
+    like = solved[0] if solved else model.metrics(drawn.take([0]).scaled(np.zeros(1)), efficiency)
+    out = {}
+    for name, ref in like.items():
+        filler = np.full_like(ref, False) if ref.dtype == np.bool_ else np.full(ref.shape, np.nan)
+        out[name] = np.concatenate([filler if p is None else p[name] for p in parts])
+    out["jammed"] = np.array(jammed, dtype=bool)
+    out["unsolved"] = np.array([bool(r) for r in reason], dtype=bool)
+    out["unsolved_reason"] = np.asarray(reason, dtype=str)
+    return out
+
+
+def _unprefixed(message: str, ring: int, seed: int) -> str:
+    """The solver's message of ring ``ring`` solved alone, without the "ring k (seed s): "
+    that :meth:`RingModel.metrics` puts in front (the ring is named beside it) and without
+    the core's "ring 0, " (the index of the ring in a batch of one): the message that
+    ``cyclomesh run`` gives for the ring's study file."""
+    for prefix in (f"ring {ring} (seed {seed}): ", "ring 0, "):
+        if message.startswith(prefix):
+            message = message[len(prefix) :]
+    return message
+
+
 @dataclass(frozen=True)
 class ToleranceTask:
     """Chunk function: per-ring metrics of rings start .. stop − 1 at the stated tolerances.
 
     ``jammed`` (bool per ring): the ring's errors jam the disc (a pin overlaps it at every
-    rotation); its metrics are NaN (there is no contact to analyse). A batch with such a
-    ring is solved ring by ring, which gives the other rings the same bits.
+    rotation); ``unsolved`` (bool per ring): a solver did not converge on it, its message
+    in ``unsolved_reason``. The metrics of both are NaN (:func:`ring_outcomes`).
     """
 
     model: RingModel
 
     def _block(self, first: int, last: int) -> dict[str, NDArray[Any]]:
         drawn = self.model.draw(np.arange(first, last))
-        try:
-            out = self.model.metrics(drawn)
-            out["jammed"] = np.zeros(drawn.rings.size, dtype=bool)
-        except DesignError:
-            out = self._one_by_one(drawn)
+        out = ring_outcomes(self.model, drawn)
         out["ring"] = drawn.rings
-        return out
-
-    def _one_by_one(self, drawn: RingErrors) -> dict[str, NDArray[Any]]:
-        """Ring by ring (a ring's bits do not depend on its batch): a ring whose errors jam
-        the disc (a pin overlaps it at every rotation, :class:`DesignError`) is an outcome,
-        ``jammed`` = True with NaN metrics; every other error still names its ring."""
-        parts: list[dict[str, NDArray[Any]] | None] = []
-        for i in range(drawn.rings.size):
-            try:
-                parts.append(self.model.metrics(drawn.take([i])))
-            except DesignError:
-                parts.append(None)
-        solved = [p for p in parts if p is not None]
-        # the metric names and shapes of a ring that runs (the base case's own if none:
-        # it is checked to run before the study starts)
-        like = solved[0] if solved else self.model.metrics(drawn.take([0]).scaled(np.zeros(1)))
-        out = {}
-        for name, ref in like.items():
-            filler = (
-                np.full_like(ref, False) if ref.dtype == np.bool_ else np.full(ref.shape, np.nan)
-            )
-            out[name] = np.concatenate([filler if p is None else p[name] for p in parts])
-        out["jammed"] = np.array([p is None for p in parts])
         return out
 
     def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
@@ -409,8 +451,12 @@ class AllocationTask:
     upper`` (upper = +inf if the ring never exceeds up to the largest factor).
 
     The nominal ring (f = 0) must not exceed the allowable (checked by the caller). A
-    ring whose scaled errors jam the disc (a pin overlaps it at every rotation) counts as
-    exceeding at that factor.
+    ring whose scaled errors jam the disc (a pin overlaps it at every rotation), or on
+    which a solver does not converge, counts as exceeding at that factor; ``unsolved`` and
+    ``unsolved_reason`` (the first such message, naming the factor; ``unsolved_factor`` that
+    factor, NaN for the other rings) mark the rings where a solve the allocation needed
+    did not converge, and ``jammed`` the rings that jam at
+    the stated tolerances (their stated metrics NaN, as those of a ring unsolved there).
     Every step solves the whole batch (rings already settled ride along and their
     results are ignored). One more solve at the stated tolerances (f = 1) gives each
     ring's :data:`STATED_METRICS` (peak stress, the largest mesh force on a disc and, for
@@ -427,23 +473,33 @@ class AllocationTask:
     allowable_contact_stress_mpa: float
     metric: str = field(default=STRESS_METRIC)
 
-    def _exceeds(self, drawn: RingErrors, factor: NDArray[np.float64]) -> NDArray[np.bool_]:
-        """Whether each ring, its errors scaled by ``factor``, exceeds the allowable.
+    def _exceeds(
+        self, drawn: RingErrors, factor: NDArray[np.float64]
+    ) -> tuple[NDArray[np.bool_], list[str]]:
+        """Whether each ring, its errors scaled by ``factor``, exceeds the allowable, and
+        the solver's message for each ring that could not be solved ('' for the others).
 
         A ring whose scaled errors jam the disc (a pin overlaps it at every rotation,
         :class:`~cyclomesh.exceptions.DesignError`) cannot meet any allowable: it counts
-        as exceeding. The batch is then solved ring by ring, which gives the other rings
-        the same bits (a ring's result does not depend on its batch).
+        as exceeding; so does a ring on which a solver does not converge
+        (:class:`~cyclomesh.exceptions.ConvergenceError`: nothing shows that it meets the
+        allowable; conservative). The batch is then solved ring by ring, which gives the
+        other rings the same bits (a ring's result does not depend on its batch).
         """
         try:
             stress = self.model.metrics(drawn.scaled(factor), efficiency=False)[self.metric]
-        except DesignError:
+        except (DesignError, ConvergenceError) as exc:
             if drawn.rings.size == 1:
-                return np.array([True])
-            return np.concatenate(
-                [self._exceeds(drawn.take([i]), factor[i : i + 1]) for i in range(factor.size)]
-            )
-        return stress > self.allowable_contact_stress_mpa
+                why = ""
+                if isinstance(exc, ConvergenceError):
+                    k = int(drawn.rings[0])
+                    why = f"scale factor {factor[0]:.6g}: " + (
+                        _unprefixed(str(exc), k, self.model.spec.seed) or "did not converge"
+                    )
+                return np.array([True]), [why]
+            parts = [self._exceeds(drawn.take([i]), factor[i : i + 1]) for i in range(factor.size)]
+            return np.concatenate([p[0] for p in parts]), [w for p in parts for w in p[1]]
+        return stress > self.allowable_contact_stress_mpa, [""] * drawn.rings.size
 
     def _block(self, first: int, last: int) -> dict[str, NDArray[Any]]:
         drawn = self.model.draw(np.arange(first, last))
@@ -451,10 +507,19 @@ class AllocationTask:
         lower = np.zeros(n)
         upper = np.full(n, np.inf)
         active = np.ones(n, dtype=bool)  # not yet seen exceeding
+        reason = [""] * n  # the first failed solve of a ring that the allocation needed
+        at = np.full(n, np.nan)  # and its scale factor
+
+        def note(needed: NDArray[np.bool_], why: list[str], factor: NDArray[np.float64]) -> None:
+            for i in np.flatnonzero(needed):
+                if why[i] and not reason[i]:
+                    reason[i], at[i] = why[i], factor[i]
+
         for f in self.factors:
             if not active.any():
                 break
-            exceeded = self._exceeds(drawn, np.full(n, f))
+            exceeded, why = self._exceeds(drawn, np.full(n, f))
+            note(active, why, np.full(n, f))
             upper[active & exceeded] = f
             lower[active & ~exceeded] = f
             active &= ~exceeded
@@ -463,15 +528,25 @@ class AllocationTask:
             if not bracketed.any():
                 break
             mid = np.where(bracketed, 0.5 * (lower + upper), 0.0)
-            exceeded = self._exceeds(drawn, mid)
+            exceeded, why = self._exceeds(drawn, mid)
+            note(bracketed, why, mid)
             upper = np.where(bracketed & exceeded, mid, upper)
             lower = np.where(bracketed & ~exceeded, mid, lower)
-        stated = self.model.metrics(drawn)
+        stated = ring_outcomes(self.model, drawn)
+        note(
+            stated["unsolved"],
+            [f"scale factor 1: {w}" if w else "" for w in stated["unsolved_reason"]],
+            np.ones(n),
+        )
         return {
             "ring": drawn.rings,
             "critical_factor_lower": lower,
             "critical_factor_upper": upper,
             **{name: stated[name] for name in STATED_METRICS if name in stated},
+            "jammed": stated["jammed"],
+            "unsolved": np.array([bool(r) for r in reason], dtype=bool),
+            "unsolved_reason": np.asarray(reason, dtype=str),
+            "unsolved_factor": at,
         }
 
     def __call__(self, start: int, stop: int) -> dict[str, NDArray[Any]]:
