@@ -50,6 +50,7 @@ __all__ = [
     "PER_DISC",
     "FRICTION_PIN",
     "ODD",
+    "OPTIONAL",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -144,8 +145,10 @@ def _mesh(
     groove_deformation: bool,
     contact_law: str = "half_plane",
     body: DiscBody | None = None,
+    force_angle: bool = True,
 ) -> StackMesh:
-    """Unloaded contact, rest positions and compliance of a stack (forward flanks)."""
+    """Unloaded contact, rest positions and compliance of a stack (forward flanks);
+    ``force_angle``: also the direction of every pin's force (else None)."""
     ring_shape = errors.ring_shape(design.pins)
     geo = stacked_contact(design, modification, errors, phi, discs)
     flat = (*geo.rotation.shape[:-2], discs * design.pins)
@@ -163,7 +166,9 @@ def _mesh(
         normal_y=geo.normal_y,
         force_angle=contact_fields(
             ("force_angle",), design, geo, geo.rotation, normal=(geo.normal_x, geo.normal_y)
-        )["force_angle"],
+        )["force_angle"]
+        if force_angle
+        else None,
         ring_shape=ring_shape,
         phi=phi,
         body=body,
@@ -181,12 +186,16 @@ def _mesh(
 
 
 def load_stack(
-    mesh: StackMesh, torque: float, friction: FrictionCoupling | None = None
+    mesh: StackMesh,
+    torque: float,
+    friction: FrictionCoupling | None = None,
+    without: frozenset[str] = frozenset(),
 ) -> dict[str, FloatArray]:
     """Loaded state of a stack under a positive torque, in the mesh's frame; with
     ``friction`` (:mod:`cyclomesh.drive.friction`) the friction forces enter the torque
     balance and the friction fields (:data:`~cyclomesh.drive.friction.FRICTION_FIELDS`)
-    are added."""
+    are added. ``without``: contact fields (:data:`OPTIONAL`) left out; ``force_angle``
+    is the mesh's (left out where the mesh has none)."""
     geo = mesh.geo
     flat_arm = mesh.backlash.shape
     try:
@@ -220,7 +229,7 @@ def load_stack(
     force = force.reshape(geo.rotation.shape)
     extra = {} if friction is None else friction.fields(force, state)
     fields = contact_fields(
-        _PER_TORQUE,
+        [name for name in _PER_TORQUE if name not in without],
         mesh.design,
         geo,
         force,
@@ -228,12 +237,18 @@ def load_stack(
         normal=(mesh.normal_x, mesh.normal_y),
         stack_axes=2,
     )
-    fields["force_angle"] = mesh.force_angle
+    if mesh.force_angle is not None and "force_angle" not in without:
+        fields["force_angle"] = mesh.force_angle
     return extra | {"pin_load": force, **fields, "loaded_rotation": loaded}
 
 
 _PER_TORQUE = tuple(name for name in CONTACT_FIELDS if name != "force_angle")
 """The contact fields that change with the torque (the force angle is the mesh's)."""
+OPTIONAL = frozenset({"force_angle", "overlap"})
+"""Per-pin fields a caller that reduces a few metrics may leave out (:func:`load_stack`,
+:func:`cyclomesh.drive.solve.solve_drive` ``without``): each is a full pass over the
+contacts (an arctangent of every normal, a difference with the reverse rotations) that
+no other field reads."""
 
 
 def stack_meshes(
@@ -247,16 +262,18 @@ def stack_meshes(
     reverse: bool,
     contact_law: str = "half_plane",
     body: DiscBody | None = None,
+    force_angle: bool = True,
 ) -> tuple[StackMesh | None, StackMesh | None]:
     """The unloaded meshes of the forward flanks and of the mirror problem (reverse flanks),
     as needed; the mirror problem is solved on the crank angles −φ reversed, and
     :func:`unmirror` maps its arrays back (Eqs. 5–23 of [1]).
 
     The mirrored problem uses the same body coefficients: the disc (profile, bore and
-    the crank holes at 2πk/N) is symmetric about its x-axis.
+    the crank holes at 2πk/N) is symmetric about its x-axis. ``force_angle``: the meshes
+    carry the direction of every pin's force (else None).
     """
     fwd = rev = None
-    args = (discs, groove_deformation, contact_law, body)
+    args = (discs, groove_deformation, contact_law, body, force_angle)
     if forward:
         fwd = _mesh(design, modification, errors, phi, *args)
     if reverse:
