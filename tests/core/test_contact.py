@@ -160,3 +160,40 @@ def test_the_contact_normal_is_a_unit_vector_whose_line_through_the_pin_gives_th
     arm = geo.moment_arm.reshape(shape)
     reach = np.isfinite(geo.rotation.reshape(shape))
     np.testing.assert_allclose(np.abs(wx * ny - wy * nx)[reach], arm[reach], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("rings", [(), (3,), (2, 2)])
+def test_normals_at_a_few_contacts_are_the_references_bit_for_bit(monkeypatch, rings):
+    """normals_at (the normals of some contacts only, for the mesh force of the loaded
+    pins) gives the NumPy reference's normals of unloaded_contact at those contacts, bit
+    for bit, with and without ring axes and with eccentricity and pin radius errors."""
+    from cyclomesh.core.contact import normals_at
+
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numpy")
+    rng = np.random.default_rng(3)
+    shape = (*rings, TABLE1.pins)
+    errors = PinErrors(
+        radial=rng.uniform(-4e-6, 4e-6, shape),
+        angular=rng.uniform(-5e-5, 5e-5, shape),
+        pin_radius=rng.uniform(-1e-6, 1e-6, shape),
+        eccentricity=rng.uniform(-2e-6, 2e-6, rings),
+    )
+    modification = Modification(pin_radius=8e-6, pin_circle_radius=-3e-6)
+    phi = np.deg2rad(np.arange(0.0, 360.0, 7.0))
+    geo = unloaded_contact(TABLE1, modification, errors, phi, normals=True)
+    at = rng.choice(geo.rotation.size, 500, replace=False)
+    where = np.unravel_index(at, geo.rotation.shape)
+    ring = np.ravel_multi_index(where[:-2], rings) if rings else np.zeros_like(at)
+    nx, ny = normals_at(
+        TABLE1,
+        modification,
+        errors,
+        phi,
+        ring,
+        where[-2],
+        where[-1],
+        geo.profile_angle[where],
+        geo.pin_radius[where],
+    )
+    np.testing.assert_array_equal(nx, geo.normal_x[where], strict=True)
+    np.testing.assert_array_equal(ny, geo.normal_y[where], strict=True)

@@ -248,3 +248,30 @@ def test_torsion_curve_matches_solve_drive_and_series_stiffness():
     )
     np.testing.assert_allclose(curve.drive_torsional_rigidity, inv, rtol=1e-12)
     assert np.all(curve.drive_lost_motion > curve.lost_motion)
+
+
+@pytest.mark.parametrize("kernel_name", ["numpy", "numba"])
+def test_without_leaves_out_the_force_directions_and_overlap_and_nothing_else(
+    monkeypatch, kernel_name
+):
+    """A metrics-only solve (solve_drive ``without``) reports None for the fields it was
+    told to leave out and every other field bit for bit, on both flanks, for a stack
+    and with either kernel; an unknown field is refused in one line."""
+    if kernel_name == "numba":
+        pytest.importorskip("numba")
+    monkeypatch.setenv("CYCLOMESH_KERNEL", kernel_name)
+    errors = ring_errors(7, rings=(3,))
+    angles = np.deg2rad(np.arange(0.0, 360.0, 10.0))
+    args = (TABLE1, TPM, errors, [250.0, -7.5, 7.5], angles, True, 2)
+    full = solve_drive(*args)
+    lean = solve_drive(*args, without=("force_angle", "overlap"))
+    assert lean.force_angle is None and lean.mesh_force_angle is None and lean.overlap is None
+    assert full.force_angle is not None and full.overlap is not None
+    skipped = {"force_angle", "mesh_force_angle", "overlap"}
+    for name, value in vars(full).items():
+        if name not in skipped and value is not None and not isinstance(value, dict):
+            np.testing.assert_array_equal(getattr(lean, name), value, err_msg=name, strict=True)
+    only_angle = solve_drive(*args, without=("force_angle",))
+    np.testing.assert_array_equal(only_angle.overlap, full.overlap, strict=True)
+    with pytest.raises(ValueError, match=r"only \['force_angle', 'overlap'\] may be left out"):
+        solve_drive(*args, without=("pin_load",))

@@ -287,3 +287,58 @@ def test_batched_draws_are_the_per_ring_generators_bit_for_bit(seed, kinds):
             ("hole_tangential_um", got.hole_tangential_um),
         ):
             np.testing.assert_array_equal(value, ref[name], strict=True, err_msg=name)
+
+
+def _generator(seed, ring, kind):
+    """Ring ``ring``'s stream of error kind ``kind``, as NumPy builds it for one ring."""
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence([seed, ring, kind])))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 20220810, 2**32 + 5, 2**63 - 1])
+def test_uniform_streams_are_numpys_generators_bit_for_bit(seed):
+    """All rings' streams at once equal a NumPy generator per ring, at the ends of the
+    ring range too (k = 0, 2**32 − 1) and for seeds of one and two 32-bit words."""
+    from cyclomesh.tolerance.sampling import uniform_streams
+
+    rings = np.array([0, 1, 2, 7, 999_999, 2**31, 2**32 - 1, 3])
+    for kind in (1, 2, 5, 8):
+        got = uniform_streams(seed, rings, kind, 81)
+        want = np.array([_generator(seed, int(k), kind).random(81) for k in rings])
+        np.testing.assert_array_equal(got, want, strict=True)
+    assert uniform_streams(seed, np.array([], dtype=np.int64), 1, 4).shape == (0, 4)
+    with pytest.raises(ValueError, match="2\\*\\*32"):
+        uniform_streams(seed, [2**32], 1, 4)
+
+
+def test_drawn_errors_are_each_rings_own_generator_draws():
+    """draw_ring_errors (all rings' uniform streams at once) gives every ring the draws of
+    its own generators: U(−1, 1)·half range, N(0, 1)·σ, the unit disc of the true
+    position, and rings beyond 2**32 (one generator per ring) too."""
+    from cyclomesh.tolerance.sampling import unit_disc
+
+    seed = 20220810
+    s = spec(
+        radial_um=UNIFORM,
+        angular_urad={"distribution": "uniform", "half_range": 50.0},
+        pin_radius_um={"distribution": "normal", "sigma": 1.0},
+        eccentricity_um={"distribution": "uniform", "half_range": 2.0},
+    ).model_copy(update={"seed": seed})
+    rings = [0, 5, 123_456, 2**32 + 1]
+    got = draw_ring_errors(s, 40, A_M, rings)
+    for j, k in enumerate(rings):
+        np.testing.assert_array_equal(
+            got.radial_um[j], _generator(seed, k, 1).uniform(-1.0, 1.0, 40) * 4.0
+        )
+        np.testing.assert_array_equal(
+            got.angular_urad[j], _generator(seed, k, 2).uniform(-1.0, 1.0, 40) * 50.0
+        )
+        np.testing.assert_array_equal(
+            got.pin_radius_um[j], _generator(seed, k, 3).standard_normal(40) * 1.0
+        )
+        assert got.eccentricity_um[j] == _generator(seed, k, 4).uniform(-1.0, 1.0, 1)[0] * 2.0
+    zone = spec(position={"distribution": "true_position", "zone_diameter_um": 8.0})
+    got = draw_ring_errors(zone, 40, A_M, rings)
+    for j, k in enumerate(rings):
+        x, y = unit_disc(_generator(11, k, 5), 40)
+        np.testing.assert_array_equal(got.radial_um[j], 4.0 * x)
+        np.testing.assert_array_equal(got.angular_urad[j], 4.0 * y / A_M)

@@ -52,6 +52,7 @@ __all__ = [
     "unloaded_contact",
     "contact_phase",
     "contact_normal",
+    "normals_at",
     "contact_tangent",
 ]
 
@@ -226,16 +227,19 @@ def unloaded_contact(
             modification.rotation, shape, normals,
         )  # fmt: skip
         if got is not None:
-            pin_radius = np.broadcast_to(r_pin, shape)
             arg_w = got.pop("arg_w")
-            tip = got["profile_angle"] == -np.pi  # at a tip, or unreachable (φ1 = −π)
-            if normals and np.any(tip):  # there the reference's normal: along w but for
-                # the last bits of sin(−π) (the kernel's sin φ1 = −√(1 − c²) is 0), which
-                # decide the side of ±π of its force angle when w lies on the x-axis
-                angle = got["profile_angle"][tip]
-                nx, ny = _fixed_normal(arg_w[tip], angle, pin_radius[tip], a, e, n1, rho_gen)
-                got["normal_x"][tip], got["normal_y"][tip] = nx, ny
-            return UnloadedContact(**got, pin_radius=pin_radius)
+            if normals:  # at a tip, or unreachable (φ1 = −π), the reference's normal: along
+                # w but for the last bits of sin(−π) (the kernel's sin φ1 = −√(1 − c²) is
+                # 0), which decide the side of ±π of its force angle when w lies on the
+                # x-axis; a few % of the contacts, taken by their flat indices (C order)
+                tip = np.flatnonzero(got["profile_angle"].reshape(-1) == -np.pi)
+                if tip.size:
+                    radius = r_pin.reshape(-1)[tip // (phi.size * n1) * n1 + tip % n1]
+                    angle = got["profile_angle"].reshape(-1)[tip]
+                    nx, ny = _fixed_normal(arg_w.reshape(-1)[tip], angle, radius, a, e, n1, rho_gen)
+                    np.put(got["normal_x"], tip, nx)
+                    np.put(got["normal_y"], tip, ny)
+            return UnloadedContact(**got, pin_radius=np.broadcast_to(r_pin, shape))
 
     wx = pin_r * np.cos(pin_angle) - ecc * np.cos(phi)
     wy = pin_r * np.sin(pin_angle) - ecc * np.sin(phi)
@@ -390,6 +394,55 @@ def contact_normal(
     )
     # tooth frame of the contact: normal n and pin centre P_s (module doc)
     return _fixed_normal(arg_w, profile_angle, pin_radius, a, e, n1, rho_gen)
+
+
+def normals_at(
+    design: PairDesign,
+    modification: Modification | None,
+    errors: PinErrors | None,
+    crank_angles: ArrayLike,
+    ring: NDArray[np.intp],
+    angle: NDArray[np.intp],
+    pin: NDArray[np.intp],
+    profile_angle: FloatArray,
+    pin_radius: FloatArray,
+) -> tuple[FloatArray, FloatArray]:
+    """The outward flank normals of some contacts only: those of :func:`unloaded_contact`
+    (``normals=True``, NumPy reference) at ring ``ring`` (flat index over the errors' ring
+    axes), crank angle ``angle`` (index into ``crank_angles``) and pin ``pin``, bit for
+    bit: the pin and disc-centre terms of w = C_i − O2 are the reference's products, taken
+    elementwise, and :func:`_fixed_normal` is elementwise. For callers that read the
+    normals at a few contacts (the mesh force reads the loaded pins only).
+
+    Parameters
+    ----------
+    ring, angle, pin : ndarray of int
+        Indices of the contacts, shape (M,).
+    profile_angle, pin_radius : ndarray
+        φ1 [rad] and the actual pin radius [m] of those contacts, shape (M,).
+
+    Returns
+    -------
+    nx, ny : ndarray
+        Components of the unit normals, shape (M,).
+    """
+    modification = modification or Modification()
+    errors = errors or PinErrors()
+    n1 = design.pins
+    ring_shape = errors.ring_shape(n1)
+    a, rho_gen = generating_radii(design, modification)
+    e = design.eccentricity
+
+    def per_pin(x: ArrayLike) -> FloatArray:  # (R, n1)
+        return np.broadcast_to(np.asarray(x, float), (*ring_shape, n1)).reshape(-1, n1)
+
+    pin_angle = np.arange(n1) * design.pitch + per_pin(errors.angular)
+    pin_r = design.pin_circle_radius + per_pin(errors.radial)
+    ecc = e + np.broadcast_to(errors.eccentricity, ring_shape).reshape(-1)
+    phi = np.asarray(crank_angles, dtype=float)
+    wx = (pin_r * np.cos(pin_angle))[ring, pin] - ecc[ring] * np.cos(phi)[angle]
+    wy = (pin_r * np.sin(pin_angle))[ring, pin] - ecc[ring] * np.sin(phi)[angle]
+    return _fixed_normal(np.arctan2(wy, wx), profile_angle, pin_radius, a, e, n1, rho_gen)
 
 
 def contact_tangent(normal_x: FloatArray, normal_y: FloatArray) -> tuple[FloatArray, FloatArray]:

@@ -213,6 +213,11 @@ class Constraints:
         return out
 
 
+_UNREAD = ("force_angle", "overlap")
+"""Fields of the drive no metric of a candidate reads (left out of its solves:
+:func:`cyclomesh.drive.solve.solve_drive` ``without``)."""
+
+
 def candidate_metrics(
     design: PairDesign,
     modification: Modification,
@@ -262,6 +267,7 @@ def candidate_metrics(
         discs,
         contact_law=contact_law,
         disc_body=disc_body,
+        without=_UNREAD,
     )
     te = res.transmission_error  # (..., torque, angle), the stack's
     angles_discs = (-2, -1)
@@ -292,6 +298,7 @@ def candidate_metrics(
             contact_law=contact_law,
             disc_body=disc_body,
             friction=friction,
+            without=_UNREAD,
         ).friction
         loss = np.sum(fr["power_loss_tooth"] + fr["power_loss_groove"], axis=(-2, -1))
         loss = np.mean(loss + np.sum(fr["power_loss_bearing"], axis=-1), axis=-1)[..., 0]

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from cyclomesh.core.contact import UnloadedContact, unloaded_contact
+from cyclomesh.core.contact import UnloadedContact, normals_at, unloaded_contact
 from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
 from cyclomesh.core.fields import CONTACT_FIELDS, PIN_FIELDS, contact_fields
 from cyclomesh.core.kernel import kernel_name, share_load
@@ -45,11 +45,13 @@ __all__ = [
     "rest_positions",
     "disc_angles",
     "load_stack",
+    "loaded_normals",
     "reverse_fields",
     "PER_PIN",
     "PER_DISC",
     "FRICTION_PIN",
     "ODD",
+    "OPTIONAL",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -86,6 +88,8 @@ class StackMesh:
     tooth: NDArray | None = None  # (A, N·n1): tooth space of every contact (compliant disc)
     eccentricity: FloatArray | None = None  # (..., 1, 1, 1): e + εe of every ring [m]
     force_angle: FloatArray | None = None  # (..., A, N, n1): arg(−n) [rad]
+    modification: Modification | None = None  # of this frame (mirrored for the reverse)
+    errors: PinErrors | None = None  # of this frame: for normals=False, loaded_normals
 
 
 def disc_angles(phi: FloatArray, discs: int) -> FloatArray:
@@ -106,16 +110,51 @@ def stacked_contact(
     errors: PinErrors,
     phi: FloatArray,
     discs: int,
+    normals: bool = True,
 ) -> UnloadedContact:
     """Unloaded contact of every disc of a stack, arrays (..., A, N, n1) (Eqs. 5–11), with
-    the outward flank normals in the fixed frame (computed once, with the contact)."""
-    raw = unloaded_contact(design, modification, errors, disc_angles(phi, discs), normals=True)
+    the outward flank normals in the fixed frame (computed once, with the contact; None
+    without ``normals``)."""
+    raw = unloaded_contact(design, modification, errors, disc_angles(phi, discs), normals=normals)
     return UnloadedContact(
         **{
-            name: _stack(getattr(raw, name), discs, phi.size)
+            name: None if value is None else _stack(value, discs, phi.size)
             for name in UnloadedContact.__dataclass_fields__
+            for value in (getattr(raw, name),)
         }
     )
+
+
+def loaded_normals(mesh: StackMesh, force: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The outward flank normals (..., A, N, n1) of a mesh built without them, at the
+    pins that carry load (F ≠ 0) only, 0 elsewhere: those pins' normals bit for bit
+    (:func:`~cyclomesh.core.contact.normals_at`). Enough for the mesh force, −Σ F·n, whose
+    terms at the other pins are ±0 whatever n: its sums are the same bits wherever some
+    pin carries load."""
+    nx, ny = np.zeros(force.shape), np.zeros(force.shape)
+    at = np.flatnonzero(force.reshape(-1) != 0.0)
+    if not at.size:
+        return nx, ny
+    where = np.unravel_index(at, force.shape)
+    n_angles, discs = force.shape[-3:-1]
+    ring = (
+        np.ravel_multi_index(where[:-3], force.shape[:-3]) if force.ndim > 3 else np.zeros_like(at)
+    )
+    geo = mesh.geo
+    sub = normals_at(
+        mesh.design,
+        mesh.modification,
+        mesh.errors,
+        disc_angles(mesh.phi, discs),
+        ring,
+        where[-2] * n_angles + where[-3],  # disc after disc, as unloaded_contact's angles
+        where[-1],
+        geo.profile_angle[where],
+        geo.pin_radius[where],
+    )
+    np.put(nx, at, sub[0])
+    np.put(ny, at, sub[1])
+    return nx, ny
 
 
 def rest_positions(geo: UnloadedContact, pins: int, discs: int) -> tuple[FloatArray, FloatArray]:
@@ -144,10 +183,15 @@ def _mesh(
     groove_deformation: bool,
     contact_law: str = "half_plane",
     body: DiscBody | None = None,
+    force_angle: bool = True,
+    normals: bool = True,
 ) -> StackMesh:
-    """Unloaded contact, rest positions and compliance of a stack (forward flanks)."""
+    """Unloaded contact, rest positions and compliance of a stack (forward flanks);
+    ``force_angle``: also the direction of every pin's force (else None); ``normals``:
+    the flank normals of every contact (else None: :func:`load_stack` takes those of the
+    loaded pins, :func:`loaded_normals`; no force angle then)."""
     ring_shape = errors.ring_shape(design.pins)
-    geo = stacked_contact(design, modification, errors, phi, discs)
+    geo = stacked_contact(design, modification, errors, phi, discs, normals)
     flat = (*geo.rotation.shape[:-2], discs * design.pins)
     rest, reverse_rest = rest_positions(geo, design.pins, discs)
     alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
@@ -163,7 +207,11 @@ def _mesh(
         normal_y=geo.normal_y,
         force_angle=contact_fields(
             ("force_angle",), design, geo, geo.rotation, normal=(geo.normal_x, geo.normal_y)
-        )["force_angle"],
+        )["force_angle"]
+        if force_angle and normals
+        else None,
+        modification=modification,
+        errors=errors,
         ring_shape=ring_shape,
         phi=phi,
         body=body,
@@ -181,12 +229,16 @@ def _mesh(
 
 
 def load_stack(
-    mesh: StackMesh, torque: float, friction: FrictionCoupling | None = None
+    mesh: StackMesh,
+    torque: float,
+    friction: FrictionCoupling | None = None,
+    without: frozenset[str] = frozenset(),
 ) -> dict[str, FloatArray]:
     """Loaded state of a stack under a positive torque, in the mesh's frame; with
     ``friction`` (:mod:`cyclomesh.drive.friction`) the friction forces enter the torque
     balance and the friction fields (:data:`~cyclomesh.drive.friction.FRICTION_FIELDS`)
-    are added."""
+    are added. ``without``: contact fields (:data:`OPTIONAL`) left out; ``force_angle``
+    is the mesh's (left out where the mesh has none)."""
     geo = mesh.geo
     flat_arm = mesh.backlash.shape
     try:
@@ -219,21 +271,30 @@ def load_stack(
         raise ConvergenceError(f"torque {torque:g} N·m: {err}") from None
     force = force.reshape(geo.rotation.shape)
     extra = {} if friction is None else friction.fields(force, state)
+    normal = (mesh.normal_x, mesh.normal_y)
+    if mesh.normal_x is None:  # a mesh built without them: the loaded pins' (bit for bit)
+        normal = loaded_normals(mesh, force)
     fields = contact_fields(
-        _PER_TORQUE,
+        [name for name in _PER_TORQUE if name not in without],
         mesh.design,
         geo,
         force,
         rotation=(mesh.rest + loaded)[..., None, None],
-        normal=(mesh.normal_x, mesh.normal_y),
+        normal=normal,
         stack_axes=2,
     )
-    fields["force_angle"] = mesh.force_angle
+    if mesh.force_angle is not None and "force_angle" not in without:
+        fields["force_angle"] = mesh.force_angle
     return extra | {"pin_load": force, **fields, "loaded_rotation": loaded}
 
 
 _PER_TORQUE = tuple(name for name in CONTACT_FIELDS if name != "force_angle")
 """The contact fields that change with the torque (the force angle is the mesh's)."""
+OPTIONAL = frozenset({"force_angle", "overlap"})
+"""Per-pin fields a caller that reduces a few metrics may leave out (:func:`load_stack`,
+:func:`cyclomesh.drive.solve.solve_drive` ``without``): each is a full pass over the
+contacts (an arctangent of every normal, a difference with the reverse rotations) that
+no other field reads."""
 
 
 def stack_meshes(
@@ -247,16 +308,20 @@ def stack_meshes(
     reverse: bool,
     contact_law: str = "half_plane",
     body: DiscBody | None = None,
+    force_angle: bool = True,
+    normals: bool = True,
 ) -> tuple[StackMesh | None, StackMesh | None]:
     """The unloaded meshes of the forward flanks and of the mirror problem (reverse flanks),
     as needed; the mirror problem is solved on the crank angles −φ reversed, and
     :func:`unmirror` maps its arrays back (Eqs. 5–23 of [1]).
 
     The mirrored problem uses the same body coefficients: the disc (profile, bore and
-    the crank holes at 2πk/N) is symmetric about its x-axis.
+    the crank holes at 2πk/N) is symmetric about its x-axis. ``force_angle``: the meshes
+    carry the direction of every pin's force (else None); ``normals``: the flank normals
+    of every contact (else only the loaded pins' are taken, by :func:`load_stack`).
     """
     fwd = rev = None
-    args = (discs, groove_deformation, contact_law, body)
+    args = (discs, groove_deformation, contact_law, body, force_angle, normals)
     if forward:
         fwd = _mesh(design, modification, errors, phi, *args)
     if reverse:

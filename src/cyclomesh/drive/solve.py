@@ -57,6 +57,7 @@ References
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,11 +74,13 @@ from cyclomesh.core.case import (
 )
 from cyclomesh.core.discbody import DiscBody
 from cyclomesh.core.friction import Friction
+from cyclomesh.core.kernel import kernel_name
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.core.transmission import gear_ratio, transmission_error
 from cyclomesh.drive.friction import FRICTION_FIELDS, FrictionCoupling
 from cyclomesh.drive.mesh import (
     FRICTION_PIN,
+    OPTIONAL,
     PER_DISC,
     PER_PIN,
     StackMesh,
@@ -142,7 +145,8 @@ class Drive:
         Unloaded angular distance of each pin from the stack's rest position on the loaded
         flanks (Eq. 11) [rad], ≥ 0; +inf where unreachable.
     overlap : ndarray
-        Interference with the opposite (unloaded) flank [rad], 0 if none.
+        Interference with the opposite (unloaded) flank [rad], 0 if none (None when
+        :func:`solve_drive` was asked to leave it out, ``without``).
     profile_angle : ndarray
         Generating angle φ1 of the contact [rad]: in [−π, 0] on the forward flank, in
         [0, π] on the reverse flank.
@@ -150,7 +154,8 @@ class Drive:
         Contact geometry [m].
     force_angle : ndarray
         Direction of the force of each pin on its disc [rad, counter-clockwise from x,
-        fixed frame] (along the common normal, from the pin into the disc).
+        fixed frame] (along the common normal, from the pin into the disc); None when
+        left out (``without``), as ``mesh_force_angle``.
     torque_share : ndarray
         Torque carried by each disc, Σ F·l (Eqs. 16, 18), signed like the torque, (..., Q, A, N)
         [N·m].
@@ -185,16 +190,16 @@ class Drive:
     contact_stress: FloatArray
     groove_stress: FloatArray
     backlash: FloatArray
-    overlap: FloatArray
+    overlap: FloatArray | None
     profile_angle: FloatArray
     contact_radius: FloatArray
     moment_arm: FloatArray
     curvature_radius: FloatArray
-    force_angle: FloatArray
+    force_angle: FloatArray | None
     torque_share: FloatArray
     contacts: NDArray[np.int64]
     mesh_force: FloatArray
-    mesh_force_angle: FloatArray
+    mesh_force_angle: FloatArray | None
     rest_rotation: FloatArray
     loaded_rotation: FloatArray
     transmission_error: FloatArray
@@ -252,6 +257,7 @@ def solve_drive(
     disc_body: str | DiscBody = "rigid",
     friction: Friction | None = None,
     backdrive: bool = False,
+    without: Collection[str] = (),
 ) -> Drive:
     """Loaded contact of a stack of discs on both flanks over a list of torques.
 
@@ -289,6 +295,11 @@ def solve_drive(
         turns counter-clockwise, φ increasing, against a positive torque and clockwise
         against a negative one); True, every torque drives the crank back (the motion
         reversed, the same flanks loaded).
+    without : collection of str
+        Fields the caller does not read, None in the result: ``force_angle`` (with
+        ``mesh_force_angle``) and ``overlap`` (:data:`cyclomesh.drive.mesh.OPTIONAL`), for
+        callers that reduce a few metrics (a design map's candidates, a tolerance study's
+        rings); every other field is the same, bit for bit.
 
     Returns
     -------
@@ -306,13 +317,23 @@ def solve_drive(
         Case(design, modification, errors, torque, crank_angles),
         Model(contact_law, groove_deformation, disc_body, discs, friction=friction),
         backdrive,
+        without,
     )
 
 
-def drive(case: Case, model: Model, backdrive: bool = False) -> Drive:
+def drive(
+    case: Case, model: Model, backdrive: bool = False, without: Collection[str] = ()
+) -> Drive:
     """:func:`solve_drive` of a :class:`~cyclomesh.core.case.Case` and a
     :class:`~cyclomesh.core.case.Model` (the mesh alone: ``model.stage`` is not read);
-    ``backdrive``: the sense of the motion with ``model.friction`` (:func:`solve_drive`)."""
+    ``backdrive``: the sense of the motion with ``model.friction``; ``without``: fields
+    left out (:func:`solve_drive`)."""
+    without = frozenset(without)
+    if not without <= OPTIONAL:
+        raise ValueError(
+            f"solve_drive without {sorted(without - OPTIONAL)}: only {sorted(OPTIONAL)} "
+            "may be left out"
+        )
     c = check(case, model)
     design, phi, torques = c.design, c.phi, c.torques
     fwd, rev = stack_meshes(
@@ -326,6 +347,15 @@ def drive(case: Case, model: Model, backdrive: bool = False) -> Drive:
         bool(np.any(torques < 0)),
         c.contact_law,
         c.body,
+        "force_angle" not in without,
+        # the NumPy reference's normals cost a tenth of its contact: without the force
+        # angles (and friction, which reads every pin's) only the loaded pins' are taken
+        not (
+            "force_angle" in without
+            and c.friction is None
+            and c.modification.profile is None
+            and kernel_name() == "numpy"
+        ),
     )
     if fwd is not None:
         play = fwd.rest - fwd.reverse_rest
@@ -340,7 +370,7 @@ def drive(case: Case, model: Model, backdrive: bool = False) -> Drive:
         coupling = None
         if friction is not None:  # a negative torque: the crank turns clockwise, which
             coupling = FrictionCoupling(mesh, friction, sense)  # the mirror turns over
-        fields = load_stack(mesh, abs(float(value)), coupling)
+        fields = load_stack(mesh, abs(float(value)), coupling, without)
         geo = mesh.geo
         fields.update(
             backlash=mesh.backlash.reshape(geo.rotation.shape),
@@ -360,7 +390,7 @@ def drive(case: Case, model: Model, backdrive: bool = False) -> Drive:
             return np.expand_dims(per_torque[0][name], axis)
         return np.stack([fields[name] for fields in per_torque], axis=axis)
 
-    out = {name: stacked(name) for name in PER_PIN}
+    out = {name: None if name in without else stacked(name) for name in PER_PIN}
     if friction is not None:
         out["friction"] = {name: stacked(name) for name in FRICTION_FIELDS}
     te = transmission_error(out["rest_rotation"], out["loaded_rotation"])
@@ -369,7 +399,7 @@ def drive(case: Case, model: Model, backdrive: bool = False) -> Drive:
         crank_angle=phi,
         torque=torques,
         mesh_force=np.hypot(fx, fy),
-        mesh_force_angle=np.arctan2(fy, fx),
+        mesh_force_angle=None if "force_angle" in without else np.arctan2(fy, fx),
         transmission_error=te,
         gear_ratio=gear_ratio(te, phi, design.teeth),
         play=play,

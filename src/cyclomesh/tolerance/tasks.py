@@ -302,6 +302,7 @@ class RingModel:
                 self.disc_body,
                 friction=self.friction,
                 backdrive=backdrive,
+                without=("force_angle",),  # no ring metric reads the force directions
             )
 
         errors, angles = self.pin_errors(block), np.deg2rad(self.crank_angles_deg)
