@@ -44,6 +44,8 @@ from typing import Any
 
 import numpy as np
 
+from cyclomesh.core import kernel_math
+
 __all__ = ["compiled"]
 
 _TOLERANCE = 1e-13
@@ -61,7 +63,8 @@ def compiled() -> Any:
     except ImportError:
         return None
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _mod_2pi, _row_min  # compiled in place, so the passes call them compiled
+    global _mod_2pi, _row_min, _log, _cos  # compiled in place, so the passes call them compiled
+    _log, _cos = kernel_math.compiled().log, kernel_math.compiled().cos
     _mod_2pi = jit(_mod_2pi)
     _row_min = jit(_row_min)
 
@@ -242,6 +245,14 @@ def _contact_finish(
                 curvature[r, k, i] = q * math.sqrt(q) / (c2 - c3 * cos_n) - rho_gen
 
 
+def _log(x):  # pragma: no cover (replaced by kernel_math's, compiled)
+    return math.log(x)
+
+
+def _cos(x):  # pragma: no cover (replaced by kernel_math's, compiled)
+    return math.cos(x)
+
+
 def _mod_2pi(x):  # pragma: no cover (compiled)
     """np.mod(x, 2π) bit for bit: NumPy takes r = fmod(x, 2π), exact, and adds 2π to a
     negative r (rounded) or gives +0 for r = 0. For |x| < 8π the exact remainder is a
@@ -288,39 +299,37 @@ def _compliance(
 
     k_tooth, k_groove = π·B·E* of the pin–tooth and pin–groove pairs; scale = 2/(πB);
     gamma_0, g_p = (c_disc + c_pin)/(πB), (c_ring + c_pin)/(πB); poisson_term =
-    ν/(2(1 − ν)) of the disc.
+    ν/(2(1 − ν)) of the disc. The logarithms are :mod:`cyclomesh.core.kernel_math`'s
+    and every choice a select, so that the loop runs in SIMD lanes (the groove pair's
+    α′ is computed for every contact, the same value for the same pin radius).
     """
-    last_rp = np.nan
-    a_p = 0.0
     for j in range(rp_in.size):
         rp, rc = rp_in[j], rc_in[j]
         if half_plane:
             rho_star = rp / (1.0 + rp / rc)
             kappa = math.sqrt(4.0 * rho_star / k_tooth)
             a = scale * (
-                c_disc * (math.log(2.0 * depth_in[j] / kappa) - poisson_term)
-                + c_pin * (math.log(4.0 * rp / kappa) - 0.5)
+                c_disc * (_log(2.0 * depth_in[j] / kappa) - poisson_term)
+                + c_pin * (_log(4.0 * rp / kappa) - 0.5)
             )
         else:
             rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
             kappa = math.sqrt(4.0 * rho / k_tooth)
             a = scale * (
-                c_disc * (math.log(4.0 * abs(rc) / kappa) - 0.5)
-                + c_pin * (math.log(4.0 * abs(rp) / kappa) - 0.5)
+                c_disc * (_log(4.0 * abs(rc) / kappa) - 0.5)
+                + c_pin * (_log(4.0 * abs(rp) / kappa) - 0.5)
             )
         g = gamma_0
         if groove:
             cb = cb_in[j]
-            if rp != last_rp:  # the groove pair depends on the pin radius alone
-                rho_g = rp * groove_radius / (groove_radius - rp)
-                kappa = math.sqrt(4.0 * rho_g / k_groove)
-                a_p = scale * (
-                    c_ring * (math.log(4.0 * abs(groove_radius) / kappa) - 0.5)
-                    + c_pin * (math.log(4.0 * abs(rp) / kappa) - 0.5)
-                )
-                last_rp = rp
+            rho_g = rp * groove_radius / (groove_radius - rp)
+            kappa = math.sqrt(4.0 * rho_g / k_groove)
+            a_p = scale * (
+                c_ring * (_log(4.0 * abs(groove_radius) / kappa) - 0.5)
+                + c_pin * (_log(4.0 * abs(rp) / kappa) - 0.5)
+            )
             c2 = cb * cb
-            log_cb = math.log(cb) if cb > 0 else 0.0
+            log_cb = _log(cb) if cb > 0 else 0.0
             a = a + c2 * (a_p - g_p * log_cb)
             g = g + c2 * g_p
         alpha[j] = a
