@@ -63,9 +63,18 @@ def compiled() -> Any:
     except ImportError:
         return None
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _mod_2pi, _row_min, _log, _cos  # compiled in place, so the passes call them compiled
-    _log, _cos = kernel_math.compiled().log, kernel_math.compiled().cos
+    global _mod_2pi, _row_min, _log, _cos, _sin  # compiled in place: the passes call them
+    global _mod_2pi_near, _libm_cos, _finish_pin
+    fast = kernel_math.compiled()
+    _log, _cos, _sin = fast.log, fast.cos, fast.sin
     _mod_2pi = jit(_mod_2pi)
+    _mod_2pi_near = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(
+        _mod_2pi_near
+    )
+    _libm_cos = jit(_libm_cos)
+    _finish_pin = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(
+        _finish_pin
+    )
     _row_min = jit(_row_min)
 
     class Passes:
@@ -193,64 +202,121 @@ def _contact_finish(
     cos and sin of φ1 = −arccos c: the same angle to a unit or two in its last place).
     """
     n_rings, n_angles, n_pins = u.shape
-    two_pi = 2.0 * np.pi
-    centre = np.pi / n2
     c0 = e * e * n1 * n1 + a * a
     c1 = 2.0 * e * n1 * a
     c2 = e * e * n1**3 + a * a
     c3 = e * n1 * (1 + n1) * a
+    consts = (a, e, n1, n2, rho_gen, turn, c0, c1, c2, c3)
     for r in range(n_rings):
+        pa = pin_angle[r]
         for k in range(n_angles):
             pt = phi_t[k]
+            tr = t_root[k]
+            rows = (arg_w[r, k], arg_z[r, k], arg_n[r, k], u[r, k], c_in[r, k], reach[r, k])
+            outs = (
+                rotation[r, k],
+                reverse[r, k],
+                moment_arm[r, k],
+                cos_beta[r, k],
+                profile_angle[r, k],
+                contact_radius[r, k],
+                curvature[r, k],
+            )
+            # every pin in SIMD lanes with kernel_math's cosine and the wrap of |x| < 8π,
+            # then the pins whose angles are beyond those again with the C library's
+            # cosine and NumPy's mod (never on a pin ring of today's designs)
+            far = 0
             for i in range(n_pins):
-                uu = u[r, k, i]
-                aw, az = arg_w[r, k, i], arg_z[r, k, i]
-                if normals:  # an unreachable pin: along w here, the caller's from φ1 = −π
-                    angle = aw + arg_n[r, k, i] - az if reach[r, k, i] else aw
-                    normal_x[r, k, i] = math.cos(angle)
-                    normal_y[r, k, i] = math.sin(angle)
-                if not reach[r, k, i]:
-                    rotation[r, k, i] = np.inf
-                    reverse[r, k, i] = -np.inf
-                    moment_arm[r, k, i] = 0.0
-                    cos_beta[r, k, i] = 1.0
-                    profile_angle[r, k, i] = -np.pi
-                    contact_radius[r, k, i] = a + e - rho_gen
-                    curvature[r, k, i] = np.inf
-                    continue
-                c = c_in[r, k, i]
-                tr = t_root[k, i]
-                sin_u = -math.sqrt(1.0 - c * c)
-                d = math.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
-                vx, vy = (a - e * n1 * c) / d, -e * n1 * sin_u / d
-                t = tr + uu / n2
-                rot = np.pi - _mod_2pi(np.pi - (aw - t - az - pt))
-                lateral = pt + rot + t + arg_n[r, k, i] - pin_angle[r, i]
-                rot = rot + turn
-                back = np.pi - _mod_2pi(np.pi - (aw - (tr - uu / n2) + az - pt))
-                back = back - turn
-                gap = rot - back
-                turns = np.floor((centre + np.pi - gap) / two_pi)
-                if turns != 0.0:
-                    back = back - two_pi * turns
-                rho_x, rho_y = a - e * c - rho_gen * vx, -e * sin_u - rho_gen * vy
-                cos_n = math.cos(n2 * t)
-                rotation[r, k, i] = rot
-                reverse[r, k, i] = back
-                moment_arm[r, k, i] = -a * e * n2 * sin_u / d
-                cos_beta[r, k, i] = abs(math.cos(lateral))
-                profile_angle[r, k, i] = uu
-                contact_radius[r, k, i] = math.hypot(rho_x, rho_y)
-                q = c0 - c1 * cos_n  # q**1.5 as √q·q: NumPy's power differs in the last bit anyway
-                curvature[r, k, i] = q * math.sqrt(q) / (c2 - c3 * cos_n) - rho_gen
+                far += _finish_pin(_mod_2pi_near, _cos, i, rows, tr, pa, pt, consts, outs)
+            if far:
+                for i in range(n_pins):
+                    if _finish_pin(_mod_2pi_near, _cos, i, rows, tr, pa, pt, consts, outs):
+                        _finish_pin(_mod_2pi, _libm_cos, i, rows, tr, pa, pt, consts, outs)
+            if normals:  # an unreachable pin: along w here, the caller's from φ1 = −π
+                nx_row, ny_row = normal_x[r, k], normal_y[r, k]
+                aw_row, az_row, an_row, ok_row = rows[0], rows[1], rows[2], rows[5]
+                for i in range(n_pins):
+                    aw = aw_row[i]
+                    angle = aw + an_row[i] - az_row[i] if ok_row[i] else aw
+                    if abs(angle) < _TRIG_EXACT_BELOW:
+                        nx_row[i] = _cos(angle)
+                        ny_row[i] = _sin(angle)
+                    else:
+                        nx_row[i] = math.cos(angle)
+                        ny_row[i] = math.sin(angle)
 
 
-def _log(x):  # pragma: no cover (replaced by kernel_math's, compiled)
-    return math.log(x)
+def _finish_pin(wrap, cosine, i, rows, tr, pa, pt, consts, outs):  # pragma: no cover
+    """Pin ``i`` of one crank angle for :func:`_contact_finish` (branch-free: its values
+    and the unreachable pin's by selects), with ``wrap`` = x mod 2π and ``cosine``;
+    returns whether a reachable pin's angles lie beyond :func:`_mod_2pi_near`'s or
+    kernel_math's cosine's range (then the caller takes it again exactly)."""
+    arg_w, arg_z, arg_n, u, c_in, reach = rows
+    rotation, reverse, moment_arm, cos_beta, profile_angle, contact_radius, curvature = outs
+    a, e, n1, n2, rho_gen, turn, c0, c1, c2, c3 = consts
+    two_pi = 2.0 * np.pi
+    centre = np.pi / n2
+    uu = u[i]
+    aw, az = arg_w[i], arg_z[i]
+    ok = reach[i]
+    c = c_in[i]
+    t_i = tr[i]
+    sin_u = -math.sqrt(1.0 - c * c)
+    d = math.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
+    vx, vy = (a - e * n1 * c) / d, -e * n1 * sin_u / d
+    t = t_i + uu / n2
+    x_rot = np.pi - (aw - t - az - pt)
+    rot = np.pi - wrap(x_rot)
+    lateral = pt + rot + t + arg_n[i] - pa[i]
+    rot = rot + turn
+    x_back = np.pi - (aw - (t_i - uu / n2) + az - pt)
+    back = np.pi - wrap(x_back)
+    back = back - turn
+    gap = rot - back
+    turns = np.floor((centre + np.pi - gap) / two_pi)
+    back = back - two_pi * turns  # turns = 0 leaves back as it is
+    rho_x, rho_y = a - e * c - rho_gen * vx, -e * sin_u - rho_gen * vy
+    n2t = n2 * t
+    cos_n = cosine(n2t)
+    q = c0 - c1 * cos_n  # q**1.5 as √q·q: NumPy's power differs in the last bit anyway
+    rotation[i] = rot if ok else np.inf
+    reverse[i] = back if ok else -np.inf
+    moment_arm[i] = -a * e * n2 * sin_u / d if ok else 0.0
+    cos_beta[i] = abs(cosine(lateral)) if ok else 1.0
+    profile_angle[i] = uu if ok else -np.pi
+    contact_radius[i] = math.sqrt(rho_x * rho_x + rho_y * rho_y) if ok else a + e - rho_gen
+    curvature[i] = q * math.sqrt(q) / (c2 - c3 * cos_n) - rho_gen if ok else np.inf
+    near = (
+        abs(x_rot) < _WRAP_NEAR
+        and abs(x_back) < _WRAP_NEAR
+        and abs(n2t) < _TRIG_EXACT_BELOW
+        and abs(lateral) < _TRIG_EXACT_BELOW
+    )
+    return ok and not near
 
 
-def _cos(x):  # pragma: no cover (replaced by kernel_math's, compiled)
+_WRAP_NEAR = 8.0 * np.pi
+"""|x| below which :func:`_mod_2pi_near` is np.mod(x, 2π) bit for bit."""
+_TRIG_EXACT_BELOW = kernel_math.COS_EXACT_BELOW
+"""|x| [rad] below which kernel_math's cosine and sine reduce exactly."""
+
+
+def _libm_cos(x):  # pragma: no cover (compiled)
+    """The C library's cosine (the exact fallback of :func:`_finish_pin`)."""
     return math.cos(x)
+
+
+def _mod_2pi_near(x):  # pragma: no cover (compiled)
+    """:func:`_mod_2pi` for |x| < 8π with selects instead of branches (SIMD lanes); a
+    value for any other x, which the caller replaces (NaN included)."""
+    two_pi = 2.0 * np.pi
+    four_pi = 2.0 * two_pi
+    p = x - four_pi if x >= four_pi else x
+    p = p - two_pi if p >= two_pi else p
+    m = x + four_pi if x <= -four_pi else x
+    m = m + two_pi if m <= -two_pi else m
+    m = m + two_pi if m < 0.0 else 0.0
+    return p if x >= 0.0 else m
 
 
 def _mod_2pi(x):  # pragma: no cover (compiled)
@@ -279,6 +345,7 @@ def _compliance(
     rc_in,
     cb_in,
     depth_in,
+    n_pins,
     half_plane,
     groove,
     k_tooth,
@@ -295,45 +362,69 @@ def _compliance(
     gamma,
 ):  # pragma: no cover (compiled)
     """(α, γ) of δ = F(α − γ ln F) per contact, as
-    :func:`~cyclomesh.core.hertz.compliance_coefficients` (flat arrays, one pass).
+    :func:`~cyclomesh.core.hertz.compliance_coefficients` (flat arrays, rows of
+    ``n_pins`` contacts, one pass).
 
     k_tooth, k_groove = π·B·E* of the pin–tooth and pin–groove pairs; scale = 2/(πB);
     gamma_0, g_p = (c_disc + c_pin)/(πB), (c_ring + c_pin)/(πB); poisson_term =
-    ν/(2(1 − ν)) of the disc. The logarithms are :mod:`cyclomesh.core.kernel_math`'s
-    and every choice a select, so that the loop runs in SIMD lanes (the groove pair's
-    α′ is computed for every contact, the same value for the same pin radius).
+    ν/(2(1 − ν)) of the disc. The logarithms are :mod:`cyclomesh.core.kernel_math`'s,
+    every choice a select, so that the loop over a row runs in SIMD lanes; what depends
+    on the pin radius alone (ln 4ρp, the groove pair's α′) is taken once per row of pin
+    radii (again only where a row's radii differ from the row before), and the
+    logarithms of quotients as differences, ln(4ρ/κ) = ln 4ρ − ln κ with
+    ln κ = ½ ln(4ρ*/(πBE*)): the same value to a few units in the last place of α.
     """
-    for j in range(rp_in.size):
-        rp, rc = rp_in[j], rc_in[j]
-        if half_plane:
-            rho_star = rp / (1.0 + rp / rc)
-            kappa = math.sqrt(4.0 * rho_star / k_tooth)
-            a = scale * (
-                c_disc * (_log(2.0 * depth_in[j] / kappa) - poisson_term)
-                + c_pin * (_log(4.0 * rp / kappa) - 0.5)
-            )
-        else:
-            rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
-            kappa = math.sqrt(4.0 * rho / k_tooth)
-            a = scale * (
-                c_disc * (_log(4.0 * abs(rc) / kappa) - 0.5)
-                + c_pin * (_log(4.0 * abs(rp) / kappa) - 0.5)
-            )
-        g = gamma_0
-        if groove:
-            cb = cb_in[j]
-            rho_g = rp * groove_radius / (groove_radius - rp)
-            kappa = math.sqrt(4.0 * rho_g / k_groove)
-            a_p = scale * (
-                c_ring * (_log(4.0 * abs(groove_radius) / kappa) - 0.5)
-                + c_pin * (_log(4.0 * abs(rp) / kappa) - 0.5)
-            )
-            c2 = cb * cb
-            log_cb = _log(cb) if cb > 0 else 0.0
-            a = a + c2 * (a_p - g_p * log_cb)
-            g = g + c2 * g_p
-        alpha[j] = a
-        gamma[j] = g
+    per_pin = np.empty((3, n_pins))  # ρp, ln 4ρp, α′ of the row before
+    per_pin[0, :] = np.nan
+    inv_tooth = 4.0 / k_tooth
+    for start in range(0, rp_in.size, n_pins):
+        rp_row = rp_in[start : start + n_pins]
+        same = 0
+        for i in range(n_pins):
+            same += rp_row[i] == per_pin[0, i]
+        if same < n_pins:
+            for i in range(n_pins):
+                rp = rp_row[i]
+                per_pin[0, i] = rp
+                per_pin[1, i] = _log(4.0 * abs(rp))
+                rho_g = rp * groove_radius / (groove_radius - rp)
+                kappa = math.sqrt(4.0 * rho_g / k_groove)
+                per_pin[2, i] = scale * (
+                    c_ring * (_log(4.0 * abs(groove_radius) / kappa) - 0.5)
+                    + c_pin * (_log(4.0 * abs(rp) / kappa) - 0.5)
+                )
+        log_rp = per_pin[1]
+        a_prime = per_pin[2]
+        rc_row = rc_in[start : start + n_pins]
+        cb_row = cb_in[start : start + n_pins]
+        depth_row = depth_in[start : start + n_pins]
+        alpha_row = alpha[start : start + n_pins]
+        gamma_row = gamma[start : start + n_pins]
+        for i in range(n_pins):
+            rp, rc = rp_row[i], rc_row[i]
+            if half_plane:
+                rho_star = rp / (1.0 + rp / rc)
+                log_kappa = 0.5 * _log(rho_star * inv_tooth)
+                a = scale * (
+                    c_disc * ((_log(2.0 * depth_row[i]) - log_kappa) - poisson_term)
+                    + c_pin * ((log_rp[i] - log_kappa) - 0.5)
+                )
+            else:
+                rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
+                log_kappa = 0.5 * _log(rho * inv_tooth)
+                a = scale * (
+                    c_disc * ((_log(4.0 * abs(rc)) - log_kappa) - 0.5)
+                    + c_pin * ((log_rp[i] - log_kappa) - 0.5)
+                )
+            g = gamma_0
+            if groove:
+                cb = cb_row[i]
+                c2 = cb * cb
+                log_cb = _log(cb) if cb > 0 else 0.0
+                a = a + c2 * (a_prime[i] - g_p * log_cb)
+                g = g + c2 * g_p
+            alpha_row[i] = a
+            gamma_row[i] = g
 
 
 def _stresses(
@@ -523,6 +614,7 @@ def compliance_arrays(
         _flat(curvature_radius, shape),
         _flat(cos_beta, shape),
         _flat(contact_radius, shape),
+        shape[-1],
         contact_law == "half_plane",
         bool(groove_deformation),
         np.pi * width * effective_modulus(c_disc, c_pin),

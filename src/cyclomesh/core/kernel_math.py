@@ -71,7 +71,8 @@ _PIO2_2T = 2.02226624879595063154e-21
 
 @cache
 def compiled() -> Any:
-    """The compiled functions as a namespace (``log``, ``cos``), or None without numba."""
+    """The compiled functions as a namespace (``log``, ``cos``, ``sin``), or None without
+    numba."""
     try:
         import numba
         from llvmlite import ir
@@ -94,13 +95,15 @@ def compiled() -> Any:
 
         return types.float64(types.int64), codegen
 
-    global _to_bits, _from_bits  # the functions below call them compiled
+    global _to_bits, _from_bits, _reduce, _kernels  # the functions below call them compiled
     _to_bits, _from_bits = to_bits, from_bits
     jit = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+    _reduce, _kernels = jit(_reduce), jit(_kernels)
 
     class Math:
         log = jit(_log)
         cos = jit(_cos)
+        sin = jit(_sin)
 
     return Math
 
@@ -143,9 +146,9 @@ def _log(x):  # pragma: no cover (compiled)
     return y
 
 
-def _cos(x):  # pragma: no cover (compiled)
-    """cos x for |x| < :data:`COS_EXACT_BELOW` (error below 1 ulp), branch-free: x = n·π/2
-    + (y0 + y1) by one Cody–Waite step, then k_cos or ±k_sin of (y0, y1) by n mod 4."""
+def _reduce(x):  # pragma: no cover (compiled)
+    """x = n·π/2 + (y0 + y1), |y0| ≤ π/4, by one Cody–Waite step (e_rem_pio2.c's medium
+    case with its second round always taken); returns (n mod 4 as a float, y0, y1)."""
     fn = float(math.floor(x * _INVPIO2 + 0.5))
     t = x - fn * _PIO2_1  # exact: fn·π/2₁ has at most 53 bits
     w = fn * _PIO2_2  # exact as well
@@ -153,18 +156,33 @@ def _cos(x):  # pragma: no cover (compiled)
     w = fn * _PIO2_2T - ((t - r) - w)
     y0 = r - w
     y1 = (r - y0) - w
-    n = fn - 4.0 * math.floor(0.25 * fn)  # fn mod 4, exact
-    # k_cos(y0, y1)
+    return fn - 4.0 * math.floor(0.25 * fn), y0, y1  # fn mod 4, exact
+
+
+def _kernels(y0, y1):  # pragma: no cover (compiled)
+    """(cos, sin) of y0 + y1 on [−π/4, π/4]: k_cos.c and k_sin.c."""
     z = y0 * y0
     w = z * z
     rc = z * (_C1 + z * (_C2 + z * _C3)) + w * w * (_C4 + z * (_C5 + z * _C6))
     hz = 0.5 * z
     w1 = 1.0 - hz
     kc = w1 + (((1.0 - w1) - hz) + (z * rc - y0 * y1))
-    # k_sin(y0, y1, 1)
     rs = _S2 + z * (_S3 + z * _S4) + z * w * (_S5 + z * _S6)
     v = z * y0
     ks = y0 - ((z * (0.5 * y1 - v * rs) - y1) - v * _S1)
-    c = kc if n == 0.0 else (-ks if n == 1.0 else (-kc if n == 2.0 else ks))
-    return c
+    return kc, ks
 
+
+def _cos(x):  # pragma: no cover (compiled)
+    """cos x for |x| < :data:`COS_EXACT_BELOW` (error below 1 ulp), branch-free: x = n·π/2
+    + (y0 + y1), then k_cos or ±k_sin of (y0, y1) by n mod 4."""
+    n, y0, y1 = _reduce(x)
+    kc, ks = _kernels(y0, y1)
+    return kc if n == 0.0 else (-ks if n == 1.0 else (-kc if n == 2.0 else ks))
+
+
+def _sin(x):  # pragma: no cover (compiled)
+    """sin x for |x| < :data:`COS_EXACT_BELOW` (error below 1 ulp), as :func:`_cos`."""
+    n, y0, y1 = _reduce(x)
+    kc, ks = _kernels(y0, y1)
+    return ks if n == 0.0 else (kc if n == 1.0 else (-ks if n == 2.0 else -kc))
