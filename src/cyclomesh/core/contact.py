@@ -228,8 +228,8 @@ def unloaded_contact(
         if got is not None:
             pin_radius = np.broadcast_to(r_pin, shape)
             arg_w = got.pop("arg_w")
-            tip = got["profile_angle"] == -np.pi  # at a tip, or unreachable (φ1 = −π)
-            if normals and np.any(tip):  # there the reference's normal: along w but for
+            tip = normals and got["profile_angle"] == -np.pi  # at a tip, or unreachable
+            if normals and np.any(tip):  # (φ1 = −π) the reference's normal: along w but for
                 # the last bits of sin(−π) (the kernel's sin φ1 = −√(1 − c²) is 0), which
                 # decide the side of ±π of its force angle when w lies on the x-axis
                 angle = got["profile_angle"][tip]

@@ -77,6 +77,7 @@ def compiled() -> Any:
         compliance = jit(_compliance)
         stresses = jit(_stresses)
         rests = jit(_rests)
+        overlap_contacts = jit(_overlap_contacts)
         log, cos, sin = _log, _cos, _sin
 
     return Passes
@@ -453,6 +454,30 @@ def _stresses(
         g_stress[j] = math.sqrt(gf * e_groove / (pi_width * rho_g))
 
 
+def _overlap_contacts(reverse, rotation, force, m, fraction, overlap, contacts):  # pragma: no cover
+    """Per row of m contacts (flat arrays; ``rotation`` one value per row): the overlap
+    max(φ' − φ, 0) as np.maximum (NaN propagating) and the number of forces above
+    ``fraction`` of the row's largest (NaN: none), as
+    :func:`cyclomesh.core.fields.overlap` and :func:`~cyclomesh.core.fields.count_contacts`:
+    comparisons and one subtraction, the reference's bits."""
+    for r in range(contacts.size):
+        rot = rotation[r]
+        j0 = r * m
+        top = -math.inf
+        nan = False
+        for i in range(j0, j0 + m):
+            d = reverse[i] - rot
+            overlap[i] = d if (d >= 0.0 or d != d) else 0.0
+            f = force[i]
+            nan |= f != f
+            top = f if f > top else top
+        limit = fraction * top
+        count = 0
+        for i in range(j0, j0 + m):
+            count += force[i] > limit
+        contacts[r] = 0 if nan else count
+
+
 def _row_min(x, arm, cond, sign, j0, m):  # pragma: no cover (compiled)
     """np.min over the row of sign·x where arm ≥ cond (else inf), NaN propagating; if
     that is not finite, np.min over the row of sign·x (the reference's fallback).
@@ -479,28 +504,53 @@ def _rests(rotation, reverse_rotation, arm, cond, m, rest, reverse):  # pragma: 
     """Rest positions on the loaded and on the opposite flanks of every row of m
     contacts (flat arrays), as :func:`cyclomesh.drive.mesh.rest_positions` takes them
     with :func:`cyclomesh.core.ltca.rest_position`: the smallest conditioned contact
-    rotation, and minus the smallest conditioned negated reverse rotation."""
+    rotation, and minus the smallest conditioned negated reverse rotation (none where
+    ``reverse`` is empty)."""
+    both = reverse.size > 0
     for i in range(rest.size):
         rest[i] = _row_min(rotation, arm, cond, 1.0, i * m, m)
-        reverse[i] = -_row_min(reverse_rotation, arm, cond, -1.0, i * m, m)
+        if both:
+            reverse[i] = -_row_min(reverse_rotation, arm, cond, -1.0, i * m, m)
 
 
 def rest_arrays(rotation, reverse_rotation, moment_arm, cond):
     """(rest, reverse rest) [rad] of contacts (..., m) in one compiled pass over the rows
-    (:func:`_rests`): min, negation and comparisons only, so the reference's bits."""
+    (:func:`_rests`): min, negation and comparisons only, so the reference's bits.
+    ``reverse_rotation`` None: the rest on the loaded flanks alone, (rest, None)."""
     shape = rotation.shape
     m = shape[-1]
-    rest, reverse = np.empty(shape[:-1]), np.empty(shape[:-1])
+    rest = np.empty(shape[:-1])
+    reverse = np.empty(shape[:-1] if reverse_rotation is not None else (0,))
+    rotation = _flat(rotation, shape)
     compiled().rests(
-        _flat(rotation, shape),
-        _flat(reverse_rotation, shape),
+        rotation,
+        rotation if reverse_rotation is None else _flat(reverse_rotation, shape),
         _flat(moment_arm, shape),
         float(cond),
         m,
         rest.reshape(-1),
         reverse.reshape(-1),
     )
-    return rest, reverse
+    return rest, (reverse if reverse_rotation is not None else None)
+
+
+def overlap_contacts(reverse_rotation, rotation, force, fraction):
+    """(overlap [rad], contacts) of :func:`cyclomesh.core.fields.contact_fields` for one
+    disc (``rotation`` one value per row of pins, (..., 1)) in one compiled pass
+    (:func:`_overlap_contacts`), bit for bit."""
+    shape = np.shape(force)
+    overlap = np.empty(shape)
+    contacts = np.empty(shape[:-1], np.int64)
+    compiled().overlap_contacts(
+        _flat(reverse_rotation, shape),
+        _flat(rotation, (*shape[:-1], 1)),
+        _flat(force, shape),
+        shape[-1],
+        float(fraction),
+        overlap.reshape(-1),
+        contacts.reshape(-1),
+    )
+    return overlap, contacts
 
 
 def contact_arrays(
