@@ -359,3 +359,19 @@ def test_the_warm_start_reaches_the_roots_of_the_cold_one_and_the_reference(monk
     np.testing.assert_allclose(warm_force, cold_force, rtol=0, atol=1e-14 * top)
     np.testing.assert_allclose(warm_rot, ref_rot, rtol=1e-13, atol=0)
     np.testing.assert_allclose(warm_force, ref_force, rtol=0, atol=1e-13 * top)
+
+
+@pytest.mark.parametrize("block", [1, 7 * 40, 97 * 40, 10**6])
+def test_the_contact_blocks_change_no_bit(monkeypatch, block):
+    """The compiled contact in blocks of crank angles (kernel_contact.BLOCK_CONTACTS),
+    sizes that divide the rings × angles or not, one row or all at once: every field the
+    same bits as the default block, three rings with errors, with normals."""
+    from cyclomesh.core import kernel_contact
+
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    phi = np.deg2rad(np.arange(0.0, 360.0, 0.7))  # 515 angles × 3 rings
+    ref = unloaded_contact(TABLE1, MOD, ERRORS, phi, normals=True)
+    monkeypatch.setattr(kernel_contact, "BLOCK_CONTACTS", block)
+    got = unloaded_contact(TABLE1, MOD, ERRORS, phi, normals=True)
+    for name in (*CONTACT_FIELDS, *ROUNDED_FIELDS, "normal_x", "normal_y"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(ref, name), err_msg=name)
