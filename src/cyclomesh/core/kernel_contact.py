@@ -194,10 +194,10 @@ def _contact_finish(
 ):  # pragma: no cover (compiled)
     """The contact quantities from the tooth phase and NumPy's angles (module doc).
 
-    Flat arrays, the rows q0 ≤ q < q1 of the (R·A, n1) contacts (row q: ring q // A,
-    crank angle q % A): arg_w = arg w (all rows, R·A·n1); arg_z, arg_n = arg P_s, arg n,
-    u = −arccos c, c and ``reach`` of the block (rows q − q0); phi_t (A,); t_root (A·n1);
-    pin_angle (R·n1); ``turn`` the rotation modification [rad]. Fills the block's rows q
+    The rows q0 ≤ q < q1 of the (R·A, n1) contacts (row q: ring q // A, crank angle
+    q % A): arg_w, arg_z, arg_n = arg w, arg P_s, arg n, u = −arccos c, c and ``reach``
+    of the block (rows q − q0); phi_t (A,); t_root (A, n1); pin_angle (R, n1); ``turn``
+    the rotation modification [rad]. Fills the block's rows q
     of the arrays of :class:`~cyclomesh.core.contact.UnloadedContact` as
     :func:`~cyclomesh.core.contact.unloaded_contact` does, and with ``normals`` the
     outward flank normal in the fixed frame, (cos, sin)(arg w + arg n − arg P_s), from
@@ -205,75 +205,75 @@ def _contact_finish(
     :func:`cyclomesh.core.contact._fixed_normal`, takes arg n and arg P_s again from
     cos and sin of φ1 = −arccos c: the same angle to a unit or two in its last place).
     """
-    n_pins = n1
     c0 = e * e * n1 * n1 + a * a
     c1 = 2.0 * e * n1 * a
     c2 = e * e * n1**3 + a * a
     c3 = e * n1 * (1 + n1) * a
     consts = (a, e, n1, n2, rho_gen, turn, c0, c1, c2, c3)
-    # flat arrays indexed by offsets (a view per row would count references each time)
-    rows = (arg_w, arg_z, arg_n, u, c_in, reach, t_root, pin_angle)
-    outs = (rotation, reverse, moment_arm, cos_beta, profile_angle, contact_radius, curvature)
+    n_pins = arg_w.shape[1]
     for q in range(q0, q1):
-        r, k = q // n_angles, q % n_angles
+        r, k, b = q // n_angles, q % n_angles, q - q0
         pt = phi_t[k]
-        j0 = q * n_pins  # the contact's index in the outputs, in the block: b0
-        b0 = (q - q0) * n_pins
-        t0 = k * n_pins
-        p0 = r * n_pins
+        tr = t_root[k]
+        pa = pin_angle[r]
+        # a view per row: with them the compiler vectorises the loop below (with flat
+        # offsets it does not)
+        rows = (arg_w[b], arg_z[b], arg_n[b], u[b], c_in[b], reach[b])
+        outs = (
+            rotation[q],
+            reverse[q],
+            moment_arm[q],
+            cos_beta[q],
+            profile_angle[q],
+            contact_radius[q],
+            curvature[q],
+        )
         # every pin in SIMD lanes with :func:`_cos` and the wrap of |x| < 8π, then the
         # pins whose angles are beyond those again with the C library's cosine and
         # NumPy's mod (never on a pin ring of today's designs)
         far = 0
         for i in range(n_pins):
-            far += _finish_pin(
-                _mod_2pi_near, _cos, j0 + i, b0 + i, t0 + i, p0 + i, rows, pt, consts, outs
-            )
+            far += _finish_pin(_mod_2pi_near, _cos, i, rows, tr, pa, pt, consts, outs)
         if far:
             for i in range(n_pins):
-                if _finish_pin(
-                    _mod_2pi_near, _cos, j0 + i, b0 + i, t0 + i, p0 + i, rows, pt, consts, outs
-                ):
-                    _finish_pin(
-                        _mod_2pi, _libm_cos, j0 + i, b0 + i, t0 + i, p0 + i, rows, pt, consts,
-                        outs,
-                    )  # fmt: skip
+                if _finish_pin(_mod_2pi_near, _cos, i, rows, tr, pa, pt, consts, outs):
+                    _finish_pin(_mod_2pi, _libm_cos, i, rows, tr, pa, pt, consts, outs)
         if normals:  # an unreachable pin: along w here, the caller's from φ1 = −π
+            nx_row, ny_row = normal_x[q], normal_y[q]
+            aw_row, az_row, an_row, ok_row = rows[0], rows[1], rows[2], rows[5]
             for i in range(n_pins):
-                aw = arg_w[j0 + i]
-                jb = b0 + i
-                angle = aw + arg_n[jb] - arg_z[jb] if reach[jb] else aw
+                aw = aw_row[i]
+                angle = aw + an_row[i] - az_row[i] if ok_row[i] else aw
                 if abs(angle) < _TRIG_EXACT_BELOW:
-                    normal_x[j0 + i] = _cos(angle)
-                    normal_y[j0 + i] = _sin(angle)
+                    nx_row[i] = _cos(angle)
+                    ny_row[i] = _sin(angle)
                 else:
-                    normal_x[j0 + i] = math.cos(angle)
-                    normal_y[j0 + i] = math.sin(angle)
+                    nx_row[i] = math.cos(angle)
+                    ny_row[i] = math.sin(angle)
 
 
-def _finish_pin(wrap, cosine, j, jb, jt, jp, rows, pt, consts, outs):  # pragma: no cover
-    """Contact ``j`` (``jb`` in the block, its tooth-space bottom ``jt``, its pin ``jp``) of
-    :func:`_contact_finish` (branch-free: its values and the unreachable pin's by
-    selects), with ``wrap`` = x mod 2π and ``cosine``; returns whether a reachable pin's
-    angles lie beyond :func:`_mod_2pi_near`'s or :func:`_cos`'s range (then the caller
-    takes it again exactly)."""
-    arg_w, arg_z, arg_n, u, c_in, reach, t_root, pin_angle = rows
+def _finish_pin(wrap, cosine, i, rows, tr, pa, pt, consts, outs):  # pragma: no cover
+    """Pin ``i`` of one crank angle for :func:`_contact_finish` (branch-free: its values
+    and the unreachable pin's by selects), with ``wrap`` = x mod 2π and ``cosine``;
+    returns whether a reachable pin's angles lie beyond :func:`_mod_2pi_near`'s or
+    :func:`_cos`'s range (then the caller takes it again exactly)."""
+    arg_w, arg_z, arg_n, u, c_in, reach = rows
     rotation, reverse, moment_arm, cos_beta, profile_angle, contact_radius, curvature = outs
     a, e, n1, n2, rho_gen, turn, c0, c1, c2, c3 = consts
     two_pi = 2.0 * np.pi
     centre = np.pi / n2
-    uu = u[jb]
-    aw, az = arg_w[j], arg_z[jb]
-    ok = reach[jb]
-    c = c_in[jb]
-    t_i = t_root[jt]
+    uu = u[i]
+    aw, az = arg_w[i], arg_z[i]
+    ok = reach[i]
+    c = c_in[i]
+    t_i = tr[i]
     sin_u = -math.sqrt(1.0 - c * c)
     d = math.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
     vx, vy = (a - e * n1 * c) / d, -e * n1 * sin_u / d
     t = t_i + uu / n2
     x_rot = np.pi - (aw - t - az - pt)
     rot = np.pi - wrap(x_rot)
-    lateral = pt + rot + t + arg_n[jb] - pin_angle[jp]
+    lateral = pt + rot + t + arg_n[i] - pa[i]
     rot = rot + turn
     x_back = np.pi - (aw - (t_i - uu / n2) + az - pt)
     back = np.pi - wrap(x_back)
@@ -285,13 +285,13 @@ def _finish_pin(wrap, cosine, j, jb, jt, jp, rows, pt, consts, outs):  # pragma:
     n2t = n2 * t
     cos_n = cosine(n2t)
     q = c0 - c1 * cos_n  # q**1.5 as √q·q: NumPy's power differs in the last bit anyway
-    rotation[j] = rot if ok else np.inf
-    reverse[j] = back if ok else -np.inf
-    moment_arm[j] = -a * e * n2 * sin_u / d if ok else 0.0
-    cos_beta[j] = abs(cosine(lateral)) if ok else 1.0
-    profile_angle[j] = uu if ok else -np.pi
-    contact_radius[j] = math.sqrt(rho_x * rho_x + rho_y * rho_y) if ok else a + e - rho_gen
-    curvature[j] = q * math.sqrt(q) / (c2 - c3 * cos_n) - rho_gen if ok else np.inf
+    rotation[i] = rot if ok else np.inf
+    reverse[i] = back if ok else -np.inf
+    moment_arm[i] = -a * e * n2 * sin_u / d if ok else 0.0
+    cos_beta[i] = abs(cosine(lateral)) if ok else 1.0
+    profile_angle[i] = uu if ok else -np.pi
+    contact_radius[i] = math.sqrt(rho_x * rho_x + rho_y * rho_y) if ok else a + e - rho_gen
+    curvature[i] = q * math.sqrt(q) / (c2 - c3 * cos_n) - rho_gen if ok else np.inf
     near = (
         abs(x_rot) < _WRAP_NEAR
         and abs(x_back) < _WRAP_NEAR
@@ -605,12 +605,12 @@ def contact_arrays(
     }
     residual, arg_w = np.empty(flat), np.empty(flat)
     normal = [np.empty(flat if normals else (0, 0, 0)) for _ in range(2)]
-    outs = [v.reshape(-1) for v in out.values()]
-    normal_flat = [v.reshape(-1) for v in normal]
+    outs = [v.reshape(n_rows, n1) for v in out.values()]
+    normal_rows = [v.reshape(n_rows, n1) if normals else v.reshape(0, 0) for v in normal]
     residual_rows, arg_w_rows = residual.reshape(n_rows, n1), arg_w.reshape(n_rows, n1)
     phi_t = np.ascontiguousarray(-phi[:, 0] / n2)
-    t_flat = np.ascontiguousarray(np.broadcast_to(t_root, (n_angles, n1))).reshape(-1)
-    pin_flat = rows(pin_angle, (1, n1)).reshape(-1)
+    t_rows = np.ascontiguousarray(np.broadcast_to(t_root, (n_angles, n1)))
+    pin_rows = rows(pin_angle, (1, n1))
     # blocks of rows (crank angles of a ring) whose intermediates stay in the cache
     block = max(1, min(n_rows, BLOCK_CONTACTS // n1))
     wx, wy, c, zx, zy, nx, ny = (np.empty((block, n1)) for _ in range(7))
@@ -627,20 +627,21 @@ def contact_arrays(
         )  # fmt: skip
         if bad:
             return None
-        np.arctan2(bwy, bwx, out=arg_w_rows[q0:q1])
+        arg_w_block = np.arctan2(bwy, bwx, out=bwx)
+        arg_w_rows[q0:q1] = arg_w_block
         arg_z = np.arctan2(bzy, bzx, out=bzx)
         arg_n = np.arctan2(bny, bnx, out=bnx)
         u = np.negative(np.arccos(bc, out=bzy), out=bzy)
         passes.contact_finish(
-            arg_w.reshape(-1),
-            arg_z.reshape(-1),
-            arg_n.reshape(-1),
-            u.reshape(-1),
-            bc.reshape(-1),
-            breach.reshape(-1),
+            arg_w_block,
+            arg_z,
+            arg_n,
+            u,
+            bc,
+            breach,
             phi_t,
-            t_flat,
-            pin_flat,
+            t_rows,
+            pin_rows,
             a,
             e,
             n1,
@@ -649,7 +650,7 @@ def contact_arrays(
             float(turn),
             *outs,
             bool(normals),
-            *normal_flat,
+            *normal_rows,
             n_angles,
             q0,
             q1,
