@@ -767,21 +767,20 @@ def stress_arrays(pin_radius, curvature_radius, cos_beta, force, design):
 def _math(numba):
     """Compile :func:`_log`, :func:`_cos`, :func:`_sin` in place (the bit casts of
     :func:`_log` as LLVM intrinsics); called by :func:`compiled`."""
-    from llvmlite import ir
     from numba.core import types
     from numba.extending import intrinsic
 
     @intrinsic
     def to_bits(typingctx, x):  # pragma: no cover (compiled)
         def codegen(context, builder, signature, args):
-            return builder.bitcast(args[0], ir.IntType(64))
+            return builder.bitcast(args[0], context.get_value_type(types.int64))
 
         return types.int64(types.float64), codegen
 
     @intrinsic
     def from_bits(typingctx, i):  # pragma: no cover (compiled)
         def codegen(context, builder, signature, args):
-            return builder.bitcast(args[0], ir.DoubleType())
+            return builder.bitcast(args[0], context.get_value_type(types.float64))
 
         return types.float64(types.int64), codegen
 
