@@ -223,6 +223,7 @@ def _contact_finish(
     c3 = e * n1 * (1 + n1) * a
     consts = (a, e, n1, n2, rho_gen, turn, c0, c1, c2, c3)
     n_pins = arg_w.shape[1]
+    redo_row = np.empty(n_pins, np.bool_)
     for q in range(q0, q1):
         r, k, b = q // n_angles, q % n_angles, q - q0
         pt = phi_t[k]
@@ -241,14 +242,16 @@ def _contact_finish(
             curvature[q],
         )
         # every pin in SIMD lanes with :func:`_cos` and the wrap of |x| < 8π, then the
-        # pins whose angles are beyond those again with the C library's cosine and
-        # NumPy's mod (never on a pin ring of today's designs)
+        # pins whose angles are beyond those (never on a pin ring of today's designs)
+        # or next to an inflection again with the C library's cosine and NumPy's mod
         far = 0
         for i in range(n_pins):
-            far += _finish_pin(_mod_2pi_near, _cos, i, rows, tr, pa, pt, consts, outs)
+            redo = _finish_pin(_mod_2pi_near, _cos, i, rows, tr, pa, pt, consts, outs)
+            redo_row[i] = redo
+            far += redo
         if far:
             for i in range(n_pins):
-                if _finish_pin(_mod_2pi_near, _cos, i, rows, tr, pa, pt, consts, outs):
+                if redo_row[i]:
                     _finish_pin(_mod_2pi, _libm_cos, i, rows, tr, pa, pt, consts, outs)
         if normals:  # an unreachable pin: along w here, the caller's from φ1 = −π
             nx_row, ny_row = normal_x[q], normal_y[q]
@@ -268,7 +271,8 @@ def _finish_pin(wrap, cosine, i, rows, tr, pa, pt, consts, outs):  # pragma: no 
     """Pin ``i`` of one crank angle for :func:`_contact_finish` (branch-free: its values
     and the unreachable pin's by selects), with ``wrap`` = x mod 2π and ``cosine``;
     returns whether a reachable pin's angles lie beyond :func:`_mod_2pi_near`'s or
-    :func:`_cos`'s range (then the caller takes it again exactly)."""
+    :func:`_cos`'s range or it lies next to an inflection (:data:`_INFLECTION`; then the
+    caller takes it again exactly)."""
     arg_w, arg_z, arg_n, u, c_in, reach = rows
     rotation, reverse, moment_arm, cos_beta, profile_angle, contact_radius, curvature = outs
     a, e, n1, n2, rho_gen, turn, c0, c1, c2, c3 = consts
@@ -303,16 +307,24 @@ def _finish_pin(wrap, cosine, i, rows, tr, pa, pt, consts, outs):  # pragma: no 
     cos_beta[i] = abs(cosine(lateral)) if ok else 1.0
     profile_angle[i] = uu if ok else -np.pi
     contact_radius[i] = math.sqrt(rho_x * rho_x + rho_y * rho_y) if ok else a + e - rho_gen
-    curvature[i] = q * math.sqrt(q) / (c2 - c3 * cos_n) - rho_gen if ok else np.inf
+    den = c2 - c3 * cos_n
+    curvature[i] = q * math.sqrt(q) / den - rho_gen if ok else np.inf
     near = (
         abs(x_rot) < _WRAP_NEAR
         and abs(x_back) < _WRAP_NEAR
         and abs(n2t) < _TRIG_EXACT_BELOW
         and abs(lateral) < _TRIG_EXACT_BELOW
+        and abs(den) * _INFLECTION > c3
     )
     return ok and not near
 
 
+_INFLECTION = 32.0
+"""Near an inflection of the profile the curvature radius's denominator
+e²n1³ + a'² − e·n1·(1 + n1)·a'·cos n2·t cancels, and one unit in the last place of the
+cosine moves ρc by 2.2e-16·c3/|den| of itself (7e-12 measured on section42's Case 3):
+where c3/|den| exceeds this (ρc then within a few parts in 1e-15 of itself), the pin is
+taken again with the C library's cosine, the reference's bits (a few in a hundred)."""
 _WRAP_NEAR = 8.0 * np.pi
 """|x| below which :func:`_mod_2pi_near` is np.mod(x, 2π) bit for bit."""
 _TRIG_EXACT_BELOW = 8.0e5
