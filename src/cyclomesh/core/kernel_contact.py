@@ -20,8 +20,9 @@ library's and NumPy's, but inlined, so that the loops run in SIMD lanes), hypot 
 the sum of squares, the power 3/2 √q·q and the compliance's logarithms of quotients
 differences of logarithms: these move cos β, the contact and curvature radii, α and the
 pin loads in their last bits (about 1e-16 of their size; the curvature radius by up to
-2e-14 near an inflection, where its denominator cancels); the rotations, moment arms
-and profile angles keep the reference's bits.
+1e-14 of itself: next to an inflection, where its denominator cancels, a pin is finished
+again with the C library's cosine, :data:`_INFLECTION`); the rotations, moment arms and
+profile angles keep the reference's bits.
 
 The contact runs in blocks of :data:`BLOCK_CONTACTS` contacts (crank angles of a ring ×
 pins): the phase pass, NumPy's arctangents and arccos and the finishing pass on one
