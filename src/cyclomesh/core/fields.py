@@ -31,7 +31,7 @@ from cyclomesh.core.hertz import (
     pin_tooth_radius,
 )
 from cyclomesh.core.kernel import kernel_name
-from cyclomesh.core.kernel_contact import stress_arrays
+from cyclomesh.core.kernel_contact import overlap_contacts, stress_arrays
 from cyclomesh.core.pair import PairDesign
 
 __all__ = [
@@ -185,14 +185,24 @@ def contact_fields(
     if what & {"groove_load", "contact_stress", "groove_stress"}:
         groove, stress, groove_stress = contact_stresses(geo, design, force)
         out.update(groove_load=groove, contact_stress=stress, groove_stress=groove_stress)
-    if "overlap" in what:
+    if (
+        {"overlap", "contacts"} <= what
+        and stack_axes == 1
+        and np.shape(rotation)[-1:] == (1,)
+        and np.shape(geo.reverse_rotation) == np.shape(force)
+        and kernel_name() == "numba"
+    ):  # one disc: both in one compiled pass, the same bits
+        out["overlap"], out["contacts"] = overlap_contacts(
+            geo.reverse_rotation, rotation, force, CONTACT_LOAD_FRACTION
+        )
+    if "overlap" in what and "overlap" not in out:
         out["overlap"] = overlap(geo.reverse_rotation, rotation)
     if "force_angle" in what:
         out["force_angle"] = np.arctan2(-normal[1], -normal[0])
     if "torque_share" in what:
         arm = geo.moment_arm if moment_arm is None else moment_arm
         out["torque_share"] = np.sum(force * arm, axis=-1)
-    if "contacts" in what:
+    if "contacts" in what and "contacts" not in out:
         out["contacts"] = count_contacts(force, axes=stack_axes)
     if "mesh_force" in what:
         out["mesh_force_x"] = -np.sum(force * normal[0], axis=-1)

@@ -37,7 +37,7 @@ from cyclomesh.core.fields import (
 )
 from cyclomesh.core.hertz import CONTACT_LAWS, compliance_coefficients
 from cyclomesh.core.kernel import kernel_name, share_load
-from cyclomesh.core.kernel_contact import compliance_arrays
+from cyclomesh.core.kernel_contact import compliance_arrays, rest_arrays
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.core.transmission import gear_ratio, transmission_error
 from cyclomesh.exceptions import ConvergenceError, DesignError
@@ -125,7 +125,8 @@ def rest_position(rotation: FloatArray, moment_arm: FloatArray) -> FloatArray:
     pins. A pin right at a tip or a tooth-space bottom (moment arm below
     :data:`CONDITIONED_ARM`) is left out: its gap does not change to first order with
     the disc rotation, so it cannot stop the disc, and its contact rotation is
-    ill-conditioned (set only to about 1e-9 rad by round-off).
+    ill-conditioned (set only to about 1e-9 rad by round-off). With the numba kernel
+    (:mod:`cyclomesh.core.kernel`) the same minimum in one compiled pass, bit for bit.
 
     Parameters
     ----------
@@ -139,6 +140,8 @@ def rest_position(rotation: FloatArray, moment_arm: FloatArray) -> FloatArray:
     ndarray
         Shape (...) [rad].
     """
+    if kernel_name() == "numba":  # the same min and comparisons in one compiled pass
+        return rest_arrays(rotation, None, moment_arm, CONDITIONED_ARM)[0]
     conditioned = np.where(moment_arm >= CONDITIONED_ARM, rotation, np.inf)
     rest = np.min(conditioned, axis=-1)
     return np.where(np.isfinite(rest), rest, np.min(rotation, axis=-1))
