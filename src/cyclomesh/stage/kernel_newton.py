@@ -500,6 +500,13 @@ def _newton_rows(
                 t = cap / (reach if reach > 0 else 1.0)
             extended = stretch
             tiny = -slope <= 1e-13 * max(abs(energy), 1e-300)
+            work = torque * xi[0]  # the reference's _magnitude: flat, judged by |g|
+            flat = (not tiny) and -slope <= 1e-13 * (abs(energy + work) + abs(work))
+            norm = 0.0
+            if flat:
+                for r in range(m):
+                    norm += g[r] * g[r]
+                norm = np.sqrt(norm)
             moved = False
             for _h in range(halvings):
                 for r in range(m):
@@ -531,7 +538,7 @@ def _newton_rows(
                     kn,
                     torque,
                     L,
-                    False,
+                    flat,
                     gt,
                     Ht,
                     memo,
@@ -540,7 +547,13 @@ def _newton_rows(
                 )
                 if st == 2:
                     break
-                if st == 0 and (e_t <= energy + 1e-4 * t * slope or tiny):
+                ok = e_t <= energy + 1e-4 * t * slope or tiny
+                if flat:
+                    norm_t = 0.0
+                    for r in range(m):
+                        norm_t += gt[r] * gt[r]
+                    ok = np.sqrt(norm_t) <= (1.0 - 1e-4 * t) * norm
+                if st == 0 and ok:
                     for r in range(m):
                         xi[r] = trial[r]
                     moved = True
@@ -678,6 +691,8 @@ def _rigid_rows(
             if reach * t > cap:
                 t = cap / (reach if reach > 0 else 1.0)
             tiny = -slope <= 1e-13 * max(abs(energy), 1e-300)
+            work = torque * xi[0]  # the reference's _magnitude: flat, judged by |g|
+            flat = (not tiny) and -slope <= 1e-13 * (abs(energy + work) + abs(work))
             moved = False
             for _h in range(halvings):
                 move = step * t / L
@@ -686,12 +701,15 @@ def _rigid_rows(
                 trial[0] = xi[0] + move
                 for d in range(D):
                     trial[1 + 3 * d] = xi[1 + 3 * d] + move
-                e_t, _g, _h2, st = _rigid_one(
+                e_t, g_t, _h2, st = _rigid_one(
                     i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, False, pf, pk
                 )
                 if st == 2:
                     break
-                if st == 0 and (e_t <= energy + 1e-4 * t * slope or tiny):
+                ok = e_t <= energy + 1e-4 * t * slope or tiny
+                if flat:
+                    ok = abs(g_t) <= (1.0 - 1e-4 * t) * abs(g)
+                if st == 0 and ok:
                     for r in range(m):
                         xi[r] = trial[r]
                     moved = True

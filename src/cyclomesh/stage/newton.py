@@ -59,6 +59,15 @@ def newton(
     :class:`~cyclomesh.stage.equilibrium._Problem`); ``evaluate``: its potential, gradient
     and Hessian (:func:`~cyclomesh.stage.equilibrium._evaluate`); ``x``: the start (A, m),
     overwritten by the solution. Raises ConvergenceError naming the crank angle ``phi``.
+
+    The line search asks the potential for a sufficient decrease (Armijo) while that
+    decrease can be resolved: once the Newton step's first-order change −g·s is below
+    1e-13 of the magnitude of the potential's terms (:func:`_magnitude`; the potential
+    itself is the small difference of the torque's work and the springs' energy near a
+    crank bearing at zero load) a trial is judged by the residual's norm instead,
+    ‖g(x + t·s)‖ ≤ (1 − 10⁻⁴t)·‖g(x)‖ (s a descent direction of ‖g‖², Nocedal & Wright
+    §11.2), so the iteration does not stall on steps of 10⁻⁸ that leave the potential's
+    last digit unchanged.
     """
     tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
     reduce = np.zeros((1 + 3 * discs, 1))
@@ -115,11 +124,24 @@ def newton(
         todo = np.arange(xa.shape[0])
         new = xa.copy()
         tiny = -slope <= 1e-13 * np.maximum(np.abs(energy), 1e-300)
+        # the potential has no digits left for the sufficient-decrease test: its change
+        # along the step is below the round-off of its terms (−T·c cancels the springs'
+        # energy); judge the step by the residual's norm instead
+        flat = ~tiny & (-slope <= 1e-13 * _magnitude(energy, p.torque, xa[:, 0]))
+        norm = np.linalg.norm(g, axis=-1)
         for _h in range(_MAX_HALVINGS):
             full = _expand(step[todo] * t[todo, None], reduce if rigid else None)
             trial = xa[todo] + _scale(full, p.scale, rot_idx)
-            e_t, _g, _H, st = evaluate(sub.take(todo), law, trial, discs, rigid, gradient=False)
-            ok = ~st["bad"] & ((e_t <= energy[todo] + 1e-4 * t[todo] * slope[todo]) | tiny[todo])
+            want = bool(np.any(flat[todo]))  # the gradient only where it is needed
+            e_t, g_t, _H, st = evaluate(
+                sub.take(todo), law, trial, discs, rigid, hessian=False, gradient=want
+            )
+            ok = (e_t <= energy[todo] + 1e-4 * t[todo] * slope[todo]) | tiny[todo]
+            if want:
+                g_t = g_t @ reduce if rigid else g_t
+                drop = np.linalg.norm(g_t, axis=-1) <= (1.0 - 1e-4 * t[todo]) * norm[todo]
+                ok = np.where(flat[todo], drop, ok)
+            ok = ~st["bad"] & ok
             new[todo[ok]] = trial[ok]
             todo = todo[~ok]
             if todo.size == 0:
@@ -218,6 +240,14 @@ def residual_newton(
         f"{what} did not converge at crank angle "
         f"{np.degrees(phi[active[0]]):.6g}°: residual above {FORCE_TOLERANCE:.0e}·T/r_c"
     )
+
+
+def _magnitude(energy: FloatArray, torque: float, c: FloatArray) -> FloatArray:
+    """Sum of the magnitudes of the potential's terms [J]: every term is a spring's energy
+    (≥ 0) but the torque's work −T·c, so it is |Π + T·c| + |T·c|; its round-off bounds the
+    change of Π that an evaluation can resolve (Π itself may be far smaller)."""
+    work = torque * c
+    return np.abs(energy + work) + np.abs(work)
 
 
 def _expand(step: FloatArray, reduce: FloatArray | None) -> FloatArray:
