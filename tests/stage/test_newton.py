@@ -150,7 +150,8 @@ def test_a_left_out_pin_that_closes_is_taken_back(monkeypatch):
 
 def test_step_cap_keeps_the_answer_and_saves_evaluations(monkeypatch):
     """A disc floating in its clearance makes the Newton step huge; shortened to the cap
-    it needs fewer line-search trials, and the equilibrium is the same."""
+    it needs fewer line-search trials, and the equilibrium is the same (each crank angle
+    from its own start: from the one before, the steps are short anyway)."""
     errors, stage = _hard_stage()
     torques = [-LIGHT]
     calls = []
@@ -161,6 +162,7 @@ def test_step_cap_keeps_the_answer_and_saves_evaluations(monkeypatch):
         return evaluate(*args, **kwargs)
 
     monkeypatch.setattr(eq, "_evaluate", counted)
+    monkeypatch.setattr(nt, "WARM_RUN", 1)  # every crank angle from its own start
     results, count = [], []
     for cap in (nt._STEP_CAP, np.inf):
         monkeypatch.setattr(nt, "_STEP_CAP", cap)
@@ -257,3 +259,30 @@ def test_newton_judges_by_the_residual_where_the_potential_has_no_digits(monkeyp
     assert len(calls) < 200  # not the stall's hundreds of evaluations
     load = res.bearing_load[0, 0]  # (D, N)
     assert np.sum(load[1] < 1e-6 * np.max(load)) >= 2, "disc 2's bearings at zero load"
+
+
+def test_any_start_gives_the_same_root_to_round_off(monkeypatch):
+    """Newton goes on from near the root (FORCE_TOLERANCE) to round-off, so the answer does
+    not depend on its path: the bearing phase started off its start by 1e-3 (relative, every
+    unknown) gives the same twists to 1e-14 and the same loads to 1e-13 of their largest,
+    at the hard points (discs that float, bearings at zero load). The former test (stop
+    anywhere below 1e-12·T/r_c) left loads ~1e-12 apart."""
+    errors, stage = _hard_stage(0)
+    torques = [412.0, -LIGHT, LIGHT]
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numpy")
+    ref = _solve(errors, stage, torques)
+    solve = eq._solve
+
+    def moved(p, law, x, discs, rigid, phi, state=None):
+        if not rigid:
+            x = x * (1.0 + 1e-3)
+        return solve(p, law, x, discs, rigid, phi, state)
+
+    monkeypatch.setattr(eq, "_solve", moved)
+    got = _solve(errors, stage, torques)
+    tol = nt.FORCE_TOLERANCE * np.abs(np.asarray(torques))[:, None] / HOLES.circle_radius
+    assert np.all(got.residual <= tol)
+    assert np.max(np.abs(got.twist - ref.twist)) <= 1e-14 * np.max(np.abs(ref.twist))
+    for name in ("bearing_load", "pin_load", "torque_share"):
+        a, b = getattr(ref, name), getattr(got, name)
+        assert np.max(np.abs(a - b)) <= 1e-13 * np.max(np.abs(a)), name

@@ -1,7 +1,8 @@
 """Newton's method of the RV stage's equilibrium (:mod:`cyclomesh.stage.equilibrium`):
 a backtracking line search on the convex potential, vectorised over the crank angles,
 with the step stretched by the bearing law's exponent where a crank bearing near zero
-load makes Newton linear; the converged test of :data:`FORCE_TOLERANCE`.
+load makes Newton linear; the converged test: near the root (:data:`FORCE_TOLERANCE`),
+then on to round-off (:data:`ROUND_OFF_FORCE`).
 
 The problem's assembly (potential, gradient, Hessian) is the caller's: :func:`newton`
 takes it as a function, so the iteration does not depend on what the potential holds.
@@ -18,13 +19,35 @@ from numpy.typing import NDArray
 from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.stage.bearing import LOAD_EXPONENT
 
-__all__ = ["newton", "residual_newton", "rotation_index", "FORCE_TOLERANCE", "reducer"]
+__all__ = [
+    "newton",
+    "residual_newton",
+    "rotation_index",
+    "FORCE_TOLERANCE",
+    "ROUND_OFF_FORCE",
+    "WARM_RUN",
+    "reducer",
+]
 
 FloatArray = NDArray[np.float64]
 Evaluate = Callable[..., tuple[Any, Any, Any, dict]]
 
 FORCE_TOLERANCE = 1e-12
-"""Accepted residual of every equilibrium equation, relative to T/r_c (moments /r_c)."""
+"""Residual of every equilibrium equation, relative to T/r_c (moments /r_c), below which
+Newton's steps are near the root: from there they go on to round-off
+(:data:`ROUND_OFF_FORCE`, or a step that no longer reduces the residual)."""
+ROUND_OFF_FORCE = 4.0 * float(np.finfo(float).eps)
+"""Largest residual of the equilibrium equations, relative to T/r_c, at which the root is
+reached (four units in the last place, about 8.9e-16); a residual within
+:data:`FORCE_TOLERANCE`·T/r_c (or the round-off of the unknowns) that a Newton step does
+not reduce ends the iteration as well (the round-off of the sums of forces)."""
+WARM_RUN = 4
+"""Crank angles solved in a run from the one before (a warm start): every WARM_RUN-th
+crank angle (0, WARM_RUN, ...) starts from its own start, each of the next WARM_RUN − 1
+from the solution of the crank angle before it where the potential is lower there
+(:func:`cyclomesh.stage.equilibrium._solve`; the compiled iteration goes through them in
+order, the NumPy reference in WARM_RUN vectorised passes). The root does not depend on the
+start (the iteration runs to round-off)."""
 _MAX_ITERATIONS = 200
 _MAX_HALVINGS = 60
 _STALL_HALVINGS = 30
@@ -70,6 +93,7 @@ def newton(
     last digit unchanged.
     """
     tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
+    floor = ROUND_OFF_FORCE * abs(p.torque) / p.scale
     reduce = np.zeros((1 + 3 * discs, 1))
     reduce[[0, *range(1, 1 + 3 * discs, 3)], 0] = 1.0  # rigid: θ_d = c, u = 0
     active = np.arange(x.shape[0])
@@ -83,8 +107,10 @@ def newton(
         if rigid:
             g = g @ reduce
             H = np.einsum("im,nij,jk->nmk", reduce, H, reduce)
-        # converged: every residual below tol, or at the round-off of the unknowns
-        # themselves (stiff bearings: a residual of H·ulp(x) cannot be resolved)
+        # near the root: every residual below tol, or at the round-off of the unknowns
+        # themselves (stiff bearings: a residual of H·ulp(x) cannot be resolved); from
+        # there Newton goes on to the root at round-off: it stops at a residual of a few
+        # ulp of T/r_c or at the first step that does not reduce the largest residual
         body = None if rigid else getattr(p, "body", None)
         tail = 0 if body is None else body.size
         rot_idx = rotation_index(xa.shape[1], discs, None if rigid else p.supports, tail)
@@ -92,9 +118,10 @@ def newton(
         if rigid:
             xs = xs @ reduce
         noise = 16.0 * np.finfo(float).eps * np.matmul(np.abs(H), xs[..., None])[..., 0]
-        done = np.all(np.abs(g) <= np.maximum(tol, noise), axis=-1)
-        keep = ~done
+        near = np.all(np.abs(g) <= np.maximum(tol, noise), axis=-1)
         res = np.max(np.abs(g), axis=-1)
+        done = near & ((res <= floor) | (res >= previous[active]))
+        keep = ~done
         # a crank bearing whose equilibrium compression is ~0 (a disc that carries almost
         # nothing at a light torque) makes Newton linear, δ → δ·(1 − 1/p) with
         # Q ∝ δ^p (residual ×(1 − 1/p)^p ≈ 1/13 a step); the step stretched by p is the
@@ -106,6 +133,7 @@ def newton(
         active = active[keep]
         if active.size == 0:
             return x
+        near = near[keep]
         xa, g, H, energy = xa[keep], g[keep], H[keep], energy[keep]
         sub = sub.take(np.flatnonzero(keep))
         diag = np.maximum(np.max(np.abs(np.diagonal(H, axis1=1, axis2=2)), axis=-1), 1e-300)
@@ -149,14 +177,18 @@ def newton(
             extended[active[todo]] = False
             t[todo] = np.where(t[todo] > 1.0, 1.0, 0.5 * t[todo])
         else:
-            raise ConvergenceError(
-                f"stage: no descent at crank angle {np.degrees(phi[active[todo[0]]]):.6g}° "
-                f"(line search failed after {_MAX_HALVINGS} halvings)"
-            )
+            # near the root with no digits left in the potential, a residual that no
+            # step reduces is the round-off: the iterate stays, the next test ends it
+            if not np.all(near[todo] & flat[todo]):
+                raise ConvergenceError(
+                    f"stage: no descent at crank angle {np.degrees(phi[active[todo[0]]]):.6g}° "
+                    f"(line search failed after {_MAX_HALVINGS} halvings)"
+                )
         x[active] = new
     raise ConvergenceError(
         f"stage equilibrium did not converge at crank angle {np.degrees(phi[active[0]]):.6g}°: "
-        f"residual above {FORCE_TOLERANCE:.0e}·T/r_c after {_MAX_ITERATIONS} Newton steps"
+        f"residual above {FORCE_TOLERANCE:.0e}·T/r_c or still falling after {_MAX_ITERATIONS} "
+        "Newton steps"
     )
 
 
