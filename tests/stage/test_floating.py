@@ -141,3 +141,21 @@ def test_two_solver_paths_report_the_same_floating_disc(monkeypatch):
     rot = first.disc_rotation - first.transmission_error[..., None]
     rot_other = other.disc_rotation - other.transmission_error[..., None]
     assert np.max(np.abs(rot - rot_other)) <= 1e-10 * np.max(np.abs(rot))
+
+
+def test_a_floating_disc_reports_no_load():
+    """A disc that carries nothing reports zero pin loads, contact stresses and crank
+    bearing loads: no disc is left with a load between 0 and the floating threshold
+    (the solve's loads on a floating disc are its round-off, ~1e-13 N, which depends on
+    Newton's path and which σ ∝ √F would magnify to ~1e-9 of the largest stress; they
+    were reported until the loads of a floating disc were set to 0)."""
+    errors, stage = _hard_stage(0)
+    torques = [-LIGHT, LIGHT]
+    got = _solve(errors, stage, torques)
+    load = np.maximum(np.max(got.pin_load, axis=-1), np.max(got.opposite_pin_load, axis=-1))
+    load = np.maximum(load, np.max(got.bearing_load, axis=-1))  # (Q, A, D)
+    idle = load == 0.0
+    assert np.sum(idle) > 20, "discs that float"
+    assert np.all(got.contact_stress[idle] == 0.0) and np.all(got.groove_stress[idle] == 0.0)
+    threshold = 1e-9 * LIGHT / L  # FLOATING_LOAD·T/r_c
+    assert np.all(load[~idle] > threshold)

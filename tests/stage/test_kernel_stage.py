@@ -203,3 +203,27 @@ def test_the_compiled_newton_does_the_work(monkeypatch):
     got = solve_stage(RV40, stage, MOD, errors, [412.0, -LIGHT, LIGHT], PHI, discs=2)
     tol = 1e-12 * np.array([412.0, LIGHT, LIGHT])[:, None] / HOLES.circle_radius
     assert np.all(got.residual <= tol)
+
+
+def test_the_ring_whose_potential_has_no_digits_agrees(monkeypatch):
+    """Ring 1255 of bench_stage's study at +3 %, crank angles 284° and 332°, where one
+    disc's crank bearings end at zero load and the potential has no digits left for the
+    line search's sufficient-decrease test (test_newton): the compiled iteration solves
+    both angles itself, as the reference does, with the same answer to 1e-13 (before
+    both judged such steps by the residual, the kernel stalled at 284° and the reference
+    at 332°)."""
+    from tests.stage.test_newton import ring_1255
+
+    design, errors, stage = ring_1255()
+    phi = np.radians([284.0, 332.0])
+    monkeypatch.setenv(kernel.ENV_VAR, "numpy")
+    ref = solve_stage(design, stage, MOD, errors, [LIGHT], phi, discs=2)
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("fell back to the NumPy Newton")
+
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    monkeypatch.setattr(eq, "newton", refuse)
+    got = solve_stage(design, stage, MOD, errors, [LIGHT], phi, discs=2)
+    assert np.all(got.residual <= 1e-12 * LIGHT / HOLES.circle_radius)
+    _agree(ref, got)

@@ -233,13 +233,42 @@ def _solve(
     again from there with all pins (the answer is the whole problem's either way). If
     the near pins alone do not converge (a left-out pin that would have held a disc),
     the whole problem is solved from the start, so this fails only where it fails. The
-    compliant disc's problem goes through :func:`_body_newton`. ``state``: a dict that
-    the compiled iteration fills with the state at the solution (:func:`_kernel_newton`),
-    left empty otherwise."""
-    if p.slip is None and (rigid or (p.body is None and law.k is None)) and compiled():
-        # CYCLOMESH_KERNEL=numba: every pin in the compiled pass (an open pin costs it a
-        # comparison, less than picking the near ones), so there is no check after
-        return _kernel_newton(p, _evaluate, law, x, discs, rigid, phi, state)
+    compliant disc's problem goes through :func:`_body_newton`. The rigid discs' stage
+    without friction (the compiled iteration's problems) starts the crank angles in runs
+    from the one before (:func:`_warm`, :data:`~cyclomesh.stage.newton.WARM_RUN`), in
+    both paths alike. ``state``: a dict that the compiled iteration fills with the state
+    at the solution (:func:`_kernel_newton`), left empty otherwise."""
+    if p.slip is None and (rigid or (p.body is None and law.k is None)):
+        if compiled():
+            # CYCLOMESH_KERNEL=numba: every pin in the compiled pass (an open pin costs it
+            # a comparison, less than picking the near ones), so there is no check after
+            return _kernel_newton(p, _evaluate, law, x, discs, rigid, phi, state)
+        return _warm(p, law, x, discs, rigid, phi)
+    return _solve_near(p, law, x, discs, rigid, phi)
+
+
+def _warm(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray):
+    """:func:`_solve_near` in :data:`~cyclomesh.stage.newton.WARM_RUN` passes: pass j
+    solves the crank angles j, j + WARM_RUN, ..., those of pass j > 0 started from the
+    solution of the crank angle before (solved in pass j − 1) where the potential is lower
+    there than at their own start and no pin is past its law (the compiled iteration's
+    warm start, :func:`cyclomesh.stage.kernel_newton.newton`, in the same order)."""
+    A = x.shape[0]
+    for j in range(min(reference.WARM_RUN, A)):
+        idx = np.arange(j, A, reference.WARM_RUN)
+        sub = p.take(idx)
+        if j:
+            prev = x[idx - 1]
+            e0, _, _, s0 = _evaluate(sub, law, x[idx], discs, rigid, gradient=False)
+            e1, _, _, s1 = _evaluate(sub, law, prev, discs, rigid, gradient=False)
+            use = ~s1["bad"] & (s0["bad"] | (e1 < e0))
+            x[idx[use]] = prev[use]
+        x[idx] = _solve_near(sub, law, x[idx], discs, rigid, phi[idx])
+    return x
+
+
+def _solve_near(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray):
+    """The NumPy path of :func:`_solve`: the pins near contact, then every pin checked."""
     solver = newton if rigid or p.body is None else _body_newton
     if p.slip is not None:  # friction: the equations are not a potential's gradient
         solver = friction_newton
@@ -329,6 +358,8 @@ def _kernel_newton(
         reference._MAX_HALVINGS,
         reference._STEP_CAP,
         *reference._LINEAR,
+        reference.ROUND_OFF_FORCE,
+        reference.WARM_RUN,
     )
     found: dict = {}
     if rigid:
@@ -604,13 +635,18 @@ def solve_direction(
         work = _work(prob, stage, x, D, st)
         if fr is not None:
             work["work_friction"] = _friction_work(prob, x, q, D)
-        if body is None and positions:  # a disc that carries nothing: its canonical position
+        if body is None:  # a disc that carries nothing: no load, its canonical position
             idle = floating_discs(F, np.hypot(bfx, bfy), FLOATING_LOAD * abs(torque) / prob.scale)
-            x, idle_deflection = canonical_positions(
-                prob, x, D, idle, 0.5 * stage.bearing.clearance
-            )
-            deflection = deflection.copy()
-            deflection[idle] = idle_deflection
+            if np.any(idle):  # the solve's loads on it are its round-off: reported as 0
+                F = np.where(idle[..., None], 0.0, F)
+                bfx = np.where(idle[..., None], 0.0, bfx)
+                bfy = np.where(idle[..., None], 0.0, bfy)
+            if positions:
+                x, idle_deflection = canonical_positions(
+                    prob, x, D, idle, 0.5 * stage.bearing.clearance
+                )
+                deflection = deflection.copy()
+                deflection[idle] = idle_deflection
     else:
         deflection = np.zeros_like(bfx)
         sb = deflection

@@ -29,7 +29,9 @@ stated point instead, computed after the solve from the problem alone
 A disc counts as floating when every force on it (pins on both flanks, crank bearings) is
 at most :data:`FLOATING_LOAD`·T/r_c, a thousand times the equilibrium's tolerance
 (FORCE_TOLERANCE·T/r_c, below which a load is not resolved by the solve). Its reported
-loads stay the solve's (0, or below the tolerance).
+loads (pins, crank bearings) are 0: the solve's are its round-off (~1e-13 N), which
+depends on Newton's path, and a contact stress ∝ √F would magnify it to ~1e-9 of the
+largest stress (:func:`cyclomesh.stage.equilibrium.solve_direction`).
 """
 
 from __future__ import annotations

@@ -9,6 +9,16 @@ Hessian of :func:`cyclomesh.stage.equilibrium._evaluate` with the laws of
 :mod:`cyclomesh.stage.kernel` (the pins' Eq. 20 of [1], the crank bearing's roller set of
 [2]), the same step, stretched step, step cap, line search and convergence test. The
 crank angles it cannot finish go back to the reference, which raises its own error.
+The crank angles are solved in order, each run of
+:data:`~cyclomesh.stage.newton.WARM_RUN` started from the solution of the crank angle
+before where the potential is lower there (the reference's warm start,
+:func:`cyclomesh.stage.equilibrium._warm`, which solves the same runs in vectorised
+passes), the pins' inversion memo kept. Two savings the reference's arithmetic does not
+see: an accepted line-search trial is evaluated with its gradient and Hessian, which the
+next step then uses (the reference evaluates that point again and gets the same numbers:
+each pin's inversion starts from its memo at the same approach), and the round-off of
+the unknowns (16ε·|H|·|x|) is formed only for a residual above the tolerance, the only
+place it decides.
 Split from :mod:`cyclomesh.stage.kernel` (the laws) as a pure move.
 
 References
@@ -49,16 +59,17 @@ def newton(
     the holes, :func:`~cyclomesh.stage.equilibrium.bearing_jacobian`), the same step, the
     same stretched step of a bearing at zero load, step cap, line search and convergence
     test. ``settings``: the reference's (FORCE_TOLERANCE, _MAX_ITERATIONS, _MAX_HALVINGS,
-    _STEP_CAP, *_LINEAR), passed in by the caller (this module is imported by the bearing
-    law, which cyclomesh.stage.newton imports). ``x`` (A, m) is overwritten by the
-    solution; returns the crank angles the kernel could not finish (the caller solves
-    them with the reference, which raises its own error where it fails too). ``state``: a
-    dict that receives the state at the solution of the crank angles it finished, as
-    equilibrium._evaluate's: ``pin_force`` [N] (A, D, P), ``bearing_fx``, ``bearing_fy``
-    [N] and ``deflection`` [m] (A, D, N), and ``gradient`` (A, m), the scaled gradient of
-    its convergence test (the evaluation at the solution the caller need not repeat).
+    _STEP_CAP, *_LINEAR, ROUND_OFF_FORCE), passed in by the caller (this module is
+    imported by the bearing law, which cyclomesh.stage.newton imports). ``x`` (A, m) is
+    overwritten by the solution; returns the crank angles the kernel could not finish
+    (the caller solves them with the reference, which raises its own error where it fails
+    too). ``state``: a dict that receives the state at the solution of the crank angles
+    it finished, as equilibrium._evaluate's: ``pin_force`` [N] (A, D, P), ``bearing_fx``,
+    ``bearing_fy`` [N] and ``deflection`` [m] (A, D, N), and ``gradient`` (A, m), the
+    scaled gradient of its convergence test (the evaluation at the solution the caller
+    need not repeat).
     """
-    force, iterations, halvings, cap, low, high = settings
+    force, iterations, halvings, cap, low, high, round_off, run = settings
     A, m = x.shape
     sup = p.supports
     N = p.hx.shape[-1]
@@ -92,11 +103,13 @@ def newton(
         float(p.torque),
         float(p.scale),
         force * abs(p.torque) / p.scale,
+        round_off * abs(p.torque) / p.scale,
         iterations,
         halvings,
         cap,
         low,
         high,
+        run,
         failed,
         pf,
         bf,
@@ -383,11 +396,13 @@ def _newton_rows(
     torque,
     L,
     tol,
+    floor,
     iterations,
     halvings,
     cap,
     low,
     high,
+    run,
     failed,
     pf,
     bf,
@@ -413,60 +428,93 @@ def _newton_rows(
     step = np.zeros(m)
     memo = np.zeros((3, D, bl.shape[2]))  # each pin's last inversion (δ, y, F)
     for i in range(A):
-        memo[0] = 0.0
         xi = x[i].copy()
+        # g, H, energy and status hold the evaluation at xi (a trial's, or the warm
+        # start's, with its gradient and Hessian): the next iteration need not repeat it
+        have = False
+        energy, status = 0.0, 0
+        if i % run != 0 and not failed[i - 1]:
+            # warm start (WARM_RUN): the previous crank angle's solution where its
+            # potential here is lower than the given start's (the pins' memo kept: its
+            # inversions are near)
+            e0, s0 = _evaluate_one(
+                i, xi, bl, arm, nx, ny, alpha, gamma, dmax, ex, ey, hx, hy, G, cols, count,
+                kshaft, nw, frac, kcarrier, carrier, cosines, half, kn, torque, L, False, gt,
+                Ht, memo, pf, bf,
+            )  # fmt: skip
+            for r in range(m):
+                trial[r] = x[i - 1, r]
+            e1, s1 = _evaluate_one(
+                i, trial, bl, arm, nx, ny, alpha, gamma, dmax, ex, ey, hx, hy, G, cols, count,
+                kshaft, nw, frac, kcarrier, carrier, cosines, half, kn, torque, L, True, g,
+                H, memo, pf, bf,
+            )  # fmt: skip
+            if s1 == 0 and (s0 != 0 or e1 < e0):
+                for r in range(m):
+                    xi[r] = trial[r]
+                energy, status, have = e1, s1, True
+        else:
+            memo[0] = 0.0
         previous = np.inf
         extended = False
         linear = False
         ok_angle = False
+        stay = False  # the last step found no digits near the root (the iterate stays)
         for _ in range(iterations):
-            energy, status = _evaluate_one(
-                i,
-                xi,
-                bl,
-                arm,
-                nx,
-                ny,
-                alpha,
-                gamma,
-                dmax,
-                ex,
-                ey,
-                hx,
-                hy,
-                G,
-                cols,
-                count,
-                kshaft,
-                nw,
-                frac,
-                kcarrier,
-                carrier,
-                cosines,
-                half,
-                kn,
-                torque,
-                L,
-                True,
-                g,
-                H,
-                memo,
-                pf,
-                bf,
-            )
+            if not have:
+                energy, status = _evaluate_one(
+                    i,
+                    xi,
+                    bl,
+                    arm,
+                    nx,
+                    ny,
+                    alpha,
+                    gamma,
+                    dmax,
+                    ex,
+                    ey,
+                    hx,
+                    hy,
+                    G,
+                    cols,
+                    count,
+                    kshaft,
+                    nw,
+                    frac,
+                    kcarrier,
+                    carrier,
+                    cosines,
+                    half,
+                    kn,
+                    torque,
+                    L,
+                    True,
+                    g,
+                    H,
+                    memo,
+                    pf,
+                    bf,
+                )
+            have = False
             if status == 2:
                 break
             done = True
             res = 0.0
             for r in range(m):
-                noise = 0.0
-                for s in range(m):
-                    xs = abs(xi[s]) * L if rot[s] else abs(xi[s])
-                    noise += abs(H[r, s]) * xs
-                noise *= 16.0 * eps
-                if not (abs(g[r]) <= max(tol, noise)):
-                    done = False
                 res = max(res, abs(g[r]))
+                if done and not (abs(g[r]) <= tol):  # the round-off of the unknowns?
+                    noise = 0.0
+                    for s in range(m):
+                        xs = abs(xi[s]) * L if rot[s] else abs(xi[s])
+                        noise += abs(H[r, s]) * xs
+                    noise *= 16.0 * eps
+                    if not (abs(g[r]) <= max(tol, noise)):
+                        done = False
+            # near the root (done): on to round-off, as the reference
+            near = done
+            done = done and (res <= floor or res >= previous or stay)
+            stay = False
             ratio = res > low * previous and res < high * previous
             stretch = (not extended) and ratio and linear
             linear = ratio and not extended
@@ -500,7 +548,15 @@ def _newton_rows(
                 t = cap / (reach if reach > 0 else 1.0)
             extended = stretch
             tiny = -slope <= 1e-13 * max(abs(energy), 1e-300)
+            work = torque * xi[0]  # the reference's _magnitude: flat, judged by |g|
+            flat = (not tiny) and -slope <= 1e-13 * (abs(energy + work) + abs(work))
+            norm = 0.0
+            if flat:
+                for r in range(m):
+                    norm += g[r] * g[r]
+                norm = np.sqrt(norm)
             moved = False
+            st = 0
             for _h in range(halvings):
                 for r in range(m):
                     trial[r] = xi[r] + (step[r] * t / L if rot[r] else step[r] * t)
@@ -531,7 +587,7 @@ def _newton_rows(
                     kn,
                     torque,
                     L,
-                    False,
+                    True,
                     gt,
                     Ht,
                     memo,
@@ -540,15 +596,26 @@ def _newton_rows(
                 )
                 if st == 2:
                     break
-                if st == 0 and (e_t <= energy + 1e-4 * t * slope or tiny):
+                ok = e_t <= energy + 1e-4 * t * slope or tiny
+                if flat:
+                    norm_t = 0.0
+                    for r in range(m):
+                        norm_t += gt[r] * gt[r]
+                    ok = np.sqrt(norm_t) <= (1.0 - 1e-4 * t) * norm
+                if st == 0 and ok:
                     for r in range(m):
                         xi[r] = trial[r]
+                    g, gt = gt, g  # the trial's gradient and Hessian: the next iteration's
+                    H, Ht = Ht, H
+                    energy, status, have = e_t, st, True
                     moved = True
                     break
                 extended = False
                 t = 1.0 if t > 1.0 else 0.5 * t
             if not moved:
-                break
+                if not (near and flat and st != 2):
+                    break
+                stay = True  # no digits left near the root: x stays, as the reference's
         if ok_angle:
             x[i] = xi
         else:
@@ -565,6 +632,7 @@ def rigid_newton(
     as :func:`newton`'s; ``state`` receives ``pin_force`` [N] and ``pin_stiffness``
     [N/m] (A, D, P) at the solution of the crank angles it finished."""
     force, iterations, halvings, cap = settings[:4]
+    round_off, run = settings[6], settings[7]
     failed = np.zeros(x.shape[0], np.bool_)
     pf, pk = np.zeros(p.bl.shape), np.zeros(p.bl.shape)
     _kernels_newton()  # compiles _pin_force
@@ -574,9 +642,11 @@ def rigid_newton(
         float(p.torque),
         float(p.scale),
         force * abs(p.torque) / p.scale,
+        round_off * abs(p.torque) / p.scale,
         iterations,
         halvings,
         cap,
+        run,
         failed,
         pf,
         pk,
@@ -642,8 +712,9 @@ def _rigid_one(
 
 
 def _rigid_rows(
-    x, bl, arm, alpha, gamma, dmax, torque, L, tol, iterations, halvings, cap, failed, pf, pk
-):  # pragma: no cover (compiled)
+    x, bl, arm, alpha, gamma, dmax, torque, L, tol, floor, iterations, halvings, cap, run, failed,
+    pf, pk,
+):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`rigid_newton` written for numba."""
     A, m = x.shape
     D = bl.shape[1]
@@ -651,21 +722,44 @@ def _rigid_rows(
     trial = np.zeros(m)
     memo = np.zeros((3, D, bl.shape[2]))  # each pin's last inversion (δ, y, F)
     for i in range(A):
-        memo[0] = 0.0
         xi = x[i].copy()
-        ok_angle = False
-        for _ in range(iterations):
-            energy, g, h, status = _rigid_one(
-                i, xi, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
+        have = False  # energy, g, h, status (and pf, pk) hold the evaluation at xi
+        energy, g, h, status = 0.0, 0.0, 0.0, 0
+        if i % run != 0 and not failed[i - 1]:  # warm start, as _newton_rows
+            e0, _g, _h2, s0 = _rigid_one(
+                i, xi, bl, arm, alpha, gamma, dmax, torque, L, memo, False, pf, pk
             )
+            for r in range(m):
+                trial[r] = x[i - 1, r]
+            e1, g1, h1, s1 = _rigid_one(
+                i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
+            )
+            if s1 == 0 and (s0 != 0 or e1 < e0):
+                for r in range(m):
+                    xi[r] = trial[r]
+                energy, g, h, status, have = e1, g1, h1, s1, True
+        else:
+            memo[0] = 0.0
+        ok_angle = False
+        stay = False  # the last step found no digits near the root (the iterate stays)
+        previous = np.inf
+        for _ in range(iterations):
+            if not have:
+                energy, g, h, status = _rigid_one(
+                    i, xi, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
+                )
+            have = False
             if status == 2:
                 break
             xs = abs(xi[0]) * L
             for d in range(D):
                 xs += abs(xi[1 + 3 * d]) * L
-            if abs(g) <= max(tol, 16.0 * eps * abs(h) * xs):
-                ok_angle = True
+            near = abs(g) <= max(tol, 16.0 * eps * abs(h) * xs)
+            if near and (abs(g) <= floor or abs(g) >= previous or stay):
+                ok_angle = True  # near the root, then on to round-off, as the reference
                 break
+            stay = False
+            previous = abs(g)
             diag = max(abs(h), 1e-300)
             h = h + 1e-14 * diag
             step = -g / h
@@ -678,7 +772,10 @@ def _rigid_rows(
             if reach * t > cap:
                 t = cap / (reach if reach > 0 else 1.0)
             tiny = -slope <= 1e-13 * max(abs(energy), 1e-300)
+            work = torque * xi[0]  # the reference's _magnitude: flat, judged by |g|
+            flat = (not tiny) and -slope <= 1e-13 * (abs(energy + work) + abs(work))
             moved = False
+            st = 0
             for _h in range(halvings):
                 move = step * t / L
                 for r in range(m):
@@ -686,19 +783,25 @@ def _rigid_rows(
                 trial[0] = xi[0] + move
                 for d in range(D):
                     trial[1 + 3 * d] = xi[1 + 3 * d] + move
-                e_t, _g, _h2, st = _rigid_one(
-                    i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, False, pf, pk
+                e_t, g_t, h_t, st = _rigid_one(
+                    i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
                 )
                 if st == 2:
                     break
-                if st == 0 and (e_t <= energy + 1e-4 * t * slope or tiny):
+                ok = e_t <= energy + 1e-4 * t * slope or tiny
+                if flat:
+                    ok = abs(g_t) <= (1.0 - 1e-4 * t) * abs(g)
+                if st == 0 and ok:
                     for r in range(m):
                         xi[r] = trial[r]
+                    energy, g, h, status, have = e_t, g_t, h_t, st, True  # the next's
                     moved = True
                     break
                 t = 1.0 if t > 1.0 else 0.5 * t
             if not moved:
-                break
+                if not (near and flat and st != 2):
+                    break
+                stay = True  # no digits left near the root: x stays, as the reference's
         if ok_angle:
             x[i] = xi
         else:

@@ -1,7 +1,8 @@
 """Newton's method of the RV stage's equilibrium (:mod:`cyclomesh.stage.equilibrium`):
 a backtracking line search on the convex potential, vectorised over the crank angles,
 with the step stretched by the bearing law's exponent where a crank bearing near zero
-load makes Newton linear; the converged test of :data:`FORCE_TOLERANCE`.
+load makes Newton linear; the converged test: near the root (:data:`FORCE_TOLERANCE`),
+then on to round-off (:data:`ROUND_OFF_FORCE`).
 
 The problem's assembly (potential, gradient, Hessian) is the caller's: :func:`newton`
 takes it as a function, so the iteration does not depend on what the potential holds.
@@ -18,13 +19,35 @@ from numpy.typing import NDArray
 from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.stage.bearing import LOAD_EXPONENT
 
-__all__ = ["newton", "residual_newton", "rotation_index", "FORCE_TOLERANCE", "reducer"]
+__all__ = [
+    "newton",
+    "residual_newton",
+    "rotation_index",
+    "FORCE_TOLERANCE",
+    "ROUND_OFF_FORCE",
+    "WARM_RUN",
+    "reducer",
+]
 
 FloatArray = NDArray[np.float64]
 Evaluate = Callable[..., tuple[Any, Any, Any, dict]]
 
 FORCE_TOLERANCE = 1e-12
-"""Accepted residual of every equilibrium equation, relative to T/r_c (moments /r_c)."""
+"""Residual of every equilibrium equation, relative to T/r_c (moments /r_c), below which
+Newton's steps are near the root: from there they go on to round-off
+(:data:`ROUND_OFF_FORCE`, or a step that no longer reduces the residual)."""
+ROUND_OFF_FORCE = 4.0 * float(np.finfo(float).eps)
+"""Largest residual of the equilibrium equations, relative to T/r_c, at which the root is
+reached (four units in the last place, about 8.9e-16); a residual within
+:data:`FORCE_TOLERANCE`·T/r_c (or the round-off of the unknowns) that a Newton step does
+not reduce ends the iteration as well (the round-off of the sums of forces)."""
+WARM_RUN = 4
+"""Crank angles solved in a run from the one before (a warm start): every WARM_RUN-th
+crank angle (0, WARM_RUN, ...) starts from its own start, each of the next WARM_RUN − 1
+from the solution of the crank angle before it where the potential is lower there
+(:func:`cyclomesh.stage.equilibrium._solve`; the compiled iteration goes through them in
+order, the NumPy reference in WARM_RUN vectorised passes). The root does not depend on the
+start (the iteration runs to round-off)."""
 _MAX_ITERATIONS = 200
 _MAX_HALVINGS = 60
 _STALL_HALVINGS = 30
@@ -59,8 +82,18 @@ def newton(
     :class:`~cyclomesh.stage.equilibrium._Problem`); ``evaluate``: its potential, gradient
     and Hessian (:func:`~cyclomesh.stage.equilibrium._evaluate`); ``x``: the start (A, m),
     overwritten by the solution. Raises ConvergenceError naming the crank angle ``phi``.
+
+    The line search asks the potential for a sufficient decrease (Armijo) while that
+    decrease can be resolved: once the Newton step's first-order change −g·s is below
+    1e-13 of the magnitude of the potential's terms (:func:`_magnitude`; the potential
+    itself is the small difference of the torque's work and the springs' energy near a
+    crank bearing at zero load) a trial is judged by the residual's norm instead,
+    ‖g(x + t·s)‖ ≤ (1 − 10⁻⁴t)·‖g(x)‖ (s a descent direction of ‖g‖², Nocedal & Wright
+    §11.2), so the iteration does not stall on steps of 10⁻⁸ that leave the potential's
+    last digit unchanged.
     """
     tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
+    floor = ROUND_OFF_FORCE * abs(p.torque) / p.scale
     reduce = np.zeros((1 + 3 * discs, 1))
     reduce[[0, *range(1, 1 + 3 * discs, 3)], 0] = 1.0  # rigid: θ_d = c, u = 0
     active = np.arange(x.shape[0])
@@ -74,8 +107,10 @@ def newton(
         if rigid:
             g = g @ reduce
             H = np.einsum("im,nij,jk->nmk", reduce, H, reduce)
-        # converged: every residual below tol, or at the round-off of the unknowns
-        # themselves (stiff bearings: a residual of H·ulp(x) cannot be resolved)
+        # near the root: every residual below tol, or at the round-off of the unknowns
+        # themselves (stiff bearings: a residual of H·ulp(x) cannot be resolved); from
+        # there Newton goes on to the root at round-off: it stops at a residual of a few
+        # ulp of T/r_c or at the first step that does not reduce the largest residual
         body = None if rigid else getattr(p, "body", None)
         tail = 0 if body is None else body.size
         rot_idx = rotation_index(xa.shape[1], discs, None if rigid else p.supports, tail)
@@ -83,9 +118,10 @@ def newton(
         if rigid:
             xs = xs @ reduce
         noise = 16.0 * np.finfo(float).eps * np.matmul(np.abs(H), xs[..., None])[..., 0]
-        done = np.all(np.abs(g) <= np.maximum(tol, noise), axis=-1)
-        keep = ~done
+        near = np.all(np.abs(g) <= np.maximum(tol, noise), axis=-1)
         res = np.max(np.abs(g), axis=-1)
+        done = near & ((res <= floor) | (res >= previous[active]))
+        keep = ~done
         # a crank bearing whose equilibrium compression is ~0 (a disc that carries almost
         # nothing at a light torque) makes Newton linear, δ → δ·(1 − 1/p) with
         # Q ∝ δ^p (residual ×(1 − 1/p)^p ≈ 1/13 a step); the step stretched by p is the
@@ -97,6 +133,7 @@ def newton(
         active = active[keep]
         if active.size == 0:
             return x
+        near = near[keep]
         xa, g, H, energy = xa[keep], g[keep], H[keep], energy[keep]
         sub = sub.take(np.flatnonzero(keep))
         diag = np.maximum(np.max(np.abs(np.diagonal(H, axis1=1, axis2=2)), axis=-1), 1e-300)
@@ -115,11 +152,24 @@ def newton(
         todo = np.arange(xa.shape[0])
         new = xa.copy()
         tiny = -slope <= 1e-13 * np.maximum(np.abs(energy), 1e-300)
+        # the potential has no digits left for the sufficient-decrease test: its change
+        # along the step is below the round-off of its terms (−T·c cancels the springs'
+        # energy); judge the step by the residual's norm instead
+        flat = ~tiny & (-slope <= 1e-13 * _magnitude(energy, p.torque, xa[:, 0]))
+        norm = np.linalg.norm(g, axis=-1)
         for _h in range(_MAX_HALVINGS):
             full = _expand(step[todo] * t[todo, None], reduce if rigid else None)
             trial = xa[todo] + _scale(full, p.scale, rot_idx)
-            e_t, _g, _H, st = evaluate(sub.take(todo), law, trial, discs, rigid, gradient=False)
-            ok = ~st["bad"] & ((e_t <= energy[todo] + 1e-4 * t[todo] * slope[todo]) | tiny[todo])
+            want = bool(np.any(flat[todo]))  # the gradient only where it is needed
+            e_t, g_t, _H, st = evaluate(
+                sub.take(todo), law, trial, discs, rigid, hessian=False, gradient=want
+            )
+            ok = (e_t <= energy[todo] + 1e-4 * t[todo] * slope[todo]) | tiny[todo]
+            if want:
+                g_t = g_t @ reduce if rigid else g_t
+                drop = np.linalg.norm(g_t, axis=-1) <= (1.0 - 1e-4 * t[todo]) * norm[todo]
+                ok = np.where(flat[todo], drop, ok)
+            ok = ~st["bad"] & ok
             new[todo[ok]] = trial[ok]
             todo = todo[~ok]
             if todo.size == 0:
@@ -127,14 +177,18 @@ def newton(
             extended[active[todo]] = False
             t[todo] = np.where(t[todo] > 1.0, 1.0, 0.5 * t[todo])
         else:
-            raise ConvergenceError(
-                f"stage: no descent at crank angle {np.degrees(phi[active[todo[0]]]):.6g}° "
-                f"(line search failed after {_MAX_HALVINGS} halvings)"
-            )
+            # near the root with no digits left in the potential, a residual that no
+            # step reduces is the round-off: the iterate stays, the next test ends it
+            if not np.all(near[todo] & flat[todo]):
+                raise ConvergenceError(
+                    f"stage: no descent at crank angle {np.degrees(phi[active[todo[0]]]):.6g}° "
+                    f"(line search failed after {_MAX_HALVINGS} halvings)"
+                )
         x[active] = new
     raise ConvergenceError(
         f"stage equilibrium did not converge at crank angle {np.degrees(phi[active[0]]):.6g}°: "
-        f"residual above {FORCE_TOLERANCE:.0e}·T/r_c after {_MAX_ITERATIONS} Newton steps"
+        f"residual above {FORCE_TOLERANCE:.0e}·T/r_c or still falling after {_MAX_ITERATIONS} "
+        "Newton steps"
     )
 
 
@@ -218,6 +272,14 @@ def residual_newton(
         f"{what} did not converge at crank angle "
         f"{np.degrees(phi[active[0]]):.6g}°: residual above {FORCE_TOLERANCE:.0e}·T/r_c"
     )
+
+
+def _magnitude(energy: FloatArray, torque: float, c: FloatArray) -> FloatArray:
+    """Sum of the magnitudes of the potential's terms [J]: every term is a spring's energy
+    (≥ 0) but the torque's work −T·c, so it is |Π + T·c| + |T·c|; its round-off bounds the
+    change of Π that an evaluation can resolve (Π itself may be far smaller)."""
+    work = torque * c
+    return np.abs(energy + work) + np.abs(work)
 
 
 def _expand(step: FloatArray, reduce: FloatArray | None) -> FloatArray:

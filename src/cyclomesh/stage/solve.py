@@ -33,13 +33,15 @@ bearing forces = T) is the stationarity of the convex potential
     Π = Σ_pins ∫F dδ + Σ_bearings ∫B ds − T·c,
 
 solved at every crank angle by Newton's method on the 1 + 3D unknowns with a
-backtracking line search on Π, vectorised over the crank angles, to a force residual of
-1e-12·T/r_c (round-off). With rigid bearings without clearance (``bearing=None``) the
-discs cannot move against the carrier (u_d = 0, θ_d = c): the pins are then the mesh
-problem of :func:`~cyclomesh.drive.solve.solve_drive` (reproduced to round-off while the
-opposite flanks stay open, which the mesh alone does not model; tested), and
-the statically indeterminate bearing loads are those of the stiff limit of identical
-roller sets without clearance (their homogeneous law Q ∝ δ^(10/9) fixes the split).
+backtracking line search on Π, vectorised over the crank angles, to the root at
+round-off (below 1e-12·T/r_c, on while Newton's steps reduce the residual, to 4 ulp of
+T/r_c; :func:`~cyclomesh.stage.newton.newton`). With rigid bearings without clearance
+(``bearing=None``) the discs cannot move against the carrier (u_d = 0, θ_d = c): the
+pins are then the mesh problem of :func:`~cyclomesh.drive.solve.solve_drive`
+(reproduced to round-off while the opposite flanks stay open, which the mesh alone does
+not model; tested), and the statically indeterminate bearing loads are those of the
+stiff limit of identical roller sets without clearance (their homogeneous law
+Q ∝ δ^(10/9) fixes the split).
 
 The reverse flanks (negative torque) are solved through the exact mirror of
 :mod:`cyclomesh.drive.solve` (crank hole k ↔ (N − k) mod N, the tangential hole error and

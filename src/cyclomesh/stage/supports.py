@@ -12,6 +12,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -112,16 +113,25 @@ class Supports:
 
 
 def stage_supports(stage: StageDesign, discs: int, order: NDArray[np.int64]) -> Supports | None:
-    """The supports of ``stage`` for the discs in ``order`` (the mirror's disc order)."""
+    """The supports of ``stage`` for the discs in ``order`` (the mirror's disc order).
+
+    They depend on the crankshaft and the carrier only, not on the hole errors: a study of
+    many rings (each its own hole errors) forms them once (:func:`_supports`, cached; the
+    same arithmetic; nothing writes to its arrays)."""
     if stage.crankshaft is None:
         return None
-    shaft = stage.crankshaft
-    flexibility = shaft.compliance(discs)[np.ix_(order, order)]
-    fraction = (shaft.positions(discs) / shaft.support_span)[order]
+    return _supports(stage.crankshaft, stage.carrier, discs, tuple(int(i) for i in order))
+
+
+@lru_cache(maxsize=32)
+def _supports(shaft, carrier, discs: int, order: tuple[int, ...]) -> Supports:
+    idx = np.asarray(order, dtype=np.int64)
+    flexibility = shaft.compliance(discs)[np.ix_(idx, idx)]
+    fraction = (shaft.positions(discs) / shaft.support_span)[idx]
     return Supports(
         stiffness=np.linalg.inv(flexibility),
         fraction=fraction,
-        carrier=None if stage.carrier is None else stage.carrier.torsional_stiffness(),
+        carrier=None if carrier is None else carrier.torsional_stiffness(),
     )
 
 
