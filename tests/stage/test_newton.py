@@ -10,7 +10,7 @@ import pytest
 
 import cyclomesh.stage.equilibrium as eq
 import cyclomesh.stage.newton as nt
-from cyclomesh.core.pair import Modification, PinErrors
+from cyclomesh.core.pair import CrankHoles, Modification, PinErrors
 from cyclomesh.stage import RollerSet, StageDesign, solve_stage
 from cyclomesh.stage.bearing import radial_energy, radial_force, radial_law, radial_stiffness
 from cyclomesh.stage.carrier import Carrier
