@@ -39,7 +39,7 @@ call, so worker processes follow the command's environment. Friction (a torque a
 apart from the compatibility arm) always takes the NumPy load sharing; a tabulated
 profile deviation the NumPy contact. The default stays NumPy: importing numba and
 loading the compiled passes costs a process about a second, more than a short run
-takes (README, "The compiled kernel").
+takes (docs/speed.md, "The compiled kernel").
 
 References
 ----------
