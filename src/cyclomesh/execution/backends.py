@@ -341,7 +341,7 @@ class DaskBackend:
                 for future in done:
                     chunk = keys.pop(future.key)
                     try:
-                        result = future.result()
+                        result = self._result(future)
                     except CyclomeshError:
                         raise
                     except Exception as exc:  # cancelled: scheduler lost, or a worker error
@@ -355,6 +355,20 @@ class DaskBackend:
             for future in list(queue.futures):
                 with contextlib.suppress(Exception):
                     future.cancel()
+
+    def _result(self, future: Any) -> Any:
+        """The result of a future that :func:`distributed.as_completed` gave as done.
+
+        Fetching it can still wait for ever: a worker that dies holding a finished result
+        sends its task back to the scheduler, to be run again on a worker that may never
+        come. So it is fetched in steps of :attr:`poll_s`, checking for a worker in
+        between (:meth:`_check_workers` raises after :attr:`no_worker_timeout_s`)."""
+        idle_since: float | None = None
+        while True:
+            try:
+                return future.result(timeout=self.poll_s)
+            except TimeoutError:
+                idle_since = self._check_workers(idle_since)
 
     def _where(self) -> str:
         if self.address:
