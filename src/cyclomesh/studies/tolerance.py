@@ -64,6 +64,7 @@ if TYPE_CHECKING:
     from cyclomesh.figures.render import FigureJob
     from cyclomesh.publish.pipeline import OutputOptions
     from cyclomesh.publish.report import Section
+    from cyclomesh.tolerance.statistics import Proportion
 
 __all__ = [
     "ToleranceResult",
@@ -166,41 +167,68 @@ def worst_ring(ds: xr.Dataset, metric: str = STRESS_METRIC) -> int | None:
     return int(ds["ring"].values[int(np.nanargmax(values))])
 
 
+def _flagged(ds: xr.Dataset, flag: str) -> np.ndarray:
+    """Indices k of the rings whose 0/1 variable ``flag`` is set (none without it)."""
+    if flag not in ds:
+        return np.zeros(0, dtype=np.int64)
+    return np.asarray(ds["ring"].values[np.asarray(ds[flag].values) != 0], dtype=np.int64)
+
+
 def jammed_rings(ds: xr.Dataset) -> np.ndarray:
     """Indices k of the rings whose errors jam the disc (``jammed`` of a tolerance study)."""
-    if "jammed" not in ds:
-        return np.zeros(0, dtype=np.int64)
-    return np.asarray(ds["ring"].values[np.asarray(ds["jammed"].values) != 0], dtype=np.int64)
+    return _flagged(ds, "jammed")
 
 
 def unsolved_rings(ds: xr.Dataset) -> np.ndarray:
     """Indices k of the rings on which a solver did not converge (``unsolved``)."""
-    if "unsolved" not in ds:
-        return np.zeros(0, dtype=np.int64)
-    return np.asarray(ds["ring"].values[np.asarray(ds["unsolved"].values) != 0], dtype=np.int64)
+    return _flagged(ds, "unsolved")
 
 
-def unsolved_summary(ds: xr.Dataset, confidence: float) -> dict[str, Any]:
-    """The ``unsolved`` block of a summary (JSON-ready): how many rings did not converge,
-    the probability of it with its Clopper–Pearson interval, the first such ring, the
-    solver's one-line message for it and the file that reproduces it."""
-    from cyclomesh.tolerance.statistics import exceedance_probability
-
-    unsolved = unsolved_rings(ds)
-    p = exceedance_probability(unsolved.size, ds.sizes["ring"], confidence)
-    first = int(unsolved[0]) if unsolved.size else None
+def _proportion(p: Proportion) -> dict[str, Any]:
+    """A proportion of the rings with its Clopper–Pearson interval, JSON-ready."""
     return {
         "count": p.count,
         "rings": p.total,
         "probability": p.estimate,
         "lower": p.lower,
         "upper": p.upper,
-        "first_ring": first,
-        "message": None if first is None else str(ds["unsolved_reason"].sel(ring=first).values),
-        "file": "unsolved_ring.toml" if unsolved.size else None,
-        "meaning": "a solver did not converge on the ring (ConvergenceError): its metrics "
-        "are NaN, it is left out of the percentiles and counts as exceeding",
     }
+
+
+def _outcome(
+    rings: np.ndarray, total: int, confidence: float, file: str, meaning: str, **extra: Any
+) -> dict[str, Any]:
+    """The summary block of the ``rings`` (of ``total``) that a study could not analyse
+    (jammed or unsolved): their proportion, the first of them, ``extra`` (e.g. the
+    solver's message), the file that reproduces the first and what it means."""
+    from cyclomesh.tolerance.statistics import exceedance_probability
+
+    return {
+        **_proportion(exceedance_probability(rings.size, total, confidence)),
+        "first_ring": int(rings[0]) if rings.size else None,
+        **extra,
+        "file": file if rings.size else None,
+        "meaning": meaning,
+    }
+
+
+def unsolved_summary(ds: xr.Dataset, confidence: float) -> dict[str, Any]:
+    """The ``unsolved`` block of a summary (JSON-ready): how many rings did not converge,
+    the probability of it with its Clopper–Pearson interval, the first such ring, the
+    solver's one-line message for it and the file that reproduces it."""
+    unsolved = unsolved_rings(ds)
+    message = (
+        str(ds["unsolved_reason"].sel(ring=int(unsolved[0])).values) if unsolved.size else None
+    )
+    return _outcome(
+        unsolved,
+        ds.sizes["ring"],
+        confidence,
+        "unsolved_ring.toml",
+        "a solver did not converge on the ring (ConvergenceError): its metrics "
+        "are NaN, it is left out of the percentiles and counts as exceeding",
+        message=message,
+    )
 
 
 def ring_statistics(
@@ -211,7 +239,6 @@ def ring_statistics(
     from cyclomesh.tolerance.statistics import PERCENTILES, describe, exceedance_probability
 
     n = ds.sizes["ring"]
-    jammed = jammed_rings(ds)
     runs = np.ones(n, dtype=bool)
     for flag in ("jammed", "unsolved"):
         if flag in ds:
@@ -232,16 +259,8 @@ def ring_statistics(
             # the solver could not solve meets it: both count as exceeding (conservative)
             count = int(np.count_nonzero(ds[name].values[runs] > allowable))
             count += int(np.count_nonzero(~runs))
-            p = exceedance_probability(count, n, confidence)
-            exceed[name] = {
-                "count": p.count,
-                "rings": p.total,
-                "probability": p.estimate,
-                "lower": p.lower,
-                "upper": p.upper,
-            }
+            exceed[name] = _proportion(exceedance_probability(count, n, confidence))
     k = worst_ring(ds)
-    jam = exceedance_probability(jammed.size, n, confidence)
     return {
         "rings": n,
         "seed": spec.seed,
@@ -249,17 +268,14 @@ def ring_statistics(
         "allowable_contact_stress_mpa": allowable,
         "metrics": stats,
         "exceedance": exceed,
-        "jam": {
-            "count": jam.count,
-            "rings": jam.total,
-            "probability": jam.estimate,
-            "lower": jam.lower,
-            "upper": jam.upper,
-            "first_ring": int(jammed[0]) if jammed.size else None,
-            "file": "jammed_ring.toml" if jammed.size else None,
-            "meaning": "a pin overlaps the disc at every rotation (the pins jam the disc): "
+        "jam": _outcome(
+            jammed_rings(ds),
+            n,
+            confidence,
+            "jammed_ring.toml",
+            "a pin overlaps the disc at every rotation (the pins jam the disc): "
             "the ring cannot be assembled; its metrics are NaN and it counts as exceeding",
-        },
+        ),
         "unsolved": unsolved_summary(ds, confidence),
         "worst_ring": (
             None
