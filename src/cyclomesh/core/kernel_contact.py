@@ -805,8 +805,6 @@ def _math(numba):
 
 
 # fdlibm's constants
-"""|x| [rad] below which :func:`_cos`'s reduction is exact (n·π/2₁ exact for n < 2^20)."""
-
 # e_log.c
 _LN2_HI = 6.93147180369123816490e-01
 _LN2_LO = 1.90821492927058770002e-10
