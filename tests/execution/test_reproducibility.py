@@ -17,6 +17,7 @@ import pytest
 from cyclomesh.core.contact import contact_phase
 from cyclomesh.core.hertz import force_from_approach
 from cyclomesh.execution.backends import run_chunks
+from cyclomesh.studies.rings import CHUNK_BLOCKS, default_chunk
 from cyclomesh.studies.tolerance import load_tolerance_study, ring_model
 from cyclomesh.tolerance.tasks import AllocationTask, ToleranceTask
 
@@ -45,6 +46,18 @@ def test_rings_of_the_reported_case_identical_over_chunkings(model):
     reference = run_chunks(task, n, first=first, chunk_size=n)
     for size in (1, 7, 17, default):
         _bitwise(reference, run_chunks(task, n, first=first, chunk_size=size), f"chunk {size}")
+
+
+def test_default_chunks_are_whole_core_calls_and_balance_the_workers(model):
+    block = model.block_rings
+    for n in (1, 5, block, 3 * block + 1, 100 * block, 10**6):
+        for workers in (1, 2, 7):
+            size = default_chunk(n, model, workers)
+            assert 1 <= size <= CHUNK_BLOCKS * block, (n, workers, size)
+            assert size <= block or size % block == 0, (n, workers, size)  # no part call
+            assert size <= -(-n // (4 * workers)), (n, workers, size)  # 4 chunks a worker
+            if n >= 4 * workers * CHUNK_BLOCKS * block:  # a large study: the largest chunks
+                assert size == CHUNK_BLOCKS * block
 
 
 def test_allocation_factors_identical_over_chunkings(model):

@@ -87,7 +87,7 @@ ChunkOption = Annotated[
     typer.Option(
         "--chunk-rings",
         min=1,
-        help="Rings per chunk of work (default: one core call, 16 rings at 1°).",
+        help="Rings per chunk of work (default: up to 8 core calls of 16 rings at 1°).",
         show_default=False,
     ),
 ]

@@ -433,8 +433,10 @@ def compute_tolerance(
     backend : Backend, optional
         Where to run (:func:`cyclomesh.execution.backends.make_backend`; default: serial).
     chunk_rings : int, optional
-        Rings per chunk (default: one core call's worth, see
-        :func:`cyclomesh.tolerance.tasks.block_rings`, at least ~4 chunks per worker).
+        Rings per chunk (default: whole core calls, see
+        :func:`cyclomesh.tolerance.tasks.block_rings`, up to
+        :data:`~cyclomesh.studies.rings.CHUNK_BLOCKS` of them, at least ~4 chunks per
+        worker: :func:`~cyclomesh.studies.rings.default_chunk`).
     progress : callable, optional
         Called with the number of rings of every finished chunk.
     """
