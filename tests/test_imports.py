@@ -77,6 +77,34 @@ def test_run_without_figures_never_imports_matplotlib(tmp_path):
     assert (out / "summary.json").is_file() and not (out / "figures").exists()
 
 
+def test_tolerance_without_figures_never_imports_dask_array(tmp_path):
+    """``cyclomesh tolerance --figures none`` end to end on two local workers: the
+    per-ring Dataset is built, reduced and written without xarray's probe for Dask
+    arrays (issue 27; :class:`~cyclomesh.studies.execute.StudyKind` ``probe_free``),
+    so ``dask.array`` and ``scipy.fft`` are never imported (a check only where Dask is
+    installed), and the result files are all there."""
+    import json
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parents[1] / "examples" / "tolerance.toml"
+    out = tmp_path / "out"
+    code = (
+        "import sys\n"
+        "from cyclomesh.cli import app\n"
+        f"args = ['tolerance', {str(example)!r}, '--out', {str(out)!r}, '-q', '--figures',"
+        " 'none', '--rings', '8', '--workers', '2']\n"
+        "try:\n    app(args)\nexcept SystemExit as exc:\n    assert not exc.code, exc.code\n"
+        "print(sorted(m for m in ('dask.array', 'scipy.fft') if m in sys.modules))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "[]", done.stdout
+    files = json.loads((out / "summary.json").read_text())["files"]
+    assert {"tolerance_rings.nc", "tolerance_rings.parquet", "worst_ring.toml"} <= {
+        f["path"] for f in files
+    }
+
+
 def test_run_figures_index_numpy_not_xarray():
     """The default figures of a plain run, drawn in this process as a figure worker draws
     them: ``dask.array`` and ``scipy.fft`` are never imported (xarray's indexing and

@@ -126,13 +126,15 @@ def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
     it back equal, attributes and units included. Variables of :data:`COMPRESS_FROM`
     values or more are compressed losslessly (:data:`COMPRESSION`).
 
-    Datasets of numbers with dimension coordinates only (all of cyclomesh's) are
-    written with netCDF4 directly: ``Dataset.to_netcdf`` imports dask and
-    ``distributed`` when they are installed, which costs more than the writing.
-    Anything else goes through ``Dataset.to_netcdf``.
+    Datasets of numbers and text with dimension coordinates only (all of cyclomesh's)
+    are written with netCDF4 directly: ``Dataset.to_netcdf`` imports dask and
+    ``distributed`` when they are installed, which costs more than the writing. Text
+    (the solver's message of a tolerance ring, the reason of a design candidate) is
+    written as ``Dataset.to_netcdf`` writes it: variable-length strings, uncompressed,
+    without a fill value. Anything else goes through ``Dataset.to_netcdf``.
     """
     plain = all(name in ds.dims for name in ds.coords) and all(
-        var.dtype.kind in "biuf" for var in ds.variables.values()
+        var.dtype.kind in "biufU" for var in ds.variables.values()
     )
     if not plain:
         out = ds.copy()
@@ -156,13 +158,19 @@ def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
             values = np.asarray(var.values)
             if values.dtype == np.bool_:
                 values = values.astype(np.int8)
+            dims = tuple(str(d) for d in var.dims)
+            if values.dtype.kind == "U":  # variable-length strings, as xarray writes them
+                out = nc.createVariable(str(name), str, dims)
+                out[...] = values.astype(object)
+                out.setncatts({str(k): _nc_attr(v) for k, v in var.attrs.items()})
+                continue
             # a fill value (NaN for floats, netCDF's default otherwise): storage never
             # written reads as missing, not as whatever bytes were there
             fill = np.nan if values.dtype.kind == "f" else None
             out = nc.createVariable(
                 str(name),
                 values.dtype,
-                tuple(str(d) for d in var.dims),
+                dims,
                 fill_value=fill,
                 **(COMPRESSION if values.size >= COMPRESS_FROM else {}),
             )

@@ -130,6 +130,11 @@ class StudyKind:
         usage (``cyclomesh check --kind`` gives the same).
     steps : CommandSteps
         What its command does around :func:`execute`.
+    probe_free : bool
+        The kind builds, reduces and writes its result without xarray's probe for Dask
+        arrays (:mod:`cyclomesh.results.arrays`): a parallel run without figures then
+        leaves ``dask.array`` unimported (:func:`running_backend`); otherwise the
+        preload thread imports it while the workers compute.
 
     Its study-file side (section, keys, work estimate) and its command line (help,
     options) are its entry in :data:`cyclomesh.studyfile.kinds.KINDS`.
@@ -147,6 +152,7 @@ class StudyKind:
     keys_first: Callable[[Any], None] | None = None
     preflight: Callable[[Any], None] | None = None
     steps: CommandSteps = CommandSteps()
+    probe_free: bool = False
 
 
 def load_kind(command: str) -> StudyKind:
@@ -175,8 +181,11 @@ def figure_pool(options: Any, datasets: bool = True) -> AbstractContextManager[A
     return FigurePool(options.figure_workers, one=not datasets)
 
 
-def _preload(figures: bool) -> threading.Thread:
-    """Import xarray (and matplotlib) in a thread while the workers compute.
+def _preload(figures: bool, probe: bool = True) -> threading.Thread:
+    """Import xarray (and matplotlib) in a thread while the workers compute; ``probe``:
+    also build a first array, whose probe for Dask arrays imports ``dask.array`` where
+    Dask is installed (about 0.3 s, :mod:`cyclomesh.results.arrays`), for a result that
+    builds its variables the usual way.
 
     Started after the worker processes are forked; joined before anything else forks,
     so the figure workers inherit the imported modules.
@@ -186,7 +195,8 @@ def _preload(figures: bool) -> threading.Thread:
         import numpy as np
         import xarray as xr
 
-        xr.DataArray(np.zeros(1))  # the first array sets up xarray's array backends
+        if probe:  # the first array sets up xarray's array backends
+            xr.DataArray(np.zeros(1))
         if figures:
             from cyclomesh.figures.render import warm_up
 
@@ -199,13 +209,14 @@ def _preload(figures: bool) -> threading.Thread:
 
 
 @contextmanager
-def running_backend(backend: Any, figures: bool) -> Iterator[Any]:
+def running_backend(backend: Any, figures: bool, probe: bool = True) -> Iterator[Any]:
     """``backend`` (an :mod:`cyclomesh.execution.backends` backend, or None) started,
-    with the import preload thread; closed on exit, the preload joined after success."""
+    with the import preload thread (``probe``: :func:`_preload`); closed on exit, the
+    preload joined after success."""
     try:
         if backend is not None:
             backend.start()
-        preload = _preload(figures)
+        preload = _preload(figures, probe)
         yield backend
     except BaseException:  # Ctrl-C or a failure: the workers' chunks are not wanted
         if backend is not None and hasattr(backend, "terminate"):
@@ -267,7 +278,9 @@ def execute(
         early: list[Any] = []
         if parallel:
             pool_context: AbstractContextManager[Any] = nullcontext(None)
-            with running_backend(backend, bool(options.figures)) as started, bar() as advance:
+            figures = bool(options.figures)
+            probe = figures or not kind.probe_free
+            with running_backend(backend, figures, probe) as started, bar() as advance:
                 result = kind.compute(study, backend=started, progress=advance, **compute_options)
         overview = kind.overview is not None and options.figure_set == "overview"
         if not parallel:

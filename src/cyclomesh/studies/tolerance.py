@@ -106,8 +106,11 @@ def metrics_dataset(
     attrs: Mapping[str, Any] | None = None,
 ) -> xr.Dataset:
     """Per-ring metrics as an xarray Dataset with dimension ``ring``, units and long
-    names from :data:`RING_METRICS`."""
+    names from :data:`RING_METRICS`. Its variables are built without xarray's probe for
+    Dask arrays (:func:`cyclomesh.results.arrays.variable`: dask.array is not imported)."""
     import xarray as xr
+
+    from cyclomesh.results.arrays import variable
 
     ring = np.asarray(per_ring["ring"], dtype=np.int64)
     data = {}
@@ -134,8 +137,9 @@ def metrics_dataset(
             attrs_["long_name"] = "the solver's one-line error of an unsolved ring ('' if solved)"
         elif arr.dtype.kind == "f" and np.any(np.isnan(arr)):
             attrs_["nonfinite"] = nonfinite_reason(per_ring, np.isnan(arr))
-        data[name] = xr.DataArray(arr, dims=("ring",), attrs=attrs_)
-    ds = xr.Dataset(data, coords={"ring": ("ring", ring, {"units": "1"})})
+        data[name] = variable(("ring",), arr, attrs_)
+    # the coordinate first, as in the Dataset of DataArrays before (the files' order)
+    ds = xr.Dataset({"ring": variable(("ring",), ring, {"units": "1"}), **data})
     ds.attrs.update(
         {
             "seed": spec.seed,
@@ -165,6 +169,13 @@ def worst_ring(ds: xr.Dataset, metric: str = STRESS_METRIC) -> int | None:
     if not np.any(np.isfinite(values)):
         return None
     return int(ds["ring"].values[int(np.nanargmax(values))])
+
+
+def at_ring(ds: xr.Dataset, name: str, k: int) -> Any:
+    """The value of the per-ring variable ``name`` at ring k (``ds[name].sel(ring=k)``,
+    by NumPy: a selection builds a Variable, whose probe for Dask arrays imports
+    dask.array where it is installed, :mod:`cyclomesh.results.arrays`)."""
+    return np.asarray(ds[name].values)[int(np.flatnonzero(ds["ring"].values == k)[0])]
 
 
 def _flagged(ds: xr.Dataset, flag: str) -> np.ndarray:
@@ -217,9 +228,7 @@ def unsolved_summary(ds: xr.Dataset, confidence: float) -> dict[str, Any]:
     the probability of it with its Clopper–Pearson interval, the first such ring, the
     solver's one-line message for it and the file that reproduces it."""
     unsolved = unsolved_rings(ds)
-    message = (
-        str(ds["unsolved_reason"].sel(ring=int(unsolved[0])).values) if unsolved.size else None
-    )
+    message = str(at_ring(ds, "unsolved_reason", int(unsolved[0]))) if unsolved.size else None
     return _outcome(
         unsolved,
         ds.sizes["ring"],
@@ -282,7 +291,7 @@ def ring_statistics(
             if k is None
             else {
                 "ring": k,
-                STRESS_METRIC: float(ds[STRESS_METRIC].sel(ring=k)),
+                STRESS_METRIC: float(at_ring(ds, STRESS_METRIC, k)),
                 "file": "worst_ring.toml",
             }
         ),
@@ -531,7 +540,7 @@ def write_tolerance(result: ToleranceResult, out: Path) -> list[Path]:
         note = (
             f"Worst ring of the tolerance study {study.title!r} ({study.path.name}): ring {k} "
             f"of seed {spec.seed},\npeak tooth contact stress "
-            f"{float(ds[STRESS_METRIC].sel(ring=k)):.6g} MPa. "
+            f"{float(at_ring(ds, STRESS_METRIC, k)):.6g} MPa. "
             "Reproduce with: cyclomesh run worst_ring.toml --out DIR"
         )
         text = worst_ring_study(
@@ -759,6 +768,7 @@ TOLERANCE = StudyKind(
     sections=lambda result: tolerance_sections(result),
     keys_first=require_tolerance,
     preflight=check_rings,
+    probe_free=True,  # metrics_dataset, at_ring, the NetCDF and Parquet writers
     steps=CommandSteps(
         load=lambda path, options: load_tolerance_study(path)[0],
         parallel=lambda study, options: True,
