@@ -130,8 +130,9 @@ def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
     are written with netCDF4 directly: ``Dataset.to_netcdf`` imports dask and
     ``distributed`` when they are installed, which costs more than the writing. Text
     (the solver's message of a tolerance ring, the reason of a design candidate) is
-    written as ``Dataset.to_netcdf`` writes it: variable-length strings, uncompressed,
-    without a fill value. Anything else goes through ``Dataset.to_netcdf``.
+    written as ``Dataset.to_netcdf`` wrote such a Dataset before: variable-length
+    strings, uncompressed, without a fill value, and the coordinates uncompressed.
+    Anything else goes through ``Dataset.to_netcdf``.
     """
     plain = all(name in ds.dims for name in ds.coords) and all(
         var.dtype.kind in "biufU" for var in ds.variables.values()
@@ -151,6 +152,7 @@ def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
         return path
     import netCDF4
 
+    text = any(var.dtype.kind == "U" for var in ds.variables.values())
     with atomic_write(path) as tmp, netCDF4.Dataset(tmp, "w", format="NETCDF4") as nc:
         for dim, size in ds.sizes.items():
             nc.createDimension(str(dim), size)
@@ -172,7 +174,11 @@ def write_netcdf(ds: xr.Dataset, path: Path) -> Path:
                 values.dtype,
                 dims,
                 fill_value=fill,
-                **(COMPRESSION if values.size >= COMPRESS_FROM else {}),
+                **(
+                    COMPRESSION
+                    if values.size >= COMPRESS_FROM and not (text and name in ds.coords)
+                    else {}
+                ),
             )
             if values.ndim:
                 out[...] = values
