@@ -14,6 +14,7 @@ when Dask is installed; that part is cheap.)
 
 from __future__ import annotations
 
+import threading
 import warnings
 from collections.abc import Hashable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
@@ -22,6 +23,15 @@ import numpy as np
 
 if TYPE_CHECKING:
     import xarray as xr
+
+
+FIRST_ARRAYS = threading.Lock()
+"""Held by a thread while it builds xarray objects that may import Dask (a probe for Dask
+arrays imports ``dask.array``, an index ``dask.base``): a command's preload thread
+(:mod:`cyclomesh.studies.execute`) probes while the main thread may build its Dataset,
+and two threads importing Dask at once can meet in its import cycle (``dask`` and
+``dask.base`` import each other: "cannot import name ... from partially initialized
+module 'dask.base'")."""
 
 
 def variable(

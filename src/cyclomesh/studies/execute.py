@@ -195,8 +195,11 @@ def _preload(figures: bool, probe: bool = True) -> threading.Thread:
         import numpy as np
         import xarray as xr
 
+        from cyclomesh.results.arrays import FIRST_ARRAYS
+
         if probe:  # the first array sets up xarray's array backends
-            xr.DataArray(np.zeros(1))
+            with FIRST_ARRAYS:  # not while the main thread imports Dask too
+                xr.DataArray(np.zeros(1))
         if figures:
             from cyclomesh.figures.render import warm_up
 

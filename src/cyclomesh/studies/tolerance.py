@@ -110,7 +110,7 @@ def metrics_dataset(
     Dask arrays (:func:`cyclomesh.results.arrays.variable`: dask.array is not imported)."""
     import xarray as xr
 
-    from cyclomesh.results.arrays import variable
+    from cyclomesh.results.arrays import FIRST_ARRAYS, variable
 
     ring = np.asarray(per_ring["ring"], dtype=np.int64)
     data = {}
@@ -138,8 +138,10 @@ def metrics_dataset(
         elif arr.dtype.kind == "f" and np.any(np.isnan(arr)):
             attrs_["nonfinite"] = nonfinite_reason(per_ring, np.isnan(arr))
         data[name] = variable(("ring",), arr, attrs_)
-    # the coordinate first, as in the Dataset of DataArrays before (the files' order)
-    ds = xr.Dataset({"ring": variable(("ring",), ring, {"units": "1"}), **data})
+    # the coordinate first, as in the Dataset of DataArrays before (the files' order);
+    # its index imports dask.base: not while a preload thread imports Dask
+    with FIRST_ARRAYS:
+        ds = xr.Dataset({"ring": variable(("ring",), ring, {"units": "1"}), **data})
     ds.attrs.update(
         {
             "seed": spec.seed,
