@@ -25,8 +25,9 @@ import dataclasses
 import numpy as np
 from numpy.typing import NDArray
 
+from cyclomesh.core.contact import UnloadedContact
 from cyclomesh.core.discbody import FREE_HELD, FreeDiscBody
-from cyclomesh.core.fields import contact_fields
+from cyclomesh.core.fields import contact_fields, contact_stresses
 from cyclomesh.core.friction import Friction
 from cyclomesh.core.lubrication import Film
 from cyclomesh.core.pair import CrankHoles
@@ -483,6 +484,7 @@ def solve_direction(
     loading: float = 0.0,
     positions: bool = True,
     cache: dict | None = None,
+    fields: frozenset[str] | None = None,
 ) -> dict[str, FloatArray]:
     """Stage under a positive torque in the mesh's frame (``other``: the mirror problem).
 
@@ -500,9 +502,15 @@ def solve_direction(
     ``cache``: a dict kept by a caller that solves this direction (the same ``mesh``,
     ``other``, ``stage``, ``errs`` and ``supports``) at several torques: the problem's
     arrays and the bearings' Jacobian, which do not depend on the torque, are formed once
-    (the same arrays, so the same numbers).
+    (the same arrays, so the same numbers). ``fields``: the names of the returned dict
+    wanted (None: all); the others are not computed, and each of them is the same, bit for
+    bit, whatever else is asked (:func:`cyclomesh.stage.solve.solve` ``outputs``).
     """
     D, n1 = mesh.geo.rotation.shape[-2:]
+
+    def want(name: str) -> bool:
+        return fields is None or name in fields
+
     if cache is not None and "problem" in cache:  # the torque's arrays are the same
         prob = dataclasses.replace(cache["problem"], torque=torque)
     else:
@@ -631,9 +639,9 @@ def solve_direction(
         if fr is not None:
             q, _ = friction_terms(prob, x, D, False, st, law, False)
             g = g - q
-        residual = np.max(np.abs(g), axis=-1)
-        work = _work(prob, stage, x, D, st)
-        if fr is not None:
+        residual = np.max(np.abs(g), axis=-1) if want("residual") else None
+        work = _work(prob, stage, x, D, st) if any(want(n) for n in _WORK) else {}
+        if fr is not None and want("work_friction"):
             work["work_friction"] = _friction_work(prob, x, q, D)
         if body is None:  # a disc that carries nothing: no load, its canonical position
             idle = floating_discs(F, np.hypot(bfx, bfy), FLOATING_LOAD * abs(torque) / prob.scale)
@@ -641,7 +649,7 @@ def solve_direction(
                 F = np.where(idle[..., None], 0.0, F)
                 bfx = np.where(idle[..., None], 0.0, bfx)
                 bfy = np.where(idle[..., None], 0.0, bfy)
-            if positions:
+            if positions and any(want(name) for name in _POSITIONS):
                 x, idle_deflection = canonical_positions(
                     prob, x, D, idle, 0.5 * stage.bearing.clearance
                 )
@@ -659,48 +667,86 @@ def solve_direction(
         residual = np.max(np.abs(g @ reducer(D)), -1)
         st = {"pin_force": F, "bearing_fx": bfx, "bearing_fy": bfy}
     c, theta, ux, uy = _unpack(x, D)
-    loaded = contact_fields(
-        ("groove_load", "contact_stress", "groove_stress", "contacts"),
-        mesh.design,
-        mesh.geo,
-        F[..., :n1],
-        stack_axes=2,  # per disc, against the stack
-    )
-    disc = _disc_loads(mesh, prob, F)
-    rollers = (
-        np.max(roller_loads(stage.bearing, sb), axis=-1)
-        if stage.bearing is not None
-        else np.full(deflection.shape, np.nan)
-    )
-    extra = {}
-    if fr is not None and motion != 0.0:
+    out: dict[str, FloatArray] = {}
+    if fr is not None and motion != 0.0 and any(want(name) for name in _FRICTION):
         if prob.lubrication is not None:  # the coefficients of the returned loads
             fr = {**fr, **lubricated_state(prob, F)}
-        extra = _friction_fields(prob, mesh, fr, st, motion, friction.speed, n1)
-    return {
-        **extra,
-        "pin_load": F[..., :n1],
-        "opposite_pin_load": F[..., n1:],
-        "groove_load": loaded["groove_load"],
-        "contact_stress": loaded["contact_stress"],
-        "groove_stress": loaded["groove_stress"],
-        "contacts": loaded["contacts"],
-        "torque_share": disc["torque_share"],
-        "mesh_fx": disc["mesh_force_x"],
-        "mesh_fy": disc["mesh_force_y"],
-        "bearing_fx": bfx,
-        "bearing_fy": bfy,
-        "bearing_deflection": deflection,
-        "max_roller_load": rollers,
-        "disc_translation_x": ux,
-        "disc_translation_y": uy,
-        "disc_te": transmission_error(mesh.rest[:, None], theta),
-        "carrier_te": transmission_error(mesh.rest, c),
-        "twist": c,
-        "mesh_te": mesh_te,
-        "residual": residual,
-        **work,
+        out.update(_friction_fields(prob, mesh, fr, st, motion, friction.speed, n1))
+    loaded = [n for n in ("groove_load", "contact_stress", "groove_stress", "contacts") if want(n)]
+    if fields is not None and loaded == ["contact_stress"]:  # the loaded pins' alone
+        out["contact_stress"] = _contact_stress(mesh, F[..., :n1])
+    elif loaded:
+        out.update(
+            contact_fields(loaded, mesh.design, mesh.geo, F[..., :n1], stack_axes=2)
+        )  # per disc, against the stack
+    if want("torque_share") or want("mesh_fx") or want("mesh_fy"):
+        disc = _disc_loads(mesh, prob, F)
+        out.update(
+            torque_share=disc["torque_share"],
+            mesh_fx=disc["mesh_force_x"],
+            mesh_fy=disc["mesh_force_y"],
+        )
+    if want("max_roller_load"):
+        out["max_roller_load"] = (
+            np.max(roller_loads(stage.bearing, sb), axis=-1)
+            if stage.bearing is not None
+            else np.full(deflection.shape, np.nan)
+        )
+    plain = {
+        "pin_load": lambda: F[..., :n1],
+        "opposite_pin_load": lambda: F[..., n1:],
+        "bearing_fx": lambda: bfx,
+        "bearing_fy": lambda: bfy,
+        "bearing_deflection": lambda: deflection,
+        "disc_translation_x": lambda: ux,
+        "disc_translation_y": lambda: uy,
+        "disc_te": lambda: transmission_error(mesh.rest[:, None], theta),
+        "carrier_te": lambda: transmission_error(mesh.rest, c),
+        "twist": lambda: c,
+        "mesh_te": lambda: mesh_te,
+        "residual": lambda: residual,
     }
+    out.update({name: value() for name, value in plain.items() if want(name)})
+    out.update({name: value for name, value in work.items() if want(name)})
+    return out
+
+
+_POSITIONS = ("disc_translation_x", "disc_translation_y", "disc_te", "bearing_deflection")
+"""The fields that read the positions of the discs (the floating discs' canonical ones)."""
+_FRICTION = (
+    "friction_force",
+    "power_loss_tooth",
+    "power_loss_groove",
+    "sliding_velocity_tooth",
+    "sliding_velocity_groove",
+    "friction_coefficient",
+    "film_parameter",
+    "power_loss_bearing",
+    "input_power",
+    "approach_power",
+)
+"""The friction fields of a drive (:func:`_friction_fields`)."""
+
+
+def _contact_stress(mesh: StackMesh, force: FloatArray) -> FloatArray:
+    """The pin–tooth pressure [Pa] (A, D, n1) of the loaded pins (F > 0) of
+    :func:`~cyclomesh.core.fields.contact_stresses` (Eq. 24 of [1]), 0 at the others: the
+    same formula element by element on the loaded pins alone, so the same bits as
+    :func:`~cyclomesh.core.fields.contact_fields` at a tenth of the pins."""
+    stress = np.zeros(force.shape)
+    at = np.nonzero(force > 0.0)
+    if at[0].size:
+        geo = mesh.geo
+        sub = UnloadedContact(
+            **{
+                **dict.fromkeys(UnloadedContact.__dataclass_fields__),
+                "pin_radius": geo.pin_radius[at],
+                "curvature_radius": geo.curvature_radius[at],
+                "cos_beta": geo.cos_beta[at],
+            }
+        )
+        stress[at] = contact_stresses(sub, mesh.design, force[at])[1]
+    return stress
 
 
 def _friction_work(p, x: FloatArray, q: FloatArray, discs: int) -> FloatArray:
@@ -738,6 +784,8 @@ def _friction_fields(p, mesh, fr, st, motion, speed, n1) -> dict[str, FloatArray
 
 WORK_PARTS = ("mesh", "disc_body", "crank_bearings", "crankshafts", "carrier", "hole_errors")
 """Parts of the output twist (:func:`_work`; the carrier's override spring adds T²/k_c)."""
+_WORK = tuple(f"work_{name}" for name in WORK_PARTS)
+"""The fields of :func:`_work`."""
 
 
 def _work(p: _Problem, stage: StageDesign, x: FloatArray, discs: int, st: dict):
