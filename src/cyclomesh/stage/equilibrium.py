@@ -30,7 +30,7 @@ from cyclomesh.core.discbody import FREE_HELD, FreeDiscBody
 from cyclomesh.core.fields import contact_fields, contact_stresses
 from cyclomesh.core.friction import Friction
 from cyclomesh.core.lubrication import Film
-from cyclomesh.core.pair import CrankHoles
+from cyclomesh.core.pair import CrankHoles, PairDesign
 from cyclomesh.core.transmission import transmission_error
 from cyclomesh.drive.solve import (
     StackMesh,
@@ -429,39 +429,56 @@ def _problem(
     A, D, n1 = geo.rotation.shape
     phi_t = -mesh.phi / design.teeth
     ang = holes.angles[None, :] + phi_t[:, None]  # (A, N)
-    hx, hy = holes.circle_radius * np.cos(ang), holes.circle_radius * np.sin(ang)
+    cos, sin = np.cos(ang), np.sin(ang)
+    hx, hy = holes.circle_radius * cos, holes.circle_radius * sin
     # hole errors (radial, tangential) of the disc frame → fixed frame
-    cr, sr = np.cos(ang)[:, None, :], np.sin(ang)[:, None, :]
+    cr, sr = cos[:, None, :], sin[:, None, :]
     ex = errs[0][None] * cr - errs[1][None] * sr
     ey = errs[0][None] * sr + errs[1][None] * cr
-    alpha = mesh.alpha.reshape(A, D, n1)
-    gamma = mesh.gamma.reshape(A, D, n1)
-    # the opposite flanks
-    arm_o = _mirrored(other.geo.moment_arm)
-    alpha_o = _mirrored(other.alpha.reshape(A, D, n1))
-    gamma_o = _mirrored(other.gamma.reshape(A, D, n1))
+    # the opposite flanks: the mirror problem's forward flanks, taken in one gather each
+    # (the arrays of _mirrored)
+    mirror = np.ix_(np.arange(A)[::-1], mirror_index(D), mirror_index(n1))
+    arm_o = other.geo.moment_arm[mirror]
+    alpha_o = other.alpha.reshape(A, D, n1)[mirror]
+    gamma_o = other.gamma.reshape(A, D, n1)[mirror]
     with np.errstate(invalid="ignore"):
         bl_o = geo.reverse_rotation - mesh.rest[:, None, None]
-    usable_o = (
-        np.isfinite(bl_o)
-        & np.isfinite(arm_o)
-        & (arm_o >= 0)
-        & np.isfinite(alpha_o)
-        & np.isfinite(gamma_o)
-    )
-    bl = np.concatenate([mesh.backlash.reshape(A, D, n1), np.where(usable_o, bl_o, np.inf)], -1)
-    alpha = np.concatenate([alpha, np.where(usable_o, alpha_o, 1.0)], -1)
-    gamma = np.concatenate([gamma, np.where(usable_o, gamma_o, 0.0)], -1)
+    usable_o = np.isfinite(bl_o)
+    usable_o &= np.isfinite(arm_o)
+    usable_o &= arm_o >= 0
+    usable_o &= np.isfinite(alpha_o)
+    usable_o &= np.isfinite(gamma_o)
+
+    def flanks(this: FloatArray, that: FloatArray, fill: float) -> FloatArray:
+        """(A, D, 2·n1): ``this`` on the loaded flanks, ``that`` on the usable opposite
+        ones, ``fill`` on the others (np.concatenate of this and np.where)."""
+        out = np.empty((A, D, 2 * n1))
+        out[..., :n1] = this
+        out[..., n1:] = fill
+        np.copyto(out[..., n1:], that, where=usable_o)
+        return out
+
+    alpha = flanks(mesh.alpha.reshape(A, D, n1), alpha_o, 1.0)
+    gamma = flanks(mesh.gamma.reshape(A, D, n1), gamma_o, 0.0)
+    # the largest approach of a trial, _REACH of the law's stiffest point γ·exp(α/γ − 1)
+    # (inf without one), in place: the same operations in the same order
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        dmax = np.where(gamma > 0, gamma * np.exp(alpha / gamma - 1.0), np.inf)
+        dmax = np.divide(alpha, gamma)
+        dmax -= 1.0
+        np.exp(dmax, out=dmax)
+        np.multiply(gamma, dmax, out=dmax)
+        finite = gamma > 0
+        finite &= np.isfinite(dmax)
+        dmax *= _REACH
+    np.copyto(dmax, np.inf, where=~finite)
     return _Problem(
-        bl=bl,
-        arm=np.concatenate([geo.moment_arm, -np.where(usable_o, arm_o, 0.0)], -1),
-        nx=np.concatenate([mesh.normal_x, np.where(usable_o, _mirrored(other.normal_x), 0)], -1),
-        ny=np.concatenate([mesh.normal_y, np.where(usable_o, -_mirrored(other.normal_y), 0)], -1),
+        bl=flanks(mesh.backlash.reshape(A, D, n1), bl_o, np.inf),
+        arm=flanks(geo.moment_arm, -arm_o, -0.0),
+        nx=flanks(mesh.normal_x, other.normal_x[mirror], 0.0),
+        ny=flanks(mesh.normal_y, -other.normal_y[mirror], 0.0),
         alpha=alpha,
         gamma=gamma,
-        dmax=np.where(np.isfinite(dmax), dmax * _REACH, np.inf),
+        dmax=dmax,
         hx=hx,
         hy=hy,
         ex=ex,
@@ -545,14 +562,16 @@ def solve_direction(
     # rigid stage (θ_d = c, u = 0) from the rotation at which the stiffest pin alone
     # would carry T (an upper bound of the root, as in cyclomesh.loadsharing)
     x = np.zeros((A, m))
+    # (the loaded flanks: an opposite flank's arm −l' ≤ 0 never carries T alone)
+    bl, arm, alpha, gamma = (v[..., :n1] for v in (prob.bl, prob.arm, prob.alpha, prob.gamma))
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        ok = np.isfinite(prob.bl) & (prob.arm > 0)
-        f1 = np.where(ok, torque / np.where(ok, prob.arm, 1.0), 1.0)
+        ok = np.isfinite(bl) & (arm > 0)
+        f1 = np.where(ok, torque / np.where(ok, arm, 1.0), 1.0)
         log1 = np.log(f1)
         # on the stiffening branch of the law only (as cyclomesh.core.loadsharing)
-        ok &= (prob.gamma == 0) | (log1 < prob.alpha / prob.gamma - 1.0)
-        d1 = f1 * (prob.alpha - prob.gamma * log1)
-        single = np.where(ok, prob.bl + d1 / np.where(ok, prob.arm, 1.0), np.inf)
+        ok &= (gamma == 0) | (log1 < alpha / gamma - 1.0)
+        d1 = f1 * (alpha - gamma * log1)
+        single = np.where(ok, bl + d1 / np.where(ok, arm, 1.0), np.inf)
     x[:, 0] = np.min(single.reshape(A, -1), axis=-1)
     if not np.all(np.isfinite(x[:, 0])):
         bad = int(np.argmin(np.isfinite(x[:, 0])))
@@ -674,7 +693,16 @@ def solve_direction(
         out.update(_friction_fields(prob, mesh, fr, st, motion, friction.speed, n1))
     loaded = [n for n in ("groove_load", "contact_stress", "groove_stress", "contacts") if want(n)]
     if fields is not None and loaded == ["contact_stress"]:  # the loaded pins' alone
-        out["contact_stress"] = _contact_stress(mesh, F[..., :n1])
+        if cache is None or "geometry" not in cache:  # the stresses' geometry, flat
+            geometry = [
+                np.ascontiguousarray(np.broadcast_to(getattr(mesh.geo, name), (A, D, n1)))
+                for name in ("pin_radius", "curvature_radius", "cos_beta")
+            ]
+            if cache is not None:
+                cache["geometry"] = geometry
+        else:
+            geometry = cache["geometry"]
+        out["contact_stress"] = _contact_stress(mesh.design, geometry, F[..., :n1])
     elif loaded:
         out.update(
             contact_fields(loaded, mesh.design, mesh.geo, F[..., :n1], stack_axes=2)
@@ -728,25 +756,30 @@ _FRICTION = (
 """The friction fields of a drive (:func:`_friction_fields`)."""
 
 
-def _contact_stress(mesh: StackMesh, force: FloatArray) -> FloatArray:
+def _contact_stress(
+    design: PairDesign, geometry: list[FloatArray], force: FloatArray
+) -> FloatArray:
     """The pin–tooth pressure [Pa] (A, D, n1) of the loaded pins (F > 0) of
-    :func:`~cyclomesh.core.fields.contact_stresses` (Eq. 24 of [1]), 0 at the others: the
-    same formula element by element on the loaded pins alone, so the same bits as
-    :func:`~cyclomesh.core.fields.contact_fields` at a tenth of the pins."""
-    stress = np.zeros(force.shape)
-    at = np.nonzero(force > 0.0)
-    if at[0].size:
-        geo = mesh.geo
+    :func:`~cyclomesh.core.fields.contact_stresses` (Eq. 24 of [1]), 0 at the others:
+    the same formula element by element on the loaded pins alone, so the same bits as
+    :func:`~cyclomesh.core.fields.contact_fields` at a third of the pins or less.
+    ``geometry``: the contacts' pin radius, curvature radius and cos β, (A, D, n1) each,
+    C-contiguous."""
+    flat = np.ascontiguousarray(force).reshape(-1)
+    stress = np.zeros(flat.shape)
+    at = np.flatnonzero(flat > 0.0)
+    if at.size:
+        rp, rc, cb = (np.take(v.reshape(-1), at) for v in geometry)
         sub = UnloadedContact(
             **{
                 **dict.fromkeys(UnloadedContact.__dataclass_fields__),
-                "pin_radius": geo.pin_radius[at],
-                "curvature_radius": geo.curvature_radius[at],
-                "cos_beta": geo.cos_beta[at],
+                "pin_radius": rp,
+                "curvature_radius": rc,
+                "cos_beta": cb,
             }
         )
-        stress[at] = contact_stresses(sub, mesh.design, force[at])[1]
-    return stress
+        stress[at] = contact_stresses(sub, design, np.take(flat, at))[1]
+    return stress.reshape(force.shape)
 
 
 def _friction_work(p, x: FloatArray, q: FloatArray, discs: int) -> FloatArray:
