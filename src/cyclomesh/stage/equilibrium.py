@@ -435,31 +435,39 @@ def _problem(
     cr, sr = cos[:, None, :], sin[:, None, :]
     ex = errs[0][None] * cr - errs[1][None] * sr
     ey = errs[0][None] * sr + errs[1][None] * cr
-    # the opposite flanks: the mirror problem's forward flanks, taken in one gather each
-    # (the arrays of _mirrored)
-    mirror = np.ix_(np.arange(A)[::-1], mirror_index(D), mirror_index(n1))
-    arm_o = other.geo.moment_arm[mirror]
-    alpha_o = other.alpha.reshape(A, D, n1)[mirror]
-    gamma_o = other.gamma.reshape(A, D, n1)[mirror]
+
+    # the opposite flanks (pins n1 … 2n1 − 1): the mirror problem's forward flanks
+    # (_mirrored, as strided copies into the second half of each array)
+    def flanks(this: FloatArray, that: FloatArray | None = None) -> FloatArray:
+        out = np.empty((A, D, 2 * n1))
+        out[..., :n1] = this
+        if that is not None:
+            _mirror_into(out[..., n1:], that)
+        return out
+
+    arm = flanks(geo.moment_arm, other.geo.moment_arm)
+    alpha = flanks(mesh.alpha.reshape(A, D, n1), other.alpha.reshape(A, D, n1))
+    gamma = flanks(mesh.gamma.reshape(A, D, n1), other.gamma.reshape(A, D, n1))
+    bl = flanks(mesh.backlash.reshape(A, D, n1))
+    arm_o, alpha_o, gamma_o, bl_o = (v[..., n1:] for v in (arm, alpha, gamma, bl))
     with np.errstate(invalid="ignore"):
-        bl_o = geo.reverse_rotation - mesh.rest[:, None, None]
+        np.subtract(geo.reverse_rotation, mesh.rest[:, None, None], out=bl_o)
     usable_o = np.isfinite(bl_o)
     usable_o &= np.isfinite(arm_o)
     usable_o &= arm_o >= 0
     usable_o &= np.isfinite(alpha_o)
     usable_o &= np.isfinite(gamma_o)
-
-    def flanks(this: FloatArray, that: FloatArray, fill: float) -> FloatArray:
-        """(A, D, 2·n1): ``this`` on the loaded flanks, ``that`` on the usable opposite
-        ones, ``fill`` on the others (np.concatenate of this and np.where)."""
-        out = np.empty((A, D, 2 * n1))
-        out[..., :n1] = this
-        out[..., n1:] = fill
-        np.copyto(out[..., n1:], that, where=usable_o)
-        return out
-
-    alpha = flanks(mesh.alpha.reshape(A, D, n1), alpha_o, 1.0)
-    gamma = flanks(mesh.gamma.reshape(A, D, n1), gamma_o, 0.0)
+    unusable = ~usable_o
+    np.copyto(bl_o, np.inf, where=unusable)
+    np.negative(arm_o, out=arm_o)
+    np.copyto(arm_o, -0.0, where=unusable)  # −np.where(usable, l', 0.0)
+    np.copyto(alpha_o, 1.0, where=unusable)
+    np.copyto(gamma_o, 0.0, where=unusable)
+    nx = flanks(mesh.normal_x, other.normal_x)
+    np.copyto(nx[..., n1:], 0.0, where=unusable)
+    ny = flanks(mesh.normal_y, other.normal_y)
+    np.negative(ny[..., n1:], out=ny[..., n1:])
+    np.copyto(ny[..., n1:], 0.0, where=unusable)
     # the largest approach of a trial, _REACH of the law's stiffest point γ·exp(α/γ − 1)
     # (inf without one), in place: the same operations in the same order
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -472,10 +480,10 @@ def _problem(
         dmax *= _REACH
     np.copyto(dmax, np.inf, where=~finite)
     return _Problem(
-        bl=flanks(mesh.backlash.reshape(A, D, n1), bl_o, np.inf),
-        arm=flanks(geo.moment_arm, -arm_o, -0.0),
-        nx=flanks(mesh.normal_x, other.normal_x[mirror], 0.0),
-        ny=flanks(mesh.normal_y, -other.normal_y[mirror], 0.0),
+        bl=bl,
+        arm=arm,
+        nx=nx,
+        ny=ny,
         alpha=alpha,
         gamma=gamma,
         dmax=dmax,
@@ -486,6 +494,17 @@ def _problem(
         torque=torque,
         scale=holes.circle_radius,
     )
+
+
+def _mirror_into(out: FloatArray, arr: FloatArray) -> None:
+    """``out[...] = _mirrored(arr)`` for (A, D, n1) arrays, by strided copies: the crank
+    angles reversed, disc d ← disc (−d) mod D, pin 0 ← pin 0 and pin i ← pin n1 − i."""
+    rev = arr[::-1]
+    D = arr.shape[1]
+    for d in range(D):
+        src = rev[:, (-d) % D]
+        out[:, d, 0] = src[:, 0]
+        out[:, d, 1:] = src[:, :0:-1]
 
 
 def solve_direction(
