@@ -220,8 +220,8 @@ def _start_kernels() -> tuple[Any, Any]:
     import numba
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _roller_rows_c, _solve3
-    _roller_rows_c = jit(_roller_rows)
+    global _roller_point, _solve3
+    _roller_point = jit(_roller_point)
     _solve3 = jit(_solve3)
     return jit(_split_rows), jit(_deflection_rows)
 
@@ -241,7 +241,8 @@ def split(
     ``iterations`` Newton steps (the caller then raises). The reference's arithmetic
     element by element (its start, step and test for each (crank angle, disc) on its own,
     as its active set does) except the 3 × 3 solve by Gaussian elimination with partial
-    pivoting (LAPACK's dgesv unblocked) and the C library's pow."""
+    pivoting (LAPACK's dgesv unblocked) and the powers, s^p formed as s·s^(p−1) from the
+    C library's pow (one power a bearing and step, as the roller law's)."""
     A, D = mesh_fx.shape
     fx, fy = np.zeros((A, D, hx.shape[-1])), np.zeros((A, D, hx.shape[-1]))
     ok = _start_kernels()[0](
@@ -308,8 +309,9 @@ def _split_rows(hx, hy, mfx, mfy, moment, L, p, iterations, fx, fy):  # pragma: 
                     dx[k] = y[1] + y[0] * jx[k] / L
                     dy[k] = y[2] + y[0] * jy[k] / L
                     s = np.hypot(dx[k], dy[k])
-                    B[k] = s**p
-                    kb[k] = p * s ** (p - 1.0)
+                    root = s ** (p - 1.0)  # one power: s^p = s·s^(p−1)
+                    B[k] = s * root
+                    kb[k] = p * root
                     if s > 0:
                         cx[k], cy[k], sec[k] = dx[k] / s, dy[k] / s, B[k] / s
                     else:
@@ -389,9 +391,18 @@ def deflection(
 ) -> FloatArray:
     """:func:`cyclomesh.stage.supports.bearing_deflection`'s roller set compiled: the
     displacement s [m] at which the roller set (:func:`roller_law`) carries ``force`` [N]
-    ≥ 0 (any shape), by the reference's Newton iteration (every element stepped until all
-    have converged, the reference's whole-array test, or ``iterations`` steps, after which
-    the reference too returns where it is)."""
+    ≥ 0 (any shape), by the reference's Newton iteration from its start, each element
+    stepped until its own residual passes the reference's test (|B(s) − F| ≤ 1e-12·F), or
+    ``iterations`` steps, after which the reference too returns where it is. The
+    reference steps every element until all have passed (its whole-array test): an element
+    that passed earlier moves on by less than its test's 1e-12·F, a start of the stage's
+    Newton iteration that differs only at that level (the solution is the same to
+    round-off). With a leading axis of crank angles (``force`` of two or more axes) an
+    element whose crank angle before carries load starts from that angle's solution
+    instead (Newton's method on the convex, increasing B(s) converges from any point where
+    a roller is loaded: past the root in one step, then monotonically down onto it; the
+    neighbouring angle's is close, so that two or three steps reach the test instead of
+    four or five)."""
     flat = np.ascontiguousarray(force, dtype=float).reshape(-1)
     s = np.empty(flat.shape)
     _start_kernels()[1](
@@ -401,35 +412,50 @@ def deflection(
         float(exponent),
         flat,
         int(iterations),
+        flat.size // np.shape(force)[0] if np.ndim(force) > 1 and flat.size else 0,
         s,
     )
     return s.reshape(np.shape(force))
 
 
-_roller_rows_c = _roller_rows  # compiled by _start_kernels
+def _roller_point(cosines, half, constant, s):  # pragma: no cover (compiled)
+    """Force [N] and stiffness [N/m] of the roller set at one displacement ``s``, the
+    arithmetic of :func:`_roller_rows` (one power a loaded roller)."""
+    p = 10.0 / 9.0
+    fsum = 0.0
+    ksum = 0.0
+    for j in range(cosines.size):
+        c = cosines[j]
+        delta = s * c - half
+        if delta > 0.0:
+            root = delta ** (1.0 / 9.0)
+            fsum += constant * (delta * root) * c
+            ksum += p * constant * root * c * c
+    return fsum, ksum
 
 
-def _deflection_rows(cosines, half, constant, p, force, iterations, s):  # pragma: no cover
-    """:func:`deflection` written for numba."""
-    n = force.size
-    value = np.zeros(n)
-    stiff = np.zeros(n)
-    energy = np.zeros(n)
-    for i in range(n):
-        s[i] = half + (max(force[i], 0.0) / constant) ** (1.0 / p)
-    for _ in range(iterations):
-        _roller_rows_c(cosines, half, constant, s, value, stiff, energy)
-        done = True
-        for i in range(n):
-            if not (abs(value[i] - force[i]) <= 1e-12 * max(force[i], 1e-300)):
-                done = False
+def _deflection_rows(cosines, half, constant, p, force, iterations, row, s):  # pragma: no cover
+    """:func:`deflection` written for numba: each element on its own, started from the
+    element ``row`` before it where that one carries load (``row`` 0: none); False if one
+    has not passed the test after ``iterations`` steps."""
+    converged = True
+    for i in range(force.size):
+        f = force[i]
+        if row > 0 and i >= row and f > 0.0 and force[i - row] > 0.0 and s[i - row] > half:
+            x = s[i - row]
+        else:
+            x = half + (max(f, 0.0) / constant) ** (1.0 / p)
+        done = False
+        for _ in range(iterations):
+            value, stiff = _roller_point(cosines, half, constant, x)
+            if abs(value - f) <= 1e-12 * max(f, 1e-300):
+                done = True
                 break
-        if done:
-            return True
-        for i in range(n):
-            if force[i] > 0:
-                k = stiff[i] if stiff[i] > 0 else np.inf
-                s[i] = s[i] - (value[i] - force[i]) / k
+            if f > 0:
+                k = stiff if stiff > 0 else np.inf
+                x = x - (value - f) / k
             else:
-                s[i] = half
-    return False
+                x = half
+        s[i] = x
+        converged = converged and done
+    return converged
