@@ -392,12 +392,11 @@ def deflection(
     """:func:`cyclomesh.stage.supports.bearing_deflection`'s roller set compiled: the
     displacement s [m] at which the roller set (:func:`roller_law`) carries ``force`` [N]
     ≥ 0 (any shape), by the reference's Newton iteration from its start, each element
-    stepped until its own residual passes the reference's test (|B(s) − F| ≤ 1e-12·F), or
-    ``iterations`` steps, after which the reference too returns where it is. The
-    reference steps every element until all have passed (its whole-array test): an element
-    that passed earlier moves on by less than its test's 1e-12·F, a start of the stage's
-    Newton iteration that differs only at that level (the solution is the same to
-    round-off). With a leading axis of crank angles (``force`` of two or more axes) an
+    stepped until its own residual passes the reference's test (|B(s) − F| ≤ 1e-12·F) and
+    then once more from the values at hand (no evaluation: Newton's step from there lands
+    at round-off), or ``iterations`` steps, after which the reference too returns where it
+    is. The reference steps every element until all have passed (its whole-array test),
+    so that most elements end at round-off: the same s to round-off. With a leading axis of crank angles (``force`` of two or more axes) an
     element whose crank angle before carries load starts from that angle's solution
     instead (Newton's method on the convex, increasing B(s) converges from any point where
     a roller is loaded: past the root in one step, then monotonically down onto it; the
@@ -450,6 +449,8 @@ def _deflection_rows(cosines, half, constant, p, force, iterations, row, s):  # 
             value, stiff = _roller_point(cosines, half, constant, x)
             if abs(value - f) <= 1e-12 * max(f, 1e-300):
                 done = True
+                if f > 0 and stiff > 0:  # one more step from the values at hand: round-off
+                    x = x - (value - f) / stiff
                 break
             if f > 0:
                 k = stiff if stiff > 0 else np.inf
