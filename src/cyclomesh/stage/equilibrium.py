@@ -59,7 +59,7 @@ from cyclomesh.stage.friction import (
     pin_slip,
     power_terms,
 )
-from cyclomesh.stage.kernel import compiled
+from cyclomesh.stage.kernel import compiled, disc_sums, disc_turn
 from cyclomesh.stage.kernel_newton import newton as kernel_newton
 from cyclomesh.stage.kernel_newton import rigid_newton as kernel_rigid_newton
 from cyclomesh.stage.newton import (
@@ -606,9 +606,14 @@ def solve_direction(
         _, _, _, st = _evaluate(prob, None, x, D, True, hessian=False)
     F, k_pin = st["pin_force"], st["pin_stiffness"]
     mesh_te = transmission_error(mesh.rest, x[:, 0])
-    rigid = _disc_loads(mesh, prob, F)  # pins on disc
-    moment = -rigid["torque_share"]
-    rfx, rfy = rigid["mesh_force_x"], rigid["mesh_force_y"]
+    weight = None
+    if compiled():  # CYCLOMESH_KERNEL=numba: the sums over the pins in one pass
+        share, rfx, rfy, weight = disc_sums(F, prob.arm, prob.nx, prob.ny, k_pin)
+        moment = -share
+    else:
+        rigid = _disc_loads(mesh, prob, F)  # pins on disc
+        moment = -rigid["torque_share"]
+        rfx, rfy = rigid["mesh_force_x"], rigid["mesh_force_y"]
     if fr is not None:  # the tangential forces T·t on the disc, their moment T·m
         tangential = -pin_slip(prob, F)[0] * F
         rfx = rfx + np.sum(tangential * -prob.ny, -1)
@@ -631,9 +636,12 @@ def solve_direction(
         # turn each disc so that its pins keep (in the least-squares sense, weighted by
         # their stiffness) the approach of the rigid solution despite the translation
         # k_pin: the pins' stiffness at the rigid solution (the rigid evaluate's, u = 0)
-        shift = prob.nx * ux[..., None] + prob.ny * uy[..., None]
-        weight = np.sum(k_pin * prob.arm * prob.arm, -1)
-        turn = -np.sum(k_pin * prob.arm * shift, -1) / np.where(weight > 0, weight, np.inf)
+        if weight is not None:
+            turn = disc_turn(k_pin, prob.arm, prob.nx, prob.ny, ux, uy, weight)
+        else:
+            shift = prob.nx * ux[..., None] + prob.ny * uy[..., None]
+            weight = np.sum(k_pin * prob.arm * prob.arm, -1)
+            turn = -np.sum(k_pin * prob.arm * shift, -1) / np.where(weight > 0, weight, np.inf)
         theta = x[:, 1::3] + turn
         x[:, 0] = np.mean(theta - omega, -1)
         x[:, 1::3] = x[:, [0]] + omega

@@ -223,7 +223,7 @@ def _start_kernels() -> tuple[Any, Any]:
     global _roller_point, _solve3
     _roller_point = jit(_roller_point)
     _solve3 = jit(_solve3)
-    return jit(_split_rows), jit(_deflection_rows)
+    return jit(_split_rows), jit(_deflection_rows), jit(_disc_sum_rows), jit(_turn_rows)
 
 
 def split(
@@ -396,12 +396,12 @@ def deflection(
     then once more from the values at hand (no evaluation: Newton's step from there lands
     at round-off), or ``iterations`` steps, after which the reference too returns where it
     is. The reference steps every element until all have passed (its whole-array test),
-    so that most elements end at round-off: the same s to round-off. With a leading axis of crank angles (``force`` of two or more axes) an
-    element whose crank angle before carries load starts from that angle's solution
-    instead (Newton's method on the convex, increasing B(s) converges from any point where
-    a roller is loaded: past the root in one step, then monotonically down onto it; the
-    neighbouring angle's is close, so that two or three steps reach the test instead of
-    four or five)."""
+    so that most elements end at round-off: the same s to round-off. With a leading axis
+    of crank angles (``force`` of two or more axes) an element whose crank angle before
+    carries load starts from that angle's solution instead (Newton's method on the
+    convex, increasing B(s) converges from any point where a roller is loaded: past the
+    root in one step, then monotonically down onto it; the neighbouring angle's is close,
+    so that two or three steps reach the test instead of four or five)."""
     flat = np.ascontiguousarray(force, dtype=float).reshape(-1)
     s = np.empty(flat.shape)
     _start_kernels()[1](
@@ -460,3 +460,77 @@ def _deflection_rows(cosines, half, constant, p, force, iterations, row, s):  # 
         s[i] = x
         converged = converged and done
     return converged
+
+
+def disc_sums(
+    force: FloatArray, arm: FloatArray, nx: FloatArray, ny: FloatArray, stiffness: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The rigid solution's sums over the pins of every (crank angle, disc) in one pass, as
+    :func:`cyclomesh.stage.equilibrium.solve_direction`'s start forms them with NumPy:
+    the torque share Σ F·l [N·m], the mesh force −Σ F·n [N] (x, y) and the rotational
+    stiffness Σ k·l² [N·m] (:func:`cyclomesh.core.fields.contact_fields`' and the start's
+    arithmetic element by element, the sums taken in order where NumPy's are pairwise).
+    ``force`` [N], ``arm`` [m], ``nx``, ``ny``, ``stiffness`` [N/m]: (A, D, P); each
+    result (A, D)."""
+    A, D = force.shape[:2]
+    out = [np.empty((A, D)) for _ in range(4)]
+    _start_kernels()[2](
+        *(np.ascontiguousarray(v, dtype=float) for v in (force, arm, nx, ny, stiffness)), *out
+    )
+    return out[0], out[1], out[2], out[3]
+
+
+def _disc_sum_rows(force, arm, nx, ny, k, share, fx, fy, weight):  # pragma: no cover
+    """:func:`disc_sums` written for numba."""
+    A, D, P = force.shape
+    for i in range(A):
+        for d in range(D):
+            a = 0.0
+            bx = 0.0
+            by = 0.0
+            w = 0.0
+            for j in range(P):
+                f = force[i, d, j]
+                lj = arm[i, d, j]
+                a += f * lj
+                bx += f * nx[i, d, j]
+                by += f * ny[i, d, j]
+                w += k[i, d, j] * lj * lj
+            share[i, d] = a
+            fx[i, d] = -bx
+            fy[i, d] = -by
+            weight[i, d] = w
+
+
+def disc_turn(
+    stiffness: FloatArray,
+    arm: FloatArray,
+    nx: FloatArray,
+    ny: FloatArray,
+    ux: FloatArray,
+    uy: FloatArray,
+    weight: FloatArray,
+) -> FloatArray:
+    """The start's turn of every disc [rad] (A, D): −Σ k·l·(n·u) / Σ k·l² (0 where the
+    weight is not positive), the least-squares rotation that keeps the pins' approach of
+    the rigid solution despite the translation u [m] (A, D), in one pass (the NumPy
+    start's arithmetic element by element, the sum in order)."""
+    turn = np.empty(weight.shape)
+    _start_kernels()[3](
+        *(np.ascontiguousarray(v, dtype=float) for v in (stiffness, arm, nx, ny, ux, uy)),
+        np.ascontiguousarray(weight, dtype=float),
+        turn,
+    )
+    return turn
+
+
+def _turn_rows(k, arm, nx, ny, ux, uy, weight, turn):  # pragma: no cover (compiled)
+    """:func:`disc_turn` written for numba."""
+    A, D, P = k.shape
+    for i in range(A):
+        for d in range(D):
+            t = 0.0
+            for j in range(P):
+                t += k[i, d, j] * arm[i, d, j] * (nx[i, d, j] * ux[i, d] + ny[i, d, j] * uy[i, d])
+            w = weight[i, d]
+            turn[i, d] = -t / (w if w > 0 else np.inf)

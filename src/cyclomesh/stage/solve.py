@@ -55,6 +55,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Collection
 from dataclasses import dataclass
 
@@ -500,7 +501,10 @@ def solve(
         }
     else:  # one ring: its arrays as they are (a stack of one is a copy)
         out = per_ring[0]
-    return _stage(out, phi, torques, stage)
+    result = _stage(out, phi, torques, stage)
+    if outputs is None:
+        return result
+    return dataclasses.replace(result, **{name: None for name in OUTPUTS if name not in outputs})
 
 
 def _stage(
