@@ -59,7 +59,13 @@ from cyclomesh.stage.friction import (
     pin_slip,
     power_terms,
 )
-from cyclomesh.stage.kernel import compiled, disc_sums, disc_turn
+from cyclomesh.stage.kernel import (
+    compiled,
+    disc_sums,
+    disc_turn,
+    flank_arrays,
+    single_rotation,
+)
 from cyclomesh.stage.kernel_newton import newton as kernel_newton
 from cyclomesh.stage.kernel_newton import rigid_newton as kernel_rigid_newton
 from cyclomesh.stage.newton import (
@@ -409,6 +415,23 @@ def _mirrored(arr: FloatArray) -> FloatArray:
     return out[..., mirror_index(out.shape[-1])]
 
 
+def _single_rotation(prob: _Problem, torque: float, n1: int) -> FloatArray:
+    """The rotation [rad] (A,) at which the stiffest pin alone would carry ``torque`` (an
+    upper bound of the rigid stage's root, as in cyclomesh.loadsharing), inf where none
+    can; the loaded flanks (pins 0 … n1 − 1) alone: an opposite flank's arm −l' ≤ 0."""
+    A = prob.bl.shape[0]
+    bl, arm, alpha, gamma = (v[..., :n1] for v in (prob.bl, prob.arm, prob.alpha, prob.gamma))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        ok = np.isfinite(bl) & (arm > 0)
+        f1 = np.where(ok, torque / np.where(ok, arm, 1.0), 1.0)
+        log1 = np.log(f1)
+        # on the stiffening branch of the law only (as cyclomesh.core.loadsharing)
+        ok &= (gamma == 0) | (log1 < alpha / gamma - 1.0)
+        d1 = f1 * (alpha - gamma * log1)
+        single = np.where(ok, bl + d1 / np.where(ok, arm, 1.0), np.inf)
+    return np.min(single.reshape(A, -1), axis=-1)
+
+
 def _problem(
     mesh: StackMesh,
     other: StackMesh,
@@ -435,6 +458,39 @@ def _problem(
     cr, sr = cos[:, None, :], sin[:, None, :]
     ex = errs[0][None] * cr - errs[1][None] * sr
     ey = errs[0][None] * sr + errs[1][None] * cr
+
+    if compiled():  # CYCLOMESH_KERNEL=numba: the pins' arrays in one pass
+        bl, arm, nx, ny, alpha, gamma, dmax = flank_arrays(
+            mesh.backlash.reshape(A, D, n1),
+            geo.moment_arm,
+            mesh.normal_x,
+            mesh.normal_y,
+            mesh.alpha.reshape(A, D, n1),
+            mesh.gamma.reshape(A, D, n1),
+            geo.reverse_rotation,
+            mesh.rest,
+            other.geo.moment_arm,
+            other.normal_x,
+            other.normal_y,
+            other.alpha.reshape(A, D, n1),
+            other.gamma.reshape(A, D, n1),
+            _REACH,
+        )
+        return _Problem(
+            bl=bl,
+            arm=arm,
+            nx=nx,
+            ny=ny,
+            alpha=alpha,
+            gamma=gamma,
+            dmax=dmax,
+            hx=hx,
+            hy=hy,
+            ex=ex,
+            ey=ey,
+            torque=torque,
+            scale=holes.circle_radius,
+        )
 
     # the opposite flanks (pins n1 … 2n1 − 1): the mirror problem's forward flanks
     # (_mirrored, as strided copies into the second half of each array)
@@ -582,16 +638,10 @@ def solve_direction(
     # would carry T (an upper bound of the root, as in cyclomesh.loadsharing)
     x = np.zeros((A, m))
     # (the loaded flanks: an opposite flank's arm −l' ≤ 0 never carries T alone)
-    bl, arm, alpha, gamma = (v[..., :n1] for v in (prob.bl, prob.arm, prob.alpha, prob.gamma))
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        ok = np.isfinite(bl) & (arm > 0)
-        f1 = np.where(ok, torque / np.where(ok, arm, 1.0), 1.0)
-        log1 = np.log(f1)
-        # on the stiffening branch of the law only (as cyclomesh.core.loadsharing)
-        ok &= (gamma == 0) | (log1 < alpha / gamma - 1.0)
-        d1 = f1 * (alpha - gamma * log1)
-        single = np.where(ok, bl + d1 / np.where(ok, arm, 1.0), np.inf)
-    x[:, 0] = np.min(single.reshape(A, -1), axis=-1)
+    if compiled():  # CYCLOMESH_KERNEL=numba: in one pass
+        x[:, 0] = single_rotation(prob.bl, prob.arm, prob.alpha, prob.gamma, torque, n1)
+    else:
+        x[:, 0] = _single_rotation(prob, torque, n1)
     if not np.all(np.isfinite(x[:, 0])):
         bad = int(np.argmin(np.isfinite(x[:, 0])))
         raise ConvergenceError(
