@@ -63,7 +63,6 @@ from cyclomesh.stage.kernel import (
     compiled,
     disc_sums,
     disc_turn,
-    flank_arrays,
     single_rotation,
 )
 from cyclomesh.stage.kernel_newton import newton as kernel_newton
@@ -458,39 +457,6 @@ def _problem(
     cr, sr = cos[:, None, :], sin[:, None, :]
     ex = errs[0][None] * cr - errs[1][None] * sr
     ey = errs[0][None] * sr + errs[1][None] * cr
-
-    if compiled():  # CYCLOMESH_KERNEL=numba: the pins' arrays in one pass
-        bl, arm, nx, ny, alpha, gamma, dmax = flank_arrays(
-            mesh.backlash.reshape(A, D, n1),
-            geo.moment_arm,
-            mesh.normal_x,
-            mesh.normal_y,
-            mesh.alpha.reshape(A, D, n1),
-            mesh.gamma.reshape(A, D, n1),
-            geo.reverse_rotation,
-            mesh.rest,
-            other.geo.moment_arm,
-            other.normal_x,
-            other.normal_y,
-            other.alpha.reshape(A, D, n1),
-            other.gamma.reshape(A, D, n1),
-            _REACH,
-        )
-        return _Problem(
-            bl=bl,
-            arm=arm,
-            nx=nx,
-            ny=ny,
-            alpha=alpha,
-            gamma=gamma,
-            dmax=dmax,
-            hx=hx,
-            hy=hy,
-            ex=ex,
-            ey=ey,
-            torque=torque,
-            scale=holes.circle_radius,
-        )
 
     # the opposite flanks (pins n1 … 2n1 − 1): the mirror problem's forward flanks
     # (_mirrored, as strided copies into the second half of each array)

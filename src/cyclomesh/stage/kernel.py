@@ -228,7 +228,6 @@ def _start_kernels() -> tuple[Any, Any]:
         jit(_deflection_rows),
         jit(_disc_sum_rows),
         jit(_turn_rows),
-        jit(_flank_rows),
         jit(_single_rows),
     )
 
@@ -543,108 +542,6 @@ def _turn_rows(k, arm, nx, ny, ux, uy, weight, turn):  # pragma: no cover (compi
             turn[i, d] = -t / (w if w > 0 else np.inf)
 
 
-def flank_arrays(
-    backlash: FloatArray,
-    arm: FloatArray,
-    nx: FloatArray,
-    ny: FloatArray,
-    alpha: FloatArray,
-    gamma: FloatArray,
-    reverse_rotation: FloatArray,
-    rest: FloatArray,
-    other_arm: FloatArray,
-    other_nx: FloatArray,
-    other_ny: FloatArray,
-    other_alpha: FloatArray,
-    other_gamma: FloatArray,
-    reach: float,
-) -> tuple[FloatArray, ...]:
-    """The pins' arrays of :func:`cyclomesh.stage.equilibrium._problem` in one pass:
-    ``bl``, ``arm``, ``nx``, ``ny``, ``alpha``, ``gamma``, ``dmax``, (A, D, 2·n1) each.
-
-    Pins 0 … n1 − 1 are this mesh's loaded flanks (``backlash`` … ``gamma``, (A, D, n1)
-    each, any strides); pins n1 … 2n1 − 1 the opposite flanks: the mirror problem's
-    (``other_*``, (A, D, n1)) at crank angle A − 1 − a, disc (−d) mod D, pin (−i) mod n1,
-    the arm and ny negated, the contact rotation ``reverse_rotation`` − ``rest`` [rad],
-    and no law (φbl = inf, α = 1, γ = 0, arm −0, n = 0) where one of them is not finite
-    or the arm is negative; ``dmax`` = ``reach``·γ·exp(α/γ − 1) (inf where γ ≤ 0 or it is
-    not finite). The NumPy reference's values element by element (moves, negations and
-    one subtraction), the exponential the C library's (dmax, a bound of a line search's
-    trial, may differ from NumPy's in its last bit)."""
-    A, D, n1 = arm.shape
-    out = [np.empty((A, D, 2 * n1)) for _ in range(7)]
-    _start_kernels()[4](
-        backlash,
-        arm,
-        nx,
-        ny,
-        alpha,
-        gamma,
-        reverse_rotation,
-        np.ascontiguousarray(rest, dtype=float),
-        other_arm,
-        other_nx,
-        other_ny,
-        other_alpha,
-        other_gamma,
-        float(reach),
-        *out,
-    )
-    return tuple(out)
-
-
-def _flank_rows(
-    backlash, arm, nx, ny, alpha, gamma, rrot, rest, oarm, onx, ony, oalpha, ogamma, reach,
-    bl_out, arm_out, nx_out, ny_out, alpha_out, gamma_out, dmax_out,
-):  # pragma: no cover (compiled)  # fmt: skip
-    """:func:`flank_arrays` written for numba."""
-    A, D, n1 = arm.shape
-    for a in range(A):
-        ao = A - 1 - a
-        for d in range(D):
-            do = (D - d) % D
-            for j in range(n1):
-                bl_out[a, d, j] = backlash[a, d, j]
-                arm_out[a, d, j] = arm[a, d, j]
-                nx_out[a, d, j] = nx[a, d, j]
-                ny_out[a, d, j] = ny[a, d, j]
-                alpha_out[a, d, j] = alpha[a, d, j]
-                gamma_out[a, d, j] = gamma[a, d, j]
-                jo = (n1 - j) % n1
-                k = n1 + j
-                blo = rrot[a, d, j] - rest[a]
-                lo = oarm[ao, do, jo]
-                al = oalpha[ao, do, jo]
-                ga = ogamma[ao, do, jo]
-                if (
-                    np.isfinite(blo)
-                    and np.isfinite(lo)
-                    and lo >= 0
-                    and np.isfinite(al)
-                    and np.isfinite(ga)
-                ):
-                    bl_out[a, d, k] = blo
-                    arm_out[a, d, k] = -lo
-                    nx_out[a, d, k] = onx[ao, do, jo]
-                    ny_out[a, d, k] = -ony[ao, do, jo]
-                    alpha_out[a, d, k] = al
-                    gamma_out[a, d, k] = ga
-                else:
-                    bl_out[a, d, k] = np.inf
-                    arm_out[a, d, k] = -0.0
-                    nx_out[a, d, k] = 0.0
-                    ny_out[a, d, k] = 0.0
-                    alpha_out[a, d, k] = 1.0
-                    gamma_out[a, d, k] = 0.0
-            for j in range(2 * n1):
-                g = gamma_out[a, d, j]
-                v = np.inf
-                if g > 0:
-                    v = g * np.exp(alpha_out[a, d, j] / g - 1.0)
-                    v = v * reach if np.isfinite(v) else np.inf
-                dmax_out[a, d, j] = v
-
-
 def single_rotation(
     bl: FloatArray, arm: FloatArray, alpha: FloatArray, gamma: FloatArray, torque: float, pins: int
 ) -> FloatArray:
@@ -655,7 +552,7 @@ def single_rotation(
     where none can). The NumPy start's arithmetic element by element, the logarithm the
     C library's."""
     out = np.empty(bl.shape[0])
-    _start_kernels()[5](bl, arm, alpha, gamma, float(torque), int(pins), out)
+    _start_kernels()[4](bl, arm, alpha, gamma, float(torque), int(pins), out)
     return out
 
 
