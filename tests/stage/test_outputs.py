@@ -64,6 +64,23 @@ def test_each_output_asked_for_is_the_full_solves(monkeypatch, name, seed):
                 _same(got, getattr(full, field), field)
 
 
+@pytest.mark.parametrize("name", _kernels())
+def test_outputs_at_some_torques_only(monkeypatch, name):
+    """``only_at``: the contact stress at the rated torque alone (a tolerance ring's), the
+    full solve's there bit for bit and NaN at ∓3 %; the other outputs at every torque."""
+    monkeypatch.setenv(kernel.ENV_VAR, name)
+    errors, stage = _hard_stage(0)
+    case, model = Case(RV40, MOD, errors, TORQUES, PHI), Model(discs=2, stage=stage)
+    full = solve(case, model, outputs=STAGE_OUTPUTS)
+    part = solve(case, model, outputs=STAGE_OUTPUTS, only_at={"contact_stress": [0]})
+    _same(part.contact_stress[0], full.contact_stress[0], "contact_stress")
+    assert np.all(np.isnan(part.contact_stress[1:]))
+    _same(part.transmission_error, full.transmission_error, "transmission_error")
+    _same(part.bearing_load, full.bearing_load, "bearing_load")
+    with pytest.raises(ValueError, match="not asked for"):
+        solve(case, model, outputs=STAGE_OUTPUTS, only_at={"pin_load": [0]})
+
+
 def test_unknown_outputs_are_refused():
     errors, stage = _hard_stage(0)
     with pytest.raises(ValueError, match="unknown outputs"):

@@ -56,7 +56,7 @@ References
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Collection
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -357,6 +357,7 @@ def solve(
     positions: bool = True,
     outputs: Collection[str] | None = None,
     meshes: tuple[StackMesh, StackMesh] | None = None,
+    only_at: Mapping[str, Collection[int]] | None = None,
 ) -> Stage:
     """:func:`solve_stage` of a :class:`~cyclomesh.core.case.Case` and a
     :class:`~cyclomesh.core.case.Model` whose ``stage`` is a :class:`StageDesign`.
@@ -390,12 +391,25 @@ def solve(
     of ``case`` (:func:`~cyclomesh.drive.mesh.stack_meshes` with both directions and, with
     the compliant disc, the tooth of every pin), formed by the caller (a tolerance study
     forms them once for a batch of rings and for the mesh-alone solve too); None: formed
-    here.
+    here. ``only_at``: outputs (of ``outputs``, float ones) wanted at some torques only,
+    name → indices into the torques; NaN at the others (a tolerance ring reads the contact
+    stress at the torque, not at ∓3 % of it).
     """
     stage = model.stage
     if not isinstance(stage, StageDesign):
         raise DesignError("stage: the model has no StageDesign (Model(stage=...))")
     fields = _fields(outputs)
+    at = {} if only_at is None else {name: set(only_at[name]) for name in only_at}
+    if set(at) - (set(OUTPUTS) if outputs is None else set(outputs)):
+        raise ValueError(f"stage solve: only_at names outputs not asked for: {sorted(at)}")
+
+    def fields_at(q: int) -> frozenset[str] | None:
+        """The fields of torque q."""
+        if not at:
+            return fields
+        left = [name for name in (OUTPUTS if outputs is None else outputs)]
+        return _fields([name for name in left if q in at.get(name, (q,))])
+
     c = check(case, model)
     body = c.body
     if body is not None and not isinstance(body, FreeDiscBody):
@@ -450,7 +464,7 @@ def solve(
         f_ring, r_ring = ring_mesh(fwd, ring), ring_mesh(rev, ring)
         caches: tuple[dict, dict] = ({}, {})  # each direction's torque-free arrays
         where = f"ring {np.ravel_multi_index(ring, ring_shape)}, " if ring_shape else ""
-        for value in torques:
+        for q, value in enumerate(torques):
             try:
                 if value > 0:
                     out = solve_direction(
@@ -466,7 +480,7 @@ def solve(
                         loading,
                         positions,
                         caches[0],
-                        fields,
+                        fields_at(q),
                     )
                 else:
                     out = _reverse(
@@ -483,7 +497,7 @@ def solve(
                             -loading,
                             positions,
                             caches[1],
-                            fields,
+                            fields_at(q),
                         )
                     )
             except ConvergenceError as exc:
@@ -491,7 +505,7 @@ def solve(
                     f"{where}torque {value:g} N·m: {exc}{_hint(stage)}"
                 ) from None
             results.append(out)
-        per_ring.append({name: np.stack([r[name] for r in results]) for name in results[0]})
+        per_ring.append(_by_torque(results))
     if ring_shape:
         out = {
             name: np.stack([r[name] for r in per_ring]).reshape(
@@ -505,6 +519,18 @@ def solve(
     if outputs is None:
         return result
     return dataclasses.replace(result, **{name: None for name in OUTPUTS if name not in outputs})
+
+
+def _by_torque(results: list[dict[str, FloatArray]]) -> dict[str, FloatArray]:
+    """The fields of every torque stacked (a leading torque axis); NaN at the torques
+    where a field was not asked for (``only_at``)."""
+    out = {}
+    for name in dict.fromkeys(name for r in results for name in r):
+        like = next(r[name] for r in results if name in r)
+        out[name] = np.stack(
+            [r[name] if name in r else np.full(like.shape, np.nan) for r in results]
+        )
+    return out
 
 
 def _stage(
