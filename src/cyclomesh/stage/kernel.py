@@ -248,7 +248,10 @@ def split(
     element by element (its start, step and test for each (crank angle, disc) on its own,
     as its active set does) except the 3 × 3 solve by Gaussian elimination with partial
     pivoting (LAPACK's dgesv unblocked) and the powers, s^p formed as s·s^(p−1) from the
-    C library's pow (one power a bearing and step, as the roller law's)."""
+    C library's pow (one power a bearing and step, as the roller law's); and each disc
+    starts from its solution at the crank angle before where there is one (the loads turn
+    little from one angle to the next: fewer steps to the same test), from the reference's
+    start where that does not pass the test within :data:`_WARM_STEPS` steps."""
     A, D = mesh_fx.shape
     fx, fy = np.zeros((A, D, hx.shape[-1])), np.zeros((A, D, hx.shape[-1]))
     ok = _start_kernels()[0](
@@ -281,6 +284,8 @@ def _split_rows(hx, hy, mfx, mfy, moment, L, p, iterations, fx, fy):  # pragma: 
     g = np.zeros(3)
     y = np.zeros(3)
     step = np.zeros(3)
+    previous = np.zeros((D, 3))  # each disc's solution at the crank angle before
+    warm = np.zeros(D, np.bool_)
     for i in range(A):
         for k in range(N):
             jx[k] = -hy[i, k]
@@ -292,67 +297,87 @@ def _split_rows(hx, hy, mfx, mfy, moment, L, p, iterations, fx, fy):  # pragma: 
         for d in range(D):
             t0, t1, t2 = moment[i, d] / L, mfx[i, d], mfy[i, d]
             if t0 == 0.0 and t1 == 0.0 and t2 == 0.0:
+                warm[d] = False
                 continue  # carries nothing: B = 0 exactly
-            # start: the linear (least-norm) split, its magnitude through the power law
-            a0 = 0.0
-            a1 = 0.0
-            a2 = 0.0
-            for k in range(N):
-                lin_x = mfx[i, d] / N + moment[i, d] * jx[k] / (N * L * L)
-                lin_y = mfy[i, d] / N + moment[i, d] * jy[k] / (N * L * L)
-                mag = np.hypot(lin_x, lin_y)
-                s0 = mag ** (1.0 / p)
-                dx0 = lin_x / mag * s0 if mag > 0 else 0.0
-                dy0 = lin_y / mag * s0 if mag > 0 else 0.0
-                a0 += dx0 * jx[k] + dy0 * jy[k]
-                a1 += dx0
-                a2 += dy0
-            y[0], y[1], y[2] = a0 / (N * L), a1 / N, a2 / N
             scale = max(max(abs(t0), max(abs(t1), abs(t2))), 1e-300)
             done = False
-            for _ in range(iterations):
-                for k in range(N):
-                    dx[k] = y[1] + y[0] * jx[k] / L
-                    dy[k] = y[2] + y[0] * jy[k] / L
-                    s = np.hypot(dx[k], dy[k])
-                    root = s ** (p - 1.0)  # one power: s^p = s·s^(p−1)
-                    B[k] = s * root
-                    kb[k] = p * root
-                    if s > 0:
-                        cx[k], cy[k], sec[k] = dx[k] / s, dy[k] / s, B[k] / s
-                    else:
-                        cx[k], cy[k], sec[k] = 1.0, 0.0, 0.0
-                    fx[i, d, k] = B[k] * cx[k]
-                    fy[i, d, k] = B[k] * cy[k]
-                small = True
-                for r in range(3):
-                    acc = 0.0
+            for attempt in range(2):
+                if attempt == 0:  # from the crank angle before, in a few steps
+                    if not warm[d]:
+                        continue
+                    for r in range(3):
+                        y[r] = previous[d, r]
+                    cap = _WARM_STEPS
+                else:
+                    # the linear (least-norm) split, its magnitude through the power law
+                    a0 = 0.0
+                    a1 = 0.0
+                    a2 = 0.0
                     for k in range(N):
-                        acc += B[k] * cx[k] * vx[r, k] + B[k] * cy[k] * vy[r, k]
-                    g[r] = acc - (t0 if r == 0 else (t1 if r == 1 else t2))
-                    if not (abs(g[r]) <= 1e-13 * scale):
-                        small = False
-                if small:
-                    done = True
-                    break
-                for r in range(3):
-                    for c in range(3):
+                        lin_x = mfx[i, d] / N + moment[i, d] * jx[k] / (N * L * L)
+                        lin_y = mfy[i, d] / N + moment[i, d] * jy[k] / (N * L * L)
+                        mag = np.hypot(lin_x, lin_y)
+                        s0 = mag ** (1.0 / p)
+                        dx0 = lin_x / mag * s0 if mag > 0 else 0.0
+                        dy0 = lin_y / mag * s0 if mag > 0 else 0.0
+                        a0 += dx0 * jx[k] + dy0 * jy[k]
+                        a1 += dx0
+                        a2 += dy0
+                    y[0], y[1], y[2] = a0 / (N * L), a1 / N, a2 / N
+                    cap = iterations
+                for _ in range(cap):
+                    for k in range(N):
+                        dx[k] = y[1] + y[0] * jx[k] / L
+                        dy[k] = y[2] + y[0] * jy[k] / L
+                        s = np.hypot(dx[k], dy[k])
+                        root = s ** (p - 1.0)  # one power: s^p = s·s^(p−1)
+                        B[k] = s * root
+                        kb[k] = p * root
+                        if s > 0:
+                            cx[k], cy[k], sec[k] = dx[k] / s, dy[k] / s, B[k] / s
+                        else:
+                            cx[k], cy[k], sec[k] = 1.0, 0.0, 0.0
+                        fx[i, d, k] = B[k] * cx[k]
+                        fy[i, d, k] = B[k] * cy[k]
+                    small = True
+                    for r in range(3):
                         acc = 0.0
                         for k in range(N):
-                            kxx = kb[k] * cx[k] * cx[k] + sec[k] * cy[k] * cy[k]
-                            kyy = kb[k] * cy[k] * cy[k] + sec[k] * cx[k] * cx[k]
-                            kxy = (kb[k] - sec[k]) * cx[k] * cy[k]
-                            acc += (kxx * vx[r, k] + kxy * vy[r, k]) * vx[c, k] + (
-                                kxy * vx[r, k] + kyy * vy[r, k]
-                            ) * vy[c, k]
-                        H[r, c] = acc
-                if not _solve3(H, g, step):
-                    return False
-                for r in range(3):
-                    y[r] = y[r] - step[r]
+                            acc += B[k] * cx[k] * vx[r, k] + B[k] * cy[k] * vy[r, k]
+                        g[r] = acc - (t0 if r == 0 else (t1 if r == 1 else t2))
+                        if not (abs(g[r]) <= 1e-13 * scale):
+                            small = False
+                    if small:
+                        done = True
+                        break
+                    for r in range(3):
+                        for c in range(3):
+                            acc = 0.0
+                            for k in range(N):
+                                kxx = kb[k] * cx[k] * cx[k] + sec[k] * cy[k] * cy[k]
+                                kyy = kb[k] * cy[k] * cy[k] + sec[k] * cx[k] * cx[k]
+                                kxy = (kb[k] - sec[k]) * cx[k] * cy[k]
+                                acc += (kxx * vx[r, k] + kxy * vy[r, k]) * vx[c, k] + (
+                                    kxy * vx[r, k] + kyy * vy[r, k]
+                                ) * vy[c, k]
+                            H[r, c] = acc
+                    if not _solve3(H, g, step):
+                        break
+                    for r in range(3):
+                        y[r] = y[r] - step[r]
+                if done:
+                    break
             if not done:
                 return False
+            for r in range(3):
+                previous[d, r] = y[r]
+            warm[d] = True
     return True
+
+
+_WARM_STEPS = 12
+"""Newton steps of :func:`_split_rows` from the crank angle before, after which it starts
+again from the linear split (its own start, with all its steps)."""
 
 
 def _solve3(H, g, out):  # pragma: no cover (compiled)
