@@ -23,6 +23,12 @@ on it (:func:`cyclomesh.drive.solve.solve_drive`; one disc is bit for bit
 :func:`cyclomesh.core.ltca.solve_ltca`), so the pin errors change the split of the torque
 between the discs (``min_torque_share_nm``, ``max_torque_share_nm``) and the mesh force
 of each disc (``max_mesh_force_n``).
+
+The RV stage (:meth:`RingModel.stage_metrics`): a batch's rings are solved one after the
+other, each ring's unloaded meshes (both flanks) formed once for its mesh-alone metrics
+and its three stage solves, which compute only what the metrics read
+(:func:`cyclomesh.stage.solve.solve` ``outputs`` and ``only_at``; the same bits as the
+full solve of ``cyclomesh run``).
 """
 
 from __future__ import annotations
