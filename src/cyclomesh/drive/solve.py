@@ -322,12 +322,19 @@ def solve_drive(
 
 
 def drive(
-    case: Case, model: Model, backdrive: bool = False, without: Collection[str] = ()
+    case: Case,
+    model: Model,
+    backdrive: bool = False,
+    without: Collection[str] = (),
+    meshes: tuple[StackMesh | None, StackMesh | None] | None = None,
 ) -> Drive:
     """:func:`solve_drive` of a :class:`~cyclomesh.core.case.Case` and a
     :class:`~cyclomesh.core.case.Model` (the mesh alone: ``model.stage`` is not read);
     ``backdrive``: the sense of the motion with ``model.friction``; ``without``: fields
-    left out (:func:`solve_drive`)."""
+    left out (:func:`solve_drive`). ``meshes``: the unloaded forward and mirror meshes of
+    the case and model (:func:`~cyclomesh.drive.mesh.stack_meshes`, with the flank normals
+    of every contact; the directions its torques load), formed by the caller (a tolerance
+    study with the RV stage shares them with the stage's solves); None: formed here."""
     without = frozenset(without)
     if not without <= OPTIONAL:
         raise ValueError(
@@ -336,26 +343,30 @@ def drive(
         )
     c = check(case, model)
     design, phi, torques = c.design, c.phi, c.torques
-    fwd, rev = stack_meshes(
-        design,
-        c.modification,
-        c.errors,
-        phi,
-        c.discs,
-        c.groove_deformation,
-        bool(np.any(torques > 0)),
-        bool(np.any(torques < 0)),
-        c.contact_law,
-        c.body,
-        "force_angle" not in without,
-        # the NumPy reference's normals cost a tenth of its contact: without the force
-        # angles (and friction, which reads every pin's) only the loaded pins' are taken
-        not (
-            "force_angle" in without
-            and c.friction is None
-            and c.modification.profile is None
-            and kernel_name() == "numpy"
-        ),
+    fwd, rev = (
+        meshes
+        if meshes is not None
+        else stack_meshes(
+            design,
+            c.modification,
+            c.errors,
+            phi,
+            c.discs,
+            c.groove_deformation,
+            bool(np.any(torques > 0)),
+            bool(np.any(torques < 0)),
+            c.contact_law,
+            c.body,
+            "force_angle" not in without,
+            # the NumPy reference's normals cost a tenth of its contact: without the force
+            # angles (and friction, which reads every pin's) only the loaded pins' are taken
+            not (
+                "force_angle" in without
+                and c.friction is None
+                and c.modification.profile is None
+                and kernel_name() == "numpy"
+            ),
+        )
     )
     if fwd is not None:
         play = fwd.rest - fwd.reverse_rest

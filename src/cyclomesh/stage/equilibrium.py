@@ -25,11 +25,12 @@ import dataclasses
 import numpy as np
 from numpy.typing import NDArray
 
+from cyclomesh.core.contact import UnloadedContact
 from cyclomesh.core.discbody import FREE_HELD, FreeDiscBody
-from cyclomesh.core.fields import contact_fields
+from cyclomesh.core.fields import contact_fields, contact_stresses
 from cyclomesh.core.friction import Friction
 from cyclomesh.core.lubrication import Film
-from cyclomesh.core.pair import CrankHoles
+from cyclomesh.core.pair import CrankHoles, PairDesign
 from cyclomesh.core.transmission import transmission_error
 from cyclomesh.drive.solve import (
     StackMesh,
@@ -58,7 +59,12 @@ from cyclomesh.stage.friction import (
     pin_slip,
     power_terms,
 )
-from cyclomesh.stage.kernel import compiled
+from cyclomesh.stage.kernel import (
+    compiled,
+    disc_sums,
+    disc_turn,
+    single_rotation,
+)
 from cyclomesh.stage.kernel_newton import newton as kernel_newton
 from cyclomesh.stage.kernel_newton import rigid_newton as kernel_rigid_newton
 from cyclomesh.stage.newton import (
@@ -408,6 +414,23 @@ def _mirrored(arr: FloatArray) -> FloatArray:
     return out[..., mirror_index(out.shape[-1])]
 
 
+def _single_rotation(prob: _Problem, torque: float, n1: int) -> FloatArray:
+    """The rotation [rad] (A,) at which the stiffest pin alone would carry ``torque`` (an
+    upper bound of the rigid stage's root, as in cyclomesh.loadsharing), inf where none
+    can; the loaded flanks (pins 0 … n1 − 1) alone: an opposite flank's arm −l' ≤ 0."""
+    A = prob.bl.shape[0]
+    bl, arm, alpha, gamma = (v[..., :n1] for v in (prob.bl, prob.arm, prob.alpha, prob.gamma))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        ok = np.isfinite(bl) & (arm > 0)
+        f1 = np.where(ok, torque / np.where(ok, arm, 1.0), 1.0)
+        log1 = np.log(f1)
+        # on the stiffening branch of the law only (as cyclomesh.core.loadsharing)
+        ok &= (gamma == 0) | (log1 < alpha / gamma - 1.0)
+        d1 = f1 * (alpha - gamma * log1)
+        single = np.where(ok, bl + d1 / np.where(ok, arm, 1.0), np.inf)
+    return np.min(single.reshape(A, -1), axis=-1)
+
+
 def _problem(
     mesh: StackMesh,
     other: StackMesh,
@@ -428,39 +451,64 @@ def _problem(
     A, D, n1 = geo.rotation.shape
     phi_t = -mesh.phi / design.teeth
     ang = holes.angles[None, :] + phi_t[:, None]  # (A, N)
-    hx, hy = holes.circle_radius * np.cos(ang), holes.circle_radius * np.sin(ang)
+    cos, sin = np.cos(ang), np.sin(ang)
+    hx, hy = holes.circle_radius * cos, holes.circle_radius * sin
     # hole errors (radial, tangential) of the disc frame → fixed frame
-    cr, sr = np.cos(ang)[:, None, :], np.sin(ang)[:, None, :]
+    cr, sr = cos[:, None, :], sin[:, None, :]
     ex = errs[0][None] * cr - errs[1][None] * sr
     ey = errs[0][None] * sr + errs[1][None] * cr
-    alpha = mesh.alpha.reshape(A, D, n1)
-    gamma = mesh.gamma.reshape(A, D, n1)
-    # the opposite flanks
-    arm_o = _mirrored(other.geo.moment_arm)
-    alpha_o = _mirrored(other.alpha.reshape(A, D, n1))
-    gamma_o = _mirrored(other.gamma.reshape(A, D, n1))
+
+    # the opposite flanks (pins n1 … 2n1 − 1): the mirror problem's forward flanks
+    # (_mirrored, as strided copies into the second half of each array)
+    def flanks(this: FloatArray, that: FloatArray | None = None) -> FloatArray:
+        out = np.empty((A, D, 2 * n1))
+        out[..., :n1] = this
+        if that is not None:
+            _mirror_into(out[..., n1:], that)
+        return out
+
+    arm = flanks(geo.moment_arm, other.geo.moment_arm)
+    alpha = flanks(mesh.alpha.reshape(A, D, n1), other.alpha.reshape(A, D, n1))
+    gamma = flanks(mesh.gamma.reshape(A, D, n1), other.gamma.reshape(A, D, n1))
+    bl = flanks(mesh.backlash.reshape(A, D, n1))
+    arm_o, alpha_o, gamma_o, bl_o = (v[..., n1:] for v in (arm, alpha, gamma, bl))
     with np.errstate(invalid="ignore"):
-        bl_o = geo.reverse_rotation - mesh.rest[:, None, None]
-    usable_o = (
-        np.isfinite(bl_o)
-        & np.isfinite(arm_o)
-        & (arm_o >= 0)
-        & np.isfinite(alpha_o)
-        & np.isfinite(gamma_o)
-    )
-    bl = np.concatenate([mesh.backlash.reshape(A, D, n1), np.where(usable_o, bl_o, np.inf)], -1)
-    alpha = np.concatenate([alpha, np.where(usable_o, alpha_o, 1.0)], -1)
-    gamma = np.concatenate([gamma, np.where(usable_o, gamma_o, 0.0)], -1)
+        np.subtract(geo.reverse_rotation, mesh.rest[:, None, None], out=bl_o)
+    usable_o = np.isfinite(bl_o)
+    usable_o &= np.isfinite(arm_o)
+    usable_o &= arm_o >= 0
+    usable_o &= np.isfinite(alpha_o)
+    usable_o &= np.isfinite(gamma_o)
+    unusable = ~usable_o
+    np.copyto(bl_o, np.inf, where=unusable)
+    np.negative(arm_o, out=arm_o)
+    np.copyto(arm_o, -0.0, where=unusable)  # −np.where(usable, l', 0.0)
+    np.copyto(alpha_o, 1.0, where=unusable)
+    np.copyto(gamma_o, 0.0, where=unusable)
+    nx = flanks(mesh.normal_x, other.normal_x)
+    np.copyto(nx[..., n1:], 0.0, where=unusable)
+    ny = flanks(mesh.normal_y, other.normal_y)
+    np.negative(ny[..., n1:], out=ny[..., n1:])
+    np.copyto(ny[..., n1:], 0.0, where=unusable)
+    # the largest approach of a trial, _REACH of the law's stiffest point γ·exp(α/γ − 1)
+    # (inf without one), in place: the same operations in the same order
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        dmax = np.where(gamma > 0, gamma * np.exp(alpha / gamma - 1.0), np.inf)
+        dmax = np.divide(alpha, gamma)
+        dmax -= 1.0
+        np.exp(dmax, out=dmax)
+        np.multiply(gamma, dmax, out=dmax)
+        finite = gamma > 0
+        finite &= np.isfinite(dmax)
+        dmax *= _REACH
+    np.copyto(dmax, np.inf, where=~finite)
     return _Problem(
         bl=bl,
-        arm=np.concatenate([geo.moment_arm, -np.where(usable_o, arm_o, 0.0)], -1),
-        nx=np.concatenate([mesh.normal_x, np.where(usable_o, _mirrored(other.normal_x), 0)], -1),
-        ny=np.concatenate([mesh.normal_y, np.where(usable_o, -_mirrored(other.normal_y), 0)], -1),
+        arm=arm,
+        nx=nx,
+        ny=ny,
         alpha=alpha,
         gamma=gamma,
-        dmax=np.where(np.isfinite(dmax), dmax * _REACH, np.inf),
+        dmax=dmax,
         hx=hx,
         hy=hy,
         ex=ex,
@@ -468,6 +516,17 @@ def _problem(
         torque=torque,
         scale=holes.circle_radius,
     )
+
+
+def _mirror_into(out: FloatArray, arr: FloatArray) -> None:
+    """``out[...] = _mirrored(arr)`` for (A, D, n1) arrays, by strided copies: the crank
+    angles reversed, disc d ← disc (−d) mod D, pin 0 ← pin 0 and pin i ← pin n1 − i."""
+    rev = arr[::-1]
+    D = arr.shape[1]
+    for d in range(D):
+        src = rev[:, (-d) % D]
+        out[:, d, 0] = src[:, 0]
+        out[:, d, 1:] = src[:, :0:-1]
 
 
 def solve_direction(
@@ -483,6 +542,7 @@ def solve_direction(
     loading: float = 0.0,
     positions: bool = True,
     cache: dict | None = None,
+    fields: frozenset[str] | None = None,
 ) -> dict[str, FloatArray]:
     """Stage under a positive torque in the mesh's frame (``other``: the mirror problem).
 
@@ -500,9 +560,15 @@ def solve_direction(
     ``cache``: a dict kept by a caller that solves this direction (the same ``mesh``,
     ``other``, ``stage``, ``errs`` and ``supports``) at several torques: the problem's
     arrays and the bearings' Jacobian, which do not depend on the torque, are formed once
-    (the same arrays, so the same numbers).
+    (the same arrays, so the same numbers). ``fields``: the names of the returned dict
+    wanted (None: all); the others are not computed, and each of them is the same, bit for
+    bit, whatever else is asked (:func:`cyclomesh.stage.solve.solve` ``outputs``).
     """
     D, n1 = mesh.geo.rotation.shape[-2:]
+
+    def want(name: str) -> bool:
+        return fields is None or name in fields
+
     if cache is not None and "problem" in cache:  # the torque's arrays are the same
         prob = dataclasses.replace(cache["problem"], torque=torque)
     else:
@@ -537,15 +603,11 @@ def solve_direction(
     # rigid stage (θ_d = c, u = 0) from the rotation at which the stiffest pin alone
     # would carry T (an upper bound of the root, as in cyclomesh.loadsharing)
     x = np.zeros((A, m))
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        ok = np.isfinite(prob.bl) & (prob.arm > 0)
-        f1 = np.where(ok, torque / np.where(ok, prob.arm, 1.0), 1.0)
-        log1 = np.log(f1)
-        # on the stiffening branch of the law only (as cyclomesh.core.loadsharing)
-        ok &= (prob.gamma == 0) | (log1 < prob.alpha / prob.gamma - 1.0)
-        d1 = f1 * (prob.alpha - prob.gamma * log1)
-        single = np.where(ok, prob.bl + d1 / np.where(ok, prob.arm, 1.0), np.inf)
-    x[:, 0] = np.min(single.reshape(A, -1), axis=-1)
+    # (the loaded flanks: an opposite flank's arm −l' ≤ 0 never carries T alone)
+    if compiled():  # CYCLOMESH_KERNEL=numba: in one pass
+        x[:, 0] = single_rotation(prob.bl, prob.arm, prob.alpha, prob.gamma, torque, n1)
+    else:
+        x[:, 0] = _single_rotation(prob, torque, n1)
     if not np.all(np.isfinite(x[:, 0])):
         bad = int(np.argmin(np.isfinite(x[:, 0])))
         raise ConvergenceError(
@@ -560,9 +622,14 @@ def solve_direction(
         _, _, _, st = _evaluate(prob, None, x, D, True, hessian=False)
     F, k_pin = st["pin_force"], st["pin_stiffness"]
     mesh_te = transmission_error(mesh.rest, x[:, 0])
-    rigid = _disc_loads(mesh, prob, F)  # pins on disc
-    moment = -rigid["torque_share"]
-    rfx, rfy = rigid["mesh_force_x"], rigid["mesh_force_y"]
+    weight = None
+    if compiled():  # CYCLOMESH_KERNEL=numba: the sums over the pins in one pass
+        share, rfx, rfy, weight = disc_sums(F, prob.arm, prob.nx, prob.ny, k_pin)
+        moment = -share
+    else:
+        rigid = _disc_loads(mesh, prob, F)  # pins on disc
+        moment = -rigid["torque_share"]
+        rfx, rfy = rigid["mesh_force_x"], rigid["mesh_force_y"]
     if fr is not None:  # the tangential forces T·t on the disc, their moment T·m
         tangential = -pin_slip(prob, F)[0] * F
         rfx = rfx + np.sum(tangential * -prob.ny, -1)
@@ -585,9 +652,12 @@ def solve_direction(
         # turn each disc so that its pins keep (in the least-squares sense, weighted by
         # their stiffness) the approach of the rigid solution despite the translation
         # k_pin: the pins' stiffness at the rigid solution (the rigid evaluate's, u = 0)
-        shift = prob.nx * ux[..., None] + prob.ny * uy[..., None]
-        weight = np.sum(k_pin * prob.arm * prob.arm, -1)
-        turn = -np.sum(k_pin * prob.arm * shift, -1) / np.where(weight > 0, weight, np.inf)
+        if weight is not None:
+            turn = disc_turn(k_pin, prob.arm, prob.nx, prob.ny, ux, uy, weight)
+        else:
+            shift = prob.nx * ux[..., None] + prob.ny * uy[..., None]
+            weight = np.sum(k_pin * prob.arm * prob.arm, -1)
+            turn = -np.sum(k_pin * prob.arm * shift, -1) / np.where(weight > 0, weight, np.inf)
         theta = x[:, 1::3] + turn
         x[:, 0] = np.mean(theta - omega, -1)
         x[:, 1::3] = x[:, [0]] + omega
@@ -631,9 +701,9 @@ def solve_direction(
         if fr is not None:
             q, _ = friction_terms(prob, x, D, False, st, law, False)
             g = g - q
-        residual = np.max(np.abs(g), axis=-1)
-        work = _work(prob, stage, x, D, st)
-        if fr is not None:
+        residual = np.max(np.abs(g), axis=-1) if want("residual") else None
+        work = _work(prob, stage, x, D, st) if any(want(n) for n in _WORK) else {}
+        if fr is not None and want("work_friction"):
             work["work_friction"] = _friction_work(prob, x, q, D)
         if body is None:  # a disc that carries nothing: no load, its canonical position
             idle = floating_discs(F, np.hypot(bfx, bfy), FLOATING_LOAD * abs(torque) / prob.scale)
@@ -641,7 +711,7 @@ def solve_direction(
                 F = np.where(idle[..., None], 0.0, F)
                 bfx = np.where(idle[..., None], 0.0, bfx)
                 bfy = np.where(idle[..., None], 0.0, bfy)
-            if positions:
+            if positions and any(want(name) for name in _POSITIONS):
                 x, idle_deflection = canonical_positions(
                     prob, x, D, idle, 0.5 * stage.bearing.clearance
                 )
@@ -659,48 +729,100 @@ def solve_direction(
         residual = np.max(np.abs(g @ reducer(D)), -1)
         st = {"pin_force": F, "bearing_fx": bfx, "bearing_fy": bfy}
     c, theta, ux, uy = _unpack(x, D)
-    loaded = contact_fields(
-        ("groove_load", "contact_stress", "groove_stress", "contacts"),
-        mesh.design,
-        mesh.geo,
-        F[..., :n1],
-        stack_axes=2,  # per disc, against the stack
-    )
-    disc = _disc_loads(mesh, prob, F)
-    rollers = (
-        np.max(roller_loads(stage.bearing, sb), axis=-1)
-        if stage.bearing is not None
-        else np.full(deflection.shape, np.nan)
-    )
-    extra = {}
-    if fr is not None and motion != 0.0:
+    out: dict[str, FloatArray] = {}
+    if fr is not None and motion != 0.0 and any(want(name) for name in _FRICTION):
         if prob.lubrication is not None:  # the coefficients of the returned loads
             fr = {**fr, **lubricated_state(prob, F)}
-        extra = _friction_fields(prob, mesh, fr, st, motion, friction.speed, n1)
-    return {
-        **extra,
-        "pin_load": F[..., :n1],
-        "opposite_pin_load": F[..., n1:],
-        "groove_load": loaded["groove_load"],
-        "contact_stress": loaded["contact_stress"],
-        "groove_stress": loaded["groove_stress"],
-        "contacts": loaded["contacts"],
-        "torque_share": disc["torque_share"],
-        "mesh_fx": disc["mesh_force_x"],
-        "mesh_fy": disc["mesh_force_y"],
-        "bearing_fx": bfx,
-        "bearing_fy": bfy,
-        "bearing_deflection": deflection,
-        "max_roller_load": rollers,
-        "disc_translation_x": ux,
-        "disc_translation_y": uy,
-        "disc_te": transmission_error(mesh.rest[:, None], theta),
-        "carrier_te": transmission_error(mesh.rest, c),
-        "twist": c,
-        "mesh_te": mesh_te,
-        "residual": residual,
-        **work,
+        out.update(_friction_fields(prob, mesh, fr, st, motion, friction.speed, n1))
+    loaded = [n for n in ("groove_load", "contact_stress", "groove_stress", "contacts") if want(n)]
+    if fields is not None and loaded == ["contact_stress"]:  # the loaded pins' alone
+        if cache is None or "geometry" not in cache:  # the stresses' geometry, flat
+            geometry = [
+                np.ascontiguousarray(np.broadcast_to(getattr(mesh.geo, name), (A, D, n1)))
+                for name in ("pin_radius", "curvature_radius", "cos_beta")
+            ]
+            if cache is not None:
+                cache["geometry"] = geometry
+        else:
+            geometry = cache["geometry"]
+        out["contact_stress"] = _contact_stress(mesh.design, geometry, F[..., :n1])
+    elif loaded:
+        out.update(
+            contact_fields(loaded, mesh.design, mesh.geo, F[..., :n1], stack_axes=2)
+        )  # per disc, against the stack
+    if want("torque_share") or want("mesh_fx") or want("mesh_fy"):
+        disc = _disc_loads(mesh, prob, F)
+        out.update(
+            torque_share=disc["torque_share"],
+            mesh_fx=disc["mesh_force_x"],
+            mesh_fy=disc["mesh_force_y"],
+        )
+    if want("max_roller_load"):
+        out["max_roller_load"] = (
+            np.max(roller_loads(stage.bearing, sb), axis=-1)
+            if stage.bearing is not None
+            else np.full(deflection.shape, np.nan)
+        )
+    plain = {
+        "pin_load": lambda: F[..., :n1],
+        "opposite_pin_load": lambda: F[..., n1:],
+        "bearing_fx": lambda: bfx,
+        "bearing_fy": lambda: bfy,
+        "bearing_deflection": lambda: deflection,
+        "disc_translation_x": lambda: ux,
+        "disc_translation_y": lambda: uy,
+        "disc_te": lambda: transmission_error(mesh.rest[:, None], theta),
+        "carrier_te": lambda: transmission_error(mesh.rest, c),
+        "twist": lambda: c,
+        "mesh_te": lambda: mesh_te,
+        "residual": lambda: residual,
     }
+    out.update({name: value() for name, value in plain.items() if want(name)})
+    out.update({name: value for name, value in work.items() if want(name)})
+    return out
+
+
+_POSITIONS = ("disc_translation_x", "disc_translation_y", "disc_te", "bearing_deflection")
+"""The fields that read the positions of the discs (the floating discs' canonical ones)."""
+_FRICTION = (
+    "friction_force",
+    "power_loss_tooth",
+    "power_loss_groove",
+    "sliding_velocity_tooth",
+    "sliding_velocity_groove",
+    "friction_coefficient",
+    "film_parameter",
+    "power_loss_bearing",
+    "input_power",
+    "approach_power",
+)
+"""The friction fields of a drive (:func:`_friction_fields`)."""
+
+
+def _contact_stress(
+    design: PairDesign, geometry: list[FloatArray], force: FloatArray
+) -> FloatArray:
+    """The pin–tooth pressure [Pa] (A, D, n1) of the loaded pins (F > 0) of
+    :func:`~cyclomesh.core.fields.contact_stresses` (Eq. 24 of [1]), 0 at the others:
+    the same formula element by element on the loaded pins alone, so the same bits as
+    :func:`~cyclomesh.core.fields.contact_fields` at a third of the pins or less.
+    ``geometry``: the contacts' pin radius, curvature radius and cos β, (A, D, n1) each,
+    C-contiguous."""
+    flat = np.ascontiguousarray(force).reshape(-1)
+    stress = np.zeros(flat.shape)
+    at = np.flatnonzero(flat > 0.0)
+    if at.size:
+        rp, rc, cb = (np.take(v.reshape(-1), at) for v in geometry)
+        sub = UnloadedContact(
+            **{
+                **dict.fromkeys(UnloadedContact.__dataclass_fields__),
+                "pin_radius": rp,
+                "curvature_radius": rc,
+                "cos_beta": cb,
+            }
+        )
+        stress[at] = contact_stresses(sub, design, np.take(flat, at))[1]
+    return stress.reshape(force.shape)
 
 
 def _friction_work(p, x: FloatArray, q: FloatArray, discs: int) -> FloatArray:
@@ -738,6 +860,8 @@ def _friction_fields(p, mesh, fr, st, motion, speed, n1) -> dict[str, FloatArray
 
 WORK_PARTS = ("mesh", "disc_body", "crank_bearings", "crankshafts", "carrier", "hole_errors")
 """Parts of the output twist (:func:`_work`; the carrier's override spring adds T²/k_c)."""
+_WORK = tuple(f"work_{name}" for name in WORK_PARTS)
+"""The fields of :func:`_work`."""
 
 
 def _work(p: _Problem, stage: StageDesign, x: FloatArray, discs: int, st: dict):

@@ -220,10 +220,16 @@ def _start_kernels() -> tuple[Any, Any]:
     import numba
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _roller_rows_c, _solve3
-    _roller_rows_c = jit(_roller_rows)
+    global _roller_point, _solve3
+    _roller_point = jit(_roller_point)
     _solve3 = jit(_solve3)
-    return jit(_split_rows), jit(_deflection_rows)
+    return (
+        jit(_split_rows),
+        jit(_deflection_rows),
+        jit(_disc_sum_rows),
+        jit(_turn_rows),
+        jit(_single_rows),
+    )
 
 
 def split(
@@ -241,7 +247,11 @@ def split(
     ``iterations`` Newton steps (the caller then raises). The reference's arithmetic
     element by element (its start, step and test for each (crank angle, disc) on its own,
     as its active set does) except the 3 × 3 solve by Gaussian elimination with partial
-    pivoting (LAPACK's dgesv unblocked) and the C library's pow."""
+    pivoting (LAPACK's dgesv unblocked) and the powers, s^p formed as s·s^(p−1) from the
+    C library's pow (one power a bearing and step, as the roller law's); and each disc
+    starts from its solution at the crank angle before where there is one (the loads turn
+    little from one angle to the next: fewer steps to the same test), from the reference's
+    start where that does not pass the test within :data:`_WARM_STEPS` steps."""
     A, D = mesh_fx.shape
     fx, fy = np.zeros((A, D, hx.shape[-1])), np.zeros((A, D, hx.shape[-1]))
     ok = _start_kernels()[0](
@@ -274,6 +284,8 @@ def _split_rows(hx, hy, mfx, mfy, moment, L, p, iterations, fx, fy):  # pragma: 
     g = np.zeros(3)
     y = np.zeros(3)
     step = np.zeros(3)
+    previous = np.zeros((D, 3))  # each disc's solution at the crank angle before
+    warm = np.zeros(D, np.bool_)
     for i in range(A):
         for k in range(N):
             jx[k] = -hy[i, k]
@@ -285,66 +297,87 @@ def _split_rows(hx, hy, mfx, mfy, moment, L, p, iterations, fx, fy):  # pragma: 
         for d in range(D):
             t0, t1, t2 = moment[i, d] / L, mfx[i, d], mfy[i, d]
             if t0 == 0.0 and t1 == 0.0 and t2 == 0.0:
+                warm[d] = False
                 continue  # carries nothing: B = 0 exactly
-            # start: the linear (least-norm) split, its magnitude through the power law
-            a0 = 0.0
-            a1 = 0.0
-            a2 = 0.0
-            for k in range(N):
-                lin_x = mfx[i, d] / N + moment[i, d] * jx[k] / (N * L * L)
-                lin_y = mfy[i, d] / N + moment[i, d] * jy[k] / (N * L * L)
-                mag = np.hypot(lin_x, lin_y)
-                s0 = mag ** (1.0 / p)
-                dx0 = lin_x / mag * s0 if mag > 0 else 0.0
-                dy0 = lin_y / mag * s0 if mag > 0 else 0.0
-                a0 += dx0 * jx[k] + dy0 * jy[k]
-                a1 += dx0
-                a2 += dy0
-            y[0], y[1], y[2] = a0 / (N * L), a1 / N, a2 / N
             scale = max(max(abs(t0), max(abs(t1), abs(t2))), 1e-300)
             done = False
-            for _ in range(iterations):
-                for k in range(N):
-                    dx[k] = y[1] + y[0] * jx[k] / L
-                    dy[k] = y[2] + y[0] * jy[k] / L
-                    s = np.hypot(dx[k], dy[k])
-                    B[k] = s**p
-                    kb[k] = p * s ** (p - 1.0)
-                    if s > 0:
-                        cx[k], cy[k], sec[k] = dx[k] / s, dy[k] / s, B[k] / s
-                    else:
-                        cx[k], cy[k], sec[k] = 1.0, 0.0, 0.0
-                    fx[i, d, k] = B[k] * cx[k]
-                    fy[i, d, k] = B[k] * cy[k]
-                small = True
-                for r in range(3):
-                    acc = 0.0
+            for attempt in range(2):
+                if attempt == 0:  # from the crank angle before, in a few steps
+                    if not warm[d]:
+                        continue
+                    for r in range(3):
+                        y[r] = previous[d, r]
+                    cap = _WARM_STEPS
+                else:
+                    # the linear (least-norm) split, its magnitude through the power law
+                    a0 = 0.0
+                    a1 = 0.0
+                    a2 = 0.0
                     for k in range(N):
-                        acc += B[k] * cx[k] * vx[r, k] + B[k] * cy[k] * vy[r, k]
-                    g[r] = acc - (t0 if r == 0 else (t1 if r == 1 else t2))
-                    if not (abs(g[r]) <= 1e-13 * scale):
-                        small = False
-                if small:
-                    done = True
-                    break
-                for r in range(3):
-                    for c in range(3):
+                        lin_x = mfx[i, d] / N + moment[i, d] * jx[k] / (N * L * L)
+                        lin_y = mfy[i, d] / N + moment[i, d] * jy[k] / (N * L * L)
+                        mag = np.hypot(lin_x, lin_y)
+                        s0 = mag ** (1.0 / p)
+                        dx0 = lin_x / mag * s0 if mag > 0 else 0.0
+                        dy0 = lin_y / mag * s0 if mag > 0 else 0.0
+                        a0 += dx0 * jx[k] + dy0 * jy[k]
+                        a1 += dx0
+                        a2 += dy0
+                    y[0], y[1], y[2] = a0 / (N * L), a1 / N, a2 / N
+                    cap = iterations
+                for _ in range(cap):
+                    for k in range(N):
+                        dx[k] = y[1] + y[0] * jx[k] / L
+                        dy[k] = y[2] + y[0] * jy[k] / L
+                        s = np.hypot(dx[k], dy[k])
+                        root = s ** (p - 1.0)  # one power: s^p = s·s^(p−1)
+                        B[k] = s * root
+                        kb[k] = p * root
+                        if s > 0:
+                            cx[k], cy[k], sec[k] = dx[k] / s, dy[k] / s, B[k] / s
+                        else:
+                            cx[k], cy[k], sec[k] = 1.0, 0.0, 0.0
+                        fx[i, d, k] = B[k] * cx[k]
+                        fy[i, d, k] = B[k] * cy[k]
+                    small = True
+                    for r in range(3):
                         acc = 0.0
                         for k in range(N):
-                            kxx = kb[k] * cx[k] * cx[k] + sec[k] * cy[k] * cy[k]
-                            kyy = kb[k] * cy[k] * cy[k] + sec[k] * cx[k] * cx[k]
-                            kxy = (kb[k] - sec[k]) * cx[k] * cy[k]
-                            acc += (kxx * vx[r, k] + kxy * vy[r, k]) * vx[c, k] + (
-                                kxy * vx[r, k] + kyy * vy[r, k]
-                            ) * vy[c, k]
-                        H[r, c] = acc
-                if not _solve3(H, g, step):
-                    return False
-                for r in range(3):
-                    y[r] = y[r] - step[r]
+                            acc += B[k] * cx[k] * vx[r, k] + B[k] * cy[k] * vy[r, k]
+                        g[r] = acc - (t0 if r == 0 else (t1 if r == 1 else t2))
+                        if not (abs(g[r]) <= 1e-13 * scale):
+                            small = False
+                    if small:
+                        done = True
+                        break
+                    for r in range(3):
+                        for c in range(3):
+                            acc = 0.0
+                            for k in range(N):
+                                kxx = kb[k] * cx[k] * cx[k] + sec[k] * cy[k] * cy[k]
+                                kyy = kb[k] * cy[k] * cy[k] + sec[k] * cx[k] * cx[k]
+                                kxy = (kb[k] - sec[k]) * cx[k] * cy[k]
+                                acc += (kxx * vx[r, k] + kxy * vy[r, k]) * vx[c, k] + (
+                                    kxy * vx[r, k] + kyy * vy[r, k]
+                                ) * vy[c, k]
+                            H[r, c] = acc
+                    if not _solve3(H, g, step):
+                        break
+                    for r in range(3):
+                        y[r] = y[r] - step[r]
+                if done:
+                    break
             if not done:
                 return False
+            for r in range(3):
+                previous[d, r] = y[r]
+            warm[d] = True
     return True
+
+
+_WARM_STEPS = 12
+"""Newton steps of :func:`_split_rows` from the crank angle before, after which it starts
+again from the linear split (its own start, with all its steps)."""
 
 
 def _solve3(H, g, out):  # pragma: no cover (compiled)
@@ -389,9 +422,17 @@ def deflection(
 ) -> FloatArray:
     """:func:`cyclomesh.stage.supports.bearing_deflection`'s roller set compiled: the
     displacement s [m] at which the roller set (:func:`roller_law`) carries ``force`` [N]
-    ≥ 0 (any shape), by the reference's Newton iteration (every element stepped until all
-    have converged, the reference's whole-array test, or ``iterations`` steps, after which
-    the reference too returns where it is)."""
+    ≥ 0 (any shape), by the reference's Newton iteration from its start, each element
+    stepped until its own residual passes the reference's test (|B(s) − F| ≤ 1e-12·F) and
+    then once more from the values at hand (no evaluation: Newton's step from there lands
+    at round-off), or ``iterations`` steps, after which the reference too returns where it
+    is. The reference steps every element until all have passed (its whole-array test),
+    so that most elements end at round-off: the same s to round-off. With a leading axis
+    of crank angles (``force`` of two or more axes) an element whose crank angle before
+    carries load starts from that angle's solution instead (Newton's method on the
+    convex, increasing B(s) converges from any point where a roller is loaded: past the
+    root in one step, then monotonically down onto it; the neighbouring angle's is close,
+    so that two or three steps reach the test instead of four or five)."""
     flat = np.ascontiguousarray(force, dtype=float).reshape(-1)
     s = np.empty(flat.shape)
     _start_kernels()[1](
@@ -401,35 +442,162 @@ def deflection(
         float(exponent),
         flat,
         int(iterations),
+        flat.size // np.shape(force)[0] if np.ndim(force) > 1 and flat.size else 0,
         s,
     )
     return s.reshape(np.shape(force))
 
 
-_roller_rows_c = _roller_rows  # compiled by _start_kernels
+def _roller_point(cosines, half, constant, s):  # pragma: no cover (compiled)
+    """Force [N] and stiffness [N/m] of the roller set at one displacement ``s``, the
+    arithmetic of :func:`_roller_rows` (one power a loaded roller)."""
+    p = 10.0 / 9.0
+    fsum = 0.0
+    ksum = 0.0
+    for j in range(cosines.size):
+        c = cosines[j]
+        delta = s * c - half
+        if delta > 0.0:
+            root = delta ** (1.0 / 9.0)
+            fsum += constant * (delta * root) * c
+            ksum += p * constant * root * c * c
+    return fsum, ksum
 
 
-def _deflection_rows(cosines, half, constant, p, force, iterations, s):  # pragma: no cover
-    """:func:`deflection` written for numba."""
-    n = force.size
-    value = np.zeros(n)
-    stiff = np.zeros(n)
-    energy = np.zeros(n)
-    for i in range(n):
-        s[i] = half + (max(force[i], 0.0) / constant) ** (1.0 / p)
-    for _ in range(iterations):
-        _roller_rows_c(cosines, half, constant, s, value, stiff, energy)
-        done = True
-        for i in range(n):
-            if not (abs(value[i] - force[i]) <= 1e-12 * max(force[i], 1e-300)):
-                done = False
+def _deflection_rows(cosines, half, constant, p, force, iterations, row, s):  # pragma: no cover
+    """:func:`deflection` written for numba: each element on its own, started from the
+    element ``row`` before it where that one carries load (``row`` 0: none); False if one
+    has not passed the test after ``iterations`` steps."""
+    converged = True
+    for i in range(force.size):
+        f = force[i]
+        if row > 0 and i >= row and f > 0.0 and force[i - row] > 0.0 and s[i - row] > half:
+            x = s[i - row]
+        else:
+            x = half + (max(f, 0.0) / constant) ** (1.0 / p)
+        done = False
+        for _ in range(iterations):
+            value, stiff = _roller_point(cosines, half, constant, x)
+            if abs(value - f) <= 1e-12 * max(f, 1e-300):
+                done = True
+                if f > 0 and stiff > 0:  # one more step from the values at hand: round-off
+                    x = x - (value - f) / stiff
                 break
-        if done:
-            return True
-        for i in range(n):
-            if force[i] > 0:
-                k = stiff[i] if stiff[i] > 0 else np.inf
-                s[i] = s[i] - (value[i] - force[i]) / k
+            if f > 0:
+                k = stiff if stiff > 0 else np.inf
+                x = x - (value - f) / k
             else:
-                s[i] = half
-    return False
+                x = half
+        s[i] = x
+        converged = converged and done
+    return converged
+
+
+def disc_sums(
+    force: FloatArray, arm: FloatArray, nx: FloatArray, ny: FloatArray, stiffness: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The rigid solution's sums over the pins of every (crank angle, disc) in one pass, as
+    :func:`cyclomesh.stage.equilibrium.solve_direction`'s start forms them with NumPy:
+    the torque share Σ F·l [N·m], the mesh force −Σ F·n [N] (x, y) and the rotational
+    stiffness Σ k·l² [N·m] (:func:`cyclomesh.core.fields.contact_fields`' and the start's
+    arithmetic element by element, the sums taken in order where NumPy's are pairwise).
+    ``force`` [N], ``arm`` [m], ``nx``, ``ny``, ``stiffness`` [N/m]: (A, D, P); each
+    result (A, D)."""
+    A, D = force.shape[:2]
+    out = [np.empty((A, D)) for _ in range(4)]
+    _start_kernels()[2](
+        *(np.ascontiguousarray(v, dtype=float) for v in (force, arm, nx, ny, stiffness)), *out
+    )
+    return out[0], out[1], out[2], out[3]
+
+
+def _disc_sum_rows(force, arm, nx, ny, k, share, fx, fy, weight):  # pragma: no cover
+    """:func:`disc_sums` written for numba."""
+    A, D, P = force.shape
+    for i in range(A):
+        for d in range(D):
+            a = 0.0
+            bx = 0.0
+            by = 0.0
+            w = 0.0
+            for j in range(P):
+                f = force[i, d, j]
+                lj = arm[i, d, j]
+                a += f * lj
+                bx += f * nx[i, d, j]
+                by += f * ny[i, d, j]
+                w += k[i, d, j] * lj * lj
+            share[i, d] = a
+            fx[i, d] = -bx
+            fy[i, d] = -by
+            weight[i, d] = w
+
+
+def disc_turn(
+    stiffness: FloatArray,
+    arm: FloatArray,
+    nx: FloatArray,
+    ny: FloatArray,
+    ux: FloatArray,
+    uy: FloatArray,
+    weight: FloatArray,
+) -> FloatArray:
+    """The start's turn of every disc [rad] (A, D): −Σ k·l·(n·u) / Σ k·l² (0 where the
+    weight is not positive), the least-squares rotation that keeps the pins' approach of
+    the rigid solution despite the translation u [m] (A, D), in one pass (the NumPy
+    start's arithmetic element by element, the sum in order)."""
+    turn = np.empty(weight.shape)
+    _start_kernels()[3](
+        *(np.ascontiguousarray(v, dtype=float) for v in (stiffness, arm, nx, ny, ux, uy)),
+        np.ascontiguousarray(weight, dtype=float),
+        turn,
+    )
+    return turn
+
+
+def _turn_rows(k, arm, nx, ny, ux, uy, weight, turn):  # pragma: no cover (compiled)
+    """:func:`disc_turn` written for numba."""
+    A, D, P = k.shape
+    for i in range(A):
+        for d in range(D):
+            t = 0.0
+            for j in range(P):
+                t += k[i, d, j] * arm[i, d, j] * (nx[i, d, j] * ux[i, d] + ny[i, d, j] * uy[i, d])
+            w = weight[i, d]
+            turn[i, d] = -t / (w if w > 0 else np.inf)
+
+
+def single_rotation(
+    bl: FloatArray, arm: FloatArray, alpha: FloatArray, gamma: FloatArray, torque: float, pins: int
+) -> FloatArray:
+    """The rigid start of :func:`cyclomesh.stage.equilibrium.solve_direction` in one pass:
+    the smallest rotation [rad] (A,) at which one pin alone (of the first ``pins`` of
+    every disc, the loaded flanks, with a law and a positive arm) carries ``torque``
+    [N·m] on the stiffening branch of its law, φbl + F·(α − γ ln F)/l with F = T/l (inf
+    where none can). The NumPy start's arithmetic element by element, the logarithm the
+    C library's."""
+    out = np.empty(bl.shape[0])
+    _start_kernels()[4](bl, arm, alpha, gamma, float(torque), int(pins), out)
+    return out
+
+
+def _single_rows(bl, arm, alpha, gamma, torque, pins, out):  # pragma: no cover (compiled)
+    """:func:`single_rotation` written for numba."""
+    A, D = bl.shape[:2]
+    for i in range(A):
+        best = np.inf
+        for d in range(D):
+            for j in range(pins):
+                b = bl[i, d, j]
+                lj = arm[i, d, j]
+                if not (np.isfinite(b) and lj > 0):
+                    continue
+                f1 = torque / lj
+                log1 = np.log(f1)
+                a, g = alpha[i, d, j], gamma[i, d, j]
+                if not (g == 0 or log1 < a / g - 1.0):
+                    continue
+                v = b + f1 * (a - g * log1) / lj
+                if v < best:
+                    best = v
+        out[i] = best

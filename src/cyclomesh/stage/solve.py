@@ -55,6 +55,8 @@ References
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -63,6 +65,7 @@ from numpy.typing import ArrayLike, NDArray
 from cyclomesh.core.case import Case, Model, check
 from cyclomesh.core.discbody import FreeDiscBody
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
+from cyclomesh.drive.mesh import StackMesh
 from cyclomesh.drive.solve import (
     mirror_index,
     stack_meshes,
@@ -238,6 +241,57 @@ _ODD = {
 }
 
 
+OUTPUTS = (
+    "pin_load",
+    "opposite_pin_load",
+    "contact_stress",
+    "contacts",
+    "torque_share",
+    "mesh_force",
+    "mesh_force_angle",
+    "bearing_load",
+    "bearing_load_angle",
+    "bearing_deflection",
+    "max_roller_load",
+    "disc_translation_x",
+    "disc_translation_y",
+    "disc_rotation",
+    "transmission_error",
+    "mesh_transmission_error",
+    "residual",
+    "groove_load",
+    "groove_stress",
+    "work",
+    "twist",
+    "friction",
+)
+"""The results of a :class:`Stage` that :func:`solve` may be asked for (``outputs``)."""
+_SOURCES = {
+    "mesh_force": ("mesh_fx", "mesh_fy"),
+    "mesh_force_angle": ("mesh_fx", "mesh_fy"),
+    "bearing_load": ("bearing_fx", "bearing_fy"),
+    "bearing_load_angle": ("bearing_fx", "bearing_fy"),
+    "disc_rotation": ("disc_te",),
+    "transmission_error": ("carrier_te",),
+    "mesh_transmission_error": ("mesh_te",),
+    "work": (*(f"work_{name}" for name in WORK_PARTS), "work_friction"),
+    "friction": FRICTION_FIELDS,
+}
+"""The fields of :func:`~cyclomesh.stage.equilibrium.solve_direction` each output is made
+of (the others: a field of its own name)."""
+
+
+def _fields(outputs) -> frozenset[str] | None:
+    """The fields of :func:`~cyclomesh.stage.equilibrium.solve_direction` behind
+    ``outputs`` (None: all)."""
+    if outputs is None:
+        return None
+    unknown = set(outputs) - set(OUTPUTS)
+    if unknown:
+        raise ValueError(f"stage solve: unknown outputs {sorted(unknown)}; choose from {OUTPUTS}")
+    return frozenset(field for name in outputs for field in _SOURCES.get(name, (name,)))
+
+
 def _reverse(fields: dict[str, FloatArray]) -> dict[str, FloatArray]:
     out = {}
     for name, value in fields.items():
@@ -296,7 +350,14 @@ def solve_stage(
 
 
 def solve(
-    case: Case, model: Model, motion: float = 1.0, loading: float = 0.0, positions: bool = True
+    case: Case,
+    model: Model,
+    motion: float = 1.0,
+    loading: float = 0.0,
+    positions: bool = True,
+    outputs: Collection[str] | None = None,
+    meshes: tuple[StackMesh, StackMesh] | None = None,
+    only_at: Mapping[str, Collection[int]] | None = None,
 ) -> Stage:
     """:func:`solve_stage` of a :class:`~cyclomesh.core.case.Case` and a
     :class:`~cyclomesh.core.case.Model` whose ``stage`` is a :class:`StageDesign`.
@@ -321,10 +382,34 @@ def solve(
     whatever the solver's path; ``positions=False`` leaves it where the solve stopped
     (its loads, the twist and every other output are the same; for a caller that reports
     no disc positions, such as the tolerance study).
+
+    ``outputs``: the results wanted (names from :data:`OUTPUTS`), the others None in the
+    :class:`Stage`; None: all. Each is the same, bit for bit, whatever else is asked
+    (a tolerance ring reads only the output twist, the crank bearings' loads and the
+    contact stress: the work split, the groove and disc fields, the rollers and the disc
+    positions are then not computed). ``meshes``: the unloaded forward and mirror meshes
+    of ``case`` (:func:`~cyclomesh.drive.mesh.stack_meshes` with both directions and, with
+    the compliant disc, the tooth of every pin), formed by the caller (a tolerance study
+    forms them once for a batch of rings and for the mesh-alone solve too); None: formed
+    here. ``only_at``: outputs (of ``outputs``, float ones) wanted at some torques only,
+    name → indices into the torques; NaN at the others (a tolerance ring reads the contact
+    stress at the torque, not at ∓3 % of it).
     """
     stage = model.stage
     if not isinstance(stage, StageDesign):
         raise DesignError("stage: the model has no StageDesign (Model(stage=...))")
+    fields = _fields(outputs)
+    at = {} if only_at is None else {name: set(only_at[name]) for name in only_at}
+    if set(at) - (set(OUTPUTS) if outputs is None else set(outputs)):
+        raise ValueError(f"stage solve: only_at names outputs not asked for: {sorted(at)}")
+
+    def fields_at(q: int) -> frozenset[str] | None:
+        """The fields of torque q."""
+        if not at:
+            return fields
+        left = [name for name in (OUTPUTS if outputs is None else outputs)]
+        return _fields([name for name in left if q in at.get(name, (q,))])
+
     c = check(case, model)
     body = c.body
     if body is not None and not isinstance(body, FreeDiscBody):
@@ -351,18 +436,21 @@ def solve(
             )
     torques, discs, phi, ring_shape = c.torques, c.discs, c.phi, c.ring_shape
     rad, tan = stage.hole_errors(discs)
-    fwd, rev = stack_meshes(
-        c.design,
-        c.modification,
-        c.errors,
-        phi,
-        discs,
-        c.groove_deformation,
-        True,  # both: the opposite flanks of one direction are the mirror's loaded flanks
-        True,
-        c.contact_law,
-        None if body is None else body.pins,  # the tooth of every pin
-    )
+    if meshes is None:
+        meshes = stack_meshes(
+            c.design,
+            c.modification,
+            c.errors,
+            phi,
+            discs,
+            c.groove_deformation,
+            True,  # both: the opposite flanks of one direction are the mirror's loaded flanks
+            True,
+            c.contact_law,
+            None if body is None else body.pins,  # the tooth of every pin
+            False,  # no force angle: the stage's are those of its solved loads
+        )
+    fwd, rev = meshes
     N = stage.holes.count
     mirror_errs = (
         rad[mirror_index(discs)][:, mirror_index(N)],
@@ -376,10 +464,10 @@ def solve(
         f_ring, r_ring = ring_mesh(fwd, ring), ring_mesh(rev, ring)
         caches: tuple[dict, dict] = ({}, {})  # each direction's torque-free arrays
         where = f"ring {np.ravel_multi_index(ring, ring_shape)}, " if ring_shape else ""
-        for value in torques:
+        for q, value in enumerate(torques):
             try:
                 if value > 0:
-                    fields = solve_direction(
+                    out = solve_direction(
                         f_ring,
                         r_ring,
                         stage,
@@ -392,9 +480,10 @@ def solve(
                         loading,
                         positions,
                         caches[0],
+                        fields_at(q),
                     )
                 else:
-                    fields = _reverse(
+                    out = _reverse(
                         solve_direction(
                             r_ring,
                             f_ring,
@@ -408,53 +497,87 @@ def solve(
                             -loading,
                             positions,
                             caches[1],
+                            fields_at(q),
                         )
                     )
             except ConvergenceError as exc:
                 raise ConvergenceError(
                     f"{where}torque {value:g} N·m: {exc}{_hint(stage)}"
                 ) from None
-            results.append(fields)
-        per_ring.append({name: np.stack([r[name] for r in results]) for name in results[0]})
-    out = {
-        name: np.stack([r[name] for r in per_ring]).reshape(*ring_shape, *per_ring[0][name].shape)
-        for name in per_ring[0]
-    }
-    te = out.pop("carrier_te")
-    work = {name: out.pop(f"work_{name}") for name in WORK_PARTS}
-    twist = out.pop("twist")
+            results.append(out)
+        per_ring.append(_by_torque(results))
+    if ring_shape:
+        out = {
+            name: np.stack([r[name] for r in per_ring]).reshape(
+                *ring_shape, *per_ring[0][name].shape
+            )
+            for name in per_ring[0]
+        }
+    else:  # one ring: its arrays as they are (a stack of one is a copy)
+        out = per_ring[0]
+    result = _stage(out, phi, torques, stage)
+    if outputs is None:
+        return result
+    return dataclasses.replace(result, **{name: None for name in OUTPUTS if name not in outputs})
+
+
+def _by_torque(results: list[dict[str, FloatArray]]) -> dict[str, FloatArray]:
+    """The fields of every torque stacked (a leading torque axis); NaN at the torques
+    where a field was not asked for (``only_at``)."""
+    out = {}
+    for name in dict.fromkeys(name for r in results for name in r):
+        like = next(r[name] for r in results if name in r)
+        out[name] = np.stack(
+            [r[name] if name in r else np.full(like.shape, np.nan) for r in results]
+        )
+    return out
+
+
+def _stage(
+    out: dict[str, FloatArray], phi: FloatArray, torques: FloatArray, stage: StageDesign
+) -> Stage:
+    """The :class:`Stage` of the fields of :func:`solve` (per torque stacked), None where a
+    field was not asked for."""
+    te = out.pop("carrier_te", None)
+    twist = out.pop("twist", None)
+    work = {name: out.pop(f"work_{name}") for name in WORK_PARTS if f"work_{name}" in out}
     if "work_friction" in out:
         work["friction"] = out.pop("work_friction")
     frictional = {name: out.pop(name) for name in FRICTION_FIELDS if name in out}
     if stage.carrier_stiffness is not None:
-        te = te - torques[:, None] / stage.carrier_stiffness
-        twist = twist + torques[:, None] / stage.carrier_stiffness
-        work["carrier"] = work["carrier"] + (torques**2 / stage.carrier_stiffness)[:, None]
-    bfx, bfy = out.pop("bearing_fx"), out.pop("bearing_fy")
-    mfx, mfy = out.pop("mesh_fx"), out.pop("mesh_fy")
+        if te is not None:
+            te = te - torques[:, None] / stage.carrier_stiffness
+        if twist is not None:
+            twist = twist + torques[:, None] / stage.carrier_stiffness
+        if "carrier" in work:
+            work["carrier"] = work["carrier"] + (torques**2 / stage.carrier_stiffness)[:, None]
+    bfx, bfy = out.pop("bearing_fx", None), out.pop("bearing_fy", None)
+    mfx, mfy = out.pop("mesh_fx", None), out.pop("mesh_fy", None)
+    bearing = bfx is not None
+    mesh = mfx is not None
     return Stage(
         crank_angle=phi,
         torque=torques,
-        pin_load=out["pin_load"],
-        opposite_pin_load=out["opposite_pin_load"],
-        contact_stress=out["contact_stress"],
-        groove_load=out["groove_load"],
-        groove_stress=out["groove_stress"],
-        contacts=out["contacts"],
-        torque_share=out["torque_share"],
-        mesh_force=np.hypot(mfx, mfy),
-        mesh_force_angle=np.arctan2(mfy, mfx),
-        bearing_load=np.hypot(bfx, bfy),
-        bearing_load_angle=np.arctan2(bfy, bfx),
-        bearing_deflection=out["bearing_deflection"],
-        max_roller_load=out["max_roller_load"],
-        disc_translation_x=out["disc_translation_x"],
-        disc_translation_y=out["disc_translation_y"],
-        disc_rotation=out["disc_te"],
+        pin_load=out.get("pin_load"),
+        opposite_pin_load=out.get("opposite_pin_load"),
+        contact_stress=out.get("contact_stress"),
+        groove_load=out.get("groove_load"),
+        groove_stress=out.get("groove_stress"),
+        contacts=out.get("contacts"),
+        torque_share=out.get("torque_share"),
+        mesh_force=np.hypot(mfx, mfy) if mesh else None,
+        mesh_force_angle=np.arctan2(mfy, mfx) if mesh else None,
+        bearing_load=np.hypot(bfx, bfy) if bearing else None,
+        bearing_load_angle=np.arctan2(bfy, bfx) if bearing else None,
+        bearing_deflection=out.get("bearing_deflection"),
+        max_roller_load=out.get("max_roller_load"),
+        disc_translation_x=out.get("disc_translation_x"),
+        disc_translation_y=out.get("disc_translation_y"),
+        disc_rotation=out.get("disc_te"),
         transmission_error=te,
-        mesh_transmission_error=out["mesh_te"],
-        residual=out["residual"],
-        work=work,
+        mesh_transmission_error=out.get("mesh_te"),
+        residual=out.get("residual"),
+        work=work or None,
         twist=twist,
         friction=frictional or None,
     )
