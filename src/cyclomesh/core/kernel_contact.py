@@ -97,17 +97,20 @@ def compiled() -> Any:
 
 
 def _contact_phase(
-    pcx, pcy, ecx, ecy, s_pin, a, e, n1, q0, q1, wx, wy, c_out, zx, zy, nx, ny, residual, reach
-):  # pragma: no cover (compiled)
+    pcx, pcy, ecx, ecy, s_pin, a, e, n1, q0, q1, wx, wy, c_out, zx, zy, nx, ny, sin_out, d_out,
+    residual, reach
+):  # fmt: skip  # pragma: no cover (compiled)
     """Tooth phase c = cos u of every contact and the vectors whose arguments NumPy takes.
 
     Inputs: pcx, pcy = pin_r·(cos, sin)(pin angle) (R, n1); ecx, ecy = ecc·(cos, sin)φ
     (R, A); s_pin = r_pin − ρ' (R, n1); a', e [m], n1. The rows q0 ≤ q < q1 of the
     (R·A, n1) contacts (row q: ring q // A, crank angle q % A), a block of them: fills
     the block's rows q − q0 of w = C − O2 (wx, wy), c, the pin centre on the offset locus
-    P_s (zx, zy) and the normal (nx, ny) in the tooth frame and ``reach`` (q1 − q0, n1),
-    and the rows q of the residual [m] (R·A, n1). Returns the number of jammed or
-    unconverged contacts (then the caller takes the reference, which raises).
+    P_s (zx, zy), the normal (nx, ny) in the tooth frame, sin u, D = |n·D| (``sin_out``,
+    ``d_out``, which :func:`_contact_finish` reads instead of taking them again) and
+    ``reach`` (q1 − q0, n1), and the rows q of the residual [m] (R·A, n1). Returns the
+    number of jammed or unconverged contacts (then the caller takes the reference, which
+    raises).
     """
     n_angles = ecx.shape[1]
     n_pins = wx.shape[1]
@@ -118,12 +121,23 @@ def _contact_phase(
     # the compiler runs it in SIMD lanes (square roots and quotients are correctly
     # rounded there as well, so the bits are the per-element loop's): Newton's steps
     # run until every pin of the angle has converged, a converged pin recomputing its
-    # residual at its own c and keeping it, as the reference's ``np.where(done, c, …)``
+    # residual at its own c and keeping it, as the reference's ``np.where(done, c, …)``;
+    # once only a few pins are left (about one pin in 40 takes a third Newton step) they
+    # finish alone (the same operations, one pin at a time). The test |h|/(2w) ≤ tol is
+    # taken without the quotient, against 2w·tol widened and narrowed by 1e-12 (the
+    # quotient's rounding is 1.1e-16): a pin between the two bounds is decided by the
+    # quotient itself, so the decisions, and with them c, are the reference's.
     c_row = np.empty(n_pins)
     w_row = np.empty(n_pins)
     k0_row = np.empty(n_pins)
-    res_row = np.empty(n_pins)
+    h_row = np.empty(n_pins)
+    d_row = np.empty(n_pins)
+    prev_row = np.empty(n_pins)
+    lo_row = np.empty(n_pins)
+    hi_row = np.empty(n_pins)
     ok_row = np.empty(n_pins, np.bool_)
+    done_row = np.empty(n_pins, np.bool_)
+    left = np.empty(n_pins, np.int64)
     for q in range(q0, q1):
         r, k, b = q // n_angles, q % n_angles, q - q0
         ex, ey = ecx[r, k], ecy[r, k]
@@ -134,45 +148,97 @@ def _contact_phase(
             s = s_pin[r, i]
             w = math.sqrt(w2)
             bad += w < a - e + s - _TOLERANCE  # jammed: the reference raises
-            ok_row[i] = w <= a + e + s
+            ok = w <= a + e + s
+            ok_row[i] = ok
             k0 = a * a + e * e + s * s - w2
             k0_row[i] = k0
             w_row[i] = w
+            # an unreachable pin is converged whatever h (its residual is 0)
+            lo_row[i] = (2.0 * w) * _TOL_BELOW if ok else np.inf
+            hi_row[i] = (2.0 * w) * _TOL_ABOVE if ok else np.inf
             c_row[i] = min(max(k0 / (2.0 * a * e), -1.0), 1.0)
             wx[b, i] = x
             wy[b, i] = y
-        for _ in range(_MAX_ITERATIONS):
+        steps = 0
+        active = n_pins
+        while steps < _MAX_ITERATIONS and active * _FEW > n_pins:
+            steps += 1
             active = 0
+            unsure = 0
             for i in range(n_pins):
                 c = c_row[i]
                 s = s_pin[r, i]
                 d = math.sqrt(d0 - d1 * c)
                 g = g0 - g1 * c
                 h = k0_row[i] - 2.0 * a * e * c + 2.0 * s * g / d
-                res = abs(h) / (2.0 * w_row[i]) if ok_row[i] else 0.0
-                res_row[i] = res
-                done = res <= _TOLERANCE
+                size = abs(h)
+                done = size <= lo_row[i]
+                unsure += (size > lo_row[i]) & (size <= hi_row[i])
                 dh = -2.0 * a * e + 2.0 * s * (-g1 * d + g * d1 / (2.0 * d)) / (d * d)
                 step = min(max(c - h / dh, -1.0), 1.0)
                 c_row[i] = c if done else step
+                done_row[i] = done
+                prev_row[i] = c
+                h_row[i] = h
+                d_row[i] = d
                 active += not done
-            if active == 0:
-                break
+            if unsure:  # between the bounds: the reference's quotient decides
+                for i in range(n_pins):
+                    size = abs(h_row[i])
+                    unsure_i = size > lo_row[i] and size <= hi_row[i]
+                    if unsure_i and size / (2.0 * w_row[i]) <= _TOLERANCE:
+                        c_row[i] = prev_row[i]
+                        done_row[i] = True
+                        active -= 1
+        if active:  # the few pins left, one at a time, each to its own end
+            n_left = 0
+            for i in range(n_pins):
+                if not done_row[i]:
+                    left[n_left] = i
+                    n_left += 1
+            for j in range(n_left):
+                i = left[j]
+                s = s_pin[r, i]
+                two_w = 2.0 * w_row[i]
+                for _ in range(steps, _MAX_ITERATIONS):
+                    c = c_row[i]
+                    d = math.sqrt(d0 - d1 * c)
+                    g = g0 - g1 * c
+                    h = k0_row[i] - 2.0 * a * e * c + 2.0 * s * g / d
+                    h_row[i] = h
+                    d_row[i] = d
+                    if abs(h) / two_w <= _TOLERANCE:
+                        break
+                    dh = -2.0 * a * e + 2.0 * s * (-g1 * d + g * d1 / (2.0 * d)) / (d * d)
+                    c_row[i] = min(max(c - h / dh, -1.0), 1.0)
         for i in range(n_pins):
             c = c_row[i]
             s = s_pin[r, i]
-            bad += not res_row[i] <= _TOLERANCE  # unconverged: the reference raises
+            ok = ok_row[i]
+            res = abs(h_row[i]) / (2.0 * w_row[i]) if ok else 0.0
+            bad += not res <= _TOLERANCE  # unconverged: the reference raises
             sin_u = -math.sqrt(1.0 - c * c)
-            d = math.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
+            d = d_row[i]
             vx, vy = (a - e * n1 * c) / d, -e * n1 * sin_u / d
             c_out[b, i] = c
             nx[b, i] = vx
             ny[b, i] = vy
+            sin_out[b, i] = sin_u
+            d_out[b, i] = d
             zx[b, i] = a - e * c + s * vx
             zy[b, i] = -e * sin_u + s * vy
-            residual[q, i] = res_row[i]
-            reach[b, i] = ok_row[i]
+            residual[q, i] = res
+            reach[b, i] = ok
     return bad
+
+
+_TOL_BELOW = _TOLERANCE * (1.0 - 1e-12)
+_TOL_ABOVE = _TOLERANCE * (1.0 + 1e-12)
+"""|h| ≤ 2w·_TOL_BELOW gives |h|/(2w) ≤ tol after rounding, |h| > 2w·_TOL_ABOVE gives
+more (:func:`_contact_phase`)."""
+_FEW = 8
+"""The tooth phase's Newton steps leave the SIMD lanes once fewer than one pin in this
+many of a crank angle is still stepping."""
 
 
 def _contact_finish(
@@ -182,6 +248,10 @@ def _contact_finish(
     u,
     c_in,
     reach,
+    vx_in,
+    vy_in,
+    sin_in,
+    d_in,
     phi_t,
     t_root,
     pin_angle,
@@ -208,8 +278,9 @@ def _contact_finish(
     """The contact quantities from the tooth phase and NumPy's angles (module doc).
 
     The rows q0 ≤ q < q1 of the (R·A, n1) contacts (row q: ring q // A, crank angle
-    q % A): arg_w, arg_z, arg_n = arg w, arg P_s, arg n, u = −arccos c, c and ``reach``
-    of the block (rows q − q0); phi_t (A,); t_root (A, n1); pin_angle (R, n1); ``turn``
+    q % A): arg_w, arg_z, arg_n = arg w, arg P_s, arg n, u = −arccos c, c, ``reach`` and
+    the tooth frame's normal, sin u and D of :func:`_contact_phase` of the block (rows
+    q − q0); phi_t (A,); t_root (A, n1); pin_angle (R, n1); ``turn``
     the rotation modification [rad]. Fills the block's rows q
     of the arrays of :class:`~cyclomesh.core.contact.UnloadedContact` as
     :func:`~cyclomesh.core.contact.unloaded_contact` does, and with ``normals`` the
@@ -232,7 +303,10 @@ def _contact_finish(
         pa = pin_angle[r]
         # a view per row: with them the compiler vectorises the loop below (with flat
         # offsets it does not)
-        rows = (arg_w[b], arg_z[b], arg_n[b], u[b], c_in[b], reach[b])
+        rows = (
+            arg_w[b], arg_z[b], arg_n[b], u[b], c_in[b], reach[b], vx_in[b], vy_in[b],
+            sin_in[b], d_in[b]
+        )  # fmt: skip
         outs = (
             rotation[q],
             reverse[q],
@@ -274,7 +348,7 @@ def _finish_pin(wrap, cosine, i, rows, tr, pa, pt, consts, outs):  # pragma: no 
     returns whether a reachable pin's angles lie beyond :func:`_mod_2pi_near`'s or
     :func:`_cos`'s range or it lies next to an inflection (:data:`_INFLECTION`; then the
     caller takes it again exactly)."""
-    arg_w, arg_z, arg_n, u, c_in, reach = rows
+    arg_w, arg_z, arg_n, u, c_in, reach, vx_in, vy_in, sin_in, d_in = rows
     rotation, reverse, moment_arm, cos_beta, profile_angle, contact_radius, curvature = outs
     a, e, n1, n2, rho_gen, turn, c0, c1, c2, c3 = consts
     two_pi = 2.0 * np.pi
@@ -284,9 +358,8 @@ def _finish_pin(wrap, cosine, i, rows, tr, pa, pt, consts, outs):  # pragma: no 
     ok = reach[i]
     c = c_in[i]
     t_i = tr[i]
-    sin_u = -math.sqrt(1.0 - c * c)
-    d = math.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
-    vx, vy = (a - e * n1 * c) / d, -e * n1 * sin_u / d
+    sin_u, d = sin_in[i], d_in[i]  # the phase's: the same expressions, the same bits
+    vx, vy = vx_in[i], vy_in[i]
     t = t_i + uu / n2
     x_rot = np.pi - (aw - t - az - pt)
     rot = np.pi - wrap(x_rot)
@@ -638,32 +711,35 @@ def contact_arrays(
     pin_rows = rows(pin_angle, (1, n1))
     # blocks of rows (crank angles of a ring) whose intermediates stay in the cache
     block = max(1, min(n_rows, BLOCK_CONTACTS // n1))
-    wx, wy, c, zx, zy, nx, ny = (np.empty((block, n1)) for _ in range(7))
+    wx, wy, c, zx, zy, nx, ny, sin_u, d, arg_n, u = (np.empty((block, n1)) for _ in range(11))
     reach = np.empty((block, n1), np.bool_)
     for q0 in range(0, n_rows, block):
         q1 = min(q0 + block, n_rows)
         m = q1 - q0
-        bwx, bwy, bc, bzx, bzy, bnx, bny, breach = (
-            v[:m] for v in (wx, wy, c, zx, zy, nx, ny, reach)
+        bwx, bwy, bc, bzx, bzy, bnx, bny, bsin, bd, barg_n, bu, breach = (
+            v[:m] for v in (wx, wy, c, zx, zy, nx, ny, sin_u, d, arg_n, u, reach)
         )
         bad = passes.contact_phase(
             pcx, pcy, ecx, ecy, s_rows, a, e, n1, q0, q1,
-            bwx, bwy, bc, bzx, bzy, bnx, bny, residual_rows, breach,
+            bwx, bwy, bc, bzx, bzy, bnx, bny, bsin, bd, residual_rows, breach,
         )  # fmt: skip
         if bad:
             return None
-        arg_w_block = np.arctan2(bwy, bwx, out=bwx)
-        arg_w_rows[q0:q1] = arg_w_block
+        arg_w_block = np.arctan2(bwy, bwx, out=arg_w_rows[q0:q1])
         arg_z = np.arctan2(bzy, bzx, out=bzx)
-        arg_n = np.arctan2(bny, bnx, out=bnx)
-        u = np.negative(np.arccos(bc, out=bzy), out=bzy)
+        np.arctan2(bny, bnx, out=barg_n)
+        np.negative(np.arccos(bc, out=bu), out=bu)
         passes.contact_finish(
             arg_w_block,
             arg_z,
-            arg_n,
-            u,
+            barg_n,
+            bu,
             bc,
             breach,
+            bnx,
+            bny,
+            bsin,
+            bd,
             phi_t,
             t_rows,
             pin_rows,
