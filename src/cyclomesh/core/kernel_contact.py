@@ -83,6 +83,8 @@ def compiled() -> Any:
     _libm_cos = jit(_libm_cos)
     _finish_pin = inline(_finish_pin)
     _row_min = jit(_row_min)
+    global _compliance_row
+    _compliance_row = inline(_compliance_row)
 
     class Passes:
         contact_phase = jit(_contact_phase)
@@ -253,7 +255,8 @@ def _contact_finish(
     sin_in,
     d_in,
     phi_t,
-    t_root,
+    phi,
+    pin_phase,
     pin_angle,
     a,
     e,
@@ -280,8 +283,10 @@ def _contact_finish(
     The rows q0 ≤ q < q1 of the (R·A, n1) contacts (row q: ring q // A, crank angle
     q % A): arg_w, arg_z, arg_n = arg w, arg P_s, arg n, u = −arccos c, c, ``reach`` and
     the tooth frame's normal, sin u and D of :func:`_contact_phase` of the block (rows
-    q − q0); phi_t (A,); t_root (A, n1); pin_angle (R, n1); ``turn``
-    the rotation modification [rad]. Fills the block's rows q
+    q − q0); phi_t, phi (A,); pin_phase = n2·i·ψ (n1,), from which the nearest
+    tooth-space bottom of the nominal tooth phase, t_root = 2π·rint((n2·i·ψ + φ)/2π)/n2,
+    is taken here as the reference takes it (``np.round``: halves to even);
+    pin_angle (R, n1); ``turn`` the rotation modification [rad]. Fills the block's rows q
     of the arrays of :class:`~cyclomesh.core.contact.UnloadedContact` as
     :func:`~cyclomesh.core.contact.unloaded_contact` does, and with ``normals`` the
     outward flank normal in the fixed frame, (cos, sin)(arg w + arg n − arg P_s), from
@@ -299,7 +304,7 @@ def _contact_finish(
     for q in range(q0, q1):
         r, k, b = q // n_angles, q % n_angles, q - q0
         pt = phi_t[k]
-        tr = t_root[k]
+        tr = (phi[k], pin_phase)
         pa = pin_angle[r]
         # a view per row: with them the compiler vectorises the loop below (with flat
         # offsets it does not)
@@ -351,13 +356,13 @@ def _finish_pin(wrap, cosine, i, rows, tr, pa, pt, consts, outs):  # pragma: no 
     arg_w, arg_z, arg_n, u, c_in, reach, vx_in, vy_in, sin_in, d_in = rows
     rotation, reverse, moment_arm, cos_beta, profile_angle, contact_radius, curvature = outs
     a, e, n1, n2, rho_gen, turn, c0, c1, c2, c3 = consts
-    two_pi = 2.0 * np.pi
     centre = np.pi / n2
     uu = u[i]
     aw, az = arg_w[i], arg_z[i]
     ok = reach[i]
     c = c_in[i]
-    t_i = tr[i]
+    two_pi = 2.0 * np.pi
+    t_i = two_pi * np.rint((tr[1][i] + tr[0]) / two_pi) / n2
     sin_u, d = sin_in[i], d_in[i]  # the phase's: the same expressions, the same bits
     vx, vy = vx_in[i], vy_in[i]
     t = t_i + uu / n2
@@ -498,38 +503,55 @@ def _compliance(
                     c_ring * (_log(4.0 * abs(groove_radius) / kappa) - 0.5)
                     + c_pin * (_log(4.0 * abs(rp) / kappa) - 0.5)
                 )
-        log_rp = per_pin[1]
-        a_prime = per_pin[2]
-        rc_row = rc_in[start : start + n_pins]
-        cb_row = cb_in[start : start + n_pins]
-        depth_row = depth_in[start : start + n_pins]
-        alpha_row = alpha[start : start + n_pins]
-        gamma_row = gamma[start : start + n_pins]
-        for i in range(n_pins):
-            rp, rc = rp_row[i], rc_row[i]
-            if half_plane:
-                rho_star = rp / (1.0 + rp / rc)
-                log_kappa = 0.5 * _log(rho_star * inv_tooth)
-                a = scale * (
-                    c_disc * ((_log(2.0 * depth_row[i]) - log_kappa) - poisson_term)
-                    + c_pin * ((log_rp[i] - log_kappa) - 0.5)
-                )
-            else:
-                rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
-                log_kappa = 0.5 * _log(rho * inv_tooth)
-                a = scale * (
-                    c_disc * ((_log(4.0 * abs(rc)) - log_kappa) - 0.5)
-                    + c_pin * ((log_rp[i] - log_kappa) - 0.5)
-                )
-            g = gamma_0
+        row = (rp_row, rc_in, cb_in, depth_in, per_pin[1], per_pin[2], alpha, gamma, start)
+        consts = (inv_tooth, scale, c_disc, c_pin, poisson_term, gamma_0, g_p)
+        # the law and the groove term fixed in each loop (no choice left inside it)
+        if half_plane:
             if groove:
-                cb = cb_row[i]
-                c2 = cb * cb
-                log_cb = _log(cb) if cb > 0 else 0.0
-                a = a + c2 * (a_prime[i] - g_p * log_cb)
-                g = g + c2 * g_p
-            alpha_row[i] = a
-            gamma_row[i] = g
+                _compliance_row(row, n_pins, consts, True, True)
+            else:
+                _compliance_row(row, n_pins, consts, True, False)
+        elif groove:
+            _compliance_row(row, n_pins, consts, False, True)
+        else:
+            _compliance_row(row, n_pins, consts, False, False)
+
+
+def _compliance_row(row, n_pins, consts, half_plane, groove):  # pragma: no cover (compiled)
+    """One row of :func:`_compliance` (inlined there with constant ``half_plane`` and
+    ``groove``)."""
+    rp_row, rc_in, cb_in, depth_in, log_rp, a_prime, alpha, gamma, start = row
+    inv_tooth, scale, c_disc, c_pin, poisson_term, gamma_0, g_p = consts
+    rc_row = rc_in[start : start + n_pins]
+    cb_row = cb_in[start : start + n_pins]
+    depth_row = depth_in[start : start + n_pins]
+    alpha_row = alpha[start : start + n_pins]
+    gamma_row = gamma[start : start + n_pins]
+    for i in range(n_pins):
+        rp, rc = rp_row[i], rc_row[i]
+        if half_plane:
+            rho_star = rp / (1.0 + rp / rc)
+            log_kappa = 0.5 * _log(rho_star * inv_tooth)
+            a = scale * (
+                c_disc * ((_log(2.0 * depth_row[i]) - log_kappa) - poisson_term)
+                + c_pin * ((log_rp[i] - log_kappa) - 0.5)
+            )
+        else:
+            rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
+            log_kappa = 0.5 * _log(rho * inv_tooth)
+            a = scale * (
+                c_disc * ((_log(4.0 * abs(rc)) - log_kappa) - 0.5)
+                + c_pin * ((log_rp[i] - log_kappa) - 0.5)
+            )
+        g = gamma_0
+        if groove:
+            cb = cb_row[i]
+            c2 = cb * cb
+            log_cb = _log(cb) if cb > 0 else 0.0
+            a = a + c2 * (a_prime[i] - g_p * log_cb)
+            g = g + c2 * g_p
+        alpha_row[i] = a
+        gamma_row[i] = g
 
 
 def _stresses(
@@ -662,13 +684,13 @@ def overlap_contacts(reverse_rotation, rotation, force, fraction):
 
 
 def contact_arrays(
-    pin_r, pin_angle, ecc, phi, s_pin, t_root, a, e, n1, n2, rho_gen, turn, shape, normals=False
+    pin_r, pin_angle, ecc, phi, s_pin, pin_phase, a, e, n1, n2, rho_gen, turn, shape, normals=False
 ) -> dict[str, np.ndarray] | None:
     """The arrays of :func:`cyclomesh.core.contact.unloaded_contact` (undeviated profile)
     from the compiled passes and NumPy's inverse trigonometric functions (module doc).
 
     Inputs as the reference builds them: pin_r, pin_angle, s_pin = r_pin − ρ' of shape
-    (..., 1, n1), ecc (..., 1, 1), phi (A, 1) [rad], t_root (A, n1); ``shape`` the
+    (..., 1, n1), ecc (..., 1, 1), phi (A, 1) [rad], pin_phase = n2·i·ψ (n1,); ``shape`` the
     contact arrays' (..., A, n1); ``normals``: also the outward flank normals in the
     fixed frame (``normal_x``, ``normal_y``; those of the unreachable pins, φ1 = −π, the
     caller takes from the reference, see :func:`cyclomesh.core.contact.unloaded_contact`).
@@ -707,7 +729,8 @@ def contact_arrays(
     normal_rows = [v.reshape(n_rows, n1) if normals else v.reshape(0, 0) for v in normal]
     residual_rows, arg_w_rows = residual.reshape(n_rows, n1), arg_w.reshape(n_rows, n1)
     phi_t = np.ascontiguousarray(-phi[:, 0] / n2)
-    t_rows = np.ascontiguousarray(np.broadcast_to(t_root, (n_angles, n1)))
+    phi_rows = np.ascontiguousarray(phi[:, 0])
+    pin_phase = np.ascontiguousarray(pin_phase, float)
     pin_rows = rows(pin_angle, (1, n1))
     # blocks of rows (crank angles of a ring) whose intermediates stay in the cache
     block = max(1, min(n_rows, BLOCK_CONTACTS // n1))
@@ -741,7 +764,8 @@ def contact_arrays(
             bsin,
             bd,
             phi_t,
-            t_rows,
+            phi_rows,
+            pin_phase,
             pin_rows,
             a,
             e,
