@@ -452,6 +452,7 @@ def _mod_2pi(x):  # pragma: no cover (compiled)
 
 def _compliance(
     rp_in,
+    repeat,
     rc_in,
     cb_in,
     depth_in,
@@ -473,7 +474,9 @@ def _compliance(
 ):  # pragma: no cover (compiled)
     """(α, γ) of δ = F(α − γ ln F) per contact, as
     :func:`~cyclomesh.core.hertz.compliance_coefficients` (flat arrays, rows of
-    ``n_pins`` contacts, one pass).
+    ``n_pins`` contacts, one pass; the pin radii ``rp_in`` (rows, n_pins), row q of the
+    contacts taking row q // ``repeat`` of them, as the crank angles of a ring share
+    theirs).
 
     k_tooth, k_groove = π·B·E* of the pin–tooth and pin–groove pairs; scale = 2/(πB);
     gamma_0, g_p = (c_disc + c_pin)/(πB), (c_ring + c_pin)/(πB); poisson_term =
@@ -487,8 +490,8 @@ def _compliance(
     per_pin = np.empty((3, n_pins))  # ρp, ln 4ρp, α′ of the row before
     per_pin[0, :] = np.nan
     inv_tooth = 4.0 / k_tooth
-    for start in range(0, rp_in.size, n_pins):
-        rp_row = rp_in[start : start + n_pins]
+    for start in range(0, rc_in.size, n_pins):
+        rp_row = rp_in[start // n_pins // repeat]
         same = 0
         for i in range(n_pins):
             same += rp_row[i] == per_pin[0, i]
@@ -558,6 +561,7 @@ def _stresses(
     force,
     cos_beta,
     rp_in,
+    repeat,
     rc_in,
     e_tooth,
     e_groove,
@@ -569,19 +573,24 @@ def _stresses(
 ):  # pragma: no cover (compiled)
     """Groove load F·cos β [N] and the Hertzian pressures of tooth and groove [Pa] (Eqs.
     18, 24 of [1]), as :func:`~cyclomesh.core.fields.contact_stresses` (flat arrays);
-    e_tooth, e_groove = E* of the two pairs [Pa], pi_width = π·B [m]."""
-    for j in range(force.size):
-        f, rp = force[j], rp_in[j]
-        gf = f * cos_beta[j]
-        if f > 0:
-            rc = rc_in[j]
-            rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
-        else:
-            rho = 1.0
-        groove[j] = gf
-        stress[j] = math.sqrt(f * e_tooth / (pi_width * rho))
-        rho_g = rp * groove_radius / (groove_radius - rp)
-        g_stress[j] = math.sqrt(gf * e_groove / (pi_width * rho_g))
+    e_tooth, e_groove = E* of the two pairs [Pa], pi_width = π·B [m]; the pin radii
+    ``rp_in`` as :func:`_compliance`'s."""
+    n_pins = rp_in.shape[1]
+    for q in range(force.size // n_pins):
+        rp_row = rp_in[q // repeat]
+        for i in range(n_pins):
+            j = q * n_pins + i
+            f, rp = force[j], rp_row[i]
+            gf = f * cos_beta[j]
+            if f > 0:
+                rc = rc_in[j]
+                rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
+            else:
+                rho = 1.0
+            groove[j] = gf
+            stress[j] = math.sqrt(f * e_tooth / (pi_width * rho))
+            rho_g = rp * groove_radius / (groove_radius - rp)
+            g_stress[j] = math.sqrt(gf * e_groove / (pi_width * rho_g))
 
 
 def _overlap_contacts(reverse, rotation, force, m, fraction, overlap, contacts):  # pragma: no cover
@@ -799,6 +808,16 @@ def _flat(x, shape):
     return np.ascontiguousarray(np.broadcast_to(x, shape)).reshape(-1)
 
 
+def _pin_rows(pin_radius, shape):
+    """(pin radii (rows, n1), repeat) of contacts of ``shape``: one row per ring when
+    the radii are broadcast along the crank angles (repeat = the angles; no copy of a
+    revolution's worth of equal rows), else every row (repeat = 1)."""
+    rp = np.broadcast_to(np.asarray(pin_radius, float), shape)
+    if rp.ndim >= 2 and rp.strides[-2] == 0:
+        return np.ascontiguousarray(rp[..., 0, :]).reshape(-1, shape[-1]), shape[-2]
+    return np.ascontiguousarray(rp).reshape(-1, shape[-1]), 1
+
+
 def compliance_arrays(
     pin_radius,
     curvature_radius,
@@ -820,7 +839,7 @@ def compliance_arrays(
     width = design.width
     alpha, gamma = np.empty(shape), np.empty(shape)
     compiled().compliance(
-        _flat(pin_radius, shape),
+        *_pin_rows(pin_radius, shape),
         _flat(curvature_radius, shape),
         _flat(cos_beta, shape),
         _flat(contact_radius, shape),
@@ -854,7 +873,7 @@ def stress_arrays(pin_radius, curvature_radius, cos_beta, force, design):
     compiled().stresses(
         _flat(force, shape),
         _flat(cos_beta, shape),
-        _flat(pin_radius, shape),
+        *_pin_rows(pin_radius, shape),
         _flat(curvature_radius, shape),
         effective_modulus(c_pin, design.disc_material.compliance),
         effective_modulus(c_pin, design.ring_material.compliance),
