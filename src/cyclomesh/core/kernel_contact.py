@@ -134,7 +134,6 @@ def _contact_phase(
     k0_row = np.empty(n_pins)
     h_row = np.empty(n_pins)
     d_row = np.empty(n_pins)
-    prev_row = np.empty(n_pins)
     lo_row = np.empty(n_pins)
     hi_row = np.empty(n_pins)
     ok_row = np.empty(n_pins, np.bool_)
@@ -162,25 +161,19 @@ def _contact_phase(
             wx[b, i] = x
             wy[b, i] = y
         steps = 0
-        active = n_pins
-        while steps < _MAX_ITERATIONS and active * _FEW > n_pins:
+        while True:  # an evaluation of every pin, then (most pins left) a step of each
             steps += 1
             active = 0
             unsure = 0
             for i in range(n_pins):
                 c = c_row[i]
-                s = s_pin[r, i]
                 d = math.sqrt(d0 - d1 * c)
                 g = g0 - g1 * c
-                h = k0_row[i] - 2.0 * a * e * c + 2.0 * s * g / d
+                h = k0_row[i] - 2.0 * a * e * c + 2.0 * s_pin[r, i] * g / d
                 size = abs(h)
                 done = size <= lo_row[i]
                 unsure += (size > lo_row[i]) & (size <= hi_row[i])
-                dh = -2.0 * a * e + 2.0 * s * (-g1 * d + g * d1 / (2.0 * d)) / (d * d)
-                step = min(max(c - h / dh, -1.0), 1.0)
-                c_row[i] = c if done else step
                 done_row[i] = done
-                prev_row[i] = c
                 h_row[i] = h
                 d_row[i] = d
                 active += not done
@@ -189,9 +182,18 @@ def _contact_phase(
                     size = abs(h_row[i])
                     unsure_i = size > lo_row[i] and size <= hi_row[i]
                     if unsure_i and size / (2.0 * w_row[i]) <= _TOLERANCE:
-                        c_row[i] = prev_row[i]
                         done_row[i] = True
                         active -= 1
+            if active * _FEW <= n_pins or steps >= _MAX_ITERATIONS:
+                break
+            for i in range(n_pins):
+                c = c_row[i]
+                s = s_pin[r, i]
+                d = d_row[i]
+                g = g0 - g1 * c
+                dh = -2.0 * a * e + 2.0 * s * (-g1 * d + g * d1 / (2.0 * d)) / (d * d)
+                step = min(max(c - h_row[i] / dh, -1.0), 1.0)
+                c_row[i] = c if done_row[i] else step
         if active:  # the few pins left, one at a time, each to its own end
             n_left = 0
             for i in range(n_pins):
@@ -202,17 +204,17 @@ def _contact_phase(
                 i = left[j]
                 s = s_pin[r, i]
                 two_w = 2.0 * w_row[i]
-                for _ in range(steps, _MAX_ITERATIONS):
-                    c = c_row[i]
+                c, d, h = c_row[i], d_row[i], h_row[i]
+                for _ in range(steps, _MAX_ITERATIONS):  # a step, then an evaluation
+                    g = g0 - g1 * c
+                    dh = -2.0 * a * e + 2.0 * s * (-g1 * d + g * d1 / (2.0 * d)) / (d * d)
+                    c = min(max(c - h / dh, -1.0), 1.0)
                     d = math.sqrt(d0 - d1 * c)
                     g = g0 - g1 * c
                     h = k0_row[i] - 2.0 * a * e * c + 2.0 * s * g / d
-                    h_row[i] = h
-                    d_row[i] = d
                     if abs(h) / two_w <= _TOLERANCE:
                         break
-                    dh = -2.0 * a * e + 2.0 * s * (-g1 * d + g * d1 / (2.0 * d)) / (d * d)
-                    c_row[i] = min(max(c - h / dh, -1.0), 1.0)
+                c_row[i], d_row[i], h_row[i] = c, d, h
         for i in range(n_pins):
             c = c_row[i]
             s = s_pin[r, i]
