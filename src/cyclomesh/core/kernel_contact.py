@@ -92,6 +92,7 @@ def compiled() -> Any:
         compliance = jit(_compliance)
         stresses = jit(_stresses)
         rests = jit(_rests)
+        rest_backlash = jit(_rest_backlash)
         overlap_contacts = jit(_overlap_contacts)
         log, cos, sin = _log, _cos, _sin
 
@@ -641,6 +642,17 @@ def _row_min(x, arm, cond, sign, j0, m):  # pragma: no cover (compiled)
     return math.nan if nan else best
 
 
+def _rest_backlash(rotation, arm, cond, m, rest, backlash):  # pragma: no cover (compiled)
+    """The rest position of every row of m contacts (flat arrays), as :func:`_rests`, and
+    the backlash φbl = φc,i − φt − rest of each contact (one subtraction, the
+    reference's bits) in the same pass."""
+    for i in range(rest.size):
+        low = _row_min(rotation, arm, cond, 1.0, i * m, m)
+        rest[i] = low
+        for j in range(i * m, i * m + m):
+            backlash[j] = rotation[j] - low
+
+
 def _rests(rotation, reverse_rotation, arm, cond, m, rest, reverse):  # pragma: no cover
     """Rest positions on the loaded and on the opposite flanks of every row of m
     contacts (flat arrays), as :func:`cyclomesh.drive.mesh.rest_positions` takes them
@@ -673,6 +685,24 @@ def rest_arrays(rotation, reverse_rotation, moment_arm, cond):
         reverse.reshape(-1),
     )
     return rest, (reverse if reverse_rotation is not None else None)
+
+
+def rest_and_backlash(rotation, moment_arm, cond):
+    """(rest [rad] (...), backlash [rad] (..., m)) of contacts (..., m) in one compiled pass
+    (:func:`_rest_backlash`): :func:`cyclomesh.core.ltca.rest_position` and
+    rotation − rest[..., None], bit for bit."""
+    shape = np.shape(rotation)
+    rest = np.empty(shape[:-1])
+    backlash = np.empty(shape)
+    compiled().rest_backlash(
+        _flat(rotation, shape),
+        _flat(moment_arm, shape),
+        float(cond),
+        shape[-1],
+        rest.reshape(-1),
+        backlash.reshape(-1),
+    )
+    return rest, backlash
 
 
 def overlap_contacts(reverse_rotation, rotation, force, fraction):
