@@ -217,13 +217,13 @@ def unloaded_contact(
 
     phi_t = -phi / n2
     # nominal tooth phase n2·(i·ψ + φ/n2) of the pin, and its nearest tooth-space bottom
-    u_nominal = n2 * index * design.pitch + phi
-    t_root = 2.0 * np.pi * np.round(u_nominal / (2.0 * np.pi)) / n2
+    # (the compiled passes take the bottom themselves, from n2·i·ψ and φ)
+    pin_phase = n2 * index * design.pitch
     if modification.profile is None and kernel_name() == "numba":
         # the compiled passes (cyclomesh.core.kernel_contact); None: the reference refuses
         shape = (*ring_shape, phi.size, n1)
         got = contact_arrays(
-            pin_r, pin_angle, ecc, phi, r_pin - rho_gen, t_root, a, e, n1, n2, rho_gen,
+            pin_r, pin_angle, ecc, phi, r_pin - rho_gen, pin_phase, a, e, n1, n2, rho_gen,
             modification.rotation, shape, normals,
         )  # fmt: skip
         if got is not None:
@@ -240,6 +240,8 @@ def unloaded_contact(
                     np.put(got["normal_x"], tip, nx)
                     np.put(got["normal_y"], tip, ny)
             return UnloadedContact(**got, pin_radius=np.broadcast_to(r_pin, shape))
+    u_nominal = pin_phase + phi
+    t_root = 2.0 * np.pi * np.round(u_nominal / (2.0 * np.pi)) / n2
 
     wx = pin_r * np.cos(pin_angle) - ecc * np.cos(phi)
     wy = pin_r * np.sin(pin_angle) - ecc * np.sin(phi)

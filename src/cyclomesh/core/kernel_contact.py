@@ -83,6 +83,8 @@ def compiled() -> Any:
     _libm_cos = jit(_libm_cos)
     _finish_pin = inline(_finish_pin)
     _row_min = jit(_row_min)
+    global _compliance_row
+    _compliance_row = inline(_compliance_row)
 
     class Passes:
         contact_phase = jit(_contact_phase)
@@ -90,6 +92,7 @@ def compiled() -> Any:
         compliance = jit(_compliance)
         stresses = jit(_stresses)
         rests = jit(_rests)
+        rest_backlash = jit(_rest_backlash)
         overlap_contacts = jit(_overlap_contacts)
         log, cos, sin = _log, _cos, _sin
 
@@ -97,17 +100,20 @@ def compiled() -> Any:
 
 
 def _contact_phase(
-    pcx, pcy, ecx, ecy, s_pin, a, e, n1, q0, q1, wx, wy, c_out, zx, zy, nx, ny, residual, reach
-):  # pragma: no cover (compiled)
+    pcx, pcy, ecx, ecy, s_pin, a, e, n1, q0, q1, wx, wy, c_out, zx, zy, nx, ny, sin_out, d_out,
+    residual, reach
+):  # fmt: skip  # pragma: no cover (compiled)
     """Tooth phase c = cos u of every contact and the vectors whose arguments NumPy takes.
 
     Inputs: pcx, pcy = pin_r·(cos, sin)(pin angle) (R, n1); ecx, ecy = ecc·(cos, sin)φ
     (R, A); s_pin = r_pin − ρ' (R, n1); a', e [m], n1. The rows q0 ≤ q < q1 of the
     (R·A, n1) contacts (row q: ring q // A, crank angle q % A), a block of them: fills
     the block's rows q − q0 of w = C − O2 (wx, wy), c, the pin centre on the offset locus
-    P_s (zx, zy) and the normal (nx, ny) in the tooth frame and ``reach`` (q1 − q0, n1),
-    and the rows q of the residual [m] (R·A, n1). Returns the number of jammed or
-    unconverged contacts (then the caller takes the reference, which raises).
+    P_s (zx, zy), the normal (nx, ny) in the tooth frame, sin u, D = |n·D| (``sin_out``,
+    ``d_out``, which :func:`_contact_finish` reads instead of taking them again) and
+    ``reach`` (q1 − q0, n1), and the rows q of the residual [m] (R·A, n1). Returns the
+    number of jammed or unconverged contacts (then the caller takes the reference, which
+    raises).
     """
     n_angles = ecx.shape[1]
     n_pins = wx.shape[1]
@@ -118,12 +124,22 @@ def _contact_phase(
     # the compiler runs it in SIMD lanes (square roots and quotients are correctly
     # rounded there as well, so the bits are the per-element loop's): Newton's steps
     # run until every pin of the angle has converged, a converged pin recomputing its
-    # residual at its own c and keeping it, as the reference's ``np.where(done, c, …)``
+    # residual at its own c and keeping it, as the reference's ``np.where(done, c, …)``;
+    # once only a few pins are left (about one pin in 40 takes a third Newton step) they
+    # finish alone (the same operations, one pin at a time). The test |h|/(2w) ≤ tol is
+    # taken without the quotient, against 2w·tol widened and narrowed by 1e-12 (the
+    # quotient's rounding is 1.1e-16): a pin between the two bounds is decided by the
+    # quotient itself, so the decisions, and with them c, are the reference's.
     c_row = np.empty(n_pins)
     w_row = np.empty(n_pins)
     k0_row = np.empty(n_pins)
-    res_row = np.empty(n_pins)
+    h_row = np.empty(n_pins)
+    d_row = np.empty(n_pins)
+    lo_row = np.empty(n_pins)
+    hi_row = np.empty(n_pins)
     ok_row = np.empty(n_pins, np.bool_)
+    done_row = np.empty(n_pins, np.bool_)
+    left = np.empty(n_pins, np.int64)
     for q in range(q0, q1):
         r, k, b = q // n_angles, q % n_angles, q - q0
         ex, ey = ecx[r, k], ecy[r, k]
@@ -134,45 +150,100 @@ def _contact_phase(
             s = s_pin[r, i]
             w = math.sqrt(w2)
             bad += w < a - e + s - _TOLERANCE  # jammed: the reference raises
-            ok_row[i] = w <= a + e + s
+            ok = w <= a + e + s
+            ok_row[i] = ok
             k0 = a * a + e * e + s * s - w2
             k0_row[i] = k0
             w_row[i] = w
+            # an unreachable pin is converged whatever h (its residual is 0)
+            lo_row[i] = (2.0 * w) * _TOL_BELOW if ok else np.inf
+            hi_row[i] = (2.0 * w) * _TOL_ABOVE if ok else np.inf
             c_row[i] = min(max(k0 / (2.0 * a * e), -1.0), 1.0)
             wx[b, i] = x
             wy[b, i] = y
-        for _ in range(_MAX_ITERATIONS):
+        steps = 0
+        while True:  # an evaluation of every pin, then (most pins left) a step of each
+            steps += 1
             active = 0
+            unsure = 0
+            for i in range(n_pins):
+                c = c_row[i]
+                d = math.sqrt(d0 - d1 * c)
+                g = g0 - g1 * c
+                h = k0_row[i] - 2.0 * a * e * c + 2.0 * s_pin[r, i] * g / d
+                size = abs(h)
+                done = size <= lo_row[i]
+                unsure += (size > lo_row[i]) & (size <= hi_row[i])
+                done_row[i] = done
+                h_row[i] = h
+                d_row[i] = d
+                active += not done
+            if unsure:  # between the bounds: the reference's quotient decides
+                for i in range(n_pins):
+                    size = abs(h_row[i])
+                    unsure_i = size > lo_row[i] and size <= hi_row[i]
+                    if unsure_i and size / (2.0 * w_row[i]) <= _TOLERANCE:
+                        done_row[i] = True
+                        active -= 1
+            if active * _FEW <= n_pins or steps >= _MAX_ITERATIONS:
+                break
             for i in range(n_pins):
                 c = c_row[i]
                 s = s_pin[r, i]
-                d = math.sqrt(d0 - d1 * c)
+                d = d_row[i]
                 g = g0 - g1 * c
-                h = k0_row[i] - 2.0 * a * e * c + 2.0 * s * g / d
-                res = abs(h) / (2.0 * w_row[i]) if ok_row[i] else 0.0
-                res_row[i] = res
-                done = res <= _TOLERANCE
                 dh = -2.0 * a * e + 2.0 * s * (-g1 * d + g * d1 / (2.0 * d)) / (d * d)
-                step = min(max(c - h / dh, -1.0), 1.0)
-                c_row[i] = c if done else step
-                active += not done
-            if active == 0:
-                break
+                step = min(max(c - h_row[i] / dh, -1.0), 1.0)
+                c_row[i] = c if done_row[i] else step
+        if active:  # the few pins left, one at a time, each to its own end
+            n_left = 0
+            for i in range(n_pins):
+                if not done_row[i]:
+                    left[n_left] = i
+                    n_left += 1
+            for j in range(n_left):
+                i = left[j]
+                s = s_pin[r, i]
+                two_w = 2.0 * w_row[i]
+                c, d, h = c_row[i], d_row[i], h_row[i]
+                for _ in range(steps, _MAX_ITERATIONS):  # a step, then an evaluation
+                    g = g0 - g1 * c
+                    dh = -2.0 * a * e + 2.0 * s * (-g1 * d + g * d1 / (2.0 * d)) / (d * d)
+                    c = min(max(c - h / dh, -1.0), 1.0)
+                    d = math.sqrt(d0 - d1 * c)
+                    g = g0 - g1 * c
+                    h = k0_row[i] - 2.0 * a * e * c + 2.0 * s * g / d
+                    if abs(h) / two_w <= _TOLERANCE:
+                        break
+                c_row[i], d_row[i], h_row[i] = c, d, h
         for i in range(n_pins):
             c = c_row[i]
             s = s_pin[r, i]
-            bad += not res_row[i] <= _TOLERANCE  # unconverged: the reference raises
+            ok = ok_row[i]
+            res = abs(h_row[i]) / (2.0 * w_row[i]) if ok else 0.0
+            bad += not res <= _TOLERANCE  # unconverged: the reference raises
             sin_u = -math.sqrt(1.0 - c * c)
-            d = math.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
+            d = d_row[i]
             vx, vy = (a - e * n1 * c) / d, -e * n1 * sin_u / d
             c_out[b, i] = c
             nx[b, i] = vx
             ny[b, i] = vy
+            sin_out[b, i] = sin_u
+            d_out[b, i] = d
             zx[b, i] = a - e * c + s * vx
             zy[b, i] = -e * sin_u + s * vy
-            residual[q, i] = res_row[i]
-            reach[b, i] = ok_row[i]
+            residual[q, i] = res
+            reach[b, i] = ok
     return bad
+
+
+_TOL_BELOW = _TOLERANCE * (1.0 - 1e-12)
+_TOL_ABOVE = _TOLERANCE * (1.0 + 1e-12)
+"""|h| ≤ 2w·_TOL_BELOW gives |h|/(2w) ≤ tol after rounding, |h| > 2w·_TOL_ABOVE gives
+more (:func:`_contact_phase`)."""
+_FEW = 8
+"""The tooth phase's Newton steps leave the SIMD lanes once fewer than one pin in this
+many of a crank angle is still stepping."""
 
 
 def _contact_finish(
@@ -182,8 +253,13 @@ def _contact_finish(
     u,
     c_in,
     reach,
+    vx_in,
+    vy_in,
+    sin_in,
+    d_in,
     phi_t,
-    t_root,
+    phi,
+    pin_phase,
     pin_angle,
     a,
     e,
@@ -208,9 +284,12 @@ def _contact_finish(
     """The contact quantities from the tooth phase and NumPy's angles (module doc).
 
     The rows q0 ≤ q < q1 of the (R·A, n1) contacts (row q: ring q // A, crank angle
-    q % A): arg_w, arg_z, arg_n = arg w, arg P_s, arg n, u = −arccos c, c and ``reach``
-    of the block (rows q − q0); phi_t (A,); t_root (A, n1); pin_angle (R, n1); ``turn``
-    the rotation modification [rad]. Fills the block's rows q
+    q % A): arg_w, arg_z, arg_n = arg w, arg P_s, arg n, u = −arccos c, c, ``reach`` and
+    the tooth frame's normal, sin u and D of :func:`_contact_phase` of the block (rows
+    q − q0); phi_t, phi (A,); pin_phase = n2·i·ψ (n1,), from which the nearest
+    tooth-space bottom of the nominal tooth phase, t_root = 2π·rint((n2·i·ψ + φ)/2π)/n2,
+    is taken here as the reference takes it (``np.round``: halves to even);
+    pin_angle (R, n1); ``turn`` the rotation modification [rad]. Fills the block's rows q
     of the arrays of :class:`~cyclomesh.core.contact.UnloadedContact` as
     :func:`~cyclomesh.core.contact.unloaded_contact` does, and with ``normals`` the
     outward flank normal in the fixed frame, (cos, sin)(arg w + arg n − arg P_s), from
@@ -228,11 +307,14 @@ def _contact_finish(
     for q in range(q0, q1):
         r, k, b = q // n_angles, q % n_angles, q - q0
         pt = phi_t[k]
-        tr = t_root[k]
+        tr = (phi[k], pin_phase)
         pa = pin_angle[r]
         # a view per row: with them the compiler vectorises the loop below (with flat
         # offsets it does not)
-        rows = (arg_w[b], arg_z[b], arg_n[b], u[b], c_in[b], reach[b])
+        rows = (
+            arg_w[b], arg_z[b], arg_n[b], u[b], c_in[b], reach[b], vx_in[b], vy_in[b],
+            sin_in[b], d_in[b]
+        )  # fmt: skip
         outs = (
             rotation[q],
             reverse[q],
@@ -274,19 +356,18 @@ def _finish_pin(wrap, cosine, i, rows, tr, pa, pt, consts, outs):  # pragma: no 
     returns whether a reachable pin's angles lie beyond :func:`_mod_2pi_near`'s or
     :func:`_cos`'s range or it lies next to an inflection (:data:`_INFLECTION`; then the
     caller takes it again exactly)."""
-    arg_w, arg_z, arg_n, u, c_in, reach = rows
+    arg_w, arg_z, arg_n, u, c_in, reach, vx_in, vy_in, sin_in, d_in = rows
     rotation, reverse, moment_arm, cos_beta, profile_angle, contact_radius, curvature = outs
     a, e, n1, n2, rho_gen, turn, c0, c1, c2, c3 = consts
-    two_pi = 2.0 * np.pi
     centre = np.pi / n2
     uu = u[i]
     aw, az = arg_w[i], arg_z[i]
     ok = reach[i]
     c = c_in[i]
-    t_i = tr[i]
-    sin_u = -math.sqrt(1.0 - c * c)
-    d = math.sqrt(a * a + e * e * n1 * n1 - 2.0 * a * e * n1 * c)
-    vx, vy = (a - e * n1 * c) / d, -e * n1 * sin_u / d
+    two_pi = 2.0 * np.pi
+    t_i = two_pi * np.rint((tr[1][i] + tr[0]) / two_pi) / n2
+    sin_u, d = sin_in[i], d_in[i]  # the phase's: the same expressions, the same bits
+    vx, vy = vx_in[i], vy_in[i]
     t = t_i + uu / n2
     x_rot = np.pi - (aw - t - az - pt)
     rot = np.pi - wrap(x_rot)
@@ -374,6 +455,7 @@ def _mod_2pi(x):  # pragma: no cover (compiled)
 
 def _compliance(
     rp_in,
+    repeat,
     rc_in,
     cb_in,
     depth_in,
@@ -395,7 +477,9 @@ def _compliance(
 ):  # pragma: no cover (compiled)
     """(α, γ) of δ = F(α − γ ln F) per contact, as
     :func:`~cyclomesh.core.hertz.compliance_coefficients` (flat arrays, rows of
-    ``n_pins`` contacts, one pass).
+    ``n_pins`` contacts, one pass; the pin radii ``rp_in`` (rows, n_pins), row q of the
+    contacts taking row q // ``repeat`` of them, as the crank angles of a ring share
+    theirs).
 
     k_tooth, k_groove = π·B·E* of the pin–tooth and pin–groove pairs; scale = 2/(πB);
     gamma_0, g_p = (c_disc + c_pin)/(πB), (c_ring + c_pin)/(πB); poisson_term =
@@ -409,8 +493,8 @@ def _compliance(
     per_pin = np.empty((3, n_pins))  # ρp, ln 4ρp, α′ of the row before
     per_pin[0, :] = np.nan
     inv_tooth = 4.0 / k_tooth
-    for start in range(0, rp_in.size, n_pins):
-        rp_row = rp_in[start : start + n_pins]
+    for start in range(0, rc_in.size, n_pins):
+        rp_row = rp_in[start // n_pins // repeat]
         same = 0
         for i in range(n_pins):
             same += rp_row[i] == per_pin[0, i]
@@ -425,44 +509,62 @@ def _compliance(
                     c_ring * (_log(4.0 * abs(groove_radius) / kappa) - 0.5)
                     + c_pin * (_log(4.0 * abs(rp) / kappa) - 0.5)
                 )
-        log_rp = per_pin[1]
-        a_prime = per_pin[2]
-        rc_row = rc_in[start : start + n_pins]
-        cb_row = cb_in[start : start + n_pins]
-        depth_row = depth_in[start : start + n_pins]
-        alpha_row = alpha[start : start + n_pins]
-        gamma_row = gamma[start : start + n_pins]
-        for i in range(n_pins):
-            rp, rc = rp_row[i], rc_row[i]
-            if half_plane:
-                rho_star = rp / (1.0 + rp / rc)
-                log_kappa = 0.5 * _log(rho_star * inv_tooth)
-                a = scale * (
-                    c_disc * ((_log(2.0 * depth_row[i]) - log_kappa) - poisson_term)
-                    + c_pin * ((log_rp[i] - log_kappa) - 0.5)
-                )
-            else:
-                rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
-                log_kappa = 0.5 * _log(rho * inv_tooth)
-                a = scale * (
-                    c_disc * ((_log(4.0 * abs(rc)) - log_kappa) - 0.5)
-                    + c_pin * ((log_rp[i] - log_kappa) - 0.5)
-                )
-            g = gamma_0
+        row = (rp_row, rc_in, cb_in, depth_in, per_pin[1], per_pin[2], alpha, gamma, start)
+        consts = (inv_tooth, scale, c_disc, c_pin, poisson_term, gamma_0, g_p)
+        # the law and the groove term fixed in each loop (no choice left inside it)
+        if half_plane:
             if groove:
-                cb = cb_row[i]
-                c2 = cb * cb
-                log_cb = _log(cb) if cb > 0 else 0.0
-                a = a + c2 * (a_prime[i] - g_p * log_cb)
-                g = g + c2 * g_p
-            alpha_row[i] = a
-            gamma_row[i] = g
+                _compliance_row(row, n_pins, consts, True, True)
+            else:
+                _compliance_row(row, n_pins, consts, True, False)
+        elif groove:
+            _compliance_row(row, n_pins, consts, False, True)
+        else:
+            _compliance_row(row, n_pins, consts, False, False)
+
+
+def _compliance_row(row, n_pins, consts, half_plane, groove):  # pragma: no cover (compiled)
+    """One row of :func:`_compliance` (inlined there with constant ``half_plane`` and
+    ``groove``)."""
+    rp_row, rc_in, cb_in, depth_in, log_rp, a_prime, alpha, gamma, start = row
+    inv_tooth, scale, c_disc, c_pin, poisson_term, gamma_0, g_p = consts
+    rc_row = rc_in[start : start + n_pins]
+    cb_row = cb_in[start : start + n_pins]
+    depth_row = depth_in[start : start + n_pins]
+    alpha_row = alpha[start : start + n_pins]
+    gamma_row = gamma[start : start + n_pins]
+    for i in range(n_pins):
+        rp, rc = rp_row[i], rc_row[i]
+        if half_plane:
+            rho_star = rp / (1.0 + rp / rc)
+            log_kappa = 0.5 * _log(rho_star * inv_tooth)
+            a = scale * (
+                c_disc * ((_log(2.0 * depth_row[i]) - log_kappa) - poisson_term)
+                + c_pin * ((log_rp[i] - log_kappa) - 0.5)
+            )
+        else:
+            rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
+            log_kappa = 0.5 * _log(rho * inv_tooth)
+            a = scale * (
+                c_disc * ((_log(4.0 * abs(rc)) - log_kappa) - 0.5)
+                + c_pin * ((log_rp[i] - log_kappa) - 0.5)
+            )
+        g = gamma_0
+        if groove:
+            cb = cb_row[i]
+            c2 = cb * cb
+            log_cb = _log(cb) if cb > 0 else 0.0
+            a = a + c2 * (a_prime[i] - g_p * log_cb)
+            g = g + c2 * g_p
+        alpha_row[i] = a
+        gamma_row[i] = g
 
 
 def _stresses(
     force,
     cos_beta,
     rp_in,
+    repeat,
     rc_in,
     e_tooth,
     e_groove,
@@ -474,19 +576,24 @@ def _stresses(
 ):  # pragma: no cover (compiled)
     """Groove load F·cos β [N] and the Hertzian pressures of tooth and groove [Pa] (Eqs.
     18, 24 of [1]), as :func:`~cyclomesh.core.fields.contact_stresses` (flat arrays);
-    e_tooth, e_groove = E* of the two pairs [Pa], pi_width = π·B [m]."""
-    for j in range(force.size):
-        f, rp = force[j], rp_in[j]
-        gf = f * cos_beta[j]
-        if f > 0:
-            rc = rc_in[j]
-            rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
-        else:
-            rho = 1.0
-        groove[j] = gf
-        stress[j] = math.sqrt(f * e_tooth / (pi_width * rho))
-        rho_g = rp * groove_radius / (groove_radius - rp)
-        g_stress[j] = math.sqrt(gf * e_groove / (pi_width * rho_g))
+    e_tooth, e_groove = E* of the two pairs [Pa], pi_width = π·B [m]; the pin radii
+    ``rp_in`` as :func:`_compliance`'s."""
+    n_pins = rp_in.shape[1]
+    for q in range(force.size // n_pins):
+        rp_row = rp_in[q // repeat]
+        for i in range(n_pins):
+            j = q * n_pins + i
+            f, rp = force[j], rp_row[i]
+            gf = f * cos_beta[j]
+            if f > 0:
+                rc = rc_in[j]
+                rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
+            else:
+                rho = 1.0
+            groove[j] = gf
+            stress[j] = math.sqrt(f * e_tooth / (pi_width * rho))
+            rho_g = rp * groove_radius / (groove_radius - rp)
+            g_stress[j] = math.sqrt(gf * e_groove / (pi_width * rho_g))
 
 
 def _overlap_contacts(reverse, rotation, force, m, fraction, overlap, contacts):  # pragma: no cover
@@ -535,6 +642,17 @@ def _row_min(x, arm, cond, sign, j0, m):  # pragma: no cover (compiled)
     return math.nan if nan else best
 
 
+def _rest_backlash(rotation, arm, cond, m, rest, backlash):  # pragma: no cover (compiled)
+    """The rest position of every row of m contacts (flat arrays), as :func:`_rests`, and
+    the backlash φbl = φc,i − φt − rest of each contact (one subtraction, the
+    reference's bits) in the same pass."""
+    for i in range(rest.size):
+        low = _row_min(rotation, arm, cond, 1.0, i * m, m)
+        rest[i] = low
+        for j in range(i * m, i * m + m):
+            backlash[j] = rotation[j] - low
+
+
 def _rests(rotation, reverse_rotation, arm, cond, m, rest, reverse):  # pragma: no cover
     """Rest positions on the loaded and on the opposite flanks of every row of m
     contacts (flat arrays), as :func:`cyclomesh.drive.mesh.rest_positions` takes them
@@ -569,6 +687,24 @@ def rest_arrays(rotation, reverse_rotation, moment_arm, cond):
     return rest, (reverse if reverse_rotation is not None else None)
 
 
+def rest_and_backlash(rotation, moment_arm, cond):
+    """(rest [rad] (...), backlash [rad] (..., m)) of contacts (..., m) in one compiled pass
+    (:func:`_rest_backlash`): :func:`cyclomesh.core.ltca.rest_position` and
+    rotation − rest[..., None], bit for bit."""
+    shape = np.shape(rotation)
+    rest = np.empty(shape[:-1])
+    backlash = np.empty(shape)
+    compiled().rest_backlash(
+        _flat(rotation, shape),
+        _flat(moment_arm, shape),
+        float(cond),
+        shape[-1],
+        rest.reshape(-1),
+        backlash.reshape(-1),
+    )
+    return rest, backlash
+
+
 def overlap_contacts(reverse_rotation, rotation, force, fraction):
     """(overlap [rad], contacts) of :func:`cyclomesh.core.fields.contact_fields` for one
     disc (``rotation`` one value per row of pins, (..., 1)) in one compiled pass
@@ -589,13 +725,13 @@ def overlap_contacts(reverse_rotation, rotation, force, fraction):
 
 
 def contact_arrays(
-    pin_r, pin_angle, ecc, phi, s_pin, t_root, a, e, n1, n2, rho_gen, turn, shape, normals=False
+    pin_r, pin_angle, ecc, phi, s_pin, pin_phase, a, e, n1, n2, rho_gen, turn, shape, normals=False
 ) -> dict[str, np.ndarray] | None:
     """The arrays of :func:`cyclomesh.core.contact.unloaded_contact` (undeviated profile)
     from the compiled passes and NumPy's inverse trigonometric functions (module doc).
 
     Inputs as the reference builds them: pin_r, pin_angle, s_pin = r_pin − ρ' of shape
-    (..., 1, n1), ecc (..., 1, 1), phi (A, 1) [rad], t_root (A, n1); ``shape`` the
+    (..., 1, n1), ecc (..., 1, 1), phi (A, 1) [rad], pin_phase = n2·i·ψ (n1,); ``shape`` the
     contact arrays' (..., A, n1); ``normals``: also the outward flank normals in the
     fixed frame (``normal_x``, ``normal_y``; those of the unreachable pins, φ1 = −π, the
     caller takes from the reference, see :func:`cyclomesh.core.contact.unloaded_contact`).
@@ -634,38 +770,43 @@ def contact_arrays(
     normal_rows = [v.reshape(n_rows, n1) if normals else v.reshape(0, 0) for v in normal]
     residual_rows, arg_w_rows = residual.reshape(n_rows, n1), arg_w.reshape(n_rows, n1)
     phi_t = np.ascontiguousarray(-phi[:, 0] / n2)
-    t_rows = np.ascontiguousarray(np.broadcast_to(t_root, (n_angles, n1)))
+    phi_rows = np.ascontiguousarray(phi[:, 0])
+    pin_phase = np.ascontiguousarray(pin_phase, float)
     pin_rows = rows(pin_angle, (1, n1))
     # blocks of rows (crank angles of a ring) whose intermediates stay in the cache
     block = max(1, min(n_rows, BLOCK_CONTACTS // n1))
-    wx, wy, c, zx, zy, nx, ny = (np.empty((block, n1)) for _ in range(7))
+    wx, wy, c, zx, zy, nx, ny, sin_u, d, arg_n, u = (np.empty((block, n1)) for _ in range(11))
     reach = np.empty((block, n1), np.bool_)
     for q0 in range(0, n_rows, block):
         q1 = min(q0 + block, n_rows)
         m = q1 - q0
-        bwx, bwy, bc, bzx, bzy, bnx, bny, breach = (
-            v[:m] for v in (wx, wy, c, zx, zy, nx, ny, reach)
+        bwx, bwy, bc, bzx, bzy, bnx, bny, bsin, bd, barg_n, bu, breach = (
+            v[:m] for v in (wx, wy, c, zx, zy, nx, ny, sin_u, d, arg_n, u, reach)
         )
         bad = passes.contact_phase(
             pcx, pcy, ecx, ecy, s_rows, a, e, n1, q0, q1,
-            bwx, bwy, bc, bzx, bzy, bnx, bny, residual_rows, breach,
+            bwx, bwy, bc, bzx, bzy, bnx, bny, bsin, bd, residual_rows, breach,
         )  # fmt: skip
         if bad:
             return None
-        arg_w_block = np.arctan2(bwy, bwx, out=bwx)
-        arg_w_rows[q0:q1] = arg_w_block
+        arg_w_block = np.arctan2(bwy, bwx, out=arg_w_rows[q0:q1])
         arg_z = np.arctan2(bzy, bzx, out=bzx)
-        arg_n = np.arctan2(bny, bnx, out=bnx)
-        u = np.negative(np.arccos(bc, out=bzy), out=bzy)
+        np.arctan2(bny, bnx, out=barg_n)
+        np.negative(np.arccos(bc, out=bu), out=bu)
         passes.contact_finish(
             arg_w_block,
             arg_z,
-            arg_n,
-            u,
+            barg_n,
+            bu,
             bc,
             breach,
+            bnx,
+            bny,
+            bsin,
+            bd,
             phi_t,
-            t_rows,
+            phi_rows,
+            pin_phase,
             pin_rows,
             a,
             e,
@@ -699,6 +840,16 @@ def _flat(x, shape):
     return np.ascontiguousarray(np.broadcast_to(x, shape)).reshape(-1)
 
 
+def _pin_rows(pin_radius, shape):
+    """(pin radii (rows, n1), repeat) of contacts of ``shape``: one row per ring when
+    the radii are broadcast along the crank angles (repeat = the angles; no copy of a
+    revolution's worth of equal rows), else every row (repeat = 1)."""
+    rp = np.broadcast_to(np.asarray(pin_radius, float), shape)
+    if rp.ndim >= 2 and rp.strides[-2] == 0:
+        return np.ascontiguousarray(rp[..., 0, :]).reshape(-1, shape[-1]), shape[-2]
+    return np.ascontiguousarray(rp).reshape(-1, shape[-1]), 1
+
+
 def compliance_arrays(
     pin_radius,
     curvature_radius,
@@ -720,7 +871,7 @@ def compliance_arrays(
     width = design.width
     alpha, gamma = np.empty(shape), np.empty(shape)
     compiled().compliance(
-        _flat(pin_radius, shape),
+        *_pin_rows(pin_radius, shape),
         _flat(curvature_radius, shape),
         _flat(cos_beta, shape),
         _flat(contact_radius, shape),
@@ -754,7 +905,7 @@ def stress_arrays(pin_radius, curvature_radius, cos_beta, force, design):
     compiled().stresses(
         _flat(force, shape),
         _flat(cos_beta, shape),
-        _flat(pin_radius, shape),
+        *_pin_rows(pin_radius, shape),
         _flat(curvature_radius, shape),
         effective_modulus(c_pin, design.disc_material.compliance),
         effective_modulus(c_pin, design.ring_material.compliance),

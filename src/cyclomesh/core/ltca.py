@@ -37,7 +37,7 @@ from cyclomesh.core.fields import (
 )
 from cyclomesh.core.hertz import CONTACT_LAWS, compliance_coefficients
 from cyclomesh.core.kernel import kernel_name, share_load
-from cyclomesh.core.kernel_contact import compliance_arrays, rest_arrays
+from cyclomesh.core.kernel_contact import compliance_arrays, rest_and_backlash, rest_arrays
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors
 from cyclomesh.core.transmission import gear_ratio, transmission_error
 from cyclomesh.exceptions import ConvergenceError, DesignError
@@ -220,8 +220,11 @@ def ltca(case: Case, model: Model) -> LTCA:
     design, modification, errors, phi = c.design, c.modification, c.errors, c.phi
     body, ring_shape, torque = c.body, c.ring_shape, case.torque
     geo = unloaded_contact(design, modification, errors, phi)
-    rest = rest_position(geo.rotation, geo.moment_arm)
-    backlash = geo.rotation - rest[..., None]
+    if kernel_name() == "numba":  # both in one compiled pass, the same bits
+        rest, backlash = rest_and_backlash(geo.rotation, geo.moment_arm, CONDITIONED_ARM)
+    else:
+        rest = rest_position(geo.rotation, geo.moment_arm)
+        backlash = geo.rotation - rest[..., None]
     alpha, gamma = pin_compliance(geo, design, c.groove_deformation, c.contact_law)
     try:
         if body is None:
