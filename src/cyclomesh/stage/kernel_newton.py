@@ -176,21 +176,26 @@ def _kernels_newton() -> Any:
     return jit(_newton_rows)
 
 
-def _pin_force(delta, a, g, checked, memo, d, j):  # pragma: no cover (compiled)
+def _pin_force(delta, a, g, checked, d0, y0, f0):  # pragma: no cover (compiled)
     """F of δ = F(α − γ ln F) as :func:`_pin_rows` (γ = 0: δ/α): Newton in y = ln F to a
-    residual of 2e-15·δ, started, when this pin's last inversion ``memo[:, d, j]`` (δ, y,
-    F) was at an approach within a factor of 2, from that solution moved along its
-    tangent (the previous step or trial is near), else as the reference (two fixed-point
-    steps from ln(δ/α)). Returns (F, ln F), F = −1 if it cannot; ``checked``: δ lies below
-    the stiffest point (δ < dmax), so its test is left out."""
+    residual of 2e-15·δ, started, when this pin's last inversion (δ0, y0, F0) was at an
+    approach within a factor of 2, from that solution moved along the inverse's Taylor
+    series to second order (the previous step or trial is near: one Newton step and the
+    test, where the tangent alone needs two), else as the reference (two fixed-point
+    steps from ln(δ/α)). Returns (F, ln F), F = −1 if it cannot; the caller keeps (δ, ln
+    F, F) as the pin's last inversion where γ ≠ 0 and F > 0 (scalars in and out: an
+    array argument costs a compiled call two atomic reference counts). ``checked``: δ
+    lies below the stiffest point (δ < dmax), so its test is left out."""
     if g == 0.0:
         return delta / a, 0.0
     if not checked and np.log(delta / g) - a / g >= -1.0:
         return -1.0, 0.0
-    d0 = memo[0, d, j]
     if d0 > 0.0 and 0.5 * d0 <= delta <= 2.0 * d0:
-        y0, f0 = memo[1, d, j], memo[2, d, j]
-        y = y0 - (d0 - delta) / (f0 * (a - g - g * y0))
+        # y(δ) to second order about the last root: δ(y) = e^y (α − γy), δ' = e^y
+        # (α − γ − γy), δ'' = e^y (α − 2γ − γy), y ≈ y0 + h − δ''/(2δ') h², h = Δδ/δ'
+        slope = a - g - g * y0
+        h = (delta - d0) / (f0 * slope)
+        y = y0 + h - 0.5 * (slope - g) / slope * h * h
     else:
         y = np.log(delta / a)
         y = np.log(delta / (a - g * y))
@@ -199,13 +204,11 @@ def _pin_force(delta, a, g, checked, memo, d, j):  # pragma: no cover (compiled)
         e = np.exp(y)
         resid = e * (a - g * y) - delta
         if abs(resid) <= ROUND_OFF * delta:
-            memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, y, e
             return e, y
         y = y - resid / (e * (a - g - g * y))
     e = np.exp(y)
     resid = e * (a - g * y) - delta
     if abs(resid) <= 4.0 * 2.220446049250313e-16 * abs(y) * abs(e * (a - g - g * y)):
-        memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, y, e
         return e, y
     return -1.0, 0.0
 
@@ -385,7 +388,12 @@ def _evaluate_one(
                 status = 1
                 continue
             a, gm = alpha[i, d, j], gamma[i, d, j]
-            f, logf = _pin_force(delta, a, gm, np.isfinite(dmax[i, d, j]), memo, d, j)
+            f, logf = _pin_force(
+                delta, a, gm, np.isfinite(dmax[i, d, j]), memo[0, d, j], memo[1, d, j],
+                memo[2, d, j],
+            )  # fmt: skip
+            if f > 0.0 and gm != 0.0:
+                memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, logf, f
             if f < 0.0:
                 return 0.0, 2
             if f > 0.0:
@@ -824,7 +832,12 @@ def _rigid_one(
                 status = 1
                 continue
             a, gm = alpha[i, d, j], gamma[i, d, j]
-            f, logf = _pin_force(delta, a, gm, np.isfinite(dmax[i, d, j]), memo, d, j)
+            f, logf = _pin_force(
+                delta, a, gm, np.isfinite(dmax[i, d, j]), memo[0, d, j], memo[1, d, j],
+                memo[2, d, j],
+            )  # fmt: skip
+            if f > 0.0 and gm != 0.0:
+                memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, logf, f
             if f < 0.0:
                 return 0.0, 0.0, 0.0, 2
             if f > 0.0:
