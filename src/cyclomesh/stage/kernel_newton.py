@@ -9,16 +9,20 @@ Hessian of :func:`cyclomesh.stage.equilibrium._evaluate` with the laws of
 :mod:`cyclomesh.stage.kernel` (the pins' Eq. 20 of [1], the crank bearing's roller set of
 [2]), the same step, stretched step, step cap, line search and convergence test. The
 crank angles it cannot finish go back to the reference, which raises its own error.
-The crank angles are solved in order, each run of
-:data:`~cyclomesh.stage.newton.WARM_RUN` started from the solution of the crank angle
-before where the potential is lower there (the reference's warm start,
-:func:`cyclomesh.stage.equilibrium._warm`, which solves the same runs in vectorised
-passes), the pins' inversion memo kept. Two savings the reference's arithmetic does not
-see: an accepted line-search trial is evaluated with its gradient and Hessian, which the
-next step then uses (the reference evaluates that point again and gets the same numbers:
-each pin's inversion starts from its memo at the same approach), and the round-off of
-the unknowns (16ε·|H|·|x|) is formed only for a residual above the tolerance, the only
-place it decides.
+The crank angles are solved in order, each after the first started from the line through
+the solutions of the two before (from the one before where a pin is past its law
+there; :func:`run`: the whole revolution, where the reference's warm start,
+:func:`cyclomesh.stage.equilibrium._warm`, restarts every
+:data:`~cyclomesh.stage.newton.WARM_RUN` crank angles for its vectorised passes), the
+pins' inversion memo kept; the root is the same at round-off. Savings the reference's
+arithmetic does not see: an accepted line-search trial is evaluated with its gradient
+and Hessian, which the next step then uses (the reference evaluates that point again
+and gets the same numbers: each pin's inversion starts from its memo at the same
+approach); the round-off of the unknowns (16ε·|H|·|x|) is formed only for a residual
+above the tolerance, the only place it decides; the Newton step eliminates the crank
+pins' deflections crankshaft by crankshaft before the pivoted elimination of the rest
+(:func:`_solve_blocks`); a pin's inversion starts from its last root by the inverse's
+second-order Taylor series.
 Split from :mod:`cyclomesh.stage.kernel` (the laws) as a pure move.
 
 References
