@@ -227,3 +227,53 @@ def test_the_ring_whose_potential_has_no_digits_agrees(monkeypatch):
     got = solve_stage(design, stage, MOD, errors, [LIGHT], phi, discs=2)
     assert np.all(got.residual <= 1e-12 * LIGHT / HOLES.circle_radius)
     _agree(ref, got)
+
+
+def test_the_block_solve_is_the_dense_solve():
+    """The compiled Newton's step with the crank pins' deflections eliminated first
+    (kernel_newton._solve_blocks) is H⁻¹g of the whole matrix to round-off, on the stage's
+    structure (c, θ and u of two discs, 2 × 3 pin deflections x, y, β), also where a disc
+    has no stiffness but the regularisation's (floating); with a bearing reaching another
+    crankshaft's deflection the structure is refused (one pivoted elimination)."""
+    import cyclomesh.stage.kernel_newton as kn
+
+    kn._kernels_newton()  # compiles
+    D, N = 2, 3
+    m = 1 + 3 * D + 2 * D * N + 1
+    base = 1 + 3 * D
+    nonzero = np.zeros((D, N, m), bool)
+    for d in range(D):
+        for k in range(N):
+            w = base + 2 * (d * N + k)
+            nonzero[d, k, [0, 1 + 3 * d, 2 + 3 * d, 3 + 3 * d, w, w + 1, m - 1]] = True
+    core, blocks = kn._structure(nonzero, D, N, 2 * D * N, m)
+    assert blocks.shape == (N, 2 * D) and core.size == m - 2 * D * N
+    rng = np.random.default_rng(5)
+    for floating in (False, True):
+        H = np.zeros((m, m))
+        for d in range(D):
+            for k in range(N):
+                c = np.flatnonzero(nonzero[d, k])
+                if floating and d == 1:
+                    c = c[c != 2 + 3 * d]  # no stiffness along the disc's u_x
+                a = rng.normal(size=(2, c.size))
+                H[np.ix_(c, c)] += 1e8 * a.T @ a
+            H[1 + 3 * d : 4 + 3 * d, 1 + 3 * d : 4 + 3 * d] += 0.0 if floating else 1e7
+        for k in range(N):  # the crankshaft's beam, coupling its pins at both discs
+            for c in range(2):
+                idx = [base + 2 * (d * N + k) + c for d in range(D)]
+                H[np.ix_(idx, idx)] += np.array([[3e8, -1e8], [-1e8, 3e8]])
+        H[m - 1, m - 1] += 1e6
+        H[np.diag_indices(m)] += 1e-14 * np.max(np.abs(np.diag(H)))
+        g = rng.normal(size=m)
+        want = np.linalg.solve(H, -g)
+        step = np.zeros(m)
+        work = (np.zeros((core.size, core.size)), np.zeros((2 * D, core.size + 1)))
+        ok = kn._solve_blocks(
+            H.copy(), g, step, core, blocks, *work, np.zeros(core.size), np.zeros(core.size)
+        )
+        assert ok
+        assert np.max(np.abs(step - want)) <= 1e-9 * np.max(np.abs(want)), floating
+    nonzero[0, 0, base + 2 * (0 * N + 1)] = True  # a bearing on another crankshaft's pin
+    core, blocks = kn._structure(nonzero, D, N, 2 * D * N, m)
+    assert blocks.shape[0] == 0 and core.size == m

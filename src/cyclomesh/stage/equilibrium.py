@@ -67,6 +67,7 @@ from cyclomesh.stage.kernel import (
 )
 from cyclomesh.stage.kernel_newton import newton as kernel_newton
 from cyclomesh.stage.kernel_newton import rigid_newton as kernel_rigid_newton
+from cyclomesh.stage.kernel_newton import run as kernel_run
 from cyclomesh.stage.newton import (
     FORCE_TOLERANCE,
     newton,
@@ -353,10 +354,11 @@ def _kernel_newton(
     """:func:`~cyclomesh.stage.newton.newton` compiled
     (:func:`cyclomesh.stage.kernel_newton.newton`, and
     :func:`~cyclomesh.stage.kernel_newton.rigid_newton` for the rigid phase: each crank
-    angle's iteration in one pass); the crank angles it cannot finish are solved by the
-    reference from their start, which raises its own error if it fails. ``state``, when
-    every crank angle was finished by the kernel, receives its state at the solution
-    (the kernels' ``state``)."""
+    angle's iteration in one pass, the crank angles in order, each started from the
+    solutions of the ones before, :data:`~cyclomesh.stage.kernel_newton.RUN`); the crank
+    angles it cannot finish are solved by the reference from their start, which raises
+    its own error if it fails. ``state``, when every crank angle was finished by the
+    kernel, receives its state at the solution (the kernels' ``state``)."""
     start = x.copy()
     settings = (
         reference.FORCE_TOLERANCE,
@@ -365,7 +367,7 @@ def _kernel_newton(
         reference._STEP_CAP,
         *reference._LINEAR,
         reference.ROUND_OFF_FORCE,
-        reference.WARM_RUN,
+        kernel_run(x.shape[0]),
     )
     found: dict = {}
     if rigid:

@@ -9,16 +9,20 @@ Hessian of :func:`cyclomesh.stage.equilibrium._evaluate` with the laws of
 :mod:`cyclomesh.stage.kernel` (the pins' Eq. 20 of [1], the crank bearing's roller set of
 [2]), the same step, stretched step, step cap, line search and convergence test. The
 crank angles it cannot finish go back to the reference, which raises its own error.
-The crank angles are solved in order, each run of
-:data:`~cyclomesh.stage.newton.WARM_RUN` started from the solution of the crank angle
-before where the potential is lower there (the reference's warm start,
-:func:`cyclomesh.stage.equilibrium._warm`, which solves the same runs in vectorised
-passes), the pins' inversion memo kept. Two savings the reference's arithmetic does not
-see: an accepted line-search trial is evaluated with its gradient and Hessian, which the
-next step then uses (the reference evaluates that point again and gets the same numbers:
-each pin's inversion starts from its memo at the same approach), and the round-off of
-the unknowns (16ε·|H|·|x|) is formed only for a residual above the tolerance, the only
-place it decides.
+The crank angles are solved in order, each after the first started from the line through
+the solutions of the two before (from the one before where a pin is past its law
+there; :func:`run`: the whole revolution, where the reference's warm start,
+:func:`cyclomesh.stage.equilibrium._warm`, restarts every
+:data:`~cyclomesh.stage.newton.WARM_RUN` crank angles for its vectorised passes), the
+pins' inversion memo kept; the root is the same at round-off. Savings the reference's
+arithmetic does not see: an accepted line-search trial is evaluated with its gradient
+and Hessian, which the next step then uses (the reference evaluates that point again
+and gets the same numbers: each pin's inversion starts from its memo at the same
+approach); the round-off of the unknowns (16ε·|H|·|x|) is formed only for a residual
+above the tolerance, the only place it decides; the Newton step eliminates the crank
+pins' deflections crankshaft by crankshaft before the pivoted elimination of the rest
+(:func:`_solve_blocks`); a pin's inversion starts from its last root by the inverse's
+second-order Taylor series.
 Split from :mod:`cyclomesh.stage.kernel` (the laws) as a pure move.
 
 References
@@ -37,9 +41,20 @@ from numpy.typing import NDArray
 
 from cyclomesh.stage.kernel import MAX_NEWTON, ROUND_OFF
 
-__all__ = ["newton", "rigid_newton"]
+__all__ = ["newton", "rigid_newton", "run"]
 
 FloatArray = NDArray[np.float64]
+
+
+def run(angles: int) -> int:
+    """The compiled iteration's warm-start run over ``angles`` crank angles solved in order:
+    all of them (only the first from its own start), where the NumPy reference restarts
+    every :data:`~cyclomesh.stage.newton.WARM_RUN` (its runs are vectorised passes,
+    :func:`cyclomesh.stage.equilibrium._warm`). The root does not depend on the start
+    (the iteration runs to round-off); from the line through the two solutions before,
+    a crank angle of the stage tolerance study's ring needs 4.1 Newton steps at the rated
+    torque and 5.2–5.5 at ∓3 % (runs of four: 4.9 and 7.0–7.6 evaluations)."""
+    return max(int(angles), 1)
 
 
 def newton(
@@ -82,6 +97,7 @@ def newton(
     for d in range(discs):
         for k in range(N):
             cols[d, k, : count[d, k]] = np.flatnonzero(nonzero[d, k])
+    core, blocks = _structure(nonzero, discs, N, nw, m)
     failed = np.zeros(A, np.bool_)
     D, P = p.bl.shape[1], p.bl.shape[2]
     pf, bf, gout = np.zeros((A, D, P)), np.zeros((A, D, N, 3)), np.zeros((A, m))
@@ -92,6 +108,8 @@ def newton(
         G,
         cols,
         count,
+        core,
+        blocks,
         np.zeros((discs, discs)) if nw == 0 else np.ascontiguousarray(sup.stiffness),
         nw,
         np.zeros(discs) if sup is None else np.ascontiguousarray(sup.fraction, dtype=float),
@@ -126,33 +144,62 @@ def newton(
     return failed
 
 
+def _structure(nonzero, discs: int, N: int, nw: int, m: int):
+    """The unknowns of :func:`_solve_blocks`: ``core`` (c, the discs' θ and u, the end
+    plate's β) and ``blocks`` (N, 2D), crankshaft k's pin deflections (x, y at every disc),
+    when each crank bearing's columns (``nonzero`` (D, N, m)) are the core's and its own
+    pin's only; else no blocks (every unknown in the core: one pivoted elimination)."""
+    base = 1 + 3 * discs
+    blocks = np.zeros((N, 2 * discs), np.int64)
+    for k in range(N):
+        for d in range(discs):
+            blocks[k, 2 * d] = base + 2 * (d * N + k)
+            blocks[k, 2 * d + 1] = base + 2 * (d * N + k) + 1
+    wide = np.zeros(m, bool)
+    wide[base : base + nw] = True
+    core = np.flatnonzero(~wide)
+    if nw == 0 or any(
+        set(np.flatnonzero(nonzero[d, k] & wide)) - set(blocks[k, 2 * d : 2 * d + 2])
+        for d in range(discs)
+        for k in range(N)
+    ):
+        return np.arange(m), np.zeros((0, 2 * discs), np.int64)
+    return core, blocks
+
+
 @cache
 def _kernels_newton() -> Any:
     import numba
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _evaluate_one, _pin_force, _solve_in_place
+    global _evaluate_one, _pin_force, _solve_in_place, _solve_blocks
     _pin_force = jit(_pin_force)
     _solve_in_place = jit(_solve_in_place)
+    _solve_blocks = jit(_solve_blocks)
     _evaluate_one = jit(_evaluate_one)
     return jit(_newton_rows)
 
 
-def _pin_force(delta, a, g, checked, memo, d, j):  # pragma: no cover (compiled)
+def _pin_force(delta, a, g, checked, d0, y0, f0):  # pragma: no cover (compiled)
     """F of δ = F(α − γ ln F) as :func:`_pin_rows` (γ = 0: δ/α): Newton in y = ln F to a
-    residual of 2e-15·δ, started, when this pin's last inversion ``memo[:, d, j]`` (δ, y,
-    F) was at an approach within a factor of 2, from that solution moved along its
-    tangent (the previous step or trial is near), else as the reference (two fixed-point
-    steps from ln(δ/α)). Returns (F, ln F), F = −1 if it cannot; ``checked``: δ lies below
-    the stiffest point (δ < dmax), so its test is left out."""
+    residual of 2e-15·δ, started, when this pin's last inversion (δ0, y0, F0) was at an
+    approach within a factor of 2, from that solution moved along the inverse's Taylor
+    series to second order (the previous step or trial is near: one Newton step and the
+    test, where the tangent alone needs two), else as the reference (two fixed-point
+    steps from ln(δ/α)). Returns (F, ln F), F = −1 if it cannot; the caller keeps (δ, ln
+    F, F) as the pin's last inversion where γ ≠ 0 and F > 0 (scalars in and out: an
+    array argument costs a compiled call two atomic reference counts). ``checked``: δ
+    lies below the stiffest point (δ < dmax), so its test is left out."""
     if g == 0.0:
         return delta / a, 0.0
     if not checked and np.log(delta / g) - a / g >= -1.0:
         return -1.0, 0.0
-    d0 = memo[0, d, j]
     if d0 > 0.0 and 0.5 * d0 <= delta <= 2.0 * d0:
-        y0, f0 = memo[1, d, j], memo[2, d, j]
-        y = y0 - (d0 - delta) / (f0 * (a - g - g * y0))
+        # y(δ) to second order about the last root: δ(y) = e^y (α − γy), δ' = e^y
+        # (α − γ − γy), δ'' = e^y (α − 2γ − γy), y ≈ y0 + h − δ''/(2δ') h², h = Δδ/δ'
+        slope = a - g - g * y0
+        h = (delta - d0) / (f0 * slope)
+        y = y0 + h - 0.5 * (slope - g) / slope * h * h
     else:
         y = np.log(delta / a)
         y = np.log(delta / (a - g * y))
@@ -161,13 +208,11 @@ def _pin_force(delta, a, g, checked, memo, d, j):  # pragma: no cover (compiled)
         e = np.exp(y)
         resid = e * (a - g * y) - delta
         if abs(resid) <= ROUND_OFF * delta:
-            memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, y, e
             return e, y
         y = y - resid / (e * (a - g - g * y))
     e = np.exp(y)
     resid = e * (a - g * y) - delta
     if abs(resid) <= 4.0 * 2.220446049250313e-16 * abs(y) * abs(e * (a - g - g * y)):
-        memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, y, e
         return e, y
     return -1.0, 0.0
 
@@ -203,6 +248,82 @@ def _solve_in_place(H, g, step):  # pragma: no cover (compiled)
         for c in range(k + 1, m):
             acc -= H[k, c] * step[c]
         step[k] = acc / H[k, k]
+    return True
+
+
+def _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc):  # pragma: no cover (compiled)
+    """step = −H⁻¹g with the crank pins' deflections (the unknowns of ``blocks``, (N, 2D):
+    crankshaft k's pins at every disc, x and y) eliminated first: H restricted to one
+    crankshaft's deflections is its beam stiffness plus its crank bearings' (positive
+    definite, coupled to the others' deflections only through the unknowns of ``core``:
+    c, the discs' θ, u and the end plate's β), so block elimination leaves the Schur
+    complement S (nc, nc) of the core, solved by :func:`_solve_in_place` (pivoted: a
+    floating disc's direction is there), and each crankshaft's deflections from it.
+    ``Z`` (2D, nc + 1), ``rhs``, ``sc`` (nc,): work arrays. H is overwritten; False if a
+    pivot is 0."""
+    nc = core.size
+    nb = blocks.shape[1]
+    for a in range(nc):
+        ra = core[a]
+        for b in range(nc):
+            S[a, b] = H[ra, core[b]]
+        rhs[a] = g[ra]
+    for k in range(blocks.shape[0]):
+        # Z = B⁻¹ [H_wc | g_w] by Gaussian elimination on the block B = H_ww (in place
+        # in H's rows of the block: its columns are not needed after)
+        for q in range(nb):
+            rq = blocks[k, q]
+            for a in range(nc):
+                Z[q, a] = H[rq, core[a]]
+            Z[q, nc] = g[rq]
+        for q in range(nb):
+            rq = blocks[k, q]
+            piv = H[rq, blocks[k, q]]
+            if piv == 0.0:
+                return False
+            inv = 1.0 / piv
+            for q2 in range(q + 1, nb):
+                r2 = blocks[k, q2]
+                f = H[r2, blocks[k, q]] * inv
+                if f != 0.0:
+                    for q3 in range(q + 1, nb):
+                        H[r2, blocks[k, q3]] -= f * H[rq, blocks[k, q3]]
+                    for a in range(nc + 1):
+                        Z[q2, a] -= f * Z[q, a]
+        for q in range(nb - 1, -1, -1):
+            rq = blocks[k, q]
+            for q3 in range(q + 1, nb):
+                h = H[rq, blocks[k, q3]]
+                for a in range(nc + 1):
+                    Z[q, a] -= h * Z[q3, a]
+            inv = 1.0 / H[rq, rq]
+            for a in range(nc + 1):
+                Z[q, a] *= inv
+        # S −= H_cw Z, rhs −= H_cw z; Z kept in H's block rows for the back substitution
+        for a in range(nc):
+            ra = core[a]
+            for q in range(nb):
+                h = H[ra, blocks[k, q]]
+                if h != 0.0:
+                    for b in range(nc):
+                        S[a, b] -= h * Z[q, b]
+                    rhs[a] -= h * Z[q, nc]
+        for q in range(nb):
+            rq = blocks[k, q]
+            for a in range(nc):
+                H[rq, core[a]] = Z[q, a]
+            step[rq] = -Z[q, nc]
+    if not _solve_in_place(S, rhs, sc):
+        return False
+    for a in range(nc):
+        step[core[a]] = sc[a]
+    for k in range(blocks.shape[0]):
+        for q in range(nb):
+            rq = blocks[k, q]
+            acc = step[rq]
+            for a in range(nc):
+                acc -= H[rq, core[a]] * sc[a]
+            step[rq] = acc
     return True
 
 
@@ -271,7 +392,12 @@ def _evaluate_one(
                 status = 1
                 continue
             a, gm = alpha[i, d, j], gamma[i, d, j]
-            f, logf = _pin_force(delta, a, gm, np.isfinite(dmax[i, d, j]), memo, d, j)
+            f, logf = _pin_force(
+                delta, a, gm, np.isfinite(dmax[i, d, j]), memo[0, d, j], memo[1, d, j],
+                memo[2, d, j],
+            )  # fmt: skip
+            if f > 0.0 and gm != 0.0:
+                memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, logf, f
             if f < 0.0:
                 return 0.0, 2
             if f > 0.0:
@@ -385,6 +511,8 @@ def _newton_rows(
     G,
     cols,
     count,
+    core,
+    blocks,
     kshaft,
     nw,
     frac,
@@ -427,6 +555,11 @@ def _newton_rows(
     trial = np.zeros(m)
     step = np.zeros(m)
     memo = np.zeros((3, D, bl.shape[2]))  # each pin's last inversion (δ, y, F)
+    nc = core.size
+    S = np.zeros((nc, nc))
+    Z = np.zeros((blocks.shape[1], nc + 1))
+    rhs = np.zeros(nc)
+    sc = np.zeros(nc)
     for i in range(A):
         xi = x[i].copy()
         # g, H, energy and status hold the evaluation at xi (a trial's, or the warm
@@ -434,22 +567,26 @@ def _newton_rows(
         have = False
         energy, status = 0.0, 0
         if i % run != 0 and not failed[i - 1]:
-            # warm start (WARM_RUN): the previous crank angle's solution where its
-            # potential here is lower than the given start's (the pins' memo kept: its
-            # inversions are near)
-            e0, s0 = _evaluate_one(
-                i, xi, bl, arm, nx, ny, alpha, gamma, dmax, ex, ey, hx, hy, G, cols, count,
-                kshaft, nw, frac, kcarrier, carrier, cosines, half, kn, torque, L, False, gt,
-                Ht, memo, pf, bf,
-            )  # fmt: skip
+            # warm start (the run): from the line through the solutions of the two crank
+            # angles before, else from the one before, where no pin is at or past its
+            # law's end there (the pins' memo kept: their inversions are near)
+            line = i % run >= 2 and not failed[i - 2]
             for r in range(m):
-                trial[r] = x[i - 1, r]
+                trial[r] = 2.0 * x[i - 1, r] - x[i - 2, r] if line else x[i - 1, r]
             e1, s1 = _evaluate_one(
                 i, trial, bl, arm, nx, ny, alpha, gamma, dmax, ex, ey, hx, hy, G, cols, count,
                 kshaft, nw, frac, kcarrier, carrier, cosines, half, kn, torque, L, True, g,
                 H, memo, pf, bf,
             )  # fmt: skip
-            if s1 == 0 and (s0 != 0 or e1 < e0):
+            if line and s1 != 0:
+                for r in range(m):
+                    trial[r] = x[i - 1, r]
+                e1, s1 = _evaluate_one(
+                    i, trial, bl, arm, nx, ny, alpha, gamma, dmax, ex, ey, hx, hy, G, cols,
+                    count, kshaft, nw, frac, kcarrier, carrier, cosines, half, kn, torque, L,
+                    True, g, H, memo, pf, bf,
+                )  # fmt: skip
+            if s1 == 0:
                 for r in range(m):
                     xi[r] = trial[r]
                 energy, status, have = e1, s1, True
@@ -530,7 +667,11 @@ def _newton_rows(
             diag = max(diag, 1e-300)
             for r in range(m):
                 H[r, r] += 1e-14 * diag
-            if not _solve_in_place(H, g, step):
+            if blocks.shape[0]:
+                solved = _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc)
+            else:
+                solved = _solve_in_place(H, g, step)
+            if not solved:
                 break  # singular: the reference's LinAlgError, or its own way out
             slope = 0.0
             for r in range(m):
@@ -695,7 +836,12 @@ def _rigid_one(
                 status = 1
                 continue
             a, gm = alpha[i, d, j], gamma[i, d, j]
-            f, logf = _pin_force(delta, a, gm, np.isfinite(dmax[i, d, j]), memo, d, j)
+            f, logf = _pin_force(
+                delta, a, gm, np.isfinite(dmax[i, d, j]), memo[0, d, j], memo[1, d, j],
+                memo[2, d, j],
+            )  # fmt: skip
+            if f > 0.0 and gm != 0.0:
+                memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, logf, f
             if f < 0.0:
                 return 0.0, 0.0, 0.0, 2
             if f > 0.0:
@@ -726,15 +872,19 @@ def _rigid_rows(
         have = False  # energy, g, h, status (and pf, pk) hold the evaluation at xi
         energy, g, h, status = 0.0, 0.0, 0.0, 0
         if i % run != 0 and not failed[i - 1]:  # warm start, as _newton_rows
-            e0, _g, _h2, s0 = _rigid_one(
-                i, xi, bl, arm, alpha, gamma, dmax, torque, L, memo, False, pf, pk
-            )
+            line = i % run >= 2 and not failed[i - 2]
             for r in range(m):
-                trial[r] = x[i - 1, r]
+                trial[r] = 2.0 * x[i - 1, r] - x[i - 2, r] if line else x[i - 1, r]
             e1, g1, h1, s1 = _rigid_one(
                 i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
             )
-            if s1 == 0 and (s0 != 0 or e1 < e0):
+            if line and s1 != 0:
+                for r in range(m):
+                    trial[r] = x[i - 1, r]
+                e1, g1, h1, s1 = _rigid_one(
+                    i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
+                )
+            if s1 == 0:
                 for r in range(m):
                     xi[r] = trial[r]
                 energy, g, h, status, have = e1, g1, h1, s1, True
