@@ -242,9 +242,12 @@ def _solve(
     the whole problem is solved from the start, so this fails only where it fails. The
     compliant disc's problem goes through :func:`_body_newton`. The rigid discs' stage
     without friction (the compiled iteration's problems) starts the crank angles in runs
-    from the one before (:func:`_warm`, :data:`~cyclomesh.stage.newton.WARM_RUN`), in
-    both paths alike. ``state``: a dict that the compiled iteration fills with the state
-    at the solution (:func:`_kernel_newton`), left empty otherwise."""
+    from the one before: the NumPy reference in runs of
+    :data:`~cyclomesh.stage.newton.WARM_RUN` (:func:`_warm`), the compiled iteration in
+    one run over the revolution from the line through the two solutions before
+    (:func:`cyclomesh.stage.kernel_newton.run`). ``state``: a dict that the compiled
+    iteration fills with the state at the solution (:func:`_kernel_newton`), left empty
+    otherwise."""
     if p.slip is None and (rigid or (p.body is None and law.k is None)):
         if compiled():
             # CYCLOMESH_KERNEL=numba: every pin in the compiled pass (an open pin costs it
@@ -258,8 +261,9 @@ def _warm(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatAr
     """:func:`_solve_near` in :data:`~cyclomesh.stage.newton.WARM_RUN` passes: pass j
     solves the crank angles j, j + WARM_RUN, ..., those of pass j > 0 started from the
     solution of the crank angle before (solved in pass j − 1) where the potential is lower
-    there than at their own start and no pin is past its law (the compiled iteration's
-    warm start, :func:`cyclomesh.stage.kernel_newton.newton`, in the same order)."""
+    there than at their own start and no pin is past its law (the compiled iteration
+    warms every crank angle after the first, :func:`cyclomesh.stage.kernel_newton.run`;
+    the root is the same to round-off)."""
     A = x.shape[0]
     for j in range(min(reference.WARM_RUN, A)):
         idx = np.arange(j, A, reference.WARM_RUN)

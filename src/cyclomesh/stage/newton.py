@@ -45,8 +45,9 @@ WARM_RUN = 4
 """Crank angles solved in a run from the one before (a warm start): every WARM_RUN-th
 crank angle (0, WARM_RUN, ...) starts from its own start, each of the next WARM_RUN − 1
 from the solution of the crank angle before it where the potential is lower there
-(:func:`cyclomesh.stage.equilibrium._solve`; the compiled iteration goes through them in
-order, the NumPy reference in WARM_RUN vectorised passes). The root does not depend on the
+(:func:`cyclomesh.stage.equilibrium._warm`: the NumPy reference's WARM_RUN vectorised
+passes; the compiled iteration warms every crank angle after the first,
+:func:`cyclomesh.stage.kernel_newton.run`). The root does not depend on the
 start (the iteration runs to round-off)."""
 _MAX_ITERATIONS = 200
 _MAX_HALVINGS = 60
