@@ -736,7 +736,7 @@ def solve_direction(
         st = {"pin_force": F, "bearing_fx": bfx, "bearing_fy": bfy}
     c, theta, ux, uy = _unpack(x, D)
     out: dict[str, FloatArray] = {}
-    if fr is not None and motion != 0.0 and any(want(name) for name in _FRICTION):
+    if fr is not None and motion != 0.0 and any(want(name) for name in FRICTION_FIELDS):
         if prob.lubrication is not None:  # the coefficients of the returned loads
             fr = {**fr, **lubricated_state(prob, F)}
         out.update(_friction_fields(prob, mesh, fr, st, motion, friction.speed, n1))
@@ -790,7 +790,7 @@ def solve_direction(
 
 _POSITIONS = ("disc_translation_x", "disc_translation_y", "disc_te", "bearing_deflection")
 """The fields that read the positions of the discs (the floating discs' canonical ones)."""
-_FRICTION = (
+FRICTION_FIELDS = (
     "friction_force",
     "power_loss_tooth",
     "power_loss_groove",
@@ -802,7 +802,8 @@ _FRICTION = (
     "input_power",
     "approach_power",
 )
-"""The friction fields of a drive (:func:`_friction_fields`)."""
+"""The friction fields of a stage (:func:`_friction_fields`,
+:attr:`cyclomesh.stage.solve.Stage.friction`)."""
 
 
 def _contact_stress(

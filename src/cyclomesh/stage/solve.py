@@ -82,6 +82,7 @@ from cyclomesh.stage.bearing import (
 from cyclomesh.stage.design import StageDesign
 from cyclomesh.stage.equilibrium import (
     FORCE_TOLERANCE,
+    FRICTION_FIELDS,
     WORK_PARTS,
     ring_mesh,
     solve_direction,
@@ -192,19 +193,6 @@ class Stage:
     friction: dict[str, FloatArray] | None = None
 
 
-FRICTION_FIELDS = (
-    "friction_force",
-    "power_loss_tooth",
-    "power_loss_groove",
-    "sliding_velocity_tooth",
-    "sliding_velocity_groove",
-    "friction_coefficient",
-    "film_parameter",
-    "power_loss_bearing",
-    "input_power",
-    "approach_power",
-)
-"""The friction results of a drive (:attr:`Stage.friction`)."""
 _PER_PIN = {
     "pin_load",
     "opposite_pin_load",
