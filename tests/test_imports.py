@@ -52,6 +52,21 @@ def test_lazy_names_of_the_package():
         cyclomesh.nonsense  # noqa: B018
 
 
+def _assert_never_imported(args: list[str], modules: tuple[str, ...]) -> None:
+    """``cyclomesh ARGS`` in a fresh interpreter succeeds and leaves every one of
+    ``modules`` unimported."""
+    code = (
+        "import sys\n"
+        "from cyclomesh.cli import app\n"
+        f"args = {args!r}\n"
+        "try:\n    app(args)\nexcept SystemExit as exc:\n    assert not exc.code, exc.code\n"
+        f"print(sorted(m for m in {tuple(modules)!r} if m in sys.modules))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "[]", done.stdout
+
+
 def test_run_without_figures_never_imports_matplotlib(tmp_path):
     """``cyclomesh run --figures none`` end to end: no figure asked, matplotlib never
     imported (issue 27), nor ``dask.array`` and ``scipy.fft`` (xarray imports them to
@@ -62,18 +77,9 @@ def test_run_without_figures_never_imports_matplotlib(tmp_path):
 
     example = Path(__file__).resolve().parents[1] / "examples" / "table2.toml"
     out = tmp_path / "out"
-    code = (
-        "import sys\n"
-        "from cyclomesh.cli import app\n"
-        f"args = ['run', {str(example)!r}, '--out', {str(out)!r}, '-q', '--figures', 'none',"
-        " '--crank-step-deg', '10']\n"
-        "try:\n    app(args)\nexcept SystemExit as exc:\n    assert not exc.code, exc.code\n"
-        "heavy = ('matplotlib', 'scipy.stats', 'dask.array', 'scipy.fft', 'scipy.fftpack')\n"
-        "print(sorted(m for m in heavy if m in sys.modules))\n"
-    )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip().splitlines()[-1] == "[]", done.stdout
+    args = ["run", str(example), "--out", str(out), "-q", "--figures", "none"]
+    heavy = ("matplotlib", "scipy.stats", "dask.array", "scipy.fft", "scipy.fftpack")
+    _assert_never_imported(args + ["--crank-step-deg", "10"], heavy)
     assert (out / "summary.json").is_file() and not (out / "figures").exists()
 
 
@@ -88,17 +94,8 @@ def test_tolerance_without_figures_never_imports_dask_array(tmp_path):
 
     example = Path(__file__).resolve().parents[1] / "examples" / "tolerance.toml"
     out = tmp_path / "out"
-    code = (
-        "import sys\n"
-        "from cyclomesh.cli import app\n"
-        f"args = ['tolerance', {str(example)!r}, '--out', {str(out)!r}, '-q', '--figures',"
-        " 'none', '--rings', '8', '--workers', '2']\n"
-        "try:\n    app(args)\nexcept SystemExit as exc:\n    assert not exc.code, exc.code\n"
-        "print(sorted(m for m in ('dask.array', 'scipy.fft') if m in sys.modules))\n"
-    )
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip().splitlines()[-1] == "[]", done.stdout
+    args = ["tolerance", str(example), "--out", str(out), "-q", "--figures", "none"]
+    _assert_never_imported(args + ["--rings", "8", "--workers", "2"], ("dask.array", "scipy.fft"))
     files = json.loads((out / "summary.json").read_text())["files"]
     assert {"tolerance_rings.nc", "tolerance_rings.parquet", "worst_ring.toml"} <= {
         f["path"] for f in files
