@@ -41,7 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core.case import Case, Model
-from cyclomesh.core.discbody import DiscBody
+from cyclomesh.core.discbody import DiscBody, FreeDiscBody
 from cyclomesh.core.pair import Modification, PairDesign, PinErrors, pin_errors_si
 from cyclomesh.drive.friction import mean_backdrive_efficiency as ring_backdrive_efficiency
 from cyclomesh.drive.friction import mean_efficiency as ring_efficiency
@@ -215,6 +215,11 @@ class RingModel:
             self._blame(drawn)
             raise
 
+    @property
+    def _drive_body(self) -> DiscBody | None:
+        """The mesh alone's disc body on its meshes (None for the rigid disc)."""
+        return self.disc_body if isinstance(self.disc_body, DiscBody) else None
+
     def _meshes(self, drawn: RingErrors) -> tuple[Any, Any] | None:
         """With a stage, the unloaded meshes of the rings ``drawn`` (forward and mirror,
         :func:`cyclomesh.drive.mesh.stack_meshes`, with every contact's flank normals and
@@ -224,12 +229,11 @@ class RingModel:
         forms its own)."""
         if self.stage is None:
             return None
-        from cyclomesh.core.discbody import DiscBody, FreeDiscBody
         from cyclomesh.drive.mesh import stack_meshes
 
         stage_body = self.stage_disc_body
         stage_body = stage_body.pins if isinstance(stage_body, FreeDiscBody) else None
-        drive_body = self.disc_body if isinstance(self.disc_body, DiscBody) else None
+        drive_body = self._drive_body
         fwd, rev = stack_meshes(
             self.design,
             self.modification,
@@ -277,7 +281,6 @@ class RingModel:
         the contact stress; the same bits as ``cyclomesh run``'s full solve), on the
         rings' unloaded meshes ``meshes`` (:meth:`_meshes`; formed here if None).
         """
-        from cyclomesh.core.case import Case, Model
         from cyclomesh.drive.torsion import LOST_MOTION_FRACTION
         from cyclomesh.stage.efficiency import stage_efficiency
         from cyclomesh.stage.equilibrium import ring_mesh
@@ -357,7 +360,7 @@ class RingModel:
         """The mesh alone's metrics of the rings ``block`` (on their unloaded meshes
         ``meshes`` of :meth:`_meshes`, else formed by the solve)."""
         if meshes is not None:  # the mesh alone's body (the meshes carry the stage's)
-            body = self.disc_body if isinstance(self.disc_body, DiscBody) else None
+            body = self._drive_body
             if body is not meshes[0].body:
                 meshes = tuple(dataclasses.replace(m, body=body) for m in meshes)
 
