@@ -378,7 +378,7 @@ def solve(
     positions are then not computed). ``meshes``: the unloaded forward and mirror meshes
     of ``case`` (:func:`~cyclomesh.drive.mesh.stack_meshes` with both directions and, with
     the compliant disc, the tooth of every pin), formed by the caller (a tolerance study
-    forms them once for a batch of rings and for the mesh-alone solve too); None: formed
+    forms them once a ring, for its mesh-alone solve too); None: formed
     here. ``only_at``: outputs (of ``outputs``, float ones) wanted at some torques only,
     name → indices into the torques; NaN at the others (a tolerance ring reads the contact
     stress at the torque, not at ∓3 % of it).
@@ -395,7 +395,7 @@ def solve(
         """The fields of torque q."""
         if not at:
             return fields
-        left = [name for name in (OUTPUTS if outputs is None else outputs)]
+        left = OUTPUTS if outputs is None else outputs
         return _fields([name for name in left if q in at.get(name, (q,))])
 
     c = check(case, model)
