@@ -65,6 +65,7 @@ from cyclomesh.stage.kernel import (
     disc_turn,
     single_rotation,
 )
+from cyclomesh.stage.kernel_newton import PIN_BLOCK
 from cyclomesh.stage.kernel_newton import newton as kernel_newton
 from cyclomesh.stage.kernel_newton import rigid_newton as kernel_rigid_newton
 from cyclomesh.stage.kernel_newton import run as kernel_run
@@ -466,17 +467,21 @@ def _problem(
 
     # the opposite flanks (pins n1 … 2n1 − 1): the mirror problem's forward flanks
     # (_mirrored, as strided copies into the second half of each array)
-    def flanks(this: FloatArray, that: FloatArray | None = None) -> FloatArray:
-        out = np.empty((A, D, 2 * n1))
+    # (each array a view of one block, in the order of kernel_newton.PIN_BLOCK: the
+    # compiled iteration's one argument for the seven)
+    block = np.empty((len(PIN_BLOCK), A, D, 2 * n1))
+
+    def flanks(name: str, this: FloatArray, that: FloatArray | None = None) -> FloatArray:
+        out = block[PIN_BLOCK.index(name)]
         out[..., :n1] = this
         if that is not None:
             _mirror_into(out[..., n1:], that)
         return out
 
-    arm = flanks(geo.moment_arm, other.geo.moment_arm)
-    alpha = flanks(mesh.alpha.reshape(A, D, n1), other.alpha.reshape(A, D, n1))
-    gamma = flanks(mesh.gamma.reshape(A, D, n1), other.gamma.reshape(A, D, n1))
-    bl = flanks(mesh.backlash.reshape(A, D, n1))
+    arm = flanks("arm", geo.moment_arm, other.geo.moment_arm)
+    alpha = flanks("alpha", mesh.alpha.reshape(A, D, n1), other.alpha.reshape(A, D, n1))
+    gamma = flanks("gamma", mesh.gamma.reshape(A, D, n1), other.gamma.reshape(A, D, n1))
+    bl = flanks("bl", mesh.backlash.reshape(A, D, n1))
     arm_o, alpha_o, gamma_o, bl_o = (v[..., n1:] for v in (arm, alpha, gamma, bl))
     with np.errstate(invalid="ignore"):
         np.subtract(geo.reverse_rotation, mesh.rest[:, None, None], out=bl_o)
@@ -491,15 +496,15 @@ def _problem(
     np.copyto(arm_o, -0.0, where=unusable)  # −np.where(usable, l', 0.0)
     np.copyto(alpha_o, 1.0, where=unusable)
     np.copyto(gamma_o, 0.0, where=unusable)
-    nx = flanks(mesh.normal_x, other.normal_x)
+    nx = flanks("nx", mesh.normal_x, other.normal_x)
     np.copyto(nx[..., n1:], 0.0, where=unusable)
-    ny = flanks(mesh.normal_y, other.normal_y)
+    ny = flanks("ny", mesh.normal_y, other.normal_y)
     np.negative(ny[..., n1:], out=ny[..., n1:])
     np.copyto(ny[..., n1:], 0.0, where=unusable)
     # the largest approach of a trial, _REACH of the law's stiffest point γ·exp(α/γ − 1)
     # (inf without one), in place: the same operations in the same order
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        dmax = np.divide(alpha, gamma)
+        dmax = np.divide(alpha, gamma, out=block[PIN_BLOCK.index("dmax")])
         dmax -= 1.0
         np.exp(dmax, out=dmax)
         np.multiply(gamma, dmax, out=dmax)
@@ -521,6 +526,7 @@ def _problem(
         ey=ey,
         torque=torque,
         scale=holes.circle_radius,
+        pins=block,
     )
 
 

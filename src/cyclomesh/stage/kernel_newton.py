@@ -41,9 +41,12 @@ from numpy.typing import NDArray
 
 from cyclomesh.stage.kernel import MAX_NEWTON, ROUND_OFF
 
-__all__ = ["newton", "rigid_newton", "run"]
+__all__ = ["newton", "rigid_newton", "run", "pin_block", "PIN_BLOCK"]
 
 FloatArray = NDArray[np.float64]
+
+PIN_BLOCK = ("bl", "arm", "nx", "ny", "alpha", "gamma", "dmax")
+"""The per-pin arrays of a problem in the order of :func:`pin_block`."""
 
 
 def run(angles: int) -> int:
@@ -93,29 +96,36 @@ def newton(
     G = np.ascontiguousarray(jacobian)
     nonzero = np.any(G != 0.0, axis=(0, 3))  # (D, N, m): the structure, any crank angle
     count = nonzero.sum(-1)
-    cols = np.zeros((*count.shape, max(int(count.max()), 1)), np.int64)
+    cols = np.zeros((*count.shape, max(int(count.max()), 1) + 1), np.int64)  # count first
     for d in range(discs):
         for k in range(N):
-            cols[d, k, : count[d, k]] = np.flatnonzero(nonzero[d, k])
+            cols[d, k, 0] = count[d, k]
+            cols[d, k, 1 : 1 + count[d, k]] = np.flatnonzero(nonzero[d, k])
     core, blocks = _structure(nonzero, discs, N, nw, m)
     failed = np.zeros(A, np.bool_)
     D, P = p.bl.shape[1], p.bl.shape[2]
     pf, bf, gout = np.zeros((A, D, P)), np.zeros((A, D, N, 3)), np.zeros((A, m))
+    hole = np.empty((4, A, discs, N))  # hx, hy (the same for every disc), ex, ey
+    hole[0], hole[1], hole[2], hole[3] = p.hx[:, None, :], p.hy[:, None, :], p.ex, p.ey
+    const = np.concatenate(  # the rollers' cosines, the discs' fractions of β, kshaft
+        [
+            np.cos(law.rs.angles),
+            np.zeros(discs) if sup is None else np.asarray(sup.fraction, dtype=float),
+            np.zeros(discs * discs) if nw == 0 else np.asarray(sup.stiffness).ravel(),
+        ]
+    )
     _kernels_newton()(
         x,
-        *(np.ascontiguousarray(v) for v in (p.bl, p.arm, p.nx, p.ny, p.alpha, p.gamma, p.dmax)),
-        *(np.ascontiguousarray(v) for v in (p.ex, p.ey, p.hx, p.hy)),
+        pin_block(p),
+        hole,
         G,
         cols,
-        count,
         core,
         blocks,
-        np.zeros((discs, discs)) if nw == 0 else np.ascontiguousarray(sup.stiffness),
+        const,
         nw,
-        np.zeros(discs) if sup is None else np.ascontiguousarray(sup.fraction, dtype=float),
         float(sup.carrier) if carrier else 0.0,
         carrier,
-        np.cos(law.rs.angles),
         0.5 * law.rs.clearance,
         law.rs.constant,
         float(p.torque),
@@ -142,6 +152,27 @@ def newton(
             gradient=gout,
         )
     return failed
+
+
+def pin_block(p) -> FloatArray:
+    """The problem's seven per-pin arrays (``PIN_BLOCK``: bl, arm, nx, ny, alpha, gamma,
+    dmax, each (A, D, P)) as one C-contiguous (7, A, D, P) array, the compiled iteration's
+    argument: ``p.pins``, the block they are views of
+    (:func:`cyclomesh.stage.equilibrium._problem` forms them so), else a stacked copy. One
+    array where there were seven: a compiled call pays two atomic reference counts per
+    array argument, and the evaluation is called once or more per Newton step."""
+    block = p.pins
+    if block is not None and block.flags.c_contiguous:
+        start = block.__array_interface__["data"][0]
+        if all(
+            v.base is block
+            and v.shape == block.shape[1:]
+            and v.strides == block.strides[1:]
+            and v.__array_interface__["data"][0] == start + q * block.strides[0]
+            for q, v in enumerate(getattr(p, name) for name in PIN_BLOCK)
+        ):
+            return block
+    return np.stack([np.asarray(getattr(p, name), dtype=float) for name in PIN_BLOCK])
 
 
 def _structure(nonzero, discs: int, N: int, nw: int, m: int):
@@ -328,47 +359,18 @@ def _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc):  # pragma: no cover 
 
 
 def _evaluate_one(
-    i,
-    x,
-    bl,
-    arm,
-    nx,
-    ny,
-    alpha,
-    gamma,
-    dmax,
-    ex,
-    ey,
-    hx,
-    hy,
-    G,
-    cols,
-    count,
-    kshaft,
-    nw,
-    frac,
-    kcarrier,
-    carrier,
-    cosines,
-    half,
-    kn,
-    torque,
-    L,
-    want,
-    g,
-    H,
-    memo,
-    pf,
-    bf,
-):  # pragma: no cover (compiled)
+    i, x, pin, hole, G, cols, const, nw, kcarrier, carrier, half, kn, torque, L, want, g, H, memo,
+    pf, bf,
+):  # fmt: skip  # pragma: no cover (compiled)
     """Potential of crank angle ``i`` at x (m,), with ``want`` its gradient g and Hessian
     H (scaled: rotations × L) as equilibrium._evaluate, and then the state: the pins'
     forces ``pf[i]`` (D, P) and the bearings' force on the crank pins and deflection
     ``bf[i]`` (D, N, 3: fx, fy, s); returns (energy, status): status 0 usable, 1 an
     approach at or past dmax (bad), 2 a pin law that cannot be inverted."""
     m = x.size
-    D, P = bl.shape[1], bl.shape[2]
-    N = hx.shape[1]
+    D, P = pin.shape[2], pin.shape[3]
+    N = hole.shape[3]
+    R = const.size - D - D * D  # the rollers' cosines, then frac (D), kshaft (D, D)
     if want:
         for r in range(m):
             g[r] = 0.0
@@ -382,18 +384,18 @@ def _evaluate_one(
     for d in range(D):
         th, ux, uy = x[1 + 3 * d], x[2 + 3 * d], x[3 + 3 * d]
         for j in range(P):
-            b = bl[i, d, j]
+            b = pin[0, i, d, j]
             if not np.isfinite(b):
                 continue
-            delta = arm[i, d, j] * (th - b) + nx[i, d, j] * ux + ny[i, d, j] * uy
+            delta = pin[1, i, d, j] * (th - b) + pin[2, i, d, j] * ux + pin[3, i, d, j] * uy
             if delta <= 0.0:
                 continue
-            if delta >= dmax[i, d, j]:
+            if delta >= pin[6, i, d, j]:
                 status = 1
                 continue
-            a, gm = alpha[i, d, j], gamma[i, d, j]
+            a, gm = pin[4, i, d, j], pin[5, i, d, j]
             f, logf = _pin_force(
-                delta, a, gm, np.isfinite(dmax[i, d, j]), memo[0, d, j], memo[1, d, j],
+                delta, a, gm, np.isfinite(pin[6, i, d, j]), memo[0, d, j], memo[1, d, j],
                 memo[2, d, j],
             )  # fmt: skip
             if f > 0.0 and gm != 0.0:
@@ -407,7 +409,7 @@ def _evaluate_one(
                 if want:
                     pf[i, d, j] = f
                     k = 1.0 / (a - gm * (1.0 + logf))
-                    v0, v1, v2 = arm[i, d, j] / L, nx[i, d, j], ny[i, d, j]
+                    v0, v1, v2 = pin[1, i, d, j] / L, pin[2, i, d, j], pin[3, i, d, j]
                     r0 = 1 + 3 * d
                     g[r0] += f * v0
                     g[r0 + 1] += f * v1
@@ -431,18 +433,18 @@ def _evaluate_one(
     p = 10.0 / 9.0
     bearings = 0.0
     for d in range(D):
-        rot = (x[1 + 3 * d] - x[0]) - frac[d] * beta
+        rot = (x[1 + 3 * d] - x[0]) - const[R + d] * beta
         for k in range(N):
             wx = x[base + 2 * (d * N + k)] if nw else 0.0
             wy = x[base + 2 * (d * N + k) + 1] if nw else 0.0
-            dx = x[2 + 3 * d] + rot * (-hy[i, k]) + ex[i, d, k] - wx
-            dy = x[3 + 3 * d] + rot * hx[i, k] + ey[i, d, k] - wy
+            dx = x[2 + 3 * d] + rot * (-hole[1, i, d, k]) + hole[2, i, d, k] - wx
+            dy = x[3 + 3 * d] + rot * hole[0, i, d, k] + hole[3, i, d, k] - wy
             s = np.hypot(dx, dy)
             B = 0.0
             kb = 0.0
             ub = 0.0
-            for j in range(cosines.size):
-                cj = cosines[j]
+            for j in range(R):
+                cj = const[j]
                 dj = s * cj - half
                 if dj > 0.0:
                     root = dj ** (1.0 / 9.0)
@@ -462,13 +464,13 @@ def _evaluate_one(
             kxx = kb * cx * cx + secant * cy * cy
             kyy = kb * cy * cy + secant * cx * cx
             kxy = (kb - secant) * cx * cy
-            for u in range(count[d, k]):
+            for u in range(1, cols[d, k, 0] + 1):
                 r = cols[d, k, u]
                 g0, g1 = G[i, d, k, 0, r], G[i, d, k, 1, r]
                 g[r] += fx * g0 + fy * g1
                 ka = kxx * g0 + kxy * g1
                 kc = kxy * g0 + kyy * g1
-                for v in range(count[d, k]):
+                for v in range(1, cols[d, k, 0] + 1):
                     c2 = cols[d, k, v]
                     H[r, c2] += ka * G[i, d, k, 0, c2] + kc * G[i, d, k, 1, c2]
     energy = energy + bearings
@@ -479,13 +481,13 @@ def _evaluate_one(
                 for c in range(2):
                     kw = 0.0
                     for e in range(D):
-                        kw += kshaft[d, e] * x[base + 2 * (e * N + k) + c]
+                        kw += const[R + D + d * D + e] * x[base + 2 * (e * N + k) + c]
                     shafts += x[base + 2 * (d * N + k) + c] * kw
                     if want:
                         r = base + 2 * (d * N + k) + c
                         g[r] += kw
                         for e in range(D):
-                            H[r, base + 2 * (e * N + k) + c] += kshaft[d, e]
+                            H[r, base + 2 * (e * N + k) + c] += const[R + D + d * D + e]
         energy = energy + 0.5 * shafts
     if carrier:
         energy = energy + 0.5 * kcarrier * beta * beta
@@ -496,50 +498,13 @@ def _evaluate_one(
 
 
 def _newton_rows(
-    x,
-    bl,
-    arm,
-    nx,
-    ny,
-    alpha,
-    gamma,
-    dmax,
-    ex,
-    ey,
-    hx,
-    hy,
-    G,
-    cols,
-    count,
-    core,
-    blocks,
-    kshaft,
-    nw,
-    frac,
-    kcarrier,
-    carrier,
-    cosines,
-    half,
-    kn,
-    torque,
-    L,
-    tol,
-    floor,
-    iterations,
-    halvings,
-    cap,
-    low,
-    high,
-    run,
-    failed,
-    pf,
-    bf,
-    gout,
-):  # pragma: no cover (compiled)
+    x, pin, hole, G, cols, core, blocks, const, nw, kcarrier, carrier, half, kn, torque, L, tol,
+    floor, iterations, halvings, cap, low, high, run, failed, pf, bf, gout,
+):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`newton` written for numba: each crank angle's iteration of
     cyclomesh.stage.newton.newton (rigid=False) to the end, on its own."""
     A, m = x.shape
-    D = bl.shape[1]
+    D = pin.shape[2]
     eps = 2.220446049250313e-16
     p = 10.0 / 9.0
     rot = np.zeros(m, np.bool_)
@@ -554,7 +519,7 @@ def _newton_rows(
     Ht = np.zeros((m, m))
     trial = np.zeros(m)
     step = np.zeros(m)
-    memo = np.zeros((3, D, bl.shape[2]))  # each pin's last inversion (δ, y, F)
+    memo = np.zeros((3, D, pin.shape[3]))  # each pin's last inversion (δ, y, F)
     nc = core.size
     S = np.zeros((nc, nc))
     Z = np.zeros((blocks.shape[1], nc + 1))
@@ -574,18 +539,52 @@ def _newton_rows(
             for r in range(m):
                 trial[r] = 2.0 * x[i - 1, r] - x[i - 2, r] if line else x[i - 1, r]
             e1, s1 = _evaluate_one(
-                i, trial, bl, arm, nx, ny, alpha, gamma, dmax, ex, ey, hx, hy, G, cols, count,
-                kshaft, nw, frac, kcarrier, carrier, cosines, half, kn, torque, L, True, g,
-                H, memo, pf, bf,
-            )  # fmt: skip
+                i,
+                trial,
+                pin,
+                hole,
+                G,
+                cols,
+                const,
+                nw,
+                kcarrier,
+                carrier,
+                half,
+                kn,
+                torque,
+                L,
+                True,
+                g,
+                H,
+                memo,
+                pf,
+                bf,
+            )
             if line and s1 != 0:
                 for r in range(m):
                     trial[r] = x[i - 1, r]
                 e1, s1 = _evaluate_one(
-                    i, trial, bl, arm, nx, ny, alpha, gamma, dmax, ex, ey, hx, hy, G, cols,
-                    count, kshaft, nw, frac, kcarrier, carrier, cosines, half, kn, torque, L,
-                    True, g, H, memo, pf, bf,
-                )  # fmt: skip
+                    i,
+                    trial,
+                    pin,
+                    hole,
+                    G,
+                    cols,
+                    const,
+                    nw,
+                    kcarrier,
+                    carrier,
+                    half,
+                    kn,
+                    torque,
+                    L,
+                    True,
+                    g,
+                    H,
+                    memo,
+                    pf,
+                    bf,
+                )
             if s1 == 0:
                 for r in range(m):
                     xi[r] = trial[r]
@@ -602,26 +601,14 @@ def _newton_rows(
                 energy, status = _evaluate_one(
                     i,
                     xi,
-                    bl,
-                    arm,
-                    nx,
-                    ny,
-                    alpha,
-                    gamma,
-                    dmax,
-                    ex,
-                    ey,
-                    hx,
-                    hy,
+                    pin,
+                    hole,
                     G,
                     cols,
-                    count,
-                    kshaft,
+                    const,
                     nw,
-                    frac,
                     kcarrier,
                     carrier,
-                    cosines,
                     half,
                     kn,
                     torque,
@@ -704,26 +691,14 @@ def _newton_rows(
                 e_t, st = _evaluate_one(
                     i,
                     trial,
-                    bl,
-                    arm,
-                    nx,
-                    ny,
-                    alpha,
-                    gamma,
-                    dmax,
-                    ex,
-                    ey,
-                    hx,
-                    hy,
+                    pin,
+                    hole,
                     G,
                     cols,
-                    count,
-                    kshaft,
+                    const,
                     nw,
-                    frac,
                     kcarrier,
                     carrier,
-                    cosines,
                     half,
                     kn,
                     torque,
@@ -779,7 +754,7 @@ def rigid_newton(
     _kernels_newton()  # compiles _pin_force
     _kernels_rigid()(
         x,
-        *(np.ascontiguousarray(v) for v in (p.bl, p.arm, p.alpha, p.gamma, p.dmax)),
+        pin_block(p),
         float(p.torque),
         float(p.scale),
         force * abs(p.torque) / p.scale,
@@ -807,13 +782,11 @@ def _kernels_rigid() -> Any:
     return jit(_rigid_rows)
 
 
-def _rigid_one(
-    i, x, bl, arm, alpha, gamma, dmax, torque, L, memo, store, pf, pk
-):  # pragma: no cover (compiled)
+def _rigid_one(i, x, pin, torque, L, memo, store, pf, pk):  # pragma: no cover (compiled)
     """(energy, ∂/∂(cL), ∂²/∂(cL)², status) of the rigid stage at crank angle ``i``; status
     as :func:`_evaluate_one`. With ``store`` the pins' forces and stiffnesses in
     ``pf[i]``, ``pk[i]`` (D, P)."""
-    D, P = bl.shape[1], bl.shape[2]
+    D, P = pin.shape[2], pin.shape[3]
     pins = 0.0
     g = 0.0
     h = 0.0
@@ -826,18 +799,18 @@ def _rigid_one(
     for d in range(D):
         th = x[1 + 3 * d]
         for j in range(P):
-            b = bl[i, d, j]
+            b = pin[0, i, d, j]
             if not np.isfinite(b):
                 continue
-            delta = arm[i, d, j] * (th - b)
+            delta = pin[1, i, d, j] * (th - b)
             if delta <= 0.0:
                 continue
-            if delta >= dmax[i, d, j]:
+            if delta >= pin[6, i, d, j]:
                 status = 1
                 continue
-            a, gm = alpha[i, d, j], gamma[i, d, j]
+            a, gm = pin[4, i, d, j], pin[5, i, d, j]
             f, logf = _pin_force(
-                delta, a, gm, np.isfinite(dmax[i, d, j]), memo[0, d, j], memo[1, d, j],
+                delta, a, gm, np.isfinite(pin[6, i, d, j]), memo[0, d, j], memo[1, d, j],
                 memo[2, d, j],
             )  # fmt: skip
             if f > 0.0 and gm != 0.0:
@@ -848,7 +821,7 @@ def _rigid_one(
                 if gm == 0.0:
                     logf = np.log(f)
                 pins += 0.5 * f * f * (a - 0.5 * gm - gm * logf)
-                v = arm[i, d, j] / L
+                v = pin[1, i, d, j] / L
                 g += f * v
                 h += v * v / (a - gm * (1.0 + logf))
                 if store:
@@ -858,15 +831,15 @@ def _rigid_one(
 
 
 def _rigid_rows(
-    x, bl, arm, alpha, gamma, dmax, torque, L, tol, floor, iterations, halvings, cap, run, failed,
+    x, pin, torque, L, tol, floor, iterations, halvings, cap, run, failed,
     pf, pk,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`rigid_newton` written for numba."""
     A, m = x.shape
-    D = bl.shape[1]
+    D = pin.shape[2]
     eps = 2.220446049250313e-16
     trial = np.zeros(m)
-    memo = np.zeros((3, D, bl.shape[2]))  # each pin's last inversion (δ, y, F)
+    memo = np.zeros((3, D, pin.shape[3]))  # each pin's last inversion (δ, y, F)
     for i in range(A):
         xi = x[i].copy()
         have = False  # energy, g, h, status (and pf, pk) hold the evaluation at xi
@@ -875,15 +848,11 @@ def _rigid_rows(
             line = i % run >= 2 and not failed[i - 2]
             for r in range(m):
                 trial[r] = 2.0 * x[i - 1, r] - x[i - 2, r] if line else x[i - 1, r]
-            e1, g1, h1, s1 = _rigid_one(
-                i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
-            )
+            e1, g1, h1, s1 = _rigid_one(i, trial, pin, torque, L, memo, True, pf, pk)
             if line and s1 != 0:
                 for r in range(m):
                     trial[r] = x[i - 1, r]
-                e1, g1, h1, s1 = _rigid_one(
-                    i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
-                )
+                e1, g1, h1, s1 = _rigid_one(i, trial, pin, torque, L, memo, True, pf, pk)
             if s1 == 0:
                 for r in range(m):
                     xi[r] = trial[r]
@@ -895,9 +864,7 @@ def _rigid_rows(
         previous = np.inf
         for _ in range(iterations):
             if not have:
-                energy, g, h, status = _rigid_one(
-                    i, xi, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
-                )
+                energy, g, h, status = _rigid_one(i, xi, pin, torque, L, memo, True, pf, pk)
             have = False
             if status == 2:
                 break
@@ -933,9 +900,7 @@ def _rigid_rows(
                 trial[0] = xi[0] + move
                 for d in range(D):
                     trial[1 + 3 * d] = xi[1 + 3 * d] + move
-                e_t, g_t, h_t, st = _rigid_one(
-                    i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
-                )
+                e_t, g_t, h_t, st = _rigid_one(i, trial, pin, torque, L, memo, True, pf, pk)
                 if st == 2:
                     break
                 ok = e_t <= energy + 1e-4 * t * slope or tiny
