@@ -76,8 +76,8 @@ class Problem:
                 else getattr(self, name)
             )
             for name in self.__dataclass_fields__
+            if name != "pins"  # the taken arrays are copies, not views of a block
         }
-        kw["pins"] = None  # the taken arrays are copies, not views of a block
         if self.lubrication is not None:
             kw["lubrication"] = {key: value[idx] for key, value in self.lubrication.items()}
         return Problem(**kw)
