@@ -68,7 +68,8 @@ def newton(
     jacobian: FloatArray,
     settings: tuple,
     state: dict | None = None,
-) -> NDArray[np.bool_]:
+    start=None,
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     """:func:`cyclomesh.stage.newton.newton` of the rigid discs' stage (``rigid=False``, no
     compliant disc, a bearing law without a series spring), every crank angle on its own
     in one compiled pass: the potential, gradient and Hessian of
@@ -81,7 +82,13 @@ def newton(
     imported by the bearing law, which cyclomesh.stage.newton imports). ``x`` (A, m) is
     overwritten by the solution; returns the crank angles the kernel could not finish
     (the caller solves them with the reference, which raises its own error where it fails
-    too). ``state``: a dict that receives the state at the solution of the crank angles
+    too) and those whose own start it was given. ``start``: None, every row of ``x`` is
+    a start; else a function of crank-angle indices giving their starts (k, m), asked
+    for only where the iteration needs a crank angle's own start (the first, one after
+    a failure, and where neither warm start can be evaluated), which it then leaves in
+    ``x`` (the rigid solution, split and deflections of the others are never formed;
+    the iteration stops at such a crank angle and goes on from it, its pins' memo
+    kept). ``state``: a dict that receives the state at the solution of the crank angles
     it finished, as equilibrium._evaluate's: ``pin_force`` [N] (A, D, P), ``bearing_fx``,
     ``bearing_fy`` [N] and ``deflection`` [m] (A, D, N), and ``gradient`` (A, m), the
     scaled gradient of its convergence test (the evaluation at the solution the caller
@@ -114,35 +121,21 @@ def newton(
             np.zeros(discs * discs) if nw == 0 else np.asarray(sup.stiffness).ravel(),
         ]
     )
-    _kernels_newton()(
-        x,
-        pin_block(p),
-        hole,
-        G,
-        cols,
-        core,
-        blocks,
-        const,
-        nw,
-        float(sup.carrier) if carrier else 0.0,
-        carrier,
-        0.5 * law.rs.clearance,
-        law.rs.constant,
-        float(p.torque),
-        float(p.scale),
-        force * abs(p.torque) / p.scale,
-        round_off * abs(p.torque) / p.scale,
-        iterations,
-        halvings,
-        cap,
-        low,
-        high,
-        run,
-        failed,
-        pf,
-        bf,
-        gout,
-    )
+    block = pin_block(p)
+    started = np.full(A, start is None)
+    memo = np.zeros((3, D, P))  # each pin's last inversion (δ, y, F), call to call
+    first = 0
+    while first < A:
+        first = _kernels_newton()(
+            first, started, memo, x, block, hole, G, cols, core, blocks, const, nw,
+            float(sup.carrier) if carrier else 0.0, carrier, 0.5 * law.rs.clearance,
+            law.rs.constant, float(p.torque), float(p.scale), force * abs(p.torque) / p.scale,
+            round_off * abs(p.torque) / p.scale, iterations, halvings, cap, low, high, run,
+            failed, pf, bf, gout,
+        )  # fmt: skip
+        if first < A:  # the own start of crank angle ``first`` asked for
+            x[first] = start(np.array([first]))[0]
+            started[first] = True
     if state is not None:
         state.update(
             pin_force=pf,
@@ -151,7 +144,7 @@ def newton(
             deflection=bf[..., 2],
             gradient=gout,
         )
-    return failed
+    return failed, started
 
 
 def pin_block(p) -> FloatArray:
@@ -498,11 +491,15 @@ def _evaluate_one(
 
 
 def _newton_rows(
-    x, pin, hole, G, cols, core, blocks, const, nw, kcarrier, carrier, half, kn, torque, L, tol,
-    floor, iterations, halvings, cap, low, high, run, failed, pf, bf, gout,
+    first, started, memo, x, pin, hole, G, cols, core, blocks, const, nw, kcarrier, carrier,
+    half, kn, torque, L, tol, floor, iterations, halvings, cap, low, high, run, failed,
+    pf, bf, gout,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`newton` written for numba: each crank angle's iteration of
-    cyclomesh.stage.newton.newton (rigid=False) to the end, on its own."""
+    cyclomesh.stage.newton.newton (rigid=False) to the end, on its own, from crank angle
+    ``first`` on; returns the first crank angle whose own start it needs and has not
+    (``started``), A when all are done. ``memo`` (3, D, P): each pin's last inversion
+    (δ, y, F), kept from call to call."""
     A, m = x.shape
     D = pin.shape[2]
     eps = 2.220446049250313e-16
@@ -519,13 +516,12 @@ def _newton_rows(
     Ht = np.zeros((m, m))
     trial = np.zeros(m)
     step = np.zeros(m)
-    memo = np.zeros((3, D, pin.shape[3]))  # each pin's last inversion (δ, y, F)
     nc = core.size
     S = np.zeros((nc, nc))
     Z = np.zeros((blocks.shape[1], nc + 1))
     rhs = np.zeros(nc)
     sc = np.zeros(nc)
-    for i in range(A):
+    for i in range(first, A):
         xi = x[i].copy()
         # g, H, energy and status hold the evaluation at xi (a trial's, or the warm
         # start's, with its gradient and Hessian): the next iteration need not repeat it
@@ -591,6 +587,8 @@ def _newton_rows(
                 energy, status, have = e1, s1, True
         else:
             memo[0] = 0.0
+        if not have and not started[i]:
+            return i  # its own start is needed
         previous = np.inf
         extended = False
         linear = False
@@ -736,6 +734,7 @@ def _newton_rows(
             x[i] = xi
         else:
             failed[i] = True
+    return A
 
 
 def rigid_newton(
