@@ -714,11 +714,11 @@ def solve_direction(
         x, F, k_pin, bound = rigid_stage(prob, mesh.phi)
         mesh_te = transmission_error(mesh.rest, x[:, 0])
     if law is not None:
-        plain, rigid = prob, (x, F, k_pin)
+        unsupported, rigid = prob, (x, F, k_pin)  # the problem before the supports
 
         def start(idx: NDArray[np.int64]) -> FloatArray:
             """The bearing phase's start of the crank angles ``idx``."""
-            sub = plain.take(idx)
+            sub = unsupported.take(idx)
             if rigid[0] is None:
                 xr, Fr, kr, _ = rigid_stage(sub, mesh.phi[idx])
             else:
