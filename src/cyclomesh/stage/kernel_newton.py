@@ -45,6 +45,12 @@ __all__ = ["newton", "rigid_newton", "run", "pin_block", "PIN_BLOCK"]
 
 FloatArray = NDArray[np.float64]
 
+TINY_STEP = 1e-9
+"""A pin's inversion (:func:`_pin_force`) ends with a Newton step in y = ln F no larger
+than this: the residual after it is of order h²·δ (Newton's quadratic convergence; δ''/δ
+is of order 1 below the law's stiffest point), 10⁻¹⁸·δ against the test's 2·10⁻¹⁵·δ, so
+that step's evaluation is not needed, and F = e^y·e^h with e^h = 1 + h + h²/2 to
+round-off (the next term h³/6 ≤ 2·10⁻²⁸)."""
 PIN_BLOCK = ("bl", "arm", "nx", "ny", "alpha", "gamma", "dmax")
 """The per-pin arrays of a problem in the order of :func:`pin_block`."""
 
@@ -233,7 +239,10 @@ def _pin_force(delta, a, g, checked, d0, y0, f0):  # pragma: no cover (compiled)
         resid = e * (a - g * y) - delta
         if abs(resid) <= ROUND_OFF * delta:
             return e, y
-        y = y - resid / (e * (a - g - g * y))
+        step = -resid / (e * (a - g - g * y))
+        if abs(step) <= TINY_STEP:  # the root: e^(y + h) to round-off without exp
+            return e * (1.0 + step * (1.0 + 0.5 * step)), y + step
+        y = y + step
     e = np.exp(y)
     resid = e * (a - g * y) - delta
     if abs(resid) <= 4.0 * 2.220446049250313e-16 * abs(y) * abs(e * (a - g - g * y)):
