@@ -22,7 +22,10 @@ approach); the round-off of the unknowns (16ε·|H|·|x|) is formed only for a r
 above the tolerance, the only place it decides; the Newton step eliminates the crank
 pins' deflections crankshaft by crankshaft before the pivoted elimination of the rest
 (:func:`_solve_blocks`); a pin's inversion starts from its last root by the inverse's
-second-order Taylor series.
+second-order Taylor series and ends without a last exponential after a tiny step
+(:data:`TINY_STEP`); a crank angle's own start is asked of the caller only where the
+iteration needs it (:func:`newton` ``start``); the problem's arrays are passed packed
+(:func:`pin_block`: a compiled call pays two atomic reference counts per array).
 Split from :mod:`cyclomesh.stage.kernel` (the laws) as a pure move.
 
 References
