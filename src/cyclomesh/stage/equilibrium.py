@@ -356,6 +356,7 @@ def _kernel_newton(
     phi,
     state: dict | None = None,
     start=None,
+    keep: dict | None = None,
 ):
     """:func:`~cyclomesh.stage.newton.newton` compiled
     (:func:`cyclomesh.stage.kernel_newton.newton`, and
@@ -367,7 +368,8 @@ def _kernel_newton(
     kernel, receives its state at the solution (the kernels' ``state``). ``start`` (the
     bearing phase only): None, ``x`` holds every crank angle's start; else ``x`` is None
     and ``start(idx)`` gives the starts (len(idx), m) of the crank angles ``idx``, asked
-    for where the kernel needs them only (:func:`~cyclomesh.stage.kernel_newton.newton`)."""
+    for where the kernel needs them only (:func:`~cyclomesh.stage.kernel_newton.newton`);
+    ``keep``: the kernel's torque-free arrays kept there (its ``keep``)."""
     if start is not None:
         m = p.jacobian.shape[-1] if p.jacobian is not None else 1 + 3 * discs
         x = np.zeros((p.bl.shape[0], m))
@@ -386,7 +388,7 @@ def _kernel_newton(
         failed = kernel_rigid_newton(p, x, discs, settings, found)
     else:
         jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, x.shape[1])
-        failed, started = kernel_newton(p, law, x, discs, jacobian, settings, found, start)
+        failed, started = kernel_newton(p, law, x, discs, jacobian, settings, found, start, keep)
     if state is not None and not np.any(failed):
         state.update(found)
     if np.any(failed):
@@ -744,7 +746,8 @@ def solve_direction(
             prob.jacobian = jacobian
         st = {}
         if lazy:
-            x = _kernel_newton(prob, _evaluate, law, None, D, False, mesh.phi, st, start)
+            keep = cache if body is None else None  # this direction's (the same jacobian)
+            x = _kernel_newton(prob, _evaluate, law, None, D, False, mesh.phi, st, start, keep)
         else:
             x = _solve(prob, law, x, D, False, mesh.phi, st)
         if st:  # the compiled iteration's state at the solution (the rigid discs' stage)

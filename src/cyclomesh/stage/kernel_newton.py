@@ -78,6 +78,7 @@ def newton(
     settings: tuple,
     state: dict | None = None,
     start=None,
+    keep: dict | None = None,
 ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     """:func:`cyclomesh.stage.newton.newton` of the rigid discs' stage (``rigid=False``, no
     compliant disc, a bearing law without a series spring), every crank angle on its own
@@ -101,7 +102,11 @@ def newton(
     it finished, as equilibrium._evaluate's: ``pin_force`` [N] (A, D, P), ``bearing_fx``,
     ``bearing_fy`` [N] and ``deflection`` [m] (A, D, N), and ``gradient`` (A, m), the
     scaled gradient of its convergence test (the evaluation at the solution the caller
-    need not repeat).
+    need not repeat). ``keep``: a dict of the caller's in which the arrays that depend on
+    the problem but not on its torque (the bearings' columns and the block structure,
+    the packed hole arrays and constants) are kept from one call to the next; it must be
+    the caller's for this ``jacobian`` and this problem's holes, law and supports (the
+    cache of :func:`cyclomesh.stage.equilibrium.solve_direction`); None: formed here.
     """
     force, iterations, halvings, cap, low, high, round_off, run = settings
     A, m = x.shape
@@ -110,26 +115,15 @@ def newton(
     nw = 2 * discs * N if sup is not None and sup.stiffness is not None else 0
     carrier = sup is not None and sup.carrier is not None
     G = np.ascontiguousarray(jacobian)
-    nonzero = np.any(G != 0.0, axis=(0, 3))  # (D, N, m): the structure, any crank angle
-    count = nonzero.sum(-1)
-    cols = np.zeros((*count.shape, max(int(count.max()), 1) + 1), np.int64)  # count first
-    for d in range(discs):
-        for k in range(N):
-            cols[d, k, 0] = count[d, k]
-            cols[d, k, 1 : 1 + count[d, k]] = np.flatnonzero(nonzero[d, k])
-    core, blocks = _structure(nonzero, discs, N, nw, m)
+    if keep is None or "kernel_columns" not in keep:
+        cols, core, blocks, hole, const = _arrays(p, law, G, discs, nw, m)
+        if keep is not None:
+            keep["kernel_columns"] = (cols, core, blocks, hole, const)
+    else:
+        cols, core, blocks, hole, const = keep["kernel_columns"]
     failed = np.zeros(A, np.bool_)
     D, P = p.bl.shape[1], p.bl.shape[2]
     pf, bf, gout = np.zeros((A, D, P)), np.zeros((A, D, N, 3)), np.zeros((A, m))
-    hole = np.empty((4, A, discs, N))  # hx, hy (the same for every disc), ex, ey
-    hole[0], hole[1], hole[2], hole[3] = p.hx[:, None, :], p.hy[:, None, :], p.ex, p.ey
-    const = np.concatenate(  # the rollers' cosines, the discs' fractions of β, kshaft
-        [
-            np.cos(law.rs.angles),
-            np.zeros(discs) if sup is None else np.asarray(sup.fraction, dtype=float),
-            np.zeros(discs * discs) if nw == 0 else np.asarray(sup.stiffness).ravel(),
-        ]
-    )
     block = pin_block(p)
     started = np.full(A, start is None)
     memo = np.zeros((3, D, P))  # each pin's last inversion (δ, y, F), call to call
@@ -154,6 +148,34 @@ def newton(
             gradient=gout,
         )
     return failed, started
+
+
+def _arrays(p, law, G: FloatArray, discs: int, nw: int, m: int):
+    """The torque-free arguments of :func:`_newton_rows`: each crank bearing's columns
+    (D, N, 1 + c: their count, then the nonzero columns of ``G`` at any crank angle), the
+    unknowns of :func:`_solve_blocks` (:func:`_structure`), the holes (4, A, D, N: hx, hy,
+    the same for every disc, ex, ey) and the constants (the rollers' cosines, the discs'
+    fractions of the end plate's turn, the crankshafts' stiffness (D, D) flat)."""
+    sup = p.supports
+    A, N = p.hx.shape
+    nonzero = np.any(G != 0.0, axis=(0, 3))  # (D, N, m): the structure, any crank angle
+    count = nonzero.sum(-1)
+    cols = np.zeros((*count.shape, max(int(count.max()), 1) + 1), np.int64)  # count first
+    for d in range(discs):
+        for k in range(N):
+            cols[d, k, 0] = count[d, k]
+            cols[d, k, 1 : 1 + count[d, k]] = np.flatnonzero(nonzero[d, k])
+    core, blocks = _structure(nonzero, discs, N, nw, m)
+    hole = np.empty((4, A, discs, N))
+    hole[0], hole[1], hole[2], hole[3] = p.hx[:, None, :], p.hy[:, None, :], p.ex, p.ey
+    const = np.concatenate(
+        [
+            np.cos(law.rs.angles),
+            np.zeros(discs) if sup is None else np.asarray(sup.fraction, dtype=float),
+            np.zeros(discs * discs) if nw == 0 else np.asarray(sup.stiffness).ravel(),
+        ]
+    )
+    return cols, core, blocks, hole, const
 
 
 def pin_block(p) -> FloatArray:
