@@ -7,7 +7,9 @@ unloaded geometry, the rigid start, and the equilibrium of both discs and the ca
 (1 + 3·2 unknowns per crank angle) to round-off. Target: under 1 s. The same with the
 compliant disc (``disc_body = "fe"``: the FE disc with its crank-hole centres free, its
 loads as unknowns; target: under 2 s). Also the torsion curve of the stage (±3 %, ±50 %,
-±100 % of 412 N·m: 6 torques). Prints best and median.
+±100 % of 412 N·m: 6 torques). Prints best and median. The stage's pin-steps per
+CPU-second as a fraction of the rigid disc's (bench_core's solve, measured in the same
+run; issue 27's target 0.4×; :func:`pin_rate` says how pin-steps are counted).
 
 The stage tolerance study (issue 26's target: 2,000 rings at 360 crank angles with two
 discs and three crankshafts in under a minute on this 2-core machine): ``cyclomesh
@@ -26,7 +28,7 @@ Friction in the stage (``[friction]`` with ``[stage]``, Coulomb μ = 0.05 at the
 the same solve and the torsion curve (its two branches) beside the frictionless ones.
 
     .venv/bin/python benchmarks/bench_stage.py [--repeat 5] [--rings 16] [--kernel numba]
-        [--friction-only]
+        [--friction-only] [--rate-only]
 """
 
 from __future__ import annotations
@@ -178,6 +180,47 @@ def with_friction(phi: np.ndarray, mod: Modification, repeat: int) -> None:
         )
 
 
+def pin_rate(phi: np.ndarray, mod: Modification, repeat: int) -> None:
+    """The stage's pin-steps per CPU-second against the rigid disc's, measured here one
+    after the other (issue 27: the stage at ≥ 0.4× the rigid rate).
+
+    A pin-step is one pin of one disc at one crank angle, solved: the stage's solve above
+    (``solve_stage``, every output, the unloaded meshes of both flanks included) counts
+    360 crank angles × 2 discs × 40 pins = 28,800 (each pin's two flanks one pin-step);
+    the rigid disc's is ``benchmarks/bench_core.py``'s (Table 1 of Li et al., Δρ = 8 µm,
+    groove deformation on, 250 N·m, 3600 crank angles × 40 pins, the half-plane law, the
+    rigid disc: ``solve_ltca``). Each is the best of ``repeat`` runs per CPU-second of this
+    process (``time.process_time``), the rate a shared machine disturbs least; the rigid
+    disc's as bench_core prints it (its allocator tuning too)."""
+    from cyclomesh import TABLE1
+    from cyclomesh.core.ltca import solve_ltca
+    from cyclomesh.execution.runtime import tune_allocator
+
+    tune_allocator()  # as bench_core and every cyclomesh process that solves
+    fine = np.deg2rad(np.arange(3600) * 0.1)
+    core_mod = Modification(pin_radius=8e-6)
+
+    def cpu(run) -> float:
+        run()  # warm-up
+        times = []
+        for _ in range(repeat):
+            start = time.process_time()
+            run()
+            times.append(time.process_time() - start)
+        return min(times)
+
+    rigid_s = cpu(lambda: solve_ltca(TABLE1, core_mod, None, 250.0, fine, True, "half_plane"))
+    stage_s = cpu(lambda: solve_stage(RV40, STAGE, mod, None, 412.0, phi, discs=2))
+    rigid = fine.size * TABLE1.pins / rigid_s
+    stage = phi.size * 2 * RV40.pins / stage_s
+    print(
+        f"pin-steps per CPU-second: stage {stage / 1e6:.2f} M (360 x 2 discs x {RV40.pins} "
+        f"pins in {stage_s * 1e3:.1f} ms), rigid disc {rigid / 1e6:.2f} M (bench_core's "
+        f"3600 x {TABLE1.pins} in {rigid_s * 1e3:.1f} ms): stage/rigid {stage / rigid:.2f}x "
+        f"({'at or above' if stage >= 0.4 * rigid else 'BELOW'} the 0.4x target)"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
@@ -186,12 +229,18 @@ def main() -> None:
         "--kernel", choices=KERNELS, default=None, help=f"sets {ENV_VAR} (default: as set)"
     )
     parser.add_argument("--friction-only", action="store_true", help="only the friction timing")
+    parser.add_argument(
+        "--rate-only", action="store_true", help="only the stage/rigid pin-step rate"
+    )
     args = parser.parse_args()
     if args.kernel is not None:
         os.environ[ENV_VAR] = args.kernel
     print(f"kernel: {kernel_name()}")
     phi = np.deg2rad(np.arange(360.0))
     mod = Modification(pin_radius=3e-6)
+    if args.rate_only:
+        pin_rate(phi, mod, args.repeat)
+        return
     with_friction(phi, mod, args.repeat)
     if args.friction_only:
         return
@@ -204,6 +253,7 @@ def main() -> None:
         f"median {median:.3f} s over {args.repeat} runs "
         f"({'under' if best < 1.0 else 'OVER'} the 1 s target)"
     )
+    pin_rate(phi, mod, args.repeat)
     best, median = timed(
         lambda: solve_stage(RV40, ELASTIC, mod, None, 412.0, phi, discs=2), args.repeat
     )

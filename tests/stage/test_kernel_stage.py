@@ -277,3 +277,80 @@ def test_the_block_solve_is_the_dense_solve():
     nonzero[0, 0, base + 2 * (0 * N + 1)] = True  # a bearing on another crankshaft's pin
     core, blocks = kn._structure(nonzero, D, N, 2 * D * N, m)
     assert blocks.shape[0] == 0 and core.size == m
+
+
+def test_the_compiled_newton_asks_for_the_starts_it_needs(monkeypatch):
+    """The compiled bearing phase forms a crank angle's own start (rigid solution, split,
+    deflections) only where it cannot start from the crank angles before: once a solve
+    over the revolution (a tolerance ring, whose outputs need no rigid solution elsewhere,
+    forms the rigid phase there alone too); with runs of 5 (a warm start refused every 5th
+    crank angle) at those angles, and the answers are the same roots to 1e-13 of the NumPy
+    reference's."""
+    from cyclomesh.core.case import Case, Model
+    from cyclomesh.stage.solve import solve
+    from cyclomesh.tolerance.tasks import STAGE_OUTPUTS
+
+    errors, stage = _hard_stage(0)
+    torques = [412.0, -LIGHT, LIGHT]
+    split, rigid = eq.stiff_limit_split, eq._solve
+    asked, phases = [], []
+
+    def counted_split(hx, *args):
+        asked.append(hx.shape[0])
+        return split(hx, *args)
+
+    def counted_solve(p, law, x, *args, **kwargs):
+        phases.append((law is None, x.shape[0]))
+        return rigid(p, law, x, *args, **kwargs)
+
+    monkeypatch.setattr(eq, "stiff_limit_split", counted_split)
+    monkeypatch.setattr(eq, "_solve", counted_solve)
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    ring = solve(
+        Case(RV40, MOD, errors, np.array(torques), PHI),
+        Model(discs=2, stage=stage),
+        positions=False,
+        outputs=STAGE_OUTPUTS,
+    )
+    assert asked == [1, 1, 1]  # the first crank angle of each torque's solve
+    assert phases == [(True, 1)] * 3  # the rigid phase of that crank angle alone
+    asked.clear()
+    monkeypatch.setattr(eq, "kernel_run", lambda angles: 5)
+    got = solve_stage(RV40, stage, MOD, errors, torques, PHI, discs=2)
+    assert asked == [1] * (3 * PHI.size // 5)  # crank angles 0, 5, 10, … of each torque
+    monkeypatch.setattr(eq, "stiff_limit_split", split)
+    monkeypatch.setattr(eq, "_solve", rigid)
+    monkeypatch.setenv(kernel.ENV_VAR, "numpy")
+    ref = solve_stage(RV40, stage, MOD, errors, torques, PHI, discs=2)
+    _agree(ref, got)
+    for name in ("transmission_error", "bearing_load", "contact_stress"):
+        a, b = getattr(ref, name), getattr(ring, name)
+        assert np.max(np.abs(a - b)) <= 1e-13 * np.max(np.abs(a)), name
+
+
+def test_the_pin_block_is_the_problems_arrays(monkeypatch):
+    """The compiled iteration's one argument for the seven per-pin arrays: the block that
+    the problem's arrays are views of (no copy), else (a problem of some crank angles) a
+    stacked copy of the same values."""
+    import cyclomesh.stage.kernel_newton as kn
+
+    seen = []
+    newton = eq.kernel_newton
+
+    def keep(p, *args, **kwargs):
+        seen.append(p)
+        return newton(p, *args, **kwargs)
+
+    monkeypatch.setattr(eq, "kernel_newton", keep)
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    solve_stage(RV40, StageDesign(HOLES, BEARING), MOD, None, 412.0, PHI[:8], discs=2)
+    p = seen[0]
+    block = kn.pin_block(p)
+    assert block is p.pins and block.shape == (7, *p.bl.shape)
+    for q, name in enumerate(kn.PIN_BLOCK):
+        assert np.shares_memory(block[q], getattr(p, name))
+        assert np.array_equal(block[q], getattr(p, name))
+    sub = p.take(np.array([1, 4]))
+    copy = kn.pin_block(sub)
+    assert sub.pins is None and not np.shares_memory(copy, block)
+    assert np.array_equal(copy, block[:, [1, 4]])

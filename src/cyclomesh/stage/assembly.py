@@ -61,6 +61,9 @@ class Problem:
     # friction: generalised forces held fixed in a step of stage.friction.friction_picard,
     # (A, m) in the scaled unknowns (added to the potential as the work of a dead load)
     frozen: FloatArray | None = None
+    # the block (7, A, D, P) that bl … dmax are views of (equilibrium._problem; the
+    # compiled iteration's one argument, stage.kernel_newton.pin_block), or None
+    pins: FloatArray | None = None
 
     def take(self, idx: NDArray[np.int64]) -> Problem:
         """The problem at the crank angles ``idx`` (increasing); itself when it is all."""
@@ -73,6 +76,7 @@ class Problem:
                 else getattr(self, name)
             )
             for name in self.__dataclass_fields__
+            if name != "pins"  # the taken arrays are copies, not views of a block
         }
         if self.lubrication is not None:
             kw["lubrication"] = {key: value[idx] for key, value in self.lubrication.items()}

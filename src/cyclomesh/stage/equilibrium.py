@@ -65,6 +65,7 @@ from cyclomesh.stage.kernel import (
     disc_turn,
     single_rotation,
 )
+from cyclomesh.stage.kernel_newton import PIN_BLOCK
 from cyclomesh.stage.kernel_newton import newton as kernel_newton
 from cyclomesh.stage.kernel_newton import rigid_newton as kernel_rigid_newton
 from cyclomesh.stage.kernel_newton import run as kernel_run
@@ -354,6 +355,8 @@ def _kernel_newton(
     rigid: bool,
     phi,
     state: dict | None = None,
+    start=None,
+    keep: dict | None = None,
 ):
     """:func:`~cyclomesh.stage.newton.newton` compiled
     (:func:`cyclomesh.stage.kernel_newton.newton`, and
@@ -362,8 +365,15 @@ def _kernel_newton(
     solutions of the ones before, :data:`~cyclomesh.stage.kernel_newton.RUN`); the crank
     angles it cannot finish are solved by the reference from their start, which raises
     its own error if it fails. ``state``, when every crank angle was finished by the
-    kernel, receives its state at the solution (the kernels' ``state``)."""
-    start = x.copy()
+    kernel, receives its state at the solution (the kernels' ``state``). ``start`` (the
+    bearing phase only): None, ``x`` holds every crank angle's start; else ``x`` is None
+    and ``start(idx)`` gives the starts (len(idx), m) of the crank angles ``idx``, asked
+    for where the kernel needs them only (:func:`~cyclomesh.stage.kernel_newton.newton`);
+    ``keep``: the kernel's torque-free arrays kept there (its ``keep``)."""
+    if start is not None:
+        m = p.jacobian.shape[-1] if p.jacobian is not None else 1 + 3 * discs
+        x = np.zeros((p.bl.shape[0], m))
+    begin = None if x is None else x.copy()
     settings = (
         reference.FORCE_TOLERANCE,
         reference._MAX_ITERATIONS,
@@ -378,12 +388,19 @@ def _kernel_newton(
         failed = kernel_rigid_newton(p, x, discs, settings, found)
     else:
         jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, x.shape[1])
-        failed = kernel_newton(p, law, x, discs, jacobian, settings, found)
+        failed, started = kernel_newton(p, law, x, discs, jacobian, settings, found, start, keep)
     if state is not None and not np.any(failed):
         state.update(found)
     if np.any(failed):
         idx = np.flatnonzero(failed)
-        x[idx] = newton(p.take(idx), evaluate, law, start[idx], discs, rigid, phi[idx])
+        if start is None:
+            first = begin[idx]
+        else:  # the own starts (the kernel leaves them in x where it asked for them)
+            first = x[idx]
+            ask = ~started[idx]
+            if np.any(ask):
+                first[ask] = start(idx[ask])
+        x[idx] = newton(p.take(idx), evaluate, law, first, discs, rigid, phi[idx])
     return x
 
 
@@ -466,17 +483,21 @@ def _problem(
 
     # the opposite flanks (pins n1 … 2n1 − 1): the mirror problem's forward flanks
     # (_mirrored, as strided copies into the second half of each array)
-    def flanks(this: FloatArray, that: FloatArray | None = None) -> FloatArray:
-        out = np.empty((A, D, 2 * n1))
+    # (each array a view of one block, in the order of kernel_newton.PIN_BLOCK: the
+    # compiled iteration's one argument for the seven)
+    block = np.empty((len(PIN_BLOCK), A, D, 2 * n1))
+
+    def flanks(name: str, this: FloatArray, that: FloatArray | None = None) -> FloatArray:
+        out = block[PIN_BLOCK.index(name)]
         out[..., :n1] = this
         if that is not None:
             _mirror_into(out[..., n1:], that)
         return out
 
-    arm = flanks(geo.moment_arm, other.geo.moment_arm)
-    alpha = flanks(mesh.alpha.reshape(A, D, n1), other.alpha.reshape(A, D, n1))
-    gamma = flanks(mesh.gamma.reshape(A, D, n1), other.gamma.reshape(A, D, n1))
-    bl = flanks(mesh.backlash.reshape(A, D, n1))
+    arm = flanks("arm", geo.moment_arm, other.geo.moment_arm)
+    alpha = flanks("alpha", mesh.alpha.reshape(A, D, n1), other.alpha.reshape(A, D, n1))
+    gamma = flanks("gamma", mesh.gamma.reshape(A, D, n1), other.gamma.reshape(A, D, n1))
+    bl = flanks("bl", mesh.backlash.reshape(A, D, n1))
     arm_o, alpha_o, gamma_o, bl_o = (v[..., n1:] for v in (arm, alpha, gamma, bl))
     with np.errstate(invalid="ignore"):
         np.subtract(geo.reverse_rotation, mesh.rest[:, None, None], out=bl_o)
@@ -491,15 +512,15 @@ def _problem(
     np.copyto(arm_o, -0.0, where=unusable)  # −np.where(usable, l', 0.0)
     np.copyto(alpha_o, 1.0, where=unusable)
     np.copyto(gamma_o, 0.0, where=unusable)
-    nx = flanks(mesh.normal_x, other.normal_x)
+    nx = flanks("nx", mesh.normal_x, other.normal_x)
     np.copyto(nx[..., n1:], 0.0, where=unusable)
-    ny = flanks(mesh.normal_y, other.normal_y)
+    ny = flanks("ny", mesh.normal_y, other.normal_y)
     np.negative(ny[..., n1:], out=ny[..., n1:])
     np.copyto(ny[..., n1:], 0.0, where=unusable)
     # the largest approach of a trial, _REACH of the law's stiffest point γ·exp(α/γ − 1)
     # (inf without one), in place: the same operations in the same order
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        dmax = np.divide(alpha, gamma)
+        dmax = np.divide(alpha, gamma, out=block[PIN_BLOCK.index("dmax")])
         dmax -= 1.0
         np.exp(dmax, out=dmax)
         np.multiply(gamma, dmax, out=dmax)
@@ -521,6 +542,7 @@ def _problem(
         ey=ey,
         torque=torque,
         scale=holes.circle_radius,
+        pins=block,
     )
 
 
@@ -606,87 +628,128 @@ def solve_direction(
             friction_law=friction if "lubrication" in fr else None,
         )
     m = 1 + 3 * D
-    # rigid stage (θ_d = c, u = 0) from the rotation at which the stiffest pin alone
-    # would carry T (an upper bound of the root, as in cyclomesh.loadsharing)
-    x = np.zeros((A, m))
-    # (the loaded flanks: an opposite flank's arm −l' ≤ 0 never carries T alone)
-    if compiled():  # CYCLOMESH_KERNEL=numba: in one pass
-        x[:, 0] = single_rotation(prob.bl, prob.arm, prob.alpha, prob.gamma, torque, n1)
-    else:
-        x[:, 0] = _single_rotation(prob, torque, n1)
-    if not np.all(np.isfinite(x[:, 0])):
-        bad = int(np.argmin(np.isfinite(x[:, 0])))
-        raise ConvergenceError(
-            f"crank angle {np.degrees(mesh.phi[bad]):.6g}°: no pin can carry the torque "
-            "alone within the line-contact law (Eq. 20)"
-        )
-    x[:, 1::3] = x[:, [0]]
-    bound = x[:, 0].copy()  # one pin alone: an upper bound of the rigid mesh's rotation
-    st: dict = {}  # the compiled iteration's state at the solution, else evaluated here
-    x = _solve(prob, None, x, D, True, mesh.phi, st)
-    if not st:
-        _, _, _, st = _evaluate(prob, None, x, D, True, hessian=False)
-    F, k_pin = st["pin_force"], st["pin_stiffness"]
-    mesh_te = transmission_error(mesh.rest, x[:, 0])
-    weight = None
-    if compiled():  # CYCLOMESH_KERNEL=numba: the sums over the pins in one pass
-        share, rfx, rfy, weight = disc_sums(F, prob.arm, prob.nx, prob.ny, k_pin)
-        moment = -share
-    else:
-        rigid = _disc_loads(mesh, prob, F)  # pins on disc
-        moment = -rigid["torque_share"]
-        rfx, rfy = rigid["mesh_force_x"], rigid["mesh_force_y"]
-    if fr is not None:  # the tangential forces T·t on the disc, their moment T·m
-        tangential = -pin_slip(prob, F)[0] * F
-        rfx = rfx + np.sum(tangential * -prob.ny, -1)
-        rfy = rfy + np.sum(tangential * prob.nx, -1)
-        moment = moment + np.sum(tangential * prob.tangent_arm, -1)
-    # bearings carry the pins' resultant to the crank pins and the moment Σ F·l
-    bfx, bfy = stiff_limit_split(prob.hx, prob.hy, prob.scale, rfx, rfy, moment)
-    if stage.bearing is not None:
-        law = BearingLaw(stage.bearing, stage.crankshaft_stiffness)
+
+    def rigid_stage(sub: _Problem, phi: FloatArray):
+        """The rigid stage (θ_d = c, u = 0) of ``sub``'s crank angles from the rotation at
+        which the stiffest pin alone would carry T (an upper bound of the root, as in
+        cyclomesh.loadsharing): x, the pins' forces and stiffnesses, that bound."""
+        x = np.zeros((sub.bl.shape[0], m))
+        # (the loaded flanks: an opposite flank's arm −l' ≤ 0 never carries T alone)
+        if compiled():  # CYCLOMESH_KERNEL=numba: in one pass
+            x[:, 0] = single_rotation(sub.bl, sub.arm, sub.alpha, sub.gamma, torque, n1)
+        else:
+            x[:, 0] = _single_rotation(sub, torque, n1)
+        if not np.all(np.isfinite(x[:, 0])):
+            bad = int(np.argmin(np.isfinite(x[:, 0])))
+            raise ConvergenceError(
+                f"crank angle {np.degrees(phi[bad]):.6g}°: no pin can carry the torque "
+                "alone within the line-contact law (Eq. 20)"
+            )
+        x[:, 1::3] = x[:, [0]]
+        bound = x[:, 0].copy()  # one pin alone: an upper bound of the rigid mesh's rotation
+        st: dict = {}  # the compiled iteration's state at the solution, else evaluated here
+        x = _solve(sub, None, x, D, True, phi, st)
+        if not st:
+            _, _, _, st = _evaluate(sub, None, x, D, True, hessian=False)
+        return x, st["pin_force"], st["pin_stiffness"], bound
+
+    def bearing_start(sub: _Problem, x: FloatArray, F: FloatArray, k_pin: FloatArray):
+        """The start of the bearing phase of ``sub``'s crank angles from their rigid
+        solution ``x``: the stiff limit's split of the pins' resultant onto the crank pins,
+        the bearings' deflections under it, the discs' turns (x grows by the supports'
+        unknowns, 0)."""
+        weight = None
+        x = x.copy()
+        if compiled():  # CYCLOMESH_KERNEL=numba: the sums over the pins in one pass
+            share, rfx, rfy, weight = disc_sums(F, sub.arm, sub.nx, sub.ny, k_pin)
+            moment = -share
+        else:
+            rigid = _disc_loads(mesh, sub, F)  # pins on disc
+            moment = -rigid["torque_share"]
+            rfx, rfy = rigid["mesh_force_x"], rigid["mesh_force_y"]
+        if fr is not None:  # the tangential forces T·t on the disc, their moment T·m
+            tangential = -pin_slip(sub, F)[0] * F
+            rfx = rfx + np.sum(tangential * -sub.ny, -1)
+            rfy = rfy + np.sum(tangential * sub.nx, -1)
+            moment = moment + np.sum(tangential * sub.tangent_arm, -1)
+        # bearings carry the pins' resultant to the crank pins and the moment Σ F·l
+        bfx, bfy = stiff_limit_split(sub.hx, sub.hy, sub.scale, rfx, rfy, moment)
+        if stage.bearing is None:
+            return x, bfx, bfy
         B = np.hypot(bfx, bfy)
         s = bearing_deflection(law, B)
         with np.errstate(divide="ignore", invalid="ignore"):
-            dx = np.where(B > 0, bfx / B * s, 0.0) - prob.ex
-            dy = np.where(B > 0, bfy / B * s, 0.0) - prob.ey
+            dx = np.where(B > 0, bfx / B * s, 0.0) - sub.ex
+            dy = np.where(B > 0, bfy / B * s, 0.0) - sub.ey
         N = stage.holes.count
-        L = prob.scale
-        jx, jy = -prob.hy[:, None, :], prob.hx[:, None, :]
+        L = sub.scale
+        jx, jy = -sub.hy[:, None, :], sub.hx[:, None, :]
         omega = np.sum(dx * jx + dy * jy, -1) / (N * L * L)  # (A, D)
         ux, uy = dx.mean(-1), dy.mean(-1)
         # turn each disc so that its pins keep (in the least-squares sense, weighted by
         # their stiffness) the approach of the rigid solution despite the translation
         # k_pin: the pins' stiffness at the rigid solution (the rigid evaluate's, u = 0)
         if weight is not None:
-            turn = disc_turn(k_pin, prob.arm, prob.nx, prob.ny, ux, uy, weight)
+            turn = disc_turn(k_pin, sub.arm, sub.nx, sub.ny, ux, uy, weight)
         else:
-            shift = prob.nx * ux[..., None] + prob.ny * uy[..., None]
-            weight = np.sum(k_pin * prob.arm * prob.arm, -1)
-            turn = -np.sum(k_pin * prob.arm * shift, -1) / np.where(weight > 0, weight, np.inf)
+            shift = sub.nx * ux[..., None] + sub.ny * uy[..., None]
+            weight = np.sum(k_pin * sub.arm * sub.arm, -1)
+            turn = -np.sum(k_pin * sub.arm * shift, -1) / np.where(weight > 0, weight, np.inf)
         theta = x[:, 1::3] + turn
         x[:, 0] = np.mean(theta - omega, -1)
         x[:, 1::3] = x[:, [0]] + omega
         x[:, 2::3] = ux
         x[:, 3::3] = uy
         if supports is not None:
+            x = np.concatenate([x, np.zeros((x.shape[0], supports.extra(D, N)))], axis=-1)
+        return x, bfx, bfy
+
+    law = None if stage.bearing is None else BearingLaw(stage.bearing, stage.crankshaft_stiffness)
+    # the compiled iteration (the rigid discs' stage without friction, a bearing law
+    # without a series spring) asks for the start of the crank angles it cannot start
+    # from the ones before (the first, mostly): the others' rigid solutions (unless the
+    # mesh's TE is wanted), splits and deflections are not formed
+    lazy = compiled() and law is not None and law.k is None and body is None and fr is None
+    if lazy and not want("mesh_te"):
+        x, F, k_pin, bound, mesh_te = None, None, None, None, None
+    else:
+        x, F, k_pin, bound = rigid_stage(prob, mesh.phi)
+        mesh_te = transmission_error(mesh.rest, x[:, 0])
+    if law is not None:
+        unsupported, rigid = prob, (x, F, k_pin)  # the problem before the supports
+
+        def start(idx: NDArray[np.int64]) -> FloatArray:
+            """The bearing phase's start of the crank angles ``idx``."""
+            sub = unsupported.take(idx)
+            if rigid[0] is None:
+                xr, Fr, kr, _ = rigid_stage(sub, mesh.phi[idx])
+            else:
+                xr, Fr, kr = (v[idx] for v in rigid)
+            return bearing_start(sub, xr, Fr, kr)[0]
+
+        x = None if lazy else start(np.arange(A))
+        if supports is not None:
             prob = dataclasses.replace(prob, supports=supports)
-            x = np.concatenate([x, np.zeros((A, supports.extra(D, N)))], axis=-1)
         if body is not None:  # the compliant disc, from the rigid disc's loads
-            _, _, _, start = _evaluate(prob, law, x, D, False, hessian=False)
-            coupling, z = body_coupling(mesh, prob, body, _BODY_REACH * bound, start)
+            _, _, _, begin = _evaluate(prob, law, x, D, False, hessian=False)
+            coupling, z = body_coupling(mesh, prob, body, _BODY_REACH * bound, begin)
             prob = dataclasses.replace(prob, body=coupling)
             x = np.concatenate([x, z], axis=-1)
         if supports is not None or body is not None:
             if cache is None or "jacobian" not in cache:
-                jacobian = bearing_jacobian(prob, D, x.shape[1])
+                m_all = m + (0 if supports is None else supports.extra(D, stage.holes.count))
+                jacobian = bearing_jacobian(prob, D, m_all if x is None else x.shape[1])
                 if cache is not None and body is None:  # the body's depends on the torque
                     cache["jacobian"] = jacobian
             else:
                 jacobian = cache["jacobian"]
             prob.jacobian = jacobian
         st = {}
-        x = _solve(prob, law, x, D, False, mesh.phi, st)
+        if lazy:
+            keep = cache if body is None else None  # this direction's (the same jacobian)
+            x = _kernel_newton(prob, _evaluate, law, None, D, False, mesh.phi, st, start, keep)
+        else:
+            x = _solve(prob, law, x, D, False, mesh.phi, st)
         if st:  # the compiled iteration's state at the solution (the rigid discs' stage)
             g = st.pop("gradient")
             st["bearing_part"] = st["deflection"]  # no series spring in the kernel
@@ -723,7 +786,8 @@ def solve_direction(
                 )
                 deflection = deflection.copy()
                 deflection[idle] = idle_deflection
-    else:
+    else:  # rigid bearings: the stiff limit's split is the bearings' loads
+        x, bfx, bfy = bearing_start(prob, x, F, k_pin)
         deflection = np.zeros_like(bfx)
         sb = deflection
         work = _work(prob, stage, x, D, {"pin_force": F})

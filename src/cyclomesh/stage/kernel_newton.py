@@ -22,7 +22,10 @@ approach); the round-off of the unknowns (16ε·|H|·|x|) is formed only for a r
 above the tolerance, the only place it decides; the Newton step eliminates the crank
 pins' deflections crankshaft by crankshaft before the pivoted elimination of the rest
 (:func:`_solve_blocks`); a pin's inversion starts from its last root by the inverse's
-second-order Taylor series.
+second-order Taylor series and ends without a last exponential after a tiny step
+(:data:`TINY_STEP`); a crank angle's own start is asked of the caller only where the
+iteration needs it (:func:`newton` ``start``); the problem's arrays are passed packed
+(:func:`pin_block`: a compiled call pays two atomic reference counts per array).
 Split from :mod:`cyclomesh.stage.kernel` (the laws) as a pure move.
 
 References
@@ -41,9 +44,18 @@ from numpy.typing import NDArray
 
 from cyclomesh.stage.kernel import MAX_NEWTON, ROUND_OFF
 
-__all__ = ["newton", "rigid_newton", "run"]
+__all__ = ["newton", "rigid_newton", "run", "pin_block", "PIN_BLOCK"]
 
 FloatArray = NDArray[np.float64]
+
+TINY_STEP = 1e-9
+"""A pin's inversion (:func:`_pin_force`) ends with a Newton step in y = ln F no larger
+than this: the residual after it is of order h²·δ (Newton's quadratic convergence; δ''/δ
+is of order 1 below the law's stiffest point), 10⁻¹⁸·δ against the test's 2·10⁻¹⁵·δ, so
+that step's evaluation is not needed, and F = e^y·e^h with e^h = 1 + h + h²/2 to
+round-off (the next term h³/6 ≤ 2·10⁻²⁸)."""
+PIN_BLOCK = ("bl", "arm", "nx", "ny", "alpha", "gamma", "dmax")
+"""The per-pin arrays of a problem in the order of :func:`pin_block`."""
 
 
 def run(angles: int) -> int:
@@ -65,7 +77,9 @@ def newton(
     jacobian: FloatArray,
     settings: tuple,
     state: dict | None = None,
-) -> NDArray[np.bool_]:
+    start=None,
+    keep: dict | None = None,
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     """:func:`cyclomesh.stage.newton.newton` of the rigid discs' stage (``rigid=False``, no
     compliant disc, a bearing law without a series spring), every crank angle on its own
     in one compiled pass: the potential, gradient and Hessian of
@@ -78,11 +92,21 @@ def newton(
     imported by the bearing law, which cyclomesh.stage.newton imports). ``x`` (A, m) is
     overwritten by the solution; returns the crank angles the kernel could not finish
     (the caller solves them with the reference, which raises its own error where it fails
-    too). ``state``: a dict that receives the state at the solution of the crank angles
+    too) and those whose own start it was given. ``start``: None, every row of ``x`` is
+    a start; else a function of crank-angle indices giving their starts (k, m), asked
+    for only where the iteration needs a crank angle's own start (the first, one after
+    a failure, and where neither warm start can be evaluated), which it then leaves in
+    ``x`` (the rigid solution, split and deflections of the others are never formed;
+    the iteration stops at such a crank angle and goes on from it, its pins' memo
+    kept). ``state``: a dict that receives the state at the solution of the crank angles
     it finished, as equilibrium._evaluate's: ``pin_force`` [N] (A, D, P), ``bearing_fx``,
     ``bearing_fy`` [N] and ``deflection`` [m] (A, D, N), and ``gradient`` (A, m), the
     scaled gradient of its convergence test (the evaluation at the solution the caller
-    need not repeat).
+    need not repeat). ``keep``: a dict of the caller's in which the arrays that depend on
+    the problem but not on its torque (the bearings' columns and the block structure,
+    the packed hole arrays and constants) are kept from one call to the next; it must be
+    the caller's for this ``jacobian`` and this problem's holes, law and supports (the
+    cache of :func:`cyclomesh.stage.equilibrium.solve_direction`); None: formed here.
     """
     force, iterations, halvings, cap, low, high, round_off, run = settings
     A, m = x.shape
@@ -91,48 +115,30 @@ def newton(
     nw = 2 * discs * N if sup is not None and sup.stiffness is not None else 0
     carrier = sup is not None and sup.carrier is not None
     G = np.ascontiguousarray(jacobian)
-    nonzero = np.any(G != 0.0, axis=(0, 3))  # (D, N, m): the structure, any crank angle
-    count = nonzero.sum(-1)
-    cols = np.zeros((*count.shape, max(int(count.max()), 1)), np.int64)
-    for d in range(discs):
-        for k in range(N):
-            cols[d, k, : count[d, k]] = np.flatnonzero(nonzero[d, k])
-    core, blocks = _structure(nonzero, discs, N, nw, m)
+    if keep is None or "kernel_columns" not in keep:
+        cols, core, blocks, hole, const = _arrays(p, law, G, discs, nw, m)
+        if keep is not None:
+            keep["kernel_columns"] = (cols, core, blocks, hole, const)
+    else:
+        cols, core, blocks, hole, const = keep["kernel_columns"]
     failed = np.zeros(A, np.bool_)
     D, P = p.bl.shape[1], p.bl.shape[2]
     pf, bf, gout = np.zeros((A, D, P)), np.zeros((A, D, N, 3)), np.zeros((A, m))
-    _kernels_newton()(
-        x,
-        *(np.ascontiguousarray(v) for v in (p.bl, p.arm, p.nx, p.ny, p.alpha, p.gamma, p.dmax)),
-        *(np.ascontiguousarray(v) for v in (p.ex, p.ey, p.hx, p.hy)),
-        G,
-        cols,
-        count,
-        core,
-        blocks,
-        np.zeros((discs, discs)) if nw == 0 else np.ascontiguousarray(sup.stiffness),
-        nw,
-        np.zeros(discs) if sup is None else np.ascontiguousarray(sup.fraction, dtype=float),
-        float(sup.carrier) if carrier else 0.0,
-        carrier,
-        np.cos(law.rs.angles),
-        0.5 * law.rs.clearance,
-        law.rs.constant,
-        float(p.torque),
-        float(p.scale),
-        force * abs(p.torque) / p.scale,
-        round_off * abs(p.torque) / p.scale,
-        iterations,
-        halvings,
-        cap,
-        low,
-        high,
-        run,
-        failed,
-        pf,
-        bf,
-        gout,
-    )
+    block = pin_block(p)
+    started = np.full(A, start is None)
+    memo = np.zeros((3, D, P))  # each pin's last inversion (δ, y, F), call to call
+    first = 0
+    while first < A:
+        first = _kernels_newton()(
+            first, started, memo, x, block, hole, G, cols, core, blocks, const, nw,
+            float(sup.carrier) if carrier else 0.0, carrier, 0.5 * law.rs.clearance,
+            law.rs.constant, float(p.torque), float(p.scale), force * abs(p.torque) / p.scale,
+            round_off * abs(p.torque) / p.scale, iterations, halvings, cap, low, high, run,
+            failed, pf, bf, gout,
+        )  # fmt: skip
+        if first < A:  # the own start of crank angle ``first`` asked for
+            x[first] = start(np.array([first]))[0]
+            started[first] = True
     if state is not None:
         state.update(
             pin_force=pf,
@@ -141,7 +147,56 @@ def newton(
             deflection=bf[..., 2],
             gradient=gout,
         )
-    return failed
+    return failed, started
+
+
+def _arrays(p, law, G: FloatArray, discs: int, nw: int, m: int):
+    """The torque-free arguments of :func:`_newton_rows`: each crank bearing's columns
+    (D, N, 1 + c: their count, then the nonzero columns of ``G`` at any crank angle), the
+    unknowns of :func:`_solve_blocks` (:func:`_structure`), the holes (4, A, D, N: hx, hy,
+    the same for every disc, ex, ey) and the constants (the rollers' cosines, the discs'
+    fractions of the end plate's turn, the crankshafts' stiffness (D, D) flat)."""
+    sup = p.supports
+    A, N = p.hx.shape
+    nonzero = np.any(G != 0.0, axis=(0, 3))  # (D, N, m): the structure, any crank angle
+    count = nonzero.sum(-1)
+    cols = np.zeros((*count.shape, max(int(count.max()), 1) + 1), np.int64)  # count first
+    for d in range(discs):
+        for k in range(N):
+            cols[d, k, 0] = count[d, k]
+            cols[d, k, 1 : 1 + count[d, k]] = np.flatnonzero(nonzero[d, k])
+    core, blocks = _structure(nonzero, discs, N, nw, m)
+    hole = np.empty((4, A, discs, N))
+    hole[0], hole[1], hole[2], hole[3] = p.hx[:, None, :], p.hy[:, None, :], p.ex, p.ey
+    const = np.concatenate(
+        [
+            np.cos(law.rs.angles),
+            np.zeros(discs) if sup is None else np.asarray(sup.fraction, dtype=float),
+            np.zeros(discs * discs) if nw == 0 else np.asarray(sup.stiffness).ravel(),
+        ]
+    )
+    return cols, core, blocks, hole, const
+
+
+def pin_block(p) -> FloatArray:
+    """The problem's seven per-pin arrays (``PIN_BLOCK``: bl, arm, nx, ny, alpha, gamma,
+    dmax, each (A, D, P)) as one C-contiguous (7, A, D, P) array, the compiled iteration's
+    argument: ``p.pins``, the block they are views of
+    (:func:`cyclomesh.stage.equilibrium._problem` forms them so), else a stacked copy. One
+    array where there were seven: a compiled call pays two atomic reference counts per
+    array argument, and the evaluation is called once or more per Newton step."""
+    block = p.pins
+    if block is not None and block.flags.c_contiguous:
+        start = block.__array_interface__["data"][0]
+        if all(
+            v.base is block
+            and v.shape == block.shape[1:]
+            and v.strides == block.strides[1:]
+            and v.__array_interface__["data"][0] == start + q * block.strides[0]
+            for q, v in enumerate(getattr(p, name) for name in PIN_BLOCK)
+        ):
+            return block
+    return np.stack([np.asarray(getattr(p, name), dtype=float) for name in PIN_BLOCK])
 
 
 def _structure(nonzero, discs: int, N: int, nw: int, m: int):
@@ -209,7 +264,10 @@ def _pin_force(delta, a, g, checked, d0, y0, f0):  # pragma: no cover (compiled)
         resid = e * (a - g * y) - delta
         if abs(resid) <= ROUND_OFF * delta:
             return e, y
-        y = y - resid / (e * (a - g - g * y))
+        step = -resid / (e * (a - g - g * y))
+        if abs(step) <= TINY_STEP:  # the root: e^(y + h) to round-off without exp
+            return e * (1.0 + step * (1.0 + 0.5 * step)), y + step
+        y = y + step
     e = np.exp(y)
     resid = e * (a - g * y) - delta
     if abs(resid) <= 4.0 * 2.220446049250313e-16 * abs(y) * abs(e * (a - g - g * y)):
@@ -328,47 +386,18 @@ def _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc):  # pragma: no cover 
 
 
 def _evaluate_one(
-    i,
-    x,
-    bl,
-    arm,
-    nx,
-    ny,
-    alpha,
-    gamma,
-    dmax,
-    ex,
-    ey,
-    hx,
-    hy,
-    G,
-    cols,
-    count,
-    kshaft,
-    nw,
-    frac,
-    kcarrier,
-    carrier,
-    cosines,
-    half,
-    kn,
-    torque,
-    L,
-    want,
-    g,
-    H,
-    memo,
-    pf,
-    bf,
-):  # pragma: no cover (compiled)
+    i, x, pin, hole, G, cols, const, nw, kcarrier, carrier, half, kn, torque, L, want, g, H, memo,
+    pf, bf,
+):  # fmt: skip  # pragma: no cover (compiled)
     """Potential of crank angle ``i`` at x (m,), with ``want`` its gradient g and Hessian
     H (scaled: rotations × L) as equilibrium._evaluate, and then the state: the pins'
     forces ``pf[i]`` (D, P) and the bearings' force on the crank pins and deflection
     ``bf[i]`` (D, N, 3: fx, fy, s); returns (energy, status): status 0 usable, 1 an
     approach at or past dmax (bad), 2 a pin law that cannot be inverted."""
     m = x.size
-    D, P = bl.shape[1], bl.shape[2]
-    N = hx.shape[1]
+    D, P = pin.shape[2], pin.shape[3]
+    N = hole.shape[3]
+    R = const.size - D - D * D  # the rollers' cosines, then frac (D), kshaft (D, D)
     if want:
         for r in range(m):
             g[r] = 0.0
@@ -382,18 +411,18 @@ def _evaluate_one(
     for d in range(D):
         th, ux, uy = x[1 + 3 * d], x[2 + 3 * d], x[3 + 3 * d]
         for j in range(P):
-            b = bl[i, d, j]
+            b = pin[0, i, d, j]
             if not np.isfinite(b):
                 continue
-            delta = arm[i, d, j] * (th - b) + nx[i, d, j] * ux + ny[i, d, j] * uy
+            delta = pin[1, i, d, j] * (th - b) + pin[2, i, d, j] * ux + pin[3, i, d, j] * uy
             if delta <= 0.0:
                 continue
-            if delta >= dmax[i, d, j]:
+            if delta >= pin[6, i, d, j]:
                 status = 1
                 continue
-            a, gm = alpha[i, d, j], gamma[i, d, j]
+            a, gm = pin[4, i, d, j], pin[5, i, d, j]
             f, logf = _pin_force(
-                delta, a, gm, np.isfinite(dmax[i, d, j]), memo[0, d, j], memo[1, d, j],
+                delta, a, gm, np.isfinite(pin[6, i, d, j]), memo[0, d, j], memo[1, d, j],
                 memo[2, d, j],
             )  # fmt: skip
             if f > 0.0 and gm != 0.0:
@@ -407,7 +436,7 @@ def _evaluate_one(
                 if want:
                     pf[i, d, j] = f
                     k = 1.0 / (a - gm * (1.0 + logf))
-                    v0, v1, v2 = arm[i, d, j] / L, nx[i, d, j], ny[i, d, j]
+                    v0, v1, v2 = pin[1, i, d, j] / L, pin[2, i, d, j], pin[3, i, d, j]
                     r0 = 1 + 3 * d
                     g[r0] += f * v0
                     g[r0 + 1] += f * v1
@@ -431,18 +460,18 @@ def _evaluate_one(
     p = 10.0 / 9.0
     bearings = 0.0
     for d in range(D):
-        rot = (x[1 + 3 * d] - x[0]) - frac[d] * beta
+        rot = (x[1 + 3 * d] - x[0]) - const[R + d] * beta
         for k in range(N):
             wx = x[base + 2 * (d * N + k)] if nw else 0.0
             wy = x[base + 2 * (d * N + k) + 1] if nw else 0.0
-            dx = x[2 + 3 * d] + rot * (-hy[i, k]) + ex[i, d, k] - wx
-            dy = x[3 + 3 * d] + rot * hx[i, k] + ey[i, d, k] - wy
+            dx = x[2 + 3 * d] + rot * (-hole[1, i, d, k]) + hole[2, i, d, k] - wx
+            dy = x[3 + 3 * d] + rot * hole[0, i, d, k] + hole[3, i, d, k] - wy
             s = np.hypot(dx, dy)
             B = 0.0
             kb = 0.0
             ub = 0.0
-            for j in range(cosines.size):
-                cj = cosines[j]
+            for j in range(R):
+                cj = const[j]
                 dj = s * cj - half
                 if dj > 0.0:
                     root = dj ** (1.0 / 9.0)
@@ -462,13 +491,13 @@ def _evaluate_one(
             kxx = kb * cx * cx + secant * cy * cy
             kyy = kb * cy * cy + secant * cx * cx
             kxy = (kb - secant) * cx * cy
-            for u in range(count[d, k]):
+            for u in range(1, cols[d, k, 0] + 1):
                 r = cols[d, k, u]
                 g0, g1 = G[i, d, k, 0, r], G[i, d, k, 1, r]
                 g[r] += fx * g0 + fy * g1
                 ka = kxx * g0 + kxy * g1
                 kc = kxy * g0 + kyy * g1
-                for v in range(count[d, k]):
+                for v in range(1, cols[d, k, 0] + 1):
                     c2 = cols[d, k, v]
                     H[r, c2] += ka * G[i, d, k, 0, c2] + kc * G[i, d, k, 1, c2]
     energy = energy + bearings
@@ -479,13 +508,13 @@ def _evaluate_one(
                 for c in range(2):
                     kw = 0.0
                     for e in range(D):
-                        kw += kshaft[d, e] * x[base + 2 * (e * N + k) + c]
+                        kw += const[R + D + d * D + e] * x[base + 2 * (e * N + k) + c]
                     shafts += x[base + 2 * (d * N + k) + c] * kw
                     if want:
                         r = base + 2 * (d * N + k) + c
                         g[r] += kw
                         for e in range(D):
-                            H[r, base + 2 * (e * N + k) + c] += kshaft[d, e]
+                            H[r, base + 2 * (e * N + k) + c] += const[R + D + d * D + e]
         energy = energy + 0.5 * shafts
     if carrier:
         energy = energy + 0.5 * kcarrier * beta * beta
@@ -496,50 +525,17 @@ def _evaluate_one(
 
 
 def _newton_rows(
-    x,
-    bl,
-    arm,
-    nx,
-    ny,
-    alpha,
-    gamma,
-    dmax,
-    ex,
-    ey,
-    hx,
-    hy,
-    G,
-    cols,
-    count,
-    core,
-    blocks,
-    kshaft,
-    nw,
-    frac,
-    kcarrier,
-    carrier,
-    cosines,
-    half,
-    kn,
-    torque,
-    L,
-    tol,
-    floor,
-    iterations,
-    halvings,
-    cap,
-    low,
-    high,
-    run,
-    failed,
-    pf,
-    bf,
-    gout,
-):  # pragma: no cover (compiled)
+    first, started, memo, x, pin, hole, G, cols, core, blocks, const, nw, kcarrier, carrier,
+    half, kn, torque, L, tol, floor, iterations, halvings, cap, low, high, run, failed,
+    pf, bf, gout,
+):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`newton` written for numba: each crank angle's iteration of
-    cyclomesh.stage.newton.newton (rigid=False) to the end, on its own."""
+    cyclomesh.stage.newton.newton (rigid=False) to the end, on its own, from crank angle
+    ``first`` on; returns the first crank angle whose own start it needs and has not
+    (``started``), A when all are done. ``memo`` (3, D, P): each pin's last inversion
+    (δ, y, F), kept from call to call."""
     A, m = x.shape
-    D = bl.shape[1]
+    D = pin.shape[2]
     eps = 2.220446049250313e-16
     p = 10.0 / 9.0
     rot = np.zeros(m, np.bool_)
@@ -554,13 +550,12 @@ def _newton_rows(
     Ht = np.zeros((m, m))
     trial = np.zeros(m)
     step = np.zeros(m)
-    memo = np.zeros((3, D, bl.shape[2]))  # each pin's last inversion (δ, y, F)
     nc = core.size
     S = np.zeros((nc, nc))
     Z = np.zeros((blocks.shape[1], nc + 1))
     rhs = np.zeros(nc)
     sc = np.zeros(nc)
-    for i in range(A):
+    for i in range(first, A):
         xi = x[i].copy()
         # g, H, energy and status hold the evaluation at xi (a trial's, or the warm
         # start's, with its gradient and Hessian): the next iteration need not repeat it
@@ -574,24 +569,60 @@ def _newton_rows(
             for r in range(m):
                 trial[r] = 2.0 * x[i - 1, r] - x[i - 2, r] if line else x[i - 1, r]
             e1, s1 = _evaluate_one(
-                i, trial, bl, arm, nx, ny, alpha, gamma, dmax, ex, ey, hx, hy, G, cols, count,
-                kshaft, nw, frac, kcarrier, carrier, cosines, half, kn, torque, L, True, g,
-                H, memo, pf, bf,
-            )  # fmt: skip
+                i,
+                trial,
+                pin,
+                hole,
+                G,
+                cols,
+                const,
+                nw,
+                kcarrier,
+                carrier,
+                half,
+                kn,
+                torque,
+                L,
+                True,
+                g,
+                H,
+                memo,
+                pf,
+                bf,
+            )
             if line and s1 != 0:
                 for r in range(m):
                     trial[r] = x[i - 1, r]
                 e1, s1 = _evaluate_one(
-                    i, trial, bl, arm, nx, ny, alpha, gamma, dmax, ex, ey, hx, hy, G, cols,
-                    count, kshaft, nw, frac, kcarrier, carrier, cosines, half, kn, torque, L,
-                    True, g, H, memo, pf, bf,
-                )  # fmt: skip
+                    i,
+                    trial,
+                    pin,
+                    hole,
+                    G,
+                    cols,
+                    const,
+                    nw,
+                    kcarrier,
+                    carrier,
+                    half,
+                    kn,
+                    torque,
+                    L,
+                    True,
+                    g,
+                    H,
+                    memo,
+                    pf,
+                    bf,
+                )
             if s1 == 0:
                 for r in range(m):
                     xi[r] = trial[r]
                 energy, status, have = e1, s1, True
         else:
             memo[0] = 0.0
+        if not have and not started[i]:
+            return i  # its own start is needed
         previous = np.inf
         extended = False
         linear = False
@@ -602,26 +633,14 @@ def _newton_rows(
                 energy, status = _evaluate_one(
                     i,
                     xi,
-                    bl,
-                    arm,
-                    nx,
-                    ny,
-                    alpha,
-                    gamma,
-                    dmax,
-                    ex,
-                    ey,
-                    hx,
-                    hy,
+                    pin,
+                    hole,
                     G,
                     cols,
-                    count,
-                    kshaft,
+                    const,
                     nw,
-                    frac,
                     kcarrier,
                     carrier,
-                    cosines,
                     half,
                     kn,
                     torque,
@@ -704,26 +723,14 @@ def _newton_rows(
                 e_t, st = _evaluate_one(
                     i,
                     trial,
-                    bl,
-                    arm,
-                    nx,
-                    ny,
-                    alpha,
-                    gamma,
-                    dmax,
-                    ex,
-                    ey,
-                    hx,
-                    hy,
+                    pin,
+                    hole,
                     G,
                     cols,
-                    count,
-                    kshaft,
+                    const,
                     nw,
-                    frac,
                     kcarrier,
                     carrier,
-                    cosines,
                     half,
                     kn,
                     torque,
@@ -761,6 +768,7 @@ def _newton_rows(
             x[i] = xi
         else:
             failed[i] = True
+    return A
 
 
 def rigid_newton(
@@ -779,7 +787,7 @@ def rigid_newton(
     _kernels_newton()  # compiles _pin_force
     _kernels_rigid()(
         x,
-        *(np.ascontiguousarray(v) for v in (p.bl, p.arm, p.alpha, p.gamma, p.dmax)),
+        pin_block(p),
         float(p.torque),
         float(p.scale),
         force * abs(p.torque) / p.scale,
@@ -807,13 +815,11 @@ def _kernels_rigid() -> Any:
     return jit(_rigid_rows)
 
 
-def _rigid_one(
-    i, x, bl, arm, alpha, gamma, dmax, torque, L, memo, store, pf, pk
-):  # pragma: no cover (compiled)
+def _rigid_one(i, x, pin, torque, L, memo, store, pf, pk):  # pragma: no cover (compiled)
     """(energy, ∂/∂(cL), ∂²/∂(cL)², status) of the rigid stage at crank angle ``i``; status
     as :func:`_evaluate_one`. With ``store`` the pins' forces and stiffnesses in
     ``pf[i]``, ``pk[i]`` (D, P)."""
-    D, P = bl.shape[1], bl.shape[2]
+    D, P = pin.shape[2], pin.shape[3]
     pins = 0.0
     g = 0.0
     h = 0.0
@@ -826,18 +832,18 @@ def _rigid_one(
     for d in range(D):
         th = x[1 + 3 * d]
         for j in range(P):
-            b = bl[i, d, j]
+            b = pin[0, i, d, j]
             if not np.isfinite(b):
                 continue
-            delta = arm[i, d, j] * (th - b)
+            delta = pin[1, i, d, j] * (th - b)
             if delta <= 0.0:
                 continue
-            if delta >= dmax[i, d, j]:
+            if delta >= pin[6, i, d, j]:
                 status = 1
                 continue
-            a, gm = alpha[i, d, j], gamma[i, d, j]
+            a, gm = pin[4, i, d, j], pin[5, i, d, j]
             f, logf = _pin_force(
-                delta, a, gm, np.isfinite(dmax[i, d, j]), memo[0, d, j], memo[1, d, j],
+                delta, a, gm, np.isfinite(pin[6, i, d, j]), memo[0, d, j], memo[1, d, j],
                 memo[2, d, j],
             )  # fmt: skip
             if f > 0.0 and gm != 0.0:
@@ -848,7 +854,7 @@ def _rigid_one(
                 if gm == 0.0:
                     logf = np.log(f)
                 pins += 0.5 * f * f * (a - 0.5 * gm - gm * logf)
-                v = arm[i, d, j] / L
+                v = pin[1, i, d, j] / L
                 g += f * v
                 h += v * v / (a - gm * (1.0 + logf))
                 if store:
@@ -858,15 +864,15 @@ def _rigid_one(
 
 
 def _rigid_rows(
-    x, bl, arm, alpha, gamma, dmax, torque, L, tol, floor, iterations, halvings, cap, run, failed,
+    x, pin, torque, L, tol, floor, iterations, halvings, cap, run, failed,
     pf, pk,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`rigid_newton` written for numba."""
     A, m = x.shape
-    D = bl.shape[1]
+    D = pin.shape[2]
     eps = 2.220446049250313e-16
     trial = np.zeros(m)
-    memo = np.zeros((3, D, bl.shape[2]))  # each pin's last inversion (δ, y, F)
+    memo = np.zeros((3, D, pin.shape[3]))  # each pin's last inversion (δ, y, F)
     for i in range(A):
         xi = x[i].copy()
         have = False  # energy, g, h, status (and pf, pk) hold the evaluation at xi
@@ -875,15 +881,11 @@ def _rigid_rows(
             line = i % run >= 2 and not failed[i - 2]
             for r in range(m):
                 trial[r] = 2.0 * x[i - 1, r] - x[i - 2, r] if line else x[i - 1, r]
-            e1, g1, h1, s1 = _rigid_one(
-                i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
-            )
+            e1, g1, h1, s1 = _rigid_one(i, trial, pin, torque, L, memo, True, pf, pk)
             if line and s1 != 0:
                 for r in range(m):
                     trial[r] = x[i - 1, r]
-                e1, g1, h1, s1 = _rigid_one(
-                    i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
-                )
+                e1, g1, h1, s1 = _rigid_one(i, trial, pin, torque, L, memo, True, pf, pk)
             if s1 == 0:
                 for r in range(m):
                     xi[r] = trial[r]
@@ -895,9 +897,7 @@ def _rigid_rows(
         previous = np.inf
         for _ in range(iterations):
             if not have:
-                energy, g, h, status = _rigid_one(
-                    i, xi, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
-                )
+                energy, g, h, status = _rigid_one(i, xi, pin, torque, L, memo, True, pf, pk)
             have = False
             if status == 2:
                 break
@@ -933,9 +933,7 @@ def _rigid_rows(
                 trial[0] = xi[0] + move
                 for d in range(D):
                     trial[1 + 3 * d] = xi[1 + 3 * d] + move
-                e_t, g_t, h_t, st = _rigid_one(
-                    i, trial, bl, arm, alpha, gamma, dmax, torque, L, memo, True, pf, pk
-                )
+                e_t, g_t, h_t, st = _rigid_one(i, trial, pin, torque, L, memo, True, pf, pk)
                 if st == 2:
                     break
                 ok = e_t <= energy + 1e-4 * t * slope or tiny
