@@ -58,12 +58,15 @@ def compiled() -> Any:
     except ImportError:
         return None
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _cell, _exp_step, _force, _evaluate, _solve2  # compiled in place: passes call them
+    # compiled in place: the passes call them
+    global _cell, _exp_step, _force, _evaluate, _residuals, _solve2, _cholesky2
     _cell = jit(_cell)
     _exp_step = jit(_exp_step)
     _force = jit(_force)
     _evaluate = jit(_evaluate)
+    _residuals = jit(_residuals)
     _solve2 = jit(_solve2)
+    _cholesky2 = jit(_cholesky2)
 
     class Passes:
         candidates = jit(_candidates)
@@ -229,10 +232,8 @@ def _evaluate(
     """The residuals of the coupled system at (Δφc, w) on the ``nc`` candidates, as the
     reference's ``evaluate``: fills δ, F, ln F and r_w = w − C·F, each force inverted
     from the state ``last`` (δ, F, ln F of the last accepted step); returns (r_t = Σ l·F
-    − T, the scaled residual of the line search, ok). C·F is summed over the loaded
-    pins only (``loaded``: scratch for their indices), in pin order."""
+    − T, the scaled residual of the line search, ok) (:func:`_residuals`)."""
     d_last, f_last, y_last = last
-    n_loaded = 0
     for i in range(nc):
         di = c_arm[i] * (x - c_bl[i]) - w[i]
         delta[i] = di if di > 0.0 else 0.0
@@ -241,23 +242,39 @@ def _evaluate(
             return 0.0, 0.0, False
         f[i] = fi
         y[i] = yi
-        if fi != 0.0:
+    r_t, merit = _residuals(nc, w, c_arm, cmat, torque, delta, f, r_w, loaded)
+    return r_t, merit, True
+
+
+def _residuals(nc, w, c_arm, cmat, torque, delta, f, r_w, loaded):  # pragma: no cover
+    """r_w = w − C·F (into ``r_w``) and (r_t = Σ l·F − T, the line search's scaled
+    residual) at the approaches ``delta`` and forces ``f`` of the ``nc`` candidates;
+    C·F summed over the loaded pins only (``loaded``: scratch), in pin order."""
+    n_loaded = 0
+    for i in range(nc):
+        if f[i] != 0.0:
             loaded[n_loaded] = i
             n_loaded += 1
+    # C·F into r_w, a loaded pin's row (C = Cᵀ) at a time: each pin's sum in pin order,
+    # the pins' sums side by side (independent, not one chain of dependent sums)
+    for i in range(nc):
+        r_w[i] = 0.0
+    for q in range(n_loaded):
+        j = loaded[q]
+        fj = f[j]
+        row = cmat[j]
+        for i in range(nc):
+            r_w[i] += row[i] * fj
     moment = 0.0
     largest = 0.0
     worst = 0.0
     for i in range(nc):
-        s = 0.0
-        for q in range(n_loaded):
-            j = loaded[q]
-            s += cmat[i, j] * f[j]
-        r_w[i] = w[i] - s
+        r_w[i] = w[i] - r_w[i]
         moment += f[i] * c_arm[i]
         largest = max(largest, delta[i])
         worst = max(worst, abs(r_w[i]))
     r_t = moment - torque
-    return r_t, worst / max(largest, 1e-300) + abs(r_t) / torque, True
+    return r_t, worst / max(largest, 1e-300) + abs(r_t) / torque
 
 
 def _solve2(ne, system, rhs):  # pragma: no cover (compiled)
@@ -293,6 +310,44 @@ def _solve2(ne, system, rhs):  # pragma: no cover (compiled)
             s1 -= system[c, j] * rhs[j, 1]
         rhs[c, 0] = s0 / system[c, c]
         rhs[c, 1] = s1 / system[c, c]
+    return True
+
+
+def _cholesky2(ne, system, rhs):  # pragma: no cover (compiled)
+    """Solve system[:ne, :ne]·X = rhs[:ne, :2] in place by Cholesky's factorisation
+    (system = Uᵀ·U; the upper triangle is read and overwritten by U, its diagonal by
+    1/U_jj; the lower one is not read); X in ``rhs``. Row by row, each row's update of
+    the rows below it a set of independent products along contiguous rows (no chains of
+    dependent sums). False if a pivot is not positive (the system is not positive
+    definite: the caller then takes :func:`_solve2`)."""
+    for j in range(ne):
+        d = system[j, j]
+        if not (d > 0.0 and np.isfinite(d)):
+            return False
+        inv = 1.0 / math.sqrt(d)
+        system[j, j] = inv
+        row = system[j]
+        for i in range(j + 1, ne):
+            row[i] *= inv
+        for k in range(j + 1, ne):  # the trailing upper triangle, row k
+            uk = row[k]
+            below = system[k]
+            for i in range(k, ne):
+                below[i] -= row[i] * uk
+    for j in range(ne):  # Uᵀ·Z = rhs, row by row of U
+        z0 = rhs[j, 0] * system[j, j]
+        z1 = rhs[j, 1] * system[j, j]
+        rhs[j, 0], rhs[j, 1] = z0, z1
+        for i in range(j + 1, ne):
+            rhs[i, 0] -= system[j, i] * z0
+            rhs[i, 1] -= system[j, i] * z1
+    for i in range(ne - 1, -1, -1):  # U·X = Z
+        s0, s1 = rhs[i, 0], rhs[i, 1]
+        for p in range(i + 1, ne):
+            s0 -= system[i, p] * rhs[p, 0]
+            s1 -= system[i, p] * rhs[p, 1]
+        rhs[i, 0] = s0 * system[i, i]
+        rhs[i, 1] = s1 * system[i, i]
     return True
 
 
@@ -370,18 +425,22 @@ def _solve_sets(
                 pair = ((h0 * wts[a, 0] + h1 * wts[a, 1]) + h2 * wts[a, 2]) + h3 * wts[a, 3]
                 cmat[a, b] = pair
                 cmat[b, a] = pair
-        # the start: the rigid disc's Δφc and w = 0
+        # the start: the rigid disc's Δφc and w = 0, where the forces are the rigid
+        # disc's loads (inverted there to round-off; a pin they leave unloaded at δ > 0
+        # is inverted here)
         x = x0[k]
-        for a in range(nc):  # the rigid disc's loads: the inversions' starts
+        ok = True
+        for a in range(nc):
             w[a] = 0.0
+            da = c_arm[a] * (x - c_bl[a])
+            delta[a] = da if da > 0.0 else 0.0
             fa = f0[k, idx[a]]
-            fn[a] = fa
-            yn[a] = math.log(fa) if fa > 0.0 else 0.0
-            dn[a] = fa * (c_alpha[a] - c_gamma[a] * yn[a]) if fa > 0.0 else 0.0
-        r_t, current, ok = _evaluate(
-            nc, x, w, c_bl, c_arm, c_alpha, c_gamma, cmat, torque, (dn, fn, yn),
-            delta, f, y, r_w, loaded
-        )  # fmt: skip
+            if delta[a] > 0.0 and fa > 0.0:
+                f[a], y[a] = fa, math.log(fa)
+            else:
+                f[a], y[a], good = _force(delta[a], c_alpha[a], c_gamma[a], 0.0, 0.0, 0.0)
+                ok = ok and good
+        r_t, current = _residuals(nc, w, c_arm, cmat, torque, delta, f, r_w, loaded)
         solved = False
         for _ in range(max_iterations):
             if not ok:
@@ -403,15 +462,22 @@ def _solve_sets(
                     ne += 1
             for e in range(ne):
                 a = eng[e]
-                for q in range(ne):
-                    system[e, q] = cmat[a, eng[q]]
-                d = 1.0 / (c_alpha[a] - c_gamma[a] * (1.0 + y[a]))
-                system[e, e] += 1.0 / d
+                for q in range(e):
+                    system[q, e] = cmat[a, eng[q]]
+                system[e, e] = cmat[a, a] + (c_alpha[a] - c_gamma[a] * (1.0 + y[a]))
                 rhs[e, 0] = r_w[a]
                 rhs[e, 1] = c_arm[a]
-            if not _solve2(ne, system, rhs):
-                ok = False
-                break
+            if not _cholesky2(ne, system, rhs):  # not positive definite: elimination
+                for e in range(ne):
+                    a = eng[e]
+                    for q in range(ne):
+                        system[e, q] = cmat[a, eng[q]]
+                    system[e, e] += c_alpha[a] - c_gamma[a] * (1.0 + y[a])
+                    rhs[e, 0] = r_w[a]
+                    rhs[e, 1] = c_arm[a]
+                if not _solve2(ne, system, rhs):
+                    ok = False
+                    break
             den = 0.0
             top = 0.0
             for e in range(ne):
@@ -425,11 +491,16 @@ def _solve_sets(
                 step_f[a] = 0.0
             for e in range(ne):
                 step_f[eng[e]] = rhs[e, 0] + rhs[e, 1] * step_x
-            for a in range(nc):  # C·ΔF over the engaged pins (ΔF = 0 elsewhere)
-                s = 0.0
-                for e in range(ne):
-                    s += cmat[a, eng[e]] * step_f[eng[e]]
-                step_w[a] = s - r_w[a]
+            # C·ΔF over the engaged pins (ΔF = 0 elsewhere), as C·F in _residuals
+            for a in range(nc):
+                step_w[a] = 0.0
+            for e in range(ne):
+                sf = step_f[eng[e]]
+                row = cmat[eng[e]]
+                for a in range(nc):
+                    step_w[a] += row[a] * sf
+            for a in range(nc):
+                step_w[a] -= r_w[a]
             # backtracking on the scaled residual
             lam = 1.0
             for _ in range(_HALVINGS):
