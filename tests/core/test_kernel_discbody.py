@@ -164,3 +164,44 @@ def test_the_kernel_keeps_the_reference_constants():
 
     pair = (kernel_discbody._MAX_NEWTON, kernel_discbody._ROUND_OFF)
     assert pair == (hertz._MAX_NEWTON, hertz._ROUND_OFF)
+
+
+def test_the_suspect_cases_cover_the_checks_cases():
+    """The compiled pass that picks the cases the check after the solve must look at
+    flags every case the check's own test flags, and the others only within its
+    round-off margin: random solutions, some of their pins outside the candidates just
+    below or above the reach of the most negative coefficient, some unusable."""
+    rng = np.random.default_rng(5)
+    cases, n, lowest = 400, 12, 3e-11
+    arm = rng.uniform(0.01, 0.05, (cases, n))
+    arm[rng.random((cases, n)) < 0.1] = -0.02
+    x = rng.uniform(1e-4, 2e-4, cases)
+    full = np.where(rng.random((cases, n)) < 0.5, rng.uniform(0.0, 3e3, (cases, n)), 0.0)
+    reach = x[:, None] + lowest * np.sum(full, axis=-1)[:, None] / arm
+    bl = reach * (1.0 + rng.choice([-1e-3, -1e-14, 0.0, 1e-14, 1e-3], (cases, n)))
+    bl[rng.random((cases, n)) < 0.1] = np.inf
+    candidate = rng.random((cases, n)) < 0.7
+    usable = np.isfinite(bl) & (arm > 0)
+    flagged = np.any(usable & ~candidate & (bl < reach), axis=-1)
+    out = np.empty(cases, bool)
+    kernel_discbody.compiled().suspects(candidate, bl, arm, x, full, lowest, out)
+    assert 0 < np.sum(flagged) < cases
+    assert np.all(out[flagged])
+    near = np.any(usable & ~candidate & (bl < reach * (1.0 + 1e-11)), axis=-1)
+    assert np.all(near[out])  # no case beyond the margin
+
+
+def test_the_cholesky_solve():
+    """The Newton system's Cholesky solve against LAPACK's on positive-definite systems
+    of each size, and its refusal of an indefinite one (the kernel then eliminates)."""
+    kernel_discbody.compiled()
+    rng = np.random.default_rng(3)
+    for n in range(1, 13):
+        m = rng.normal(size=(n, n))
+        a = m @ m.T + n * np.eye(n)
+        b = rng.normal(size=(n, 2))
+        system, rhs = np.triu(a) + np.tril(np.full((n, n), np.nan), -1), b.copy()
+        assert kernel_discbody._cholesky2(n, system, rhs)  # the lower triangle is not read
+        np.testing.assert_allclose(rhs, np.linalg.solve(a, b), rtol=1e-12, atol=1e-14)
+    indefinite = np.array([[1.0, 2.0], [2.0, 1.0]])
+    assert not kernel_discbody._cholesky2(2, indefinite, np.ones((2, 2)))

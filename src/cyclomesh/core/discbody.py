@@ -349,7 +349,8 @@ def share_load_coupled(
     )
     x0, f0 = x0.reshape(-1), f0.reshape(flat)
     usable = np.isfinite(bl) & (arm > 0)
-    if kernel_name() == "numba":  # the own coefficients and the candidates, compiled
+    numba = kernel_name() == "numba"
+    if numba:  # the own coefficients and the candidates, compiled
         diag = np.empty(bl.shape)
         candidate = np.empty(bl.shape, bool)
         u = body.profile_angles
@@ -363,14 +364,23 @@ def share_load_coupled(
     arrays = (bl, arm, alpha, gamma, tooth, angle, diag)
     x, full = _solve_set(candidate, arrays, x0, f0, torque, body, n // groups)
     lowest = max(0.0, -float(np.min(body.table)), -float(np.min(body.diagonal)))
+    if numba:  # the cases the test below may flag, compiled (a superset of them)
+        rows = np.empty(x.size, bool)
+        kernel_discbody.compiled().suspects(candidate, bl, arm, x, full, lowest, rows)
+        rows = np.flatnonzero(rows)
+    else:
+        rows = np.arange(x.size)
     for _ in range(n):
+        # only the cases re-solved can flag again (the others' solutions are as they were)
         with np.errstate(divide="ignore", invalid="ignore"):
-            reach = x[:, None] + lowest * np.sum(full, axis=-1)[:, None] / arm
-        risky = usable & ~candidate & (bl < reach)
-        cases = np.flatnonzero(np.any(risky, axis=-1))
+            reach = x[rows, None] + lowest * np.sum(full[rows], axis=-1)[:, None] / arm[rows]
+        risky = usable[rows] & ~candidate[rows] & (bl[rows] < reach)
+        hit = np.any(risky, axis=-1)
+        cases, risky = rows[hit], risky[hit]
         if cases.size == 0:
             break
-        pins = candidate[cases] | risky[cases]
+        rows = cases
+        pins = candidate[cases] | risky
         width = int(np.max(np.sum(pins, axis=-1)))
         order = np.argsort(~pins, axis=-1, kind="stable")[:, :width]
         take = np.take_along_axis
@@ -385,7 +395,7 @@ def share_load_coupled(
         c_bl = np.where(ok, take(bl[cases], order, -1), 0.0)
         gap = c_arm * (x[cases, None] - c_bl) - w
         scale = np.max(np.where(ok, gap, 0.0), axis=-1, keepdims=True)
-        bad = ok & take(risky[cases], order, -1) & (gap > COMPATIBILITY_TOLERANCE * scale)
+        bad = ok & take(risky, order, -1) & (gap > COMPATIBILITY_TOLERANCE * scale)
         if not np.any(bad):
             break
         grow = np.zeros_like(pins)

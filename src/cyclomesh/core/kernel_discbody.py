@@ -52,7 +52,8 @@ _SMALLEST_STEP = 1e-6
 @cache
 def compiled() -> Any:
     """The compiled passes as a namespace (``candidates``: :func:`_candidates`,
-    ``solve_sets``: :func:`_solve_sets`), or None without numba (imported on first use)."""
+    ``solve_sets``: :func:`_solve_sets`, ``suspects``: :func:`_suspects`), or None
+    without numba (imported on first use)."""
     try:
         import numba
     except ImportError:
@@ -71,6 +72,7 @@ def compiled() -> Any:
     class Passes:
         candidates = jit(_candidates)
         solve_sets = jit(_solve_sets)
+        suspects = jit(_suspects)
 
     return Passes
 
@@ -530,3 +532,28 @@ def _solve_sets(
         for a in range(nc):
             force[k, idx[a]] = f[a]
     return failed
+
+
+def _suspects(candidate, bl, arm, rotation, force, lowest, out):  # pragma: no cover (compiled)
+    """The cases (rows) in which the check after the solve of
+    :func:`cyclomesh.core.discbody.share_load_coupled` may find a pin outside the
+    candidates that could touch (φbl < Δφc + c·ΣF/l, c [m/N] the table's most negative
+    coefficient ``lowest``), into ``out`` (B,) bool: the test with a margin of 1e-12 of
+    its terms, a superset of the cases the check's own NumPy test flags (its sum of the
+    loads is pairwise, this one in pin order), so that the check need look at these
+    cases only."""
+    n_cases, n = bl.shape
+    for k in range(n_cases):
+        total = 0.0
+        for i in range(n):
+            total += force[k, i]
+        flag = False
+        for i in range(n):
+            b, lk = bl[k, i], arm[k, i]
+            if candidate[k, i] or not (np.isfinite(b) and lk > 0.0):
+                continue
+            push = lowest * total / lk
+            if b < rotation[k] + push + 1e-12 * (abs(rotation[k]) + abs(push)):
+                flag = True
+                break
+        out[k] = flag
