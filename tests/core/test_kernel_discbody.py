@@ -205,3 +205,35 @@ def test_the_cholesky_solve():
         np.testing.assert_allclose(rhs, np.linalg.solve(a, b), rtol=1e-12, atol=1e-14)
     indefinite = np.array([[1.0, 2.0], [2.0, 1.0]])
     assert not kernel_discbody._cholesky2(2, indefinite, np.ones((2, 2)))
+
+
+def test_a_case_without_its_start_takes_the_rigid_disc(monkeypatch):
+    """The compiled solve of cases whose rigid start is not given (NaN) and that have no
+    case before them to start from: the rigid disc is solved for them and they are
+    solved as with it given, bit for bit; a ring's later angles start on their own."""
+    import cyclomesh.core.discbody as cdb
+
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    body = _body()
+    geo = unloaded_contact(TABLE1, MOD, ERRORS, PHI)
+    bl = geo.rotation - rest_position(geo.rotation, geo.moment_arm)[..., None]
+    alpha, gamma = pin_compliance(geo, TABLE1, True, "half_plane")
+    arm, angle = geo.moment_arm.reshape(-1, 40), geo.profile_angle.reshape(-1, 40)
+    bl, alpha, gamma = bl.reshape(-1, 40), alpha.reshape(-1, 40), gamma.reshape(-1, 40)
+    tooth = np.broadcast_to(tooth_index(TABLE1.pins, TABLE1.pitch, PHI), (2, PHI.size, 40))
+    tooth = np.ascontiguousarray(tooth.reshape(-1, 40))
+    own, candidate = cdb._candidates(bl, arm, alpha, gamma, tooth, angle, 250.0, body)
+    arrays = (bl, arm, alpha, gamma, tooth, angle, own)
+    x0, f0 = kernel.share_load(bl, arm, alpha, gamma, 250.0)  # as the kernel's own call
+    given = cdb._solve_set(candidate, arrays, x0.copy(), f0.copy(), 250.0, body, 40)
+    nan, zero = np.full(x0.size, np.nan), np.zeros(f0.shape)
+    alone = cdb._solve_set(candidate, arrays, nan, zero, 250.0, body, 40)
+    np.testing.assert_array_equal(alone[0], given[0])
+    np.testing.assert_array_equal(alone[1], given[1])
+    np.testing.assert_array_equal(nan, x0)  # filled in place where needed: everywhere
+    nan, zero = np.full(x0.size, np.nan), np.zeros(f0.shape)
+    nan[:: PHI.size], zero[:: PHI.size] = x0[:: PHI.size], f0[:: PHI.size]
+    ring = cdb._solve_set(candidate, arrays, nan, zero, 250.0, body, 40, PHI.size)
+    assert np.sum(np.isnan(nan)) > 0.9 * x0.size  # mostly its own starts (2.5° apart)
+    np.testing.assert_allclose(ring[0], given[0], rtol=1e-14, atol=0)
+    np.testing.assert_allclose(ring[1], given[1], rtol=0, atol=1e-14 * np.max(given[1]))
