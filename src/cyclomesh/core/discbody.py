@@ -318,8 +318,10 @@ def share_load_coupled(
         Number of discs along the pin axis (the pins of disc g are the g-th block).
     angle_axis : bool
         The last leading axis is one ring's crank angles in order (as
-        :func:`cyclomesh.core.kernel.share_load`'s: the compiled kernel starts the rigid
-        disc's solution of each from the angles before; the NumPy kernel ignores it).
+        :func:`cyclomesh.core.kernel.share_load`'s: the compiled kernel solves the rigid
+        disc, its start, at each ring's first angle and estimates it at the others from
+        the angles before, :mod:`cyclomesh.core.kernel_discbody`; the NumPy kernel
+        ignores it).
 
     Returns
     -------
