@@ -164,3 +164,76 @@ def test_the_kernel_keeps_the_reference_constants():
 
     pair = (kernel_discbody._MAX_NEWTON, kernel_discbody._ROUND_OFF)
     assert pair == (hertz._MAX_NEWTON, hertz._ROUND_OFF)
+
+
+def test_the_suspect_cases_cover_the_checks_cases():
+    """The compiled pass that picks the cases the check after the solve must look at
+    flags every case the check's own test flags, and the others only within its
+    round-off margin: random solutions, some of their pins outside the candidates just
+    below or above the reach of the most negative coefficient, some unusable."""
+    rng = np.random.default_rng(5)
+    cases, n, lowest = 400, 12, 3e-11
+    arm = rng.uniform(0.01, 0.05, (cases, n))
+    arm[rng.random((cases, n)) < 0.1] = -0.02
+    x = rng.uniform(1e-4, 2e-4, cases)
+    full = np.where(rng.random((cases, n)) < 0.5, rng.uniform(0.0, 3e3, (cases, n)), 0.0)
+    reach = x[:, None] + lowest * np.sum(full, axis=-1)[:, None] / arm
+    bl = reach * (1.0 + rng.choice([-1e-3, -1e-14, 0.0, 1e-14, 1e-3], (cases, n)))
+    bl[rng.random((cases, n)) < 0.1] = np.inf
+    candidate = rng.random((cases, n)) < 0.7
+    usable = np.isfinite(bl) & (arm > 0)
+    flagged = np.any(usable & ~candidate & (bl < reach), axis=-1)
+    out = np.empty(cases, bool)
+    kernel_discbody.compiled().suspects(candidate, bl, arm, x, full, lowest, out)
+    assert 0 < np.sum(flagged) < cases
+    assert np.all(out[flagged])
+    near = np.any(usable & ~candidate & (bl < reach * (1.0 + 1e-11)), axis=-1)
+    assert np.all(near[out])  # no case beyond the margin
+
+
+def test_the_cholesky_solve():
+    """The Newton system's Cholesky solve against LAPACK's on positive-definite systems
+    of each size, and its refusal of an indefinite one (the kernel then eliminates)."""
+    kernel_discbody.compiled()
+    rng = np.random.default_rng(3)
+    for n in range(1, 13):
+        m = rng.normal(size=(n, n))
+        a = m @ m.T + n * np.eye(n)
+        b = rng.normal(size=(n, 2))
+        system, rhs = np.triu(a) + np.tril(np.full((n, n), np.nan), -1), b.copy()
+        assert kernel_discbody._cholesky2(n, system, rhs)  # the lower triangle is not read
+        np.testing.assert_allclose(rhs, np.linalg.solve(a, b), rtol=1e-12, atol=1e-14)
+    indefinite = np.array([[1.0, 2.0], [2.0, 1.0]])
+    assert not kernel_discbody._cholesky2(2, indefinite, np.ones((2, 2)))
+
+
+def test_a_case_without_its_start_takes_the_rigid_disc(monkeypatch):
+    """The compiled solve of cases whose rigid start is not given (NaN) and that have no
+    case before them to start from: the rigid disc is solved for them and they are
+    solved as with it given, bit for bit; a ring's later angles start on their own."""
+    import cyclomesh.core.discbody as cdb
+
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    body = _body()
+    geo = unloaded_contact(TABLE1, MOD, ERRORS, PHI)
+    bl = geo.rotation - rest_position(geo.rotation, geo.moment_arm)[..., None]
+    alpha, gamma = pin_compliance(geo, TABLE1, True, "half_plane")
+    arm, angle = geo.moment_arm.reshape(-1, 40), geo.profile_angle.reshape(-1, 40)
+    bl, alpha, gamma = bl.reshape(-1, 40), alpha.reshape(-1, 40), gamma.reshape(-1, 40)
+    tooth = np.broadcast_to(tooth_index(TABLE1.pins, TABLE1.pitch, PHI), (2, PHI.size, 40))
+    tooth = np.ascontiguousarray(tooth.reshape(-1, 40))
+    own, candidate = cdb._candidates(bl, arm, alpha, gamma, tooth, angle, 250.0, body)
+    arrays = (bl, arm, alpha, gamma, tooth, angle, own)
+    x0, f0 = kernel.share_load(bl, arm, alpha, gamma, 250.0)  # as the kernel's own call
+    given = cdb._solve_set(candidate, arrays, x0.copy(), f0.copy(), 250.0, body, 40)
+    nan, zero = np.full(x0.size, np.nan), np.zeros(f0.shape)
+    alone = cdb._solve_set(candidate, arrays, nan, zero, 250.0, body, 40)
+    np.testing.assert_array_equal(alone[0], given[0])
+    np.testing.assert_array_equal(alone[1], given[1])
+    np.testing.assert_array_equal(nan, x0)  # filled in place where needed: everywhere
+    nan, zero = np.full(x0.size, np.nan), np.zeros(f0.shape)
+    nan[:: PHI.size], zero[:: PHI.size] = x0[:: PHI.size], f0[:: PHI.size]
+    ring = cdb._solve_set(candidate, arrays, nan, zero, 250.0, body, 40, PHI.size)
+    assert np.sum(np.isnan(nan)) > 0.9 * x0.size  # mostly its own starts (2.5° apart)
+    np.testing.assert_allclose(ring[0], given[0], rtol=1e-14, atol=0)
+    np.testing.assert_allclose(ring[1], given[1], rtol=0, atol=1e-14 * np.max(given[1]))

@@ -318,8 +318,10 @@ def share_load_coupled(
         Number of discs along the pin axis (the pins of disc g are the g-th block).
     angle_axis : bool
         The last leading axis is one ring's crank angles in order (as
-        :func:`cyclomesh.core.kernel.share_load`'s: the compiled kernel starts the rigid
-        disc's solution of each from the angles before; the NumPy kernel ignores it).
+        :func:`cyclomesh.core.kernel.share_load`'s: the compiled kernel solves the rigid
+        disc, its start, at each ring's first angle and estimates it at the others from
+        the angles before, :mod:`cyclomesh.core.kernel_discbody`; the NumPy kernel
+        ignores it).
 
     Returns
     -------
@@ -342,14 +344,21 @@ def share_load_coupled(
     flat = (-1, n)
     bl, arm, alpha, gamma = (x.reshape(flat) for x in (bl, arm, alpha, gamma))
     tooth, angle = tooth.reshape(flat), angle.reshape(flat)
-    # the rigid disc: the start (a ring's crank angles in order along the last leading
-    # axis: the compiled kernel starts each from the angles before)
-    x0, f0 = share_load(
-        *(v.reshape(*lead, n) for v in (bl, arm, alpha, gamma)), torque, angle_axis=angle_axis
-    )
-    x0, f0 = x0.reshape(-1), f0.reshape(flat)
+    numba = kernel_name() == "numba"
+    # a ring's crank angles in order along the last leading axis: the compiled kernel
+    # solves the rigid disc (the start) at each ring's first angle only, and its own
+    # start of each angle after it from the ones before (kernel_discbody._solve_sets)
+    block = lead[-1] if numba and angle_axis and lead else 1
+    if block > 1:
+        x0, f0 = np.full(bl.shape[0], np.nan), np.zeros(bl.shape)
+        _rigid_start((bl, arm, alpha, gamma), torque, x0, f0, np.arange(0, x0.size, block))
+    else:  # the rigid disc: the start
+        x0, f0 = share_load(
+            *(v.reshape(*lead, n) for v in (bl, arm, alpha, gamma)), torque, angle_axis=angle_axis
+        )
+        x0, f0 = x0.reshape(-1), f0.reshape(flat)
     usable = np.isfinite(bl) & (arm > 0)
-    if kernel_name() == "numba":  # the own coefficients and the candidates, compiled
+    if numba:  # the own coefficients and the candidates, compiled
         diag = np.empty(bl.shape)
         candidate = np.empty(bl.shape, bool)
         u = body.profile_angles
@@ -361,16 +370,25 @@ def share_load_coupled(
     else:
         diag, candidate = _candidates(bl, arm, alpha, gamma, tooth, angle, torque, body)
     arrays = (bl, arm, alpha, gamma, tooth, angle, diag)
-    x, full = _solve_set(candidate, arrays, x0, f0, torque, body, n // groups)
+    x, full = _solve_set(candidate, arrays, x0, f0, torque, body, n // groups, block)
     lowest = max(0.0, -float(np.min(body.table)), -float(np.min(body.diagonal)))
+    if numba:  # the cases the test below may flag, compiled (a superset of them)
+        rows = np.empty(x.size, bool)
+        kernel_discbody.compiled().suspects(candidate, bl, arm, x, full, lowest, rows)
+        rows = np.flatnonzero(rows)
+    else:
+        rows = np.arange(x.size)
     for _ in range(n):
+        # only the cases re-solved can flag again (the others' solutions are as they were)
         with np.errstate(divide="ignore", invalid="ignore"):
-            reach = x[:, None] + lowest * np.sum(full, axis=-1)[:, None] / arm
-        risky = usable & ~candidate & (bl < reach)
-        cases = np.flatnonzero(np.any(risky, axis=-1))
+            reach = x[rows, None] + lowest * np.sum(full[rows], axis=-1)[:, None] / arm[rows]
+        risky = usable[rows] & ~candidate[rows] & (bl[rows] < reach)
+        hit = np.any(risky, axis=-1)
+        cases, risky = rows[hit], risky[hit]
         if cases.size == 0:
             break
-        pins = candidate[cases] | risky[cases]
+        rows = cases
+        pins = candidate[cases] | risky
         width = int(np.max(np.sum(pins, axis=-1)))
         order = np.argsort(~pins, axis=-1, kind="stable")[:, :width]
         take = np.take_along_axis
@@ -385,7 +403,7 @@ def share_load_coupled(
         c_bl = np.where(ok, take(bl[cases], order, -1), 0.0)
         gap = c_arm * (x[cases, None] - c_bl) - w
         scale = np.max(np.where(ok, gap, 0.0), axis=-1, keepdims=True)
-        bad = ok & take(risky[cases], order, -1) & (gap > COMPATIBILITY_TOLERANCE * scale)
+        bad = ok & take(risky, order, -1) & (gap > COMPATIBILITY_TOLERANCE * scale)
         if not np.any(bad):
             break
         grow = np.zeros_like(pins)
@@ -423,6 +441,23 @@ def _candidates(bl, arm, alpha, gamma, tooth, angle, torque, body):
     return diag, usable & (bl < bound[:, None])
 
 
+def _rigid_start(
+    arrays: tuple, torque: float, x0: FloatArray, f0: FloatArray, cases: NDArray
+) -> None:
+    """The rigid disc's solution of ``cases`` (indices into the (B, n) ``arrays``' rows:
+    φbl, l, α, γ first) into ``x0`` (B,) and ``f0`` (B, n), the start of their coupled
+    solve. Its error is that of the whole batch (the first case that fails), as where
+    the rigid disc is solved for every case."""
+    if cases.size == 0:
+        return
+    try:
+        x0[cases], f0[cases] = share_load(*(a[cases] for a in arrays[:4]), torque)
+    except ConvergenceError as exc:
+        share_load(*arrays[:4], torque)  # raises at the batch's first failing case
+        exc.case_index = int(cases[getattr(exc, "case_index", 0)])
+        raise
+
+
 def _solve_set(
     candidate: NDArray,
     arrays: tuple,
@@ -431,26 +466,44 @@ def _solve_set(
     torque: float,
     body: DiscBody,
     per_disc: int,
+    block: int = 1,
 ) -> tuple[FloatArray, FloatArray]:
     """Newton's method of :func:`share_load_coupled` on the ``candidate`` pins, (B, n), on
     the selected kernel: :func:`_solve_set_numpy` (the reference), or with
     ``CYCLOMESH_KERNEL=numba`` the same iteration compiled, case by case
-    (:mod:`cyclomesh.core.kernel_discbody`); if it cannot finish a case, the reference
-    solves the whole set (and raises its own error where it fails too)."""
+    (:mod:`cyclomesh.core.kernel_discbody`; ``block``: cases per ring); if it cannot
+    finish a case, the reference solves the whole set (and raises its own error where it
+    fails too). ``x0``, ``f0``: the rigid disc's solution, the start (NaN in ``x0``: not
+    solved, the kernel's own start; filled in place where a case needs it)."""
     if kernel_name() == "numba":
         bl, arm, alpha, gamma, tooth, angle, own = (np.ascontiguousarray(a) for a in arrays)
         u = body.profile_angles
         grid = np.array([u[0], u[-1], u[1] - u[0], u.size], float)
+        passes = kernel_discbody.compiled()
+        settings = (
+            body._window_rows, grid, body.teeth, body.period, per_disc, float(torque),
+            TORQUE_TOLERANCE, COMPATIBILITY_TOLERANCE, _MAX_ITERATIONS,
+        )  # fmt: skip
         rotation = np.empty(bl.shape[0])
         force = np.zeros(bl.shape)
-        failed = kernel_discbody.compiled().solve_sets(
-            np.ascontiguousarray(candidate), bl, arm, alpha, gamma, tooth, angle, own,
-            np.ascontiguousarray(x0, float), np.ascontiguousarray(f0, float),
-            body._window_rows, grid, body.teeth, body.period, per_disc, float(torque),
-            TORQUE_TOLERANCE, COMPATIBILITY_TOLERANCE, _MAX_ITERATIONS, rotation, force
+        status = np.zeros(bl.shape[0], np.int8)
+        candidate = np.ascontiguousarray(candidate)
+        failed = passes.solve_sets(
+            candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, *settings,
+            max(block, 1), rotation, force, status
         )  # fmt: skip
+        start = np.flatnonzero(status == 2)  # no start of the kernel's own: the rigid disc's
+        if failed and start.size == failed:
+            _rigid_start(arrays, torque, x0, f0, start)
+            out = (rotation[start], force[start], status[start])
+            failed = passes.solve_sets(
+                candidate[start], *(a[start] for a in (bl, arm, alpha, gamma, tooth, angle, own)),
+                x0[start], f0[start], *settings, 1, *out
+            )  # fmt: skip
+            rotation[start], force[start] = out[0], out[1]
         if not failed:
             return rotation, force
+    _rigid_start(arrays, torque, x0, f0, np.flatnonzero(np.isnan(x0)))
     return _solve_set_numpy(candidate, arrays, x0, f0, torque, body, per_disc)
 
 

@@ -7,16 +7,26 @@ pins (its ``_solve_set``) runs case by case (crank angles × rings) in one compi
 the reciprocal coefficients of the candidate pins
 (:meth:`cyclomesh.core.discbody.DiscBody.reciprocal_matrix`: each pair's 4×4 window of
 the symmetrised table and its Catmull–Rom weights, the own coefficients on the
-diagonal, 0 between the discs of a stack), the same start (the rigid disc's Δφc, w = 0),
-the same Newton step (the symmetric system (D⁻¹ + C)_EE·ΔF_E − l_E·Δx = r_w,E,
-l_Eᵀ·ΔF_E = −r_t on the engaged pins E, two right-hand sides, solved by Gaussian
-elimination with partial pivoting), the same backtracking line search on the same
-scaled residual and the same convergence test, with each force the exact inverse of
-the contact law as :func:`cyclomesh.core.hertz.force_from_approach` (two fixed-point
-steps and Newton's method in ln F to 2e-15·δ). The sums run in pin order and the
-logarithms and exponentials are the C library's, not NumPy's SIMD ones, so the result
-agrees with the reference to round-off, not bit for bit (tested to 1e-13 of each field's
-scale, ``tests/core/test_kernel_discbody.py``).
+diagonal, 0 between the discs of a stack), the same start (the rigid disc's Δφc, w = 0,
+where the forces are the rigid disc's loads), the same Newton step (the symmetric
+system (D⁻¹ + C)_EE·ΔF_E − l_E·Δx = r_w,E, l_Eᵀ·ΔF_E = −r_t on the engaged pins E, two
+right-hand sides, solved by Cholesky's factorisation, symmetric positive definite as it
+is, or by Gaussian elimination with partial pivoting where a pivot is not positive), the
+same backtracking line search on the same scaled residual and the same convergence
+test, with each force the exact inverse of the contact law as
+:func:`cyclomesh.core.hertz.force_from_approach` (two fixed-point steps and Newton's
+method in ln F to 2e-15·δ). The sums run in pin order and the logarithms and
+exponentials are the C library's, not NumPy's SIMD ones, so the result agrees with the
+reference to round-off, not bit for bit (tested to 1e-13 of each field's scale,
+``tests/core/test_kernel_discbody.py``).
+
+The iteration is the reference's, step for step, and not one to the root from a better
+start (the solution at the crank angle before): the reference stops at its test (1e-12
+of the torque and of the largest approach), where its pin loads are up to 7e-13 of the
+largest from the root (``bench_core``'s revolution with the FE disc: 600 of 3600 angles
+beyond 1e-13), so only its own steps agree with it to 1e-13. Those steps do not depend
+on the start's last digits (a rigid Δφc off by 1e-4 of itself moves the loads by 3e-15
+of the largest): the start's forces are taken as they are.
 
 A case the pass cannot finish (no candidate pin, a force past the stiffest point of the
 law, a singular Newton system, no convergence) makes the caller take the reference for
@@ -52,22 +62,30 @@ _SMALLEST_STEP = 1e-6
 @cache
 def compiled() -> Any:
     """The compiled passes as a namespace (``candidates``: :func:`_candidates`,
-    ``solve_sets``: :func:`_solve_sets`), or None without numba (imported on first use)."""
+    ``solve_sets``: :func:`_solve_sets`, ``suspects``: :func:`_suspects`), or None
+    without numba (imported on first use)."""
     try:
         import numba
     except ImportError:
         return None
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _cell, _exp_step, _force, _evaluate, _solve2  # compiled in place: passes call them
+    # compiled in place: the passes call them
+    global _cell, _exp_step, _force, _evaluate, _residuals, _solve2, _cholesky2
+    global _extrapolate, _rigid_start
     _cell = jit(_cell)
     _exp_step = jit(_exp_step)
     _force = jit(_force)
     _evaluate = jit(_evaluate)
+    _residuals = jit(_residuals)
     _solve2 = jit(_solve2)
+    _cholesky2 = jit(_cholesky2)
+    _extrapolate = jit(_extrapolate)
+    _rigid_start = jit(_rigid_start)
 
     class Passes:
         candidates = jit(_candidates)
         solve_sets = jit(_solve_sets)
+        suspects = jit(_suspects)
 
     return Passes
 
@@ -229,10 +247,8 @@ def _evaluate(
     """The residuals of the coupled system at (Δφc, w) on the ``nc`` candidates, as the
     reference's ``evaluate``: fills δ, F, ln F and r_w = w − C·F, each force inverted
     from the state ``last`` (δ, F, ln F of the last accepted step); returns (r_t = Σ l·F
-    − T, the scaled residual of the line search, ok). C·F is summed over the loaded
-    pins only (``loaded``: scratch for their indices), in pin order."""
+    − T, the scaled residual of the line search, ok) (:func:`_residuals`)."""
     d_last, f_last, y_last = last
-    n_loaded = 0
     for i in range(nc):
         di = c_arm[i] * (x - c_bl[i]) - w[i]
         delta[i] = di if di > 0.0 else 0.0
@@ -241,23 +257,39 @@ def _evaluate(
             return 0.0, 0.0, False
         f[i] = fi
         y[i] = yi
-        if fi != 0.0:
+    r_t, merit = _residuals(nc, w, c_arm, cmat, torque, delta, f, r_w, loaded)
+    return r_t, merit, True
+
+
+def _residuals(nc, w, c_arm, cmat, torque, delta, f, r_w, loaded):  # pragma: no cover
+    """r_w = w − C·F (into ``r_w``) and (r_t = Σ l·F − T, the line search's scaled
+    residual) at the approaches ``delta`` and forces ``f`` of the ``nc`` candidates;
+    C·F summed over the loaded pins only (``loaded``: scratch), in pin order."""
+    n_loaded = 0
+    for i in range(nc):
+        if f[i] != 0.0:
             loaded[n_loaded] = i
             n_loaded += 1
+    # C·F into r_w, a loaded pin's row (C = Cᵀ) at a time: each pin's sum in pin order,
+    # the pins' sums side by side (independent, not one chain of dependent sums)
+    for i in range(nc):
+        r_w[i] = 0.0
+    for q in range(n_loaded):
+        j = loaded[q]
+        fj = f[j]
+        row = cmat[j]
+        for i in range(nc):
+            r_w[i] += row[i] * fj
     moment = 0.0
     largest = 0.0
     worst = 0.0
     for i in range(nc):
-        s = 0.0
-        for q in range(n_loaded):
-            j = loaded[q]
-            s += cmat[i, j] * f[j]
-        r_w[i] = w[i] - s
+        r_w[i] = w[i] - r_w[i]
         moment += f[i] * c_arm[i]
         largest = max(largest, delta[i])
         worst = max(worst, abs(r_w[i]))
     r_t = moment - torque
-    return r_t, worst / max(largest, 1e-300) + abs(r_t) / torque, True
+    return r_t, worst / max(largest, 1e-300) + abs(r_t) / torque
 
 
 def _solve2(ne, system, rhs):  # pragma: no cover (compiled)
@@ -296,19 +328,74 @@ def _solve2(ne, system, rhs):  # pragma: no cover (compiled)
     return True
 
 
+def _cholesky2(ne, system, rhs):  # pragma: no cover (compiled)
+    """Solve system[:ne, :ne]·X = rhs[:ne, :2] in place by Cholesky's factorisation
+    (system = Uᵀ·U; the upper triangle is read and overwritten by U, its diagonal by
+    1/U_jj; the lower one is not read); X in ``rhs``. Row by row, each row's update of
+    the rows below it a set of independent products along contiguous rows (no chains of
+    dependent sums). False if a pivot is not positive (the system is not positive
+    definite: the caller then takes :func:`_solve2`)."""
+    for j in range(ne):
+        d = system[j, j]
+        if not (d > 0.0 and np.isfinite(d)):
+            return False
+        inv = 1.0 / math.sqrt(d)
+        system[j, j] = inv
+        row = system[j]
+        for i in range(j + 1, ne):
+            row[i] *= inv
+        for k in range(j + 1, ne):  # the trailing upper triangle, row k
+            uk = row[k]
+            below = system[k]
+            for i in range(k, ne):
+                below[i] -= row[i] * uk
+    for j in range(ne):  # Uᵀ·Z = rhs, row by row of U
+        z0 = rhs[j, 0] * system[j, j]
+        z1 = rhs[j, 1] * system[j, j]
+        rhs[j, 0], rhs[j, 1] = z0, z1
+        for i in range(j + 1, ne):
+            rhs[i, 0] -= system[j, i] * z0
+            rhs[i, 1] -= system[j, i] * z1
+    for i in range(ne - 1, -1, -1):  # U·X = Z
+        s0, s1 = rhs[i, 0], rhs[i, 1]
+        for p in range(i + 1, ne):
+            s0 -= system[i, p] * rhs[p, 0]
+            s1 -= system[i, p] * rhs[p, 1]
+        rhs[i, 0] = s0 * system[i, i]
+        rhs[i, 1] = s1 * system[i, i]
+    return True
+
+
+def _extrapolate(v1, v2, v3, streak):  # pragma: no cover (compiled)
+    """The value at the next of evenly spaced crank angles from the ``streak`` (≥ 1)
+    values just before it (v1 the last): constant, linear or quadratic in the angle."""
+    if streak >= 3:
+        return 3.0 * (v1 - v2) + v3
+    if streak >= 2:
+        return 2.0 * v1 - v2
+    return v1
+
+
 def _solve_sets(
     candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, windows, grid, n2, period,
-    per_disc, torque, tol_torque, tol_compat, max_iterations, rotation, force
+    per_disc, torque, tol_torque, tol_compat, max_iterations, block, rotation, force, status
 ):  # fmt: skip  # pragma: no cover (compiled)
     """The reference's ``_solve_set`` of every case (row), written for numba.
 
     ``candidate`` (B, n) bool, ``bl``, ``arm``, ``alpha``, ``gamma``, ``angle``, ``own``
     (B, n) float, ``tooth`` (B, n) int, ``x0`` (B,) and ``f0`` (B, n) the rigid disc's
-    Δφc [rad] and loads [N] (the start; the loads start the force inversions);
-    ``windows`` (W, 16): the reciprocal table's Catmull–Rom windows (the transpose of
-    ``DiscBody._windows``); ``grid`` (u₀, u_last, h, m) of the profile angles. Fills
-    ``rotation`` (B,) and ``force`` (B, n) (zero on entry); returns the number of cases
-    it could not finish (the caller then takes the reference).
+    Δφc [rad] and loads [N] (the start; NaN in ``x0``: not given); ``windows`` (W, 16):
+    the reciprocal table's Catmull–Rom windows (the transpose of ``DiscBody._windows``);
+    ``grid`` (u₀, u_last, h, m) of the profile angles; ``block``: cases per ring
+    (consecutive crank angles; 1: every case on its own).
+
+    A case without ``x0`` after others of its ring takes the rigid disc's Δφc as those
+    cases' roots extrapolated (:func:`_extrapolate`, each corrected by a Newton step of the
+    rigid disc's torque balance on its own forces), within 1e-8 of itself of the root
+    (else up to :data:`_RIGID_STEPS` Newton steps more): the reference's iteration does
+    not depend on its start's last digits. Fills ``rotation`` (B,), ``force`` (B, n)
+    (zero on entry) and ``status`` (B,): 0 solved, 1 not finished (the caller then takes
+    the reference), 2 needs ``x0``; returns the number of cases not solved.
     """
     n_cases, n = bl.shape
     u0, u_last, h, m = grid[0], grid[1], grid[2], int(grid[3])
@@ -327,6 +414,9 @@ def _solve_sets(
     eng = np.empty(n, np.int64)
     loaded = np.empty(n, np.int64)
     system = np.empty((n, n))
+    root = np.empty(n_cases)  # the rigid disc's Δφc of each case, to extrapolate
+    sd, sf, sy = np.zeros(n), np.zeros(n), np.zeros(n)  # each pin's state at the start
+    streak = 0
     rhs = np.empty((n, 2))
     failed = 0
     for k in range(n_cases):
@@ -336,6 +426,8 @@ def _solve_sets(
                 idx[nc] = i
                 nc += 1
         if nc == 0:
+            status[k] = 1
+            streak = 0
             failed += 1
             continue
         # the candidates' Catmull–Rom cells and weights (DiscBody._cells)
@@ -371,17 +463,44 @@ def _solve_sets(
                 cmat[a, b] = pair
                 cmat[b, a] = pair
         # the start: the rigid disc's Δφc and w = 0
+        if k % block == 0:
+            streak = 0
         x = x0[k]
-        for a in range(nc):  # the rigid disc's loads: the inversions' starts
+        ok = True
+        if np.isfinite(x):  # given: the forces are the rigid disc's loads (inverted there
+            # to round-off; a pin they leave unloaded at δ > 0 is inverted here)
+            root[k] = x
+            for a in range(nc):
+                da = c_arm[a] * (x - c_bl[a])
+                delta[a] = da if da > 0.0 else 0.0
+                fa = f0[k, idx[a]]
+                if delta[a] > 0.0 and fa > 0.0:
+                    f[a], y[a] = fa, math.log(fa)
+                else:
+                    f[a], y[a], good = _force(delta[a], c_alpha[a], c_gamma[a], 0.0, 0.0, 0.0)
+                    ok = ok and good
+            for i in range(n):
+                sd[i] = 0.0
+            for a in range(nc):
+                sd[idx[a]], sf[idx[a]], sy[idx[a]] = delta[a], f[a], y[a]
+        elif streak > 0:  # from the roots before, extrapolated
+            x = _extrapolate(root[k - 1], root[k - 2], root[k - 3], streak)
+            x, ok = _rigid_start(k, x, bl, arm, alpha, gamma, torque, sd, sf, sy, root)
+            for a in range(nc):
+                i = idx[a]
+                delta[a], f[a], y[a] = sd[i], sf[i], sy[i]
+        else:
+            root[k] = np.nan
+            ok = False
+        if not ok:  # the next case starts from this one's estimate, if any
+            status[k] = 2 if not np.isfinite(x0[k]) else 1
+            streak = 1 if streak > 0 and np.isfinite(root[k]) else 0
+            failed += 1
+            continue
+        streak += 1
+        for a in range(nc):
             w[a] = 0.0
-            fa = f0[k, idx[a]]
-            fn[a] = fa
-            yn[a] = math.log(fa) if fa > 0.0 else 0.0
-            dn[a] = fa * (c_alpha[a] - c_gamma[a] * yn[a]) if fa > 0.0 else 0.0
-        r_t, current, ok = _evaluate(
-            nc, x, w, c_bl, c_arm, c_alpha, c_gamma, cmat, torque, (dn, fn, yn),
-            delta, f, y, r_w, loaded
-        )  # fmt: skip
+        r_t, current = _residuals(nc, w, c_arm, cmat, torque, delta, f, r_w, loaded)
         solved = False
         for _ in range(max_iterations):
             if not ok:
@@ -403,15 +522,22 @@ def _solve_sets(
                     ne += 1
             for e in range(ne):
                 a = eng[e]
-                for q in range(ne):
-                    system[e, q] = cmat[a, eng[q]]
-                d = 1.0 / (c_alpha[a] - c_gamma[a] * (1.0 + y[a]))
-                system[e, e] += 1.0 / d
+                for q in range(e):
+                    system[q, e] = cmat[a, eng[q]]
+                system[e, e] = cmat[a, a] + (c_alpha[a] - c_gamma[a] * (1.0 + y[a]))
                 rhs[e, 0] = r_w[a]
                 rhs[e, 1] = c_arm[a]
-            if not _solve2(ne, system, rhs):
-                ok = False
-                break
+            if not _cholesky2(ne, system, rhs):  # not positive definite: elimination
+                for e in range(ne):
+                    a = eng[e]
+                    for q in range(ne):
+                        system[e, q] = cmat[a, eng[q]]
+                    system[e, e] += c_alpha[a] - c_gamma[a] * (1.0 + y[a])
+                    rhs[e, 0] = r_w[a]
+                    rhs[e, 1] = c_arm[a]
+                if not _solve2(ne, system, rhs):
+                    ok = False
+                    break
             den = 0.0
             top = 0.0
             for e in range(ne):
@@ -425,11 +551,16 @@ def _solve_sets(
                 step_f[a] = 0.0
             for e in range(ne):
                 step_f[eng[e]] = rhs[e, 0] + rhs[e, 1] * step_x
-            for a in range(nc):  # C·ΔF over the engaged pins (ΔF = 0 elsewhere)
-                s = 0.0
-                for e in range(ne):
-                    s += cmat[a, eng[e]] * step_f[eng[e]]
-                step_w[a] = s - r_w[a]
+            # C·ΔF over the engaged pins (ΔF = 0 elsewhere), as C·F in _residuals
+            for a in range(nc):
+                step_w[a] = 0.0
+            for e in range(ne):
+                dfe = step_f[eng[e]]
+                row = cmat[eng[e]]
+                for a in range(nc):
+                    step_w[a] += row[a] * dfe
+            for a in range(nc):
+                step_w[a] -= r_w[a]
             # backtracking on the scaled residual
             lam = 1.0
             for _ in range(_HALVINGS):
@@ -453,9 +584,76 @@ def _solve_sets(
             for a in range(nc):
                 w[a], delta[a], f[a], y[a], r_w[a] = wn[a], dn[a], fn[a], yn[a], rwn[a]
         if not solved:
+            status[k] = 1
             failed += 1
             continue
+        status[k] = 0
         rotation[k] = x
         for a in range(nc):
             force[k, idx[a]] = f[a]
     return failed
+
+
+_RIGID_STEPS = 8
+"""Newton steps of the rigid disc's torque balance after an extrapolated start before a
+case asks for the rigid disc's solution instead."""
+
+
+def _rigid_start(k, x, bl, arm, alpha, gamma, torque, sd, sf, sy, root):  # pragma: no cover
+    """Δφc of the rigid disc near ``x`` [rad] for case ``k`` and the pins' approach δ,
+    force F and ln F there (into ``sd``, ``sf``, ``sy`` (n,), each inversion started from
+    the pin's values there at the case before), and the root's estimate into
+    ``root[k]``: the torque balance Σ l·F(l·(x − φbl)) = T of every usable pin, Newton's
+    step x − r_t/(Σ l²·dF/dδ) taken while it is above 1e-8 of x (then F is taken again
+    there), the estimate one more step. Returns (x, ok); ok False where no pin is
+    loaded, an inversion fails or the steps do not reach 1e-8 of x."""
+    n = bl.shape[1]
+    root[k] = np.nan
+    for _ in range(_RIGID_STEPS + 1):
+        moment = 0.0
+        slope = 0.0
+        for i in range(n):
+            b, lk = bl[k, i], arm[k, i]
+            di = lk * (x - b) if np.isfinite(b) and lk > 0.0 else 0.0
+            if not di > 0.0:
+                sd[i], sf[i], sy[i] = 0.0, 0.0, 0.0
+                continue
+            fi, yi, good = _force(di, alpha[k, i], gamma[k, i], sy[i], sd[i], sf[i])
+            if not good:
+                return x, False
+            sd[i], sf[i], sy[i] = di, fi, yi
+            moment += lk * fi
+            slope += lk * lk / (alpha[k, i] - gamma[k, i] * (1.0 + yi))
+        if not slope > 0.0:
+            return x, False
+        step = (moment - torque) / slope
+        root[k] = x - step
+        if abs(step) <= 1e-8 * abs(x):
+            return x, True
+        x = x - step
+    return x, False
+
+
+def _suspects(candidate, bl, arm, rotation, force, lowest, out):  # pragma: no cover (compiled)
+    """The cases (rows) in which the check after the solve of
+    :func:`cyclomesh.core.discbody.share_load_coupled` may find a pin outside the
+    candidates that could touch (φbl < Δφc + c·ΣF/l, c [m/N] the table's most negative
+    coefficient ``lowest``), into ``out`` (B,) bool: the test with a margin of 1e-12 of
+    its terms, a superset of the cases the check's own NumPy test flags (its sum of the
+    loads is pairwise, this one in pin order), so that the check need look at these
+    cases only."""
+    n_cases, n = bl.shape
+    for k in range(n_cases):
+        total = 0.0
+        for i in range(n):
+            total += force[k, i]
+        flag = False
+        for i in range(n):
+            b, lk = bl[k, i], arm[k, i]
+            if candidate[k, i] or not (np.isfinite(b) and lk > 0.0):
+                continue
+            push = lowest * total / lk
+            if b < rotation[k] + push + 1e-12 * (abs(rotation[k]) + abs(push)):
+                flag = True
+                break
+        out[k] = flag
