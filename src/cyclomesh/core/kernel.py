@@ -255,15 +255,18 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, block, rotation, force):  # 
         solved_before = False
         for _ in range(2):
             if warm:
-                n_cand, x = _warm_start(k, bl, arm, rotation, candidates, streak)
+                n_cand, x, reach = _warm_start(k, bl, arm, rotation, candidates, streak)
             else:
                 n_cand, x = _bounded_start(k, bl, arm, alpha, gamma, torque, candidates)
+                reach = np.inf
             if n_cand == 0:
                 break
             x, solved = _solve_case(
                 k, x, candidates, n_cand, bl, arm, alpha, gamma, torque, warm,
                 last_y, last_f, last_d, last_inv, force
             )  # fmt: skip
+            # a root beyond the warm start's reach may load a pin it left out
+            solved = solved and x <= reach
             if solved:
                 rotation[k] = x
                 solved_before = True
@@ -279,22 +282,32 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, block, rotation, force):  # 
 
 
 def _warm_start(k, bl, arm, rotation, candidates, streak):  # pragma: no cover (compiled)
-    """Every usable pin of case ``k`` as a candidate (the pins the bound would leave out
-    carry nothing at the root) and the start: the roots of the ``streak`` (≥ 1) cases
-    solved just before it in its ring, extrapolated to it (constant, linear or quadratic
-    in the case index, as for evenly spaced crank angles; a residual of about 1e-8·T at
-    a 0.1° step on the Table 1 pair; any start reaches the same root); returns (number
-    of candidates, start Δφc [rad])."""
+    """The start of case ``k`` from the ``streak`` (≥ 1) cases solved just before it in
+    its ring: their roots extrapolated to it (constant, linear or quadratic in the case
+    index, as for evenly spaced crank angles; a residual of about 1e-8·T at a 0.1° step
+    on the Table 1 pair; any start reaches the same root), and as candidates the usable
+    pins whose backlash lies below the reach x₀ + |x₀|/2 + 4|x₀ − x_(k−1)| (about 12 of
+    40 pins on Table 1 at 0.1°, instead of every usable pin; the others cannot carry
+    load at a root below the reach, which the caller checks, starting the case again
+    from the bound if the root lies beyond it); returns (number of candidates, start
+    Δφc [rad], reach [rad])."""
+    if streak >= 3:
+        x = 3.0 * (rotation[k - 1] - rotation[k - 2]) + rotation[k - 3]
+    elif streak >= 2:
+        x = 2.0 * rotation[k - 1] - rotation[k - 2]
+    else:
+        x = rotation[k - 1]
+    reach = x + _REACH * abs(x) + 4.0 * abs(x - rotation[k - 1])
     n_cand = 0
     for i in range(bl.shape[1]):
-        if np.isfinite(bl[k, i]) and arm[k, i] > 0.0:
+        if bl[k, i] < reach and arm[k, i] > 0.0:  # (a NaN or infinite backlash: not)
             candidates[n_cand] = i
             n_cand += 1
-    if streak >= 3:
-        return n_cand, 3.0 * (rotation[k - 1] - rotation[k - 2]) + rotation[k - 3]
-    if streak >= 2:
-        return n_cand, 2.0 * rotation[k - 1] - rotation[k - 2]
-    return n_cand, rotation[k - 1]
+    return n_cand, x, reach
+
+
+_REACH = 0.5
+"""The warm start's reach beyond its start, relative to the start (:func:`_warm_start`)."""
 
 
 def _bounded_start(k, bl, arm, alpha, gamma, torque, candidates):  # pragma: no cover

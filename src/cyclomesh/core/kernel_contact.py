@@ -83,7 +83,9 @@ def compiled() -> Any:
     _libm_cos = jit(_libm_cos)
     _finish_pin = inline(_finish_pin)
     _row_min = jit(_row_min)
-    global _compliance_row
+    global _compliance_row, _coefficients, _pin_terms
+    _coefficients = inline(_coefficients)
+    _pin_terms = inline(_pin_terms)
     _compliance_row = inline(_compliance_row)
 
     class Passes:
@@ -492,25 +494,11 @@ def _compliance(
     """
     per_pin = np.empty((3, n_pins))  # ρp, ln 4ρp, α′ of the row before
     per_pin[0, :] = np.nan
-    inv_tooth = 4.0 / k_tooth
+    consts = (4.0 / k_tooth, scale, c_disc, c_pin, poisson_term, gamma_0, g_p)
     for start in range(0, rc_in.size, n_pins):
         rp_row = rp_in[start // n_pins // repeat]
-        same = 0
-        for i in range(n_pins):
-            same += rp_row[i] == per_pin[0, i]
-        if same < n_pins:
-            for i in range(n_pins):
-                rp = rp_row[i]
-                per_pin[0, i] = rp
-                per_pin[1, i] = _log(4.0 * abs(rp))
-                rho_g = rp * groove_radius / (groove_radius - rp)
-                kappa = math.sqrt(4.0 * rho_g / k_groove)
-                per_pin[2, i] = scale * (
-                    c_ring * (_log(4.0 * abs(groove_radius) / kappa) - 0.5)
-                    + c_pin * (_log(4.0 * abs(rp) / kappa) - 0.5)
-                )
+        _pin_terms(rp_row, per_pin, groove_radius, k_groove, scale, c_ring, c_pin)
         row = (rp_row, rc_in, cb_in, depth_in, per_pin[1], per_pin[2], alpha, gamma, start)
-        consts = (inv_tooth, scale, c_disc, c_pin, poisson_term, gamma_0, g_p)
         # the law and the groove term fixed in each loop (no choice left inside it)
         if half_plane:
             if groove:
@@ -523,41 +511,72 @@ def _compliance(
             _compliance_row(row, n_pins, consts, False, False)
 
 
+def _pin_terms(rp_row, per_pin, groove_radius, k_groove, scale, c_ring, c_pin):  # pragma: no cover
+    """ρp, ln 4ρp and the groove pair's α′ of each pin into ``per_pin`` (3, n_pins), taken
+    again only where ``rp_row`` differs from the row they were taken for."""
+    n_pins = rp_row.size
+    same = 0
+    for i in range(n_pins):
+        same += rp_row[i] == per_pin[0, i]
+    if same < n_pins:
+        for i in range(n_pins):
+            rp = rp_row[i]
+            per_pin[0, i] = rp
+            per_pin[1, i] = _log(4.0 * abs(rp))
+            rho_g = rp * groove_radius / (groove_radius - rp)
+            kappa = math.sqrt(4.0 * rho_g / k_groove)
+            per_pin[2, i] = scale * (
+                c_ring * (_log(4.0 * abs(groove_radius) / kappa) - 0.5)
+                + c_pin * (_log(4.0 * abs(rp) / kappa) - 0.5)
+            )
+
+
 def _compliance_row(row, n_pins, consts, half_plane, groove):  # pragma: no cover (compiled)
     """One row of :func:`_compliance` (inlined there with constant ``half_plane`` and
     ``groove``)."""
     rp_row, rc_in, cb_in, depth_in, log_rp, a_prime, alpha, gamma, start = row
-    inv_tooth, scale, c_disc, c_pin, poisson_term, gamma_0, g_p = consts
     rc_row = rc_in[start : start + n_pins]
     cb_row = cb_in[start : start + n_pins]
     depth_row = depth_in[start : start + n_pins]
     alpha_row = alpha[start : start + n_pins]
     gamma_row = gamma[start : start + n_pins]
     for i in range(n_pins):
-        rp, rc = rp_row[i], rc_row[i]
-        if half_plane:
-            rho_star = rp / (1.0 + rp / rc)
-            log_kappa = 0.5 * _log(rho_star * inv_tooth)
-            a = scale * (
-                c_disc * ((_log(2.0 * depth_row[i]) - log_kappa) - poisson_term)
-                + c_pin * ((log_rp[i] - log_kappa) - 0.5)
-            )
-        else:
-            rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
-            log_kappa = 0.5 * _log(rho * inv_tooth)
-            a = scale * (
-                c_disc * ((_log(4.0 * abs(rc)) - log_kappa) - 0.5)
-                + c_pin * ((log_rp[i] - log_kappa) - 0.5)
-            )
-        g = gamma_0
-        if groove:
-            cb = cb_row[i]
-            c2 = cb * cb
-            log_cb = _log(cb) if cb > 0 else 0.0
-            a = a + c2 * (a_prime[i] - g_p * log_cb)
-            g = g + c2 * g_p
+        a, g = _coefficients(
+            rp_row[i], rc_row[i], cb_row[i], depth_row[i], log_rp[i], a_prime[i], consts,
+            half_plane, groove,
+        )  # fmt: skip
         alpha_row[i] = a
         gamma_row[i] = g
+
+
+def _coefficients(
+    rp, rc, cb, depth, log_rp, a_prime, consts, half_plane, groove
+):  # pragma: no cover
+    """(α, γ) [m/N] of one contact, the formulas of :func:`_compliance` (inlined: in a
+    loop over pins they run in SIMD lanes); ``log_rp``, ``a_prime`` the pin's ln 4ρp and
+    groove pair's α′."""
+    inv_tooth, scale, c_disc, c_pin, poisson_term, gamma_0, g_p = consts
+    if half_plane:
+        rho_star = rp / (1.0 + rp / rc)
+        log_kappa = 0.5 * _log(rho_star * inv_tooth)
+        a = scale * (
+            c_disc * ((_log(2.0 * depth) - log_kappa) - poisson_term)
+            + c_pin * ((log_rp - log_kappa) - 0.5)
+        )
+    else:
+        rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
+        log_kappa = 0.5 * _log(rho * inv_tooth)
+        a = scale * (
+            c_disc * ((_log(4.0 * abs(rc)) - log_kappa) - 0.5)
+            + c_pin * ((log_rp - log_kappa) - 0.5)
+        )
+    g = gamma_0
+    if groove:
+        c2 = cb * cb
+        log_cb = _log(cb) if cb > 0 else 0.0
+        a = a + c2 * (a_prime - g_p * log_cb)
+        g = g + c2 * g_p
+    return a, g
 
 
 def _stresses(
@@ -858,9 +877,14 @@ def compliance_arrays(
     design,
     groove_deformation: bool,
     contact_law: str,
+    loaded=None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(α, γ) of every contact [m/N] as :func:`cyclomesh.core.ltca.pin_compliance` (the
-    reference :func:`~cyclomesh.core.hertz.compliance_coefficients`), in one pass."""
+    reference :func:`~cyclomesh.core.hertz.compliance_coefficients`), in one pass.
+
+    ``loaded`` = (backlash [rad], moment arm [m], torque [N·m]) of the load sharing to
+    come: only the contacts that can carry load, NaN at the others
+    (:func:`_compliance_loaded`; about a third of the work)."""
     from cyclomesh.core.hertz import effective_modulus
 
     shape = np.broadcast_shapes(*(np.shape(v) for v in (pin_radius, curvature_radius, cos_beta)))
@@ -870,7 +894,7 @@ def compliance_arrays(
     nu = design.disc_material.poisson_ratio
     width = design.width
     alpha, gamma = np.empty(shape), np.empty(shape)
-    compiled().compliance(
+    args = (
         *_pin_rows(pin_radius, shape),
         _flat(curvature_radius, shape),
         _flat(cos_beta, shape),
@@ -888,9 +912,19 @@ def compliance_arrays(
         (c_ring + c_pin) / (np.pi * width),
         0.5 * nu / (1.0 - nu),
         design.groove_radius,
-        alpha.reshape(-1),
-        gamma.reshape(-1),
     )
+    if loaded is None:
+        compiled().compliance(*args, alpha.reshape(-1), gamma.reshape(-1))
+    else:
+        backlash, arm, torque = loaded
+        compiled().compliance_loaded(
+            *args,
+            _flat(backlash, shape),
+            _flat(arm, shape),
+            float(torque),
+            alpha.reshape(-1),
+            gamma.reshape(-1),
+        )
     return alpha, gamma
 
 
