@@ -596,23 +596,31 @@ def _stresses(
     """Groove load F·cos β [N] and the Hertzian pressures of tooth and groove [Pa] (Eqs.
     18, 24 of [1]), as :func:`~cyclomesh.core.fields.contact_stresses` (flat arrays);
     e_tooth, e_groove = E* of the two pairs [Pa], pi_width = π·B [m]; the pin radii
-    ``rp_in`` as :func:`_compliance`'s."""
+    ``rp_in`` as :func:`_compliance`'s. With 1/ρ = 1/ρp + 1/ρc (the pin–tooth radius,
+    1/ρp alone where ρc is infinite): p = √(F·(E*/πB)·(1/ρp + 1/ρc)), and what depends
+    on the pin alone, E*/(πB·ρp) and the groove's E*/(πB·ρg), taken once per row of pin
+    radii: one quotient per contact instead of four (the loop is bound by them), the
+    pressures to a few units in their last place of the reference's."""
     n_pins = rp_in.shape[1]
+    tooth = e_tooth / pi_width
+    per_pin = np.empty((2, n_pins))  # E*/(πB·ρp) of the tooth, E*/(πB·ρg) of the groove
     for q in range(force.size // n_pins):
         rp_row = rp_in[q // repeat]
+        if q % repeat == 0:
+            for i in range(n_pins):
+                rp = rp_row[i]
+                per_pin[0, i] = tooth / rp
+                rho_g = rp * groove_radius / (groove_radius - rp)
+                per_pin[1, i] = e_groove / (pi_width * rho_g)
+        k_tooth, k_groove = per_pin[0], per_pin[1]
         for i in range(n_pins):
             j = q * n_pins + i
-            f, rp = force[j], rp_row[i]
+            f = force[j]
             gf = f * cos_beta[j]
-            if f > 0:
-                rc = rc_in[j]
-                rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
-            else:
-                rho = 1.0
+            k = k_tooth[i] + tooth / rc_in[j] if f > 0 else tooth  # (an unloaded pin: 0)
             groove[j] = gf
-            stress[j] = math.sqrt(f * e_tooth / (pi_width * rho))
-            rho_g = rp * groove_radius / (groove_radius - rp)
-            g_stress[j] = math.sqrt(gf * e_groove / (pi_width * rho_g))
+            stress[j] = math.sqrt(f * k)
+            g_stress[j] = math.sqrt(gf * k_groove[i])
 
 
 def _overlap_contacts(reverse, rotation, force, m, fraction, overlap, contacts):  # pragma: no cover
