@@ -7,12 +7,14 @@ crank angles and pins, with no temporaries: :func:`cyclomesh.core.contact.unload
 (Eqs. 19–23 and the half-plane law) and :func:`cyclomesh.core.fields.contact_stresses`
 (Eqs. 18, 24). Additions, products, quotients and square roots are written in the
 reference's order and rounded alike (IEEE, no contraction into fused multiply-adds), so
-they give its bits. The contact rotations are differences of angles of order π whose
-last bit moves the pin loads by about 1e-11 of their size (a pin's approach is about
-1e-4 rad of disc rotation), so the inverse trigonometric functions there (arccos of the
-tooth phase, the arctangents of the pin centre and of the normal) are taken by NumPy
-between two compiled passes, on the same arrays as the reference: NumPy's SIMD arccos
-and arctan2 differ from the C library's in the last bit. The cosines (cos β, the
+they give its bits; the stresses alone take the pin's terms once per pin (a few units in
+their last place of the reference's, :func:`_stresses`). The contact rotations are
+differences of angles of order π whose last bit moves the pin loads by about 1e-11 of
+their size (a pin's approach is about 1e-4 rad of disc rotation), so the inverse
+trigonometric functions there (arccos of the tooth phase, the arctangents of the pin
+centre and of the normal) are taken by NumPy between two compiled passes, on the same
+arrays as the reference: NumPy's SIMD arccos and arctan2 differ from the C library's in
+the last bit. The cosines (cos β, the
 curvature radius's cos n2·t, the normals' cos and sin) and the logarithms of the
 compliance are this module's own, FreeBSD msun's algorithms without branches
 (:func:`_log`, :func:`_cos`, :func:`_sin`, below one unit in the last place like the C
