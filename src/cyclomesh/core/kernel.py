@@ -24,9 +24,10 @@ updating F = e^y after a small Newton step by a polynomial instead of a new
 exponential. The first crank angle of a ring starts as the reference (the single-pin
 bound, its candidate pins, Newton's steps); each angle after it (``angle_axis``) at
 the roots of the angles before, extrapolated, with Halley's steps (2.1–2.3 evaluations
-of M per angle on Table 1 at 0.1° instead of 7–8), and each pin's inversion from the
-pin's last one, moved along its tangent (within one ring only, so a ring's bits do not
-depend on the rings solved with it). The results
+of M per angle on Table 1 at 0.1° instead of 7–8) over the pins within its reach (about
+12 of 40), and each pin's inversion from the pin's last one, moved along its tangent
+(within one ring only, so a ring's bits do not depend on the rings solved with it). The
+results
 agree with the reference to round-off (tested to 1e-13 relative on both contact laws,
 stacks, the compliant disc and the stage, ``tests/core/test_kernel.py``). Any case the
 kernel cannot finish (no usable pin, a torque too large, a force past the stiffest
@@ -168,8 +169,11 @@ def _invert_cold(d, a, g, tol):  # pragma: no cover (compiled)
 
 def _newton_y(d, a, g, y, f, steps, tol):  # pragma: no cover (compiled)
     """Newton's method in y = ln F on δ = e^y(α − γ y) from ``y`` (``f`` = e^y) to a
-    residual of ``tol``·δ; at 2e-15 (round-off), one more step makes the root
-    independent of the start. A step below √tol (√(tol/100) at round-off) ends it
+    residual of ``tol``·δ; at 2e-15 (round-off), one more step where the residual is
+    above :data:`_EXACT`·δ (two units in the last place), which brings F to round-off (a
+    residual below that leaves F within about two units in its last place of the root,
+    about 2e-15 of the largest pin load from the reference's: within the kernel's 1e-13,
+    and 10 % of the load sharing's time spared). A step below √tol (√(tol/100) at round-off) ends it
     unchecked: Newton's error after a step s is about (δ''/2δ')·s² ≈ s²/2 (δ'' ≈ δ' on
     the stiffening branch), so the residual is below tol·δ without another pass (at
     round-off, 100 times below). After a step s, e^y is
@@ -182,7 +186,7 @@ def _newton_y(d, a, g, y, f, steps, tol):  # pragma: no cover (compiled)
     for _ in range(steps):
         resid = f * (a - g * y) - d
         if abs(resid) <= tol * d:
-            if exact and resid != 0.0:
+            if exact and abs(resid) > _EXACT * d:
                 step = resid / (f * (a - g - g * y))
                 y = y - step
                 f = _exp_step(f, -step, y)
@@ -195,6 +199,9 @@ def _newton_y(d, a, g, y, f, steps, tol):  # pragma: no cover (compiled)
     return y, 0.0, False
 
 
+_EXACT = 4.4e-16
+"""Relative residual of a force inversion at round-off below which :func:`_newton_y`
+takes no further step (two units in the last place of δ)."""
 _SMALL_STEP = 1e-3
 """Largest |s| for which e^s is taken as its Taylor polynomial to s⁵ (remainder s⁶/720
 ≤ 1.4e-21, below the round-off of the product)."""
@@ -255,15 +262,18 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, block, rotation, force):  # 
         solved_before = False
         for _ in range(2):
             if warm:
-                n_cand, x = _warm_start(k, bl, arm, rotation, candidates, streak)
+                n_cand, x, reach = _warm_start(k, bl, arm, rotation, candidates, streak)
             else:
                 n_cand, x = _bounded_start(k, bl, arm, alpha, gamma, torque, candidates)
+                reach = np.inf
             if n_cand == 0:
                 break
             x, solved = _solve_case(
                 k, x, candidates, n_cand, bl, arm, alpha, gamma, torque, warm,
                 last_y, last_f, last_d, last_inv, force
             )  # fmt: skip
+            # a root beyond the warm start's reach may load a pin it left out
+            solved = solved and x <= reach
             if solved:
                 rotation[k] = x
                 solved_before = True
@@ -279,22 +289,32 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, block, rotation, force):  # 
 
 
 def _warm_start(k, bl, arm, rotation, candidates, streak):  # pragma: no cover (compiled)
-    """Every usable pin of case ``k`` as a candidate (the pins the bound would leave out
-    carry nothing at the root) and the start: the roots of the ``streak`` (≥ 1) cases
-    solved just before it in its ring, extrapolated to it (constant, linear or quadratic
-    in the case index, as for evenly spaced crank angles; a residual of about 1e-8·T at
-    a 0.1° step on the Table 1 pair; any start reaches the same root); returns (number
-    of candidates, start Δφc [rad])."""
+    """The start of case ``k`` from the ``streak`` (≥ 1) cases solved just before it in
+    its ring: their roots extrapolated to it (constant, linear or quadratic in the case
+    index, as for evenly spaced crank angles; a residual of about 1e-8·T at a 0.1° step
+    on the Table 1 pair; any start reaches the same root), and as candidates the usable
+    pins whose backlash lies below the reach x₀ + |x₀|/2 + 4|x₀ − x_(k−1)| (about 12 of
+    40 pins on Table 1 at 0.1°, instead of every usable pin; the others cannot carry
+    load at a root below the reach, which the caller checks, starting the case again
+    from the bound if the root lies beyond it); returns (number of candidates, start
+    Δφc [rad], reach [rad])."""
+    if streak >= 3:
+        x = 3.0 * (rotation[k - 1] - rotation[k - 2]) + rotation[k - 3]
+    elif streak >= 2:
+        x = 2.0 * rotation[k - 1] - rotation[k - 2]
+    else:
+        x = rotation[k - 1]
+    reach = x + _REACH * abs(x) + 4.0 * abs(x - rotation[k - 1])
     n_cand = 0
     for i in range(bl.shape[1]):
-        if np.isfinite(bl[k, i]) and arm[k, i] > 0.0:
+        if bl[k, i] < reach and arm[k, i] > 0.0:  # (a NaN or infinite backlash: not)
             candidates[n_cand] = i
             n_cand += 1
-    if streak >= 3:
-        return n_cand, 3.0 * (rotation[k - 1] - rotation[k - 2]) + rotation[k - 3]
-    if streak >= 2:
-        return n_cand, 2.0 * rotation[k - 1] - rotation[k - 2]
-    return n_cand, rotation[k - 1]
+    return n_cand, x, reach
+
+
+_REACH = 0.5
+"""The warm start's reach beyond its start, relative to the start (:func:`_warm_start`)."""
 
 
 def _bounded_start(k, bl, arm, alpha, gamma, torque, candidates):  # pragma: no cover

@@ -7,12 +7,14 @@ crank angles and pins, with no temporaries: :func:`cyclomesh.core.contact.unload
 (Eqs. 19–23 and the half-plane law) and :func:`cyclomesh.core.fields.contact_stresses`
 (Eqs. 18, 24). Additions, products, quotients and square roots are written in the
 reference's order and rounded alike (IEEE, no contraction into fused multiply-adds), so
-they give its bits. The contact rotations are differences of angles of order π whose
-last bit moves the pin loads by about 1e-11 of their size (a pin's approach is about
-1e-4 rad of disc rotation), so the inverse trigonometric functions there (arccos of the
-tooth phase, the arctangents of the pin centre and of the normal) are taken by NumPy
-between two compiled passes, on the same arrays as the reference: NumPy's SIMD arccos
-and arctan2 differ from the C library's in the last bit. The cosines (cos β, the
+they give its bits; the stresses alone take the pin's terms once per pin (a few units in
+their last place of the reference's, :func:`_stresses`). The contact rotations are
+differences of angles of order π whose last bit moves the pin loads by about 1e-11 of
+their size (a pin's approach is about 1e-4 rad of disc rotation), so the inverse
+trigonometric functions there (arccos of the tooth phase, the arctangents of the pin
+centre and of the normal) are taken by NumPy between two compiled passes, on the same
+arrays as the reference: NumPy's SIMD arccos and arctan2 differ from the C library's in
+the last bit. The cosines (cos β, the
 curvature radius's cos n2·t, the normals' cos and sin) and the logarithms of the
 compliance are this module's own, FreeBSD msun's algorithms without branches
 (:func:`_log`, :func:`_cos`, :func:`_sin`, below one unit in the last place like the C
@@ -83,7 +85,9 @@ def compiled() -> Any:
     _libm_cos = jit(_libm_cos)
     _finish_pin = inline(_finish_pin)
     _row_min = jit(_row_min)
-    global _compliance_row
+    global _compliance_row, _coefficients, _pin_terms
+    _coefficients = inline(_coefficients)
+    _pin_terms = inline(_pin_terms)
     _compliance_row = inline(_compliance_row)
 
     class Passes:
@@ -492,25 +496,11 @@ def _compliance(
     """
     per_pin = np.empty((3, n_pins))  # ρp, ln 4ρp, α′ of the row before
     per_pin[0, :] = np.nan
-    inv_tooth = 4.0 / k_tooth
+    consts = (4.0 / k_tooth, scale, c_disc, c_pin, poisson_term, gamma_0, g_p)
     for start in range(0, rc_in.size, n_pins):
         rp_row = rp_in[start // n_pins // repeat]
-        same = 0
-        for i in range(n_pins):
-            same += rp_row[i] == per_pin[0, i]
-        if same < n_pins:
-            for i in range(n_pins):
-                rp = rp_row[i]
-                per_pin[0, i] = rp
-                per_pin[1, i] = _log(4.0 * abs(rp))
-                rho_g = rp * groove_radius / (groove_radius - rp)
-                kappa = math.sqrt(4.0 * rho_g / k_groove)
-                per_pin[2, i] = scale * (
-                    c_ring * (_log(4.0 * abs(groove_radius) / kappa) - 0.5)
-                    + c_pin * (_log(4.0 * abs(rp) / kappa) - 0.5)
-                )
+        _pin_terms(rp_row, per_pin, groove_radius, k_groove, scale, c_ring, c_pin)
         row = (rp_row, rc_in, cb_in, depth_in, per_pin[1], per_pin[2], alpha, gamma, start)
-        consts = (inv_tooth, scale, c_disc, c_pin, poisson_term, gamma_0, g_p)
         # the law and the groove term fixed in each loop (no choice left inside it)
         if half_plane:
             if groove:
@@ -523,41 +513,72 @@ def _compliance(
             _compliance_row(row, n_pins, consts, False, False)
 
 
+def _pin_terms(rp_row, per_pin, groove_radius, k_groove, scale, c_ring, c_pin):  # pragma: no cover
+    """ρp, ln 4ρp and the groove pair's α′ of each pin into ``per_pin`` (3, n_pins), taken
+    again only where ``rp_row`` differs from the row they were taken for."""
+    n_pins = rp_row.size
+    same = 0
+    for i in range(n_pins):
+        same += rp_row[i] == per_pin[0, i]
+    if same < n_pins:
+        for i in range(n_pins):
+            rp = rp_row[i]
+            per_pin[0, i] = rp
+            per_pin[1, i] = _log(4.0 * abs(rp))
+            rho_g = rp * groove_radius / (groove_radius - rp)
+            kappa = math.sqrt(4.0 * rho_g / k_groove)
+            per_pin[2, i] = scale * (
+                c_ring * (_log(4.0 * abs(groove_radius) / kappa) - 0.5)
+                + c_pin * (_log(4.0 * abs(rp) / kappa) - 0.5)
+            )
+
+
 def _compliance_row(row, n_pins, consts, half_plane, groove):  # pragma: no cover (compiled)
     """One row of :func:`_compliance` (inlined there with constant ``half_plane`` and
     ``groove``)."""
     rp_row, rc_in, cb_in, depth_in, log_rp, a_prime, alpha, gamma, start = row
-    inv_tooth, scale, c_disc, c_pin, poisson_term, gamma_0, g_p = consts
     rc_row = rc_in[start : start + n_pins]
     cb_row = cb_in[start : start + n_pins]
     depth_row = depth_in[start : start + n_pins]
     alpha_row = alpha[start : start + n_pins]
     gamma_row = gamma[start : start + n_pins]
     for i in range(n_pins):
-        rp, rc = rp_row[i], rc_row[i]
-        if half_plane:
-            rho_star = rp / (1.0 + rp / rc)
-            log_kappa = 0.5 * _log(rho_star * inv_tooth)
-            a = scale * (
-                c_disc * ((_log(2.0 * depth_row[i]) - log_kappa) - poisson_term)
-                + c_pin * ((log_rp[i] - log_kappa) - 0.5)
-            )
-        else:
-            rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
-            log_kappa = 0.5 * _log(rho * inv_tooth)
-            a = scale * (
-                c_disc * ((_log(4.0 * abs(rc)) - log_kappa) - 0.5)
-                + c_pin * ((log_rp[i] - log_kappa) - 0.5)
-            )
-        g = gamma_0
-        if groove:
-            cb = cb_row[i]
-            c2 = cb * cb
-            log_cb = _log(cb) if cb > 0 else 0.0
-            a = a + c2 * (a_prime[i] - g_p * log_cb)
-            g = g + c2 * g_p
+        a, g = _coefficients(
+            rp_row[i], rc_row[i], cb_row[i], depth_row[i], log_rp[i], a_prime[i], consts,
+            half_plane, groove,
+        )  # fmt: skip
         alpha_row[i] = a
         gamma_row[i] = g
+
+
+def _coefficients(
+    rp, rc, cb, depth, log_rp, a_prime, consts, half_plane, groove
+):  # pragma: no cover
+    """(α, γ) [m/N] of one contact, the formulas of :func:`_compliance` (inlined: in a
+    loop over pins they run in SIMD lanes); ``log_rp``, ``a_prime`` the pin's ln 4ρp and
+    groove pair's α′."""
+    inv_tooth, scale, c_disc, c_pin, poisson_term, gamma_0, g_p = consts
+    if half_plane:
+        rho_star = rp / (1.0 + rp / rc)
+        log_kappa = 0.5 * _log(rho_star * inv_tooth)
+        a = scale * (
+            c_disc * ((_log(2.0 * depth) - log_kappa) - poisson_term)
+            + c_pin * ((log_rp - log_kappa) - 0.5)
+        )
+    else:
+        rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
+        log_kappa = 0.5 * _log(rho * inv_tooth)
+        a = scale * (
+            c_disc * ((_log(4.0 * abs(rc)) - log_kappa) - 0.5)
+            + c_pin * ((log_rp - log_kappa) - 0.5)
+        )
+    g = gamma_0
+    if groove:
+        c2 = cb * cb
+        log_cb = _log(cb) if cb > 0 else 0.0
+        a = a + c2 * (a_prime - g_p * log_cb)
+        g = g + c2 * g_p
+    return a, g
 
 
 def _stresses(
@@ -577,23 +598,31 @@ def _stresses(
     """Groove load F·cos β [N] and the Hertzian pressures of tooth and groove [Pa] (Eqs.
     18, 24 of [1]), as :func:`~cyclomesh.core.fields.contact_stresses` (flat arrays);
     e_tooth, e_groove = E* of the two pairs [Pa], pi_width = π·B [m]; the pin radii
-    ``rp_in`` as :func:`_compliance`'s."""
+    ``rp_in`` as :func:`_compliance`'s. With 1/ρ = 1/ρp + 1/ρc (the pin–tooth radius,
+    1/ρp alone where ρc is infinite): p = √(F·(E*/πB)·(1/ρp + 1/ρc)), and what depends
+    on the pin alone, E*/(πB·ρp) and the groove's E*/(πB·ρg), taken once per row of pin
+    radii: one quotient per contact instead of four (the loop is bound by them), the
+    pressures to a few units in their last place of the reference's."""
     n_pins = rp_in.shape[1]
+    tooth = e_tooth / pi_width
+    per_pin = np.empty((2, n_pins))  # E*/(πB·ρp) of the tooth, E*/(πB·ρg) of the groove
     for q in range(force.size // n_pins):
         rp_row = rp_in[q // repeat]
+        if q % repeat == 0:
+            for i in range(n_pins):
+                rp = rp_row[i]
+                per_pin[0, i] = tooth / rp
+                rho_g = rp * groove_radius / (groove_radius - rp)
+                per_pin[1, i] = e_groove / (pi_width * rho_g)
+        k_tooth, k_groove = per_pin[0], per_pin[1]
         for i in range(n_pins):
             j = q * n_pins + i
-            f, rp = force[j], rp_row[i]
+            f = force[j]
             gf = f * cos_beta[j]
-            if f > 0:
-                rc = rc_in[j]
-                rho = rp if math.isinf(rc) else rp * rc / (rp + rc)
-            else:
-                rho = 1.0
+            k = k_tooth[i] + tooth / rc_in[j] if f > 0 else tooth  # (an unloaded pin: 0)
             groove[j] = gf
-            stress[j] = math.sqrt(f * e_tooth / (pi_width * rho))
-            rho_g = rp * groove_radius / (groove_radius - rp)
-            g_stress[j] = math.sqrt(gf * e_groove / (pi_width * rho_g))
+            stress[j] = math.sqrt(f * k)
+            g_stress[j] = math.sqrt(gf * k_groove[i])
 
 
 def _overlap_contacts(reverse, rotation, force, m, fraction, overlap, contacts):  # pragma: no cover
@@ -858,9 +887,14 @@ def compliance_arrays(
     design,
     groove_deformation: bool,
     contact_law: str,
+    loaded=None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(α, γ) of every contact [m/N] as :func:`cyclomesh.core.ltca.pin_compliance` (the
-    reference :func:`~cyclomesh.core.hertz.compliance_coefficients`), in one pass."""
+    reference :func:`~cyclomesh.core.hertz.compliance_coefficients`), in one pass.
+
+    ``loaded`` = (backlash [rad], moment arm [m], torque [N·m]) of the load sharing to
+    come: only the contacts that can carry load, NaN at the others
+    (:func:`_compliance_loaded`; about a third of the work)."""
     from cyclomesh.core.hertz import effective_modulus
 
     shape = np.broadcast_shapes(*(np.shape(v) for v in (pin_radius, curvature_radius, cos_beta)))
@@ -870,7 +904,7 @@ def compliance_arrays(
     nu = design.disc_material.poisson_ratio
     width = design.width
     alpha, gamma = np.empty(shape), np.empty(shape)
-    compiled().compliance(
+    args = (
         *_pin_rows(pin_radius, shape),
         _flat(curvature_radius, shape),
         _flat(cos_beta, shape),
@@ -888,9 +922,19 @@ def compliance_arrays(
         (c_ring + c_pin) / (np.pi * width),
         0.5 * nu / (1.0 - nu),
         design.groove_radius,
-        alpha.reshape(-1),
-        gamma.reshape(-1),
     )
+    if loaded is None:
+        compiled().compliance(*args, alpha.reshape(-1), gamma.reshape(-1))
+    else:
+        backlash, arm, torque = loaded
+        compiled().compliance_loaded(
+            *args,
+            _flat(backlash, shape),
+            _flat(arm, shape),
+            float(torque),
+            alpha.reshape(-1),
+            gamma.reshape(-1),
+        )
     return alpha, gamma
 
 
