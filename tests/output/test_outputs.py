@@ -266,10 +266,19 @@ def test_kill_during_a_run_never_leaves_a_readable_partial_folder(tmp_path):
         "-q",
     ]
     staged = out / STAGING
+
+    def holds(pattern: str) -> bool:
+        """A file matching ``pattern`` is staged; False once the run has moved the staging
+        folder in while it was being scanned (the moment passed unseen)."""
+        try:
+            return any(staged.rglob(pattern))
+        except FileNotFoundError:
+            return False
+
     moments = {
         "locked": lambda pid: (out / LOCK).read_text().strip() == str(pid),
-        "result staged": lambda pid: any(staged.rglob("results.nc")),
-        "figure staged": lambda pid: any(staged.rglob("*.png")),
+        "result staged": lambda pid: holds("results.nc"),
+        "figure staged": lambda pid: holds("*.png"),
     }
     killed = 0
     for name, moment in moments.items():
