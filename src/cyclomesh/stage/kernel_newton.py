@@ -566,33 +566,10 @@ def _newton_rows(
             # angles before, else from the one before, where no pin is at or past its
             # law's end there (the pins' memo kept: their inversions are near)
             line = i % run >= 2 and not failed[i - 2]
-            for r in range(m):
-                trial[r] = 2.0 * x[i - 1, r] - x[i - 2, r] if line else x[i - 1, r]
-            e1, s1 = _evaluate_one(
-                i,
-                trial,
-                pin,
-                hole,
-                G,
-                cols,
-                const,
-                nw,
-                kcarrier,
-                carrier,
-                half,
-                kn,
-                torque,
-                L,
-                True,
-                g,
-                H,
-                memo,
-                pf,
-                bf,
-            )
-            if line and s1 != 0:
+            for attempt in range(2 if line else 1):
+                from_line = line and attempt == 0  # else from the solution before
                 for r in range(m):
-                    trial[r] = x[i - 1, r]
+                    trial[r] = 2.0 * x[i - 1, r] - x[i - 2, r] if from_line else x[i - 1, r]
                 e1, s1 = _evaluate_one(
                     i,
                     trial,
@@ -615,6 +592,8 @@ def _newton_rows(
                     pf,
                     bf,
                 )
+                if s1 == 0:
+                    break
             if s1 == 0:
                 for r in range(m):
                     xi[r] = trial[r]
