@@ -5,10 +5,15 @@ import sys
 
 def main() -> None:
     """The ``cyclomesh`` command. A command line that draws the overview forks its figure
-    process first (:func:`cyclomesh.figures.early.fork_early`), before typer, the
-    command line's modules and NumPy are imported, so that the process imports NumPy
-    and matplotlib while this one imports the rest. The process ends by
+    process first (:func:`cyclomesh.figures.early.fork_early`), once NumPy is imported
+    (both processes need it: imported once) and before typer and the command line's
+    modules are, so that the process imports matplotlib while this one imports the
+    rest. Python's cyclic garbage collector is paused while the command starts
+    (:func:`cyclomesh.execution.runtime.pause_gc`). The process ends by
     :func:`end_process` once the command has finished."""
+    from cyclomesh.execution.runtime import pause_gc
+
+    pause_gc()  # resumed once the command has started (runtime.resume_gc)
     from cyclomesh.figures.early import fork_early
 
     fork_early(sys.argv[1:])

@@ -72,17 +72,25 @@ app = typer.Typer(
 
 @app.callback()
 def main(
+    ctx: typer.Context,
     version: Annotated[
         bool,
         typer.Option("--version", callback=show_version, is_eager=True, help="Show the version."),
     ] = False,
 ) -> None:
     """Loaded tooth contact analysis of cycloid-pin gear pairs (Li et al., Machines 2022)."""
-    from cyclomesh.execution.runtime import skip_pydantic_plugins, tune_allocator, tune_blas
+    from cyclomesh.execution.runtime import (
+        resume_gc,
+        skip_pydantic_plugins,
+        tune_allocator,
+        tune_blas,
+    )
 
     tune_blas()
     tune_allocator()
     skip_pydantic_plugins()
+    if ctx.invoked_subcommand not in _KIND_COMMANDS:  # a kind's command resumes it itself
+        resume_gc()
 
 
 @app.command()
@@ -136,6 +144,7 @@ def run_kind(command: str, options: dict[str, Any]) -> None:
 
 
 def _run_kind(command: str, options: dict[str, Any], figures: Any) -> None:
+    from cyclomesh.execution.runtime import resume_gc
     from cyclomesh.studies.execute import execute, load_kind
     from cyclomesh.studyfile.kinds import check_study_work
 
@@ -155,6 +164,7 @@ def _run_kind(command: str, options: dict[str, Any], figures: Any) -> None:
     preflight(loaded, command, work=False)  # what check --kind <command> refuses
     if steps.check is not None:
         steps.check(loaded, options)
+    resume_gc()  # the command has started: before its workers are forked and it computes
     run: dict[str, Any] = {}
     backend = None
     if steps.parallel is not None:
@@ -202,6 +212,9 @@ class KindCommand:
     def __call__(self, **options: Any) -> None:
         run_kind(self.command, options)
 
+
+_KIND_COMMANDS = frozenset(spec.command for spec in KINDS)
+"""The commands :func:`run_kind` runs (they resume the collector once started)."""
 
 for _spec in KINDS:  # one command per kind of study, in the registry's order
     app.command(name=_spec.command)(cli_errors()(KindCommand(_spec)))
