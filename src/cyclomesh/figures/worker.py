@@ -42,15 +42,35 @@ def _import_matplotlib() -> None:
     only to register the ``"3d"`` projection, which no figure of cyclomesh uses (about
     a tenth of matplotlib's import). This process only draws figures, so its
     ``sys.modules`` is its own to change; matplotlib's warning that Axes3D is missing is
-    silenced."""
+    silenced.
+
+    While matplotlib's modules are imported, :func:`matplotlib.artist.kwdoc` (the text
+    of the property table that each Artist class's ``set`` docstring and the
+    ``%(Line2D:kwdoc)s`` placeholders of docstrings get) returns an empty string; the
+    function is restored afterwards. The tables are documentation only (nothing draws
+    with them) and were a fifth of matplotlib's import: ~0.06 CPU-s, measured; figures
+    byte for byte the same (tested)."""
     import sys
     import warnings
 
     sys.modules.setdefault("mpl_toolkits.mplot3d", None)  # type: ignore[arg-type]
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Unable to import Axes3D")
-        import matplotlib.backends.backend_agg  # noqa: F401
-        import matplotlib.figure  # noqa: F401
+        import matplotlib.artist as artist
+
+        kwdoc = artist.kwdoc
+        artist.kwdoc = _no_property_table
+        try:
+            import matplotlib.backends.backend_agg  # noqa: F401
+            import matplotlib.figure  # noqa: F401
+        finally:
+            artist.kwdoc = kwdoc
+
+
+def _no_property_table(artist: Any) -> str:
+    """Stand-in for :func:`matplotlib.artist.kwdoc` while the figure process imports
+    matplotlib (:func:`_import_matplotlib`): no property table in docstrings."""
+    return ""
 
 
 def _serve(jobs_fd: int, done_fd: int, parent: int) -> None:
