@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from cyclomesh import TABLE1, Modification
-from cyclomesh.core import kernel
+from cyclomesh.core import hertz, kernel
 from cyclomesh.core.contact import unloaded_contact
 from cyclomesh.core.discbody import DiscBody
 from cyclomesh.core.fields import contact_stresses
@@ -400,3 +400,81 @@ def test_the_curvature_radius_next_to_an_inflection_keeps_the_references_bits(mo
     np.testing.assert_array_equal(np.isfinite(a), np.isfinite(b))
     fin = np.isfinite(a)
     np.testing.assert_allclose(b[fin], a[fin], rtol=1e-14)
+
+
+def _ring_problem(monkeypatch, rings, step_deg, law="half_plane", seed=32):
+    """The load sharing's inputs of ``rings`` tolerance rings (the pin errors of
+    examples/tolerance.toml) at a crank step of ``step_deg``, from the NumPy contact."""
+    rng = np.random.default_rng(seed)
+    errors = PinErrors(
+        radial=rng.uniform(-4e-6, 4e-6, (rings, 40)),
+        angular=rng.uniform(-5e-5, 5e-5, (rings, 40)),
+    )
+    monkeypatch.setenv(kernel.ENV_VAR, "numpy")
+    geo = unloaded_contact(TABLE1, MOD, errors, np.deg2rad(np.arange(0.0, 360.0, step_deg)))
+    backlash = geo.rotation - rest_position(geo.rotation, geo.moment_arm)[..., None]
+    alpha, gamma = pin_compliance(geo, TABLE1, True, law)
+    return backlash, geo.moment_arm, alpha, gamma, 250.0
+
+
+@pytest.mark.parametrize("law", ["half_plane", "paper"])
+def test_the_secant_start_reaches_the_references_roots(monkeypatch, law):
+    """At a 10° crank step (a tolerance study's 36 steps) the roots before are too far
+    apart to extrapolate and each crank angle starts from the secant start
+    (kernel._secant_start), as does a ring's first angle and every angle solved on its
+    own: the roots and loads of the reference to round-off, each way."""
+    problem = _ring_problem(monkeypatch, 12, 10.0, law)
+    ref_rot, ref_force = kernel.share_load(*problem)
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    monkeypatch.setattr(kernel.loadsharing, "share_load", None)  # no fallback taken
+    top = np.max(ref_force)
+    for angle_axis in (True, False):
+        rot, force = kernel.share_load(*problem, angle_axis=angle_axis)
+        np.testing.assert_allclose(rot, ref_rot, rtol=1e-13, atol=0)
+        np.testing.assert_allclose(force, ref_force, rtol=0, atol=1e-13 * top)
+
+
+def test_the_secant_start_is_near_the_root_and_keeps_within_reach(monkeypatch):
+    """The secant start of a 10° case lies within 1e-2·T of the root in torque (about
+    3e-4·T typically), whatever the case before; where the springs' root lies beyond the
+    warm start's reach (pins outside the candidates could carry load there) the start
+    given is kept."""
+    bl, arm, alpha, gamma, torque = _ring_problem(monkeypatch, 3, 10.0)
+    bl, arm, alpha, gamma = (
+        np.ascontiguousarray(v).reshape(-1, 40) for v in (bl, arm, alpha, gamma)
+    )
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    assert kernel._compiled() is not None
+    n_pins = 40
+    scratch = [np.empty(n_pins, np.int64), np.empty(n_pins)] + [np.zeros(n_pins) for _ in range(4)]
+    worst = 0.0
+    for k in range(bl.shape[0]):
+        candidates = np.empty(n_pins, np.int64)
+        n_cand = kernel._usable(k, bl, arm, candidates)
+        x = kernel._secant_start(
+            k, np.nan, np.inf, candidates, n_cand, bl, arm, alpha, gamma, torque, *scratch
+        )
+        loaded = np.isfinite(bl[k]) & (x > bl[k])
+        approach = (x - bl[k][loaded]) * arm[k][loaded]
+        force = hertz.force_from_approach(approach, alpha[k][loaded], gamma[k][loaded])
+        worst = max(worst, abs(np.sum(force * arm[k][loaded]) - torque) / torque)
+        # a reach below the springs' root: the start given is kept
+        kept = kernel._secant_start(
+            k, 1.25, 0.5 * x, candidates, n_cand, bl, arm, alpha, gamma, torque, *scratch
+        )
+        assert kept == 1.25
+    assert worst < 1e-2, worst
+
+
+def test_a_rings_bits_do_not_depend_on_its_batch_at_a_10_degree_step(monkeypatch):
+    """The secant start depends on the case alone and the pins' last inversions on the
+    ring's cases before: a ring solved alone or in a batch gives the same bits."""
+    bl, arm, alpha, gamma, torque = _ring_problem(monkeypatch, 4, 10.0)
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    rot, force = kernel.share_load(bl, arm, alpha, gamma, torque, angle_axis=True)
+    for r in range(bl.shape[0]):
+        one_rot, one_force = kernel.share_load(
+            bl[r], arm[r], alpha[r], gamma[r], torque, angle_axis=True
+        )
+        np.testing.assert_array_equal(one_rot, rot[r])
+        np.testing.assert_array_equal(one_force, force[r])

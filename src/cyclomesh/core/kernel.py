@@ -21,15 +21,18 @@ pin's force inverted from its approach (δ = F(α − γ ln F), Eqs. 19–23, Ne
 y = ln F as :func:`cyclomesh.core.hertz.force_from_approach`), without temporaries,
 skipping the unloaded pins (about three in four), reusing ln F = y in the slope and
 updating F = e^y after a small Newton step by a polynomial instead of a new
-exponential. The first crank angle of a ring starts as the reference (the single-pin
-bound, its candidate pins, Newton's steps); each angle after it (``angle_axis``) at
-the roots of the angles before, extrapolated, with Halley's steps (2.1–2.3 evaluations
-of M per angle on Table 1 at 0.1° instead of 7–8) over the pins within its reach (about
-12 of 40), and each pin's inversion from the pin's last one, moved along its tangent
-(within one ring only, so a ring's bits do not depend on the rings solved with it). The
-results
-agree with the reference to round-off (tested to 1e-13 relative on both contact laws,
-stacks, the compliant disc and the stage, ``tests/core/test_kernel.py``). Any case the
+exponential. Each angle after a ring's first (``angle_axis``) starts at the roots of
+the angles before, extrapolated, with Halley's steps (2.1–2.3 evaluations of M per
+angle on Table 1 at 0.1° instead of 7–8) over the pins within its reach (about 12 of
+40), and each pin's inversion from the pin's last one, moved along its tangent (within
+one ring only, so a ring's bits do not depend on the rings solved with it). Where the
+roots before are too far apart to extrapolate (a tolerance study's 10° step) and at a
+ring's first angle, the start is the root of the pins taken as linear springs at
+their secant compliance (3 evaluations of M instead of 4 at 10°, 3–4 instead of 7–8
+at a first angle); the reference's start (the single-pin bound, its candidate pins,
+Newton's steps) is the fallback. The results agree with the reference to round-off
+(tested to 1e-13 relative on both contact laws, stacks, the compliant disc and the
+stage, ``tests/core/test_kernel.py``). Any case the
 kernel cannot finish (no usable pin, a torque too large, a force past the stiffest
 point of the law, no convergence, a jammed pin) is handed to the reference, which
 raises its own one-line error, so the errors are those of the NumPy path.
@@ -136,6 +139,15 @@ _LOOSE = 1e-10
 :data:`_LOOSE_UNTIL`·T: Newton's steps there are far from the root, and an error of
 1e-10 in their forces is squared away by the steps that follow."""
 _LOOSE_UNTIL = 1e-3
+_WARM_LOOSE = 1e-7
+"""Relative residual of the force inversions of a warm start's first evaluation of M
+(:func:`_secant_start`'s start is about 5e-4·T off the root: an error of 1e-7 in its
+forces moves Halley's step by about that much, which the next step, at round-off
+forces, takes away: three evaluations a case as with forces at round-off, with fewer
+Newton steps in the first); the evaluations after it are at round-off."""
+_WARM_REDO = 1e-9
+"""A warm start's first evaluation with a torque residual below this (relative to T) is
+taken again at round-off forces instead of stepping on its loose ones."""
 
 
 @cache
@@ -147,8 +159,11 @@ def _compiled() -> Any:
         return None
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     global _invert_cold, _newton_y, _exp_step  # compiled in place: the kernel calls them
-    global _warm_start, _bounded_start, _solve_case
+    global _warm_start, _bounded_start, _solve_case, _secant_start, _secant_root, _usable
+    _usable = jit(_usable)
     _exp_step = jit(_exp_step)
+    _secant_root = jit(_secant_root)
+    _secant_start = jit(_secant_start)
     _newton_y = jit(_newton_y)
     _invert_cold = jit(_invert_cold)
     _warm_start = jit(_warm_start)
@@ -236,8 +251,12 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, block, rotation, force):  # 
     there, a force past the stiffest point of the law, no convergence) is started again
     at the bound. Each pin's force inversion starts from the pin's last one (this case's
     Newton step before, or the case before's last), moved along its tangent
-    (:func:`_solve_case`). Within one ring only: a ring's bits depend on its cases before
-    it (at round-off), never on other rings.
+    (:func:`_solve_case`). Where the roots before are not smooth enough to extrapolate
+    (their third difference above :data:`_SMOOTH` of the root, as at a 10° crank step)
+    and at a ring's first case, the start is instead :func:`_secant_start`'s, from the
+    case's own backlashes (Newton's first evaluation then with forces to 1e-7, the
+    others at round-off); the bound is the fallback of both. Within one ring only: a
+    ring's bits depend on its cases before it (at round-off), never on other rings.
 
     Fills ``rotation`` (n_cases) and ``force`` (n_cases, n_pins, zero on entry); returns
     the number of cases it could not finish (then the caller uses the reference).
@@ -248,6 +267,8 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, block, rotation, force):  # 
     last_f = np.empty(n_pins)  # F there [N]
     last_d = np.empty(n_pins)  # its approach [m]
     last_inv = np.zeros(n_pins)  # 1/(dδ/dy) there [1/m], 0: none yet
+    order = np.empty(n_pins, np.int64)  # the secant start's candidates by backlash
+    secant = np.empty(n_pins)  # their secant compliances α − γ·ŷ [m/N]
     failed = 0
     solved_before = False  # the case before, of the same ring, was solved here
     streak = 0
@@ -256,20 +277,38 @@ def _share_load_rows(bl, arm, alpha, gamma, torque, block, rotation, force):  # 
             last_inv[:] = 0.0
             solved_before = False
             streak = 0
-        warm = solved_before
+        warm = True  # first near the root, then (if that fails) from the bound
+        smooth = False
         if not solved_before:
             streak = 0
+        after = solved_before
         solved_before = False
         for _ in range(2):
             if warm:
-                n_cand, x, reach = _warm_start(k, bl, arm, rotation, candidates, streak)
-            else:
+                if after:  # the roots before, extrapolated, and the pins within reach
+                    n_cand, x, reach = _warm_start(k, bl, arm, rotation, candidates, streak)
+                    # the quadratic extrapolation's error at the case before (the roots'
+                    # third difference): below _SMOOTH the extrapolation is the better start
+                    smooth = streak >= 4 and abs(
+                        (rotation[k - 1] - rotation[k - 4])
+                        - 3.0 * (rotation[k - 2] - rotation[k - 3])
+                    ) <= _SMOOTH * abs(x)
+                else:  # a ring's first case: every usable pin
+                    n_cand, x, reach = _usable(k, bl, arm, candidates), np.nan, np.inf
+                if n_cand > 0 and not smooth:
+                    x = _secant_start(
+                        k, x, reach, candidates, n_cand, bl, arm, alpha, gamma, torque,
+                        order, secant, last_y, last_f, last_d, last_inv
+                    )  # fmt: skip
+                if not x == x:  # no secant start: from the bound
+                    warm = False
+            if not warm:
                 n_cand, x = _bounded_start(k, bl, arm, alpha, gamma, torque, candidates)
                 reach = np.inf
             if n_cand == 0:
                 break
             x, solved = _solve_case(
-                k, x, candidates, n_cand, bl, arm, alpha, gamma, torque, warm,
+                k, x, candidates, n_cand, bl, arm, alpha, gamma, torque, warm, not smooth,
                 last_y, last_f, last_d, last_inv, force
             )  # fmt: skip
             # a root beyond the warm start's reach may load a pin it left out
@@ -313,8 +352,106 @@ def _warm_start(k, bl, arm, rotation, candidates, streak):  # pragma: no cover (
     return n_cand, x, reach
 
 
+_SMOOTH = 1e-2
+"""Largest third difference of a ring's roots before a case, relative to the root, at
+which the case starts from their extrapolation (:func:`_warm_start`; about 1e-8·T off
+the root at a 0.1° crank step) rather than from :func:`_secant_start` (about 5e-4·T
+off, whatever the step; the extrapolation about 1e-1·T off at 10°)."""
 _REACH = 0.5
 """The warm start's reach beyond its start, relative to the start (:func:`_warm_start`)."""
+
+
+def _secant_start(
+    k, x, reach, candidates, n_cand, bl, arm, alpha, gamma, torque,
+    order, secant, last_y, last_f, last_d, last_inv
+):  # fmt: skip  # pragma: no cover (compiled)
+    """A start of case ``k`` from its own backlashes: each candidate pin taken as the
+    linear spring F = δ/(α − γ·ŷ) with the secant compliance of the law (Eqs. 19–23 of
+    [1]) at ŷ = ln F, the torque balance (Eqs. 15–18) of those springs solved exactly
+    (piecewise linear in Δφc, :func:`_secant_root`), first with one ŷ for every pin (a
+    quarter of T on the longest moment arm), then with each loaded pin's own ŷ = ln F of
+    the first solve (one fixed-point step of F = δ/(α − γ ln F)). On Table 1 with the
+    pin errors of ``examples/tolerance.toml`` its torque residual is about 3e-4·T
+    (median, 2e-3·T at most, at any crank angle: it depends on the case alone; the
+    extrapolated roots of the cases before, ``x``, about 1e-1·T at a 10° step), so
+    Newton's method takes a step or two fewer (3 evaluations of M a case instead of 4).
+    Each pin loaded at the first solve gets that point of its law as its last inversion
+    (``last_*``: δ = F(α − γ ln F) exactly there), from which :func:`_solve_case`
+    starts its inversion along the tangent. Returns the start (``x`` where the springs
+    would load a pin beyond ``reach``, outside the candidates, or the law's stiffest
+    point is passed; any start reaches the same root)."""
+    longest = 0.0  # ŷ: a quarter of T on the longest arm (the step below corrects it)
+    for j in range(n_cand):
+        longest = max(longest, arm[k, candidates[j]])
+    mean_y = np.log(torque / (4.0 * longest))
+    n = 0
+    for j in range(n_cand):  # insertion sort of the candidates by backlash
+        i = candidates[j]
+        b = bl[k, i]
+        m = n
+        while m > 0 and bl[k, order[m - 1]] > b:
+            order[m] = order[m - 1]
+            m -= 1
+        order[m] = i
+        n += 1
+    for j in range(n):
+        i = order[j]
+        c = alpha[k, i] - gamma[k, i] * mean_y
+        if not c > 0.0:
+            return x
+        secant[i] = c
+    first, active = _secant_root(k, order, n, bl, arm, secant, torque)
+    if not first < reach:
+        return x
+    for j in range(active):  # each loaded pin's own ln F, the law's point there
+        i = order[j]
+        a, g = alpha[k, i], gamma[k, i]
+        if g == 0.0:
+            continue
+        f = arm[k, i] * (first - bl[k, i]) / secant[i]
+        if not f > 0.0:
+            continue
+        y = np.log(f)
+        if g > 0.0 and not y < a / g - 1.0 - 1e-6:
+            return x
+        c = a - g * y
+        secant[i] = c
+        last_y[i] = y
+        last_f[i] = f
+        last_d[i] = f * c
+        last_inv[i] = 1.0 / (f * (c - g))
+    second, active = _secant_root(k, order, n, bl, arm, secant, torque)
+    return second if second < reach else first
+
+
+def _secant_root(k, order, n, bl, arm, secant, torque):  # pragma: no cover (compiled)
+    """The root of Σ l²(Δφc − φbl)⁺/c = T over the pins ``order[:n]`` (ascending
+    backlash, compliances ``secant``): the pins taken in order until the root of those
+    loaded lies below the next one's backlash; returns (root [rad], pins loaded)."""
+    slope = 0.0
+    offset = 0.0
+    x = np.inf
+    for j in range(n):
+        i = order[j]
+        lk = arm[k, i]
+        s = lk * lk / secant[i]
+        slope += s
+        offset += s * bl[k, i]
+        x = (torque + offset) / slope
+        if j + 1 == n or x <= bl[k, order[j + 1]]:
+            return x, j + 1
+    return x, n
+
+
+def _usable(k, bl, arm, candidates):  # pragma: no cover (compiled)
+    """The usable pins of case ``k`` (finite backlash, positive moment arm) as its
+    candidates; returns their number."""
+    n_cand = 0
+    for i in range(bl.shape[1]):
+        if np.isfinite(bl[k, i]) and arm[k, i] > 0.0:
+            candidates[n_cand] = i
+            n_cand += 1
+    return n_cand
 
 
 def _bounded_start(k, bl, arm, alpha, gamma, torque, candidates):  # pragma: no cover
@@ -359,7 +496,7 @@ def _bounded_start(k, bl, arm, alpha, gamma, torque, candidates):  # pragma: no 
 
 
 def _solve_case(
-    k, x, candidates, n_cand, bl, arm, alpha, gamma, torque, warm,
+    k, x, candidates, n_cand, bl, arm, alpha, gamma, torque, warm, loose,
     last_y, last_f, last_d, last_inv, force
 ):  # fmt: skip  # pragma: no cover (compiled)
     """Newton's method on Δφc of case ``k`` from ``x`` over its candidate pins, to the
@@ -377,7 +514,7 @@ def _solve_case(
     floor = ROUND_OFF_TORQUE * torque
     last = np.inf  # |residual| of the step before (at round-off forces)
     # the inversions' tolerance: loose while the torque is far off (a warm start is near)
-    inner = _ROUND_OFF if warm else _LOOSE
+    inner = (_WARM_LOOSE if loose else _ROUND_OFF) if warm else _LOOSE
     for _ in range(_MAX_ITERATIONS):
         moment = 0.0
         slope = 0.0  # dM/dΔφc = Σ l²·dF/dδ
@@ -426,9 +563,10 @@ def _solve_case(
             if warm and g != 0.0:  # d²F/dδ² = γ/(F·(dδ/dF)³)
                 bend += lk * lk * lk * g / (f * dddf * dddf * dddf)
         resid = moment - torque
-        if inner > _ROUND_OFF and abs(resid) <= _LOOSE_UNTIL * torque:
+        if inner > _ROUND_OFF and abs(resid) <= (_WARM_REDO if warm else _LOOSE_UNTIL) * torque:
             inner = _ROUND_OFF  # near the root: this step again, forces to round-off
             continue
+        inner = _ROUND_OFF if warm else inner  # a warm start's first step only is loose
         size = abs(resid)
         if size <= floor or (size <= tol and size >= last):  # the reference's test
             return x, True

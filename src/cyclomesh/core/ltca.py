@@ -288,15 +288,21 @@ def pin_compliance(
     (:func:`cyclomesh.core.kernel_contact.compliance_arrays`).
     """
     if contact_law in CONTACT_LAWS and kernel_name() == "numba":
-        return compliance_arrays(
-            geo.pin_radius,
-            geo.curvature_radius,
-            geo.cos_beta,
-            geo.contact_radius,
+        shape = np.shape(geo.curvature_radius)
+        # a stack's (..., A, N, n1) as (..., A·N, n1): its pin radii, the same at every
+        # crank angle and disc (a broadcast view), are then read one row per ring
+        # instead of copied for every crank angle (kernel_contact's pin rows)
+        rows = shape if len(shape) <= 3 else (-1, shape[-3] * shape[-2], shape[-1])
+        alpha, gamma = compliance_arrays(
+            *(
+                np.broadcast_to(v, shape).reshape(rows)
+                for v in (geo.pin_radius, geo.curvature_radius, geo.cos_beta, geo.contact_radius)
+            ),
             design,
             groove_deformation,
             contact_law,
         )
+        return alpha.reshape(shape), gamma.reshape(shape)
     with np.errstate(divide="ignore", invalid="ignore"):  # unreachable pins: never loaded
         return compliance_coefficients(
             geo.pin_radius,
