@@ -61,7 +61,15 @@ DISC_BODIES = ("rigid", "fe")
 """Values of ``disc_body``: the rigid disc of [1], or the FE influence coefficients."""
 
 COMPATIBILITY_TOLERANCE = 1e-12
-"""Compatibility residual accepted, relative to the largest approach l·(Δφc − φbl)."""
+"""Compatibility residual, relative to the largest approach l·(Δφc − φbl), below which
+(with the torque's below 1e-12·T) Newton's steps are near the root: from there they go
+on to round-off (:data:`ROUND_OFF`)."""
+ROUND_OFF = 4.0 * float(np.finfo(float).eps)
+"""Torque residual relative to T and compatibility residual relative to the largest
+approach (four units in the last place, about 8.9e-16) at which the coupled solve has
+reached the root; near the root a Newton step that does not reduce the scaled residual
+ends the iteration as well (the round-off of the sums), so the root does not depend on
+the start."""
 _MAX_ITERATIONS = 100
 
 
@@ -482,7 +490,7 @@ def _solve_set(
         passes = kernel_discbody.compiled()
         settings = (
             body._window_rows, grid, body.teeth, body.period, per_disc, float(torque),
-            TORQUE_TOLERANCE, COMPATIBILITY_TOLERANCE, _MAX_ITERATIONS,
+            TORQUE_TOLERANCE, COMPATIBILITY_TOLERANCE, ROUND_OFF, _MAX_ITERATIONS,
         )  # fmt: skip
         rotation = np.empty(bl.shape[0])
         force = np.zeros(bl.shape)
@@ -568,16 +576,25 @@ def _solve_set_numpy(
     delta, f, r_w, r_t = evaluate(x, w, everything)
     current = merit(delta, r_w, r_t)
     done = np.zeros(x.size, bool)
+    previous = np.full(x.size, np.inf)  # the scaled residual before the last step
     active = np.arange(x.size)
     for _ in range(_MAX_ITERATIONS):
         case = everything if active.size == x.size else active
         scale = np.max(c_arm[case] * np.maximum(x[case, None] - c_bl[case], 0.0), axis=-1)
-        now = (np.abs(r_t[case]) <= TORQUE_TOLERANCE * torque) & (
-            np.max(np.abs(r_w[case]), axis=-1) <= COMPATIBILITY_TOLERANCE * scale
+        worst = np.max(np.abs(r_w[case]), axis=-1)
+        torque_res = np.abs(r_t[case])
+        # near the root (the tolerances), then on to the root at round-off: a residual of
+        # a few units in the last place, or the first step that does not reduce it
+        near = (torque_res <= TORQUE_TOLERANCE * torque) & (
+            worst <= COMPATIBILITY_TOLERANCE * scale
         )
+        floor = (torque_res <= ROUND_OFF * torque) & (worst <= ROUND_OFF * scale)
+        now = near & (floor | (current[case] >= previous[case]))
+        previous[case] = current[case]
         done[active[now]] = True
         if np.all(now):
             break
+        polish = near[~now]  # near the root: Newton's full step, no line search
         active = active[~now]
         case = everything if active.size == x.size else active
         f_a, r_w_a, r_t_a, l_a = f[case], r_w[case], r_t[case], c_arm[case]
@@ -635,7 +652,7 @@ def _solve_set_numpy(
             wn = w_a + lam[:, None] * step_w
             dn, fn, rwn, rtn = evaluate(xn, wn, case)
             new = merit(dn, rwn, rtn)
-            worse = (new > old) & (lam > 1e-6)
+            worse = (new > old) & (lam > 1e-6) & ~polish
             if not np.any(worse):
                 break
             lam = np.where(worse, 0.5 * lam, lam)

@@ -71,7 +71,7 @@ def compiled() -> Any:
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     # compiled in place: the passes call them
     global _cell, _exp_step, _force, _evaluate, _residuals, _solve2, _cholesky2
-    global _extrapolate, _rigid_start
+    global _extrapolate
     _cell = jit(_cell)
     _exp_step = jit(_exp_step)
     _force = jit(_force)
@@ -80,7 +80,6 @@ def compiled() -> Any:
     _solve2 = jit(_solve2)
     _cholesky2 = jit(_cholesky2)
     _extrapolate = jit(_extrapolate)
-    _rigid_start = jit(_rigid_start)
 
     class Passes:
         candidates = jit(_candidates)
@@ -378,7 +377,8 @@ def _extrapolate(v1, v2, v3, streak):  # pragma: no cover (compiled)
 
 def _solve_sets(
     candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, windows, grid, n2, period,
-    per_disc, torque, tol_torque, tol_compat, max_iterations, block, rotation, force, status
+    per_disc, torque, tol_torque, tol_compat, round_off, max_iterations, block, rotation, force,
+    status
 ):  # fmt: skip  # pragma: no cover (compiled)
     """The reference's ``_solve_set`` of every case (row), written for numba.
 
@@ -414,7 +414,7 @@ def _solve_sets(
     eng = np.empty(n, np.int64)
     loaded = np.empty(n, np.int64)
     system = np.empty((n, n))
-    root = np.empty(n_cases)  # the rigid disc's Δφc of each case, to extrapolate
+    root = np.empty(n_cases)  # Δφc of each case solved, to extrapolate
     sd, sf, sy = np.zeros(n), np.zeros(n), np.zeros(n)  # each pin's state at the start
     streak = 0
     rhs = np.empty((n, 2))
@@ -462,14 +462,14 @@ def _solve_sets(
                 pair = ((h0 * wts[a, 0] + h1 * wts[a, 1]) + h2 * wts[a, 2]) + h3 * wts[a, 3]
                 cmat[a, b] = pair
                 cmat[b, a] = pair
-        # the start: the rigid disc's Δφc and w = 0
+        # the start: the rigid disc's solution and w = 0 (a ring's first case), or the
+        # roots of the cases before, extrapolated
         if k % block == 0:
             streak = 0
         x = x0[k]
         ok = True
         if np.isfinite(x):  # given: the forces are the rigid disc's loads (inverted there
             # to round-off; a pin they leave unloaded at δ > 0 is inverted here)
-            root[k] = x
             for a in range(nc):
                 da = c_arm[a] * (x - c_bl[a])
                 delta[a] = da if da > 0.0 else 0.0
@@ -479,29 +479,38 @@ def _solve_sets(
                 else:
                     f[a], y[a], good = _force(delta[a], c_alpha[a], c_gamma[a], 0.0, 0.0, 0.0)
                     ok = ok and good
-            for i in range(n):
-                sd[i] = 0.0
-            for a in range(nc):
-                sd[idx[a]], sf[idx[a]], sy[idx[a]] = delta[a], f[a], y[a]
-        elif streak > 0:  # from the roots before, extrapolated
+                w[a] = 0.0
+        elif streak > 0:  # Δφc and the loads of the roots before extrapolated, w = C·F
             x = _extrapolate(root[k - 1], root[k - 2], root[k - 3], streak)
-            x, ok = _rigid_start(k, x, bl, arm, alpha, gamma, torque, sd, sf, sy, root)
             for a in range(nc):
                 i = idx[a]
-                delta[a], f[a], y[a] = sd[i], sf[i], sy[i]
+                fa = _extrapolate(force[k - 1, i], force[k - 2, i], force[k - 3, i], streak)
+                step_f[a] = fa if fa > 0.0 else 0.0
+            for a in range(nc):
+                w[a] = 0.0
+            for b in range(nc):
+                fb = step_f[b]
+                if fb != 0.0:
+                    row = cmat[b]
+                    for a in range(nc):
+                        w[a] += row[a] * fb
+            for a in range(nc):
+                i = idx[a]
+                da = c_arm[a] * (x - c_bl[a]) - w[a]
+                delta[a] = da if da > 0.0 else 0.0
+                f[a], y[a], good = _force(delta[a], c_alpha[a], c_gamma[a], sy[i], sd[i], sf[i])
+                ok = ok and good
         else:
-            root[k] = np.nan
             ok = False
-        if not ok:  # the next case starts from this one's estimate, if any
+        if not ok:  # no start: the caller gives the rigid disc's (or takes the reference)
             status[k] = 2 if not np.isfinite(x0[k]) else 1
-            streak = 1 if streak > 0 and np.isfinite(root[k]) else 0
+            root[k] = np.nan
+            streak = 0
             failed += 1
             continue
-        streak += 1
-        for a in range(nc):
-            w[a] = 0.0
         r_t, current = _residuals(nc, w, c_arm, cmat, torque, delta, f, r_w, loaded)
         solved = False
+        previous = np.inf  # the scaled residual before the last step
         for _ in range(max_iterations):
             if not ok:
                 break
@@ -511,9 +520,16 @@ def _solve_sets(
                 gap = x - c_bl[a]
                 scale = max(scale, c_arm[a] * (gap if gap > 0.0 else 0.0))
                 worst = max(worst, abs(r_w[a]))
-            if abs(r_t) <= tol_torque * torque and worst <= tol_compat * scale:
+            # near the root (the tolerances), then on to the root at round-off: a residual
+            # of a few units in the last place, or the first step that does not reduce it
+            near = abs(r_t) <= tol_torque * torque and worst <= tol_compat * scale
+            if near and (
+                (abs(r_t) <= round_off * torque and worst <= round_off * scale)
+                or current >= previous
+            ):
                 solved = True
                 break
+            previous = current
             # the Newton step on the engaged pins: (D⁻¹ + C)_EE, right-hand sides r_w, l
             ne = 0
             for a in range(nc):
@@ -561,7 +577,7 @@ def _solve_sets(
                     step_w[a] += row[a] * dfe
             for a in range(nc):
                 step_w[a] -= r_w[a]
-            # backtracking on the scaled residual
+            # backtracking on the scaled residual (near the root: the full step)
             lam = 1.0
             for _ in range(_HALVINGS):
                 xn = x + lam * step_x
@@ -571,7 +587,7 @@ def _solve_sets(
                     nc, xn, wn, c_bl, c_arm, c_alpha, c_gamma, cmat, torque,
                     (delta, f, y), dn, fn, yn, rwn, loaded
                 )  # fmt: skip
-                if not ok:
+                if not ok or near:
                     break
                 if not (new > current and lam > _SMALLEST_STEP):
                     break
@@ -583,55 +599,23 @@ def _solve_sets(
             current = new
             for a in range(nc):
                 w[a], delta[a], f[a], y[a], r_w[a] = wn[a], dn[a], fn[a], yn[a], rwn[a]
-        if not solved:
-            status[k] = 1
+        if not solved:  # the caller gives the rigid disc's start (or takes the reference)
+            status[k] = 2 if not np.isfinite(x0[k]) else 1
+            root[k] = np.nan
+            streak = 0
             failed += 1
             continue
         status[k] = 0
+        streak += 1
         rotation[k] = x
-        for a in range(nc):
-            force[k, idx[a]] = f[a]
-    return failed
-
-
-_RIGID_STEPS = 8
-"""Newton steps of the rigid disc's torque balance after an extrapolated start before a
-case asks for the rigid disc's solution instead."""
-
-
-def _rigid_start(k, x, bl, arm, alpha, gamma, torque, sd, sf, sy, root):  # pragma: no cover
-    """Δφc of the rigid disc near ``x`` [rad] for case ``k`` and the pins' approach δ,
-    force F and ln F there (into ``sd``, ``sf``, ``sy`` (n,), each inversion started from
-    the pin's values there at the case before), and the root's estimate into
-    ``root[k]``: the torque balance Σ l·F(l·(x − φbl)) = T of every usable pin, Newton's
-    step x − r_t/(Σ l²·dF/dδ) taken while it is above 1e-8 of x (then F is taken again
-    there), the estimate one more step. Returns (x, ok); ok False where no pin is
-    loaded, an inversion fails or the steps do not reach 1e-8 of x."""
-    n = bl.shape[1]
-    root[k] = np.nan
-    for _ in range(_RIGID_STEPS + 1):
-        moment = 0.0
-        slope = 0.0
+        root[k] = x
         for i in range(n):
-            b, lk = bl[k, i], arm[k, i]
-            di = lk * (x - b) if np.isfinite(b) and lk > 0.0 else 0.0
-            if not di > 0.0:
-                sd[i], sf[i], sy[i] = 0.0, 0.0, 0.0
-                continue
-            fi, yi, good = _force(di, alpha[k, i], gamma[k, i], sy[i], sd[i], sf[i])
-            if not good:
-                return x, False
-            sd[i], sf[i], sy[i] = di, fi, yi
-            moment += lk * fi
-            slope += lk * lk / (alpha[k, i] - gamma[k, i] * (1.0 + yi))
-        if not slope > 0.0:
-            return x, False
-        step = (moment - torque) / slope
-        root[k] = x - step
-        if abs(step) <= 1e-8 * abs(x):
-            return x, True
-        x = x - step
-    return x, False
+            sd[i] = 0.0
+        for a in range(nc):
+            i = idx[a]
+            force[k, i] = f[a]
+            sd[i], sf[i], sy[i] = delta[a], f[a], y[a]
+    return failed
 
 
 def _suspects(candidate, bl, arm, rotation, force, lowest, out):  # pragma: no cover (compiled)
