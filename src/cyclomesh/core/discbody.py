@@ -187,6 +187,12 @@ class DiscBody:
         return np.ascontiguousarray(win.reshape(p * n2 * (m - 1) ** 2, 16).T)
 
     @cached_property
+    def _lowest(self) -> float:
+        """−(the most negative coefficient of the table or its diagonal) [m/N], 0 if none:
+        a body displacement is at least −this·ΣF (the check after the coupled solve)."""
+        return max(0.0, -float(np.min(self.table)), -float(np.min(self.diagonal)))
+
+    @cached_property
     def _window_rows(self) -> FloatArray:
         """:attr:`_windows` window-major, shape (p·n2·(m − 1)², 16): the compiled load
         sharing (:mod:`cyclomesh.core.kernel_discbody`) reads one window's 16 values in a
@@ -280,8 +286,15 @@ def tooth_index(pins: int, pitch: float, crank_angle: ArrayLike) -> NDArray[np.i
     """
     n2 = pins - 1
     phi = np.asarray(crank_angle, float)[..., None]
-    u_nom = n2 * pitch * np.arange(pins) + phi
-    return np.mod(np.round(u_nom / (2.0 * np.pi)).astype(np.int64), n2)
+    turns = n2 * pitch * np.arange(pins) + phi
+    turns /= 2.0 * np.pi
+    np.rint(turns, out=turns)  # as np.round: halves to even
+    # mod n2 of the integer-valued floats (exact: |turns| ≪ 2⁵³), then one cast
+    whole = turns / n2
+    np.floor(whole, out=whole)
+    whole *= n2
+    turns -= whole
+    return turns.astype(np.int64)
 
 
 def share_load_coupled(
@@ -373,13 +386,13 @@ def share_load_coupled(
         grid = np.array([u[0], u[-1], u[1] - u[0], u.size], float)
         kernel_discbody.compiled().candidates(
             *(np.ascontiguousarray(v) for v in (bl, arm, alpha, gamma, tooth, angle)),
-            body.diagonal, grid, float(torque), diag, candidate
+            body.diagonal, grid, float(torque), block, diag, candidate
         )  # fmt: skip
     else:
         diag, candidate = _candidates(bl, arm, alpha, gamma, tooth, angle, torque, body)
     arrays = (bl, arm, alpha, gamma, tooth, angle, diag)
     x, full = _solve_set(candidate, arrays, x0, f0, torque, body, n // groups, block)
-    lowest = max(0.0, -float(np.min(body.table)), -float(np.min(body.diagonal)))
+    lowest = body._lowest
     if numba:  # the cases the test below may flag, compiled (a superset of them)
         rows = np.empty(x.size, bool)
         kernel_discbody.compiled().suspects(candidate, bl, arm, x, full, lowest, rows)
@@ -482,7 +495,10 @@ def _solve_set(
     (:mod:`cyclomesh.core.kernel_discbody`; ``block``: cases per ring); if it cannot
     finish a case, the reference solves the whole set (and raises its own error where it
     fails too). ``x0``, ``f0``: the rigid disc's solution, the start (NaN in ``x0``: not
-    solved, the kernel's own start; filled in place where a case needs it)."""
+    solved, the kernel's own start; filled in place where a case needs it). The compiled
+    path chooses the candidates of a case it starts from the cases before (the pins its
+    start can reach: ``candidate``'s rows at ring starts only are read, the others
+    written, in place), and restores the single-pin bound's where it gives a case up."""
     if kernel_name() == "numba":
         bl, arm, alpha, gamma, tooth, angle, own = (np.ascontiguousarray(a) for a in arrays)
         u = body.profile_angles
@@ -490,11 +506,12 @@ def _solve_set(
         passes = kernel_discbody.compiled()
         settings = (
             body._window_rows, grid, body.teeth, body.period, per_disc, float(torque),
-            TORQUE_TOLERANCE, COMPATIBILITY_TOLERANCE, ROUND_OFF, _MAX_ITERATIONS,
+            TORQUE_TOLERANCE, COMPATIBILITY_TOLERANCE, ROUND_OFF, _MAX_ITERATIONS, body._lowest,
         )  # fmt: skip
         rotation = np.empty(bl.shape[0])
         force = np.zeros(bl.shape)
         status = np.zeros(bl.shape[0], np.int8)
+        given = candidate
         candidate = np.ascontiguousarray(candidate)
         failed = passes.solve_sets(
             candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, *settings,
@@ -509,6 +526,8 @@ def _solve_set(
                 x0[start], f0[start], *settings, 1, *out
             )  # fmt: skip
             rotation[start], force[start] = out[0], out[1]
+        if candidate is not given:  # the rows the kernel chose, for the check after
+            given[...] = candidate
         if not failed:
             return rotation, force
     _rigid_start(arrays, torque, x0, f0, np.flatnonzero(np.isnan(x0)))

@@ -57,6 +57,10 @@ _HALVINGS = 30
 """Step halvings of the line search (as the reference's)."""
 _SMALLEST_STEP = 1e-6
 """The line search accepts any step once it is this short (as the reference)."""
+_REACH = 0.05
+"""Margin of a warm start's candidates: the pins whose backlash is below its Δφc by
+this fraction of it more (plus four times its change from the case before) and the
+table's most negative response to the loads before, raised by the same fraction."""
 
 
 @cache
@@ -70,15 +74,18 @@ def compiled() -> Any:
         return None
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     # compiled in place: the passes call them
-    global _cell, _exp_step, _force, _evaluate, _residuals, _solve2, _cholesky2
-    global _extrapolate
+    global _cell, _bound_row, _exp_step, _force, _evaluate, _residuals, _solve2, _cholesky2
+    global _extrapolate, _cholesky_solve, _factor_solve
     _cell = jit(_cell)
+    _bound_row = jit(_bound_row)
     _exp_step = jit(_exp_step)
     _force = jit(_force)
     _evaluate = jit(_evaluate)
     _residuals = jit(_residuals)
     _solve2 = jit(_solve2)
     _cholesky2 = jit(_cholesky2)
+    _cholesky_solve = jit(_cholesky_solve)
+    _factor_solve = jit(_factor_solve)
     _extrapolate = jit(_extrapolate)
 
     class Passes:
@@ -90,20 +97,19 @@ def compiled() -> Any:
 
 
 def _candidates(
-    bl, arm, alpha, gamma, tooth, angle, diagonal, grid, torque, own, candidate
+    bl, arm, alpha, gamma, tooth, angle, diagonal, grid, torque, block, own, candidate
 ):  # fmt: skip  # pragma: no cover (compiled)
     """The start of :func:`cyclomesh.core.discbody.share_load_coupled` for every case
     (row), written for numba: each pin's own coefficient C_ii
     (:meth:`~cyclomesh.core.discbody.DiscBody.self_compliance`, ``diagonal`` (p, m) its
-    table) into ``own`` (B, n), the single-pin bound with the body's own compliance and
-    the pins below it into ``candidate`` (B, n) (as the reference's, whose logarithms
-    are NumPy's: a pin within a unit in the last place of the bound may fall the other
-    way, and the check after the solve adds any pin that could touch)."""
+    table) into ``own`` (B, n), and at each ring's first case (every ``block``-th row)
+    the pins below the single-pin bound into ``candidate`` (B, n) (:func:`_bound_row`);
+    the other rows are left to :func:`_solve_sets`, which takes the pins its start can
+    reach (``block`` 1: every row its bound)."""
     n_cases, n = bl.shape
     u0, u_last, h, m = grid[0], grid[1], grid[2], int(grid[3])
     period = diagonal.shape[0]
     for k in range(n_cases):
-        bound = np.inf
         for i in range(n):
             c, w0, w1, w2, w3 = _cell(angle[k, i], u0, u_last, h, m)
             row = tooth[k, i] % period
@@ -113,31 +119,45 @@ def _candidates(
                 + diagonal[row, c + 1] * w2
                 + diagonal[row, min(c + 2, m - 1)] * w3
             )
-        # the bound: the pin with the smallest backlash first, then only the pins below
-        # the bound so far (a counted pin's rotation alone is above its backlash)
-        first = -1
-        for i in range(n):
-            b = bl[k, i]
-            if np.isfinite(b) and arm[k, i] > 0.0 and (first < 0 or b < bl[k, first]):
-                first = i
-        for jj in range(-1, n):
-            i = first if jj < 0 else jj
-            if i < 0 or (jj >= 0 and jj == first):
-                continue
-            b, lk = bl[k, i], arm[k, i]
-            if not (np.isfinite(b) and lk > 0.0) or b >= bound:
-                continue
-            a, g = alpha[k, i], gamma[k, i]
-            single = torque / lk
-            log_single = math.log(single)
-            if not (g == 0.0 or log_single < a / g - 1.0):
-                continue
-            alone = b + (single * (a - g * log_single) + own[k, i] * single) / lk
-            if alone > b and alone < bound:
-                bound = alone
-        for i in range(n):
-            b = bl[k, i]
-            candidate[k, i] = np.isfinite(b) and arm[k, i] > 0.0 and b < bound
+        if k % block == 0:
+            _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
+        else:
+            for i in range(n):
+                candidate[k, i] = False
+
+
+def _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate):  # pragma: no cover
+    """The pins of case ``k`` below the single-pin bound with the body's own compliance
+    into ``candidate[k]`` (as the reference's ``_candidates``, whose logarithms are
+    NumPy's: a pin within a unit in the last place of the bound may fall the other way,
+    and the check after the solve adds any pin that could touch)."""
+    n = bl.shape[1]
+    bound = np.inf
+    # the pin with the smallest backlash first, then only the pins below the bound so
+    # far (a counted pin's rotation alone is above its backlash)
+    first = -1
+    for i in range(n):
+        b = bl[k, i]
+        if np.isfinite(b) and arm[k, i] > 0.0 and (first < 0 or b < bl[k, first]):
+            first = i
+    for jj in range(-1, n):
+        i = first if jj < 0 else jj
+        if i < 0 or (jj >= 0 and jj == first):
+            continue
+        b, lk = bl[k, i], arm[k, i]
+        if not (np.isfinite(b) and lk > 0.0) or b >= bound:
+            continue
+        a, g = alpha[k, i], gamma[k, i]
+        single = torque / lk
+        log_single = math.log(single)
+        if not (g == 0.0 or log_single < a / g - 1.0):
+            continue
+        alone = b + (single * (a - g * log_single) + own[k, i] * single) / lk
+        if alone > b and alone < bound:
+            bound = alone
+    for i in range(n):
+        b = bl[k, i]
+        candidate[k, i] = np.isfinite(b) and arm[k, i] > 0.0 and b < bound
 
 
 def _cell(ang, u0, u_last, h, m):  # pragma: no cover (compiled)
@@ -365,6 +385,46 @@ def _cholesky2(ne, system, rhs):  # pragma: no cover (compiled)
     return True
 
 
+def _factor_solve(ne, eng, cmat, c_alpha, c_gamma, y, r_w, c_arm, system, rhs):  # pragma: no cover
+    """The Newton system (D⁻¹ + C)_EE of the ``ne`` engaged pins ``eng`` (dδ/dF = α −
+    γ(1 + ln F) on the diagonal) and its right-hand sides r_w and l into ``system`` and
+    ``rhs``, solved in place by Cholesky's factorisation (:func:`_cholesky2`: True, the
+    factor kept in ``system``); False if it is not positive definite, the whole
+    system and right-hand sides then in place again for :func:`_solve2`."""
+    for e in range(ne):
+        a = eng[e]
+        for q in range(e):
+            system[q, e] = cmat[a, eng[q]]
+        system[e, e] = cmat[a, a] + (c_alpha[a] - c_gamma[a] * (1.0 + y[a]))
+        rhs[e, 0] = r_w[a]
+        rhs[e, 1] = c_arm[a]
+    if _cholesky2(ne, system, rhs):
+        return True
+    for e in range(ne):
+        a = eng[e]
+        for q in range(ne):
+            system[e, q] = cmat[a, eng[q]]
+        system[e, e] += c_alpha[a] - c_gamma[a] * (1.0 + y[a])
+        rhs[e, 0] = r_w[a]
+        rhs[e, 1] = c_arm[a]
+    return False
+
+
+def _cholesky_solve(ne, system, rhs):  # pragma: no cover (compiled)
+    """Solve with the factor :func:`_cholesky2` left in ``system`` for rhs[:ne, 0] alone,
+    in place (rhs[:, 1] untouched)."""
+    for j in range(ne):
+        z = rhs[j, 0] * system[j, j]
+        rhs[j, 0] = z
+        for i in range(j + 1, ne):
+            rhs[i, 0] -= system[j, i] * z
+    for i in range(ne - 1, -1, -1):
+        s0 = rhs[i, 0]
+        for p in range(i + 1, ne):
+            s0 -= system[i, p] * rhs[p, 0]
+        rhs[i, 0] = s0 * system[i, i]
+
+
 def _extrapolate(v1, v2, v3, streak):  # pragma: no cover (compiled)
     """The value at the next of evenly spaced crank angles from the ``streak`` (≥ 1)
     values just before it (v1 the last): constant, linear or quadratic in the angle."""
@@ -377,8 +437,8 @@ def _extrapolate(v1, v2, v3, streak):  # pragma: no cover (compiled)
 
 def _solve_sets(
     candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, windows, grid, n2, period,
-    per_disc, torque, tol_torque, tol_compat, round_off, max_iterations, block, rotation, force,
-    status
+    per_disc, torque, tol_torque, tol_compat, round_off, max_iterations, lowest, block, rotation,
+    force, status
 ):  # fmt: skip  # pragma: no cover (compiled)
     """The reference's ``_solve_set`` of every case (row), written for numba.
 
@@ -420,13 +480,37 @@ def _solve_sets(
     rhs = np.empty((n, 2))
     failed = 0
     for k in range(n_cases):
+        if k % block == 0:
+            streak = 0
+        x = x0[k]
+        warm = not np.isfinite(x)
+        if warm and streak == 0:  # no start: the caller gives the rigid disc's
+            _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
+            status[k] = 2
+            failed += 1
+            continue
+        if warm:  # Δφc of the roots before extrapolated; the candidates: the pins it
+            # can reach, φbl < Δφc + c·ΣF/l with c the table's most negative coefficient
+            # (as the check after the solve), with a margin for the extrapolation
+            x = _extrapolate(root[k - 1], root[k - 2], root[k - 3], streak)
+            total = 0.0
+            for i in range(n):
+                total += force[k - 1, i]
+            pad = _REACH * abs(x) + 4.0 * abs(x - root[k - 1])
+            push = (1.0 + _REACH) * lowest * total
+            for i in range(n):
+                b, lk = bl[k, i], arm[k, i]
+                candidate[k, i] = np.isfinite(b) and lk > 0.0 and b < x + pad + push / lk
         nc = 0
         for i in range(n):
             if candidate[k, i]:
                 idx[nc] = i
                 nc += 1
         if nc == 0:
-            status[k] = 1
+            if warm:
+                _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
+            status[k] = 2 if warm else 1
+            root[k] = np.nan
             streak = 0
             failed += 1
             continue
@@ -463,13 +547,10 @@ def _solve_sets(
                 cmat[a, b] = pair
                 cmat[b, a] = pair
         # the start: the rigid disc's solution and w = 0 (a ring's first case), or the
-        # roots of the cases before, extrapolated
-        if k % block == 0:
-            streak = 0
-        x = x0[k]
+        # pin loads of the roots before extrapolated and w = C·F of them
         ok = True
-        if np.isfinite(x):  # given: the forces are the rigid disc's loads (inverted there
-            # to round-off; a pin they leave unloaded at δ > 0 is inverted here)
+        if not warm:  # the forces are the rigid disc's loads (inverted there to
+            # round-off; a pin they leave unloaded at δ > 0 is inverted here)
             for a in range(nc):
                 da = c_arm[a] * (x - c_bl[a])
                 delta[a] = da if da > 0.0 else 0.0
@@ -480,8 +561,7 @@ def _solve_sets(
                     f[a], y[a], good = _force(delta[a], c_alpha[a], c_gamma[a], 0.0, 0.0, 0.0)
                     ok = ok and good
                 w[a] = 0.0
-        elif streak > 0:  # Δφc and the loads of the roots before extrapolated, w = C·F
-            x = _extrapolate(root[k - 1], root[k - 2], root[k - 3], streak)
+        else:
             for a in range(nc):
                 i = idx[a]
                 fa = _extrapolate(force[k - 1, i], force[k - 2, i], force[k - 3, i], streak)
@@ -500,10 +580,10 @@ def _solve_sets(
                 delta[a] = da if da > 0.0 else 0.0
                 f[a], y[a], good = _force(delta[a], c_alpha[a], c_gamma[a], sy[i], sd[i], sf[i])
                 ok = ok and good
-        else:
-            ok = False
-        if not ok:  # no start: the caller gives the rigid disc's (or takes the reference)
-            status[k] = 2 if not np.isfinite(x0[k]) else 1
+        if not ok:  # the caller gives the rigid disc's start (or takes the reference)
+            if warm:
+                _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
+            status[k] = 2 if warm else 1
             root[k] = np.nan
             streak = 0
             failed += 1
@@ -511,6 +591,8 @@ def _solve_sets(
         r_t, current = _residuals(nc, w, c_arm, cmat, torque, delta, f, r_w, loaded)
         solved = False
         previous = np.inf  # the scaled residual before the last step
+        factored = False  # system holds the Cholesky factor of n_factored engaged pins
+        n_factored = 0
         for _ in range(max_iterations):
             if not ok:
                 break
@@ -532,26 +614,25 @@ def _solve_sets(
             previous = current
             # the Newton step on the engaged pins: (D⁻¹ + C)_EE, right-hand sides r_w, l
             ne = 0
+            same = factored
             for a in range(nc):
                 if f[a] > 0.0:
+                    same = same and ne < n_factored and eng[ne] == a
                     eng[ne] = a
                     ne += 1
-            for e in range(ne):
-                a = eng[e]
-                for q in range(e):
-                    system[q, e] = cmat[a, eng[q]]
-                system[e, e] = cmat[a, a] + (c_alpha[a] - c_gamma[a] * (1.0 + y[a]))
-                rhs[e, 0] = r_w[a]
-                rhs[e, 1] = c_arm[a]
-            if not _cholesky2(ne, system, rhs):  # not positive definite: elimination
+            if near and same and ne == n_factored:
+                # near the root, the engaged pins as at the last factorisation: its
+                # factor again (a chord step, from 1e-12 to the round-off in one), only
+                # r_w to solve for (the solution for l is the factorisation's, in rhs)
                 for e in range(ne):
-                    a = eng[e]
-                    for q in range(ne):
-                        system[e, q] = cmat[a, eng[q]]
-                    system[e, e] += c_alpha[a] - c_gamma[a] * (1.0 + y[a])
-                    rhs[e, 0] = r_w[a]
-                    rhs[e, 1] = c_arm[a]
-                if not _solve2(ne, system, rhs):
+                    rhs[e, 0] = r_w[eng[e]]
+                _cholesky_solve(ne, system, rhs)
+            else:
+                factored = _factor_solve(
+                    ne, eng, cmat, c_alpha, c_gamma, y, r_w, c_arm, system, rhs
+                )
+                n_factored = ne
+                if not factored and not _solve2(ne, system, rhs):
                     ok = False
                     break
             den = 0.0
@@ -600,7 +681,9 @@ def _solve_sets(
             for a in range(nc):
                 w[a], delta[a], f[a], y[a], r_w[a] = wn[a], dn[a], fn[a], yn[a], rwn[a]
         if not solved:  # the caller gives the rigid disc's start (or takes the reference)
-            status[k] = 2 if not np.isfinite(x0[k]) else 1
+            if warm:
+                _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
+            status[k] = 2 if warm else 1
             root[k] = np.nan
             streak = 0
             failed += 1
