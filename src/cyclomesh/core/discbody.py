@@ -430,6 +430,8 @@ def share_load_coupled(
         grow = np.zeros_like(pins)
         np.put_along_axis(grow, order, bad, -1)
         candidate[cases] |= grow
+        if numba:  # the kernel took the own coefficients of its candidates only
+            diag[cases] = body.self_compliance(tooth[cases], angle[cases])
         sub = tuple(a[cases] for a in arrays)
         try:
             x[cases], full[cases] = _solve_set(
@@ -505,8 +507,9 @@ def _solve_set(
         grid = np.array([u[0], u[-1], u[1] - u[0], u.size], float)
         passes = kernel_discbody.compiled()
         settings = (
-            body._window_rows, grid, body.teeth, body.period, per_disc, float(torque),
-            TORQUE_TOLERANCE, COMPATIBILITY_TOLERANCE, ROUND_OFF, _MAX_ITERATIONS, body._lowest,
+            body._window_rows, body.diagonal, grid, body.teeth, body.period, per_disc,
+            float(torque), TORQUE_TOLERANCE, COMPATIBILITY_TOLERANCE, ROUND_OFF, _MAX_ITERATIONS,
+            body._lowest,
         )  # fmt: skip
         rotation = np.empty(bl.shape[0])
         force = np.zeros(bl.shape)

@@ -74,10 +74,12 @@ def compiled() -> Any:
         return None
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     # compiled in place: the passes call them
-    global _cell, _bound_row, _exp_step, _force, _evaluate, _residuals, _solve2, _cholesky2
-    global _extrapolate, _cholesky_solve, _factor_solve
+    global _cell, _bound_row, _own_row, _own, _exp_step, _force, _evaluate, _residuals
+    global _solve2, _cholesky2, _extrapolate, _cholesky_solve, _factor_solve
     _cell = jit(_cell)
     _bound_row = jit(_bound_row)
+    _own = jit(_own)
+    _own_row = jit(_own_row)
     _exp_step = jit(_exp_step)
     _force = jit(_force)
     _evaluate = jit(_evaluate)
@@ -100,30 +102,42 @@ def _candidates(
     bl, arm, alpha, gamma, tooth, angle, diagonal, grid, torque, block, own, candidate
 ):  # fmt: skip  # pragma: no cover (compiled)
     """The start of :func:`cyclomesh.core.discbody.share_load_coupled` for every case
-    (row), written for numba: each pin's own coefficient C_ii
+    (row), written for numba, at each ring's first case (every ``block``-th row; ``block``
+    1: every row): each pin's own coefficient C_ii
     (:meth:`~cyclomesh.core.discbody.DiscBody.self_compliance`, ``diagonal`` (p, m) its
-    table) into ``own`` (B, n), and at each ring's first case (every ``block``-th row)
-    the pins below the single-pin bound into ``candidate`` (B, n) (:func:`_bound_row`);
-    the other rows are left to :func:`_solve_sets`, which takes the pins its start can
-    reach (``block`` 1: every row its bound)."""
+    table) into ``own`` (B, n) and the pins below the single-pin bound into
+    ``candidate`` (B, n) (:func:`_bound_row`). The other rows are left to
+    :func:`_solve_sets` (``own`` NaN, no candidate), which takes the pins its start can
+    reach and their own coefficients."""
     n_cases, n = bl.shape
-    u0, u_last, h, m = grid[0], grid[1], grid[2], int(grid[3])
-    period = diagonal.shape[0]
     for k in range(n_cases):
-        for i in range(n):
-            c, w0, w1, w2, w3 = _cell(angle[k, i], u0, u_last, h, m)
-            row = tooth[k, i] % period
-            own[k, i] = (
-                diagonal[row, max(c - 1, 0)] * w0
-                + diagonal[row, c] * w1
-                + diagonal[row, c + 1] * w2
-                + diagonal[row, min(c + 2, m - 1)] * w3
-            )
         if k % block == 0:
+            _own_row(k, tooth, angle, diagonal, grid, own)
             _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
         else:
             for i in range(n):
                 candidate[k, i] = False
+                own[k, i] = np.nan
+
+
+def _own_row(k, tooth, angle, diagonal, grid, own):  # pragma: no cover (compiled)
+    """The own coefficients C_ii of every pin of case ``k`` into ``own[k]`` [m/N]
+    (:meth:`~cyclomesh.core.discbody.DiscBody.self_compliance`)."""
+    u0, u_last, h, m = grid[0], grid[1], grid[2], int(grid[3])
+    for i in range(own.shape[1]):
+        c, w0, w1, w2, w3 = _cell(angle[k, i], u0, u_last, h, m)
+        own[k, i] = _own(diagonal, tooth[k, i] % diagonal.shape[0], c, m, w0, w1, w2, w3)
+
+
+def _own(diagonal, row, c, m, w0, w1, w2, w3):  # pragma: no cover (compiled)
+    """C_ii of a contact in Catmull–Rom cell ``c`` (weights w0 … w3) of the diagonal
+    table's ``row`` (the tooth mod the period) [m/N]."""
+    return (
+        diagonal[row, max(c - 1, 0)] * w0
+        + diagonal[row, c] * w1
+        + diagonal[row, c + 1] * w2
+        + diagonal[row, min(c + 2, m - 1)] * w3
+    )
 
 
 def _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate):  # pragma: no cover
@@ -436,26 +450,34 @@ def _extrapolate(v1, v2, v3, streak):  # pragma: no cover (compiled)
 
 
 def _solve_sets(
-    candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, windows, grid, n2, period,
-    per_disc, torque, tol_torque, tol_compat, round_off, max_iterations, lowest, block, rotation,
-    force, status
+    candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, windows, diagonal, grid, n2,
+    period, per_disc, torque, tol_torque, tol_compat, round_off, max_iterations, lowest, block,
+    rotation, force, status
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """The reference's ``_solve_set`` of every case (row), written for numba.
+    """The reference's ``_solve_set`` of every case (row), written for numba: the same
+    equations to the same root at round-off, from a start of its own where it can.
 
     ``candidate`` (B, n) bool, ``bl``, ``arm``, ``alpha``, ``gamma``, ``angle``, ``own``
     (B, n) float, ``tooth`` (B, n) int, ``x0`` (B,) and ``f0`` (B, n) the rigid disc's
     Δφc [rad] and loads [N] (the start; NaN in ``x0``: not given); ``windows`` (W, 16):
     the reciprocal table's Catmull–Rom windows (the transpose of ``DiscBody._windows``);
-    ``grid`` (u₀, u_last, h, m) of the profile angles; ``block``: cases per ring
-    (consecutive crank angles; 1: every case on its own).
+    ``diagonal`` (p, m) the own coefficients' table and ``grid`` (u₀, u_last, h, m) of
+    the profile angles; ``lowest`` [m/N] minus the table's most negative coefficient (0
+    if none); ``block``: cases per ring (consecutive crank angles; 1: every case on its
+    own).
 
-    A case without ``x0`` after others of its ring takes the rigid disc's Δφc as those
-    cases' roots extrapolated (:func:`_extrapolate`, each corrected by a Newton step of the
-    rigid disc's torque balance on its own forces), within 1e-8 of itself of the root
-    (else up to :data:`_RIGID_STEPS` Newton steps more): the reference's iteration does
-    not depend on its start's last digits. Fills ``rotation`` (B,), ``force`` (B, n)
-    (zero on entry) and ``status`` (B,): 0 solved, 1 not finished (the caller then takes
-    the reference), 2 needs ``x0``; returns the number of cases not solved.
+    A case with ``x0`` starts from the rigid disc's solution with w = 0 on the given
+    candidates. A case without it after others of its ring starts from their roots,
+    extrapolated (:func:`_extrapolate`: Δφc and each pin's load, w = C·F of those loads,
+    each force inversion from the pin's last one), on the pins that start can reach
+    (written into ``candidate``; their own coefficients into ``own``). Newton's steps
+    (a backtracking line search on the scaled residual) run to the tolerances, then on
+    to round-off (``round_off``) or to a step that does not reduce the residual, near
+    the root with the last Cholesky factor where the engaged pins are the same. Fills
+    ``rotation`` (B,), ``force`` (B, n) (zero on entry) and ``status`` (B,): 0 solved, 1
+    not finished (the caller then takes the reference), 2 needs ``x0`` (its candidates
+    and own coefficients then the single-pin bound's, :func:`_candidates`); returns the
+    number of cases not solved.
     """
     n_cases, n = bl.shape
     u0, u_last, h, m = grid[0], grid[1], grid[2], int(grid[3])
@@ -485,7 +507,9 @@ def _solve_sets(
         x = x0[k]
         warm = not np.isfinite(x)
         if warm and streak == 0:  # no start: the caller gives the rigid disc's
-            _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
+            if k % block != 0:  # (a ring's first: _candidates took them)
+                _own_row(k, tooth, angle, diagonal, grid, own)
+                _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
             status[k] = 2
             failed += 1
             continue
@@ -508,6 +532,7 @@ def _solve_sets(
                 nc += 1
         if nc == 0:
             if warm:
+                _own_row(k, tooth, angle, diagonal, grid, own)
                 _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
             status[k] = 2 if warm else 1
             root[k] = np.nan
@@ -521,6 +546,11 @@ def _solve_sets(
             c_alpha[a], c_gamma[a] = alpha[k, i], gamma[k, i]
             c, wts[a, 0], wts[a, 1], wts[a, 2], wts[a, 3] = _cell(angle[k, i], u0, u_last, h, m)
             cell[a] = c
+            if warm:  # the own coefficients of the candidates chosen here
+                own[k, i] = _own(
+                    diagonal, tooth[k, i] % period, c, m, wts[a, 0], wts[a, 1], wts[a, 2],
+                    wts[a, 3]
+                )  # fmt: skip
             base[a] = ((tooth[k, i] % period) * n2 * cells + c) * cells
             km[a] = tooth[k, i] % n2
         # the reciprocal matrix (DiscBody.reciprocal_matrix): pairs i < j from their
@@ -582,6 +612,7 @@ def _solve_sets(
                 ok = ok and good
         if not ok:  # the caller gives the rigid disc's start (or takes the reference)
             if warm:
+                _own_row(k, tooth, angle, diagonal, grid, own)
                 _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
             status[k] = 2 if warm else 1
             root[k] = np.nan
@@ -682,6 +713,7 @@ def _solve_sets(
                 w[a], delta[a], f[a], y[a], r_w[a] = wn[a], dn[a], fn[a], yn[a], rwn[a]
         if not solved:  # the caller gives the rigid disc's start (or takes the reference)
             if warm:
+                _own_row(k, tooth, angle, diagonal, grid, own)
                 _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
             status[k] = 2 if warm else 1
             root[k] = np.nan
