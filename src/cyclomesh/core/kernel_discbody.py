@@ -439,9 +439,12 @@ def _cholesky_solve(ne, system, rhs):  # pragma: no cover (compiled)
         rhs[i, 0] = s0 * system[i, i]
 
 
-def _extrapolate(v1, v2, v3, streak):  # pragma: no cover (compiled)
+def _extrapolate(v1, v2, v3, v4, streak):  # pragma: no cover (compiled)
     """The value at the next of evenly spaced crank angles from the ``streak`` (≥ 1)
-    values just before it (v1 the last): constant, linear or quadratic in the angle."""
+    values just before it (v1 the last): constant, linear, quadratic or cubic in the
+    angle."""
+    if streak >= 4:
+        return 4.0 * (v1 + v3) - 6.0 * v2 - v4
     if streak >= 3:
         return 3.0 * (v1 - v2) + v3
     if streak >= 2:
@@ -516,7 +519,7 @@ def _solve_sets(
         if warm:  # Δφc of the roots before extrapolated; the candidates: the pins it
             # can reach, φbl < Δφc + c·ΣF/l with c the table's most negative coefficient
             # (as the check after the solve), with a margin for the extrapolation
-            x = _extrapolate(root[k - 1], root[k - 2], root[k - 3], streak)
+            x = _extrapolate(root[k - 1], root[k - 2], root[k - 3], root[k - 4], streak)
             total = 0.0
             for i in range(n):
                 total += force[k - 1, i]
@@ -594,7 +597,9 @@ def _solve_sets(
         else:
             for a in range(nc):
                 i = idx[a]
-                fa = _extrapolate(force[k - 1, i], force[k - 2, i], force[k - 3, i], streak)
+                fa = _extrapolate(
+                    force[k - 1, i], force[k - 2, i], force[k - 3, i], force[k - 4, i], streak
+                )
                 step_f[a] = fa if fa > 0.0 else 0.0
             for a in range(nc):
                 w[a] = 0.0
