@@ -53,6 +53,10 @@ _MAX_NEWTON = 50
 _ROUND_OFF = 2e-15
 """Relative residual of a converged force inversion (as force_from_approach)."""
 _EPS = float(np.finfo(float).eps)
+_EXACT = 4.4e-16
+"""Relative residual of a force inversion below which :func:`_force` takes no last step
+(two units in the last place of δ: F within about two of its own of the root, as
+:mod:`cyclomesh.core.kernel`'s)."""
 _HALVINGS = 30
 """Step halvings of the line search (as the reference's)."""
 _SMALLEST_STEP = 1e-6
@@ -226,7 +230,7 @@ def _force(d, a, g, y_last, d_last, f_last):  # pragma: no cover (compiled)
             for _ in range(8):
                 resid = f * (a - g * y) - d
                 if abs(resid) <= _ROUND_OFF * d:
-                    if resid != 0.0:  # one more step: the root, not where the start left it
+                    if abs(resid) > _EXACT * d:  # one more step: the root at round-off
                         step = resid / (f * (a - g - g * y))
                         y = y - step
                         f = _exp_step(f, -step, y)
