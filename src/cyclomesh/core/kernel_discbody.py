@@ -605,20 +605,29 @@ def _solve_sets(
                     force[k - 1, i], force[k - 2, i], force[k - 3, i], force[k - 4, i], streak
                 )
                 step_f[a] = fa if fa > 0.0 else 0.0
+            # a loaded pin's state is its extrapolated load, δ = F(α − γ ln F) of it and w
+            # = l·(Δφc − φbl) − δ (no inversion); an unloaded one's w = C·F of the loads,
+            # its load the law's inverse of δ = l·(Δφc − φbl) − w (0 where δ ≤ 0)
             for a in range(nc):
-                w[a] = 0.0
-            for b in range(nc):
-                fb = step_f[b]
-                if fb != 0.0:
-                    row = cmat[b]
-                    for a in range(nc):
-                        w[a] += row[a] * fb
-            for a in range(nc):
-                i = idx[a]
-                da = c_arm[a] * (x - c_bl[a]) - w[a]
-                delta[a] = da if da > 0.0 else 0.0
-                f[a], y[a], good = _force(delta[a], c_alpha[a], c_gamma[a], sy[i], sd[i], sf[i])
-                ok = ok and good
+                fa = step_f[a]
+                gap = c_arm[a] * (x - c_bl[a])
+                if fa > 0.0:
+                    ya = math.log(fa)
+                    ga = c_gamma[a]
+                    if ga > 0.0 and ya >= c_alpha[a] / ga - 1.0:  # past the stiffest point
+                        ok = False
+                    da = fa * (c_alpha[a] - ga * ya)
+                    f[a], y[a], delta[a], w[a] = fa, ya, da, gap - da
+                else:
+                    wa = 0.0
+                    row = cmat[a]  # C = Cᵀ: the row of the response
+                    for b in range(nc):
+                        wa += row[b] * step_f[b]
+                    w[a] = wa
+                    da = gap - wa
+                    delta[a] = da if da > 0.0 else 0.0
+                    f[a], y[a], good = _force(delta[a], c_alpha[a], c_gamma[a], 0.0, 0.0, 0.0)
+                    ok = ok and good
         if not ok:  # the caller gives the rigid disc's start (or takes the reference)
             if warm:
                 _own_row(k, tooth, angle, diagonal, grid, own)
