@@ -494,6 +494,7 @@ def _solve_sets(
     wts = np.empty((n, 4))
     base = np.empty(n, np.int64)
     km = np.empty(n, np.int64)
+    c_disc = np.empty(n, np.int64)  # the disc of each candidate (of a stack)
     cmat = np.zeros((n, n))
     c_bl, c_arm = np.empty(n), np.empty(n)
     c_alpha, c_gamma = np.empty(n), np.empty(n)
@@ -529,9 +530,10 @@ def _solve_sets(
                 total += force[k - 1, i]
             pad = _REACH * abs(x) + 4.0 * abs(x - root[k - 1])
             push = (1.0 + _REACH) * lowest * total
+            reach = x + pad
             for i in range(n):
-                b, lk = bl[k, i], arm[k, i]
-                candidate[k, i] = np.isfinite(b) and lk > 0.0 and b < x + pad + push / lk
+                b, lk = bl[k, i], arm[k, i]  # φbl < reach + push/l, l > 0, no quotient
+                candidate[k, i] = np.isfinite(b) and lk > 0.0 and (b - reach) * lk < push
         nc = 0
         for i in range(n):
             if candidate[k, i]:
@@ -560,14 +562,15 @@ def _solve_sets(
                 )  # fmt: skip
             base[a] = ((tooth[k, i] % period) * n2 * cells + c) * cells
             km[a] = tooth[k, i] % n2
+            c_disc[a] = i // per_disc
         # the reciprocal matrix (DiscBody.reciprocal_matrix): pairs i < j from their
         # windows, the own coefficients on the diagonal, 0 between discs
         for b in range(nc):  # the load
             cmat[b, b] = own[k, idx[b]]
             wb0, wb1, wb2, wb3 = wts[b, 0], wts[b, 1], wts[b, 2], wts[b, 3]
-            disc = idx[b] // per_disc
+            disc = c_disc[b]
             for a in range(b):  # the response
-                if idx[a] // per_disc != disc:
+                if c_disc[a] != disc:
                     cmat[a, b] = 0.0
                     cmat[b, a] = 0.0
                     continue
