@@ -505,7 +505,6 @@ def _solve_sets(
     loaded = np.empty(n, np.int64)
     system = np.empty((n, n))
     root = np.empty(n_cases)  # Δφc of each case solved, to extrapolate
-    sd, sf, sy = np.zeros(n), np.zeros(n), np.zeros(n)  # each pin's state at the start
     streak = 0
     rhs = np.empty((n, 2))
     failed = 0
@@ -745,12 +744,9 @@ def _solve_sets(
         streak += 1
         rotation[k] = x
         root[k] = x
-        for i in range(n):
-            sd[i] = 0.0
         for a in range(nc):
             i = idx[a]
             force[k, i] = f[a]
-            sd[i], sf[i], sy[i] = delta[a], f[a], y[a]
     return failed
 
 
