@@ -671,7 +671,8 @@ def _solve_sets(
                     same = same and ne < n_factored and eng[ne] == a
                     eng[ne] = a
                     ne += 1
-            if near and same and ne == n_factored:
+            chord = near and same and ne == n_factored
+            if chord:
                 # near the root, the engaged pins as at the last factorisation: its
                 # factor again (a chord step, from 1e-12 to the round-off in one), only
                 # r_w to solve for (the solution for l is the factorisation's, in rhs)
@@ -699,6 +700,15 @@ def _solve_sets(
                 step_f[a] = 0.0
             for e in range(ne):
                 step_f[eng[e]] = rhs[e, 0] + rhs[e, 1] * step_x
+            if chord:  # the last step: F + ΔF is the law's inverse at the new approach to
+                # second order (ΔF = D·Δδ, Δδ within 1e-12 of δ: to 1e-24), no evaluation
+                x = x + step_x
+                for e in range(ne):
+                    a = eng[e]
+                    fa = f[a] + step_f[a]
+                    f[a] = fa if fa > 0.0 else 0.0
+                solved = True
+                break
             # C·ΔF over the engaged pins (ΔF = 0 elsewhere), as C·F in _residuals
             for a in range(nc):
                 step_w[a] = 0.0
