@@ -285,6 +285,11 @@ def tooth_index(pins: int, pitch: float, crank_angle: ArrayLike) -> NDArray[np.i
     φ1 = 2πk + u (u ∈ (−π, π]) is nearest: k = round((n2·i·pitch + φin)/2π) mod n2.
     """
     n2 = pins - 1
+    if kernel_name() == "numba" and kernel_discbody.compiled() is not None:
+        phi = np.asarray(crank_angle, float)
+        out = np.empty((phi.size, pins), np.int64)
+        kernel_discbody.compiled().teeth(phi.ravel(), n2 * pitch, n2, out)
+        return out.reshape(*phi.shape, pins)
     phi = np.asarray(crank_angle, float)[..., None]
     turns = n2 * pitch * np.arange(pins) + phi
     turns /= 2.0 * np.pi

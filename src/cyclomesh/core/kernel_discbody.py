@@ -70,7 +70,8 @@ table's most negative response to the loads before, raised by the same fraction.
 @cache
 def compiled() -> Any:
     """The compiled passes as a namespace (``candidates``: :func:`_candidates`,
-    ``solve_sets``: :func:`_solve_sets`, ``suspects``: :func:`_suspects`), or None
+    ``solve_sets``: :func:`_solve_sets`, ``suspects``: :func:`_suspects`, ``teeth``:
+    :func:`_teeth`), or None
     without numba (imported on first use)."""
     try:
         import numba
@@ -98,6 +99,7 @@ def compiled() -> Any:
         candidates = jit(_candidates)
         solve_sets = jit(_solve_sets)
         suspects = jit(_suspects)
+        teeth = jit(_teeth)
 
     return Passes
 
@@ -783,3 +785,17 @@ def _suspects(candidate, bl, arm, rotation, force, lowest, out):  # pragma: no c
                 flag = True
                 break
         out[k] = flag
+
+
+def _teeth(phi, step, n2, out):  # pragma: no cover (compiled)
+    """:func:`cyclomesh.core.discbody.tooth_index` into ``out`` (crank angles, pins) int:
+    rint((step·i + φ)/2π) mod n2, ``step`` = n2·ψ [rad] (the same operations in the same
+    order as the NumPy function, so the same integers)."""
+    two_pi = 2.0 * np.pi
+    inv = 1.0 / n2
+    for k in range(phi.size):
+        for i in range(out.shape[1]):
+            t = np.rint((step * float(i) + phi[k]) / two_pi)
+            r = t - np.floor(t * inv) * n2  # t mod n2 (t integer-valued, |t| ≪ 2⁵³) …
+            r = r - n2 if r >= n2 else (r + n2 if r < 0.0 else r)  # … whatever 1/n2 rounds to
+            out[k, i] = int(r)
