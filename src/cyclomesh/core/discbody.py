@@ -167,24 +167,20 @@ class DiscBody:
         return nodes, w
 
     @cached_property
-    def _windows(self) -> FloatArray:
-        """The reciprocal table in Catmull–Rom windows, shape (16, p·n2·(m − 1)²).
-
-        ``0.5·(table[k0, d, a, b] + table[(k0 + d) mod p, −d mod n2, b, a])`` (the
+    def _padded(self) -> FloatArray:
+        """The reciprocal table, edge-padded in both profile angles, shape (p, n2, m + 2,
+        m + 2): ``0.5·(table[k0, d, a, b] + table[(k0 + d) mod p, −d mod n2, b, a])`` (the
         response of contact i to j averaged with that of j to i: reciprocity, which the
-        FE holds to its round-off), edge-padded in both profile angles so that the
-        clamped nodes i − 1 … i + 2 of cell i are the padded rows i … i + 3, and cut
-        into the 4×4 windows of every (k0, d, cell of the load, cell of the response),
-        component-major (one row per window node pair, ``4·a + b``).
-        """
+        FE holds to its round-off), padded so that the clamped nodes i − 1 … i + 2 of
+        cell i are the padded rows i … i + 3. The compiled load sharing
+        (:mod:`cyclomesh.core.kernel_discbody`) reads a pair's 4×4 window from it, four
+        rows of four (a table of ~0.3 MB on Table 1, not 16 times that)."""
         t = self.table
-        p, n2, m = self.period, self.teeth, self.profile_angles.size
+        p, n2 = self.period, self.teeth
         k0, d = np.arange(p)[:, None], np.arange(n2)[None, :]
         partner = np.swapaxes(t[np.mod(k0 + d, p), np.mod(-d, n2)], -1, -2)
         sym = 0.5 * (t + partner)
-        padded = np.pad(sym, ((0, 0), (0, 0), (1, 1), (1, 1)), mode="edge")
-        win = np.lib.stride_tricks.sliding_window_view(padded, (4, 4), axis=(2, 3))
-        return np.ascontiguousarray(win.reshape(p * n2 * (m - 1) ** 2, 16).T)
+        return np.pad(sym, ((0, 0), (0, 0), (1, 1), (1, 1)), mode="edge")
 
     @cached_property
     def _lowest(self) -> float:
@@ -193,11 +189,14 @@ class DiscBody:
         return max(0.0, -float(np.min(self.table)), -float(np.min(self.diagonal)))
 
     @cached_property
-    def _window_rows(self) -> FloatArray:
-        """:attr:`_windows` window-major, shape (p·n2·(m − 1)², 16): the compiled load
-        sharing (:mod:`cyclomesh.core.kernel_discbody`) reads one window's 16 values in a
-        row."""
-        return np.ascontiguousarray(self._windows.T)
+    def _windows(self) -> FloatArray:
+        """The reciprocal table in Catmull–Rom windows, shape (16, p·n2·(m − 1)²):
+        :attr:`_padded` cut into the 4×4 windows of every (k0, d, cell of the load, cell
+        of the response), component-major (one row per window node pair, ``4·a + b``).
+        """
+        p, n2, m = self.period, self.teeth, self.profile_angles.size
+        win = np.lib.stride_tricks.sliding_window_view(self._padded, (4, 4), axis=(2, 3))
+        return np.ascontiguousarray(win.reshape(p * n2 * (m - 1) ** 2, 16).T)
 
     def matrix(self, tooth: ArrayLike, angle: ArrayLike) -> FloatArray:
         """C_ij of contacts at (tooth, profile angle), shape (..., n) → (..., n, n) [m/N].
@@ -512,7 +511,7 @@ def _solve_set(
         grid = np.array([u[0], u[-1], u[1] - u[0], u.size], float)
         passes = kernel_discbody.compiled()
         settings = (
-            body._window_rows, body.diagonal, grid, body.teeth, body.period, per_disc,
+            body._padded.ravel(), body.diagonal, grid, body.teeth, body.period, per_disc,
             float(torque), TORQUE_TOLERANCE, COMPATIBILITY_TOLERANCE, ROUND_OFF, _MAX_ITERATIONS,
             body._lowest,
         )  # fmt: skip

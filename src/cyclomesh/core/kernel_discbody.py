@@ -459,7 +459,7 @@ def _extrapolate(v1, v2, v3, v4, streak):  # pragma: no cover (compiled)
 
 
 def _solve_sets(
-    candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, windows, diagonal, grid, n2,
+    candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, padded, diagonal, grid, n2,
     period, per_disc, torque, tol_torque, tol_compat, round_off, max_iterations, lowest, block,
     rotation, force, status
 ):  # fmt: skip  # pragma: no cover (compiled)
@@ -468,8 +468,9 @@ def _solve_sets(
 
     ``candidate`` (B, n) bool, ``bl``, ``arm``, ``alpha``, ``gamma``, ``angle``, ``own``
     (B, n) float, ``tooth`` (B, n) int, ``x0`` (B,) and ``f0`` (B, n) the rigid disc's
-    Δφc [rad] and loads [N] (the start; NaN in ``x0``: not given); ``windows`` (W, 16):
-    the reciprocal table's Catmull–Rom windows (the transpose of ``DiscBody._windows``);
+    Δφc [rad] and loads [N] (the start; NaN in ``x0``: not given); ``padded``: the
+    reciprocal table edge-padded (``DiscBody._padded``, flat; a pair's Catmull–Rom
+    window is four rows of four in it);
     ``diagonal`` (p, m) the own coefficients' table and ``grid`` (u₀, u_last, h, m) of
     the profile angles; ``lowest`` [m/N] minus the table's most negative coefficient (0
     if none); ``block``: cases per ring (consecutive crank angles; 1: every case on its
@@ -490,7 +491,7 @@ def _solve_sets(
     """
     n_cases, n = bl.shape
     u0, u_last, h, m = grid[0], grid[1], grid[2], int(grid[3])
-    cells = m - 1
+    side = m + 2  # the padded table's rows
     idx = np.empty(n, np.int64)
     cell = np.empty(n, np.int64)
     wts = np.empty((n, 4))
@@ -561,7 +562,7 @@ def _solve_sets(
                     diagonal, tooth[k, i] % period, c, m, wts[a, 0], wts[a, 1], wts[a, 2],
                     wts[a, 3]
                 )  # fmt: skip
-            base[a] = ((tooth[k, i] % period) * n2 * cells + c) * cells
+            base[a] = ((tooth[k, i] % period) * n2 * side + c) * side
             km[a] = tooth[k, i] % n2
             c_disc[a] = i // per_disc
         # the reciprocal matrix (DiscBody.reciprocal_matrix): pairs i < j from their
@@ -578,12 +579,18 @@ def _solve_sets(
                 offset = km[a] - km[b]
                 if offset < 0:
                     offset += n2
-                v = windows[offset * (cells * cells) + base[b] + cell[a]]
+                # the pair's window: rows cell_b … cell_b + 3 (the load's nodes) and
+                # columns cell_a … cell_a + 3 (the response's) of its block
+                s0 = offset * (side * side) + base[b] + cell[a]
+                s1, s2, s3 = s0 + side, s0 + 2 * side, s0 + 3 * side
                 # the load's nodes first, as the reference: the sum over them in order
-                h0 = ((v[0] * wb0 + v[4] * wb1) + v[8] * wb2) + v[12] * wb3
-                h1 = ((v[1] * wb0 + v[5] * wb1) + v[9] * wb2) + v[13] * wb3
-                h2 = ((v[2] * wb0 + v[6] * wb1) + v[10] * wb2) + v[14] * wb3
-                h3 = ((v[3] * wb0 + v[7] * wb1) + v[11] * wb2) + v[15] * wb3
+                h0 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
+                s0, s1, s2, s3 = s0 + 1, s1 + 1, s2 + 1, s3 + 1
+                h1 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
+                s0, s1, s2, s3 = s0 + 1, s1 + 1, s2 + 1, s3 + 1
+                h2 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
+                s0, s1, s2, s3 = s0 + 1, s1 + 1, s2 + 1, s3 + 1
+                h3 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
                 pair = ((h0 * wts[a, 0] + h1 * wts[a, 1]) + h2 * wts[a, 2]) + h3 * wts[a, 3]
                 cmat[a, b] = pair
                 cmat[b, a] = pair
