@@ -61,6 +61,9 @@ _HALVINGS = 30
 """Step halvings of the line search (as the reference's)."""
 _SMALLEST_STEP = 1e-6
 """The line search accepts any step once it is this short (as the reference)."""
+_CHORD = 1e-8
+"""Scaled residual below which a Newton step with the engaged pins of the last
+factorisation reuses its factor (a chord step)."""
 _REACH = 0.05
 """Margin of a warm start's candidates: the pins whose backlash is below its Δφc by
 this fraction of it more (plus four times its change from the case before) and the
@@ -681,10 +684,11 @@ def _solve_sets(
                     eng[ne] = a
                     ne += 1
             chord = near and same and ne == n_factored
-            if chord:
-                # near the root, the engaged pins as at the last factorisation: its
-                # factor again (a chord step, from 1e-12 to the round-off in one), only
-                # r_w to solve for (the solution for l is the factorisation's, in rhs)
+            if same and ne == n_factored and current <= _CHORD:
+                # close to the root, the engaged pins as at the last factorisation: its
+                # factor again (a chord step: the Jacobian has moved by about the last
+                # step, so from 1e-12 to round-off in one), only r_w to solve for (the
+                # solution for l is the factorisation's, in rhs)
                 for e in range(ne):
                     rhs[e, 0] = r_w[eng[e]]
                 _cholesky_solve(ne, system, rhs)
