@@ -382,7 +382,6 @@ def share_load_coupled(
             *(v.reshape(*lead, n) for v in (bl, arm, alpha, gamma)), torque, angle_axis=angle_axis
         )
         x0, f0 = x0.reshape(-1), f0.reshape(flat)
-    usable = np.isfinite(bl) & (arm > 0)
     if numba:  # the own coefficients and the candidates, compiled
         diag = np.empty(bl.shape)
         candidate = np.empty(bl.shape, bool)
@@ -407,7 +406,8 @@ def share_load_coupled(
         # only the cases re-solved can flag again (the others' solutions are as they were)
         with np.errstate(divide="ignore", invalid="ignore"):
             reach = x[rows, None] + lowest * np.sum(full[rows], axis=-1)[:, None] / arm[rows]
-        risky = usable[rows] & ~candidate[rows] & (bl[rows] < reach)
+        usable = np.isfinite(bl[rows]) & (arm[rows] > 0)
+        risky = usable & ~candidate[rows] & (bl[rows] < reach)
         hit = np.any(risky, axis=-1)
         cases, risky = rows[hit], risky[hit]
         if cases.size == 0:

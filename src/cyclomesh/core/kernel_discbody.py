@@ -787,12 +787,13 @@ def _suspects(candidate, bl, arm, rotation, force, lowest, out):  # pragma: no c
         for i in range(n):
             total += force[k, i]
         flag = False
+        r = rotation[k]
+        load = lowest * total  # the test times l > 0: (φbl − Δφc)·l < c·ΣF, no quotient
         for i in range(n):
             b, lk = bl[k, i], arm[k, i]
             if candidate[k, i] or not (np.isfinite(b) and lk > 0.0):
                 continue
-            push = lowest * total / lk
-            if b < rotation[k] + push + 1e-12 * (abs(rotation[k]) + abs(push)):
+            if (b - r) * lk < load + 1e-12 * (abs(r) * lk + load):
                 flag = True
                 break
         out[k] = flag
