@@ -329,3 +329,43 @@ def test_the_tooth_index_on_both_kernels(monkeypatch):
             out[name] = tooth_index(TABLE1.pins, TABLE1.pitch, phi)
         assert out["numba"].dtype == out["numpy"].dtype == np.int64
         np.testing.assert_array_equal(out["numba"], out["numpy"])
+
+
+def test_a_ring_goes_on_warm_after_a_case_given_up(monkeypatch):
+    """A case the kernel gives up in the middle of a ring (here one no pin can touch:
+    status 2, the rigid disc's start asked for) does not end the ring's warm starts: the
+    cases after it start from the last one solved, and every case solved is the
+    reference's root; the case given up has its single-pin bound candidates and own
+    coefficients back (for the caller's rigid start)."""
+    import cyclomesh.core.discbody as cdb
+
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    bl, arm, alpha, gamma, torque, body, tooth, angle = _problem()
+    hole = bl.copy()
+    hole[10] = np.inf  # no pin can touch at the eleventh crank angle
+    n = bl.shape[-1]
+    own, candidate = np.empty(bl.shape), np.empty(bl.shape, bool)
+    u = body.profile_angles
+    grid = np.array([u[0], u[-1], u[1] - u[0], u.size], float)
+    passes = kernel_discbody.compiled()
+    block = bl.shape[0]
+    passes.candidates(hole, arm, alpha, gamma, tooth, angle, body.diagonal, grid, torque,
+                      block, own, candidate)  # fmt: skip
+    x0, f0 = np.full(block, np.nan), np.zeros(bl.shape)
+    x0[0], f0[0] = share_load(bl[0], arm[0], alpha[0], gamma[0], torque)
+    rotation, force, status = np.empty(block), np.zeros(bl.shape), np.zeros(block, np.int8)
+    failed = passes.solve_sets(
+        candidate, hole, arm, alpha, gamma, tooth, angle, own, x0, f0, body._padded.ravel(),
+        body.diagonal, grid, body.teeth, body.period, n, torque, cdb.TORQUE_TOLERANCE,
+        cdb.COMPATIBILITY_TOLERANCE, cdb.ROUND_OFF, 100, body._lowest, block, rotation,
+        force, status
+    )  # fmt: skip
+    assert failed == 1 and status[10] == 2 and not np.any(candidate[10])
+    solved = status == 0
+    assert np.sum(solved) == block - 1
+    monkeypatch.setenv(kernel.ENV_VAR, "numpy")
+    ref_x, ref_f = share_load_coupled(bl, arm, alpha, gamma, torque, body, tooth, angle)
+    np.testing.assert_allclose(rotation[solved], ref_x[solved], rtol=4e-15, atol=0)
+    np.testing.assert_allclose(force[solved], ref_f[solved], rtol=0, atol=1e-14 * np.max(ref_f))
+    ref_own = cdb._candidates(bl, arm, alpha, gamma, tooth, angle, torque, body)[0]
+    np.testing.assert_allclose(own[10], ref_own[10], rtol=1e-14, atol=0)

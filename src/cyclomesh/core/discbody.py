@@ -19,12 +19,16 @@ teeth (cyclic symmetry: C depends on the tooth offset and the two profile positi
 and interpolates it with a local bicubic (Catmull–Rom) in the two profile angles.
 :func:`share_load_coupled` solves the coupled system exactly (Newton's method, dense:
 the pins in contact), to a torque residual of 1e-12·T and a compatibility residual of
-1e-12 of the largest approach, or raises :class:`~cyclomesh.exceptions.ConvergenceError`.
+1e-12 of the largest approach and from there on to the root at round-off (so that the
+root does not depend on the start), or raises
+:class:`~cyclomesh.exceptions.ConvergenceError`.
 
 NumPy, SI units, no I/O; with ``CYCLOMESH_KERNEL=numba``
-(:func:`cyclomesh.core.kernel.kernel_name`) the Newton iteration on the candidate pins and
-the single-pin bound run compiled (:mod:`cyclomesh.core.kernel_discbody`), to round-off
-of this NumPy reference, which stays the fallback.
+(:func:`cyclomesh.core.kernel.kernel_name`) the Newton iteration on the candidate pins,
+the single-pin bound and the tooth index run compiled
+(:mod:`cyclomesh.core.kernel_discbody`; each crank angle of a ring started from the
+roots before it), to the same root at round-off, this NumPy reference staying the
+fallback.
 
 References
 ----------
@@ -323,9 +327,12 @@ def share_load_coupled(
     (:func:`~cyclomesh.core.hertz.force_from_approach`). The unknowns are Δφc and the body
     displacements w; F is a C¹ function of them (dF/dδ = 0 at δ = 0), so Newton's
     method (dense, on the pins that can engage) solves the system without an active
-    set. It starts from the rigid-disc solution and stops when the torque residual is
-    below 1e-12·T and the compatibility residual |w − C·F| below 1e-12 of the largest
-    approach, with a backtracking line search on the scaled residual.
+    set. It starts from the rigid-disc solution, with a backtracking line search on the
+    scaled residual, to a torque residual below 1e-12·T and a compatibility residual
+    |w − C·F| below 1e-12 of the largest approach, and from there takes full Newton
+    steps on to the root at round-off (:data:`ROUND_OFF`, or the first step that does
+    not reduce the scaled residual), as the stage's Newton
+    (:mod:`cyclomesh.stage.newton`) and the rigid load sharing do.
 
     Parameters
     ----------

@@ -6,32 +6,38 @@ iteration of :func:`cyclomesh.core.discbody.share_load_coupled` on a set of cand
 pins (its ``_solve_set``) runs case by case (crank angles × rings) in one compiled pass:
 the reciprocal coefficients of the candidate pins
 (:meth:`cyclomesh.core.discbody.DiscBody.reciprocal_matrix`: each pair's 4×4 window of
-the symmetrised table and its Catmull–Rom weights, the own coefficients on the
-diagonal, 0 between the discs of a stack), the same start (the rigid disc's Δφc, w = 0,
-where the forces are the rigid disc's loads), the same Newton step (the symmetric
-system (D⁻¹ + C)_EE·ΔF_E − l_E·Δx = r_w,E, l_Eᵀ·ΔF_E = −r_t on the engaged pins E, two
-right-hand sides, solved by Cholesky's factorisation, symmetric positive definite as it
-is, or by Gaussian elimination with partial pivoting where a pivot is not positive), the
-same backtracking line search on the same scaled residual and the same convergence
-test, with each force the exact inverse of the contact law as
+the symmetrised, edge-padded table and its Catmull–Rom weights, the own coefficients on
+the diagonal, 0 between the discs of a stack), Newton's step on the same equations (the
+symmetric system (D⁻¹ + C)_EE·ΔF_E − l_E·Δx = r_w,E, l_Eᵀ·ΔF_E = −r_t on the engaged
+pins E, two right-hand sides, solved by Cholesky's factorisation, symmetric positive
+definite as it is, or by Gaussian elimination with partial pivoting where a pivot is
+not positive), the same backtracking line search on the same scaled residual, and the
+reference's end: the tolerances (1e-12 of the torque and of the largest approach), then
+on to the root at round-off (four units in the last place, or a step that no longer
+reduces the residual), with each force the exact inverse of the contact law as
 :func:`cyclomesh.core.hertz.force_from_approach` (two fixed-point steps and Newton's
-method in ln F to 2e-15·δ). The sums run in pin order and the logarithms and
-exponentials are the C library's, not NumPy's SIMD ones, so the result agrees with the
-reference to round-off, not bit for bit (tested to 1e-13 of each field's scale,
-``tests/core/test_kernel_discbody.py``).
+method in ln F to 2e-15·δ).
 
-The iteration is the reference's, step for step, and not one to the root from a better
-start (the solution at the crank angle before): the reference stops at its test (1e-12
-of the torque and of the largest approach), where its pin loads are up to 7e-13 of the
-largest from the root (``bench_core``'s revolution with the FE disc: 600 of 3600 angles
-beyond 1e-13), so only its own steps agree with it to 1e-13. Those steps do not depend
-on the start's last digits (a rigid Δφc off by 1e-4 of itself moves the loads by 3e-15
-of the largest): the start's forces are taken as they are.
+Both run to the root, so the kernel need not follow the reference's path: a ring's
+first crank angle starts as the reference does (the rigid disc's solution, w = 0, on
+the pins below the single-pin bound), each later one from the roots before it,
+extrapolated (Δφc and every pin load cubically; a loaded pin's state is its load with
+δ = F(α − γ ln F) and w = l·(Δφc − φbl) − δ, no inversion), on the pins that start can
+reach (φbl below Δφc, with margins, plus the reach of the table's most negative
+coefficient: the check after the solve then finds nothing to add). Near the root a
+Newton step with the engaged pins of the last factorisation reuses its factor (a chord
+step), and the last such step from within the tolerances updates the loads linearly
+(F + ΔF, exact to (1e-12)²) instead of inverting the law again. The results agree with
+the reference's to a few units in the last place (tested to 1e-14 of the largest load,
+and to 1e-13 of each field's scale through the solvers,
+``tests/core/test_kernel_discbody.py``), not bit for bit: the sums run in pin order and
+the logarithms and exponentials are the C library's, not NumPy's SIMD ones.
 
 A case the pass cannot finish (no candidate pin, a force past the stiffest point of the
-law, a singular Newton system, no convergence) makes the caller take the reference for
-the whole set, which raises its own one-line error (or solves it), so the errors are
-those of the NumPy path.
+law, a singular Newton system, no convergence) is given the rigid disc's start and
+solved again, and if that fails too the caller takes the reference for the whole set,
+which raises its own one-line error (or solves it), so the errors are those of the
+NumPy path.
 
 References
 ----------
@@ -481,12 +487,14 @@ def _solve_sets(
 
     A case with ``x0`` starts from the rigid disc's solution with w = 0 on the given
     candidates. A case without it after others of its ring starts from their roots,
-    extrapolated (:func:`_extrapolate`: Δφc and each pin's load, w = C·F of those loads,
-    each force inversion from the pin's last one), on the pins that start can reach
-    (written into ``candidate``; their own coefficients into ``own``). Newton's steps
-    (a backtracking line search on the scaled residual) run to the tolerances, then on
-    to round-off (``round_off``) or to a step that does not reduce the residual, near
-    the root with the last Cholesky factor where the engaged pins are the same. Fills
+    extrapolated (:func:`_extrapolate`: Δφc and each pin's load; a loaded pin's w from
+    its load, an unloaded one's C·F of the loads; after a case given up, the last one
+    solved as it is), on the pins that start can reach (written into ``candidate``;
+    their own coefficients into ``own``). Newton's steps (a backtracking line search on
+    the scaled residual) run to the tolerances, then on to round-off (``round_off``) or
+    to a step that does not reduce the residual, with the last Cholesky factor where the
+    engaged pins are the same and the residual below :data:`_CHORD`, the last of them
+    from within the tolerances a linear update of the loads (F + ΔF). Fills
     ``rotation`` (B,), ``force`` (B, n) (zero on entry) and ``status`` (B,): 0 solved, 1
     not finished (the caller then takes the reference), 2 needs ``x0`` (its candidates
     and own coefficients then the single-pin bound's, :func:`_candidates`); returns the
@@ -514,12 +522,14 @@ def _solve_sets(
     streak = 0
     rhs = np.empty((n, 2))
     failed = 0
+    last = -1  # the last case of the ring solved
     for k in range(n_cases):
         if k % block == 0:
             streak = 0
+            last = -1
         x = x0[k]
         warm = not np.isfinite(x)
-        if warm and streak == 0:  # no start: the caller gives the rigid disc's
+        if warm and last < 0:  # no start: the caller gives the rigid disc's
             if k % block != 0:  # (a ring's first: _candidates took them)
                 _own_row(k, tooth, angle, diagonal, grid, own)
                 _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
@@ -529,11 +539,15 @@ def _solve_sets(
         if warm:  # Δφc of the roots before extrapolated; the candidates: the pins it
             # can reach, φbl < Δφc + c·ΣF/l with c the table's most negative coefficient
             # (as the check after the solve), with a margin for the extrapolation
-            x = _extrapolate(root[k - 1], root[k - 2], root[k - 3], root[k - 4], streak)
+            # (after a case not solved, the last one solved: its values as they are)
+            if streak > 0:
+                x = _extrapolate(root[k - 1], root[k - 2], root[k - 3], root[k - 4], streak)
+            else:
+                x = root[last]
             total = 0.0
             for i in range(n):
-                total += force[k - 1, i]
-            pad = _REACH * abs(x) + 4.0 * abs(x - root[k - 1])
+                total += force[last, i]
+            pad = _REACH * abs(x) + 4.0 * abs(x - root[last])
             push = (1.0 + _REACH) * lowest * total
             reach = x + pad
             for i in range(n):
@@ -615,9 +629,12 @@ def _solve_sets(
         else:
             for a in range(nc):
                 i = idx[a]
-                fa = _extrapolate(
-                    force[k - 1, i], force[k - 2, i], force[k - 3, i], force[k - 4, i], streak
-                )
+                if streak > 0:
+                    fa = _extrapolate(
+                        force[k - 1, i], force[k - 2, i], force[k - 3, i], force[k - 4, i], streak
+                    )
+                else:
+                    fa = force[last, i]
                 step_f[a] = fa if fa > 0.0 else 0.0
             # a loaded pin's state is its extrapolated load, δ = F(α − γ ln F) of it and w
             # = l·(Δφc − φbl) − δ (no inversion); an unloaded one's w = C·F of the loads,
@@ -765,6 +782,7 @@ def _solve_sets(
             continue
         status[k] = 0
         streak += 1
+        last = k
         rotation[k] = x
         root[k] = x
         for a in range(nc):
