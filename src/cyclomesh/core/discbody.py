@@ -19,12 +19,16 @@ teeth (cyclic symmetry: C depends on the tooth offset and the two profile positi
 and interpolates it with a local bicubic (Catmull–Rom) in the two profile angles.
 :func:`share_load_coupled` solves the coupled system exactly (Newton's method, dense:
 the pins in contact), to a torque residual of 1e-12·T and a compatibility residual of
-1e-12 of the largest approach, or raises :class:`~cyclomesh.exceptions.ConvergenceError`.
+1e-12 of the largest approach and from there on to the root at round-off (so that the
+root does not depend on the start), or raises
+:class:`~cyclomesh.exceptions.ConvergenceError`.
 
 NumPy, SI units, no I/O; with ``CYCLOMESH_KERNEL=numba``
-(:func:`cyclomesh.core.kernel.kernel_name`) the Newton iteration on the candidate pins and
-the single-pin bound run compiled (:mod:`cyclomesh.core.kernel_discbody`), to round-off
-of this NumPy reference, which stays the fallback.
+(:func:`cyclomesh.core.kernel.kernel_name`) the Newton iteration on the candidate pins,
+the single-pin bound and the tooth index run compiled
+(:mod:`cyclomesh.core.kernel_discbody`; each crank angle of a ring started from the
+roots before it), to the same root at round-off, this NumPy reference staying the
+fallback.
 
 References
 ----------
@@ -61,7 +65,15 @@ DISC_BODIES = ("rigid", "fe")
 """Values of ``disc_body``: the rigid disc of [1], or the FE influence coefficients."""
 
 COMPATIBILITY_TOLERANCE = 1e-12
-"""Compatibility residual accepted, relative to the largest approach l·(Δφc − φbl)."""
+"""Compatibility residual, relative to the largest approach l·(Δφc − φbl), below which
+(with the torque's below 1e-12·T) Newton's steps are near the root: from there they go
+on to round-off (:data:`ROUND_OFF`)."""
+ROUND_OFF = 4.0 * float(np.finfo(float).eps)
+"""Torque residual relative to T and compatibility residual relative to the largest
+approach (four units in the last place, about 8.9e-16) at which the coupled solve has
+reached the root; near the root a Newton step that does not reduce the scaled residual
+ends the iteration as well (the round-off of the sums), so the root does not depend on
+the start."""
 _MAX_ITERATIONS = 100
 
 
@@ -159,31 +171,36 @@ class DiscBody:
         return nodes, w
 
     @cached_property
-    def _windows(self) -> FloatArray:
-        """The reciprocal table in Catmull–Rom windows, shape (16, p·n2·(m − 1)²).
-
-        ``0.5·(table[k0, d, a, b] + table[(k0 + d) mod p, −d mod n2, b, a])`` (the
+    def _padded(self) -> FloatArray:
+        """The reciprocal table, edge-padded in both profile angles, shape (p, n2, m + 2,
+        m + 2): ``0.5·(table[k0, d, a, b] + table[(k0 + d) mod p, −d mod n2, b, a])`` (the
         response of contact i to j averaged with that of j to i: reciprocity, which the
-        FE holds to its round-off), edge-padded in both profile angles so that the
-        clamped nodes i − 1 … i + 2 of cell i are the padded rows i … i + 3, and cut
-        into the 4×4 windows of every (k0, d, cell of the load, cell of the response),
-        component-major (one row per window node pair, ``4·a + b``).
-        """
+        FE holds to its round-off), padded so that the clamped nodes i − 1 … i + 2 of
+        cell i are the padded rows i … i + 3. The compiled load sharing
+        (:mod:`cyclomesh.core.kernel_discbody`) reads a pair's 4×4 window from it, four
+        rows of four (a table of ~0.3 MB on Table 1, not 16 times that)."""
         t = self.table
-        p, n2, m = self.period, self.teeth, self.profile_angles.size
+        p, n2 = self.period, self.teeth
         k0, d = np.arange(p)[:, None], np.arange(n2)[None, :]
         partner = np.swapaxes(t[np.mod(k0 + d, p), np.mod(-d, n2)], -1, -2)
         sym = 0.5 * (t + partner)
-        padded = np.pad(sym, ((0, 0), (0, 0), (1, 1), (1, 1)), mode="edge")
-        win = np.lib.stride_tricks.sliding_window_view(padded, (4, 4), axis=(2, 3))
-        return np.ascontiguousarray(win.reshape(p * n2 * (m - 1) ** 2, 16).T)
+        return np.pad(sym, ((0, 0), (0, 0), (1, 1), (1, 1)), mode="edge")
 
     @cached_property
-    def _window_rows(self) -> FloatArray:
-        """:attr:`_windows` window-major, shape (p·n2·(m − 1)², 16): the compiled load
-        sharing (:mod:`cyclomesh.core.kernel_discbody`) reads one window's 16 values in a
-        row."""
-        return np.ascontiguousarray(self._windows.T)
+    def _lowest(self) -> float:
+        """−(the most negative coefficient of the table or its diagonal) [m/N], 0 if none:
+        a body displacement is at least −this·ΣF (the check after the coupled solve)."""
+        return max(0.0, -float(np.min(self.table)), -float(np.min(self.diagonal)))
+
+    @cached_property
+    def _windows(self) -> FloatArray:
+        """The reciprocal table in Catmull–Rom windows, shape (16, p·n2·(m − 1)²):
+        :attr:`_padded` cut into the 4×4 windows of every (k0, d, cell of the load, cell
+        of the response), component-major (one row per window node pair, ``4·a + b``).
+        """
+        p, n2, m = self.period, self.teeth, self.profile_angles.size
+        win = np.lib.stride_tricks.sliding_window_view(self._padded, (4, 4), axis=(2, 3))
+        return np.ascontiguousarray(win.reshape(p * n2 * (m - 1) ** 2, 16).T)
 
     def matrix(self, tooth: ArrayLike, angle: ArrayLike) -> FloatArray:
         """C_ij of contacts at (tooth, profile angle), shape (..., n) → (..., n, n) [m/N].
@@ -271,9 +288,21 @@ def tooth_index(pins: int, pitch: float, crank_angle: ArrayLike) -> NDArray[np.i
     φ1 = 2πk + u (u ∈ (−π, π]) is nearest: k = round((n2·i·pitch + φin)/2π) mod n2.
     """
     n2 = pins - 1
+    if kernel_name() == "numba" and kernel_discbody.compiled() is not None:
+        phi = np.asarray(crank_angle, float)
+        out = np.empty((phi.size, pins), np.int64)
+        kernel_discbody.compiled().teeth(phi.ravel(), n2 * pitch, n2, out)
+        return out.reshape(*phi.shape, pins)
     phi = np.asarray(crank_angle, float)[..., None]
-    u_nom = n2 * pitch * np.arange(pins) + phi
-    return np.mod(np.round(u_nom / (2.0 * np.pi)).astype(np.int64), n2)
+    turns = n2 * pitch * np.arange(pins) + phi
+    turns /= 2.0 * np.pi
+    np.rint(turns, out=turns)  # as np.round: halves to even
+    # mod n2 of the integer-valued floats (exact: |turns| ≪ 2⁵³), then one cast
+    whole = turns / n2
+    np.floor(whole, out=whole)
+    whole *= n2
+    turns -= whole
+    return turns.astype(np.int64)
 
 
 def share_load_coupled(
@@ -298,9 +327,12 @@ def share_load_coupled(
     (:func:`~cyclomesh.core.hertz.force_from_approach`). The unknowns are Δφc and the body
     displacements w; F is a C¹ function of them (dF/dδ = 0 at δ = 0), so Newton's
     method (dense, on the pins that can engage) solves the system without an active
-    set. It starts from the rigid-disc solution and stops when the torque residual is
-    below 1e-12·T and the compatibility residual |w − C·F| below 1e-12 of the largest
-    approach, with a backtracking line search on the scaled residual.
+    set. It starts from the rigid-disc solution, with a backtracking line search on the
+    scaled residual, to a torque residual below 1e-12·T and a compatibility residual
+    |w − C·F| below 1e-12 of the largest approach, and from there takes full Newton
+    steps on to the root at round-off (:data:`ROUND_OFF`, or the first step that does
+    not reduce the scaled residual), as the stage's Newton
+    (:mod:`cyclomesh.stage.newton`) and the rigid load sharing do.
 
     Parameters
     ----------
@@ -357,7 +389,6 @@ def share_load_coupled(
             *(v.reshape(*lead, n) for v in (bl, arm, alpha, gamma)), torque, angle_axis=angle_axis
         )
         x0, f0 = x0.reshape(-1), f0.reshape(flat)
-    usable = np.isfinite(bl) & (arm > 0)
     if numba:  # the own coefficients and the candidates, compiled
         diag = np.empty(bl.shape)
         candidate = np.empty(bl.shape, bool)
@@ -365,13 +396,13 @@ def share_load_coupled(
         grid = np.array([u[0], u[-1], u[1] - u[0], u.size], float)
         kernel_discbody.compiled().candidates(
             *(np.ascontiguousarray(v) for v in (bl, arm, alpha, gamma, tooth, angle)),
-            body.diagonal, grid, float(torque), diag, candidate
+            body.diagonal, grid, float(torque), block, diag, candidate
         )  # fmt: skip
     else:
         diag, candidate = _candidates(bl, arm, alpha, gamma, tooth, angle, torque, body)
     arrays = (bl, arm, alpha, gamma, tooth, angle, diag)
     x, full = _solve_set(candidate, arrays, x0, f0, torque, body, n // groups, block)
-    lowest = max(0.0, -float(np.min(body.table)), -float(np.min(body.diagonal)))
+    lowest = body._lowest
     if numba:  # the cases the test below may flag, compiled (a superset of them)
         rows = np.empty(x.size, bool)
         kernel_discbody.compiled().suspects(candidate, bl, arm, x, full, lowest, rows)
@@ -382,7 +413,8 @@ def share_load_coupled(
         # only the cases re-solved can flag again (the others' solutions are as they were)
         with np.errstate(divide="ignore", invalid="ignore"):
             reach = x[rows, None] + lowest * np.sum(full[rows], axis=-1)[:, None] / arm[rows]
-        risky = usable[rows] & ~candidate[rows] & (bl[rows] < reach)
+        usable = np.isfinite(bl[rows]) & (arm[rows] > 0)
+        risky = usable & ~candidate[rows] & (bl[rows] < reach)
         hit = np.any(risky, axis=-1)
         cases, risky = rows[hit], risky[hit]
         if cases.size == 0:
@@ -409,6 +441,8 @@ def share_load_coupled(
         grow = np.zeros_like(pins)
         np.put_along_axis(grow, order, bad, -1)
         candidate[cases] |= grow
+        if numba:  # the kernel took the own coefficients of its candidates only
+            diag[cases] = body.self_compliance(tooth[cases], angle[cases])
         sub = tuple(a[cases] for a in arrays)
         try:
             x[cases], full[cases] = _solve_set(
@@ -474,19 +508,24 @@ def _solve_set(
     (:mod:`cyclomesh.core.kernel_discbody`; ``block``: cases per ring); if it cannot
     finish a case, the reference solves the whole set (and raises its own error where it
     fails too). ``x0``, ``f0``: the rigid disc's solution, the start (NaN in ``x0``: not
-    solved, the kernel's own start; filled in place where a case needs it)."""
+    solved, the kernel's own start; filled in place where a case needs it). The compiled
+    path chooses the candidates of a case it starts from the cases before (the pins its
+    start can reach: ``candidate``'s rows at ring starts only are read, the others
+    written, in place), and restores the single-pin bound's where it gives a case up."""
     if kernel_name() == "numba":
         bl, arm, alpha, gamma, tooth, angle, own = (np.ascontiguousarray(a) for a in arrays)
         u = body.profile_angles
         grid = np.array([u[0], u[-1], u[1] - u[0], u.size], float)
         passes = kernel_discbody.compiled()
         settings = (
-            body._window_rows, grid, body.teeth, body.period, per_disc, float(torque),
-            TORQUE_TOLERANCE, COMPATIBILITY_TOLERANCE, _MAX_ITERATIONS,
+            body._padded.ravel(), body.diagonal, grid, body.teeth, body.period, per_disc,
+            float(torque), TORQUE_TOLERANCE, COMPATIBILITY_TOLERANCE, ROUND_OFF, _MAX_ITERATIONS,
+            body._lowest,
         )  # fmt: skip
         rotation = np.empty(bl.shape[0])
         force = np.zeros(bl.shape)
         status = np.zeros(bl.shape[0], np.int8)
+        given = candidate
         candidate = np.ascontiguousarray(candidate)
         failed = passes.solve_sets(
             candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, *settings,
@@ -501,6 +540,8 @@ def _solve_set(
                 x0[start], f0[start], *settings, 1, *out
             )  # fmt: skip
             rotation[start], force[start] = out[0], out[1]
+        if candidate is not given:  # the rows the kernel chose, for the check after
+            given[...] = candidate
         if not failed:
             return rotation, force
     _rigid_start(arrays, torque, x0, f0, np.flatnonzero(np.isnan(x0)))
@@ -568,16 +609,25 @@ def _solve_set_numpy(
     delta, f, r_w, r_t = evaluate(x, w, everything)
     current = merit(delta, r_w, r_t)
     done = np.zeros(x.size, bool)
+    previous = np.full(x.size, np.inf)  # the scaled residual before the last step
     active = np.arange(x.size)
     for _ in range(_MAX_ITERATIONS):
         case = everything if active.size == x.size else active
         scale = np.max(c_arm[case] * np.maximum(x[case, None] - c_bl[case], 0.0), axis=-1)
-        now = (np.abs(r_t[case]) <= TORQUE_TOLERANCE * torque) & (
-            np.max(np.abs(r_w[case]), axis=-1) <= COMPATIBILITY_TOLERANCE * scale
+        worst = np.max(np.abs(r_w[case]), axis=-1)
+        torque_res = np.abs(r_t[case])
+        # near the root (the tolerances), then on to the root at round-off: a residual of
+        # a few units in the last place, or the first step that does not reduce it
+        near = (torque_res <= TORQUE_TOLERANCE * torque) & (
+            worst <= COMPATIBILITY_TOLERANCE * scale
         )
+        floor = (torque_res <= ROUND_OFF * torque) & (worst <= ROUND_OFF * scale)
+        now = near & (floor | (current[case] >= previous[case]))
+        previous[case] = current[case]
         done[active[now]] = True
         if np.all(now):
             break
+        polish = near[~now]  # near the root: Newton's full step, no line search
         active = active[~now]
         case = everything if active.size == x.size else active
         f_a, r_w_a, r_t_a, l_a = f[case], r_w[case], r_t[case], c_arm[case]
@@ -635,7 +685,7 @@ def _solve_set_numpy(
             wn = w_a + lam[:, None] * step_w
             dn, fn, rwn, rtn = evaluate(xn, wn, case)
             new = merit(dn, rwn, rtn)
-            worse = (new > old) & (lam > 1e-6)
+            worse = (new > old) & (lam > 1e-6) & ~polish
             if not np.any(worse):
                 break
             lam = np.where(worse, 0.5 * lam, lam)

@@ -6,32 +6,38 @@ iteration of :func:`cyclomesh.core.discbody.share_load_coupled` on a set of cand
 pins (its ``_solve_set``) runs case by case (crank angles × rings) in one compiled pass:
 the reciprocal coefficients of the candidate pins
 (:meth:`cyclomesh.core.discbody.DiscBody.reciprocal_matrix`: each pair's 4×4 window of
-the symmetrised table and its Catmull–Rom weights, the own coefficients on the
-diagonal, 0 between the discs of a stack), the same start (the rigid disc's Δφc, w = 0,
-where the forces are the rigid disc's loads), the same Newton step (the symmetric
-system (D⁻¹ + C)_EE·ΔF_E − l_E·Δx = r_w,E, l_Eᵀ·ΔF_E = −r_t on the engaged pins E, two
-right-hand sides, solved by Cholesky's factorisation, symmetric positive definite as it
-is, or by Gaussian elimination with partial pivoting where a pivot is not positive), the
-same backtracking line search on the same scaled residual and the same convergence
-test, with each force the exact inverse of the contact law as
+the symmetrised, edge-padded table and its Catmull–Rom weights, the own coefficients on
+the diagonal, 0 between the discs of a stack), Newton's step on the same equations (the
+symmetric system (D⁻¹ + C)_EE·ΔF_E − l_E·Δx = r_w,E, l_Eᵀ·ΔF_E = −r_t on the engaged
+pins E, two right-hand sides, solved by Cholesky's factorisation, symmetric positive
+definite as it is, or by Gaussian elimination with partial pivoting where a pivot is
+not positive), the same backtracking line search on the same scaled residual, and the
+reference's end: the tolerances (1e-12 of the torque and of the largest approach), then
+on to the root at round-off (four units in the last place, or a step that no longer
+reduces the residual), with each force the exact inverse of the contact law as
 :func:`cyclomesh.core.hertz.force_from_approach` (two fixed-point steps and Newton's
-method in ln F to 2e-15·δ). The sums run in pin order and the logarithms and
-exponentials are the C library's, not NumPy's SIMD ones, so the result agrees with the
-reference to round-off, not bit for bit (tested to 1e-13 of each field's scale,
-``tests/core/test_kernel_discbody.py``).
+method in ln F to 2e-15·δ).
 
-The iteration is the reference's, step for step, and not one to the root from a better
-start (the solution at the crank angle before): the reference stops at its test (1e-12
-of the torque and of the largest approach), where its pin loads are up to 7e-13 of the
-largest from the root (``bench_core``'s revolution with the FE disc: 600 of 3600 angles
-beyond 1e-13), so only its own steps agree with it to 1e-13. Those steps do not depend
-on the start's last digits (a rigid Δφc off by 1e-4 of itself moves the loads by 3e-15
-of the largest): the start's forces are taken as they are.
+Both run to the root, so the kernel need not follow the reference's path: a ring's
+first crank angle starts as the reference does (the rigid disc's solution, w = 0, on
+the pins below the single-pin bound), each later one from the roots before it,
+extrapolated (Δφc and every pin load cubically; a loaded pin's state is its load with
+δ = F(α − γ ln F) and w = l·(Δφc − φbl) − δ, no inversion), on the pins that start can
+reach (φbl below Δφc, with margins, plus the reach of the table's most negative
+coefficient: the check after the solve then finds nothing to add). Near the root a
+Newton step with the engaged pins of the last factorisation reuses its factor (a chord
+step), and the last such step from within the tolerances updates the loads linearly
+(F + ΔF, exact to (1e-12)²) instead of inverting the law again. The results agree with
+the reference's to a few units in the last place (tested to 1e-14 of the largest load,
+and to 1e-13 of each field's scale through the solvers,
+``tests/core/test_kernel_discbody.py``), not bit for bit: the sums run in pin order and
+the logarithms and exponentials are the C library's, not NumPy's SIMD ones.
 
 A case the pass cannot finish (no candidate pin, a force past the stiffest point of the
-law, a singular Newton system, no convergence) makes the caller take the reference for
-the whole set, which raises its own one-line error (or solves it), so the errors are
-those of the NumPy path.
+law, a singular Newton system, no convergence) is given the rigid disc's start and
+solved again, and if that fails too the caller takes the reference for the whole set,
+which raises its own one-line error (or solves it), so the errors are those of the
+NumPy path.
 
 References
 ----------
@@ -53,16 +59,28 @@ _MAX_NEWTON = 50
 _ROUND_OFF = 2e-15
 """Relative residual of a converged force inversion (as force_from_approach)."""
 _EPS = float(np.finfo(float).eps)
+_EXACT = 4.4e-16
+"""Relative residual of a force inversion below which :func:`_force` takes no last step
+(two units in the last place of δ: F within about two of its own of the root, as
+:mod:`cyclomesh.core.kernel`'s)."""
 _HALVINGS = 30
 """Step halvings of the line search (as the reference's)."""
 _SMALLEST_STEP = 1e-6
 """The line search accepts any step once it is this short (as the reference)."""
+_CHORD = 1e-8
+"""Scaled residual below which a Newton step with the engaged pins of the last
+factorisation reuses its factor (a chord step)."""
+_REACH = 0.05
+"""Margin of a warm start's candidates: the pins whose backlash is below its Δφc by
+this fraction of it more (plus four times its change from the case before) and the
+table's most negative response to the loads before, raised by the same fraction."""
 
 
 @cache
 def compiled() -> Any:
     """The compiled passes as a namespace (``candidates``: :func:`_candidates`,
-    ``solve_sets``: :func:`_solve_sets`, ``suspects``: :func:`_suspects`), or None
+    ``solve_sets``: :func:`_solve_sets`, ``suspects``: :func:`_suspects`, ``teeth``:
+    :func:`_teeth`), or None
     without numba (imported on first use)."""
     try:
         import numba
@@ -70,75 +88,105 @@ def compiled() -> Any:
         return None
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     # compiled in place: the passes call them
-    global _cell, _exp_step, _force, _evaluate, _residuals, _solve2, _cholesky2
-    global _extrapolate, _rigid_start
+    global _cell, _bound_row, _own_row, _own, _exp_step, _force, _evaluate, _residuals
+    global _solve2, _cholesky2, _extrapolate, _cholesky_solve, _factor_solve
     _cell = jit(_cell)
+    _bound_row = jit(_bound_row)
+    _own = jit(_own)
+    _own_row = jit(_own_row)
     _exp_step = jit(_exp_step)
     _force = jit(_force)
     _evaluate = jit(_evaluate)
     _residuals = jit(_residuals)
     _solve2 = jit(_solve2)
     _cholesky2 = jit(_cholesky2)
+    _cholesky_solve = jit(_cholesky_solve)
+    _factor_solve = jit(_factor_solve)
     _extrapolate = jit(_extrapolate)
-    _rigid_start = jit(_rigid_start)
 
     class Passes:
         candidates = jit(_candidates)
         solve_sets = jit(_solve_sets)
         suspects = jit(_suspects)
+        teeth = jit(_teeth)
 
     return Passes
 
 
 def _candidates(
-    bl, arm, alpha, gamma, tooth, angle, diagonal, grid, torque, own, candidate
+    bl, arm, alpha, gamma, tooth, angle, diagonal, grid, torque, block, own, candidate
 ):  # fmt: skip  # pragma: no cover (compiled)
     """The start of :func:`cyclomesh.core.discbody.share_load_coupled` for every case
-    (row), written for numba: each pin's own coefficient C_ii
+    (row), written for numba, at each ring's first case (every ``block``-th row; ``block``
+    1: every row): each pin's own coefficient C_ii
     (:meth:`~cyclomesh.core.discbody.DiscBody.self_compliance`, ``diagonal`` (p, m) its
-    table) into ``own`` (B, n), the single-pin bound with the body's own compliance and
-    the pins below it into ``candidate`` (B, n) (as the reference's, whose logarithms
-    are NumPy's: a pin within a unit in the last place of the bound may fall the other
-    way, and the check after the solve adds any pin that could touch)."""
+    table) into ``own`` (B, n) and the pins below the single-pin bound into
+    ``candidate`` (B, n) (:func:`_bound_row`). The other rows are left to
+    :func:`_solve_sets` (``own`` NaN, no candidate), which takes the pins its start can
+    reach and their own coefficients."""
     n_cases, n = bl.shape
-    u0, u_last, h, m = grid[0], grid[1], grid[2], int(grid[3])
-    period = diagonal.shape[0]
     for k in range(n_cases):
-        bound = np.inf
-        for i in range(n):
-            c, w0, w1, w2, w3 = _cell(angle[k, i], u0, u_last, h, m)
-            row = tooth[k, i] % period
-            own[k, i] = (
-                diagonal[row, max(c - 1, 0)] * w0
-                + diagonal[row, c] * w1
-                + diagonal[row, c + 1] * w2
-                + diagonal[row, min(c + 2, m - 1)] * w3
-            )
-        # the bound: the pin with the smallest backlash first, then only the pins below
-        # the bound so far (a counted pin's rotation alone is above its backlash)
-        first = -1
-        for i in range(n):
-            b = bl[k, i]
-            if np.isfinite(b) and arm[k, i] > 0.0 and (first < 0 or b < bl[k, first]):
-                first = i
-        for jj in range(-1, n):
-            i = first if jj < 0 else jj
-            if i < 0 or (jj >= 0 and jj == first):
-                continue
-            b, lk = bl[k, i], arm[k, i]
-            if not (np.isfinite(b) and lk > 0.0) or b >= bound:
-                continue
-            a, g = alpha[k, i], gamma[k, i]
-            single = torque / lk
-            log_single = math.log(single)
-            if not (g == 0.0 or log_single < a / g - 1.0):
-                continue
-            alone = b + (single * (a - g * log_single) + own[k, i] * single) / lk
-            if alone > b and alone < bound:
-                bound = alone
-        for i in range(n):
-            b = bl[k, i]
-            candidate[k, i] = np.isfinite(b) and arm[k, i] > 0.0 and b < bound
+        if k % block == 0:
+            _own_row(k, tooth, angle, diagonal, grid, own)
+            _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
+        else:
+            for i in range(n):
+                candidate[k, i] = False
+                own[k, i] = np.nan
+
+
+def _own_row(k, tooth, angle, diagonal, grid, own):  # pragma: no cover (compiled)
+    """The own coefficients C_ii of every pin of case ``k`` into ``own[k]`` [m/N]
+    (:meth:`~cyclomesh.core.discbody.DiscBody.self_compliance`)."""
+    u0, u_last, h, m = grid[0], grid[1], grid[2], int(grid[3])
+    for i in range(own.shape[1]):
+        c, w0, w1, w2, w3 = _cell(angle[k, i], u0, u_last, h, m)
+        own[k, i] = _own(diagonal, tooth[k, i] % diagonal.shape[0], c, m, w0, w1, w2, w3)
+
+
+def _own(diagonal, row, c, m, w0, w1, w2, w3):  # pragma: no cover (compiled)
+    """C_ii of a contact in Catmull–Rom cell ``c`` (weights w0 … w3) of the diagonal
+    table's ``row`` (the tooth mod the period) [m/N]."""
+    return (
+        diagonal[row, max(c - 1, 0)] * w0
+        + diagonal[row, c] * w1
+        + diagonal[row, c + 1] * w2
+        + diagonal[row, min(c + 2, m - 1)] * w3
+    )
+
+
+def _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate):  # pragma: no cover
+    """The pins of case ``k`` below the single-pin bound with the body's own compliance
+    into ``candidate[k]`` (as the reference's ``_candidates``, whose logarithms are
+    NumPy's: a pin within a unit in the last place of the bound may fall the other way,
+    and the check after the solve adds any pin that could touch)."""
+    n = bl.shape[1]
+    bound = np.inf
+    # the pin with the smallest backlash first, then only the pins below the bound so
+    # far (a counted pin's rotation alone is above its backlash)
+    first = -1
+    for i in range(n):
+        b = bl[k, i]
+        if np.isfinite(b) and arm[k, i] > 0.0 and (first < 0 or b < bl[k, first]):
+            first = i
+    for jj in range(-1, n):
+        i = first if jj < 0 else jj
+        if i < 0 or (jj >= 0 and jj == first):
+            continue
+        b, lk = bl[k, i], arm[k, i]
+        if not (np.isfinite(b) and lk > 0.0) or b >= bound:
+            continue
+        a, g = alpha[k, i], gamma[k, i]
+        single = torque / lk
+        log_single = math.log(single)
+        if not (g == 0.0 or log_single < a / g - 1.0):
+            continue
+        alone = b + (single * (a - g * log_single) + own[k, i] * single) / lk
+        if alone > b and alone < bound:
+            bound = alone
+    for i in range(n):
+        b = bl[k, i]
+        candidate[k, i] = np.isfinite(b) and arm[k, i] > 0.0 and b < bound
 
 
 def _cell(ang, u0, u_last, h, m):  # pragma: no cover (compiled)
@@ -193,7 +241,7 @@ def _force(d, a, g, y_last, d_last, f_last):  # pragma: no cover (compiled)
             for _ in range(8):
                 resid = f * (a - g * y) - d
                 if abs(resid) <= _ROUND_OFF * d:
-                    if resid != 0.0:  # one more step: the root, not where the start left it
+                    if abs(resid) > _EXACT * d:  # one more step: the root at round-off
                         step = resid / (f * (a - g - g * y))
                         y = y - step
                         f = _exp_step(f, -step, y)
@@ -366,9 +414,52 @@ def _cholesky2(ne, system, rhs):  # pragma: no cover (compiled)
     return True
 
 
-def _extrapolate(v1, v2, v3, streak):  # pragma: no cover (compiled)
+def _factor_solve(ne, eng, cmat, c_alpha, c_gamma, y, r_w, c_arm, system, rhs):  # pragma: no cover
+    """The Newton system (D⁻¹ + C)_EE of the ``ne`` engaged pins ``eng`` (dδ/dF = α −
+    γ(1 + ln F) on the diagonal) and its right-hand sides r_w and l into ``system`` and
+    ``rhs``, solved in place by Cholesky's factorisation (:func:`_cholesky2`: True, the
+    factor kept in ``system``); False if it is not positive definite, the whole
+    system and right-hand sides then in place again for :func:`_solve2`."""
+    for e in range(ne):
+        a = eng[e]
+        for q in range(e):
+            system[q, e] = cmat[a, eng[q]]
+        system[e, e] = cmat[a, a] + (c_alpha[a] - c_gamma[a] * (1.0 + y[a]))
+        rhs[e, 0] = r_w[a]
+        rhs[e, 1] = c_arm[a]
+    if _cholesky2(ne, system, rhs):
+        return True
+    for e in range(ne):
+        a = eng[e]
+        for q in range(ne):
+            system[e, q] = cmat[a, eng[q]]
+        system[e, e] += c_alpha[a] - c_gamma[a] * (1.0 + y[a])
+        rhs[e, 0] = r_w[a]
+        rhs[e, 1] = c_arm[a]
+    return False
+
+
+def _cholesky_solve(ne, system, rhs):  # pragma: no cover (compiled)
+    """Solve with the factor :func:`_cholesky2` left in ``system`` for rhs[:ne, 0] alone,
+    in place (rhs[:, 1] untouched)."""
+    for j in range(ne):
+        z = rhs[j, 0] * system[j, j]
+        rhs[j, 0] = z
+        for i in range(j + 1, ne):
+            rhs[i, 0] -= system[j, i] * z
+    for i in range(ne - 1, -1, -1):
+        s0 = rhs[i, 0]
+        for p in range(i + 1, ne):
+            s0 -= system[i, p] * rhs[p, 0]
+        rhs[i, 0] = s0 * system[i, i]
+
+
+def _extrapolate(v1, v2, v3, v4, streak):  # pragma: no cover (compiled)
     """The value at the next of evenly spaced crank angles from the ``streak`` (≥ 1)
-    values just before it (v1 the last): constant, linear or quadratic in the angle."""
+    values just before it (v1 the last): constant, linear, quadratic or cubic in the
+    angle."""
+    if streak >= 4:
+        return 4.0 * (v1 + v3) - 6.0 * v2 - v4
     if streak >= 3:
         return 3.0 * (v1 - v2) + v3
     if streak >= 2:
@@ -377,34 +468,47 @@ def _extrapolate(v1, v2, v3, streak):  # pragma: no cover (compiled)
 
 
 def _solve_sets(
-    candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, windows, grid, n2, period,
-    per_disc, torque, tol_torque, tol_compat, max_iterations, block, rotation, force, status
+    candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, padded, diagonal, grid, n2,
+    period, per_disc, torque, tol_torque, tol_compat, round_off, max_iterations, lowest, block,
+    rotation, force, status
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """The reference's ``_solve_set`` of every case (row), written for numba.
+    """The reference's ``_solve_set`` of every case (row), written for numba: the same
+    equations to the same root at round-off, from a start of its own where it can.
 
     ``candidate`` (B, n) bool, ``bl``, ``arm``, ``alpha``, ``gamma``, ``angle``, ``own``
     (B, n) float, ``tooth`` (B, n) int, ``x0`` (B,) and ``f0`` (B, n) the rigid disc's
-    Δφc [rad] and loads [N] (the start; NaN in ``x0``: not given); ``windows`` (W, 16):
-    the reciprocal table's Catmull–Rom windows (the transpose of ``DiscBody._windows``);
-    ``grid`` (u₀, u_last, h, m) of the profile angles; ``block``: cases per ring
-    (consecutive crank angles; 1: every case on its own).
+    Δφc [rad] and loads [N] (the start; NaN in ``x0``: not given); ``padded``: the
+    reciprocal table edge-padded (``DiscBody._padded``, flat; a pair's Catmull–Rom
+    window is four rows of four in it);
+    ``diagonal`` (p, m) the own coefficients' table and ``grid`` (u₀, u_last, h, m) of
+    the profile angles; ``lowest`` [m/N] minus the table's most negative coefficient (0
+    if none); ``block``: cases per ring (consecutive crank angles; 1: every case on its
+    own).
 
-    A case without ``x0`` after others of its ring takes the rigid disc's Δφc as those
-    cases' roots extrapolated (:func:`_extrapolate`, each corrected by a Newton step of the
-    rigid disc's torque balance on its own forces), within 1e-8 of itself of the root
-    (else up to :data:`_RIGID_STEPS` Newton steps more): the reference's iteration does
-    not depend on its start's last digits. Fills ``rotation`` (B,), ``force`` (B, n)
-    (zero on entry) and ``status`` (B,): 0 solved, 1 not finished (the caller then takes
-    the reference), 2 needs ``x0``; returns the number of cases not solved.
+    A case with ``x0`` starts from the rigid disc's solution with w = 0 on the given
+    candidates. A case without it after others of its ring starts from their roots,
+    extrapolated (:func:`_extrapolate`: Δφc and each pin's load; a loaded pin's w from
+    its load, an unloaded one's C·F of the loads; after a case given up, the last one
+    solved as it is), on the pins that start can reach (written into ``candidate``;
+    their own coefficients into ``own``). Newton's steps (a backtracking line search on
+    the scaled residual) run to the tolerances, then on to round-off (``round_off``) or
+    to a step that does not reduce the residual, with the last Cholesky factor where the
+    engaged pins are the same and the residual below :data:`_CHORD`, the last of them
+    from within the tolerances a linear update of the loads (F + ΔF). Fills
+    ``rotation`` (B,), ``force`` (B, n) (zero on entry) and ``status`` (B,): 0 solved, 1
+    not finished (the caller then takes the reference), 2 needs ``x0`` (its candidates
+    and own coefficients then the single-pin bound's, :func:`_candidates`); returns the
+    number of cases not solved.
     """
     n_cases, n = bl.shape
     u0, u_last, h, m = grid[0], grid[1], grid[2], int(grid[3])
-    cells = m - 1
+    side = m + 2  # the padded table's rows
     idx = np.empty(n, np.int64)
     cell = np.empty(n, np.int64)
     wts = np.empty((n, 4))
     base = np.empty(n, np.int64)
     km = np.empty(n, np.int64)
+    c_disc = np.empty(n, np.int64)  # the disc of each candidate (of a stack)
     cmat = np.zeros((n, n))
     c_bl, c_arm = np.empty(n), np.empty(n)
     c_alpha, c_gamma = np.empty(n), np.empty(n)
@@ -414,19 +518,52 @@ def _solve_sets(
     eng = np.empty(n, np.int64)
     loaded = np.empty(n, np.int64)
     system = np.empty((n, n))
-    root = np.empty(n_cases)  # the rigid disc's Δφc of each case, to extrapolate
-    sd, sf, sy = np.zeros(n), np.zeros(n), np.zeros(n)  # each pin's state at the start
+    root = np.empty(n_cases)  # Δφc of each case solved, to extrapolate
     streak = 0
     rhs = np.empty((n, 2))
     failed = 0
+    last = -1  # the last case of the ring solved
     for k in range(n_cases):
+        if k % block == 0:
+            streak = 0
+            last = -1
+        x = x0[k]
+        warm = not np.isfinite(x)
+        if warm and last < 0:  # no start: the caller gives the rigid disc's
+            if k % block != 0:  # (a ring's first: _candidates took them)
+                _own_row(k, tooth, angle, diagonal, grid, own)
+                _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
+            status[k] = 2
+            failed += 1
+            continue
+        if warm:  # Δφc of the roots before extrapolated; the candidates: the pins it
+            # can reach, φbl < Δφc + c·ΣF/l with c the table's most negative coefficient
+            # (as the check after the solve), with a margin for the extrapolation
+            # (after a case not solved, the last one solved: its values as they are)
+            if streak > 0:
+                x = _extrapolate(root[k - 1], root[k - 2], root[k - 3], root[k - 4], streak)
+            else:
+                x = root[last]
+            total = 0.0
+            for i in range(n):
+                total += force[last, i]
+            pad = _REACH * abs(x) + 4.0 * abs(x - root[last])
+            push = (1.0 + _REACH) * lowest * total
+            reach = x + pad
+            for i in range(n):
+                b, lk = bl[k, i], arm[k, i]  # φbl < reach + push/l, l > 0, no quotient
+                candidate[k, i] = np.isfinite(b) and lk > 0.0 and (b - reach) * lk < push
         nc = 0
         for i in range(n):
             if candidate[k, i]:
                 idx[nc] = i
                 nc += 1
         if nc == 0:
-            status[k] = 1
+            if warm:
+                _own_row(k, tooth, angle, diagonal, grid, own)
+                _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
+            status[k] = 2 if warm else 1
+            root[k] = np.nan
             streak = 0
             failed += 1
             continue
@@ -437,39 +574,48 @@ def _solve_sets(
             c_alpha[a], c_gamma[a] = alpha[k, i], gamma[k, i]
             c, wts[a, 0], wts[a, 1], wts[a, 2], wts[a, 3] = _cell(angle[k, i], u0, u_last, h, m)
             cell[a] = c
-            base[a] = ((tooth[k, i] % period) * n2 * cells + c) * cells
+            if warm:  # the own coefficients of the candidates chosen here
+                own[k, i] = _own(
+                    diagonal, tooth[k, i] % period, c, m, wts[a, 0], wts[a, 1], wts[a, 2],
+                    wts[a, 3]
+                )  # fmt: skip
+            base[a] = ((tooth[k, i] % period) * n2 * side + c) * side
             km[a] = tooth[k, i] % n2
+            c_disc[a] = i // per_disc
         # the reciprocal matrix (DiscBody.reciprocal_matrix): pairs i < j from their
         # windows, the own coefficients on the diagonal, 0 between discs
         for b in range(nc):  # the load
             cmat[b, b] = own[k, idx[b]]
             wb0, wb1, wb2, wb3 = wts[b, 0], wts[b, 1], wts[b, 2], wts[b, 3]
-            disc = idx[b] // per_disc
+            disc = c_disc[b]
             for a in range(b):  # the response
-                if idx[a] // per_disc != disc:
+                if c_disc[a] != disc:
                     cmat[a, b] = 0.0
                     cmat[b, a] = 0.0
                     continue
                 offset = km[a] - km[b]
                 if offset < 0:
                     offset += n2
-                v = windows[offset * (cells * cells) + base[b] + cell[a]]
+                # the pair's window: rows cell_b … cell_b + 3 (the load's nodes) and
+                # columns cell_a … cell_a + 3 (the response's) of its block
+                s0 = offset * (side * side) + base[b] + cell[a]
+                s1, s2, s3 = s0 + side, s0 + 2 * side, s0 + 3 * side
                 # the load's nodes first, as the reference: the sum over them in order
-                h0 = ((v[0] * wb0 + v[4] * wb1) + v[8] * wb2) + v[12] * wb3
-                h1 = ((v[1] * wb0 + v[5] * wb1) + v[9] * wb2) + v[13] * wb3
-                h2 = ((v[2] * wb0 + v[6] * wb1) + v[10] * wb2) + v[14] * wb3
-                h3 = ((v[3] * wb0 + v[7] * wb1) + v[11] * wb2) + v[15] * wb3
+                h0 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
+                s0, s1, s2, s3 = s0 + 1, s1 + 1, s2 + 1, s3 + 1
+                h1 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
+                s0, s1, s2, s3 = s0 + 1, s1 + 1, s2 + 1, s3 + 1
+                h2 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
+                s0, s1, s2, s3 = s0 + 1, s1 + 1, s2 + 1, s3 + 1
+                h3 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
                 pair = ((h0 * wts[a, 0] + h1 * wts[a, 1]) + h2 * wts[a, 2]) + h3 * wts[a, 3]
                 cmat[a, b] = pair
                 cmat[b, a] = pair
-        # the start: the rigid disc's Δφc and w = 0
-        if k % block == 0:
-            streak = 0
-        x = x0[k]
+        # the start: the rigid disc's solution and w = 0 (a ring's first case), or the
+        # pin loads of the roots before extrapolated and w = C·F of them
         ok = True
-        if np.isfinite(x):  # given: the forces are the rigid disc's loads (inverted there
-            # to round-off; a pin they leave unloaded at δ > 0 is inverted here)
-            root[k] = x
+        if not warm:  # the forces are the rigid disc's loads (inverted there to
+            # round-off; a pin they leave unloaded at δ > 0 is inverted here)
             for a in range(nc):
                 da = c_arm[a] * (x - c_bl[a])
                 delta[a] = da if da > 0.0 else 0.0
@@ -479,29 +625,54 @@ def _solve_sets(
                 else:
                     f[a], y[a], good = _force(delta[a], c_alpha[a], c_gamma[a], 0.0, 0.0, 0.0)
                     ok = ok and good
-            for i in range(n):
-                sd[i] = 0.0
-            for a in range(nc):
-                sd[idx[a]], sf[idx[a]], sy[idx[a]] = delta[a], f[a], y[a]
-        elif streak > 0:  # from the roots before, extrapolated
-            x = _extrapolate(root[k - 1], root[k - 2], root[k - 3], streak)
-            x, ok = _rigid_start(k, x, bl, arm, alpha, gamma, torque, sd, sf, sy, root)
+                w[a] = 0.0
+        else:
             for a in range(nc):
                 i = idx[a]
-                delta[a], f[a], y[a] = sd[i], sf[i], sy[i]
-        else:
+                if streak > 0:
+                    fa = _extrapolate(
+                        force[k - 1, i], force[k - 2, i], force[k - 3, i], force[k - 4, i], streak
+                    )
+                else:
+                    fa = force[last, i]
+                step_f[a] = fa if fa > 0.0 else 0.0
+            # a loaded pin's state is its extrapolated load, δ = F(α − γ ln F) of it and w
+            # = l·(Δφc − φbl) − δ (no inversion); an unloaded one's w = C·F of the loads,
+            # its load the law's inverse of δ = l·(Δφc − φbl) − w (0 where δ ≤ 0)
+            for a in range(nc):
+                fa = step_f[a]
+                gap = c_arm[a] * (x - c_bl[a])
+                if fa > 0.0:
+                    ya = math.log(fa)
+                    ga = c_gamma[a]
+                    if ga > 0.0 and ya >= c_alpha[a] / ga - 1.0:  # past the stiffest point
+                        ok = False
+                    da = fa * (c_alpha[a] - ga * ya)
+                    f[a], y[a], delta[a], w[a] = fa, ya, da, gap - da
+                else:
+                    wa = 0.0
+                    row = cmat[a]  # C = Cᵀ: the row of the response
+                    for b in range(nc):
+                        wa += row[b] * step_f[b]
+                    w[a] = wa
+                    da = gap - wa
+                    delta[a] = da if da > 0.0 else 0.0
+                    f[a], y[a], good = _force(delta[a], c_alpha[a], c_gamma[a], 0.0, 0.0, 0.0)
+                    ok = ok and good
+        if not ok:  # the caller gives the rigid disc's start (or takes the reference)
+            if warm:
+                _own_row(k, tooth, angle, diagonal, grid, own)
+                _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
+            status[k] = 2 if warm else 1
             root[k] = np.nan
-            ok = False
-        if not ok:  # the next case starts from this one's estimate, if any
-            status[k] = 2 if not np.isfinite(x0[k]) else 1
-            streak = 1 if streak > 0 and np.isfinite(root[k]) else 0
+            streak = 0
             failed += 1
             continue
-        streak += 1
-        for a in range(nc):
-            w[a] = 0.0
         r_t, current = _residuals(nc, w, c_arm, cmat, torque, delta, f, r_w, loaded)
         solved = False
+        previous = np.inf  # the scaled residual before the last step
+        factored = False  # system holds the Cholesky factor of n_factored engaged pins
+        n_factored = 0
         for _ in range(max_iterations):
             if not ok:
                 break
@@ -511,31 +682,39 @@ def _solve_sets(
                 gap = x - c_bl[a]
                 scale = max(scale, c_arm[a] * (gap if gap > 0.0 else 0.0))
                 worst = max(worst, abs(r_w[a]))
-            if abs(r_t) <= tol_torque * torque and worst <= tol_compat * scale:
+            # near the root (the tolerances), then on to the root at round-off: a residual
+            # of a few units in the last place, or the first step that does not reduce it
+            near = abs(r_t) <= tol_torque * torque and worst <= tol_compat * scale
+            if near and (
+                (abs(r_t) <= round_off * torque and worst <= round_off * scale)
+                or current >= previous
+            ):
                 solved = True
                 break
+            previous = current
             # the Newton step on the engaged pins: (D⁻¹ + C)_EE, right-hand sides r_w, l
             ne = 0
+            same = factored
             for a in range(nc):
                 if f[a] > 0.0:
+                    same = same and ne < n_factored and eng[ne] == a
                     eng[ne] = a
                     ne += 1
-            for e in range(ne):
-                a = eng[e]
-                for q in range(e):
-                    system[q, e] = cmat[a, eng[q]]
-                system[e, e] = cmat[a, a] + (c_alpha[a] - c_gamma[a] * (1.0 + y[a]))
-                rhs[e, 0] = r_w[a]
-                rhs[e, 1] = c_arm[a]
-            if not _cholesky2(ne, system, rhs):  # not positive definite: elimination
+            chord = near and same and ne == n_factored
+            if same and ne == n_factored and current <= _CHORD:
+                # close to the root, the engaged pins as at the last factorisation: its
+                # factor again (a chord step: the Jacobian has moved by about the last
+                # step, so from 1e-12 to round-off in one), only r_w to solve for (the
+                # solution for l is the factorisation's, in rhs)
                 for e in range(ne):
-                    a = eng[e]
-                    for q in range(ne):
-                        system[e, q] = cmat[a, eng[q]]
-                    system[e, e] += c_alpha[a] - c_gamma[a] * (1.0 + y[a])
-                    rhs[e, 0] = r_w[a]
-                    rhs[e, 1] = c_arm[a]
-                if not _solve2(ne, system, rhs):
+                    rhs[e, 0] = r_w[eng[e]]
+                _cholesky_solve(ne, system, rhs)
+            else:
+                factored = _factor_solve(
+                    ne, eng, cmat, c_alpha, c_gamma, y, r_w, c_arm, system, rhs
+                )
+                n_factored = ne
+                if not factored and not _solve2(ne, system, rhs):
                     ok = False
                     break
             den = 0.0
@@ -551,6 +730,15 @@ def _solve_sets(
                 step_f[a] = 0.0
             for e in range(ne):
                 step_f[eng[e]] = rhs[e, 0] + rhs[e, 1] * step_x
+            if chord:  # the last step: F + ΔF is the law's inverse at the new approach to
+                # second order (ΔF = D·Δδ, Δδ within 1e-12 of δ: to 1e-24), no evaluation
+                x = x + step_x
+                for e in range(ne):
+                    a = eng[e]
+                    fa = f[a] + step_f[a]
+                    f[a] = fa if fa > 0.0 else 0.0
+                solved = True
+                break
             # C·ΔF over the engaged pins (ΔF = 0 elsewhere), as C·F in _residuals
             for a in range(nc):
                 step_w[a] = 0.0
@@ -561,7 +749,7 @@ def _solve_sets(
                     step_w[a] += row[a] * dfe
             for a in range(nc):
                 step_w[a] -= r_w[a]
-            # backtracking on the scaled residual
+            # backtracking on the scaled residual (near the root: the full step)
             lam = 1.0
             for _ in range(_HALVINGS):
                 xn = x + lam * step_x
@@ -571,7 +759,7 @@ def _solve_sets(
                     nc, xn, wn, c_bl, c_arm, c_alpha, c_gamma, cmat, torque,
                     (delta, f, y), dn, fn, yn, rwn, loaded
                 )  # fmt: skip
-                if not ok:
+                if not ok or near:
                     break
                 if not (new > current and lam > _SMALLEST_STEP):
                     break
@@ -583,55 +771,24 @@ def _solve_sets(
             current = new
             for a in range(nc):
                 w[a], delta[a], f[a], y[a], r_w[a] = wn[a], dn[a], fn[a], yn[a], rwn[a]
-        if not solved:
-            status[k] = 1
+        if not solved:  # the caller gives the rigid disc's start (or takes the reference)
+            if warm:
+                _own_row(k, tooth, angle, diagonal, grid, own)
+                _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
+            status[k] = 2 if warm else 1
+            root[k] = np.nan
+            streak = 0
             failed += 1
             continue
         status[k] = 0
+        streak += 1
+        last = k
         rotation[k] = x
+        root[k] = x
         for a in range(nc):
-            force[k, idx[a]] = f[a]
+            i = idx[a]
+            force[k, i] = f[a]
     return failed
-
-
-_RIGID_STEPS = 8
-"""Newton steps of the rigid disc's torque balance after an extrapolated start before a
-case asks for the rigid disc's solution instead."""
-
-
-def _rigid_start(k, x, bl, arm, alpha, gamma, torque, sd, sf, sy, root):  # pragma: no cover
-    """Δφc of the rigid disc near ``x`` [rad] for case ``k`` and the pins' approach δ,
-    force F and ln F there (into ``sd``, ``sf``, ``sy`` (n,), each inversion started from
-    the pin's values there at the case before), and the root's estimate into
-    ``root[k]``: the torque balance Σ l·F(l·(x − φbl)) = T of every usable pin, Newton's
-    step x − r_t/(Σ l²·dF/dδ) taken while it is above 1e-8 of x (then F is taken again
-    there), the estimate one more step. Returns (x, ok); ok False where no pin is
-    loaded, an inversion fails or the steps do not reach 1e-8 of x."""
-    n = bl.shape[1]
-    root[k] = np.nan
-    for _ in range(_RIGID_STEPS + 1):
-        moment = 0.0
-        slope = 0.0
-        for i in range(n):
-            b, lk = bl[k, i], arm[k, i]
-            di = lk * (x - b) if np.isfinite(b) and lk > 0.0 else 0.0
-            if not di > 0.0:
-                sd[i], sf[i], sy[i] = 0.0, 0.0, 0.0
-                continue
-            fi, yi, good = _force(di, alpha[k, i], gamma[k, i], sy[i], sd[i], sf[i])
-            if not good:
-                return x, False
-            sd[i], sf[i], sy[i] = di, fi, yi
-            moment += lk * fi
-            slope += lk * lk / (alpha[k, i] - gamma[k, i] * (1.0 + yi))
-        if not slope > 0.0:
-            return x, False
-        step = (moment - torque) / slope
-        root[k] = x - step
-        if abs(step) <= 1e-8 * abs(x):
-            return x, True
-        x = x - step
-    return x, False
 
 
 def _suspects(candidate, bl, arm, rotation, force, lowest, out):  # pragma: no cover (compiled)
@@ -648,12 +805,27 @@ def _suspects(candidate, bl, arm, rotation, force, lowest, out):  # pragma: no c
         for i in range(n):
             total += force[k, i]
         flag = False
+        r = rotation[k]
+        load = lowest * total  # the test times l > 0: (φbl − Δφc)·l < c·ΣF, no quotient
         for i in range(n):
             b, lk = bl[k, i], arm[k, i]
             if candidate[k, i] or not (np.isfinite(b) and lk > 0.0):
                 continue
-            push = lowest * total / lk
-            if b < rotation[k] + push + 1e-12 * (abs(rotation[k]) + abs(push)):
+            if (b - r) * lk < load + 1e-12 * (abs(r) * lk + load):
                 flag = True
                 break
         out[k] = flag
+
+
+def _teeth(phi, step, n2, out):  # pragma: no cover (compiled)
+    """:func:`cyclomesh.core.discbody.tooth_index` into ``out`` (crank angles, pins) int:
+    rint((step·i + φ)/2π) mod n2, ``step`` = n2·ψ [rad] (the same operations in the same
+    order as the NumPy function, so the same integers)."""
+    two_pi = 2.0 * np.pi
+    inv = 1.0 / n2
+    for k in range(phi.size):
+        for i in range(out.shape[1]):
+            t = np.rint((step * float(i) + phi[k]) / two_pi)
+            r = t - np.floor(t * inv) * n2  # t mod n2 (t integer-valued, |t| ≪ 2⁵³) …
+            r = r - n2 if r >= n2 else (r + n2 if r < 0.0 else r)  # … whatever 1/n2 rounds to
+            out[k, i] = int(r)
