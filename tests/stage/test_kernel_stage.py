@@ -354,3 +354,38 @@ def test_the_pin_block_is_the_problems_arrays(monkeypatch):
     copy = kn.pin_block(sub)
     assert sub.pins is None and not np.shares_memory(copy, block)
     assert np.array_equal(copy, block[:, [1, 4]])
+
+
+OUTPUTS = ("torque_share", "mesh_force", "mesh_force_angle", "max_roller_load", "groove_load")
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_outputs_after_the_newton_agree(monkeypatch, seed):
+    """What numba forms after the compiled iteration in one pass each (the mesh's work,
+    the torque share and mesh force of every disc, the largest roller load): the
+    reference's to round-off (1e-14 of each one's largest value), at the rated torque
+    and at +3 % with pin and crank hole errors."""
+    errors, stage = _hard_stage(seed)
+    ref, got = _both(
+        monkeypatch, lambda: solve_stage(RV40, stage, MOD, errors, [412.0, LIGHT], PHI, discs=2)
+    )
+    for name in OUTPUTS:
+        a, b = np.asarray(getattr(ref, name)), np.asarray(getattr(got, name))
+        assert np.max(np.abs(a - b)) <= 1e-14 * np.max(np.abs(a)), name
+    for part, a in ref.work.items():
+        scale = max(np.max(np.abs(w)) for w in ref.work.values())
+        assert np.max(np.abs(a - got.work[part])) <= 1e-14 * scale, part
+
+
+def test_the_largest_roller_load_is_the_largest_of_the_rollers(monkeypatch):
+    """eq._max_roller_load with numba (the roller of the largest cos ψ alone) is the
+    largest of bearing.roller_loads bit for bit: raceway displacements inside the
+    clearance (no roller loaded), at its edge and beyond."""
+    from cyclomesh.stage.bearing import roller_loads
+
+    s = np.concatenate([[0.0, 0.5 * BEARING.clearance], np.geomspace(1e-9, 5e-5, 97)])
+    s = s.reshape(3, 3, 11)
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    got = eq._max_roller_load(BEARING, s)
+    assert np.array_equal(got, np.max(roller_loads(BEARING, s), axis=-1))
+    assert np.any(got == 0.0) and np.any(got > 0.0)

@@ -229,6 +229,7 @@ def _start_kernels() -> tuple[Any, Any]:
         jit(_disc_sum_rows),
         jit(_turn_rows),
         jit(_single_rows),
+        jit(_mesh_work_rows),
     )
 
 
@@ -601,3 +602,36 @@ def _single_rows(bl, arm, alpha, gamma, torque, pins, out):  # pragma: no cover 
                 if v < best:
                     best = v
         out[i] = best
+
+
+def mesh_work(block: FloatArray, force: FloatArray, x: FloatArray, discs: int) -> FloatArray:
+    """The mesh's work on its own deformation [J] (A,) of
+    :func:`cyclomesh.stage.equilibrium._work` in one pass: Σ F·(δ_lin − δ_lin(0)) over the
+    pins with a law (φbl finite), δ_lin = l·(θ − φbl) + n·u and δ_lin(0) = −l·φbl, each
+    term the NumPy reference's arithmetic element by element, the sum over every disc's
+    pins taken in order (NumPy's is pairwise: the same to round-off). ``block`` the
+    problem's pins (:func:`cyclomesh.stage.kernel_newton.pin_block`, (7, A, D, P)),
+    ``force`` [N] (A, D, P), ``x`` the unknowns (A, ≥ 1 + 3D): c, then θ, ux, uy per disc."""
+    out = np.empty(force.shape[0])
+    _start_kernels()[5](
+        block, np.ascontiguousarray(force, dtype=float), np.ascontiguousarray(x, dtype=float),
+        int(discs), out,
+    )  # fmt: skip
+    return out
+
+
+def _mesh_work_rows(pin, force, x, discs, out):  # pragma: no cover (compiled)
+    """:func:`mesh_work` written for numba."""
+    A, D, P = force.shape
+    for i in range(A):
+        acc = 0.0
+        for d in range(D):
+            th, ux, uy = x[i, 1 + 3 * d], x[i, 2 + 3 * d], x[i, 3 + 3 * d]
+            for j in range(P):
+                b = pin[0, i, d, j]
+                if not np.isfinite(b):
+                    continue
+                arm = pin[1, i, d, j]
+                lin = arm * (th - b) + pin[2, i, d, j] * ux + pin[3, i, d, j] * uy
+                acc += force[i, d, j] * (lin - (-arm) * b)
+        out[i] = acc
