@@ -389,3 +389,36 @@ def test_the_largest_roller_load_is_the_largest_of_the_rollers(monkeypatch):
     got = eq._max_roller_load(BEARING, s)
     assert np.array_equal(got, np.max(roller_loads(BEARING, s), axis=-1))
     assert np.any(got == 0.0) and np.any(got > 0.0)
+
+
+@pytest.mark.parametrize("discs", [1, 2, 3])
+def test_the_compiled_problem_is_the_references_bit_for_bit(monkeypatch, discs):
+    """eq._problem with numba (stage.kernel.flank_block: the loaded flanks, the mirror's
+    opposite flanks and their selects in one pass) gives the NumPy reference's arrays bit
+    for bit, signs of zeros included (the unusable opposite flanks' arm −0), with pin
+    errors; and the compiled rigid start (single_rotation, its pins passed over where φbl
+    is not below the smallest so far) the reference's rotation bit for bit."""
+    from cyclomesh.core.pair import PinErrors
+    from cyclomesh.drive.mesh import stack_meshes
+    from cyclomesh.stage.kernel import single_rotation
+
+    rng = np.random.default_rng(discs)
+    errors = PinErrors(radial=rng.uniform(-2e-6, 2e-6, 40), angular=rng.uniform(-2e-5, 2e-5, 40))
+    phi = np.radians(np.arange(0.0, 360.0, 2.0))
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    fwd, rev = stack_meshes(
+        RV40, MOD, errors, phi, discs, True, True, True, "half_plane", None, False
+    )
+    stage = StageDesign(HOLES, BEARING)
+    errs = stage.hole_errors(discs)
+    got = eq._problem(fwd, rev, HOLES, errs, 412.0)
+    fast = single_rotation(got.bl, got.arm, got.alpha, got.gamma, 412.0, 40)
+    monkeypatch.setenv(kernel.ENV_VAR, "numpy")
+    ref = eq._problem(fwd, rev, HOLES, errs, 412.0)
+    for name in ("bl", "arm", "nx", "ny", "alpha", "gamma", "dmax", "hx", "hy", "ex", "ey"):
+        a, b = getattr(ref, name), getattr(got, name)
+        np.testing.assert_array_equal(b, a, err_msg=name)
+        np.testing.assert_array_equal(np.signbit(b), np.signbit(a), err_msg=name)
+    assert np.any(np.isinf(ref.bl[..., 40:]))  # some opposite flanks without a law
+    assert got.pins is not None and np.shares_memory(got.pins, got.bl)
+    np.testing.assert_array_equal(fast, eq._single_rotation(ref, 412.0, 40))

@@ -63,6 +63,7 @@ from cyclomesh.stage.kernel import (
     compiled,
     disc_sums,
     disc_turn,
+    flank_block,
     mesh_work,
     single_rotation,
 )
@@ -487,6 +488,17 @@ def _problem(
     # (each array a view of one block, in the order of kernel_newton.PIN_BLOCK: the
     # compiled iteration's one argument for the seven)
     block = np.empty((len(PIN_BLOCK), A, D, 2 * n1))
+    if compiled():  # CYCLOMESH_KERNEL=numba: the copies and selects below in one pass
+        pins = (mesh.backlash, geo.moment_arm, mesh.normal_x, mesh.normal_y, mesh.alpha, mesh.gamma)
+        mirrored = (other.geo.moment_arm, other.normal_x, other.normal_y, other.alpha, other.gamma)
+        flank_block(
+            block,
+            tuple(np.reshape(v, (A, D, n1)) for v in pins),
+            tuple(np.reshape(v, (A, D, n1)) for v in mirrored),
+            geo.reverse_rotation,
+            mesh.rest,
+        )
+        return _pin_problem(block, hx, hy, ex, ey, torque, holes.circle_radius)
 
     def flanks(name: str, this: FloatArray, that: FloatArray | None = None) -> FloatArray:
         out = block[PIN_BLOCK.index(name)]
@@ -518,6 +530,13 @@ def _problem(
     ny = flanks("ny", mesh.normal_y, other.normal_y)
     np.negative(ny[..., n1:], out=ny[..., n1:])
     np.copyto(ny[..., n1:], 0.0, where=unusable)
+    return _pin_problem(block, hx, hy, ex, ey, torque, holes.circle_radius)
+
+
+def _pin_problem(block, hx, hy, ex, ey, torque, scale) -> _Problem:
+    """The :class:`_Problem` of the pins' ``block`` (:data:`PIN_BLOCK` order, ``dmax``
+    formed here) and the holes."""
+    bl, arm, nx, ny, alpha, gamma = (block[PIN_BLOCK.index(name)] for name in PIN_BLOCK[:6])
     # the largest approach of a trial, _REACH of the law's stiffest point γ·exp(α/γ − 1)
     # (inf without one), in place: the same operations in the same order
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -542,7 +561,7 @@ def _problem(
         ex=ex,
         ey=ey,
         torque=torque,
-        scale=holes.circle_radius,
+        scale=scale,
         pins=block,
     )
 

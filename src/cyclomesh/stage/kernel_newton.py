@@ -158,7 +158,10 @@ def _arrays(p, law, G: FloatArray, discs: int, nw: int, m: int):
     fractions of the end plate's turn, the crankshafts' stiffness (D, D) flat)."""
     sup = p.supports
     A, N = p.hx.shape
-    nonzero = np.any(G != 0.0, axis=(0, 3))  # (D, N, m): the structure, any crank angle
+    # (D, N, m): the structure, any crank angle (the crank angles reduced first, along
+    # the contiguous leading axis: the same booleans as np.any over axes (0, 3))
+    A_, D_, N_, two, m_ = G.shape
+    nonzero = np.any(G.reshape(A_, -1) != 0.0, axis=0).reshape(D_, N_, two, m_).any(axis=2)
     count = nonzero.sum(-1)
     cols = np.zeros((*count.shape, max(int(count.max()), 1) + 1), np.int64)  # count first
     for d in range(discs):
