@@ -275,3 +275,51 @@ def test_without_leaves_out_the_force_directions_and_overlap_and_nothing_else(
     np.testing.assert_array_equal(only_angle.overlap, full.overlap, strict=True)
     with pytest.raises(ValueError, match=r"only \['force_angle', 'overlap'\] may be left out"):
         solve_drive(*args, without=("pin_load",))
+
+
+@pytest.mark.parametrize("kernel_name", ["numpy", "numba"])
+def test_a_mirror_mesh_without_rests_is_the_same_mesh_otherwise(monkeypatch, kernel_name):
+    """stack_meshes(reverse_rests=False): the mirror problem's mesh without its rest
+    positions and backlash (None), every other array the same bits; the RV stage under
+    positive torques asks for it so (it reads only the mirror's flanks), and its solve is
+    the one with the full mirror mesh bit for bit."""
+    import dataclasses
+
+    from cyclomesh.core.case import Case, Model
+    from cyclomesh.core.kernel import ENV_VAR
+    from cyclomesh.core.pair import CrankHoles
+    from cyclomesh.drive.mesh import stack_meshes
+    from cyclomesh.stage import RollerSet, StageDesign
+    from cyclomesh.stage.solve import solve as solve_stage_case
+
+    if kernel_name == "numba":
+        pytest.importorskip("numba")
+    monkeypatch.setenv(ENV_VAR, kernel_name)
+    rng = np.random.default_rng(7)
+    errors = PinErrors(radial=rng.uniform(-2e-6, 2e-6, TABLE1.pins))
+    mod = Modification(pin_radius=8e-6)
+    phi = np.radians(np.arange(0.0, 360.0, 10.0))
+    args = (TABLE1, mod, errors, phi, 2, True, True, True, "half_plane", None, False)
+    full = stack_meshes(*args)
+    lean = stack_meshes(*args, reverse_rests=False)
+    assert lean[1].rest is None and lean[1].reverse_rest is None and lean[1].backlash is None
+    for a, b in ((full[0], lean[0]), (full[1], lean[1])):
+        for field in dataclasses.fields(a):
+            x, y = getattr(a, field.name), getattr(b, field.name)
+            if field.name == "geo":
+                for name in x.__dataclass_fields__:
+                    np.testing.assert_array_equal(getattr(x, name), getattr(y, name))
+            elif isinstance(y, np.ndarray):
+                np.testing.assert_array_equal(x, y)
+    stage = StageDesign(
+        CrankHoles(count=3, circle_radius=36e-3, radius=13e-3),
+        RollerSet(14, 4e-3, 9e-3, 5e-6, 22e-3),
+    )
+    case = Case(TABLE1, mod, errors, 250.0, phi)
+    model = Model(discs=2, stage=stage)
+    got = solve_stage_case(case, model)  # forms the lean mirror mesh itself
+    ref = solve_stage_case(case, model, meshes=full)
+    for field in dataclasses.fields(ref):
+        x = getattr(ref, field.name)
+        if isinstance(x, np.ndarray):
+            np.testing.assert_array_equal(getattr(got, field.name), x, err_msg=field.name)

@@ -354,3 +354,71 @@ def test_the_pin_block_is_the_problems_arrays(monkeypatch):
     copy = kn.pin_block(sub)
     assert sub.pins is None and not np.shares_memory(copy, block)
     assert np.array_equal(copy, block[:, [1, 4]])
+
+
+OUTPUTS = ("torque_share", "mesh_force", "mesh_force_angle", "max_roller_load", "groove_load")
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_outputs_after_the_newton_agree(monkeypatch, seed):
+    """What numba forms after the compiled iteration in one pass each (the mesh's work,
+    the torque share and mesh force of every disc, the largest roller load): the
+    reference's to round-off (1e-14 of each one's largest value), at the rated torque
+    and at +3 % with pin and crank hole errors."""
+    errors, stage = _hard_stage(seed)
+    ref, got = _both(
+        monkeypatch, lambda: solve_stage(RV40, stage, MOD, errors, [412.0, LIGHT], PHI, discs=2)
+    )
+    for name in OUTPUTS:
+        a, b = np.asarray(getattr(ref, name)), np.asarray(getattr(got, name))
+        assert np.max(np.abs(a - b)) <= 1e-14 * np.max(np.abs(a)), name
+    for part, a in ref.work.items():
+        scale = max(np.max(np.abs(w)) for w in ref.work.values())
+        assert np.max(np.abs(a - got.work[part])) <= 1e-14 * scale, part
+
+
+def test_the_largest_roller_load_is_the_largest_of_the_rollers(monkeypatch):
+    """eq._max_roller_load with numba (the roller of the largest cos ψ alone) is the
+    largest of bearing.roller_loads bit for bit: raceway displacements inside the
+    clearance (no roller loaded), at its edge and beyond."""
+    from cyclomesh.stage.bearing import roller_loads
+
+    s = np.concatenate([[0.0, 0.5 * BEARING.clearance], np.geomspace(1e-9, 5e-5, 97)])
+    s = s.reshape(3, 3, 11)
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    got = eq._max_roller_load(BEARING, s)
+    assert np.array_equal(got, np.max(roller_loads(BEARING, s), axis=-1))
+    assert np.any(got == 0.0) and np.any(got > 0.0)
+
+
+@pytest.mark.parametrize("discs", [1, 2, 3])
+def test_the_compiled_problem_is_the_references_bit_for_bit(monkeypatch, discs):
+    """eq._problem with numba (stage.kernel.flank_block: the loaded flanks, the mirror's
+    opposite flanks and their selects in one pass) gives the NumPy reference's arrays bit
+    for bit, signs of zeros included (the unusable opposite flanks' arm −0), with pin
+    errors; and the compiled rigid start (single_rotation, its pins passed over where φbl
+    is not below the smallest so far) the reference's rotation bit for bit."""
+    from cyclomesh.core.pair import PinErrors
+    from cyclomesh.drive.mesh import stack_meshes
+    from cyclomesh.stage.kernel import single_rotation
+
+    rng = np.random.default_rng(discs)
+    errors = PinErrors(radial=rng.uniform(-2e-6, 2e-6, 40), angular=rng.uniform(-2e-5, 2e-5, 40))
+    phi = np.radians(np.arange(0.0, 360.0, 2.0))
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    fwd, rev = stack_meshes(
+        RV40, MOD, errors, phi, discs, True, True, True, "half_plane", None, False
+    )
+    stage = StageDesign(HOLES, BEARING)
+    errs = stage.hole_errors(discs)
+    got = eq._problem(fwd, rev, HOLES, errs, 412.0)
+    fast = single_rotation(got.bl, got.arm, got.alpha, got.gamma, 412.0, 40)
+    monkeypatch.setenv(kernel.ENV_VAR, "numpy")
+    ref = eq._problem(fwd, rev, HOLES, errs, 412.0)
+    for name in ("bl", "arm", "nx", "ny", "alpha", "gamma", "dmax", "hx", "hy", "ex", "ey"):
+        a, b = getattr(ref, name), getattr(got, name)
+        np.testing.assert_array_equal(b, a, err_msg=name)
+        np.testing.assert_array_equal(np.signbit(b), np.signbit(a), err_msg=name)
+    assert np.any(np.isinf(ref.bl[..., 40:]))  # some opposite flanks without a law
+    assert got.pins is not None and np.shares_memory(got.pins, got.bl)
+    np.testing.assert_array_equal(fast, eq._single_rotation(ref, 412.0, 40))

@@ -10,6 +10,7 @@ import pytest
 
 import cyclomesh.stage.equilibrium as eq
 import cyclomesh.stage.newton as nt
+from cyclomesh.core.kernel import ENV_VAR
 from cyclomesh.core.pair import CrankHoles, Modification, PinErrors
 from cyclomesh.stage import RollerSet, StageDesign, solve_stage
 from cyclomesh.stage.bearing import radial_energy, radial_force, radial_law, radial_stiffness
@@ -59,7 +60,11 @@ def _agree(a, b, torques):
     assert np.max(np.abs(a.pin_load - b.pin_load)) <= 1e-10 * pins
 
 
-def test_radial_law_is_the_three_functions_bit_for_bit():
+def test_radial_law_is_the_three_functions_bit_for_bit(monkeypatch):
+    """The NumPy roller law (the reference) is its three functions bit for bit; pinned
+    to the NumPy kernel, which it tests (with numba radial_law takes the compiled law,
+    equal to round-off: tests/stage/test_kernel_stage.py)."""
+    monkeypatch.setenv(ENV_VAR, "numpy")
     s = np.concatenate([np.linspace(0.0, 3e-6, 50), np.geomspace(2.5e-6, 5e-5, 50)])
     s = s.reshape(10, 10)
     force, stiff, energy = radial_law(BEARING, s)
@@ -73,6 +78,7 @@ def test_radial_law_is_the_three_functions_bit_for_bit():
 def test_gradient_is_the_derivative_of_the_potential_with_crankshafts_and_carrier(monkeypatch):
     """The bearings' ∂d/∂x formed once per solve (bearing_jacobian) is the derivative of
     the hole displacements: the gradient matches central differences of the potential."""
+    monkeypatch.setenv(ENV_VAR, "numpy")  # the NumPy Newton (eq.newton) it tests
     errors, stage = _hard_stage()
     seen = []
     newton = eq.newton
@@ -123,6 +129,7 @@ def test_a_left_out_pin_that_closes_is_taken_back(monkeypatch):
     close on the way are found after, and their crank angles solved again with all pins
     (at +3 % the near pins alone do not even converge: solved whole from the start):
     the answer is the whole problem's."""
+    monkeypatch.setenv(ENV_VAR, "numpy")  # the NumPy Newton (eq.newton) it tests
     errors, stage = _hard_stage()
     torques = [-LIGHT, LIGHT, 412.0]
     whole = _solve(errors, stage, torques)
@@ -144,6 +151,7 @@ def test_step_cap_keeps_the_answer_and_saves_evaluations(monkeypatch):
     """A disc floating in its clearance makes the Newton step huge; shortened to the cap
     it needs fewer line-search trials, and the equilibrium is the same (each crank angle
     from its own start: from the one before, the steps are short anyway)."""
+    monkeypatch.setenv(ENV_VAR, "numpy")  # the NumPy Newton (eq.newton) it tests
     errors, stage = _hard_stage()
     torques = [-LIGHT]
     calls = []

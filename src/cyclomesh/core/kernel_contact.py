@@ -343,15 +343,22 @@ def _contact_finish(
         if normals:  # an unreachable pin: along w here, the caller's from φ1 = −π
             nx_row, ny_row = normal_x[q], normal_y[q]
             aw_row, az_row, an_row, ok_row = rows[0], rows[1], rows[2], rows[5]
+            # every pin in SIMD lanes (no branch), then the C library's where |angle| is
+            # beyond _cos's exact reduction (never on today's pin rings)
+            far = 0
             for i in range(n_pins):
                 aw = aw_row[i]
                 angle = aw + an_row[i] - az_row[i] if ok_row[i] else aw
-                if abs(angle) < _TRIG_EXACT_BELOW:
-                    nx_row[i] = _cos(angle)
-                    ny_row[i] = _sin(angle)
-                else:
-                    nx_row[i] = math.cos(angle)
-                    ny_row[i] = math.sin(angle)
+                nx_row[i] = _cos(angle)
+                ny_row[i] = _sin(angle)
+                far += not abs(angle) < _TRIG_EXACT_BELOW
+            if far:
+                for i in range(n_pins):
+                    aw = aw_row[i]
+                    angle = aw + an_row[i] - az_row[i] if ok_row[i] else aw
+                    if not abs(angle) < _TRIG_EXACT_BELOW:
+                        nx_row[i] = math.cos(angle)
+                        ny_row[i] = math.sin(angle)
 
 
 def _finish_pin(wrap, cosine, i, rows, tr, pa, pt, consts, outs):  # pragma: no cover

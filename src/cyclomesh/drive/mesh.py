@@ -75,9 +75,9 @@ class StackMesh:
 
     design: PairDesign
     geo: UnloadedContact  # arrays (..., A, N, n1)
-    rest: FloatArray  # (..., A)
-    reverse_rest: FloatArray  # (..., A), rest on the opposite flanks
-    backlash: FloatArray  # (..., A, N·n1)
+    rest: FloatArray | None  # (..., A); None: not formed (_mesh's rests)
+    reverse_rest: FloatArray | None  # (..., A), rest on the opposite flanks
+    backlash: FloatArray | None  # (..., A, N·n1)
     alpha: FloatArray
     gamma: FloatArray
     normal_x: FloatArray  # (..., A, N, n1): outward normal of the contact, fixed frame
@@ -185,22 +185,28 @@ def _mesh(
     body: DiscBody | None = None,
     force_angle: bool = True,
     normals: bool = True,
+    rests: bool = True,
 ) -> StackMesh:
     """Unloaded contact, rest positions and compliance of a stack (forward flanks);
     ``force_angle``: also the direction of every pin's force (else None); ``normals``:
     the flank normals of every contact (else None: :func:`load_stack` takes those of the
-    loaded pins, :func:`loaded_normals`; no force angle then)."""
+    loaded pins, :func:`loaded_normals`; no force angle then); ``rests``: the rest
+    positions and the backlash (else None: a mesh only the flanks' geometry and
+    compliance of which are read)."""
     ring_shape = errors.ring_shape(design.pins)
     geo = stacked_contact(design, modification, errors, phi, discs, normals)
     flat = (*geo.rotation.shape[:-2], discs * design.pins)
-    rest, reverse_rest = rest_positions(geo, design.pins, discs)
+    rest = reverse_rest = backlash = None
+    if rests:
+        rest, reverse_rest = rest_positions(geo, design.pins, discs)
+        backlash = geo.rotation.reshape(flat) - rest[..., None]
     alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
     return StackMesh(
         design=design,
         geo=geo,
         rest=rest,
         reverse_rest=reverse_rest,
-        backlash=geo.rotation.reshape(flat) - rest[..., None],
+        backlash=backlash,
         alpha=alpha.reshape(flat),
         gamma=gamma.reshape(flat),
         normal_x=geo.normal_x,
@@ -310,6 +316,7 @@ def stack_meshes(
     body: DiscBody | None = None,
     force_angle: bool = True,
     normals: bool = True,
+    reverse_rests: bool = True,
 ) -> tuple[StackMesh | None, StackMesh | None]:
     """The unloaded meshes of the forward flanks and of the mirror problem (reverse flanks),
     as needed; the mirror problem is solved on the crank angles −φ reversed, and
@@ -319,6 +326,9 @@ def stack_meshes(
     the crank holes at 2πk/N) is symmetric about its x-axis. ``force_angle``: the meshes
     carry the direction of every pin's force (else None); ``normals``: the flank normals
     of every contact (else only the loaded pins' are taken, by :func:`load_stack`).
+    ``reverse_rests``: the mirror problem's rest positions and backlash (else None in its
+    mesh: the RV stage under positive torques reads only its flanks' geometry and
+    compliance, as the opposite flanks of the forward problem).
     """
     fwd = rev = None
     args = (discs, groove_deformation, contact_law, body, force_angle, normals)
@@ -327,7 +337,7 @@ def stack_meshes(
     if reverse:
         mod_m, errors_m = mirror_problem(modification, errors, design.pins)
         # the mirror of crank angle φ is −φ; solve increasing angles and flip back below
-        rev = _mesh(design, mod_m, errors_m, -phi[::-1], *args)
+        rev = _mesh(design, mod_m, errors_m, -phi[::-1], *args, reverse_rests)
     return fwd, rev
 
 

@@ -46,7 +46,7 @@ from cyclomesh.stage.assembly import (
     pin_laws,
     unpack,
 )
-from cyclomesh.stage.bearing import roller_loads
+from cyclomesh.stage.bearing import LOAD_EXPONENT, roller_loads
 from cyclomesh.stage.design import StageDesign
 from cyclomesh.stage.floating import FLOATING_LOAD, canonical_positions, floating_discs
 from cyclomesh.stage.friction import (
@@ -63,9 +63,11 @@ from cyclomesh.stage.kernel import (
     compiled,
     disc_sums,
     disc_turn,
+    flank_block,
+    mesh_work,
     single_rotation,
 )
-from cyclomesh.stage.kernel_newton import PIN_BLOCK
+from cyclomesh.stage.kernel_newton import PIN_BLOCK, pin_block
 from cyclomesh.stage.kernel_newton import newton as kernel_newton
 from cyclomesh.stage.kernel_newton import rigid_newton as kernel_rigid_newton
 from cyclomesh.stage.kernel_newton import run as kernel_run
@@ -486,6 +488,17 @@ def _problem(
     # (each array a view of one block, in the order of kernel_newton.PIN_BLOCK: the
     # compiled iteration's one argument for the seven)
     block = np.empty((len(PIN_BLOCK), A, D, 2 * n1))
+    if compiled():  # CYCLOMESH_KERNEL=numba: the copies and selects below in one pass
+        pins = (mesh.backlash, geo.moment_arm, mesh.normal_x, mesh.normal_y, mesh.alpha, mesh.gamma)
+        mirrored = (other.geo.moment_arm, other.normal_x, other.normal_y, other.alpha, other.gamma)
+        flank_block(
+            block,
+            tuple(np.reshape(v, (A, D, n1)) for v in pins),
+            tuple(np.reshape(v, (A, D, n1)) for v in mirrored),
+            geo.reverse_rotation,
+            mesh.rest,
+        )
+        return _pin_problem(block, hx, hy, ex, ey, torque, holes.circle_radius)
 
     def flanks(name: str, this: FloatArray, that: FloatArray | None = None) -> FloatArray:
         out = block[PIN_BLOCK.index(name)]
@@ -517,6 +530,13 @@ def _problem(
     ny = flanks("ny", mesh.normal_y, other.normal_y)
     np.negative(ny[..., n1:], out=ny[..., n1:])
     np.copyto(ny[..., n1:], 0.0, where=unusable)
+    return _pin_problem(block, hx, hy, ex, ey, torque, holes.circle_radius)
+
+
+def _pin_problem(block, hx, hy, ex, ey, torque, scale) -> _Problem:
+    """The :class:`_Problem` of the pins' ``block`` (:data:`PIN_BLOCK` order, ``dmax``
+    formed here) and the holes."""
+    bl, arm, nx, ny, alpha, gamma = (block[PIN_BLOCK.index(name)] for name in PIN_BLOCK[:6])
     # the largest approach of a trial, _REACH of the law's stiffest point γ·exp(α/γ − 1)
     # (inf without one), in place: the same operations in the same order
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -541,7 +561,7 @@ def _problem(
         ex=ex,
         ey=ey,
         torque=torque,
-        scale=holes.circle_radius,
+        scale=scale,
         pins=block,
     )
 
@@ -829,7 +849,7 @@ def solve_direction(
         )
     if want("max_roller_load"):
         out["max_roller_load"] = (
-            np.max(roller_loads(stage.bearing, sb), axis=-1)
+            _max_roller_load(stage.bearing, sb)
             if stage.bearing is not None
             else np.full(deflection.shape, np.nan)
         )
@@ -850,6 +870,19 @@ def solve_direction(
     out.update({name: value() for name, value in plain.items() if want(name)})
     out.update({name: value for name, value in work.items() if want(name)})
     return out
+
+
+def _max_roller_load(rs, s: FloatArray) -> FloatArray:
+    """The largest roller load Q_max = K_n·δ_max^(10/9) [N] of each crank bearing at its
+    raceway displacement ``s`` ≥ 0 [m] (Harris & Kotzalas, Ch. 7): the largest of
+    :func:`~cyclomesh.stage.bearing.roller_loads`; with numba, the roller of the largest
+    cos ψ_j alone (s·cos ψ_j − P_d/2, its clipping at 0 and the power are monotone, so
+    the same compression; the same power to its last bit, a fourteenth of the work)."""
+    if not compiled():
+        return np.max(roller_loads(rs, s), axis=-1)
+    largest = np.max(np.cos(rs.angles))
+    delta = np.maximum(np.asarray(s, float) * largest - 0.5 * rs.clearance, 0.0)
+    return rs.constant * delta**LOAD_EXPONENT
 
 
 _POSITIONS = ("disc_translation_x", "disc_translation_y", "disc_te", "bearing_deflection")
@@ -950,20 +983,13 @@ def _work(p: _Problem, stage: StageDesign, x: FloatArray, discs: int, st: dict):
     """
     c, theta, ux, uy = _unpack(x, discs)
     F = st["pin_force"]
-    usable = np.isfinite(p.bl)
-    lin = np.where(
-        usable,
-        p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
-        + p.nx * ux[..., None]
-        + p.ny * uy[..., None],
-        0.0,
-    )
-    lin0 = np.where(usable, -p.arm * np.where(usable, p.bl, 0.0), 0.0)
     zero = np.zeros_like(c)
-    if st.get("pin_shift") is not None:  # the compliant disc: δ includes −(C'λ)_pin
-        lin = lin - st["pin_shift"]
+    if compiled() and st.get("pin_shift") is None:  # CYCLOMESH_KERNEL=numba: one pass
+        work_mesh = mesh_work(pin_block(p), F, x, discs)
+    else:
+        work_mesh = _mesh_work(p, F, c, theta, ux, uy, st)
     out = {
-        "work_mesh": np.sum(F * (lin - lin0), axis=(-2, -1)),
+        "work_mesh": work_mesh,
         "work_disc_body": zero,
         "work_crank_bearings": zero,
         "work_crankshafts": zero,
@@ -994,8 +1020,29 @@ def _work(p: _Problem, stage: StageDesign, x: FloatArray, discs: int, st: dict):
     return out
 
 
+def _mesh_work(p, F, c, theta, ux, uy, st) -> FloatArray:
+    """The mesh's part of :func:`_work` [J] (A,) with NumPy (the reference)."""
+    usable = np.isfinite(p.bl)
+    lin = np.where(
+        usable,
+        p.arm * (theta[..., None] - np.where(usable, p.bl, 0.0))
+        + p.nx * ux[..., None]
+        + p.ny * uy[..., None],
+        0.0,
+    )
+    lin0 = np.where(usable, -p.arm * np.where(usable, p.bl, 0.0), 0.0)
+    if st.get("pin_shift") is not None:  # the compliant disc: δ includes −(C'λ)_pin
+        lin = lin - st["pin_shift"]
+    return np.sum(F * (lin - lin0), axis=(-2, -1))
+
+
 def _disc_loads(mesh: StackMesh, prob: _Problem, force: FloatArray) -> dict[str, FloatArray]:
-    """Torque share and mesh force of every disc from the forces on both flanks (A, D, 2·n1)."""
+    """Torque share and mesh force of every disc from the forces on both flanks (A, D, 2·n1)
+    (numba: the sums over the pins in one pass, :func:`~cyclomesh.stage.kernel.disc_sums`,
+    in order where NumPy's are pairwise: the same to round-off)."""
+    if compiled():
+        share, fx, fy, _ = disc_sums(force, prob.arm, prob.nx, prob.ny, force)
+        return {"torque_share": share, "mesh_force_x": fx, "mesh_force_y": fy}
     return contact_fields(
         ("torque_share", "mesh_force"),
         mesh.design,
@@ -1015,5 +1062,6 @@ def ring_mesh(mesh: StackMesh, ring: tuple[int, ...]) -> StackMesh:
     )
     fields = {name: getattr(mesh, name) for name in mesh.__dataclass_fields__}
     for name in ("rest", "reverse_rest", "backlash", "alpha", "gamma", "normal_x", "normal_y"):
-        fields[name] = fields[name][ring]
+        if fields[name] is not None:  # (a mirror mesh without rests: drive.mesh._mesh)
+            fields[name] = fields[name][ring]
     return StackMesh(**{**fields, "geo": geo, "ring_shape": ()})

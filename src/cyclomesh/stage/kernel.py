@@ -229,6 +229,8 @@ def _start_kernels() -> tuple[Any, Any]:
         jit(_disc_sum_rows),
         jit(_turn_rows),
         jit(_single_rows),
+        jit(_mesh_work_rows),
+        jit(_flank_rows),
     )
 
 
@@ -575,7 +577,9 @@ def single_rotation(
     every disc, the loaded flanks, with a law and a positive arm) carries ``torque``
     [N·m] on the stiffening branch of its law, φbl + F·(α − γ ln F)/l with F = T/l (inf
     where none can). The NumPy start's arithmetic element by element, the logarithm the
-    C library's."""
+    C library's; a pin whose φbl is not below the smallest so far is passed over (on the
+    stiffening branch α − γ ln F > γ ≥ 0, so its value exceeds its φbl): the same
+    minimum."""
     out = np.empty(bl.shape[0])
     _start_kernels()[4](bl, arm, alpha, gamma, float(torque), int(pins), out)
     return out
@@ -590,8 +594,8 @@ def _single_rows(bl, arm, alpha, gamma, torque, pins, out):  # pragma: no cover 
             for j in range(pins):
                 b = bl[i, d, j]
                 lj = arm[i, d, j]
-                if not (np.isfinite(b) and lj > 0):
-                    continue
+                if not (np.isfinite(b) and lj > 0) or b >= best:
+                    continue  # (b ≥ best: v = b + F·(α − γ ln F)/l > b cannot be smaller)
                 f1 = torque / lj
                 log1 = np.log(f1)
                 a, g = alpha[i, d, j], gamma[i, d, j]
@@ -601,3 +605,100 @@ def _single_rows(bl, arm, alpha, gamma, torque, pins, out):  # pragma: no cover 
                 if v < best:
                     best = v
         out[i] = best
+
+
+def mesh_work(block: FloatArray, force: FloatArray, x: FloatArray, discs: int) -> FloatArray:
+    """The mesh's work on its own deformation [J] (A,) of
+    :func:`cyclomesh.stage.equilibrium._work` in one pass: Σ F·(δ_lin − δ_lin(0)) over the
+    pins with a law (φbl finite), δ_lin = l·(θ − φbl) + n·u and δ_lin(0) = −l·φbl, each
+    term the NumPy reference's arithmetic element by element, the sum over every disc's
+    pins taken in order (NumPy's is pairwise: the same to round-off). ``block`` the
+    problem's pins (:func:`cyclomesh.stage.kernel_newton.pin_block`, (7, A, D, P)),
+    ``force`` [N] (A, D, P), ``x`` the unknowns (A, ≥ 1 + 3D): c, then θ, ux, uy per disc."""
+    out = np.empty(force.shape[0])
+    _start_kernels()[5](
+        block, np.ascontiguousarray(force, dtype=float), np.ascontiguousarray(x, dtype=float),
+        int(discs), out,
+    )  # fmt: skip
+    return out
+
+
+def _mesh_work_rows(pin, force, x, discs, out):  # pragma: no cover (compiled)
+    """:func:`mesh_work` written for numba."""
+    A, D, P = force.shape
+    for i in range(A):
+        acc = 0.0
+        for d in range(D):
+            th, ux, uy = x[i, 1 + 3 * d], x[i, 2 + 3 * d], x[i, 3 + 3 * d]
+            for j in range(P):
+                b = pin[0, i, d, j]
+                if not np.isfinite(b):
+                    continue
+                arm = pin[1, i, d, j]
+                lin = arm * (th - b) + pin[2, i, d, j] * ux + pin[3, i, d, j] * uy
+                acc += force[i, d, j] * (lin - (-arm) * b)
+        out[i] = acc
+
+
+def flank_block(block: FloatArray, this: tuple, that: tuple, reverse: FloatArray, rest) -> None:
+    """The pins' arrays of :func:`cyclomesh.stage.equilibrium._problem` but ``dmax`` in one
+    pass, into ``block`` (7, A, D, 2·n1) in the order of
+    :data:`cyclomesh.stage.kernel_newton.PIN_BLOCK`: pins 0 … n1 − 1 the loaded flanks
+    (``this``: backlash [rad], moment arm [m], normal x, y, α, γ [m/N] of the mesh, each
+    (A, D, n1)), pins n1 … 2n1 − 1 the opposite flanks from the mirror problem (``that``:
+    its moment arm, normal x, y, α, γ, (A, D, n1) each, crank angles reversed, disc d ←
+    disc (−d) mod D, pin i ← pin (n1 − i) mod n1), their backlash the mesh's opposite-flank
+    rotation ``reverse`` (A, D, n1) less the rest ``rest`` (A,); an opposite flank without
+    a usable law (a backlash, arm, α or γ not finite, or an arm < 0) gets φbl = inf, arm
+    −0, α = 1, γ = 0 and a zero normal; the others the arm −l' and the normal's y
+    negated. The reference's copies, negations and selects element by element: the same
+    bits."""
+    _start_kernels()[6](block, *this, *that, reverse, np.asarray(rest, dtype=float))
+
+
+def _flank_rows(
+    block, bl_f, arm_f, nx_f, ny_f, alpha_f, gamma_f, arm_m, nx_m, ny_m, alpha_m, gamma_m,
+    reverse, rest,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`flank_block` written for numba."""
+    A, D, n1 = arm_f.shape
+    for i in range(A):
+        im = A - 1 - i
+        r = rest[i]
+        for d in range(D):
+            dm = (D - d) % D
+            for j in range(n1):
+                block[0, i, d, j] = bl_f[i, d, j]
+                block[1, i, d, j] = arm_f[i, d, j]
+                block[2, i, d, j] = nx_f[i, d, j]
+                block[3, i, d, j] = ny_f[i, d, j]
+                block[4, i, d, j] = alpha_f[i, d, j]
+                block[5, i, d, j] = gamma_f[i, d, j]
+            for j in range(n1):
+                jm = (n1 - j) % n1
+                o = n1 + j
+                b = reverse[i, d, j] - r
+                arm = arm_m[im, dm, jm]
+                a = alpha_m[im, dm, jm]
+                g = gamma_m[im, dm, jm]
+                usable = (
+                    np.isfinite(b)
+                    and np.isfinite(arm)
+                    and arm >= 0
+                    and np.isfinite(a)
+                    and np.isfinite(g)
+                )
+                if usable:
+                    block[0, i, d, o] = b
+                    block[1, i, d, o] = -arm
+                    block[2, i, d, o] = nx_m[im, dm, jm]
+                    block[3, i, d, o] = -ny_m[im, dm, jm]
+                    block[4, i, d, o] = a
+                    block[5, i, d, o] = g
+                else:
+                    block[0, i, d, o] = np.inf
+                    block[1, i, d, o] = -0.0
+                    block[2, i, d, o] = 0.0
+                    block[3, i, d, o] = 0.0
+                    block[4, i, d, o] = 1.0
+                    block[5, i, d, o] = 0.0

@@ -158,7 +158,10 @@ def _arrays(p, law, G: FloatArray, discs: int, nw: int, m: int):
     fractions of the end plate's turn, the crankshafts' stiffness (D, D) flat)."""
     sup = p.supports
     A, N = p.hx.shape
-    nonzero = np.any(G != 0.0, axis=(0, 3))  # (D, N, m): the structure, any crank angle
+    # (D, N, m): the structure, any crank angle (the crank angles reduced first, along
+    # the contiguous leading axis: the same booleans as np.any over axes (0, 3))
+    A_, D_, N_, two, m_ = G.shape
+    nonzero = np.any(G.reshape(A_, -1) != 0.0, axis=0).reshape(D_, N_, two, m_).any(axis=2)
     count = nonzero.sum(-1)
     cols = np.zeros((*count.shape, max(int(count.max()), 1) + 1), np.int64)  # count first
     for d in range(discs):
@@ -794,10 +797,13 @@ def _kernels_rigid() -> Any:
     return jit(_rigid_rows)
 
 
-def _rigid_one(i, x, pin, torque, L, memo, store, pf, pk):  # pragma: no cover (compiled)
+def _rigid_one(i, x, pin, torque, L, memo, store, pf, pk, opens):  # pragma: no cover
     """(energy, ∂/∂(cL), ∂²/∂(cL)², status) of the rigid stage at crank angle ``i``; status
     as :func:`_evaluate_one`. With ``store`` the pins' forces and stiffnesses in
-    ``pf[i]``, ``pk[i]`` (D, P)."""
+    ``pf[i]``, ``pk[i]`` (D, P). ``opens`` (D,): the largest finite backlash of each
+    disc's opposite flanks (pins P/2 … P − 1, arm −l' ≤ 0), −inf without one: at a
+    rotation θ ≥ it every one of them has δ = −l'·(θ − φbl) ≤ 0 (open), so they are
+    not scanned (the same sums)."""
     D, P = pin.shape[2], pin.shape[3]
     pins = 0.0
     g = 0.0
@@ -810,7 +816,7 @@ def _rigid_one(i, x, pin, torque, L, memo, store, pf, pk):  # pragma: no cover (
                 pk[i, d, j] = 0.0
     for d in range(D):
         th = x[1 + 3 * d]
-        for j in range(P):
+        for j in range(P if th < opens[d] else P // 2):
             b = pin[0, i, d, j]
             if not np.isfinite(b):
                 continue
@@ -852,7 +858,16 @@ def _rigid_rows(
     eps = 2.220446049250313e-16
     trial = np.zeros(m)
     memo = np.zeros((3, D, pin.shape[3]))  # each pin's last inversion (δ, y, F)
+    opens = np.empty(D)  # the largest finite backlash of each disc's opposite flanks
+    half = pin.shape[3] // 2
     for i in range(A):
+        for d in range(D):
+            top = -np.inf
+            for j in range(half, pin.shape[3]):
+                b = pin[0, i, d, j]
+                if np.isfinite(b) and b > top:
+                    top = b
+            opens[d] = top
         xi = x[i].copy()
         have = False  # energy, g, h, status (and pf, pk) hold the evaluation at xi
         energy, g, h, status = 0.0, 0.0, 0.0, 0
@@ -860,11 +875,11 @@ def _rigid_rows(
             line = i % run >= 2 and not failed[i - 2]
             for r in range(m):
                 trial[r] = 2.0 * x[i - 1, r] - x[i - 2, r] if line else x[i - 1, r]
-            e1, g1, h1, s1 = _rigid_one(i, trial, pin, torque, L, memo, True, pf, pk)
+            e1, g1, h1, s1 = _rigid_one(i, trial, pin, torque, L, memo, True, pf, pk, opens)
             if line and s1 != 0:
                 for r in range(m):
                     trial[r] = x[i - 1, r]
-                e1, g1, h1, s1 = _rigid_one(i, trial, pin, torque, L, memo, True, pf, pk)
+                e1, g1, h1, s1 = _rigid_one(i, trial, pin, torque, L, memo, True, pf, pk, opens)
             if s1 == 0:
                 for r in range(m):
                     xi[r] = trial[r]
@@ -876,7 +891,7 @@ def _rigid_rows(
         previous = np.inf
         for _ in range(iterations):
             if not have:
-                energy, g, h, status = _rigid_one(i, xi, pin, torque, L, memo, True, pf, pk)
+                energy, g, h, status = _rigid_one(i, xi, pin, torque, L, memo, True, pf, pk, opens)
             have = False
             if status == 2:
                 break
@@ -912,7 +927,7 @@ def _rigid_rows(
                 trial[0] = xi[0] + move
                 for d in range(D):
                     trial[1 + 3 * d] = xi[1 + 3 * d] + move
-                e_t, g_t, h_t, st = _rigid_one(i, trial, pin, torque, L, memo, True, pf, pk)
+                e_t, g_t, h_t, st = _rigid_one(i, trial, pin, torque, L, memo, True, pf, pk, opens)
                 if st == 2:
                     break
                 ok = e_t <= energy + 1e-4 * t * slope or tiny

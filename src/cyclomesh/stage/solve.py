@@ -437,6 +437,9 @@ def solve(
             c.contact_law,
             None if body is None else body.pins,  # the tooth of every pin
             False,  # no force angle: the stage's are those of its solved loads
+            # the mirror's rests only for a negative torque (its flanks loaded): else only
+            # its flanks' geometry and compliance are read, as the opposite flanks
+            reverse_rests=bool(np.any(torques < 0)),
         )
     fwd, rev = meshes
     N = stage.holes.count
@@ -511,10 +514,14 @@ def solve(
 
 def _by_torque(results: list[dict[str, FloatArray]]) -> dict[str, FloatArray]:
     """The fields of every torque stacked (a leading torque axis); NaN at the torques
-    where a field was not asked for (``only_at``)."""
+    where a field was not asked for (``only_at``). One torque: each field's own array
+    with the axis added (no copy where it is C-contiguous; the same values)."""
     out = {}
     for name in dict.fromkeys(name for r in results for name in r):
         like = next(r[name] for r in results if name in r)
+        if len(results) == 1:
+            out[name] = np.ascontiguousarray(like)[None]
+            continue
         out[name] = np.stack(
             [r[name] if name in r else np.full(like.shape, np.nan) for r in results]
         )
