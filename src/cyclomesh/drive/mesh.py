@@ -101,7 +101,7 @@ def disc_angles(phi: FloatArray, discs: int) -> FloatArray:
 def _stack(arr: FloatArray, discs: int, n_angles: int) -> FloatArray:
     """(..., N·A, n1) → (..., A, N, n1)."""
     shaped = arr.reshape(*arr.shape[:-2], discs, n_angles, arr.shape[-1])
-    return np.moveaxis(shaped, -3, -2)
+    return shaped.swapaxes(-3, -2)  # np.moveaxis's view, without its axis checks
 
 
 def stacked_contact(

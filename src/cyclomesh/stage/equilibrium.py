@@ -63,6 +63,7 @@ from cyclomesh.stage.kernel import (
     compiled,
     disc_sums,
     disc_turn,
+    dmax_finish,
     flank_block,
     mesh_work,
     single_rotation,
@@ -498,7 +499,8 @@ def _problem(
             geo.reverse_rotation,
             mesh.rest,
         )
-        return _pin_problem(block, hx, hy, ex, ey, torque, holes.circle_radius)
+        dmax_finish(block, _REACH)  # dmax as _pin_problem's, the same bits
+        return _pin_problem(block, hx, hy, ex, ey, torque, holes.circle_radius, dmax=False)
 
     def flanks(name: str, this: FloatArray, that: FloatArray | None = None) -> FloatArray:
         out = block[PIN_BLOCK.index(name)]
@@ -533,21 +535,22 @@ def _problem(
     return _pin_problem(block, hx, hy, ex, ey, torque, holes.circle_radius)
 
 
-def _pin_problem(block, hx, hy, ex, ey, torque, scale) -> _Problem:
+def _pin_problem(block, hx, hy, ex, ey, torque, scale, dmax: bool = True) -> _Problem:
     """The :class:`_Problem` of the pins' ``block`` (:data:`PIN_BLOCK` order, ``dmax``
-    formed here) and the holes."""
-    bl, arm, nx, ny, alpha, gamma = (block[PIN_BLOCK.index(name)] for name in PIN_BLOCK[:6])
-    # the largest approach of a trial, _REACH of the law's stiffest point γ·exp(α/γ − 1)
-    # (inf without one), in place: the same operations in the same order
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        dmax = np.divide(alpha, gamma, out=block[PIN_BLOCK.index("dmax")])
-        dmax -= 1.0
-        np.exp(dmax, out=dmax)
-        np.multiply(gamma, dmax, out=dmax)
-        finite = gamma > 0
-        finite &= np.isfinite(dmax)
-        dmax *= _REACH
-    np.copyto(dmax, np.inf, where=~finite)
+    formed here, or by the caller: ``dmax`` False) and the holes."""
+    bl, arm, nx, ny, alpha, gamma, reach = (block[PIN_BLOCK.index(name)] for name in PIN_BLOCK)
+    if dmax:
+        # the largest approach of a trial, _REACH of the law's stiffest point
+        # γ·exp(α/γ − 1) (inf without one), in place: the same operations in the same order
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            np.divide(alpha, gamma, out=reach)
+            reach -= 1.0
+            np.exp(reach, out=reach)
+            np.multiply(gamma, reach, out=reach)
+            finite = gamma > 0
+            finite &= np.isfinite(reach)
+            reach *= _REACH
+        np.copyto(reach, np.inf, where=~finite)
     return _Problem(
         bl=bl,
         arm=arm,
@@ -555,7 +558,7 @@ def _pin_problem(block, hx, hy, ex, ey, torque, scale) -> _Problem:
         ny=ny,
         alpha=alpha,
         gamma=gamma,
-        dmax=dmax,
+        dmax=reach,
         hx=hx,
         hy=hy,
         ex=ex,

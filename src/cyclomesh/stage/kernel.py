@@ -231,6 +231,7 @@ def _start_kernels() -> tuple[Any, Any]:
         jit(_single_rows),
         jit(_mesh_work_rows),
         jit(_flank_rows),
+        jit(_dmax_rows),
     )
 
 
@@ -652,8 +653,32 @@ def flank_block(block: FloatArray, this: tuple, that: tuple, reverse: FloatArray
     a usable law (a backlash, arm, α or γ not finite, or an arm < 0) gets φbl = inf, arm
     −0, α = 1, γ = 0 and a zero normal; the others the arm −l' and the normal's y
     negated. The reference's copies, negations and selects element by element: the same
-    bits."""
+    bits. ``dmax`` (block[6]) gets α/γ − 1, the argument of the exponential of
+    :func:`dmax_finish`."""
     _start_kernels()[6](block, *this, *that, reverse, np.asarray(rest, dtype=float))
+
+
+def dmax_finish(block: FloatArray, reach: float) -> None:
+    """``dmax`` of :func:`cyclomesh.stage.equilibrium._pin_problem` in ``block``
+    (:func:`flank_block`'s) from α/γ − 1 there: NumPy's exponential in place (its bits,
+    which the C library's need not have), then in one pass γ·exp(α/γ − 1)·``reach``
+    [m] where γ > 0 and γ·exp(α/γ − 1) is finite, else inf: the reference's products in
+    its order, the same bits."""
+    dmax = block[6]
+    with np.errstate(over="ignore", invalid="ignore"):
+        np.exp(dmax, out=dmax)
+    _start_kernels()[7](block, float(reach))
+
+
+def _dmax_rows(block, reach):  # pragma: no cover (compiled)
+    """:func:`dmax_finish`'s pass, written for numba."""
+    _, A, D, P = block.shape
+    for i in range(A):
+        for d in range(D):
+            for j in range(P):
+                g = block[5, i, d, j]
+                v = g * block[6, i, d, j]
+                block[6, i, d, j] = v * reach if (g > 0 and np.isfinite(v)) else np.inf
 
 
 def _flank_rows(
@@ -702,3 +727,5 @@ def _flank_rows(
                     block[3, i, d, o] = 0.0
                     block[4, i, d, o] = 1.0
                     block[5, i, d, o] = 0.0
+            for j in range(2 * n1):  # the exponential's argument of dmax_finish
+                block[6, i, d, j] = block[4, i, d, j] / block[5, i, d, j] - 1.0
