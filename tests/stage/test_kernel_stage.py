@@ -422,3 +422,43 @@ def test_the_compiled_problem_is_the_references_bit_for_bit(monkeypatch, discs):
     assert np.any(np.isinf(ref.bl[..., 40:]))  # some opposite flanks without a law
     assert got.pins is not None and np.shares_memory(got.pins, got.bl)
     np.testing.assert_array_equal(fast, eq._single_rotation(ref, 412.0, 40))
+
+
+def test_dmax_from_the_flank_pass_is_the_references_at_its_edges():
+    """stage.kernel.flank_block's α/γ − 1 and dmax_finish (NumPy's exponential between two
+    compiled passes) give _pin_problem's dmax bit for bit where γ is 0, negative, NaN or
+    inf, α/γ − 1 overflows the exponential or is 0/0, on both flanks."""
+    from cyclomesh.stage.kernel import dmax_finish, flank_block
+
+    rng = np.random.default_rng(7)
+    A, D, n1 = 5, 2, 6
+    specials = np.array([0.0, -1e-9, np.nan, np.inf, 1e-300, 2e-9])
+    alpha = rng.uniform(1e-9, 3e-9, (A, D, n1))
+    gamma = rng.choice(specials, (A, D, n1))
+    alpha[0, 0, :] = [0.0, 1.0, np.nan, np.inf, 5e-9, 0.0]
+    gamma[0, 0, :] = [0.0, 1e-300, 1e-9, 1e-9, 1e-9, 1e-12]
+    this = (
+        rng.uniform(0, 1e-3, (A, D, n1)),
+        rng.uniform(0, 0.06, (A, D, n1)),
+        rng.uniform(-1, 1, (A, D, n1)),
+        rng.uniform(-1, 1, (A, D, n1)),
+        alpha,
+        gamma,
+    )
+    that = (
+        rng.uniform(0, 0.06, (A, D, n1)),
+        rng.uniform(-1, 1, (A, D, n1)),
+        rng.uniform(-1, 1, (A, D, n1)),
+        alpha[::-1].copy(),
+        gamma[:, ::-1].copy(),
+    )
+    reverse = rng.uniform(0, 1e-2, (A, D, n1))
+    rest = rng.uniform(-1e-3, 0, A)
+    block = np.empty((7, A, D, 2 * n1))
+    flank_block(block, this, that, reverse, rest)
+    ref = block.copy()
+    dmax_finish(block, eq._REACH)
+    want = eq._pin_problem(ref, None, None, None, None, 1.0, 1.0).dmax
+    np.testing.assert_array_equal(block[6], want)
+    np.testing.assert_array_equal(block[:6], ref[:6])
+    assert np.any(np.isinf(want)) and np.any(np.isfinite(want))
