@@ -22,7 +22,7 @@ def test_a_passing_pair_is_checked_once_and_a_failing_one_every_time(monkeypatch
         real(design, modification)
 
     monkeypatch.setattr(case_module, "check_profile", counted)
-    monkeypatch.setattr(case_module, "_PROFILES_PASSED", {})
+    case_module._profile_passed.cache_clear()
     mod = Modification(pin_radius=3e-6)
     for _ in range(3):
         assert case_module.check_pair(TABLE1, mod, PinErrors()) == ()
@@ -42,9 +42,12 @@ def test_a_passing_pair_is_checked_once_and_a_failing_one_every_time(monkeypatch
         assert len(calls) == 3 + k
 
 
-def test_the_kept_pairs_are_bounded(monkeypatch):
-    """At most _PROFILES_KEPT pairs are kept (then the store starts again)."""
-    monkeypatch.setattr(case_module, "_PROFILES_PASSED", {})
+def test_the_kept_pairs_are_bounded():
+    """At most _PROFILES_KEPT pairs are kept (the least recently used goes first)."""
+    case_module._profile_passed.cache_clear()
     for k in range(case_module._PROFILES_KEPT + 5):
         case_module.check_pair(TABLE1, Modification(pin_radius=1e-7 * k), PinErrors())
-        assert len(case_module._PROFILES_PASSED) <= case_module._PROFILES_KEPT
+        info = case_module._profile_passed.cache_info()
+        assert info.currsize <= case_module._PROFILES_KEPT
+    assert info.currsize == case_module._PROFILES_KEPT
+    case_module._profile_passed.cache_clear()

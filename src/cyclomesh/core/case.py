@@ -16,6 +16,7 @@ NumPy only, SI units, no I/O.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 from typing import Any
@@ -250,27 +251,28 @@ def check_pair(design: PairDesign, modification: Modification, errors: PinErrors
     return ring_shape
 
 
-_PROFILES_PASSED: dict[tuple, None] = {}
-"""The (design, modification) pairs whose profile :func:`check_profile` passed (at most
-:data:`_PROFILES_KEPT`): it depends on those alone, and a study checks one pair for every
-ring of pin errors (0.1 ms of its 4,001-point curvature sample a solve)."""
 _PROFILES_KEPT = 64
+"""How many passing (design, modification) pairs :func:`_check_profile` remembers."""
+
+
+@functools.lru_cache(maxsize=_PROFILES_KEPT)
+def _profile_passed(design: PairDesign, modification: Modification) -> None:
+    """:func:`check_profile` of a hashable pair, remembered once it passes (a pair that
+    fails raises, and nothing is remembered of it)."""
+    check_profile(design, modification)
 
 
 def _check_profile(design: PairDesign, modification: Modification) -> None:
-    """:func:`check_profile`, once per equal (design, modification) that passes; a pair
-    that cannot be hashed (a profile deviation's arrays) is checked every time."""
+    """:func:`check_profile`, once per equal (design, modification) that passes: it
+    depends on those alone, and a study checks one pair for every ring of pin errors
+    (0.1 ms of its 4,001-point curvature sample a solve). A pair that cannot be hashed
+    (a profile deviation's arrays) is checked every time."""
     try:
-        key = (design, modification)
-        if key in _PROFILES_PASSED:
-            return
+        hash((design, modification))
     except TypeError:
         check_profile(design, modification)
         return
-    check_profile(design, modification)
-    if len(_PROFILES_PASSED) >= _PROFILES_KEPT:
-        _PROFILES_PASSED.clear()
-    _PROFILES_PASSED[key] = None
+    _profile_passed(design, modification)
 
 
 def check_contact_law(contact_law: str) -> str:
