@@ -506,7 +506,11 @@ def _solve_sets(
     idx = np.empty(n, np.int64)
     cell = np.empty(n, np.int64)
     wts = np.empty((n, 4))
-    base = np.empty(n, np.int64)
+    base = np.empty(n, np.uint64)  # unsigned: no negative-index test per read (the
+    ucell = np.empty(n, np.uint64)  # window's four reads of a row then one vector load)
+    one = np.uint64(1)
+    uside = np.uint64(side)
+    block_size = np.uint64(side * side)
     km = np.empty(n, np.int64)
     c_disc = np.empty(n, np.int64)  # the disc of each candidate (of a stack)
     cmat = np.zeros((n, n))
@@ -579,7 +583,8 @@ def _solve_sets(
                     diagonal, tooth[k, i] % period, c, m, wts[a, 0], wts[a, 1], wts[a, 2],
                     wts[a, 3]
                 )  # fmt: skip
-            base[a] = ((tooth[k, i] % period) * n2 * side + c) * side
+            base[a] = np.uint64(((tooth[k, i] % period) * n2 * side + c) * side)
+            ucell[a] = np.uint64(c)
             km[a] = tooth[k, i] % n2
             c_disc[a] = i // per_disc
         # the reciprocal matrix (DiscBody.reciprocal_matrix): pairs i < j from their
@@ -598,15 +603,17 @@ def _solve_sets(
                     offset += n2
                 # the pair's window: rows cell_b … cell_b + 3 (the load's nodes) and
                 # columns cell_a … cell_a + 3 (the response's) of its block
-                s0 = offset * (side * side) + base[b] + cell[a]
-                s1, s2, s3 = s0 + side, s0 + 2 * side, s0 + 3 * side
+                s0 = np.uint64(offset) * block_size + base[b] + ucell[a]
+                s1 = s0 + uside
+                s2 = s1 + uside
+                s3 = s2 + uside
                 # the load's nodes first, as the reference: the sum over them in order
                 h0 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
-                s0, s1, s2, s3 = s0 + 1, s1 + 1, s2 + 1, s3 + 1
+                s0, s1, s2, s3 = s0 + one, s1 + one, s2 + one, s3 + one
                 h1 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
-                s0, s1, s2, s3 = s0 + 1, s1 + 1, s2 + 1, s3 + 1
+                s0, s1, s2, s3 = s0 + one, s1 + one, s2 + one, s3 + one
                 h2 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
-                s0, s1, s2, s3 = s0 + 1, s1 + 1, s2 + 1, s3 + 1
+                s0, s1, s2, s3 = s0 + one, s1 + one, s2 + one, s3 + one
                 h3 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
                 pair = ((h0 * wts[a, 0] + h1 * wts[a, 1]) + h2 * wts[a, 2]) + h3 * wts[a, 3]
                 cmat[a, b] = pair
