@@ -509,6 +509,12 @@ def _solve_sets(
     base = np.empty(n, np.uint64)  # unsigned: no negative-index test per read (the
     ucell = np.empty(n, np.uint64)  # window's four reads of a row then one vector load)
     one = np.uint64(1)
+    by_period = np.empty(n2, np.int64)  # t mod period of each tooth t < n2
+    for t in range(n2):
+        by_period[t] = t % period
+    disc_of = np.empty(n, np.int64)  # the disc of each pin (of a stack)
+    for i in range(n):
+        disc_of[i] = i // per_disc
     uside = np.uint64(side)
     block_size = np.uint64(side * side)
     km = np.empty(n, np.int64)
@@ -578,15 +584,18 @@ def _solve_sets(
             c_alpha[a], c_gamma[a] = alpha[k, i], gamma[k, i]
             c, wts[a, 0], wts[a, 1], wts[a, 2], wts[a, 3] = _cell(angle[k, i], u0, u_last, h, m)
             cell[a] = c
+            t = tooth[k, i]
+            if 0 <= t < n2:  # tooth_index's range: the remainders tabulated
+                row, km[a] = by_period[t], t
+            else:
+                row, km[a] = t % period, t % n2
             if warm:  # the own coefficients of the candidates chosen here
                 own[k, i] = _own(
-                    diagonal, tooth[k, i] % period, c, m, wts[a, 0], wts[a, 1], wts[a, 2],
-                    wts[a, 3]
+                    diagonal, row, c, m, wts[a, 0], wts[a, 1], wts[a, 2], wts[a, 3]
                 )  # fmt: skip
-            base[a] = np.uint64(((tooth[k, i] % period) * n2 * side + c) * side)
+            base[a] = np.uint64((row * n2 * side + c) * side)
             ucell[a] = np.uint64(c)
-            km[a] = tooth[k, i] % n2
-            c_disc[a] = i // per_disc
+            c_disc[a] = disc_of[i]
         # the reciprocal matrix (DiscBody.reciprocal_matrix): pairs i < j from their
         # windows, the own coefficients on the diagonal, 0 between discs
         for b in range(nc):  # the load
