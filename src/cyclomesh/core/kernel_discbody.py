@@ -383,30 +383,33 @@ def _cholesky2(ne, system, rhs):  # pragma: no cover (compiled)
     the rows below it a set of independent products along contiguous rows (no chains of
     dependent sums). False if a pivot is not positive (the system is not positive
     definite: the caller then takes :func:`_solve2`)."""
-    for j in range(ne):
+    one = np.uint64(1)  # unsigned indices: no negative-index test per access
+    une = np.uint64(ne)
+    for j in range(une):
         d = system[j, j]
         if not (d > 0.0 and np.isfinite(d)):
             return False
         inv = 1.0 / math.sqrt(d)
         system[j, j] = inv
         row = system[j]
-        for i in range(j + 1, ne):
+        for i in range(j + one, une):
             row[i] *= inv
-        for k in range(j + 1, ne):  # the trailing upper triangle, row k
+        for k in range(j + one, une):  # the trailing upper triangle, row k
             uk = row[k]
             below = system[k]
-            for i in range(k, ne):
+            for i in range(k, une):
                 below[i] -= row[i] * uk
-    for j in range(ne):  # Uᵀ·Z = rhs, row by row of U
+    for j in range(une):  # Uᵀ·Z = rhs, row by row of U
         z0 = rhs[j, 0] * system[j, j]
         z1 = rhs[j, 1] * system[j, j]
         rhs[j, 0], rhs[j, 1] = z0, z1
-        for i in range(j + 1, ne):
+        for i in range(j + one, une):
             rhs[i, 0] -= system[j, i] * z0
             rhs[i, 1] -= system[j, i] * z1
-    for i in range(ne - 1, -1, -1):  # U·X = Z
+    for back in range(une):  # U·X = Z, from the last row
+        i = une - one - back
         s0, s1 = rhs[i, 0], rhs[i, 1]
-        for p in range(i + 1, ne):
+        for p in range(i + one, une):
             s0 -= system[i, p] * rhs[p, 0]
             s1 -= system[i, p] * rhs[p, 1]
         rhs[i, 0] = s0 * system[i, i]
@@ -442,14 +445,17 @@ def _factor_solve(ne, eng, cmat, c_alpha, c_gamma, y, r_w, c_arm, system, rhs): 
 def _cholesky_solve(ne, system, rhs):  # pragma: no cover (compiled)
     """Solve with the factor :func:`_cholesky2` left in ``system`` for rhs[:ne, 0] alone,
     in place (rhs[:, 1] untouched)."""
-    for j in range(ne):
+    one = np.uint64(1)
+    une = np.uint64(ne)
+    for j in range(une):
         z = rhs[j, 0] * system[j, j]
         rhs[j, 0] = z
-        for i in range(j + 1, ne):
+        for i in range(j + one, une):
             rhs[i, 0] -= system[j, i] * z
-    for i in range(ne - 1, -1, -1):
+    for back in range(une):
+        i = une - one - back
         s0 = rhs[i, 0]
-        for p in range(i + 1, ne):
+        for p in range(i + one, une):
             s0 -= system[i, p] * rhs[p, 0]
         rhs[i, 0] = s0 * system[i, i]
 
