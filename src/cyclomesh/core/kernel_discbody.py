@@ -423,7 +423,8 @@ def _factor_solve(ne, eng, cmat, c_alpha, c_gamma, y, r_w, c_arm, system, rhs): 
     ``rhs``, solved in place by Cholesky's factorisation (:func:`_cholesky2`: True, the
     factor kept in ``system``); False if it is not positive definite, the whole
     system and right-hand sides then in place again for :func:`_solve2`."""
-    for e in range(ne):
+    une = np.uint64(ne)  # unsigned indices: no negative-index test per access
+    for e in range(une):
         a = eng[e]
         for q in range(e):
             system[q, e] = cmat[a, eng[q]]
@@ -432,9 +433,9 @@ def _factor_solve(ne, eng, cmat, c_alpha, c_gamma, y, r_w, c_arm, system, rhs): 
         rhs[e, 1] = c_arm[a]
     if _cholesky2(ne, system, rhs):
         return True
-    for e in range(ne):
+    for e in range(une):
         a = eng[e]
-        for q in range(ne):
+        for q in range(une):
             system[e, q] = cmat[a, eng[q]]
         system[e, e] += c_alpha[a] - c_gamma[a] * (1.0 + y[a])
         rhs[e, 0] = r_w[a]
@@ -531,14 +532,15 @@ def _solve_sets(
     w, delta, f, y, r_w = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     wn, dn, fn, yn, rwn = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     step_f, step_w = np.zeros(n), np.zeros(n)
-    eng = np.empty(n, np.int64)
-    loaded = np.empty(n, np.int64)
+    eng = np.empty(n, np.uint64)  # unsigned: no negative-index test where they index
+    loaded = np.empty(n, np.uint64)
     system = np.empty((n, n))
     root = np.empty(n_cases)  # Δφc of each case solved, to extrapolate
     streak = 0
     rhs = np.empty((n, 2))
     failed = 0
     last = -1  # the last case of the ring solved
+    last_total = 0.0  # its Σ F [N]
     for k in range(n_cases):
         if k % block == 0:
             streak = 0
@@ -560,9 +562,7 @@ def _solve_sets(
                 x = _extrapolate(root[k - 1], root[k - 2], root[k - 3], root[k - 4], streak)
             else:
                 x = root[last]
-            total = 0.0
-            for i in range(n):
-                total += force[last, i]
+            total = last_total  # Σ F of the last case solved, in pin order
             pad = _REACH * abs(x) + 4.0 * abs(x - root[last])
             push = (1.0 + _REACH) * lowest * total
             reach = x + pad
@@ -719,7 +719,7 @@ def _solve_sets(
             same = factored
             for a in range(nc):
                 if f[a] > 0.0:
-                    same = same and ne < n_factored and eng[ne] == a
+                    same = same and ne < n_factored and int(eng[ne]) == a
                     eng[ne] = a
                     ne += 1
             chord = near and same and ne == n_factored
@@ -807,9 +807,12 @@ def _solve_sets(
         last = k
         rotation[k] = x
         root[k] = x
+        # Σ F in pin order (the other pins' loads are 0: the sum of the whole row)
+        last_total = 0.0
         for a in range(nc):
             i = idx[a]
             force[k, i] = f[a]
+            last_total += f[a]
     return failed
 
 
