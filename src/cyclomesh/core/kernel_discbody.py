@@ -477,7 +477,7 @@ def _extrapolate(v1, v2, v3, v4, streak):  # pragma: no cover (compiled)
 def _solve_sets(
     candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, padded, diagonal, grid, n2,
     period, per_disc, torque, tol_torque, tol_compat, round_off, max_iterations, lowest, block,
-    rotation, force, status
+    rotation, force, status, suspect
 ):  # fmt: skip  # pragma: no cover (compiled)
     """The reference's ``_solve_set`` of every case (row), written for numba: the same
     equations to the same root at round-off, from a start of its own where it can.
@@ -502,7 +502,9 @@ def _solve_sets(
     to a step that does not reduce the residual, with the last Cholesky factor where the
     engaged pins are the same and the residual below :data:`_CHORD`, the last of them
     from within the tolerances a linear update of the loads (F + ΔF). Fills
-    ``rotation`` (B,), ``force`` (B, n) (zero on entry) and ``status`` (B,): 0 solved, 1
+    ``rotation`` (B,), ``force`` (B, n) (zero on entry), ``suspect`` (B,) bool
+    (:func:`_suspects`' flag of each case solved, from the same sum and test while its
+    row is at hand; True where not solved) and ``status`` (B,): 0 solved, 1
     not finished (the caller then takes the reference), 2 needs ``x0`` (its candidates
     and own coefficients then the single-pin bound's, :func:`_candidates`); returns the
     number of cases not solved.
@@ -553,6 +555,7 @@ def _solve_sets(
                 _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
             status[k] = 2
             failed += 1
+            suspect[k] = True
             continue
         if warm:  # Δφc of the roots before extrapolated; the candidates: the pins it
             # can reach, φbl < Δφc + c·ΣF/l with c the table's most negative coefficient
@@ -582,6 +585,7 @@ def _solve_sets(
             root[k] = np.nan
             streak = 0
             failed += 1
+            suspect[k] = True
             continue
         # the candidates' Catmull–Rom cells and weights (DiscBody._cells)
         for a in range(nc):
@@ -689,6 +693,7 @@ def _solve_sets(
             root[k] = np.nan
             streak = 0
             failed += 1
+            suspect[k] = True
             continue
         r_t, current = _residuals(nc, w, c_arm, cmat, torque, delta, f, r_w, loaded)
         solved = False
@@ -801,6 +806,7 @@ def _solve_sets(
             root[k] = np.nan
             streak = 0
             failed += 1
+            suspect[k] = True
             continue
         status[k] = 0
         streak += 1
@@ -813,6 +819,15 @@ def _solve_sets(
             i = idx[a]
             force[k, i] = f[a]
             last_total += f[a]
+        # _suspects' test of this case (the same ΣF, in pin order, and the same margin)
+        # (branch-free over the pins: φbl = +inf or NaN fails the comparison itself)
+        load = lowest * last_total
+        flag = False
+        for i in range(n):
+            b, lk = bl[k, i], arm[k, i]
+            near = (b - x) * lk < load + 1e-12 * (abs(x) * lk + load)
+            flag |= (not candidate[k, i]) & (lk > 0.0) & (b > -np.inf) & near
+        suspect[k] = flag
     return failed
 
 
