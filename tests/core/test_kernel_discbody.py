@@ -228,13 +228,19 @@ def test_a_case_without_its_start_takes_the_rigid_disc(monkeypatch):
     x0, f0 = kernel.share_load(bl, arm, alpha, gamma, 250.0)  # as the kernel's own call
     given = cdb._solve_set(candidate, arrays, x0.copy(), f0.copy(), 250.0, body, 40)
     nan, zero = np.full(x0.size, np.nan), np.zeros(f0.shape)
-    alone = cdb._solve_set(candidate, arrays, nan, zero, 250.0, body, 40)
+    flags, rows = np.empty(x0.size, bool), np.empty(x0.size, bool)
+    alone = cdb._solve_set(candidate, arrays, nan, zero, 250.0, body, 40, 1, flags)
+    # the check's cases flagged in the solve (here all in its second pass): _suspects'
+    kernel_discbody.compiled().suspects(candidate, bl, arm, *alone, body._lowest, rows)
+    np.testing.assert_array_equal(flags, rows)
     np.testing.assert_array_equal(alone[0], given[0])
     np.testing.assert_array_equal(alone[1], given[1])
     np.testing.assert_array_equal(nan, x0)  # filled in place where needed: everywhere
     nan, zero = np.full(x0.size, np.nan), np.zeros(f0.shape)
     nan[:: PHI.size], zero[:: PHI.size] = x0[:: PHI.size], f0[:: PHI.size]
-    ring = cdb._solve_set(candidate, arrays, nan, zero, 250.0, body, 40, PHI.size)
+    ring = cdb._solve_set(candidate, arrays, nan, zero, 250.0, body, 40, PHI.size, flags)
+    kernel_discbody.compiled().suspects(candidate, bl, arm, *ring, body._lowest, rows)
+    np.testing.assert_array_equal(flags, rows)
     assert np.sum(np.isnan(nan)) > 0.9 * x0.size  # mostly its own starts (2.5° apart)
     np.testing.assert_allclose(ring[0], given[0], rtol=1e-14, atol=0)
     np.testing.assert_allclose(ring[1], given[1], rtol=0, atol=1e-14 * np.max(given[1]))
@@ -354,14 +360,20 @@ def test_a_ring_goes_on_warm_after_a_case_given_up(monkeypatch):
     x0, f0 = np.full(block, np.nan), np.zeros(bl.shape)
     x0[0], f0[0] = share_load(bl[0], arm[0], alpha[0], gamma[0], torque)
     rotation, force, status = np.empty(block), np.zeros(bl.shape), np.zeros(block, np.int8)
+    suspect = np.empty(block, bool)
     failed = passes.solve_sets(
         candidate, hole, arm, alpha, gamma, tooth, angle, own, x0, f0, body._padded.ravel(),
         body.diagonal, grid, body.teeth, body.period, n, torque, cdb.TORQUE_TOLERANCE,
         cdb.COMPATIBILITY_TOLERANCE, cdb.ROUND_OFF, 100, body._lowest, block, rotation,
-        force, status
+        force, status, suspect
     )  # fmt: skip
     assert failed == 1 and status[10] == 2 and not np.any(candidate[10])
     solved = status == 0
+    # the flags taken in the solve: _suspects' on the cases solved, True on the other
+    rows = np.empty(block, bool)
+    passes.suspects(candidate, hole, arm, rotation, force, body._lowest, rows)
+    np.testing.assert_array_equal(suspect[solved], rows[solved])
+    assert suspect[10]
     assert np.sum(solved) == block - 1
     monkeypatch.setenv(kernel.ENV_VAR, "numpy")
     ref_x, ref_f = share_load_coupled(bl, arm, alpha, gamma, torque, body, tooth, angle)

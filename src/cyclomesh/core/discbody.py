@@ -401,12 +401,12 @@ def share_load_coupled(
     else:
         diag, candidate = _candidates(bl, arm, alpha, gamma, tooth, angle, torque, body)
     arrays = (bl, arm, alpha, gamma, tooth, angle, diag)
-    x, full = _solve_set(candidate, arrays, x0, f0, torque, body, n // groups, block)
+    # with numba, the cases the test below may flag (a superset of them), compiled
+    flags = np.empty(x0.size, bool) if numba else None
+    x, full = _solve_set(candidate, arrays, x0, f0, torque, body, n // groups, block, flags)
     lowest = body._lowest
-    if numba:  # the cases the test below may flag, compiled (a superset of them)
-        rows = np.empty(x.size, bool)
-        kernel_discbody.compiled().suspects(candidate, bl, arm, x, full, lowest, rows)
-        rows = np.flatnonzero(rows)
+    if numba:
+        rows = np.flatnonzero(flags)
     else:
         rows = np.arange(x.size)
     for _ in range(n):
@@ -501,6 +501,7 @@ def _solve_set(
     body: DiscBody,
     per_disc: int,
     block: int = 1,
+    flags: NDArray | None = None,
 ) -> tuple[FloatArray, FloatArray]:
     """Newton's method of :func:`share_load_coupled` on the ``candidate`` pins, (B, n), on
     the selected kernel: :func:`_solve_set_numpy` (the reference), or with
@@ -511,7 +512,10 @@ def _solve_set(
     solved, the kernel's own start; filled in place where a case needs it). The compiled
     path chooses the candidates of a case it starts from the cases before (the pins its
     start can reach: ``candidate``'s rows at ring starts only are read, the others
-    written, in place), and restores the single-pin bound's where it gives a case up."""
+    written, in place), and restores the single-pin bound's where it gives a case up.
+    ``flags`` (B,) bool, given with the numba kernel only: filled with the cases the
+    check after the solve may flag (:func:`kernel_discbody._suspects`' test, taken by
+    the compiled solve as it finishes each case)."""
     if kernel_name() == "numba":
         bl, arm, alpha, gamma, tooth, angle, own = (np.ascontiguousarray(a) for a in arrays)
         u = body.profile_angles
@@ -525,27 +529,34 @@ def _solve_set(
         rotation = np.empty(bl.shape[0])
         force = np.zeros(bl.shape)
         status = np.zeros(bl.shape[0], np.int8)
+        suspect = np.empty(bl.shape[0], bool)
         given = candidate
         candidate = np.ascontiguousarray(candidate)
         failed = passes.solve_sets(
             candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, *settings,
-            max(block, 1), rotation, force, status
+            max(block, 1), rotation, force, status, suspect
         )  # fmt: skip
         start = np.flatnonzero(status == 2)  # no start of the kernel's own: the rigid disc's
         if failed and start.size == failed:
             _rigid_start(arrays, torque, x0, f0, start)
-            out = (rotation[start], force[start], status[start])
+            out = (rotation[start], force[start], status[start], suspect[start])
             failed = passes.solve_sets(
                 candidate[start], *(a[start] for a in (bl, arm, alpha, gamma, tooth, angle, own)),
                 x0[start], f0[start], *settings, 1, *out
             )  # fmt: skip
-            rotation[start], force[start] = out[0], out[1]
+            rotation[start], force[start], suspect[start] = out[0], out[1], out[3]
         if candidate is not given:  # the rows the kernel chose, for the check after
             given[...] = candidate
         if not failed:
+            if flags is not None:
+                flags[...] = suspect
             return rotation, force
     _rigid_start(arrays, torque, x0, f0, np.flatnonzero(np.isnan(x0)))
-    return _solve_set_numpy(candidate, arrays, x0, f0, torque, body, per_disc)
+    x, full = _solve_set_numpy(candidate, arrays, x0, f0, torque, body, per_disc)
+    if flags is not None:  # the compiled test on the reference's solution
+        bl, arm = (np.ascontiguousarray(a) for a in arrays[:2])
+        kernel_discbody.compiled().suspects(candidate, bl, arm, x, full, body._lowest, flags)
+    return x, full
 
 
 def _solve_set_numpy(

@@ -383,30 +383,33 @@ def _cholesky2(ne, system, rhs):  # pragma: no cover (compiled)
     the rows below it a set of independent products along contiguous rows (no chains of
     dependent sums). False if a pivot is not positive (the system is not positive
     definite: the caller then takes :func:`_solve2`)."""
-    for j in range(ne):
+    one = np.uint64(1)  # unsigned indices: no negative-index test per access
+    une = np.uint64(ne)
+    for j in range(une):
         d = system[j, j]
         if not (d > 0.0 and np.isfinite(d)):
             return False
         inv = 1.0 / math.sqrt(d)
         system[j, j] = inv
         row = system[j]
-        for i in range(j + 1, ne):
+        for i in range(j + one, une):
             row[i] *= inv
-        for k in range(j + 1, ne):  # the trailing upper triangle, row k
+        for k in range(j + one, une):  # the trailing upper triangle, row k
             uk = row[k]
             below = system[k]
-            for i in range(k, ne):
+            for i in range(k, une):
                 below[i] -= row[i] * uk
-    for j in range(ne):  # Uᵀ·Z = rhs, row by row of U
+    for j in range(une):  # Uᵀ·Z = rhs, row by row of U
         z0 = rhs[j, 0] * system[j, j]
         z1 = rhs[j, 1] * system[j, j]
         rhs[j, 0], rhs[j, 1] = z0, z1
-        for i in range(j + 1, ne):
+        for i in range(j + one, une):
             rhs[i, 0] -= system[j, i] * z0
             rhs[i, 1] -= system[j, i] * z1
-    for i in range(ne - 1, -1, -1):  # U·X = Z
+    for back in range(une):  # U·X = Z, from the last row
+        i = une - one - back
         s0, s1 = rhs[i, 0], rhs[i, 1]
-        for p in range(i + 1, ne):
+        for p in range(i + one, une):
             s0 -= system[i, p] * rhs[p, 0]
             s1 -= system[i, p] * rhs[p, 1]
         rhs[i, 0] = s0 * system[i, i]
@@ -420,7 +423,8 @@ def _factor_solve(ne, eng, cmat, c_alpha, c_gamma, y, r_w, c_arm, system, rhs): 
     ``rhs``, solved in place by Cholesky's factorisation (:func:`_cholesky2`: True, the
     factor kept in ``system``); False if it is not positive definite, the whole
     system and right-hand sides then in place again for :func:`_solve2`."""
-    for e in range(ne):
+    une = np.uint64(ne)  # unsigned indices: no negative-index test per access
+    for e in range(une):
         a = eng[e]
         for q in range(e):
             system[q, e] = cmat[a, eng[q]]
@@ -429,9 +433,9 @@ def _factor_solve(ne, eng, cmat, c_alpha, c_gamma, y, r_w, c_arm, system, rhs): 
         rhs[e, 1] = c_arm[a]
     if _cholesky2(ne, system, rhs):
         return True
-    for e in range(ne):
+    for e in range(une):
         a = eng[e]
-        for q in range(ne):
+        for q in range(une):
             system[e, q] = cmat[a, eng[q]]
         system[e, e] += c_alpha[a] - c_gamma[a] * (1.0 + y[a])
         rhs[e, 0] = r_w[a]
@@ -442,14 +446,17 @@ def _factor_solve(ne, eng, cmat, c_alpha, c_gamma, y, r_w, c_arm, system, rhs): 
 def _cholesky_solve(ne, system, rhs):  # pragma: no cover (compiled)
     """Solve with the factor :func:`_cholesky2` left in ``system`` for rhs[:ne, 0] alone,
     in place (rhs[:, 1] untouched)."""
-    for j in range(ne):
+    one = np.uint64(1)
+    une = np.uint64(ne)
+    for j in range(une):
         z = rhs[j, 0] * system[j, j]
         rhs[j, 0] = z
-        for i in range(j + 1, ne):
+        for i in range(j + one, une):
             rhs[i, 0] -= system[j, i] * z
-    for i in range(ne - 1, -1, -1):
+    for back in range(une):
+        i = une - one - back
         s0 = rhs[i, 0]
-        for p in range(i + 1, ne):
+        for p in range(i + one, une):
             s0 -= system[i, p] * rhs[p, 0]
         rhs[i, 0] = s0 * system[i, i]
 
@@ -470,7 +477,7 @@ def _extrapolate(v1, v2, v3, v4, streak):  # pragma: no cover (compiled)
 def _solve_sets(
     candidate, bl, arm, alpha, gamma, tooth, angle, own, x0, f0, padded, diagonal, grid, n2,
     period, per_disc, torque, tol_torque, tol_compat, round_off, max_iterations, lowest, block,
-    rotation, force, status
+    rotation, force, status, suspect
 ):  # fmt: skip  # pragma: no cover (compiled)
     """The reference's ``_solve_set`` of every case (row), written for numba: the same
     equations to the same root at round-off, from a start of its own where it can.
@@ -495,7 +502,9 @@ def _solve_sets(
     to a step that does not reduce the residual, with the last Cholesky factor where the
     engaged pins are the same and the residual below :data:`_CHORD`, the last of them
     from within the tolerances a linear update of the loads (F + ΔF). Fills
-    ``rotation`` (B,), ``force`` (B, n) (zero on entry) and ``status`` (B,): 0 solved, 1
+    ``rotation`` (B,), ``force`` (B, n) (zero on entry), ``suspect`` (B,) bool
+    (:func:`_suspects`' flag of each case solved, from the same sum and test while its
+    row is at hand; True where not solved) and ``status`` (B,): 0 solved, 1
     not finished (the caller then takes the reference), 2 needs ``x0`` (its candidates
     and own coefficients then the single-pin bound's, :func:`_candidates`); returns the
     number of cases not solved.
@@ -506,7 +515,17 @@ def _solve_sets(
     idx = np.empty(n, np.int64)
     cell = np.empty(n, np.int64)
     wts = np.empty((n, 4))
-    base = np.empty(n, np.int64)
+    base = np.empty(n, np.uint64)  # unsigned: no negative-index test per read (the
+    ucell = np.empty(n, np.uint64)  # window's four reads of a row then one vector load)
+    one = np.uint64(1)
+    by_period = np.empty(n2, np.int64)  # t mod period of each tooth t < n2
+    for t in range(n2):
+        by_period[t] = t % period
+    disc_of = np.empty(n, np.int64)  # the disc of each pin (of a stack)
+    for i in range(n):
+        disc_of[i] = i // per_disc
+    uside = np.uint64(side)
+    block_size = np.uint64(side * side)
     km = np.empty(n, np.int64)
     c_disc = np.empty(n, np.int64)  # the disc of each candidate (of a stack)
     cmat = np.zeros((n, n))
@@ -515,14 +534,15 @@ def _solve_sets(
     w, delta, f, y, r_w = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     wn, dn, fn, yn, rwn = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
     step_f, step_w = np.zeros(n), np.zeros(n)
-    eng = np.empty(n, np.int64)
-    loaded = np.empty(n, np.int64)
+    eng = np.empty(n, np.uint64)  # unsigned: no negative-index test where they index
+    loaded = np.empty(n, np.uint64)
     system = np.empty((n, n))
     root = np.empty(n_cases)  # Δφc of each case solved, to extrapolate
     streak = 0
     rhs = np.empty((n, 2))
     failed = 0
     last = -1  # the last case of the ring solved
+    last_total = 0.0  # its Σ F [N]
     for k in range(n_cases):
         if k % block == 0:
             streak = 0
@@ -535,6 +555,7 @@ def _solve_sets(
                 _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
             status[k] = 2
             failed += 1
+            suspect[k] = True
             continue
         if warm:  # Δφc of the roots before extrapolated; the candidates: the pins it
             # can reach, φbl < Δφc + c·ΣF/l with c the table's most negative coefficient
@@ -544,9 +565,7 @@ def _solve_sets(
                 x = _extrapolate(root[k - 1], root[k - 2], root[k - 3], root[k - 4], streak)
             else:
                 x = root[last]
-            total = 0.0
-            for i in range(n):
-                total += force[last, i]
+            total = last_total  # Σ F of the last case solved, in pin order
             pad = _REACH * abs(x) + 4.0 * abs(x - root[last])
             push = (1.0 + _REACH) * lowest * total
             reach = x + pad
@@ -566,6 +585,7 @@ def _solve_sets(
             root[k] = np.nan
             streak = 0
             failed += 1
+            suspect[k] = True
             continue
         # the candidates' Catmull–Rom cells and weights (DiscBody._cells)
         for a in range(nc):
@@ -574,14 +594,18 @@ def _solve_sets(
             c_alpha[a], c_gamma[a] = alpha[k, i], gamma[k, i]
             c, wts[a, 0], wts[a, 1], wts[a, 2], wts[a, 3] = _cell(angle[k, i], u0, u_last, h, m)
             cell[a] = c
+            t = tooth[k, i]
+            if 0 <= t < n2:  # tooth_index's range: the remainders tabulated
+                row, km[a] = by_period[t], t
+            else:
+                row, km[a] = t % period, t % n2
             if warm:  # the own coefficients of the candidates chosen here
                 own[k, i] = _own(
-                    diagonal, tooth[k, i] % period, c, m, wts[a, 0], wts[a, 1], wts[a, 2],
-                    wts[a, 3]
+                    diagonal, row, c, m, wts[a, 0], wts[a, 1], wts[a, 2], wts[a, 3]
                 )  # fmt: skip
-            base[a] = ((tooth[k, i] % period) * n2 * side + c) * side
-            km[a] = tooth[k, i] % n2
-            c_disc[a] = i // per_disc
+            base[a] = np.uint64((row * n2 * side + c) * side)
+            ucell[a] = np.uint64(c)
+            c_disc[a] = disc_of[i]
         # the reciprocal matrix (DiscBody.reciprocal_matrix): pairs i < j from their
         # windows, the own coefficients on the diagonal, 0 between discs
         for b in range(nc):  # the load
@@ -598,15 +622,17 @@ def _solve_sets(
                     offset += n2
                 # the pair's window: rows cell_b … cell_b + 3 (the load's nodes) and
                 # columns cell_a … cell_a + 3 (the response's) of its block
-                s0 = offset * (side * side) + base[b] + cell[a]
-                s1, s2, s3 = s0 + side, s0 + 2 * side, s0 + 3 * side
+                s0 = np.uint64(offset) * block_size + base[b] + ucell[a]
+                s1 = s0 + uside
+                s2 = s1 + uside
+                s3 = s2 + uside
                 # the load's nodes first, as the reference: the sum over them in order
                 h0 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
-                s0, s1, s2, s3 = s0 + 1, s1 + 1, s2 + 1, s3 + 1
+                s0, s1, s2, s3 = s0 + one, s1 + one, s2 + one, s3 + one
                 h1 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
-                s0, s1, s2, s3 = s0 + 1, s1 + 1, s2 + 1, s3 + 1
+                s0, s1, s2, s3 = s0 + one, s1 + one, s2 + one, s3 + one
                 h2 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
-                s0, s1, s2, s3 = s0 + 1, s1 + 1, s2 + 1, s3 + 1
+                s0, s1, s2, s3 = s0 + one, s1 + one, s2 + one, s3 + one
                 h3 = ((padded[s0] * wb0 + padded[s1] * wb1) + padded[s2] * wb2) + padded[s3] * wb3
                 pair = ((h0 * wts[a, 0] + h1 * wts[a, 1]) + h2 * wts[a, 2]) + h3 * wts[a, 3]
                 cmat[a, b] = pair
@@ -667,6 +693,7 @@ def _solve_sets(
             root[k] = np.nan
             streak = 0
             failed += 1
+            suspect[k] = True
             continue
         r_t, current = _residuals(nc, w, c_arm, cmat, torque, delta, f, r_w, loaded)
         solved = False
@@ -697,7 +724,7 @@ def _solve_sets(
             same = factored
             for a in range(nc):
                 if f[a] > 0.0:
-                    same = same and ne < n_factored and eng[ne] == a
+                    same = same and ne < n_factored and int(eng[ne]) == a
                     eng[ne] = a
                     ne += 1
             chord = near and same and ne == n_factored
@@ -779,15 +806,28 @@ def _solve_sets(
             root[k] = np.nan
             streak = 0
             failed += 1
+            suspect[k] = True
             continue
         status[k] = 0
         streak += 1
         last = k
         rotation[k] = x
         root[k] = x
+        # Σ F in pin order (the other pins' loads are 0: the sum of the whole row)
+        last_total = 0.0
         for a in range(nc):
             i = idx[a]
             force[k, i] = f[a]
+            last_total += f[a]
+        # _suspects' test of this case (the same ΣF, in pin order, and the same margin)
+        # (branch-free over the pins: φbl = +inf or NaN fails the comparison itself)
+        load = lowest * last_total
+        flag = False
+        for i in range(n):
+            b, lk = bl[k, i], arm[k, i]
+            near = (b - x) * lk < load + 1e-12 * (abs(x) * lk + load)
+            flag |= (not candidate[k, i]) & (lk > 0.0) & (b > -np.inf) & near
+        suspect[k] = flag
     return failed
 
 
