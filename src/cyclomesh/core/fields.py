@@ -31,7 +31,7 @@ from cyclomesh.core.hertz import (
     pin_tooth_radius,
 )
 from cyclomesh.core.kernel import kernel_name
-from cyclomesh.core.kernel_contact import overlap_contacts, stress_arrays
+from cyclomesh.core.kernel_contact import stack_fields, stress_arrays
 from cyclomesh.core.pair import PairDesign
 
 __all__ = [
@@ -81,7 +81,19 @@ def contact_stresses(
     the same formulas in one compiled pass).
     """
     if kernel_name() == "numba":
-        return stress_arrays(geo.pin_radius, geo.curvature_radius, geo.cos_beta, force, design)
+        shape = np.shape(force)
+        # a stack's (..., A, N, n1) as (..., A·N, n1): its pin radii, the same at every
+        # crank angle and disc (a broadcast view), are then read one row per ring instead
+        # of copied for every crank angle (kernel_contact's pin rows), as pin_compliance
+        rows = shape if len(shape) <= 3 else (-1, shape[-3] * shape[-2], shape[-1])
+        out = stress_arrays(
+            *(
+                np.broadcast_to(v, shape).reshape(rows)
+                for v in (geo.pin_radius, geo.curvature_radius, geo.cos_beta, force)
+            ),
+            design,
+        )
+        return tuple(v.reshape(shape) for v in out)
     pin_c = design.pin_material.compliance
     groove_force = force * geo.cos_beta
     tooth_modulus = effective_modulus(pin_c, design.disc_material.compliance)
@@ -185,26 +197,68 @@ def contact_fields(
     if what & {"groove_load", "contact_stress", "groove_stress"}:
         groove, stress, groove_stress = contact_stresses(geo, design, force)
         out.update(groove_load=groove, contact_stress=stress, groove_stress=groove_stress)
-    if (
-        {"overlap", "contacts"} <= what
-        and stack_axes == 1
-        and np.shape(rotation)[-1:] == (1,)
-        and np.shape(geo.reverse_rotation) == np.shape(force)
-        and kernel_name() == "numba"
-    ):  # one disc: both in one compiled pass, the same bits
-        out["overlap"], out["contacts"] = overlap_contacts(
-            geo.reverse_rotation, rotation, force, CONTACT_LOAD_FRACTION
-        )
+    if kernel_name() == "numba":  # the per-disc sums, counts and overlaps in one pass
+        out.update(_compiled_fields(what, geo, force, rotation, normal, moment_arm, stack_axes))
     if "overlap" in what and "overlap" not in out:
         out["overlap"] = overlap(geo.reverse_rotation, rotation)
     if "force_angle" in what:
         out["force_angle"] = np.arctan2(-normal[1], -normal[0])
-    if "torque_share" in what:
+    if "torque_share" in what and "torque_share" not in out:
         arm = geo.moment_arm if moment_arm is None else moment_arm
         out["torque_share"] = np.sum(force * arm, axis=-1)
     if "contacts" in what and "contacts" not in out:
         out["contacts"] = count_contacts(force, axes=stack_axes)
-    if "mesh_force" in what:
+    if "mesh_force" in what and "mesh_force_x" not in out:
         out["mesh_force_x"] = -np.sum(force * normal[0], axis=-1)
         out["mesh_force_y"] = -np.sum(force * normal[1], axis=-1)
     return {name: out[name] for name in out if name in what or name.startswith("mesh_force")}
+
+
+def _compiled_fields(
+    what: set[str],
+    geo: UnloadedContact,
+    force: FloatArray,
+    rotation: FloatArray | None,
+    normal: tuple[FloatArray, FloatArray] | None,
+    moment_arm: FloatArray | None,
+    stack_axes: int,
+) -> dict[str, FloatArray]:
+    """``overlap``, ``contacts``, ``torque_share`` and ``mesh_force_x``/``_y`` of
+    :func:`contact_fields` in one compiled pass
+    (:func:`cyclomesh.core.kernel_contact.stack_fields`, NumPy's sums in NumPy's order:
+    the same bits), where every array it reads has ``force``'s shape and ``rotation``
+    one value per row of the stack; else nothing (NumPy computes them)."""
+    shape = np.shape(force)
+    if stack_axes not in (1, 2) or not what & {"overlap", "contacts", "torque_share", "mesh_force"}:
+        return {}
+
+    def same(x: object) -> bool:
+        return np.shape(x) == shape
+
+    reverse = None
+    if "overlap" in what:
+        rows = (*shape[:-stack_axes], *(1,) * stack_axes)
+        if not same(geo.reverse_rotation) or np.broadcast_shapes(np.shape(rotation), rows) != rows:
+            return {}
+        reverse = geo.reverse_rotation
+    arm = None
+    if "torque_share" in what:
+        arm = geo.moment_arm if moment_arm is None else moment_arm
+        if not same(arm):
+            return {}
+    if "mesh_force" in what and not (same(normal[0]) and same(normal[1])):
+        return {}
+    out = stack_fields(
+        force,
+        stack_axes,
+        CONTACT_LOAD_FRACTION,
+        arm,
+        normal if "mesh_force" in what else None,
+        reverse,
+        rotation,
+    )
+    if out is None:
+        return {}
+    if "contacts" not in what:
+        del out["contacts"]
+    return out

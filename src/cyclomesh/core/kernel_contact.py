@@ -1116,3 +1116,163 @@ def _sin(x):  # pragma: no cover (compiled)
     n, y0, y1 = _reduce(x)
     kc, ks = _kernels(y0, y1)
     return ks if n == 0.0 else (kc if n == 1.0 else (-ks if n == 2.0 else -kc))
+
+
+# The contact fields of a stack in one pass (issue 27, the 10^6-ring tolerance study):
+# what cyclomesh.core.fields.contact_fields otherwise takes from NumPy in eight passes
+# over the contacts (products, sums, a maximum, comparisons), with NumPy's own order of
+# additions, so the reference's bits.
+
+_PAIRWISE_BLOCK = 128
+"""NumPy's ``PW_BLOCKSIZE``: a row of at most this many terms is summed by NumPy's
+pairwise summation in one block of eight accumulators (:func:`_row_dot`)."""
+
+
+def _row_dot(a, b, j0, n):  # pragma: no cover (compiled)
+    """Σ a[j]·b[j] over j0 ≤ j < j0 + n (n ≤ :data:`_PAIRWISE_BLOCK`) as ``np.sum(a * b,
+    axis=-1)`` adds a contiguous row: NumPy's pairwise summation (its ``pairwise_sum``,
+    one block: eight accumulators of every eighth term, combined as ((0+1)+(2+3)) +
+    ((4+5)+(6+7)), the remainder added in turn; a row of fewer than eight in turn), onto
+    the reduction's identity 0.0: the same additions in the same order, so its bits."""
+    if n < 8:
+        res = 0.0
+        for j in range(j0, j0 + n):
+            res += a[j] * b[j]
+        return res
+    r0 = a[j0] * b[j0]
+    r1 = a[j0 + 1] * b[j0 + 1]
+    r2 = a[j0 + 2] * b[j0 + 2]
+    r3 = a[j0 + 3] * b[j0 + 3]
+    r4 = a[j0 + 4] * b[j0 + 4]
+    r5 = a[j0 + 5] * b[j0 + 5]
+    r6 = a[j0 + 6] * b[j0 + 6]
+    r7 = a[j0 + 7] * b[j0 + 7]
+    stop = j0 + n - n % 8
+    j = j0 + 8
+    while j < stop:
+        r0 += a[j] * b[j]
+        r1 += a[j + 1] * b[j + 1]
+        r2 += a[j + 2] * b[j + 2]
+        r3 += a[j + 3] * b[j + 3]
+        r4 += a[j + 4] * b[j + 4]
+        r5 += a[j + 5] * b[j + 5]
+        r6 += a[j + 6] * b[j + 6]
+        r7 += a[j + 7] * b[j + 7]
+        j += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while j < j0 + n:
+        res += a[j] * b[j]
+        j += 1
+    return 0.0 + res
+
+
+def _stack_fields(
+    force,
+    arm,
+    nx,
+    ny,
+    reverse,
+    rotation,
+    n_discs,
+    n_pins,
+    fraction,
+    overlap,
+    contacts,
+    torque,
+    fx,
+    fy,
+):  # pragma: no cover (compiled)
+    """Per row of n_discs × n_pins contacts (flat arrays; ``rotation`` one value per
+    row): the overlap max(φ' − φ, 0) of every pin (as :func:`_overlap_contacts`), and
+    per disc the pins in contact (load above ``fraction`` of the row's largest, none if
+    a load is NaN: :func:`cyclomesh.core.fields.count_contacts` with the stack's two
+    axes), the torque share Σ F·l and the mesh force −Σ F·n (:func:`_row_dot`). An
+    output of size 0 is not computed. Comparisons, one subtraction, NumPy's sums: the
+    reference's bits."""
+    m = n_discs * n_pins
+    do_overlap = overlap.size > 0
+    do_contacts = contacts.size > 0
+    do_torque = torque.size > 0
+    do_mesh = fx.size > 0
+    for r in range(force.size // m):
+        j0 = r * m
+        if do_overlap:
+            rot = rotation[r]
+            for i in range(j0, j0 + m):
+                d = reverse[i] - rot
+                overlap[i] = d if (d >= 0.0 or d != d) else 0.0
+        if do_contacts:
+            top = -math.inf
+            nan = False
+            for i in range(j0, j0 + m):
+                f = force[i]
+                nan |= f != f
+                top = f if f > top else top
+            limit = fraction * top
+            for k in range(n_discs):
+                count = 0
+                for i in range(j0 + k * n_pins, j0 + (k + 1) * n_pins):
+                    count += force[i] > limit
+                contacts[r * n_discs + k] = 0 if nan else count
+        for k in range(n_discs):
+            s = j0 + k * n_pins
+            if do_torque:
+                torque[r * n_discs + k] = _row_dot(force, arm, s, n_pins)
+            if do_mesh:
+                fx[r * n_discs + k] = -_row_dot(force, nx, s, n_pins)
+                fy[r * n_discs + k] = -_row_dot(force, ny, s, n_pins)
+
+
+@cache
+def _fields_compiled() -> Any:
+    """:func:`_stack_fields` compiled (numba imported on first use; None without it)."""
+    try:
+        import numba
+    except ImportError:
+        return None
+    global _row_dot
+    _row_dot = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(_row_dot)
+    return numba.njit(cache=True, nogil=True, error_model="numpy")(_stack_fields)
+
+
+def stack_fields(force, stack_axes, fraction, arm=None, normal=None, reverse=None, rotation=None):
+    """The contact fields of :func:`cyclomesh.core.fields.contact_fields` that follow from
+    the loads of a stack (``force`` (..., n1) with ``stack_axes`` = 1, or (..., N, n1)
+    with 2) in one compiled pass (:func:`_stack_fields`), bit for bit: ``overlap``
+    [rad] (with ``reverse`` φ' − φt of ``force``'s shape and ``rotation`` broadcast to one
+    value per row), ``contacts``, ``torque_share`` [N·m] (with ``arm`` [m]) and
+    ``mesh_force_x``/``_y`` [N] (with ``normal``), each only with its inputs. Every
+    given array must have ``force``'s shape; rows of more than 128 pins (NumPy's sums
+    there recurse) are not taken: None."""
+    shape = np.shape(force)
+    n_pins = shape[-1]
+    n_discs = shape[-2] if stack_axes == 2 else 1
+    if n_pins > _PAIRWISE_BLOCK or len(shape) < stack_axes or 0 in shape:
+        return None
+    per_disc = shape[:-1]
+    rows = (*shape[:-stack_axes], *(1,) * stack_axes)
+    empty = np.empty(0)
+    out = {}
+    if reverse is not None:
+        out["overlap"] = np.empty(shape)
+    out["contacts"] = np.empty(per_disc, np.int64)
+    if arm is not None:
+        out["torque_share"] = np.empty(per_disc)
+    if normal is not None:
+        out["mesh_force_x"], out["mesh_force_y"] = np.empty(per_disc), np.empty(per_disc)
+    _fields_compiled()(
+        _flat(force, shape),
+        empty if arm is None else _flat(arm, shape),
+        empty if normal is None else _flat(normal[0], shape),
+        empty if normal is None else _flat(normal[1], shape),
+        empty if reverse is None else _flat(reverse, shape),
+        empty if reverse is None else _flat(rotation, rows),
+        n_discs,
+        n_pins,
+        float(fraction),
+        *(
+            out[name].reshape(-1) if name in out else empty
+            for name in ("overlap", "contacts", "torque_share", "mesh_force_x", "mesh_force_y")
+        ),
+    )
+    return out
