@@ -894,14 +894,9 @@ def compliance_arrays(
     design,
     groove_deformation: bool,
     contact_law: str,
-    loaded=None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(α, γ) of every contact [m/N] as :func:`cyclomesh.core.ltca.pin_compliance` (the
-    reference :func:`~cyclomesh.core.hertz.compliance_coefficients`), in one pass.
-
-    ``loaded`` = (backlash [rad], moment arm [m], torque [N·m]) of the load sharing to
-    come: only the contacts that can carry load, NaN at the others
-    (:func:`_compliance_loaded`; about a third of the work)."""
+    reference :func:`~cyclomesh.core.hertz.compliance_coefficients`), in one pass."""
     from cyclomesh.core.hertz import effective_modulus
 
     shape = np.broadcast_shapes(*(np.shape(v) for v in (pin_radius, curvature_radius, cos_beta)))
@@ -930,18 +925,7 @@ def compliance_arrays(
         0.5 * nu / (1.0 - nu),
         design.groove_radius,
     )
-    if loaded is None:
-        compiled().compliance(*args, alpha.reshape(-1), gamma.reshape(-1))
-    else:
-        backlash, arm, torque = loaded
-        compiled().compliance_loaded(
-            *args,
-            _flat(backlash, shape),
-            _flat(arm, shape),
-            float(torque),
-            alpha.reshape(-1),
-            gamma.reshape(-1),
-        )
+    compiled().compliance(*args, alpha.reshape(-1), gamma.reshape(-1))
     return alpha, gamma
 
 
