@@ -75,7 +75,14 @@ def rotation_index(m: int, discs: int, supports, tail: int = 0) -> list[int]:
 
 
 def newton(
-    p, evaluate: Evaluate, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray
+    p,
+    evaluate: Evaluate,
+    law,
+    x: FloatArray,
+    discs: int,
+    rigid: bool,
+    phi: FloatArray,
+    failed: NDArray[np.bool_] | None = None,
 ) -> FloatArray:
     """Newton's method with a backtracking line search on the potential, per crank angle.
 
@@ -92,6 +99,13 @@ def newton(
     ‖g(x + t·s)‖ ≤ (1 − 10⁻⁴t)·‖g(x)‖ (s a descent direction of ‖g‖², Nocedal & Wright
     §11.2), so the iteration does not stall on steps of 10⁻⁸ that leave the potential's
     last digit unchanged.
+
+    ``failed``: as :func:`residual_newton`'s (a boolean array (A,), False on entry): the
+    crank angles that are not near the root and whose line search finds no decrease
+    within :data:`_STALL_HALVINGS` halvings (or that fail as without it) are set True
+    there, left at their last iterate and dropped; nothing is raised, and the others are
+    solved by the same arithmetic as without it (:func:`~cyclomesh.stage.equilibrium.
+    _body_newton`, which hands those angles to a Newton on the residual).
     """
     tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
     floor = ROUND_OFF_FORCE * abs(p.torque) / p.scale
@@ -173,6 +187,13 @@ def newton(
             ok = ~st["bad"] & ok
             new[todo[ok]] = trial[ok]
             todo = todo[~ok]
+            if failed is not None and _h + 1 >= _STALL_HALVINGS:
+                # not near the root and no decrease after _STALL_HALVINGS halvings: the
+                # direction is the regularisation's (or runs away along a saddle):
+                # given up to the caller, left at this iteration's start
+                stall = ~near[todo]
+                failed[active[todo[stall]]] = True
+                todo = todo[~stall]
             if todo.size == 0:
                 break
             extended[active[todo]] = False
@@ -181,11 +202,23 @@ def newton(
             # near the root with no digits left in the potential, a residual that no
             # step reduces is the round-off: the iterate stays, the next test ends it
             if not np.all(near[todo] & flat[todo]):
-                raise ConvergenceError(
-                    f"stage: no descent at crank angle {np.degrees(phi[active[todo[0]]]):.6g}° "
-                    f"(line search failed after {_MAX_HALVINGS} halvings)"
-                )
+                if failed is None:
+                    raise ConvergenceError(
+                        f"stage: no descent at crank angle "
+                        f"{np.degrees(phi[active[todo[0]]]):.6g}° "
+                        f"(line search failed after {_MAX_HALVINGS} halvings)"
+                    )
+                failed[active[todo[~(near[todo] & flat[todo])]]] = True
         x[active] = new
+        if failed is not None and np.any(failed[active]):
+            keep = ~failed[active]
+            active = active[keep]
+            if active.size == 0:
+                return x
+            sub = sub.take(np.flatnonzero(keep))
+    if failed is not None:
+        failed[active] = True
+        return x
     raise ConvergenceError(
         f"stage equilibrium did not converge at crank angle {np.degrees(phi[active[0]]):.6g}°: "
         f"residual above {FORCE_TOLERANCE:.0e}·T/r_c or still falling after {_MAX_ITERATIONS} "
