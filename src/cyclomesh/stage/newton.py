@@ -55,6 +55,10 @@ _STALL_HALVINGS = 30
 """With a ``failed`` array (:func:`residual_newton`), a crank angle whose line search has not
 decreased the residual within this many halvings (a step of 10⁻⁹ of Newton's: the
 direction is the regularisation's, not the problem's) is given up to its caller."""
+_STALL_ITERATIONS = 8
+"""With a ``failed`` array (:func:`newton`), a crank angle not near the root whose largest
+residual has not fallen below its smallest so far for this many Newton steps is given up
+to its caller (the compliant disc's saddle, where the potential's descent runs away)."""
 _STEP_CAP = 1e-4
 """Largest move of any unknown in one trial step [m] (rotations × r_c): a longer Newton
 step (a nearly flat direction of the potential) is shortened to it before the line
@@ -102,7 +106,8 @@ def newton(
 
     ``failed``: as :func:`residual_newton`'s (a boolean array (A,), False on entry): the
     crank angles that are not near the root and whose line search finds no decrease
-    within :data:`_STALL_HALVINGS` halvings (or that fail as without it) are set True
+    within :data:`_STALL_HALVINGS` halvings or whose residual has not fallen for
+    :data:`_STALL_ITERATIONS` steps (or that fail as without it) are set True
     there, left at their last iterate and dropped; nothing is raised, and the others are
     solved by the same arithmetic as without it (:func:`~cyclomesh.stage.equilibrium.
     _body_newton`, which hands those angles to a Newton on the residual).
@@ -115,6 +120,8 @@ def newton(
     previous = np.full(x.shape[0], np.inf)  # max |g| of the last step, per crank angle
     extended = np.zeros(x.shape[0], bool)  # the last step was a stretched one
     linear = np.zeros(x.shape[0], bool)  # the last residual ratio was in _LINEAR
+    best = np.full(x.shape[0], np.inf)  # smallest max |g| so far (with ``failed``)
+    since = np.zeros(x.shape[0], np.int64)  # steps since it fell
     sub = p.take(active)  # the problem of the active crank angles, taken as they converge
     for _ in range(_MAX_ITERATIONS):
         xa = x[active]
@@ -137,6 +144,15 @@ def newton(
         res = np.max(np.abs(g), axis=-1)
         done = near & ((res <= floor) | (res >= previous[active]))
         keep = ~done
+        if failed is not None:
+            # a descent along the compliant disc's saddle: the potential falls, the
+            # residual does not (it grows ×1.3–2 a step); given up to the caller
+            better = res < best[active]
+            best[active] = np.where(better, res, best[active])
+            since[active] = np.where(better, 0, since[active] + 1)
+            stall = keep & ~near & (since[active] >= _STALL_ITERATIONS)
+            failed[active[stall]] = True
+            keep &= ~stall
         # a crank bearing whose equilibrium compression is ~0 (a disc that carries almost
         # nothing at a light torque) makes Newton linear, δ → δ·(1 − 1/p) with
         # Q ∝ δ^p (residual ×(1 − 1/p)^p ≈ 1/13 a step); the step stretched by p is the
