@@ -164,12 +164,13 @@ def newton(
         active = active[keep]
         if active.size == 0:
             return x
-        near = near[keep]
-        xa, g, H, energy = xa[keep], g[keep], H[keep], energy[keep]
-        sub = sub.take(np.flatnonzero(keep))
+        if not np.all(keep):  # (H is the evaluation's own array either way)
+            near = near[keep]
+            xa, g, H, energy = xa[keep], g[keep], H[keep], energy[keep]
+            sub = sub.take(np.flatnonzero(keep))
         diag = np.maximum(np.max(np.abs(np.diagonal(H, axis1=1, axis2=2)), axis=-1), 1e-300)
         i = np.arange(H.shape[-1])
-        H[:, i, i] += 1e-14 * diag[:, None]  # regularised (H is a copy here, H[keep])
+        H[:, i, i] += 1e-14 * diag[:, None]  # regularised (H is this step's own)
         step = np.linalg.solve(H, -g[..., None])[..., 0]
         slope = np.sum(g * step, axis=-1)
         # not a descent direction (flat directions): steepest descent, scaled
