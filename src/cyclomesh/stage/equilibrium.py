@@ -413,10 +413,12 @@ def _body_newton(p: _Problem, evaluate, law, x: FloatArray, discs: int, rigid: b
     start (the stationary point is a saddle in the body's unknowns, :func:`body_coupling`,
     so a descent on the potential can run away along them)."""
     start = x.copy()
-    try:
-        return newton(p, evaluate, law, x, discs, rigid, phi)
-    except ConvergenceError:
-        return _stationary(p, evaluate, law, start, discs, phi)
+    failed = np.zeros(x.shape[0], bool)
+    x = newton(p, evaluate, law, x, discs, rigid, phi, failed)
+    if np.any(failed):
+        idx = np.flatnonzero(failed)
+        x[idx] = _stationary(p.take(idx), evaluate, law, start[idx], discs, phi[idx])
+    return x
 
 
 def _stationary(p: _Problem, evaluate, law, x: FloatArray, discs: int, phi: FloatArray):

@@ -55,6 +55,10 @@ _STALL_HALVINGS = 30
 """With a ``failed`` array (:func:`residual_newton`), a crank angle whose line search has not
 decreased the residual within this many halvings (a step of 10⁻⁹ of Newton's: the
 direction is the regularisation's, not the problem's) is given up to its caller."""
+_STALL_ITERATIONS = 8
+"""With a ``failed`` array (:func:`newton`), a crank angle not near the root whose largest
+residual has not fallen below its smallest so far for this many Newton steps is given up
+to its caller (the compliant disc's saddle, where the potential's descent runs away)."""
 _STEP_CAP = 1e-4
 """Largest move of any unknown in one trial step [m] (rotations × r_c): a longer Newton
 step (a nearly flat direction of the potential) is shortened to it before the line
@@ -75,7 +79,14 @@ def rotation_index(m: int, discs: int, supports, tail: int = 0) -> list[int]:
 
 
 def newton(
-    p, evaluate: Evaluate, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray
+    p,
+    evaluate: Evaluate,
+    law,
+    x: FloatArray,
+    discs: int,
+    rigid: bool,
+    phi: FloatArray,
+    failed: NDArray[np.bool_] | None = None,
 ) -> FloatArray:
     """Newton's method with a backtracking line search on the potential, per crank angle.
 
@@ -92,6 +103,14 @@ def newton(
     ‖g(x + t·s)‖ ≤ (1 − 10⁻⁴t)·‖g(x)‖ (s a descent direction of ‖g‖², Nocedal & Wright
     §11.2), so the iteration does not stall on steps of 10⁻⁸ that leave the potential's
     last digit unchanged.
+
+    ``failed``: as :func:`residual_newton`'s (a boolean array (A,), False on entry): the
+    crank angles that are not near the root and whose line search finds no decrease
+    within :data:`_STALL_HALVINGS` halvings or whose residual has not fallen for
+    :data:`_STALL_ITERATIONS` steps (or that fail as without it) are set True
+    there, left at their last iterate and dropped; nothing is raised, and the others are
+    solved by the same arithmetic as without it (:func:`~cyclomesh.stage.equilibrium.
+    _body_newton`, which hands those angles to a Newton on the residual).
     """
     tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
     floor = ROUND_OFF_FORCE * abs(p.torque) / p.scale
@@ -101,6 +120,8 @@ def newton(
     previous = np.full(x.shape[0], np.inf)  # max |g| of the last step, per crank angle
     extended = np.zeros(x.shape[0], bool)  # the last step was a stretched one
     linear = np.zeros(x.shape[0], bool)  # the last residual ratio was in _LINEAR
+    best = np.full(x.shape[0], np.inf)  # smallest max |g| so far (with ``failed``)
+    since = np.zeros(x.shape[0], np.int64)  # steps since it fell
     sub = p.take(active)  # the problem of the active crank angles, taken as they converge
     for _ in range(_MAX_ITERATIONS):
         xa = x[active]
@@ -123,6 +144,15 @@ def newton(
         res = np.max(np.abs(g), axis=-1)
         done = near & ((res <= floor) | (res >= previous[active]))
         keep = ~done
+        if failed is not None:
+            # a descent along the compliant disc's saddle: the potential falls, the
+            # residual does not (it grows ×1.3–2 a step); given up to the caller
+            better = res < best[active]
+            best[active] = np.where(better, res, best[active])
+            since[active] = np.where(better, 0, since[active] + 1)
+            stall = keep & ~near & (since[active] >= _STALL_ITERATIONS)
+            failed[active[stall]] = True
+            keep &= ~stall
         # a crank bearing whose equilibrium compression is ~0 (a disc that carries almost
         # nothing at a light torque) makes Newton linear, δ → δ·(1 − 1/p) with
         # Q ∝ δ^p (residual ×(1 − 1/p)^p ≈ 1/13 a step); the step stretched by p is the
@@ -134,12 +164,13 @@ def newton(
         active = active[keep]
         if active.size == 0:
             return x
-        near = near[keep]
-        xa, g, H, energy = xa[keep], g[keep], H[keep], energy[keep]
-        sub = sub.take(np.flatnonzero(keep))
+        if not np.all(keep):  # (H is the evaluation's own array either way)
+            near = near[keep]
+            xa, g, H, energy = xa[keep], g[keep], H[keep], energy[keep]
+            sub = sub.take(np.flatnonzero(keep))
         diag = np.maximum(np.max(np.abs(np.diagonal(H, axis1=1, axis2=2)), axis=-1), 1e-300)
         i = np.arange(H.shape[-1])
-        H[:, i, i] += 1e-14 * diag[:, None]  # regularised (H is a copy here, H[keep])
+        H[:, i, i] += 1e-14 * diag[:, None]  # regularised (H is this step's own)
         step = np.linalg.solve(H, -g[..., None])[..., 0]
         slope = np.sum(g * step, axis=-1)
         # not a descent direction (flat directions): steepest descent, scaled
@@ -173,6 +204,13 @@ def newton(
             ok = ~st["bad"] & ok
             new[todo[ok]] = trial[ok]
             todo = todo[~ok]
+            if failed is not None and _h + 1 >= _STALL_HALVINGS:
+                # not near the root and no decrease after _STALL_HALVINGS halvings: the
+                # direction is the regularisation's (or runs away along a saddle):
+                # given up to the caller, left at this iteration's start
+                stall = ~near[todo]
+                failed[active[todo[stall]]] = True
+                todo = todo[~stall]
             if todo.size == 0:
                 break
             extended[active[todo]] = False
@@ -181,11 +219,23 @@ def newton(
             # near the root with no digits left in the potential, a residual that no
             # step reduces is the round-off: the iterate stays, the next test ends it
             if not np.all(near[todo] & flat[todo]):
-                raise ConvergenceError(
-                    f"stage: no descent at crank angle {np.degrees(phi[active[todo[0]]]):.6g}° "
-                    f"(line search failed after {_MAX_HALVINGS} halvings)"
-                )
+                if failed is None:
+                    raise ConvergenceError(
+                        f"stage: no descent at crank angle "
+                        f"{np.degrees(phi[active[todo[0]]]):.6g}° "
+                        f"(line search failed after {_MAX_HALVINGS} halvings)"
+                    )
+                failed[active[todo[~(near[todo] & flat[todo])]]] = True
         x[active] = new
+        if failed is not None and np.any(failed[active]):
+            keep = ~failed[active]
+            active = active[keep]
+            if active.size == 0:
+                return x
+            sub = sub.take(np.flatnonzero(keep))
+    if failed is not None:
+        failed[active] = True
+        return x
     raise ConvergenceError(
         f"stage equilibrium did not converge at crank angle {np.degrees(phi[active[0]]):.6g}°: "
         f"residual above {FORCE_TOLERANCE:.0e}·T/r_c or still falling after {_MAX_ITERATIONS} "
