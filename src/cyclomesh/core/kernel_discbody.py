@@ -685,16 +685,7 @@ def _solve_sets(
                     delta[a] = da if da > 0.0 else 0.0
                     f[a], y[a], good = _force(delta[a], c_alpha[a], c_gamma[a], 0.0, 0.0, 0.0)
                     ok = ok and good
-        if not ok:  # the caller gives the rigid disc's start (or takes the reference)
-            if warm:
-                _own_row(k, tooth, angle, diagonal, grid, own)
-                _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
-            status[k] = 2 if warm else 1
-            root[k] = np.nan
-            streak = 0
-            failed += 1
-            suspect[k] = True
-            continue
+        # a start that failed (not ok) ends the Newton loop at once and is given up below
         r_t, current = _residuals(nc, w, c_arm, cmat, torque, delta, f, r_w, loaded)
         solved = False
         previous = np.inf  # the scaled residual before the last step
@@ -798,7 +789,8 @@ def _solve_sets(
             current = new
             for a in range(nc):
                 w[a], delta[a], f[a], y[a], r_w[a] = wn[a], dn[a], fn[a], yn[a], rwn[a]
-        if not solved:  # the caller gives the rigid disc's start (or takes the reference)
+        if not solved:  # or its start failed: the caller gives the rigid disc's start
+            # (or takes the reference)
             if warm:
                 _own_row(k, tooth, angle, diagonal, grid, own)
                 _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
