@@ -286,3 +286,34 @@ def test_any_start_gives_the_same_root_to_round_off(monkeypatch):
     for name in ("bearing_load", "pin_load", "torque_share"):
         a, b = getattr(ref, name), getattr(got, name)
         assert np.max(np.abs(a - b)) <= 1e-13 * np.max(np.abs(a)), name
+
+
+def test_newton_with_failed_flags_instead_of_raising():
+    """A crank angle that cannot converge is flagged, not raised, and left at its last
+    iterate; without ``failed`` the same raises ConvergenceError."""
+    from types import SimpleNamespace
+
+    from cyclomesh.exceptions import ConvergenceError
+
+    class Problem(SimpleNamespace):
+        def take(self, idx):
+            return self
+
+    def evaluate(sub, law, x, discs, rigid, hessian=True, gradient=True):
+        # a saddle: Π = −x₀² (no minimum), gradient −2x₀, Hessian −2
+        n, m = x.shape
+        g = np.zeros((n, m))
+        g[:, 0] = -2.0 * x[:, 0]
+        H = np.zeros((n, m, m))
+        H[:, 0, 0] = -2.0
+        for i in range(1, m):
+            H[:, i, i] = 1.0
+        return -(x[:, 0] ** 2), g, H, {"bad": np.zeros(n, bool)}
+
+    p = Problem(torque=1.0, scale=1.0, supports=None, body=None)
+    x = np.full((2, 4), 1e-3)
+    with pytest.raises(ConvergenceError):
+        nt.newton(p, evaluate, None, x.copy(), 1, False, np.zeros(2))
+    failed = np.zeros(2, bool)
+    out = nt.newton(p, evaluate, None, x.copy(), 1, False, np.zeros(2), failed)
+    assert failed.all() and np.all(np.isfinite(out))

@@ -16,6 +16,8 @@ try:  # the fe extra; gmsh's wheel also needs X11/OpenGL client libraries (see .
 except (ImportError, OSError) as exc:  # pragma: no cover
     pytest.skip(f"fe extra not usable here: {exc}", allow_module_level=True)
 
+import cyclomesh.stage.equilibrium as eq
+import cyclomesh.stage.newton as nt
 from cyclomesh.core.discbody import FREE_HELD, FreeDiscBody
 from cyclomesh.fe.influence import free_influence
 from cyclomesh.stage.solve import solve
@@ -492,3 +494,61 @@ def test_a_compliant_stage_ring_that_does_not_converge_is_unsolved(coarse, tmp_p
         if name not in ("unsolved", "unsolved_reason", "jammed"):
             assert np.isnan(var.values[1]) or var.dtype.kind != "f", name
             np.testing.assert_array_equal(var.values[keep], clean[name].values[keep], name)
+
+
+# The compliant disc's Newton (stage.equilibrium._body_newton): the potential's Newton
+# (stage.newton.newton) with a ``failed`` array hands only the crank angles it cannot
+# finish (the descent runs away along the body unknowns' saddle) to the residual Newton
+# (_stationary); the others keep its arithmetic.
+
+BOTH = [-412.0, 412.0]
+NEWTON_FIELDS = ("twist", "bearing_load", "pin_load", "torque_share")
+
+
+def _count_stationary(monkeypatch):
+    """Crank angles handed to _stationary, counted."""
+    handed = []
+    stationary = eq._stationary
+
+    def counted(p, evaluate, law, x, discs, phi):
+        handed.append(x.shape[0])
+        return stationary(p, evaluate, law, x, discs, phi)
+
+    monkeypatch.setattr(eq, "_stationary", counted)
+    return handed
+
+
+def test_failed_newton_keeps_the_arithmetic_where_every_angle_converges(
+    example, coarse, monkeypatch
+):
+    """Where Newton finishes every crank angle, the ``failed`` array changes no bit."""
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numpy")
+    body, _ = coarse
+    handed = _count_stationary(monkeypatch)
+    ref = _solve(example, body, BOTH)
+    assert sum(handed) == 0
+    plain = nt.newton
+
+    def without(p, evaluate, law, x, discs, rigid, phi, failed=None):
+        return plain(p, evaluate, law, x, discs, rigid, phi)
+
+    monkeypatch.setattr(eq, "newton", without)
+    got = _solve(example, body, BOTH)
+    for name in NEWTON_FIELDS:
+        np.testing.assert_array_equal(getattr(got, name), getattr(ref, name), name)
+
+
+def test_angles_handed_to_the_residual_newton_reach_the_same_root(example, coarse, monkeypatch):
+    """Every crank angle given up (here: a stall declared after 0 steps) is solved by the
+    residual Newton from its start, to the same root: 1e-12 of each field's largest value
+    (that Newton stops at 1e-12·T/r_c, not at round-off)."""
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numpy")
+    body, _ = coarse
+    ref = _solve(example, body, BOTH)
+    handed = _count_stationary(monkeypatch)
+    monkeypatch.setattr(nt, "_STALL_ITERATIONS", 0)
+    got = _solve(example, body, BOTH)
+    assert sum(handed) > 0
+    for name in NEWTON_FIELDS:
+        a, b = getattr(ref, name), getattr(got, name)
+        assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(a)), name
