@@ -8,6 +8,8 @@ the per-pin fields to 1e-13 of their largest value, the rotations and the transm
 error to 1e-13 elementwise (as ``tests/core/test_kernel.py``).
 """
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -158,6 +160,43 @@ def test_the_single_case_and_the_batch_agree(monkeypatch):
     x_ref, f_ref = share_load_coupled(bl, arm, alpha, gamma, 200.0, body, tooth, angle)
     np.testing.assert_allclose(x, x_ref, rtol=1e-13, atol=0)
     np.testing.assert_allclose(f, f_ref, rtol=0, atol=1e-13 * np.max(f_ref))
+
+
+@pytest.mark.parametrize("name", kernel.KERNELS)
+def test_broadcast_inputs_solve_as_full_arrays_without_a_warning(monkeypatch, name):
+    """Inputs that differ from the common shape by leading axes of length 1 (as the
+    stage's tooth indices, (A, P) beside (1, A, P)) or that really broadcast give the
+    full arrays' solution bit for bit, and no NumPy FutureWarning about writeable
+    broadcast views reaches the user (numba asks whether its arguments are writeable)."""
+    monkeypatch.setenv(kernel.ENV_VAR, name)
+    body = _body()
+    bl = np.array([[0.0, 1e-4, 2e-4, np.inf], [0.0, 5e-5, 3e-4, 1e-3]])
+    arm = np.full((2, 4), 0.04)
+    alpha, gamma = np.full((2, 4), 2e-9), np.full((2, 4), 1e-10)
+    tooth, angle = np.array([[0, 1, 2, 3]] * 2), np.full((2, 4), -1.0)
+    ref = share_load_coupled(bl, arm, alpha, gamma, 200.0, body, tooth, angle)
+    real = kernel_discbody.compiled()
+
+    class Asks:  # numba's typeof reads .flags.writeable of every array it types
+        def __getattr__(self, attr):
+            def call(*args):
+                for a in args:
+                    if isinstance(a, np.ndarray):
+                        assert a.flags.writeable in (True, False)
+                return getattr(real, attr)(*args)
+
+            return call
+
+    monkeypatch.setattr(kernel_discbody, "compiled", Asks)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        lead = share_load_coupled(
+            bl[None], arm[None], alpha[None], gamma[None], 200.0, body, tooth, angle[None]
+        )
+        spread = share_load_coupled(bl, 0.04, alpha, 1e-10, 200.0, body, tooth[0], -1.0)
+    for got in (lead, spread):
+        np.testing.assert_array_equal(got[0].reshape(ref[0].shape), ref[0])
+        np.testing.assert_array_equal(got[1].reshape(ref[1].shape), ref[1])
 
 
 def test_the_kernel_keeps_the_reference_constants():

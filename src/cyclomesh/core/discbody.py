@@ -37,6 +37,7 @@ References
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -362,15 +363,26 @@ def share_load_coupled(
     force : ndarray
         F_i [N], shape (..., n).
     """
-    bl = np.asarray(backlash, float)
-    arm = np.asarray(moment_arm, float)
-    bl, arm, alpha, gamma, tooth, angle = np.broadcast_arrays(
-        bl,
-        arm,
-        np.asarray(alpha, float),
-        np.asarray(gamma, float),
-        np.asarray(tooth, np.int64),
-        np.asarray(profile_angle, float),
+    inputs = tuple(
+        np.asarray(v, dtype)
+        for v, dtype in (
+            (backlash, float),
+            (moment_arm, float),
+            (alpha, float),
+            (gamma, float),
+            (tooth, np.int64),
+            (profile_angle, float),
+        )
+    )
+    # not np.broadcast_arrays: its views warn when the compiled passes below ask whether
+    # they are writeable (NumPy's FutureWarning). An array that differs from the shape by
+    # axes of length 1 only is reshaped (a view, as before); np.broadcast_to (read-only)
+    # where it really broadcasts. The values are the same.
+    shape = np.broadcast_shapes(*(v.shape for v in inputs))
+    size = math.prod(shape)
+    bl, arm, alpha, gamma, tooth, angle = (
+        v if v.shape == shape else v.reshape(shape) if v.size == size else np.broadcast_to(v, shape)
+        for v in inputs
     )
     lead, n = bl.shape[:-1], bl.shape[-1]
     flat = (-1, n)
