@@ -98,9 +98,13 @@ class Body:
     pin_w: FloatArray  # (A, D, 2·n1, Λ): into-disc displacement of every pin per unit z
     hole_w: FloatArray  # (A, D, N, 2, Λ): hole centre displacement (fixed frame, x y)
     energy: FloatArray  # (A, D, Λ, Λ): E = C'/c0² on the free components
+    # the pin (index into the flanks, 0 … 2·n1 − 1) of each pin unknown, −1 for padding,
+    # (A, D, P): a crank angle's unknowns carried to the next one's (a warm start)
+    pins: NDArray[np.int64] | None = None
 
     def __getitem__(self, idx: NDArray[np.int64]) -> Body:
-        return Body(self.pin_w[idx], self.hole_w[idx], self.energy[idx])
+        pins = None if self.pins is None else self.pins[idx]
+        return Body(self.pin_w[idx], self.hole_w[idx], self.energy[idx], pins)
 
     @property
     def size(self) -> int:

@@ -186,7 +186,8 @@ def body_coupling(
     lam[..., P::2] = fx * erx[..., 0] + fy * ery[..., 0]
     lam[..., P + 1 :: 2] = -fx * ery[..., 0] + fy * erx[..., 0]
     z = c0 * lam[..., free]
-    return _Body(pin_w=pin_w, hole_w=hole_w, energy=energy), z.reshape(A, -1)
+    pins = np.where(ok, order, -1)
+    return _Body(pin_w=pin_w, hole_w=hole_w, energy=energy, pins=pins), z.reshape(A, -1)
 
 
 _NEAR = 10e-6
@@ -258,6 +259,8 @@ def _solve(
             # a comparison, less than picking the near ones), so there is no check after
             return _kernel_newton(p, _evaluate, law, x, discs, rigid, phi, state)
         return _warm(p, law, x, discs, rigid, phi)
+    if p.slip is None and not rigid and p.body is not None and p.body.pins is not None:
+        return _body_warm(p, law, x, discs, phi)
     return _solve_near(p, law, x, discs, rigid, phi)
 
 
@@ -280,6 +283,63 @@ def _warm(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatAr
             x[idx[use]] = prev[use]
         x[idx] = _solve_near(sub, law, x[idx], discs, rigid, phi[idx])
     return x
+
+
+BODY_RUN = 8
+"""Crank angles of the compliant disc's stage solved in a run from the one before
+(:func:`_body_warm`): every BODY_RUN-th crank angle starts from its own start (the rigid
+disc's loads, :func:`body_coupling`), each of the next BODY_RUN − 1 from the solution of
+the crank angle before it."""
+
+
+def _body_warm(p: _Problem, law, x: FloatArray, discs: int, phi: FloatArray) -> FloatArray:
+    """The compliant disc's equilibrium (:func:`_solve_near` with :func:`_body_newton`) in
+    :data:`BODY_RUN` passes, as :func:`_warm`: pass j solves the crank angles j,
+    j + BODY_RUN, …, those of pass j > 0 started from the solution of the crank angle
+    before (:func:`_body_carried`) where no pin is past its law there. Newton runs to the
+    root at round-off, so the root does not depend on the start; a warm start takes
+    about half the Newton steps of the own start (a light torque's disc unknowns
+    converge linearly from the rigid disc's loads)."""
+    A = x.shape[0]
+    for j in range(min(BODY_RUN, A)):
+        idx = np.arange(j, A, BODY_RUN)
+        sub = p.take(idx)
+        if j:
+            prev = _body_carried(p, x, idx, 1)
+            if j > 1:  # the line through the two solutions before
+                line = 2.0 * prev - _body_carried(p, x, idx, 2, prev)
+                _, _, _, s2 = _evaluate(sub, law, line, discs, False, gradient=False)
+                prev = np.where(s2["bad"][:, None], prev, line)
+            _, _, _, s1 = _evaluate(sub, law, prev, discs, False, gradient=False)
+            use = ~s1["bad"]
+            x[idx[use]] = prev[use]
+        x[idx] = _solve_near(sub, law, x[idx], discs, False, phi[idx])
+    return x
+
+
+def _body_carried(
+    p: _Problem, x: FloatArray, idx: NDArray[np.int64], back: int, own: FloatArray | None = None
+) -> FloatArray:
+    """The start of the crank angles ``idx`` from the solution at ``idx − back``: the
+    stage's and the supports' unknowns and the holes' body unknowns as they are there, each
+    pin unknown (a pin's load × c0, :func:`body_coupling`) that pin's there, or ``own``'s
+    (default: ``x[idx]``, the own start) where that pin was no candidate at ``idx − back``
+    (the candidates shift with the crank angle; padding stays 0)."""
+    b = p.body
+    n, m = idx.size, x.shape[1]
+    D, P = b.pins.shape[1:]
+    z0 = m - b.size
+    out = x[idx - back].copy()
+    z_prev = x[idx - back, z0:].reshape(n, D, -1)
+    z_own = (x[idx] if own is None else own)[:, z0:].reshape(n, D, -1)
+    here, there = b.pins[idx], b.pins[idx - back]  # (n, D, P)
+    match = (here[..., :, None] == there[..., None, :]) & (here[..., :, None] >= 0)
+    found = np.any(match, axis=-1)
+    where = np.argmax(match, axis=-1)
+    carried = np.take_along_axis(z_prev[..., :P], where, axis=-1)
+    z = out[:, z0:].reshape(n, D, -1)  # a view of out
+    z[..., :P] = np.where(found, carried, z_own[..., :P])
+    return out
 
 
 def _solve_near(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray):
@@ -432,7 +492,7 @@ def _stationary(p: _Problem, evaluate, law, x: FloatArray, discs: int, phi: Floa
         return g, H, st
 
     rot = rotation_index(x.shape[1], discs, p.supports, p.body.size)
-    return residual_newton(p, gradient, x, phi, rot, "stage (compliant disc)")
+    return residual_newton(p, gradient, x, phi, rot, "stage (compliant disc)", round_off=True)
 
 
 def _mirrored(arr: FloatArray) -> FloatArray:

@@ -59,6 +59,9 @@ _STALL_ITERATIONS = 8
 """With a ``failed`` array (:func:`newton`), a crank angle not near the root whose largest
 residual has not fallen below its smallest so far for this many Newton steps is given up
 to its caller (the compliant disc's saddle, where the potential's descent runs away)."""
+_ROUND_OFF_HALVINGS = 3
+"""With ``round_off`` (:func:`residual_newton`), a crank angle near the root whose residual's
+norm no trial of this many halvings reduces stays where it is (the round-off)."""
 _STEP_CAP = 1e-4
 """Largest move of any unknown in one trial step [m] (rotations × r_c): a longer Newton
 step (a nearly flat direction of the potential) is shortened to it before the line
@@ -252,6 +255,7 @@ def residual_newton(
     what: str,
     reduce: FloatArray | None = None,
     failed: NDArray[np.bool_] | None = None,
+    round_off: bool = False,
 ) -> FloatArray:
     """Newton's method on r(x) = 0 with a backtracking line search on the residual's norm
     (Nocedal & Wright §11.2), per crank angle: where no potential decreases along the step
@@ -268,10 +272,16 @@ def residual_newton(
     :data:`_STALL_HALVINGS` halvings) are set True there and left at their last iterate,
     the others solved by the same arithmetic as without it (a caller that solves those
     angles another way, :func:`~cyclomesh.stage.equilibrium._friction_solve`).
+    ``round_off``: near the root, go on as :func:`newton` does, to a largest residual of
+    :data:`ROUND_OFF_FORCE`·T/r_c or the first step that does not reduce it (or whose line
+    search finds no decrease of the norm), so the root does not depend on the start
+    (:func:`~cyclomesh.stage.equilibrium._stationary`).
     """
     tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
+    floor = ROUND_OFF_FORCE * abs(p.torque) / p.scale
     L = p.scale
     active = np.arange(x.shape[0])
+    previous = np.full(x.shape[0], np.inf)  # max |r| of the last step (round_off)
     for _ in range(_MAX_ITERATIONS):
         sub = p.take(active)
         xa = x[active]
@@ -279,7 +289,13 @@ def residual_newton(
         xs = np.abs(xa @ reduce if reduce is not None else xa.copy())
         xs[:, rot] *= L
         noise = 16.0 * np.finfo(float).eps * np.einsum("nij,nj->ni", np.abs(J), xs)
-        keep = ~np.all(np.abs(r) <= np.maximum(tol, noise), axis=-1)
+        near = np.all(np.abs(r) <= np.maximum(tol, noise), axis=-1)
+        keep = ~near
+        if round_off:
+            res = np.max(np.abs(r), axis=-1)
+            keep = ~(near & ((res <= floor) | (res >= previous[active])))
+            previous[active] = res
+            near = near[keep]
         active = active[keep]
         if active.size == 0:
             return x
@@ -300,10 +316,19 @@ def residual_newton(
             ok = ~st["bad"] & (np.linalg.norm(r_t, axis=-1) <= (1.0 - 1e-4 * t[todo]) * merit[todo])
             new[todo[ok]] = trial[ok]
             todo = todo[~ok]
+            if round_off and _h >= _ROUND_OFF_HALVINGS:
+                todo = todo[~near[todo]]  # at the root's round-off: stays (the test ends it)
             if todo.size == 0:
                 break
             t[todo] *= 0.5
         else:
+            if round_off:
+                # near the root, a residual that no step reduces is the round-off: the
+                # iterate stays, the next test ends it (its residual is not below itself)
+                todo = todo[~near[todo]]
+                if todo.size == 0:
+                    x[active] = new
+                    continue
             if failed is None:
                 raise ConvergenceError(
                     f"{what}: no decrease of the residual at crank angle "
