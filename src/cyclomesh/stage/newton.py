@@ -59,6 +59,11 @@ _STALL_ITERATIONS = 8
 """With a ``failed`` array (:func:`newton`), a crank angle not near the root whose largest
 residual has not fallen below its smallest so far for this many Newton steps is given up
 to its caller (the compliant disc's saddle, where the potential's descent runs away)."""
+_REUSE_TRIAL = True
+"""The compliant disc (:func:`newton` on a problem with a ``body``): the first trial of each
+line search evaluates the gradient and Hessian as well, and where it is taken they are
+the next step's (the same evaluation at the same point, so the same bits: it saves the
+next step's evaluation, the line search takes the full step at almost every step)."""
 _ROUND_OFF_HALVINGS = 3
 """With ``round_off`` (:func:`residual_newton`), a crank angle near the root whose residual's
 norm no trial of this many halvings reduces stays where it is (the round-off)."""
@@ -126,9 +131,21 @@ def newton(
     best = np.full(x.shape[0], np.inf)  # smallest max |g| so far (with ``failed``)
     since = np.zeros(x.shape[0], np.int64)  # steps since it fell
     sub = p.take(active)  # the problem of the active crank angles, taken as they converge
+    # the compliant disc: the first trial of each line search evaluates the gradient and
+    # Hessian too, kept for the next step where it is accepted (the same evaluation)
+    reuse = _REUSE_TRIAL and not rigid and getattr(p, "body", None) is not None
+    carried = None
     for _ in range(_MAX_ITERATIONS):
         xa = x[active]
-        energy, g, H, _state = evaluate(sub, law, xa, discs, rigid)
+        if carried is None:
+            energy, g, H, _state = evaluate(sub, law, xa, discs, rigid)
+        else:
+            have, energy, g, H = carried
+            carried = None
+            rest = np.flatnonzero(~have)
+            if rest.size:  # the crank angles whose first trial was not taken
+                e_r, g_r, H_r, _ = evaluate(sub.take(rest), law, xa[rest], discs, rigid)
+                energy[rest], g[rest], H[rest] = e_r, g_r, H_r
         if rigid:
             g = g @ reduce
             H = np.einsum("im,nij,jk->nmk", reduce, H, reduce)
@@ -196,8 +213,9 @@ def newton(
             full = _expand(step[todo] * t[todo, None], reduce if rigid else None)
             trial = xa[todo] + _scale(full, p.scale, rot_idx)
             want = bool(np.any(flat[todo]))  # the gradient only where it is needed
-            e_t, g_t, _H, st = evaluate(
-                sub.take(todo), law, trial, discs, rigid, hessian=False, gradient=want
+            first = reuse and _h == 0  # (todo: every crank angle)
+            e_t, g_t, H_t, st = evaluate(
+                sub.take(todo), law, trial, discs, rigid, hessian=first, gradient=want or first
             )
             ok = (e_t <= energy[todo] + 1e-4 * t[todo] * slope[todo]) | tiny[todo]
             if want:
@@ -206,6 +224,8 @@ def newton(
                 ok = np.where(flat[todo], drop, ok)
             ok = ~st["bad"] & ok
             new[todo[ok]] = trial[ok]
+            if first and np.any(ok):
+                carried = (ok, e_t, g_t, H_t)
             todo = todo[~ok]
             if failed is not None and _h + 1 >= _STALL_HALVINGS:
                 # not near the root and no decrease after _STALL_HALVINGS halvings: the
@@ -236,6 +256,8 @@ def newton(
             if active.size == 0:
                 return x
             sub = sub.take(np.flatnonzero(keep))
+            if carried is not None:
+                carried = tuple(v[keep] for v in carried)
     if failed is not None:
         failed[active] = True
         return x
