@@ -115,7 +115,12 @@ step at a light torque with pin errors reached it and failed the solve."""
 
 
 def body_coupling(
-    mesh: StackMesh, prob: _Problem, body: FreeDiscBody, reach: FloatArray, start: dict
+    mesh: StackMesh,
+    prob: _Problem,
+    body: FreeDiscBody,
+    reach: FloatArray,
+    start: dict,
+    memo: dict | None = None,
 ) -> tuple[_Body, FloatArray]:
     """The compliant disc of one direction: :class:`_Body` from the free disc's
     influence coefficients (:class:`~cyclomesh.core.discbody.FreeDiscBody`, issue 17's FE
@@ -139,6 +144,13 @@ def body_coupling(
     residual of every equation, as without the body (tested on every crank angle of the
     examples; a shift of C''s negative part into the laws, which would restore a minimum,
     took a quarter of the law's α and left the stiffened law no range).
+
+    ``memo``: a dict kept by a caller that couples the same direction at several torques
+    (:func:`solve_direction`'s ``cache``): the coefficients of the candidates are formed
+    once and taken from there where every crank angle's candidates are among the ones
+    formed (a lighter torque's reach is shorter), each coefficient the same number
+    (:meth:`~cyclomesh.core.discbody.FreeDiscBody.matrix` interpolates each pair, each
+    pin–hole and hole–hole term on its own).
     """
     A, D, n1 = mesh.geo.rotation.shape
     N = prob.hx.shape[-1]
@@ -149,10 +161,14 @@ def body_coupling(
     P = max(int(np.max(np.sum(cand, axis=-1))), 1)
     order = np.argsort(~cand, axis=-1, kind="stable")[..., :P]
     ok = np.take_along_axis(cand, order, -1)
-    cmat = body.matrix(
-        np.take_along_axis(tooth, order, -1),
-        np.where(ok, np.take_along_axis(angle, order, -1), 0.0),
-    )
+    cmat = None if memo is None else _memo_matrix(memo.get("body_matrix"), order, ok, N)
+    if cmat is None:
+        cmat = body.matrix(
+            np.take_along_axis(tooth, order, -1),
+            np.where(ok, np.take_along_axis(angle, order, -1), 0.0),
+        )
+        if memo is not None:
+            memo["body_matrix"] = (order, ok, cmat.copy())
     rows = np.concatenate([ok, np.ones((A, D, 2 * N), bool)], -1)
     cmat = np.where(rows[..., :, None] & rows[..., None, :], cmat, 0.0)
     held = [2 * h + c for h, c in FREE_HELD]
@@ -188,6 +204,31 @@ def body_coupling(
     z = c0 * lam[..., free]
     pins = np.where(ok, order, -1)
     return _Body(pin_w=pin_w, hole_w=hole_w, energy=energy, pins=pins), z.reshape(A, -1)
+
+
+def _memo_matrix(kept, order: NDArray[np.int64], ok: NDArray[np.bool_], N: int):
+    """The coefficients (A, D, P + 2N, P + 2N) of the candidates ``order`` (``ok``) taken
+    from ``kept`` = (order, ok, matrix) of an earlier coupling (:func:`body_coupling`'s
+    ``memo``), or None where a candidate is not among those (or nothing is kept). The
+    rows and columns of padding (``~ok``) are arbitrary (the caller sets them)."""
+    if kept is None:
+        return None
+    order1, ok1, cmat1 = kept
+    if order1.shape[:2] != order.shape[:2]:
+        return None
+    match = (order[..., :, None] == order1[..., None, :]) & ok1[..., None, :]
+    if not np.all(np.any(match, axis=-1) | ~ok):
+        return None
+    P1 = order1.shape[-1]
+    idx = np.concatenate(
+        [
+            np.argmax(match, axis=-1),
+            np.broadcast_to(P1 + np.arange(2 * N), (*order.shape[:2], 2 * N)),
+        ],
+        axis=-1,
+    )
+    rows = np.take_along_axis(cmat1, idx[..., :, None], axis=-2)
+    return np.take_along_axis(rows, idx[..., None, :], axis=-1)
 
 
 _NEAR = 10e-6
@@ -817,7 +858,7 @@ def solve_direction(
             prob = dataclasses.replace(prob, supports=supports)
         if body is not None:  # the compliant disc, from the rigid disc's loads
             _, _, _, begin = _evaluate(prob, law, x, D, False, hessian=False)
-            coupling, z = body_coupling(mesh, prob, body, _BODY_REACH * bound, begin)
+            coupling, z = body_coupling(mesh, prob, body, _BODY_REACH * bound, begin, cache)
             prob = dataclasses.replace(prob, body=coupling)
             x = np.concatenate([x, z], axis=-1)
         if supports is not None or body is not None:
