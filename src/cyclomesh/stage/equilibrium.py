@@ -326,7 +326,7 @@ def _warm(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatAr
     return x
 
 
-BODY_RUN = 8
+BODY_RUN = 4
 """Crank angles of the compliant disc's stage solved in a run from the one before
 (:func:`_body_warm`): every BODY_RUN-th crank angle starts from its own start (the rigid
 disc's loads, :func:`body_coupling`), each of the next BODY_RUN − 1 from the solution of
