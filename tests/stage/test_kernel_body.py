@@ -10,7 +10,11 @@ import pytest
 pytest.importorskip("numba")
 
 from cyclomesh.stage.assembly import _shaft_entries  # noqa: E402
-from cyclomesh.stage.kernel_body import bearing_hessian, body_pin_hessian  # noqa: E402
+from cyclomesh.stage.kernel_body import (  # noqa: E402
+    bearing_hessian,
+    body_pin_hessian,
+    hessian_noise,
+)
 
 
 def _rel(a, b):
@@ -65,3 +69,14 @@ def test_bearing_hessian_is_the_references(shafts):
     got = H0.copy()
     bearing_hessian(got, G, kxx, kyy, kxy, stiffness, base)
     assert _rel(got, ref) <= 1e-14
+
+
+def test_hessian_noise_is_the_references():
+    rng = np.random.default_rng(3)
+    H = rng.standard_normal((6, 30, 30)) * np.logspace(-3, 9, 30)
+    xs = np.abs(rng.standard_normal((6, 30)))
+    xs[2] = 0.0
+    ref = 16.0 * np.finfo(float).eps * np.matmul(np.abs(H), xs[..., None])[..., 0]
+    got = hessian_noise(H, xs)
+    np.testing.assert_array_equal(got[2], 0.0)
+    assert np.max(np.abs(got - ref) / np.where(ref > 0, ref, 1.0)) <= 1e-14

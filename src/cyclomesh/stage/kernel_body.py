@@ -28,17 +28,37 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["body_pin_hessian", "bearing_hessian"]
+__all__ = ["body_pin_hessian", "bearing_hessian", "hessian_noise"]
 
 FloatArray = NDArray[np.float64]
 
 
 @cache
-def _kernels() -> tuple[Any, Any]:
+def _kernels() -> tuple[Any, Any, Any]:
     import numba
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    return jit(_body_pin_rows), jit(_bearing_rows)
+    return jit(_body_pin_rows), jit(_bearing_rows), jit(_noise_rows)
+
+
+def hessian_noise(H: FloatArray, xs: FloatArray) -> FloatArray:
+    """16·eps·|H|·|x| (n, m) of :func:`cyclomesh.stage.newton.newton`'s convergence test
+    (the round-off of the residual at the unknowns' own round-off) without forming |H|:
+    each row's sum in order (the reference's BLAS product sums in its own order)."""
+    out = np.empty(xs.shape)
+    _kernels()[2](np.ascontiguousarray(H), np.ascontiguousarray(xs), out)
+    return out
+
+
+def _noise_rows(H, xs, out):  # pragma: no cover (compiled)
+    n, m, _ = H.shape
+    scale = 16.0 * np.finfo(np.float64).eps
+    for i in range(n):
+        for r in range(m):
+            acc = 0.0
+            for c in range(m):
+                acc += abs(H[i, r, c]) * xs[i, c]
+            out[i, r] = scale * acc
 
 
 def body_pin_hessian(

@@ -18,6 +18,8 @@ from numpy.typing import NDArray
 
 from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.stage.bearing import LOAD_EXPONENT
+from cyclomesh.stage.kernel import compiled
+from cyclomesh.stage.kernel_body import hessian_noise
 
 __all__ = [
     "newton",
@@ -159,7 +161,10 @@ def newton(
         xs = np.abs(_scale(xa, 1.0 / p.scale, rot_idx))
         if rigid:
             xs = xs @ reduce
-        noise = 16.0 * np.finfo(float).eps * np.matmul(np.abs(H), xs[..., None])[..., 0]
+        if reuse and compiled():  # CYCLOMESH_KERNEL=numba: without the copy |H|
+            noise = hessian_noise(H, xs)
+        else:
+            noise = 16.0 * np.finfo(float).eps * np.matmul(np.abs(H), xs[..., None])[..., 0]
         near = np.all(np.abs(g) <= np.maximum(tol, noise), axis=-1)
         res = np.max(np.abs(g), axis=-1)
         done = near & ((res <= floor) | (res >= previous[active]))
