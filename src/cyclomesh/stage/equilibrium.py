@@ -347,13 +347,17 @@ def _body_warm(p: _Problem, law, x: FloatArray, discs: int, phi: FloatArray) -> 
         sub = p.take(idx)
         if j:
             prev = _body_carried(p, x, idx, 1)
+            check = np.arange(idx.size)  # the starts whose pins are still to be checked
             if j > 1:  # the line through the two solutions before
                 line = 2.0 * prev - _body_carried(p, x, idx, 2, prev)
                 _, _, _, s2 = _evaluate(sub, law, line, discs, False, gradient=False)
-                prev = np.where(s2["bad"][:, None], prev, line)
-            _, _, _, s1 = _evaluate(sub, law, prev, discs, False, gradient=False)
-            use = ~s1["bad"]
-            x[idx[use]] = prev[use]
+                x[idx[~s2["bad"]]] = line[~s2["bad"]]
+                check = np.flatnonzero(s2["bad"])
+            if check.size:  # where no pin is past its law at the solution before
+                part = sub.take(check)
+                _, _, _, s1 = _evaluate(part, law, prev[check], discs, False, gradient=False)
+                use = check[~s1["bad"]]
+                x[idx[use]] = prev[use]
         x[idx] = _solve_near(sub, law, x[idx], discs, False, phi[idx])
     return x
 
