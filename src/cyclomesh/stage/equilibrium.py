@@ -861,7 +861,7 @@ def solve_direction(
         if supports is not None:
             prob = dataclasses.replace(prob, supports=supports)
         if body is not None:  # the compliant disc, from the rigid disc's loads
-            _, _, _, begin = _evaluate(prob, law, x, D, False, hessian=False)
+            _, _, _, begin = _evaluate(prob, law, x, D, False, gradient=False)
             coupling, z = body_coupling(mesh, prob, body, _BODY_REACH * bound, begin, cache)
             prob = dataclasses.replace(prob, body=coupling)
             x = np.concatenate([x, z], axis=-1)
