@@ -15,8 +15,9 @@ their nonzero terms only:
   the columns of ∂d/∂x that are not 0 (the disc's, its crankshaft's, the end plate's
   and its body unknowns), and the crankshafts' K ⊗ I(2N).
 
-The products are the reference's element by element, summed in order (the reference's
-BLAS sums in its own order): the Hessian agrees to round-off, and Newton's iteration runs
+The products are the reference's element by element, the closed pins' rank-one terms
+summed in order, the holes' terms added to H hole by hole (the reference's BLAS sums in
+its own order and adds the total): the Hessian agrees to round-off, and Newton's iteration runs
 to the root at round-off on both paths (``tests/stage/test_stage_fe.py``).
 """
 
@@ -90,32 +91,36 @@ def body_pin_hessian(
 def _body_pin_rows(H, k, w, cols, energy, z0):  # pragma: no cover (compiled)
     n, D, P, lam = w.shape
     a = cols.shape[2]
-    closed = np.empty(P, np.int64)
-    kw = np.empty((P, lam))
+    kw = np.empty(lam)
+    zz = np.empty((lam, lam))  # Wᵀ·diag(k)·W of one disc, summed over the closed pins
+    za = np.empty((a, lam))  # A·diag(k)·W
     for i in range(n):
         for d in range(D):
-            c = 0
-            for p in range(P):
-                if k[i, d, p] != 0.0:
-                    closed[c] = p
-                    for j in range(lam):
-                        kw[c, j] = k[i, d, p] * w[i, d, p, j]
-                    c += 1
+            zz[:, :] = 0.0
+            za[:, :] = 0.0
+            for p in range(P):  # rank-one terms of the closed pins, in order
+                kp = k[i, d, p]
+                if kp == 0.0:
+                    continue
+                for s in range(lam):
+                    kw[s] = kp * w[i, d, p, s]
+                for r in range(lam):
+                    wr = w[i, d, p, r]
+                    for s in range(lam):
+                        zz[r, s] += wr * kw[s]
+                for r in range(a):
+                    cr = cols[i, d, r, p]
+                    for s in range(lam):
+                        za[r, s] += cr * kw[s]
             zi = z0 + d * lam
             for r in range(lam):
                 for s in range(lam):
-                    acc = 0.0
-                    for q in range(c):
-                        acc += w[i, d, closed[q], r] * kw[q, s]
-                    H[i, zi + r, zi + s] += acc + energy[i, d, r, s]
+                    H[i, zi + r, zi + s] += zz[r, s] + energy[i, d, r, s]
             base = 1 + 3 * d
             for r in range(a):
                 for s in range(lam):
-                    acc = 0.0
-                    for q in range(c):
-                        acc += cols[i, d, r, closed[q]] * kw[q, s]
-                    H[i, base + r, zi + s] -= acc
-                    H[i, zi + s, base + r] -= acc
+                    H[i, base + r, zi + s] -= za[r, s]
+                    H[i, zi + s, base + r] -= za[r, s]
 
 
 def bearing_hessian(
@@ -148,12 +153,10 @@ def bearing_hessian(
 
 def _bearing_rows(H, G, kxx, kyy, kxy, shafts, base):  # pragma: no cover (compiled)
     n, D, N, _, m = G.shape
-    tmp = np.zeros((m, m))
     nz = np.empty(m, np.int64)
     kg = np.empty((2, m))
     size = 2 * N
     for i in range(n):
-        tmp[:, :] = 0.0
         for d in range(D):
             for h in range(N):
                 c = 0
@@ -172,10 +175,7 @@ def _bearing_rows(H, G, kxx, kyy, kxy, shafts, base):  # pragma: no cover (compi
                     gx, gy = G[i, d, h, 0, r], G[i, d, h, 1, r]
                     for t in range(c):
                         s = nz[t]
-                        tmp[r, s] += gx * kg[0, s] + gy * kg[1, s]
-        for r in range(m):
-            for s in range(m):
-                H[i, r, s] += tmp[r, s]
+                        H[i, r, s] += gx * kg[0, s] + gy * kg[1, s]
         for d in range(shafts.shape[0]):
             for e in range(shafts.shape[1]):
                 for r in range(size):
