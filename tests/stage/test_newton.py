@@ -317,3 +317,34 @@ def test_newton_with_failed_flags_instead_of_raising():
     failed = np.zeros(2, bool)
     out = nt.newton(p, evaluate, None, x.copy(), 1, False, np.zeros(2), failed)
     assert failed.all() and np.all(np.isfinite(out))
+
+
+def test_residual_newton_goes_on_to_round_off_with_round_off():
+    """residual_newton(round_off=True) (the compliant disc's _stationary): past the
+    1e-12·T/r_c test it goes on while the largest residual falls, to a few ulp of T/r_c;
+    without it, it stops at the test (the arithmetic before unchanged)."""
+    from types import SimpleNamespace
+
+    class Problem(SimpleNamespace):
+        def take(self, idx):
+            return Problem(**{**vars(self), "c": self.c[idx]})
+
+    def residual(sub, x, jacobian):
+        # r = x + x³/10 − c per component: a smooth root, Newton quadratic
+        r = x + 0.1 * x**3 - sub.c
+        J = None
+        if jacobian:
+            J = np.zeros((*x.shape, x.shape[1]))
+            i = np.arange(x.shape[1])
+            J[:, i, i] = 1.0 + 0.3 * x**2
+        return r, J, {"bad": np.zeros(x.shape[0], bool)}
+
+    c = np.array([[1.0, -0.7, 0.3], [2.0, 0.5, -1.5]])
+    p = Problem(torque=1.0, scale=1.0, c=c)
+    phi = np.zeros(2)
+    plain = nt.residual_newton(p, residual, np.zeros((2, 3)), phi, [], "test")
+    tight = nt.residual_newton(p, residual, np.zeros((2, 3)), phi, [], "test", round_off=True)
+    left = np.abs(residual(p, tight, False)[0])
+    assert np.max(left) <= 4.0 * nt.ROUND_OFF_FORCE
+    assert np.max(np.abs(residual(p, plain, False)[0])) <= nt.FORCE_TOLERANCE
+    np.testing.assert_allclose(tight, plain, rtol=0, atol=2e-12)

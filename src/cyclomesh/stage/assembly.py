@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 
 from cyclomesh.core.hertz import force_from_approach
 from cyclomesh.stage.kernel import compiled, pin_law
+from cyclomesh.stage.kernel_body import bearing_hessian, body_pin_hessian
 from cyclomesh.stage.supports import Supports
 
 __all__ = ["Problem", "Body", "pin_laws", "unpack", "evaluate", "bearing_jacobian"]
@@ -98,9 +99,13 @@ class Body:
     pin_w: FloatArray  # (A, D, 2·n1, Λ): into-disc displacement of every pin per unit z
     hole_w: FloatArray  # (A, D, N, 2, Λ): hole centre displacement (fixed frame, x y)
     energy: FloatArray  # (A, D, Λ, Λ): E = C'/c0² on the free components
+    # the pin (index into the flanks, 0 … 2·n1 − 1) of each pin unknown, −1 for padding,
+    # (A, D, P): a crank angle's unknowns carried to the next one's (a warm start)
+    pins: NDArray[np.int64] | None = None
 
     def __getitem__(self, idx: NDArray[np.int64]) -> Body:
-        return Body(self.pin_w[idx], self.hole_w[idx], self.energy[idx])
+        pins = None if self.pins is None else self.pins[idx]
+        return Body(self.pin_w[idx], self.hole_w[idx], self.energy[idx], pins)
 
     @property
     def size(self) -> int:
@@ -249,11 +254,14 @@ def _body_pins(p: Problem, x, discs, cols, F, k, energy, g, H):
     energy = energy + 0.5 * np.sum(z * ez, axis=(1, 2))
     if g is None:
         return energy, g, H
+    fast = H is not None and compiled()  # CYCLOMESH_KERNEL=numba: H on the closed pins
+    if fast:
+        body_pin_hessian(H, k, b.pin_w, cols, b.energy, z0)
     for d in range(discs):
         zi = slice(z0 + d * lam, z0 + (d + 1) * lam)
         w = b.pin_w[:, d]  # (n, 2·n1, Λ)
         g[:, zi] += ez[:, d] - np.matmul(F[:, d, None, :], w)[:, 0]
-        if H is not None:
+        if H is not None and not fast:
             kw = k[:, d, :, None] * w
             H[:, zi, zi] += np.matmul(np.swapaxes(w, 1, 2), kw) + b.energy[:, d]
             base = 1 + 3 * d
@@ -335,7 +343,13 @@ def _evaluate_supported(p: Problem, law, x, discs, hessian, energy, g, H, state)
     if carrier is not None:
         energy = energy + 0.5 * carrier * beta * beta
         g[:, base + nw] += carrier * beta / L
-    if hessian:
+    if hessian and p.body is not None and compiled():
+        # CYCLOMESH_KERNEL=numba: Gᵀ·K·G on ∂d/∂x's nonzero columns, the shafts' K ⊗ I
+        kxx, kyy, kxy = k
+        bearing_hessian(H, G, kxx, kyy, kxy, sup.stiffness if nw else None, base)
+        if carrier is not None:
+            H[:, base + nw, base + nw] += carrier / (L * L)
+    elif hessian:
         kxx, kyy, kxy = k
         kmat = np.stack([np.stack([kxx, kxy], -1), np.stack([kxy, kyy], -1)], -2)
         rows = G.reshape(n, -1, m)  # Gᵀ·K·G over the holes' (x, y)

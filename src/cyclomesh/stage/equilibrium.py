@@ -115,7 +115,12 @@ step at a light torque with pin errors reached it and failed the solve."""
 
 
 def body_coupling(
-    mesh: StackMesh, prob: _Problem, body: FreeDiscBody, reach: FloatArray, start: dict
+    mesh: StackMesh,
+    prob: _Problem,
+    body: FreeDiscBody,
+    reach: FloatArray,
+    start: dict,
+    memo: dict | None = None,
 ) -> tuple[_Body, FloatArray]:
     """The compliant disc of one direction: :class:`_Body` from the free disc's
     influence coefficients (:class:`~cyclomesh.core.discbody.FreeDiscBody`, issue 17's FE
@@ -139,6 +144,13 @@ def body_coupling(
     residual of every equation, as without the body (tested on every crank angle of the
     examples; a shift of C''s negative part into the laws, which would restore a minimum,
     took a quarter of the law's α and left the stiffened law no range).
+
+    ``memo``: a dict kept by a caller that couples the same direction at several torques
+    (:func:`solve_direction`'s ``cache``): the coefficients of the candidates are formed
+    once and taken from there where every crank angle's candidates are among the ones
+    formed (a lighter torque's reach is shorter), each coefficient the same number
+    (:meth:`~cyclomesh.core.discbody.FreeDiscBody.matrix` interpolates each pair, each
+    pin–hole and hole–hole term on its own).
     """
     A, D, n1 = mesh.geo.rotation.shape
     N = prob.hx.shape[-1]
@@ -149,10 +161,14 @@ def body_coupling(
     P = max(int(np.max(np.sum(cand, axis=-1))), 1)
     order = np.argsort(~cand, axis=-1, kind="stable")[..., :P]
     ok = np.take_along_axis(cand, order, -1)
-    cmat = body.matrix(
-        np.take_along_axis(tooth, order, -1),
-        np.where(ok, np.take_along_axis(angle, order, -1), 0.0),
-    )
+    cmat = None if memo is None else _memo_matrix(memo.get("body_matrix"), order, ok, N)
+    if cmat is None:
+        cmat = body.matrix(
+            np.take_along_axis(tooth, order, -1),
+            np.where(ok, np.take_along_axis(angle, order, -1), 0.0),
+        )
+        if memo is not None:
+            memo["body_matrix"] = (order, ok, cmat.copy())
     rows = np.concatenate([ok, np.ones((A, D, 2 * N), bool)], -1)
     cmat = np.where(rows[..., :, None] & rows[..., None, :], cmat, 0.0)
     held = [2 * h + c for h, c in FREE_HELD]
@@ -186,7 +202,33 @@ def body_coupling(
     lam[..., P::2] = fx * erx[..., 0] + fy * ery[..., 0]
     lam[..., P + 1 :: 2] = -fx * ery[..., 0] + fy * erx[..., 0]
     z = c0 * lam[..., free]
-    return _Body(pin_w=pin_w, hole_w=hole_w, energy=energy), z.reshape(A, -1)
+    pins = np.where(ok, order, -1)
+    return _Body(pin_w=pin_w, hole_w=hole_w, energy=energy, pins=pins), z.reshape(A, -1)
+
+
+def _memo_matrix(kept, order: NDArray[np.int64], ok: NDArray[np.bool_], N: int):
+    """The coefficients (A, D, P + 2N, P + 2N) of the candidates ``order`` (``ok``) taken
+    from ``kept`` = (order, ok, matrix) of an earlier coupling (:func:`body_coupling`'s
+    ``memo``), or None where a candidate is not among those (or nothing is kept). The
+    rows and columns of padding (``~ok``) are arbitrary (the caller sets them)."""
+    if kept is None:
+        return None
+    order1, ok1, cmat1 = kept
+    if order1.shape[:2] != order.shape[:2]:
+        return None
+    match = (order[..., :, None] == order1[..., None, :]) & ok1[..., None, :]
+    if not np.all(np.any(match, axis=-1) | ~ok):
+        return None
+    P1 = order1.shape[-1]
+    idx = np.concatenate(
+        [
+            np.argmax(match, axis=-1),
+            np.broadcast_to(P1 + np.arange(2 * N), (*order.shape[:2], 2 * N)),
+        ],
+        axis=-1,
+    )
+    rows = np.take_along_axis(cmat1, idx[..., :, None], axis=-2)
+    return np.take_along_axis(rows, idx[..., None, :], axis=-1)
 
 
 _NEAR = 10e-6
@@ -258,6 +300,8 @@ def _solve(
             # a comparison, less than picking the near ones), so there is no check after
             return _kernel_newton(p, _evaluate, law, x, discs, rigid, phi, state)
         return _warm(p, law, x, discs, rigid, phi)
+    if p.slip is None and not rigid and p.body is not None and p.body.pins is not None:
+        return _body_warm(p, law, x, discs, phi)
     return _solve_near(p, law, x, discs, rigid, phi)
 
 
@@ -280,6 +324,67 @@ def _warm(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatAr
             x[idx[use]] = prev[use]
         x[idx] = _solve_near(sub, law, x[idx], discs, rigid, phi[idx])
     return x
+
+
+BODY_RUN = 4
+"""Crank angles of the compliant disc's stage solved in a run from the one before
+(:func:`_body_warm`): every BODY_RUN-th crank angle starts from its own start (the rigid
+disc's loads, :func:`body_coupling`), each of the next BODY_RUN − 1 from the solution of
+the crank angle before it."""
+
+
+def _body_warm(p: _Problem, law, x: FloatArray, discs: int, phi: FloatArray) -> FloatArray:
+    """The compliant disc's equilibrium (:func:`_solve_near` with :func:`_body_newton`) in
+    :data:`BODY_RUN` passes, as :func:`_warm`: pass j solves the crank angles j,
+    j + BODY_RUN, …, those of pass j > 0 started from the solution of the crank angle
+    before (:func:`_body_carried`) where no pin is past its law there. Newton runs to the
+    root at round-off, so the root does not depend on the start; a warm start takes
+    about half the Newton steps of the own start (a light torque's disc unknowns
+    converge linearly from the rigid disc's loads)."""
+    A = x.shape[0]
+    for j in range(min(BODY_RUN, A)):
+        idx = np.arange(j, A, BODY_RUN)
+        sub = p.take(idx)
+        if j:
+            prev = _body_carried(p, x, idx, 1)
+            check = np.arange(idx.size)  # the starts whose pins are still to be checked
+            if j > 1:  # the line through the two solutions before
+                line = 2.0 * prev - _body_carried(p, x, idx, 2, prev)
+                _, _, _, s2 = _evaluate(sub, law, line, discs, False, gradient=False)
+                x[idx[~s2["bad"]]] = line[~s2["bad"]]
+                check = np.flatnonzero(s2["bad"])
+            if check.size:  # where no pin is past its law at the solution before
+                part = sub.take(check)
+                _, _, _, s1 = _evaluate(part, law, prev[check], discs, False, gradient=False)
+                use = check[~s1["bad"]]
+                x[idx[use]] = prev[use]
+        x[idx] = _solve_near(sub, law, x[idx], discs, False, phi[idx])
+    return x
+
+
+def _body_carried(
+    p: _Problem, x: FloatArray, idx: NDArray[np.int64], back: int, own: FloatArray | None = None
+) -> FloatArray:
+    """The start of the crank angles ``idx`` from the solution at ``idx − back``: the
+    stage's and the supports' unknowns and the holes' body unknowns as they are there, each
+    pin unknown (a pin's load × c0, :func:`body_coupling`) that pin's there, or ``own``'s
+    (default: ``x[idx]``, the own start) where that pin was no candidate at ``idx − back``
+    (the candidates shift with the crank angle; padding stays 0)."""
+    b = p.body
+    n, m = idx.size, x.shape[1]
+    D, P = b.pins.shape[1:]
+    z0 = m - b.size
+    out = x[idx - back].copy()
+    z_prev = x[idx - back, z0:].reshape(n, D, -1)
+    z_own = (x[idx] if own is None else own)[:, z0:].reshape(n, D, -1)
+    here, there = b.pins[idx], b.pins[idx - back]  # (n, D, P)
+    match = (here[..., :, None] == there[..., None, :]) & (here[..., :, None] >= 0)
+    found = np.any(match, axis=-1)
+    where = np.argmax(match, axis=-1)
+    carried = np.take_along_axis(z_prev[..., :P], where, axis=-1)
+    z = out[:, z0:].reshape(n, D, -1)  # a view of out
+    z[..., :P] = np.where(found, carried, z_own[..., :P])
+    return out
 
 
 def _solve_near(p: _Problem, law, x: FloatArray, discs: int, rigid: bool, phi: FloatArray):
@@ -432,7 +537,7 @@ def _stationary(p: _Problem, evaluate, law, x: FloatArray, discs: int, phi: Floa
         return g, H, st
 
     rot = rotation_index(x.shape[1], discs, p.supports, p.body.size)
-    return residual_newton(p, gradient, x, phi, rot, "stage (compliant disc)")
+    return residual_newton(p, gradient, x, phi, rot, "stage (compliant disc)", round_off=True)
 
 
 def _mirrored(arr: FloatArray) -> FloatArray:
@@ -756,8 +861,8 @@ def solve_direction(
         if supports is not None:
             prob = dataclasses.replace(prob, supports=supports)
         if body is not None:  # the compliant disc, from the rigid disc's loads
-            _, _, _, begin = _evaluate(prob, law, x, D, False, hessian=False)
-            coupling, z = body_coupling(mesh, prob, body, _BODY_REACH * bound, begin)
+            _, _, _, begin = _evaluate(prob, law, x, D, False, gradient=False)
+            coupling, z = body_coupling(mesh, prob, body, _BODY_REACH * bound, begin, cache)
             prob = dataclasses.replace(prob, body=coupling)
             x = np.concatenate([x, z], axis=-1)
         if supports is not None or body is not None:

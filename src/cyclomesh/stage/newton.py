@@ -18,6 +18,8 @@ from numpy.typing import NDArray
 
 from cyclomesh.exceptions import ConvergenceError
 from cyclomesh.stage.bearing import LOAD_EXPONENT
+from cyclomesh.stage.kernel import compiled
+from cyclomesh.stage.kernel_body import hessian_noise
 
 __all__ = [
     "newton",
@@ -59,6 +61,14 @@ _STALL_ITERATIONS = 8
 """With a ``failed`` array (:func:`newton`), a crank angle not near the root whose largest
 residual has not fallen below its smallest so far for this many Newton steps is given up
 to its caller (the compliant disc's saddle, where the potential's descent runs away)."""
+_REUSE_TRIAL = True
+"""The compliant disc (:func:`newton` on a problem with a ``body``): the first trial of each
+line search evaluates the gradient and Hessian as well, and where it is taken they are
+the next step's (the same evaluation at the same point, so the same bits: it saves the
+next step's evaluation, the line search takes the full step at almost every step)."""
+_ROUND_OFF_HALVINGS = 3
+"""With ``round_off`` (:func:`residual_newton`), a crank angle near the root whose residual's
+norm no trial of this many halvings reduces stays where it is (the round-off)."""
 _STEP_CAP = 1e-4
 """Largest move of any unknown in one trial step [m] (rotations × r_c): a longer Newton
 step (a nearly flat direction of the potential) is shortened to it before the line
@@ -123,9 +133,21 @@ def newton(
     best = np.full(x.shape[0], np.inf)  # smallest max |g| so far (with ``failed``)
     since = np.zeros(x.shape[0], np.int64)  # steps since it fell
     sub = p.take(active)  # the problem of the active crank angles, taken as they converge
+    # the compliant disc: the first trial of each line search evaluates the gradient and
+    # Hessian too, kept for the next step where it is accepted (the same evaluation)
+    reuse = _REUSE_TRIAL and not rigid and getattr(p, "body", None) is not None
+    carried = None
     for _ in range(_MAX_ITERATIONS):
         xa = x[active]
-        energy, g, H, _state = evaluate(sub, law, xa, discs, rigid)
+        if carried is None:
+            energy, g, H, _state = evaluate(sub, law, xa, discs, rigid)
+        else:
+            have, energy, g, H = carried
+            carried = None
+            rest = np.flatnonzero(~have)
+            if rest.size:  # the crank angles whose first trial was not taken
+                e_r, g_r, H_r, _ = evaluate(sub.take(rest), law, xa[rest], discs, rigid)
+                energy[rest], g[rest], H[rest] = e_r, g_r, H_r
         if rigid:
             g = g @ reduce
             H = np.einsum("im,nij,jk->nmk", reduce, H, reduce)
@@ -139,7 +161,10 @@ def newton(
         xs = np.abs(_scale(xa, 1.0 / p.scale, rot_idx))
         if rigid:
             xs = xs @ reduce
-        noise = 16.0 * np.finfo(float).eps * np.matmul(np.abs(H), xs[..., None])[..., 0]
+        if reuse and compiled():  # CYCLOMESH_KERNEL=numba: without the copy |H|
+            noise = hessian_noise(H, xs)
+        else:
+            noise = 16.0 * np.finfo(float).eps * np.matmul(np.abs(H), xs[..., None])[..., 0]
         near = np.all(np.abs(g) <= np.maximum(tol, noise), axis=-1)
         res = np.max(np.abs(g), axis=-1)
         done = near & ((res <= floor) | (res >= previous[active]))
@@ -193,8 +218,9 @@ def newton(
             full = _expand(step[todo] * t[todo, None], reduce if rigid else None)
             trial = xa[todo] + _scale(full, p.scale, rot_idx)
             want = bool(np.any(flat[todo]))  # the gradient only where it is needed
-            e_t, g_t, _H, st = evaluate(
-                sub.take(todo), law, trial, discs, rigid, hessian=False, gradient=want
+            first = reuse and _h == 0  # (todo: every crank angle)
+            e_t, g_t, H_t, st = evaluate(
+                sub.take(todo), law, trial, discs, rigid, hessian=first, gradient=want or first
             )
             ok = (e_t <= energy[todo] + 1e-4 * t[todo] * slope[todo]) | tiny[todo]
             if want:
@@ -203,6 +229,8 @@ def newton(
                 ok = np.where(flat[todo], drop, ok)
             ok = ~st["bad"] & ok
             new[todo[ok]] = trial[ok]
+            if first and np.any(ok):
+                carried = (ok, e_t, g_t, H_t)
             todo = todo[~ok]
             if failed is not None and _h + 1 >= _STALL_HALVINGS:
                 # not near the root and no decrease after _STALL_HALVINGS halvings: the
@@ -233,6 +261,8 @@ def newton(
             if active.size == 0:
                 return x
             sub = sub.take(np.flatnonzero(keep))
+            if carried is not None:
+                carried = tuple(v[keep] for v in carried)
     if failed is not None:
         failed[active] = True
         return x
@@ -252,6 +282,7 @@ def residual_newton(
     what: str,
     reduce: FloatArray | None = None,
     failed: NDArray[np.bool_] | None = None,
+    round_off: bool = False,
 ) -> FloatArray:
     """Newton's method on r(x) = 0 with a backtracking line search on the residual's norm
     (Nocedal & Wright §11.2), per crank angle: where no potential decreases along the step
@@ -268,10 +299,16 @@ def residual_newton(
     :data:`_STALL_HALVINGS` halvings) are set True there and left at their last iterate,
     the others solved by the same arithmetic as without it (a caller that solves those
     angles another way, :func:`~cyclomesh.stage.equilibrium._friction_solve`).
+    ``round_off``: near the root, go on as :func:`newton` does, to a largest residual of
+    :data:`ROUND_OFF_FORCE`·T/r_c or the first step that does not reduce it (or whose line
+    search finds no decrease of the norm), so the root does not depend on the start
+    (:func:`~cyclomesh.stage.equilibrium._stationary`).
     """
     tol = FORCE_TOLERANCE * abs(p.torque) / p.scale
+    floor = ROUND_OFF_FORCE * abs(p.torque) / p.scale
     L = p.scale
     active = np.arange(x.shape[0])
+    previous = np.full(x.shape[0], np.inf)  # max |r| of the last step (round_off)
     for _ in range(_MAX_ITERATIONS):
         sub = p.take(active)
         xa = x[active]
@@ -279,7 +316,13 @@ def residual_newton(
         xs = np.abs(xa @ reduce if reduce is not None else xa.copy())
         xs[:, rot] *= L
         noise = 16.0 * np.finfo(float).eps * np.einsum("nij,nj->ni", np.abs(J), xs)
-        keep = ~np.all(np.abs(r) <= np.maximum(tol, noise), axis=-1)
+        near = np.all(np.abs(r) <= np.maximum(tol, noise), axis=-1)
+        keep = ~near
+        if round_off:
+            res = np.max(np.abs(r), axis=-1)
+            keep = ~(near & ((res <= floor) | (res >= previous[active])))
+            previous[active] = res
+            near = near[keep]
         active = active[keep]
         if active.size == 0:
             return x
@@ -300,10 +343,19 @@ def residual_newton(
             ok = ~st["bad"] & (np.linalg.norm(r_t, axis=-1) <= (1.0 - 1e-4 * t[todo]) * merit[todo])
             new[todo[ok]] = trial[ok]
             todo = todo[~ok]
+            if round_off and _h >= _ROUND_OFF_HALVINGS:
+                todo = todo[~near[todo]]  # at the root's round-off: stays (the test ends it)
             if todo.size == 0:
                 break
             t[todo] *= 0.5
         else:
+            if round_off:
+                # near the root, a residual that no step reduces is the round-off: the
+                # iterate stays, the next test ends it (its residual is not below itself)
+                todo = todo[~near[todo]]
+                if todo.size == 0:
+                    x[active] = new
+                    continue
             if failed is None:
                 raise ConvergenceError(
                     f"{what}: no decrease of the residual at crank angle "
