@@ -66,6 +66,15 @@ _REUSE_TRIAL = True
 line search evaluates the gradient and Hessian as well, and where it is taken they are
 the next step's (the same evaluation at the same point, so the same bits: it saves the
 next step's evaluation, the line search takes the full step at almost every step)."""
+_LAST_STEP = True
+"""The compliant disc (:func:`newton` with :data:`_REUSE_TRIAL`): a crank angle near the root
+whose residual fell quadratically (by :data:`_QUADRATIC` at least) to one from which the
+next is predicted at the round-off (res³/res_before² ≤ :data:`ROUND_OFF_FORCE`·T/r_c)
+takes that Newton step without a line search and ends: the evaluation there and the
+round-off polish after it are saved (task i36b)."""
+_QUADRATIC = 1e-3
+"""Largest ratio of two Newton steps' residuals taken as quadratic convergence
+(:data:`_LAST_STEP`; a linear tail falls by 0.03–0.1 a step)."""
 _ROUND_OFF_HALVINGS = 3
 """With ``round_off`` (:func:`residual_newton`), a crank angle near the root whose residual's
 norm no trial of this many halvings reduces stays where it is (the round-off)."""
@@ -169,6 +178,13 @@ def newton(
         res = np.max(np.abs(g), axis=-1)
         done = near & ((res <= floor) | (res >= previous[active]))
         keep = ~done
+        last = None
+        if reuse and _LAST_STEP:
+            # quadratic convergence near the root: this step's residual predicted at the
+            # round-off (res³/res_before² ≤ floor); the step is taken without a trial
+            before = previous[active]
+            last = keep & near & (res <= _QUADRATIC * before) & (res**3 <= floor * before**2)
+            last &= ~linear[active]  # (not after a step of a bearing's linear convergence)
         if failed is not None:
             # a descent along the compliant disc's saddle: the potential falls, the
             # residual does not (it grows ×1.3–2 a step); given up to the caller
@@ -191,6 +207,7 @@ def newton(
             return x
         if not np.all(keep):  # (H is the evaluation's own array either way)
             near = near[keep]
+            last = None if last is None else last[keep]
             xa, g, H, energy = xa[keep], g[keep], H[keep], energy[keep]
             sub = sub.take(np.flatnonzero(keep))
         diag = np.maximum(np.max(np.abs(np.diagonal(H, axis1=1, axis2=2)), axis=-1), 1e-300)
@@ -208,6 +225,14 @@ def newton(
         extended[active] = stretch
         todo = np.arange(xa.shape[0])
         new = xa.copy()
+        if last is not None:  # a Newton step (descent, not capped), taken as it is
+            last &= ~flip & (t == 1.0)
+            if np.any(last):
+                li = np.flatnonzero(last)
+                new[li] = xa[li] + _scale(step[li], p.scale, rot_idx)
+                todo = np.flatnonzero(~last)
+            else:
+                last = None
         tiny = -slope <= 1e-13 * np.maximum(np.abs(energy), 1e-300)
         # the potential has no digits left for the sufficient-decrease test: its change
         # along the step is below the round-off of its terms (−T·c cancels the springs'
@@ -215,10 +240,12 @@ def newton(
         flat = ~tiny & (-slope <= 1e-13 * _magnitude(energy, p.torque, xa[:, 0]))
         norm = np.linalg.norm(g, axis=-1)
         for _h in range(_MAX_HALVINGS):
+            if todo.size == 0:  # (every crank angle took its last step)
+                break
             full = _expand(step[todo] * t[todo, None], reduce if rigid else None)
             trial = xa[todo] + _scale(full, p.scale, rot_idx)
             want = bool(np.any(flat[todo]))  # the gradient only where it is needed
-            first = reuse and _h == 0  # (todo: every crank angle)
+            first = reuse and _h == 0  # (todo: every crank angle but the last steps')
             e_t, g_t, H_t, st = evaluate(
                 sub.take(todo), law, trial, discs, rigid, hessian=first, gradient=want or first
             )
@@ -255,6 +282,11 @@ def newton(
                     )
                 failed[active[todo[~(near[todo] & flat[todo])]]] = True
         x[active] = new
+        if last is not None:  # done (the first trial's evaluation: the others' alone)
+            active = active[~last]
+            if active.size == 0:
+                return x
+            sub = sub.take(np.flatnonzero(~last))
         if failed is not None and np.any(failed[active]):
             keep = ~failed[active]
             active = active[keep]
