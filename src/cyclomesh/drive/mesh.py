@@ -114,7 +114,26 @@ def stacked_contact(
 ) -> UnloadedContact:
     """Unloaded contact of every disc of a stack, arrays (..., A, N, n1) (Eqs. 5–11), with
     the outward flank normals in the fixed frame (computed once, with the contact; None
-    without ``normals``)."""
+    without ``normals``).
+
+    With numba (an undeviated profile: the compiled contact passes, each contact computed
+    alone) the eccentric angles go crank angle after crank angle, φ_a + 2πd/N in (A, N)
+    order (the same sums, so the same angles), and the arrays are (..., A, N, n1)
+    C-contiguous: the compliance, the rests, the stage's problem and the stresses read
+    them without the strided copies of the stacked views (the same numbers)."""
+    if kernel_name() == "numba" and (modification is None or modification.profile is None):
+        offsets = 2.0 * np.pi * np.arange(discs) / discs
+        angles = (phi[:, None] + offsets[None, :]).ravel()  # disc_angles' sums, (A, N)
+        raw = unloaded_contact(design, modification, errors, angles, normals=normals)
+        return UnloadedContact(
+            **{
+                name: None
+                if value is None
+                else value.reshape(*value.shape[:-2], phi.size, discs, value.shape[-1])
+                for name in UnloadedContact.__dataclass_fields__
+                for value in (getattr(raw, name),)
+            }
+        )
     raw = unloaded_contact(design, modification, errors, disc_angles(phi, discs), normals=normals)
     return UnloadedContact(
         **{
