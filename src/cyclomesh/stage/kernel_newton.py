@@ -10,8 +10,9 @@ Hessian of :func:`cyclomesh.stage.equilibrium._evaluate` with the laws of
 [2]), the same step, stretched step, step cap, line search and convergence test. The
 crank angles it cannot finish go back to the reference, which raises its own error.
 The crank angles are solved in order, each after the first started from the line through
-the solutions of the two before (from the one before where a pin is past its law
-there; :func:`run`: the whole revolution, where the reference's warm start,
+the solutions of the two before (the bearing phase from the parabola through the three
+before once it has three; from the one before where a pin is past its law there;
+:func:`run`: the whole revolution, where the reference's warm start,
 :func:`cyclomesh.stage.equilibrium._warm`, restarts every
 :data:`~cyclomesh.stage.newton.WARM_RUN` crank angles for its vectorised passes), the
 pins' inversion memo kept; the root is the same at round-off. Savings the reference's
@@ -65,7 +66,16 @@ def run(angles: int) -> int:
     :func:`cyclomesh.stage.equilibrium._warm`). The root does not depend on the start
     (the iteration runs to round-off); from the line through the two solutions before,
     a crank angle of the stage tolerance study's ring needs 4.1 Newton steps at the rated
-    torque and 5.2–5.5 at ∓3 % (runs of four: 4.9 and 7.0–7.6 evaluations)."""
+    torque and 5.2–5.5 at ∓3 % (runs of four: 4.9 and 7.0–7.6 evaluations).
+
+    The bearing phase (:func:`newton`) starts a crank angle from the parabola through the
+    solutions of the three before (3·x₋₁ − 3·x₋₂ + x₋₃) where it has them: the
+    benchmark's stage from a residual of ~10 N to ~1 N, so that its third Newton step is
+    the last where it was the fourth (evaluations a crank angle 4.00 → 3.64; the elastic
+    stage at 412 N·m 4.10 → 3.75, at 12.36 N·m 4.79 → 4.78; a cubic through four: 3.74).
+    The root is the same to round-off (the stage's outputs moved by up to 2.3e-14 of each
+    one's largest against the line's). The rigid phase (:func:`rigid_newton`) keeps the
+    line: a parabola needed more evaluations there (docs/stage.md)."""
     return max(int(angles), 1)
 
 
@@ -565,14 +575,21 @@ def _newton_rows(
         have = False
         energy, status = 0.0, 0
         if i % run != 0 and not failed[i - 1]:
-            # warm start (the run): from the line through the solutions of the two crank
-            # angles before, else from the one before, where no pin is at or past its
-            # law's end there (the pins' memo kept: their inversions are near)
+            # warm start (the run): from the parabola through the solutions of the three
+            # crank angles before (the line through two where there are only two), else
+            # from the one before, where no pin is at or past its law's end there (the
+            # pins' memo kept: their inversions are near)
             line = i % run >= 2 and not failed[i - 2]
+            para = line and i % run >= 3 and not failed[i - 3]
             for attempt in range(2 if line else 1):
                 from_line = line and attempt == 0  # else from the solution before
                 for r in range(m):
-                    trial[r] = 2.0 * x[i - 1, r] - x[i - 2, r] if from_line else x[i - 1, r]
+                    if from_line and para:
+                        trial[r] = 3.0 * x[i - 1, r] - 3.0 * x[i - 2, r] + x[i - 3, r]
+                    elif from_line:
+                        trial[r] = 2.0 * x[i - 1, r] - x[i - 2, r]
+                    else:
+                        trial[r] = x[i - 1, r]
                 e1, s1 = _evaluate_one(
                     i,
                     trial,
