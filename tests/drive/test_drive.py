@@ -323,3 +323,27 @@ def test_a_mirror_mesh_without_rests_is_the_same_mesh_otherwise(monkeypatch, ker
         x = getattr(ref, field.name)
         if isinstance(x, np.ndarray):
             np.testing.assert_array_equal(getattr(got, field.name), x, err_msg=field.name)
+
+
+@pytest.mark.parametrize("errors", [None, "rings"])
+def test_stacked_contact_with_numba_is_the_disc_after_disc_contact_contiguous(monkeypatch, errors):
+    """With numba the stack's contact is computed crank angle after crank angle (the same
+    eccentric angles, φ + 2πd/N), so its (..., A, N, n1) arrays are C-contiguous, and
+    equal bit for bit to the contact of the disc-after-disc angles stacked as before
+    (each contact computed alone, normals included; with ring axes too)."""
+    pytest.importorskip("numba")
+    from cyclomesh.core.contact import UnloadedContact, unloaded_contact
+    from cyclomesh.drive.mesh import _stack, disc_angles, stacked_contact
+
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
+    errs = ring_errors(4, (2,)) if errors else PinErrors()
+    phi = REV[:45]
+    got = stacked_contact(TABLE1, TPM, errs, phi, 3)
+    raw = unloaded_contact(TABLE1, TPM, errs, disc_angles(phi, 3), normals=True)
+    for name in UnloadedContact.__dataclass_fields__:
+        value = getattr(got, name)
+        want = _stack(getattr(raw, name), 3, phi.size)
+        assert value.shape == want.shape
+        assert np.array_equal(value, want, equal_nan=True), name
+        if name != "pin_radius":  # (a broadcast view of the pins' radii)
+            assert value.flags.c_contiguous, name
