@@ -462,3 +462,24 @@ def test_dmax_from_the_flank_pass_is_the_references_at_its_edges():
     np.testing.assert_array_equal(block[6], want)
     np.testing.assert_array_equal(block[:6], ref[:6])
     assert np.any(np.isinf(want)) and np.any(np.isfinite(want))
+
+
+@pytest.mark.parametrize("step", [15.0, 45.0])
+def test_the_warm_starts_agree_at_coarse_crank_steps(monkeypatch, step):
+    """The bearing phase's warm start (the parabola through the three solutions before,
+    else the line through two, else the solution before) at coarse crank steps, where the
+    parabola lands far from the root: the compiled iteration finishes every crank angle
+    itself, with the reference's answers to 1e-13."""
+    errors, stage = _hard_stage(1)
+    phi = np.radians(np.arange(0.0, 360.0, step))
+    torques = [412.0, -LIGHT, LIGHT]
+    monkeypatch.setenv(kernel.ENV_VAR, "numpy")
+    ref = solve_stage(RV40, stage, MOD, errors, torques, phi, discs=2)
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("fell back to the NumPy Newton")
+
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    monkeypatch.setattr(eq, "newton", refuse)
+    got = solve_stage(RV40, stage, MOD, errors, torques, phi, discs=2)
+    _agree(ref, got)

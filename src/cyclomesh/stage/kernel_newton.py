@@ -576,17 +576,17 @@ def _newton_rows(
         energy, status = 0.0, 0
         if i % run != 0 and not failed[i - 1]:
             # warm start (the run): from the parabola through the solutions of the three
-            # crank angles before (the line through two where there are only two), else
-            # from the one before, where no pin is at or past its law's end there (the
-            # pins' memo kept: their inversions are near)
+            # crank angles before, else the line through two, else from the one before,
+            # the first of them where no pin is at or past its law's end (the pins' memo
+            # kept: their inversions are near)
             line = i % run >= 2 and not failed[i - 2]
             para = line and i % run >= 3 and not failed[i - 3]
-            for attempt in range(2 if line else 1):
-                from_line = line and attempt == 0  # else from the solution before
+            first_try = 0 if para else (1 if line else 2)
+            for attempt in range(first_try, 3):  # 0 parabola, 1 line, 2 the one before
                 for r in range(m):
-                    if from_line and para:
+                    if attempt == 0:
                         trial[r] = 3.0 * x[i - 1, r] - 3.0 * x[i - 2, r] + x[i - 3, r]
-                    elif from_line:
+                    elif attempt == 1:
                         trial[r] = 2.0 * x[i - 1, r] - x[i - 2, r]
                     else:
                         trial[r] = x[i - 1, r]
