@@ -89,7 +89,7 @@ def compiled() -> Any:
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     # compiled in place: the passes call them
     global _cell, _bound_row, _own_row, _own, _exp_step, _force, _evaluate, _residuals
-    global _solve2, _cholesky2, _extrapolate, _cholesky_solve, _factor_solve
+    global _solve2, _cholesky2, _extrapolate, _cholesky_solve, _factor_solve, _give_up
     _cell = jit(_cell)
     _bound_row = jit(_bound_row)
     _own = jit(_own)
@@ -103,6 +103,7 @@ def compiled() -> Any:
     _cholesky_solve = jit(_cholesky_solve)
     _factor_solve = jit(_factor_solve)
     _extrapolate = jit(_extrapolate)
+    _give_up = jit(_give_up)
 
     class Passes:
         candidates = jit(_candidates)
@@ -461,6 +462,22 @@ def _cholesky_solve(ne, system, rhs):  # pragma: no cover (compiled)
         rhs[i, 0] = s0 * system[i, i]
 
 
+def _give_up(
+    k, warm, tooth, angle, diagonal, grid, own, bl, arm, alpha, gamma, torque, candidate, status,
+    root, suspect
+):  # fmt: skip  # pragma: no cover (compiled)
+    """Case ``k`` given up by :func:`_solve_sets` (no candidate, or its start or Newton
+    failed): status 1, or 2 on a warm start with the case's own coefficients and its
+    candidates by the single-pin bound written for the rigid disc's start that the caller
+    gives it; its root NaN; flagged for the check after the solve."""
+    if warm:
+        _own_row(k, tooth, angle, diagonal, grid, own)
+        _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
+    status[k] = 2 if warm else 1
+    root[k] = np.nan
+    suspect[k] = True
+
+
 def _extrapolate(v1, v2, v3, v4, streak):  # pragma: no cover (compiled)
     """The value at the next of evenly spaced crank angles from the ``streak`` (≥ 1)
     values just before it (v1 the last): constant, linear, quadratic or cubic in the
@@ -578,14 +595,10 @@ def _solve_sets(
                 idx[nc] = i
                 nc += 1
         if nc == 0:
-            if warm:
-                _own_row(k, tooth, angle, diagonal, grid, own)
-                _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
-            status[k] = 2 if warm else 1
-            root[k] = np.nan
+            _give_up(k, warm, tooth, angle, diagonal, grid, own, bl, arm, alpha, gamma, torque,
+                     candidate, status, root, suspect)  # fmt: skip
             streak = 0
             failed += 1
-            suspect[k] = True
             continue
         # the candidates' Catmull–Rom cells and weights (DiscBody._cells)
         for a in range(nc):
@@ -791,14 +804,10 @@ def _solve_sets(
                 w[a], delta[a], f[a], y[a], r_w[a] = wn[a], dn[a], fn[a], yn[a], rwn[a]
         if not solved:  # or its start failed: the caller gives the rigid disc's start
             # (or takes the reference)
-            if warm:
-                _own_row(k, tooth, angle, diagonal, grid, own)
-                _bound_row(k, bl, arm, alpha, gamma, own, torque, candidate)
-            status[k] = 2 if warm else 1
-            root[k] = np.nan
+            _give_up(k, warm, tooth, angle, diagonal, grid, own, bl, arm, alpha, gamma, torque,
+                     candidate, status, root, suspect)  # fmt: skip
             streak = 0
             failed += 1
-            suspect[k] = True
             continue
         status[k] = 0
         streak += 1
