@@ -161,14 +161,15 @@ def body_coupling(
     P = max(int(np.max(np.sum(cand, axis=-1))), 1)
     order = np.argsort(~cand, axis=-1, kind="stable")[..., :P]
     ok = np.take_along_axis(cand, order, -1)
-    cmat = None if memo is None else _memo_matrix(memo.get("body_matrix"), order, ok, N)
+    pins = np.where(ok, order, -1)
+    cmat = None if memo is None else _memo_matrix(memo.get("body_matrix"), pins, N)
     if cmat is None:
         cmat = body.matrix(
             np.take_along_axis(tooth, order, -1),
             np.where(ok, np.take_along_axis(angle, order, -1), 0.0),
         )
         if memo is not None:
-            memo["body_matrix"] = (order, ok, cmat.copy())
+            memo["body_matrix"] = (pins, cmat.copy())
     rows = np.concatenate([ok, np.ones((A, D, 2 * N), bool)], -1)
     cmat = np.where(rows[..., :, None] & rows[..., None, :], cmat, 0.0)
     held = [2 * h + c for h, c in FREE_HELD]
@@ -202,30 +203,32 @@ def body_coupling(
     lam[..., P::2] = fx * erx[..., 0] + fy * ery[..., 0]
     lam[..., P + 1 :: 2] = -fx * ery[..., 0] + fy * erx[..., 0]
     z = c0 * lam[..., free]
-    pins = np.where(ok, order, -1)
     return _Body(pin_w=pin_w, hole_w=hole_w, energy=energy, pins=pins), z.reshape(A, -1)
 
 
-def _memo_matrix(kept, order: NDArray[np.int64], ok: NDArray[np.bool_], N: int):
-    """The coefficients (A, D, P + 2N, P + 2N) of the candidates ``order`` (``ok``) taken
-    from ``kept`` = (order, ok, matrix) of an earlier coupling (:func:`body_coupling`'s
+def _positions(here: NDArray[np.int64], there: NDArray[np.int64]):
+    """Where each candidate pin of ``here`` stands among those of ``there`` (pin indices,
+    −1 for padding, (..., P) and (..., P')): (found, its position; 0 where not found)."""
+    match = (here[..., :, None] == there[..., None, :]) & (here[..., :, None] >= 0)
+    return np.any(match, axis=-1), np.argmax(match, axis=-1)
+
+
+def _memo_matrix(kept, pins: NDArray[np.int64], N: int):
+    """The coefficients (A, D, P + 2N, P + 2N) of the candidates ``pins`` (−1: padding)
+    taken from ``kept`` = (pins, matrix) of an earlier coupling (:func:`body_coupling`'s
     ``memo``), or None where a candidate is not among those (or nothing is kept). The
-    rows and columns of padding (``~ok``) are arbitrary (the caller sets them)."""
+    rows and columns of padding are arbitrary (the caller sets them)."""
     if kept is None:
         return None
-    order1, ok1, cmat1 = kept
-    if order1.shape[:2] != order.shape[:2]:
+    pins1, cmat1 = kept
+    if pins1.shape[:2] != pins.shape[:2]:
         return None
-    match = (order[..., :, None] == order1[..., None, :]) & ok1[..., None, :]
-    if not np.all(np.any(match, axis=-1) | ~ok):
+    found, where = _positions(pins, pins1)
+    if not np.all(found | (pins < 0)):
         return None
-    P1 = order1.shape[-1]
+    P1 = pins1.shape[-1]
     idx = np.concatenate(
-        [
-            np.argmax(match, axis=-1),
-            np.broadcast_to(P1 + np.arange(2 * N), (*order.shape[:2], 2 * N)),
-        ],
-        axis=-1,
+        [where, np.broadcast_to(P1 + np.arange(2 * N), (*pins.shape[:2], 2 * N))], axis=-1
     )
     rows = np.take_along_axis(cmat1, idx[..., :, None], axis=-2)
     return np.take_along_axis(rows, idx[..., None, :], axis=-1)
@@ -377,10 +380,7 @@ def _body_carried(
     out = x[idx - back].copy()
     z_prev = x[idx - back, z0:].reshape(n, D, -1)
     z_own = (x[idx] if own is None else own)[:, z0:].reshape(n, D, -1)
-    here, there = b.pins[idx], b.pins[idx - back]  # (n, D, P)
-    match = (here[..., :, None] == there[..., None, :]) & (here[..., :, None] >= 0)
-    found = np.any(match, axis=-1)
-    where = np.argmax(match, axis=-1)
+    found, where = _positions(b.pins[idx], b.pins[idx - back])  # (n, D, P)
     carried = np.take_along_axis(z_prev[..., :P], where, axis=-1)
     z = out[:, z0:].reshape(n, D, -1)  # a view of out
     z[..., :P] = np.where(found, carried, z_own[..., :P])
