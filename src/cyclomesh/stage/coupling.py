@@ -198,13 +198,28 @@ def _fill(
     lam = P + F
     side = m + 2
     block = side * side
+    # C' with its rows and columns in the unknowns' order: the pins, the free hole
+    # components, then the held ones (pos: where each hole component stands), so that
+    # every row of the outputs is a contiguous run of it
     cmat = np.zeros((S, S))
-    free = np.empty(lam, np.int64)
-    for j in range(P):
-        free[j] = j
+    pos = np.empty(2 * N, np.int64)
+    held = lam
+    for j in range(2 * N):
+        pos[j] = -1
     for j in range(F):
-        free[P + j] = P + free_holes[j]
+        pos[free_holes[j]] = P + j
+    for j in range(2 * N):
+        if pos[j] < 0:
+            pos[j] = held
+            held += 1
     c0sq = c0 * c0
+    km = np.empty(P, np.int64)  # a candidate's tooth mod n2
+    # unsigned: no negative-index test per read (as core.kernel_discbody's)
+    base = np.empty(P, np.uint64)  # a candidate's load windows' start in the padded table
+    cl = np.empty(P, np.uint64)  # its cell
+    wts = np.empty((P, 4))
+    uside, ublock = np.uint64(side), np.uint64(block)
+    one, two, three = np.uint64(1), np.uint64(2), np.uint64(3)
     for a in range(A):
         erx = np.empty(N)
         ery = np.empty(N)
@@ -219,47 +234,47 @@ def _fill(
                     cmat[i, j] = 0.0
             for j in range(P):
                 cmat[j, j] = own[a, d, j] if j < nc else c0
+            for p in range(nc):
+                k = tooth[a, d, order[a, d, p]]
+                c = cell[a, d, p]
+                km[p] = k % n2
+                base[p] = np.uint64(((k % period) * n2) * block + c * side)
+                cl[p] = np.uint64(c)
+                for q in range(4):
+                    wts[p, q] = weights[a, d, p, q]
             for jl in range(nc):  # the load j
-                kj = tooth[a, d, order[a, d, jl]]
-                cj = cell[a, d, jl]
-                wj0, wj1 = weights[a, d, jl, 0], weights[a, d, jl, 1]
-                wj2, wj3 = weights[a, d, jl, 2], weights[a, d, jl, 3]
-                base = ((kj % period) * n2) * block + cj * side
-                kjm = kj % n2
+                wj0, wj1, wj2, wj3 = wts[jl, 0], wts[jl, 1], wts[jl, 2], wts[jl, 3]
+                kj, bj = km[jl], base[jl]
                 for il in range(jl):  # the response i < j
-                    ki = tooth[a, d, order[a, d, il]]
-                    offset = ki % n2 - kjm
+                    offset = km[il] - kj
                     if offset < 0:
                         offset += n2
-                    s0 = offset * block + base + cell[a, d, il]
-                    s1 = s0 + side
-                    s2 = s1 + side
-                    s3 = s2 + side
+                    s0 = np.uint64(offset) * ublock + bj + cl[il]
+                    s1 = s0 + uside
+                    s2 = s1 + uside
+                    s3 = s2 + uside
                     h0 = padded[s0] * wj0 + padded[s1] * wj1 + padded[s2] * wj2 + padded[s3] * wj3
                     h1 = (
-                        padded[s0 + 1] * wj0
-                        + padded[s1 + 1] * wj1
-                        + padded[s2 + 1] * wj2
-                        + padded[s3 + 1] * wj3
+                        padded[s0 + one] * wj0
+                        + padded[s1 + one] * wj1
+                        + padded[s2 + one] * wj2
+                        + padded[s3 + one] * wj3
                     )
                     h2 = (
-                        padded[s0 + 2] * wj0
-                        + padded[s1 + 2] * wj1
-                        + padded[s2 + 2] * wj2
-                        + padded[s3 + 2] * wj3
+                        padded[s0 + two] * wj0
+                        + padded[s1 + two] * wj1
+                        + padded[s2 + two] * wj2
+                        + padded[s3 + two] * wj3
                     )
                     h3 = (
-                        padded[s0 + 3] * wj0
-                        + padded[s1 + 3] * wj1
-                        + padded[s2 + 3] * wj2
-                        + padded[s3 + 3] * wj3
+                        padded[s0 + three] * wj0
+                        + padded[s1 + three] * wj1
+                        + padded[s2 + three] * wj2
+                        + padded[s3 + three] * wj3
                     )
-                    pair = (
-                        h0 * weights[a, d, il, 0]
-                        + h1 * weights[a, d, il, 1]
-                        + h2 * weights[a, d, il, 2]
-                        + h3 * weights[a, d, il, 3]
-                    )
+                    pair = ((h0 * wts[il, 0] + h1 * wts[il, 1]) + h2 * wts[il, 2]) + h3 * wts[
+                        il, 3
+                    ]
                     cmat[il, jl] = pair
                     cmat[jl, il] = pair
             # … the pins and the holes (the hole_pin table along u) …
@@ -277,28 +292,29 @@ def _fill(
                             + hole_pin[kp, n2_, hole, comp] * w2
                             + hole_pin[kp, n3, hole, comp] * w3
                         )
-                        cmat[p, P + 2 * hole + comp] = v
-                        cmat[P + 2 * hole + comp, p] = v
+                        cmat[p, pos[2 * hole + comp]] = v
+                        cmat[pos[2 * hole + comp], p] = v
             # … and the holes
             for i in range(2 * N):
                 for j in range(2 * N):
-                    cmat[P + i, P + j] = hh[i, j]
+                    cmat[pos[i], pos[j]] = hh[i, j]
             # the pins' displacements per unit z (C'/c0 on the free columns), by pin
             for p in range(P):
                 row = order[a, d, p]
                 for col in range(lam):
-                    pin_w[a, d, row, col] = cmat[p, free[col]] / c0
+                    pin_w[a, d, row, col] = cmat[p, col] / c0
             # the holes', turned from the disc's radial/tangential to the fixed frame
             for hole in range(N):
                 ex, ey = erx[hole], ery[hole]
+                r0, r1 = pos[2 * hole], pos[2 * hole + 1]
                 for col in range(lam):
-                    radial = cmat[P + 2 * hole, free[col]] / c0
-                    tangential = cmat[P + 2 * hole + 1, free[col]] / c0
+                    radial = cmat[r0, col] / c0
+                    tangential = cmat[r1, col] / c0
                     hole_w[a, d, hole, 0, col] = radial * ex - tangential * ey
                     hole_w[a, d, hole, 1, col] = radial * ey + tangential * ex
             for r in range(lam):
                 for col in range(lam):
-                    energy[a, d, r, col] = cmat[free[r], free[col]] / c0sq
+                    energy[a, d, r, col] = cmat[r, col] / c0sq
             # the start: λ the loads on the disc (the pins', the bearings' on the disc)
             for p in range(P):
                 load = pin_force[a, d, order[a, d, p]] if p < nc else 0.0
