@@ -129,3 +129,20 @@ def test_the_stages_coupling_on_the_examples_fe_disc(monkeypatch, tmp_path):
     case = ex.case().replace(torque=np.array([412.0, -412.0]), crank_angles=phi)
     solve(case, ex.model().replace(disc_body=body))
     assert len(seen) == 2 and all(s[0] == phi.size for s in seen)
+
+
+def test_the_compiled_positions_are_the_references(monkeypatch):
+    """_positions (a warm start's pin unknowns, the reference's memo): the same integers."""
+    rng = np.random.default_rng(5)
+    here = np.stack([rng.permutation(40)[:9] for _ in range(60)]).reshape(30, 2, 9)
+    there = np.stack([rng.permutation(40)[:12] for _ in range(60)]).reshape(30, 2, 12)
+    here[here > 33] = -1  # padding
+    there[there > 35] = -1
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numpy")
+    ref = eq._positions(here, there)
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
+    got = eq._positions(here, there)
+    assert 0 < np.sum(ref[0]) < ref[0].size
+    for a, b in zip(ref, got, strict=True):
+        assert a.dtype == b.dtype and a.shape == b.shape
+        np.testing.assert_array_equal(b, a)

@@ -39,17 +39,52 @@ from numpy.typing import NDArray
 
 from cyclomesh.core.discbody import FREE_HELD, FreeDiscBody
 
-__all__ = ["coupling"]
+__all__ = ["coupling", "positions"]
 
 FloatArray = NDArray[np.float64]
 
 
 @cache
-def _kernels() -> tuple[Any, Any, Any]:
+def _kernels() -> tuple[Any, Any, Any, Any]:
     import numba
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    return jit(_candidates), jit(_own_rows), jit(_fill)
+    return jit(_candidates), jit(_own_rows), jit(_fill), jit(_position_rows)
+
+
+def positions(
+    here: NDArray[np.int64], there: NDArray[np.int64]
+) -> tuple[NDArray[np.bool_], NDArray[np.int64]]:
+    """:func:`cyclomesh.stage.equilibrium._positions` compiled: where each candidate pin
+    of ``here`` (..., P) stands among those of ``there`` (..., P') (pin indices, −1 for
+    padding): (found, its first position; 0 where not found), the same integers."""
+    here = np.ascontiguousarray(here, dtype=np.int64)
+    there = np.ascontiguousarray(np.broadcast_to(there, (*here.shape[:-1], there.shape[-1])))
+    found = np.empty(here.shape, np.bool_)
+    where = np.empty(here.shape, np.int64)
+    P, Q = here.shape[-1], there.shape[-1]
+    _kernels()[3](
+        here.reshape(-1, P), there.reshape(-1, Q), found.reshape(-1, P), where.reshape(-1, P)
+    )
+    return found, where
+
+
+def _position_rows(here, there, found, where):  # pragma: no cover (compiled)
+    """:func:`positions` of (B, P) and (B, P') rows."""
+    B, P = here.shape
+    Q = there.shape[1]
+    for b in range(B):
+        for p in range(P):
+            pin = here[b, p]
+            found[b, p] = False
+            where[b, p] = 0
+            if pin < 0:
+                continue
+            for q in range(Q):
+                if there[b, q] == pin:
+                    found[b, p] = True
+                    where[b, p] = q
+                    break
 
 
 def coupling(
@@ -81,7 +116,7 @@ def coupling(
     Returns ``pin_w`` (A, D, n_flanks, Λ), ``hole_w`` (A, D, N, 2, Λ), ``energy``
     (A, D, Λ, Λ), ``pins`` (A, D, P) (−1 for padding) and the start z (A, D·Λ).
     """
-    cand_pass, own_pass, fill_pass = _kernels()
+    cand_pass, own_pass, fill_pass, _ = _kernels()
     A, D, n1 = bl.shape
     N = body.count
     order = np.empty((A, D, n1), np.int64)
@@ -272,9 +307,7 @@ def _fill(
                         + padded[s2 + three] * wj2
                         + padded[s3 + three] * wj3
                     )
-                    pair = ((h0 * wts[il, 0] + h1 * wts[il, 1]) + h2 * wts[il, 2]) + h3 * wts[
-                        il, 3
-                    ]
+                    pair = ((h0 * wts[il, 0] + h1 * wts[il, 1]) + h2 * wts[il, 2]) + h3 * wts[il, 3]
                     cmat[il, jl] = pair
                     cmat[jl, il] = pair
             # … the pins and the holes (the hole_pin table along u) …

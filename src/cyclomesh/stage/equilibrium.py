@@ -47,7 +47,7 @@ from cyclomesh.stage.assembly import (
     unpack,
 )
 from cyclomesh.stage.bearing import LOAD_EXPONENT, roller_loads
-from cyclomesh.stage.coupling import coupling
+from cyclomesh.stage.coupling import coupling, positions
 from cyclomesh.stage.design import StageDesign
 from cyclomesh.stage.floating import FLOATING_LOAD, canonical_positions, floating_discs
 from cyclomesh.stage.friction import (
@@ -215,7 +215,10 @@ def body_coupling(
 
 def _positions(here: NDArray[np.int64], there: NDArray[np.int64]):
     """Where each candidate pin of ``here`` stands among those of ``there`` (pin indices,
-    −1 for padding, (..., P) and (..., P')): (found, its position; 0 where not found)."""
+    −1 for padding, (..., P) and (..., P')): (found, its position; 0 where not found).
+    With numba, :func:`cyclomesh.stage.coupling.positions` (the same integers)."""
+    if compiled():
+        return positions(here, there)
     match = (here[..., :, None] == there[..., None, :]) & (here[..., :, None] >= 0)
     return np.any(match, axis=-1), np.argmax(match, axis=-1)
 
