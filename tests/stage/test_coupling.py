@@ -74,6 +74,8 @@ def test_the_compiled_coupling_is_the_references_bit_for_bit(monkeypatch, period
     got = eq.body_coupling(mesh, prob, body, reach, start)
     _equal(ref, got)
     b = got[0]
+    for name in ("pin_w", "hole_w", "energy"):  # the compiled Hessian reads them as they are
+        assert getattr(b, name).flags.c_contiguous, name
     assert np.all(b.pins[1, 1] == -1)  # padding only
     # a padding unknown moves its row's pin by itself (the reference's c0/c0)
     P = b.pins.shape[-1]
