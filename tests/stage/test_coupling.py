@@ -17,10 +17,10 @@ pytest.importorskip("numba")
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "rv_stage.toml"
 
 
-def _body(period: int, seed: int = 0) -> FreeDiscBody:
-    """A free disc of random coefficients: 39 teeth, 9 profile angles, 3 holes."""
+def _body(period: int, seed: int = 0, N: int = 3) -> FreeDiscBody:
+    """A free disc of random coefficients: 39 teeth, 9 profile angles, N holes."""
     rng = np.random.default_rng(seed)
-    n2, m, N = 39, 9, 3
+    n2, m = 39, 9
     u = np.linspace(-2.8, -0.2, m)
     table = rng.normal(size=(period, n2, m, m)) * 1e-9
     diagonal = rng.normal(size=(period, m)) * 1e-9
@@ -30,7 +30,7 @@ def _body(period: int, seed: int = 0) -> FreeDiscBody:
     return FreeDiscBody(pins, hole_pin, hole_hole, N)
 
 
-def _direction(A: int = 7, D: int = 2, n1: int = 40, seed: int = 1):
+def _direction(A: int = 7, D: int = 2, n1: int = 40, seed: int = 1, N: int = 3):
     """The arrays body_coupling reads of a direction (mesh, problem, reach, start), random,
     with the edge cases: angles outside the grid and NaN, backlashes inf, arms ≤ 0, a
     crank angle and disc without a candidate."""
@@ -40,19 +40,19 @@ def _direction(A: int = 7, D: int = 2, n1: int = 40, seed: int = 1):
     bl = rng.uniform(-1e-4, 4e-4, size=(A, D, 2 * n1))
     bl[rng.random(bl.shape) < 0.1] = np.inf
     arm = rng.uniform(-5e-3, 60e-3, size=(A, D, 2 * n1))
-    bl[1, 1, :n1] = np.inf  # no candidate on disc 1 at crank angle 1
+    bl[1, D - 1, :n1] = np.inf  # no candidate on the last disc at crank angle 1
     tooth = rng.integers(0, 39, size=(A * D * n1,))
     geo = SimpleNamespace(rotation=np.zeros((A, D, n1)), profile_angle=angle.reshape(-1))
     mesh = SimpleNamespace(geo=geo, tooth=tooth)
-    ang = rng.uniform(0, 2 * np.pi, size=(A, 1)) + np.array([0.0, 2.1, 4.2])
+    ang = rng.uniform(0, 2 * np.pi, size=(A, 1)) + 2 * np.pi * np.arange(N) / N
     prob = SimpleNamespace(
         bl=bl, arm=arm, hx=36e-3 * np.cos(ang), hy=36e-3 * np.sin(ang), scale=36e-3
     )
     reach = rng.uniform(1e-4, 3e-4, size=A)
     start = {
         "pin_force": rng.uniform(0, 100, size=(A, D, 2 * n1)),
-        "bearing_fx": rng.normal(size=(A, D, 3)) * 1e3,
-        "bearing_fy": rng.normal(size=(A, D, 3)) * 1e3,
+        "bearing_fx": rng.normal(size=(A, D, N)) * 1e3,
+        "bearing_fy": rng.normal(size=(A, D, N)) * 1e3,
     }
     return mesh, prob, reach, start
 
@@ -64,10 +64,10 @@ def _equal(ref, got):
     np.testing.assert_array_equal(z1, z0)
 
 
-@pytest.mark.parametrize("period", [1, 13])
-def test_the_compiled_coupling_is_the_references_bit_for_bit(monkeypatch, period):
-    body = _body(period)
-    mesh, prob, reach, start = _direction()
+@pytest.mark.parametrize(("period", "N", "D"), [(1, 3, 2), (13, 3, 2), (39, 2, 1), (13, 3, 3)])
+def test_the_compiled_coupling_is_the_references_bit_for_bit(monkeypatch, period, N, D):
+    body = _body(period, N=N)
+    mesh, prob, reach, start = _direction(D=D, N=N)
     monkeypatch.setenv("CYCLOMESH_KERNEL", "numpy")
     ref = eq.body_coupling(mesh, prob, body, reach, start)
     monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
@@ -76,10 +76,10 @@ def test_the_compiled_coupling_is_the_references_bit_for_bit(monkeypatch, period
     b = got[0]
     for name in ("pin_w", "hole_w", "energy"):  # the compiled Hessian reads them as they are
         assert getattr(b, name).flags.c_contiguous, name
-    assert np.all(b.pins[1, 1] == -1)  # padding only
+    assert np.all(b.pins[1, D - 1] == -1)  # padding only
     # a padding unknown moves its row's pin by itself (the reference's c0/c0)
     P = b.pins.shape[-1]
-    assert b.pin_w[1, 1, np.arange(P), np.arange(P)].tolist() == [1.0] * P
+    assert b.pin_w[1, D - 1, np.arange(P), np.arange(P)].tolist() == [1.0] * P
 
 
 def test_the_reference_memo_gives_what_the_compiled_coupling_forms(monkeypatch):
