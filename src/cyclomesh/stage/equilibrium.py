@@ -47,6 +47,7 @@ from cyclomesh.stage.assembly import (
     unpack,
 )
 from cyclomesh.stage.bearing import LOAD_EXPONENT, roller_loads
+from cyclomesh.stage.coupling import coupling, positions
 from cyclomesh.stage.design import StageDesign
 from cyclomesh.stage.floating import FLOATING_LOAD, canonical_positions, floating_discs
 from cyclomesh.stage.friction import (
@@ -157,6 +158,12 @@ def body_coupling(
     tooth = np.asarray(mesh.tooth).reshape(A, D, n1)
     angle = mesh.geo.profile_angle.reshape(A, D, n1)
     bl = prob.bl[..., :n1]
+    if compiled():  # CYCLOMESH_KERNEL=numba: the same arrays in three compiled passes
+        pin_w, hole_w, energy, pins, z = coupling(
+            tooth, angle, bl, prob.arm[..., :n1], reach, body, prob.hx, prob.hy, prob.scale,
+            start["pin_force"], start["bearing_fx"], start["bearing_fy"], 2 * n1,
+        )  # fmt: skip
+        return _Body(pin_w=pin_w, hole_w=hole_w, energy=energy, pins=pins), z
     cand = np.isfinite(bl) & (prob.arm[..., :n1] > 0) & (bl < reach[:, None, None])
     P = max(int(np.max(np.sum(cand, axis=-1))), 1)
     order = np.argsort(~cand, axis=-1, kind="stable")[..., :P]
@@ -208,7 +215,10 @@ def body_coupling(
 
 def _positions(here: NDArray[np.int64], there: NDArray[np.int64]):
     """Where each candidate pin of ``here`` stands among those of ``there`` (pin indices,
-    −1 for padding, (..., P) and (..., P')): (found, its position; 0 where not found)."""
+    −1 for padding, (..., P) and (..., P')): (found, its position; 0 where not found).
+    With numba, :func:`cyclomesh.stage.coupling.positions` (the same integers)."""
+    if compiled():
+        return positions(here, there)
     match = (here[..., :, None] == there[..., None, :]) & (here[..., :, None] >= 0)
     return np.any(match, axis=-1), np.argmax(match, axis=-1)
 
