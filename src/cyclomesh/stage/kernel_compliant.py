@@ -1,0 +1,565 @@
+"""The compliant disc's stage: each crank angle's Newton iteration compiled (numba), beside
+the NumPy reference :func:`cyclomesh.stage.newton.newton` on a problem with a
+:class:`~cyclomesh.stage.assembly.Body`.
+
+With ``CYCLOMESH_KERNEL=numba`` the compliant disc's stage without friction (a bearing law
+without a series spring) solves each crank angle to its end in one compiled pass, as
+:mod:`cyclomesh.stage.kernel_newton` does for the rigid discs: the potential, gradient and
+Hessian of :func:`cyclomesh.stage.assembly.evaluate` (:func:`evaluate_one`: the pins with
+the body's displacement δ −= (C'·λ)_i, the body's energy ½·zᵀEz, the crank bearings with
+the hole centres moved by the body, the crankshafts and the end plate) on the crank
+angle's own arrays, the same step, stretched step (``_LINEAR``), step cap, line search
+(Armijo, or the residual's norm where the potential has no digits left), convergence test,
+the quadratic last step (``_LAST_STEP``) and the give-ups of :func:`newton`'s ``failed``
+(``_STALL_ITERATIONS``, ``_STALL_HALVINGS``). The crank angles are solved in order, each
+after the first started from the line through the solutions of the two before (else the
+one before; else its own start), each pin's body unknown carried by its pin
+(:attr:`~cyclomesh.stage.assembly.Body.pins`, as :func:`~cyclomesh.stage.equilibrium.
+_body_carried`). The crank angles it cannot finish (the saddle of the body's unknowns, a
+law it cannot invert, a stall) are left to the NumPy path from their own start
+(:func:`~cyclomesh.stage.equilibrium._body_newton`: the reference's Newton, then the
+residual Newton), exactly as there. The iteration runs to round-off, so the root is the
+reference's to round-off.
+
+The Newton step eliminates the crankshafts' pin deflections first, as the rigid discs'
+kernel (:func:`cyclomesh.stage.kernel_newton._solve_blocks`), the rest (c, the discs' θ,
+u, the end plate's β and the body unknowns) by pivoted Gaussian elimination.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cyclomesh.stage import kernel_newton as _kn
+
+__all__ = ["newton", "evaluate"]
+
+FloatArray = NDArray[np.float64]
+
+
+@cache
+def _kernels() -> tuple[Any, Any]:
+    import numba
+
+    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
+    global _pin_force, _solve_in_place, _solve_blocks, _evaluate_one, _carry
+    _pin_force = _kn._pin_force
+    _solve_in_place = _kn._solve_in_place
+    _solve_blocks = _kn._solve_blocks
+    _evaluate_one = jit(_evaluate_one_py)
+    _carry = jit(_carry_py)
+    return jit(_evaluate_rows), jit(_newton_rows)
+
+
+def _prepare(p, law, x: FloatArray, discs: int, jacobian: FloatArray):
+    """The arrays of the compiled calls: the pins' block, the body's pin coefficients and
+    energy, the bearings' columns of ``jacobian`` and the block structure, the holes, the
+    constants (kernel_newton's)."""
+    sup = p.supports
+    m = x.shape[1]
+    N = p.hx.shape[-1]
+    nw = 2 * discs * N if sup is not None and sup.stiffness is not None else 0
+    carrier = sup is not None and sup.carrier is not None
+    G = np.ascontiguousarray(jacobian)
+    cols, core, blocks, hole, const = _kn._arrays(p, law, G, discs, nw, m)
+    b = p.body
+    pin_w = np.ascontiguousarray(b.pin_w, dtype=float)
+    energy = np.ascontiguousarray(b.energy, dtype=float)
+    pins = np.ascontiguousarray(b.pins, dtype=np.int64)
+    block = _kn.pin_block(p)
+    return G, cols, core, blocks, hole, const, nw, carrier, pin_w, energy, pins, block
+
+
+def evaluate(p, law, x: FloatArray, discs: int, jacobian: FloatArray | None = None):
+    """Potential (A,), scaled gradient (A, m) and Hessian (A, m, m) and status (A,: 0
+    usable, 1 a pin at or past its law's reach, 2 a law it cannot invert) of the compliant
+    disc's stage at ``x`` (A, m), every crank angle by :func:`evaluate_one`
+    (the reference: :func:`cyclomesh.stage.assembly.evaluate`, ``rigid=False``)."""
+    from cyclomesh.stage.assembly import bearing_jacobian
+
+    A, m = x.shape
+    if jacobian is None:
+        jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, m)
+    G, cols, _, _, hole, const, nw, carrier, pin_w, energy, _, block = _prepare(
+        p, law, x, discs, jacobian
+    )
+    sup = p.supports
+    e, g, H = np.zeros(A), np.zeros((A, m)), np.zeros((A, m, m))
+    status = np.zeros(A, np.int64)
+    _kernels()[0](
+        np.ascontiguousarray(x, dtype=float), block, pin_w, energy, hole, G, cols, const, nw,
+        float(sup.carrier) if carrier else 0.0, carrier, 0.5 * law.rs.clearance,
+        law.rs.constant, float(p.torque), float(p.scale), e, g, H, status,
+    )  # fmt: skip
+    return e, g, H, status
+
+
+def _evaluate_rows(
+    x, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half, kn, torque, L,
+    e, g, H, status,
+):  # fmt: skip  # pragma: no cover (compiled)
+    A, m = x.shape
+    D, P = pin.shape[2], pin.shape[3]
+    memo = np.zeros((3, D, P))
+    pf = np.zeros((A, D, P))
+    bf = np.zeros((A, D, hole.shape[3], 3))
+    for i in range(A):
+        memo[0] = 0.0
+        e[i], status[i] = _evaluate_one(
+            i, x[i], pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half,
+            kn, torque, L, True, g[i], H[i], memo, pf, bf,
+        )  # fmt: skip
+
+
+def _evaluate_one_py(
+    i, x, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half, kn, torque,
+    L, want, g, H, memo, pf, bf,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """Potential of crank angle ``i`` at x (m,) and, with ``want``, its scaled gradient g
+    and Hessian H, as :func:`cyclomesh.stage.assembly.evaluate` (``rigid=False``) with the
+    compliant disc: the pins' δ less the body's displacement at the pin
+    Σ_s pin_w[i, d, j, s]·z_ds, the body's energy ½·zᵀEz per disc, the crank bearings'
+    hole-against-pin vector with the hole centre's displacement by the body (the columns
+    of ``G`` that are the body's, :func:`~cyclomesh.stage.assembly.bearing_jacobian`).
+    Returns (energy, status) as :func:`cyclomesh.stage.kernel_newton._evaluate_one`;
+    ``pf[i]`` the pins' forces, ``bf[i]`` the bearings' (fx, fy, s) with ``want``."""
+    m = x.size
+    D, P = pin.shape[2], pin.shape[3]
+    lam = energy.shape[3]
+    z0 = m - D * lam
+    N = hole.shape[3]
+    R = const.size - D - D * D
+    if want:
+        for r in range(m):
+            g[r] = 0.0
+            for s in range(m):
+                H[r, s] = 0.0
+        for d in range(D):
+            for j in range(P):
+                pf[i, d, j] = 0.0
+    status = 0
+    pins = 0.0
+    for d in range(D):
+        th, ux, uy = x[1 + 3 * d], x[2 + 3 * d], x[3 + 3 * d]
+        zd = z0 + d * lam
+        r0 = 1 + 3 * d
+        for j in range(P):
+            b = pin[0, i, d, j]
+            if not np.isfinite(b):
+                continue
+            shift = 0.0
+            for s in range(lam):
+                shift += pin_w[i, d, j, s] * x[zd + s]
+            delta = pin[1, i, d, j] * (th - b) + pin[2, i, d, j] * ux + pin[3, i, d, j] * uy
+            delta = delta - shift
+            if delta <= 0.0:
+                continue
+            if delta >= pin[6, i, d, j]:
+                status = 1
+                continue
+            a, gm = pin[4, i, d, j], pin[5, i, d, j]
+            f, logf = _pin_force(
+                delta, a, gm, np.isfinite(pin[6, i, d, j]), memo[0, d, j], memo[1, d, j],
+                memo[2, d, j],
+            )  # fmt: skip
+            if f > 0.0 and gm != 0.0:
+                memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, logf, f
+            if f < 0.0:
+                return 0.0, 2
+            if f > 0.0:
+                if gm == 0.0:
+                    logf = np.log(f)
+                pins += 0.5 * f * f * (a - 0.5 * gm - gm * logf)
+                if want:
+                    pf[i, d, j] = f
+                    k = 1.0 / (a - gm * (1.0 + logf))
+                    v0, v1, v2 = pin[1, i, d, j] / L, pin[2, i, d, j], pin[3, i, d, j]
+                    g[r0] += f * v0
+                    g[r0 + 1] += f * v1
+                    g[r0 + 2] += f * v2
+                    H[r0, r0] += k * v0 * v0
+                    H[r0, r0 + 1] += k * v0 * v1
+                    H[r0, r0 + 2] += k * v0 * v2
+                    H[r0 + 1, r0 + 1] += k * v1 * v1
+                    H[r0 + 1, r0 + 2] += k * v1 * v2
+                    H[r0 + 2, r0 + 2] += k * v2 * v2
+                    # the body: ∂δ/∂z = −w, so g_z −= F·w, H_zz += k·w·wᵀ, H_az −= k·a·wᵀ
+                    for s in range(lam):
+                        ws = pin_w[i, d, j, s]
+                        if ws == 0.0:
+                            continue
+                        g[zd + s] -= f * ws
+                        kw = k * ws
+                        H[r0, zd + s] -= v0 * kw
+                        H[r0 + 1, zd + s] -= v1 * kw
+                        H[r0 + 2, zd + s] -= v2 * kw
+                        for q in range(s, lam):
+                            H[zd + s, zd + q] += kw * pin_w[i, d, j, q]
+    # the body's energy ½·zᵀEz per disc, its gradient E·z and Hessian E
+    body = 0.0
+    for d in range(D):
+        zd = z0 + d * lam
+        for s in range(lam):
+            ez = 0.0
+            for q in range(lam):
+                ez += energy[i, d, s, q] * x[zd + q]
+            body += x[zd + s] * ez
+            if want:
+                g[zd + s] += ez
+                for q in range(s, lam):
+                    H[zd + s, zd + q] += energy[i, d, s, q]
+    if want:
+        for d in range(D):
+            r0 = 1 + 3 * d
+            zd = z0 + d * lam
+            H[r0 + 1, r0] = H[r0, r0 + 1]
+            H[r0 + 2, r0] = H[r0, r0 + 2]
+            H[r0 + 2, r0 + 1] = H[r0 + 1, r0 + 2]
+            for s in range(lam):
+                H[zd + s, r0] = H[r0, zd + s]
+                H[zd + s, r0 + 1] = H[r0 + 1, zd + s]
+                H[zd + s, r0 + 2] = H[r0 + 2, zd + s]
+                for q in range(s + 1, lam):
+                    H[zd + q, zd + s] = H[zd + s, zd + q]
+        g[0] -= torque / L
+    energy_total = pins - torque * x[0] + 0.5 * body
+    base = 1 + 3 * D
+    beta = x[base + nw] if carrier else 0.0
+    p = 10.0 / 9.0
+    bearings = 0.0
+    for d in range(D):
+        rot = (x[1 + 3 * d] - x[0]) - const[R + d] * beta
+        zd = z0 + d * lam
+        for k in range(N):
+            wx = x[base + 2 * (d * N + k)] if nw else 0.0
+            wy = x[base + 2 * (d * N + k) + 1] if nw else 0.0
+            dx = x[2 + 3 * d] + rot * (-hole[1, i, d, k]) + hole[2, i, d, k] - wx
+            dy = x[3 + 3 * d] + rot * hole[0, i, d, k] + hole[3, i, d, k] - wy
+            hx = 0.0
+            hy = 0.0
+            for s in range(lam):
+                hx += G[i, d, k, 0, zd + s] * x[zd + s]
+                hy += G[i, d, k, 1, zd + s] * x[zd + s]
+            dx = dx + hx
+            dy = dy + hy
+            s_ = np.hypot(dx, dy)
+            B = 0.0
+            kb = 0.0
+            ub = 0.0
+            for j in range(R):
+                cj = const[j]
+                dj = s_ * cj - half
+                if dj > 0.0:
+                    root = dj ** (1.0 / 9.0)
+                    q = dj * root
+                    B += kn * q * cj
+                    kb += p * kn * root * cj * cj
+                    ub += kn * (dj * q)
+            bearings += ub / (p + 1.0)
+            if not want:
+                continue
+            if s_ > 0.0:
+                cx, cy, secant = dx / s_, dy / s_, B / s_
+            else:
+                cx, cy, secant = 1.0, 0.0, kb
+            fx, fy = B * cx, B * cy
+            bf[i, d, k, 0], bf[i, d, k, 1], bf[i, d, k, 2] = fx, fy, s_
+            kxx = kb * cx * cx + secant * cy * cy
+            kyy = kb * cy * cy + secant * cx * cx
+            kxy = (kb - secant) * cx * cy
+            for u in range(1, cols[d, k, 0] + 1):
+                r = cols[d, k, u]
+                g0, g1 = G[i, d, k, 0, r], G[i, d, k, 1, r]
+                g[r] += fx * g0 + fy * g1
+                ka = kxx * g0 + kxy * g1
+                kc = kxy * g0 + kyy * g1
+                for v in range(1, cols[d, k, 0] + 1):
+                    c2 = cols[d, k, v]
+                    H[r, c2] += ka * G[i, d, k, 0, c2] + kc * G[i, d, k, 1, c2]
+    energy_total = energy_total + bearings
+    if nw:
+        shafts = 0.0
+        for d in range(D):
+            for k in range(N):
+                for c in range(2):
+                    kw = 0.0
+                    for e in range(D):
+                        kw += const[R + D + d * D + e] * x[base + 2 * (e * N + k) + c]
+                    shafts += x[base + 2 * (d * N + k) + c] * kw
+                    if want:
+                        r = base + 2 * (d * N + k) + c
+                        g[r] += kw
+                        for e in range(D):
+                            H[r, base + 2 * (e * N + k) + c] += const[R + D + d * D + e]
+        energy_total = energy_total + 0.5 * shafts
+    if carrier:
+        energy_total = energy_total + 0.5 * kcarrier * beta * beta
+        if want:
+            g[base + nw] += kcarrier * beta / L
+            H[base + nw, base + nw] += kcarrier / (L * L)
+    return energy_total, status
+
+
+def _carry_py(out, x, own, pins, i, back, z0, lam):  # pragma: no cover (compiled)
+    """``out`` = the solution at crank angle i − back with each pin unknown carried by its
+    pin, ``own``'s where that pin was no candidate there (equilibrium._body_carried)."""
+    m = out.size
+    D, P = pins.shape[1], pins.shape[2]
+    for r in range(m):
+        out[r] = x[i - back, r]
+    for d in range(D):
+        zd = z0 + d * lam
+        for q in range(P):
+            pin = pins[i, d, q]
+            found = -1
+            if pin >= 0:
+                for q2 in range(P):
+                    if pins[i - back, d, q2] == pin:
+                        found = q2
+                        break
+            if found >= 0:
+                out[zd + q] = x[i - back, zd + found]
+            else:
+                out[zd + q] = own[zd + q]
+
+
+def newton(
+    p,
+    law,
+    x: FloatArray,
+    discs: int,
+    jacobian: FloatArray,
+    settings: tuple,
+) -> NDArray[np.bool_]:
+    """The compliant disc's :func:`cyclomesh.stage.newton.newton` (with ``failed``), every
+    crank angle to its end in one compiled pass, in order, warm from the ones before
+    (module docstring). ``x`` (A, m): every crank angle's own start, overwritten by the
+    solution where the kernel finished it (its own start left where it did not);
+    ``settings``: the reference's (FORCE_TOLERANCE, _MAX_ITERATIONS, _MAX_HALVINGS,
+    _STEP_CAP, *_LINEAR, ROUND_OFF_FORCE, _STALL_HALVINGS, _STALL_ITERATIONS,
+    _QUADRATIC, _LAST_STEP, run). Returns the crank angles it could not finish."""
+    (force, iterations, halvings, cap, low, high, round_off, stall_h, stall_it, quad, last,
+     run) = settings  # fmt: skip
+    A, m = x.shape
+    G, cols, core, blocks, hole, const, nw, carrier, pin_w, energy, pins, block = _prepare(
+        p, law, x, discs, jacobian
+    )
+    sup = p.supports
+    failed = np.zeros(A, np.bool_)
+    own = x.copy()
+    _kernels()[1](
+        x, own, block, pin_w, energy, pins, hole, G, cols, core, blocks, const, nw,
+        float(sup.carrier) if carrier else 0.0, carrier, 0.5 * law.rs.clearance,
+        law.rs.constant, float(p.torque), float(p.scale), force * abs(p.torque) / p.scale,
+        round_off * abs(p.torque) / p.scale, iterations, halvings, cap, low, high, stall_h,
+        stall_it, quad, bool(last), int(run), failed,
+    )  # fmt: skip
+    return failed
+
+
+def _newton_rows(
+    x, own, pin, pin_w, energy, pins, hole, G, cols, core, blocks, const, nw, kcarrier,
+    carrier, half, kn, torque, L, tol, floor, iterations, halvings, cap, low, high, stall_h,
+    stall_it, quad, last_on, run, failed,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`newton` written for numba: cyclomesh.stage.newton.newton's iteration with
+    ``failed`` (rigid=False, the compliant disc), crank angle by crank angle."""
+    A, m = x.shape
+    D, P = pin.shape[2], pin.shape[3]
+    lam = energy.shape[3]
+    z0 = m - D * lam
+    eps = 2.220446049250313e-16
+    p = 10.0 / 9.0
+    base = 1 + 3 * D
+    rot = np.zeros(m, np.bool_)
+    rot[0] = True
+    for d in range(D):
+        rot[1 + 3 * d] = True
+    if carrier:
+        rot[base + nw] = True
+    g = np.zeros(m)
+    H = np.zeros((m, m))
+    gt = np.zeros(m)
+    Ht = np.zeros((m, m))
+    trial = np.zeros(m)
+    prev = np.zeros(m)
+    step = np.zeros(m)
+    xi = np.zeros(m)
+    nc = core.size
+    S = np.zeros((nc, nc))
+    Z = np.zeros((blocks.shape[1], nc + 1))
+    rhs = np.zeros(nc)
+    sc = np.zeros(nc)
+    memo = np.zeros((3, D, P))
+    pf = np.zeros((A, D, P))  # (the state at each evaluation: not kept)
+    bf = np.zeros((A, D, hole.shape[3], 3))
+    for i in range(A):
+        for r in range(m):
+            xi[r] = own[i, r]
+        have = False
+        energy_i, status = 0.0, 0
+        if i % run != 0 and not failed[i - 1]:
+            # warm start: the line through the two solutions before, else the one before,
+            # each pin unknown carried by its pin (equilibrium._body_warm)
+            line = i % run >= 2 and not failed[i - 2]
+            _carry(prev, x, own[i], pins, i, 1, z0, lam)
+            s1 = 1
+            e1 = 0.0
+            for attempt in range(0 if line else 1, 2):
+                if attempt == 0:
+                    _carry(trial, x, prev, pins, i, 2, z0, lam)
+                    for r in range(m):
+                        trial[r] = 2.0 * prev[r] - trial[r]
+                else:
+                    for r in range(m):
+                        trial[r] = prev[r]
+                e1, s1 = _evaluate_one(
+                    i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                    half, kn, torque, L, True, g, H, memo, pf, bf,
+                )  # fmt: skip
+                if s1 == 0:
+                    break
+            if s1 == 0:
+                for r in range(m):
+                    xi[r] = trial[r]
+                energy_i, status, have = e1, s1, True
+        else:
+            memo[0] = 0.0
+        previous = np.inf
+        extended = False
+        linear = False
+        best = np.inf
+        since = 0
+        ok_angle = False
+        stay = False
+        for _ in range(iterations):
+            if not have:
+                energy_i, status = _evaluate_one(
+                    i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                    half, kn, torque, L, True, g, H, memo, pf, bf,
+                )  # fmt: skip
+            have = False
+            if status == 2:
+                break
+            near = True
+            res = 0.0
+            for r in range(m):
+                res = max(res, abs(g[r]))
+                if near and not (abs(g[r]) <= tol):  # the round-off of the unknowns?
+                    noise = 0.0
+                    for s in range(m):
+                        xs = abs(xi[s]) * L if rot[s] else abs(xi[s])
+                        noise += abs(H[r, s]) * xs
+                    noise *= 16.0 * eps
+                    if not (abs(g[r]) <= max(tol, noise)):
+                        near = False
+            if near and (res <= floor or res >= previous or stay):
+                ok_angle = True
+                break
+            stay = False
+            take_last = (
+                last_on
+                and near
+                and res <= quad * previous
+                and res * res * res <= floor * previous * previous
+                and not linear
+            )
+            if res < best:
+                best = res
+                since = 0
+            else:
+                since += 1
+            if not near and since >= stall_it:
+                break  # the saddle: given up to the caller
+            ratio = res > low * previous and res < high * previous
+            stretch = (not extended) and ratio and linear
+            linear = ratio and not extended
+            previous = res
+            diag = 0.0
+            for r in range(m):
+                diag = max(diag, abs(H[r, r]))
+            diag = max(diag, 1e-300)
+            for r in range(m):
+                H[r, r] += 1e-14 * diag
+            if blocks.shape[0]:
+                solved = _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc)
+            else:
+                solved = _solve_in_place(H, g, step)
+            if not solved:
+                break
+            slope = 0.0
+            for r in range(m):
+                slope += g[r] * step[r]
+            flip = not slope < 0.0
+            if flip:
+                slope = 0.0
+                for r in range(m):
+                    step[r] = -g[r] / diag
+                    slope += g[r] * step[r]
+            t = p if stretch else 1.0
+            reach = 0.0
+            for r in range(m):
+                reach = max(reach, abs(step[r]))
+            if reach * t > cap:
+                t = cap / (reach if reach > 0 else 1.0)
+            extended = stretch
+            if take_last and not flip and t == 1.0:  # the last step, without a trial
+                for r in range(m):
+                    xi[r] = xi[r] + (step[r] / L if rot[r] else step[r])
+                ok_angle = True
+                break
+            tiny = -slope <= 1e-13 * max(abs(energy_i), 1e-300)
+            work = torque * xi[0]
+            flat = (not tiny) and -slope <= 1e-13 * (abs(energy_i + work) + abs(work))
+            norm = 0.0
+            if flat:
+                for r in range(m):
+                    norm += g[r] * g[r]
+                norm = np.sqrt(norm)
+            moved = False
+            st = 0
+            gave_up = False
+            for _h in range(halvings):
+                for r in range(m):
+                    trial[r] = xi[r] + (step[r] * t / L if rot[r] else step[r] * t)
+                e_t, st = _evaluate_one(
+                    i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                    half, kn, torque, L, True, gt, Ht, memo, pf, bf,
+                )  # fmt: skip
+                if st == 2:
+                    break
+                ok = e_t <= energy_i + 1e-4 * t * slope or tiny
+                if flat:
+                    norm_t = 0.0
+                    for r in range(m):
+                        norm_t += gt[r] * gt[r]
+                    ok = np.sqrt(norm_t) <= (1.0 - 1e-4 * t) * norm
+                if st == 0 and ok:
+                    for r in range(m):
+                        xi[r] = trial[r]
+                    g, gt = gt, g
+                    H, Ht = Ht, H
+                    energy_i, status, have = e_t, st, True
+                    moved = True
+                    break
+                if _h + 1 >= stall_h and not near:
+                    gave_up = True
+                    break
+                extended = False
+                t = 1.0 if t > 1.0 else 0.5 * t
+            if not moved:
+                if gave_up or not (near and flat and st != 2):
+                    break
+                stay = True
+        if ok_angle:
+            for r in range(m):
+                x[i, r] = xi[r]
+        else:
+            failed[i] = True
+            for r in range(m):
+                x[i, r] = own[i, r]
