@@ -47,12 +47,13 @@ def _kernels() -> tuple[Any, Any]:
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
-    global _pin_force, _solve_in_place, _solve_blocks, _evaluate_one, _carry
+    global _pin_force, _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body
     _pin_force = _kn._pin_force
     _solve_in_place = _kn._solve_in_place
     _solve_blocks = _kn._solve_blocks
     _evaluate_one = jit(_evaluate_one_py)
     _carry = jit(_carry_py)
+    _solve_body = jit(_solve_body_py)
     return jit(_evaluate_rows), jit(_newton_rows)
 
 
@@ -305,6 +306,83 @@ def _evaluate_one_py(
     return energy_total, status
 
 
+def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, perm):  # pragma: no cover
+    """step = −H⁻¹g with each disc's body unknowns eliminated first: the unknowns are the
+    rest R (the first ``nr``: c, the discs' θ and u, the crankshafts' deflections, the end
+    plate's β) and the discs' body unknowns Z_d (``lam`` each, from ``nr``), and Z_d couples
+    only to R and to itself (the pins of disc d, its energy E, its crank bearings'
+    hole-against-pin vectors: :func:`~cyclomesh.stage.assembly.bearing_jacobian`), so H is
+    block-arrow shaped. Per disc: H_ZZ's LU with partial pivoting inside the block, Y =
+    H_ZZ⁻¹[H_ZR | g_Z] (nr + 1 columns), S −= H_RZ·Y; then S (the Schur complement of R)
+    by :func:`~cyclomesh.stage.kernel_newton._solve_in_place`, and Z_d = y_d − Y_d·s_R.
+    ``S`` (nr, nr), ``Y`` (D, lam, nr + 1), ``rhs``, ``sc`` (nr,), ``perm`` (lam,): work
+    arrays. H is overwritten (its Z blocks by their LU); False where a pivot is 0 (the
+    caller solves the whole H then, from its copy)."""
+    for a in range(nr):
+        for b in range(nr):
+            S[a, b] = H[a, b]
+        rhs[a] = g[a]
+    for d in range(D):
+        z = nr + d * lam
+        for q in range(lam):
+            for a in range(nr):
+                Y[d, q, a] = H[z + q, a]
+            Y[d, q, nr] = g[z + q]
+        # LU of the block in H's rows z … z + lam − 1 (columns z …), rows pivoted
+        for k in range(lam):
+            piv = k
+            big = abs(H[z + k, z + k])
+            for r in range(k + 1, lam):
+                v = abs(H[z + r, z + k])
+                if v > big:
+                    big = v
+                    piv = r
+            if big == 0.0:
+                return False
+            if piv != k:
+                for c in range(lam):
+                    H[z + k, z + c], H[z + piv, z + c] = H[z + piv, z + c], H[z + k, z + c]
+                for c in range(nr + 1):
+                    Y[d, k, c], Y[d, piv, c] = Y[d, piv, c], Y[d, k, c]
+            inv = 1.0 / H[z + k, z + k]
+            for r in range(k + 1, lam):
+                f = H[z + r, z + k] * inv
+                if f != 0.0:
+                    for c in range(k + 1, lam):
+                        H[z + r, z + c] -= f * H[z + k, z + c]
+                    for c in range(nr + 1):
+                        Y[d, r, c] -= f * Y[d, k, c]
+        for k in range(lam - 1, -1, -1):
+            for q in range(k + 1, lam):
+                h = H[z + k, z + q]
+                if h != 0.0:
+                    for c in range(nr + 1):
+                        Y[d, k, c] -= h * Y[d, q, c]
+            inv = 1.0 / H[z + k, z + k]
+            for c in range(nr + 1):
+                Y[d, k, c] *= inv
+        # S −= H_RZ·Y, rhs −= H_RZ·y
+        for a in range(nr):
+            for q in range(lam):
+                h = H[a, z + q]
+                if h != 0.0:
+                    for b in range(nr):
+                        S[a, b] -= h * Y[d, q, b]
+                    rhs[a] -= h * Y[d, q, nr]
+    if not _solve_in_place(S, rhs, sc):
+        return False
+    for a in range(nr):
+        step[a] = sc[a]
+    for d in range(D):
+        z = nr + d * lam
+        for q in range(lam):
+            acc = -Y[d, q, nr]
+            for a in range(nr):
+                acc -= Y[d, q, a] * sc[a]
+            step[z + q] = acc
+    return True
+
+
 def _carry_py(out, x, own, pins, i, back, z0, lam):  # pragma: no cover (compiled)
     """``out`` = the solution at crank angle i − back with each pin unknown carried by its
     pin, ``own``'s where that pin was no candidate there (equilibrium._body_carried)."""
@@ -335,6 +413,7 @@ def newton(
     discs: int,
     jacobian: FloatArray,
     settings: tuple,
+    stats: dict | None = None,
 ) -> NDArray[np.bool_]:
     """The compliant disc's :func:`cyclomesh.stage.newton.newton` (with ``failed``), every
     crank angle to its end in one compiled pass, in order, warm from the ones before
@@ -342,7 +421,11 @@ def newton(
     solution where the kernel finished it (its own start left where it did not);
     ``settings``: the reference's (FORCE_TOLERANCE, _MAX_ITERATIONS, _MAX_HALVINGS,
     _STEP_CAP, *_LINEAR, ROUND_OFF_FORCE, _STALL_HALVINGS, _STALL_ITERATIONS,
-    _QUADRATIC, _LAST_STEP, run). Returns the crank angles it could not finish."""
+    _QUADRATIC, _LAST_STEP, run). Returns the crank angles it could not finish.
+    ``stats``: a dict that receives ``counts`` (A, 3): each crank angle's evaluations, its
+    Newton steps and how it ended (0 converged, 1 the last step, 2 an inversion failed,
+    3 the saddle's stall, 4 a singular step, 5 the line search's give-up, 6 the steps'
+    limit)."""
     (force, iterations, halvings, cap, low, high, round_off, stall_h, stall_it, quad, last,
      run) = settings  # fmt: skip
     A, m = x.shape
@@ -351,21 +434,24 @@ def newton(
     )
     sup = p.supports
     failed = np.zeros(A, np.bool_)
+    counts = np.zeros((A, 3), np.int64)  # evaluations, Newton steps, how it ended
     own = x.copy()
     _kernels()[1](
         x, own, block, pin_w, energy, pins, hole, G, cols, core, blocks, const, nw,
         float(sup.carrier) if carrier else 0.0, carrier, 0.5 * law.rs.clearance,
         law.rs.constant, float(p.torque), float(p.scale), force * abs(p.torque) / p.scale,
         round_off * abs(p.torque) / p.scale, iterations, halvings, cap, low, high, stall_h,
-        stall_it, quad, bool(last), int(run), failed,
+        stall_it, quad, bool(last), int(run), failed, counts,
     )  # fmt: skip
+    if stats is not None:
+        stats["counts"] = counts
     return failed
 
 
 def _newton_rows(
     x, own, pin, pin_w, energy, pins, hole, G, cols, core, blocks, const, nw, kcarrier,
     carrier, half, kn, torque, L, tol, floor, iterations, halvings, cap, low, high, stall_h,
-    stall_it, quad, last_on, run, failed,
+    stall_it, quad, last_on, run, failed, counts,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`newton` written for numba: cyclomesh.stage.newton.newton's iteration with
     ``failed`` (rigid=False, the compliant disc), crank angle by crank angle."""
@@ -395,167 +481,199 @@ def _newton_rows(
     Z = np.zeros((blocks.shape[1], nc + 1))
     rhs = np.zeros(nc)
     sc = np.zeros(nc)
+    nr = z0
+    Sb = np.zeros((nr, nr))
+    Yb = np.zeros((D, lam, nr + 1))
+    rb = np.zeros(nr)
+    sb = np.zeros(nr)
+    perm = np.zeros(lam, np.int64)
+    Hc = np.zeros((m, m))
     memo = np.zeros((3, D, P))
     pf = np.zeros((A, D, P))  # (the state at each evaluation: not kept)
     bf = np.zeros((A, D, hole.shape[3], 3))
     for i in range(A):
-        for r in range(m):
-            xi[r] = own[i, r]
-        have = False
-        energy_i, status = 0.0, 0
-        if i % run != 0 and not failed[i - 1]:
-            # warm start: the line through the two solutions before, else the one before,
-            # each pin unknown carried by its pin (equilibrium._body_warm)
-            line = i % run >= 2 and not failed[i - 2]
-            _carry(prev, x, own[i], pins, i, 1, z0, lam)
-            s1 = 1
-            e1 = 0.0
-            for attempt in range(0 if line else 1, 2):
-                if attempt == 0:
-                    _carry(trial, x, prev, pins, i, 2, z0, lam)
-                    for r in range(m):
-                        trial[r] = 2.0 * prev[r] - trial[r]
-                else:
-                    for r in range(m):
-                        trial[r] = prev[r]
-                e1, s1 = _evaluate_one(
-                    i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                    half, kn, torque, L, True, g, H, memo, pf, bf,
-                )  # fmt: skip
-                if s1 == 0:
-                    break
-            if s1 == 0:
-                for r in range(m):
-                    xi[r] = trial[r]
-                energy_i, status, have = e1, s1, True
-        else:
-            memo[0] = 0.0
-        previous = np.inf
-        extended = False
-        linear = False
-        best = np.inf
-        since = 0
-        ok_angle = False
-        stay = False
-        for _ in range(iterations):
-            if not have:
-                energy_i, status = _evaluate_one(
-                    i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                    half, kn, torque, L, True, g, H, memo, pf, bf,
-                )  # fmt: skip
+        # a warm start that ends on the saddle (or fails otherwise) is tried once more
+        # from the crank angle's own start before the NumPy path is asked
+        cold = False
+        while True:
+            for r in range(m):
+                xi[r] = own[i, r]
             have = False
-            if status == 2:
-                break
-            near = True
-            res = 0.0
-            for r in range(m):
-                res = max(res, abs(g[r]))
-                if near and not (abs(g[r]) <= tol):  # the round-off of the unknowns?
-                    noise = 0.0
-                    for s in range(m):
-                        xs = abs(xi[s]) * L if rot[s] else abs(xi[s])
-                        noise += abs(H[r, s]) * xs
-                    noise *= 16.0 * eps
-                    if not (abs(g[r]) <= max(tol, noise)):
-                        near = False
-            if near and (res <= floor or res >= previous or stay):
-                ok_angle = True
-                break
-            stay = False
-            take_last = (
-                last_on
-                and near
-                and res <= quad * previous
-                and res * res * res <= floor * previous * previous
-                and not linear
-            )
-            if res < best:
-                best = res
-                since = 0
-            else:
-                since += 1
-            if not near and since >= stall_it:
-                break  # the saddle: given up to the caller
-            ratio = res > low * previous and res < high * previous
-            stretch = (not extended) and ratio and linear
-            linear = ratio and not extended
-            previous = res
-            diag = 0.0
-            for r in range(m):
-                diag = max(diag, abs(H[r, r]))
-            diag = max(diag, 1e-300)
-            for r in range(m):
-                H[r, r] += 1e-14 * diag
-            if blocks.shape[0]:
-                solved = _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc)
-            else:
-                solved = _solve_in_place(H, g, step)
-            if not solved:
-                break
-            slope = 0.0
-            for r in range(m):
-                slope += g[r] * step[r]
-            flip = not slope < 0.0
-            if flip:
-                slope = 0.0
-                for r in range(m):
-                    step[r] = -g[r] / diag
-                    slope += g[r] * step[r]
-            t = p if stretch else 1.0
-            reach = 0.0
-            for r in range(m):
-                reach = max(reach, abs(step[r]))
-            if reach * t > cap:
-                t = cap / (reach if reach > 0 else 1.0)
-            extended = stretch
-            if take_last and not flip and t == 1.0:  # the last step, without a trial
-                for r in range(m):
-                    xi[r] = xi[r] + (step[r] / L if rot[r] else step[r])
-                ok_angle = True
-                break
-            tiny = -slope <= 1e-13 * max(abs(energy_i), 1e-300)
-            work = torque * xi[0]
-            flat = (not tiny) and -slope <= 1e-13 * (abs(energy_i + work) + abs(work))
-            norm = 0.0
-            if flat:
-                for r in range(m):
-                    norm += g[r] * g[r]
-                norm = np.sqrt(norm)
-            moved = False
-            st = 0
-            gave_up = False
-            for _h in range(halvings):
-                for r in range(m):
-                    trial[r] = xi[r] + (step[r] * t / L if rot[r] else step[r] * t)
-                e_t, st = _evaluate_one(
-                    i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                    half, kn, torque, L, True, gt, Ht, memo, pf, bf,
-                )  # fmt: skip
-                if st == 2:
-                    break
-                ok = e_t <= energy_i + 1e-4 * t * slope or tiny
-                if flat:
-                    norm_t = 0.0
-                    for r in range(m):
-                        norm_t += gt[r] * gt[r]
-                    ok = np.sqrt(norm_t) <= (1.0 - 1e-4 * t) * norm
-                if st == 0 and ok:
+            energy_i, status = 0.0, 0
+            warm = i % run != 0 and not failed[i - 1] and not cold
+            if warm:
+                # warm start: the line through the two solutions before, else the one before,
+                # each pin unknown carried by its pin (equilibrium._body_warm)
+                line = i % run >= 2 and not failed[i - 2]
+                _carry(prev, x, own[i], pins, i, 1, z0, lam)
+                s1 = 1
+                e1 = 0.0
+                for attempt in range(0 if line else 1, 2):
+                    if attempt == 0:
+                        _carry(trial, x, prev, pins, i, 2, z0, lam)
+                        for r in range(m):
+                            trial[r] = 2.0 * prev[r] - trial[r]
+                    else:
+                        for r in range(m):
+                            trial[r] = prev[r]
+                    e1, s1 = _evaluate_one(
+                        i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                        half, kn, torque, L, True, g, H, memo, pf, bf,
+                    )  # fmt: skip
+                    counts[i, 0] += 1
+                    if s1 == 0:
+                        break
+                if s1 == 0:
                     for r in range(m):
                         xi[r] = trial[r]
-                    g, gt = gt, g
-                    H, Ht = Ht, H
-                    energy_i, status, have = e_t, st, True
-                    moved = True
+                    energy_i, status, have = e1, s1, True
+            else:
+                memo[0] = 0.0
+            previous = np.inf
+            extended = False
+            linear = False
+            best = np.inf
+            since = 0
+            ok_angle = False
+            stay = False
+            how = 6
+            for _ in range(iterations):
+                if not have:
+                    energy_i, status = _evaluate_one(
+                        i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                        half, kn, torque, L, True, g, H, memo, pf, bf,
+                    )  # fmt: skip
+                    counts[i, 0] += 1
+                have = False
+                if status == 2:
+                    how = 2
                     break
-                if _h + 1 >= stall_h and not near:
-                    gave_up = True
+                near = True
+                res = 0.0
+                for r in range(m):
+                    res = max(res, abs(g[r]))
+                    if near and not (abs(g[r]) <= tol):  # the round-off of the unknowns?
+                        noise = 0.0
+                        for s in range(m):
+                            xs = abs(xi[s]) * L if rot[s] else abs(xi[s])
+                            noise += abs(H[r, s]) * xs
+                        noise *= 16.0 * eps
+                        if not (abs(g[r]) <= max(tol, noise)):
+                            near = False
+                if near and (res <= floor or res >= previous or stay):
+                    ok_angle = True
+                    how = 0
                     break
-                extended = False
-                t = 1.0 if t > 1.0 else 0.5 * t
-            if not moved:
-                if gave_up or not (near and flat and st != 2):
+                stay = False
+                take_last = (
+                    last_on
+                    and near
+                    and res <= quad * previous
+                    and res * res * res <= floor * previous * previous
+                    and not linear
+                )
+                if res < best:
+                    best = res
+                    since = 0
+                else:
+                    since += 1
+                if not near and since >= stall_it:
+                    how = 3
+                    break  # the saddle: given up to the caller
+                ratio = res > low * previous and res < high * previous
+                stretch = (not extended) and ratio and linear
+                linear = ratio and not extended
+                previous = res
+                diag = 0.0
+                for r in range(m):
+                    diag = max(diag, abs(H[r, r]))
+                diag = max(diag, 1e-300)
+                for r in range(m):
+                    H[r, r] += 1e-14 * diag
+                for r in range(m):
+                    for c in range(m):
+                        Hc[r, c] = H[r, c]
+                solved = _solve_body(H, g, step, nr, D, lam, Sb, Yb, rb, sb, perm)
+                if not solved:  # a body block's pivot 0: the whole H
+                    if blocks.shape[0]:
+                        solved = _solve_blocks(Hc, g, step, core, blocks, S, Z, rhs, sc)
+                    else:
+                        solved = _solve_in_place(Hc, g, step)
+                if not solved:
+                    how = 4
                     break
-                stay = True
+                counts[i, 1] += 1
+                slope = 0.0
+                for r in range(m):
+                    slope += g[r] * step[r]
+                flip = not slope < 0.0
+                if flip:
+                    slope = 0.0
+                    for r in range(m):
+                        step[r] = -g[r] / diag
+                        slope += g[r] * step[r]
+                t = p if stretch else 1.0
+                reach = 0.0
+                for r in range(m):
+                    reach = max(reach, abs(step[r]))
+                if reach * t > cap:
+                    t = cap / (reach if reach > 0 else 1.0)
+                extended = stretch
+                if take_last and not flip and t == 1.0:  # the last step, without a trial
+                    for r in range(m):
+                        xi[r] = xi[r] + (step[r] / L if rot[r] else step[r])
+                    ok_angle = True
+                    how = 1
+                    break
+                tiny = -slope <= 1e-13 * max(abs(energy_i), 1e-300)
+                work = torque * xi[0]
+                flat = (not tiny) and -slope <= 1e-13 * (abs(energy_i + work) + abs(work))
+                norm = 0.0
+                if flat:
+                    for r in range(m):
+                        norm += g[r] * g[r]
+                    norm = np.sqrt(norm)
+                moved = False
+                st = 0
+                gave_up = False
+                for _h in range(halvings):
+                    for r in range(m):
+                        trial[r] = xi[r] + (step[r] * t / L if rot[r] else step[r] * t)
+                    e_t, st = _evaluate_one(
+                        i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                        half, kn, torque, L, True, gt, Ht, memo, pf, bf,
+                    )  # fmt: skip
+                    counts[i, 0] += 1
+                    if st == 2:
+                        break
+                    ok = e_t <= energy_i + 1e-4 * t * slope or tiny
+                    if flat:
+                        norm_t = 0.0
+                        for r in range(m):
+                            norm_t += gt[r] * gt[r]
+                        ok = np.sqrt(norm_t) <= (1.0 - 1e-4 * t) * norm
+                    if st == 0 and ok:
+                        for r in range(m):
+                            xi[r] = trial[r]
+                        g, gt = gt, g
+                        H, Ht = Ht, H
+                        energy_i, status, have = e_t, st, True
+                        moved = True
+                        break
+                    if _h + 1 >= stall_h and not near:
+                        gave_up = True
+                        break
+                    extended = False
+                    t = 1.0 if t > 1.0 else 0.5 * t
+                if not moved:
+                    if gave_up or not (near and flat and st != 2):
+                        how = 5 if st != 2 else 2
+                        break
+                    stay = True
+            if ok_angle or cold or not warm:
+                break
+            cold = True
+        counts[i, 2] = how
         if ok_angle:
             for r in range(m):
                 x[i, r] = xi[r]
