@@ -47,12 +47,13 @@ def _kernels() -> tuple[Any, Any]:
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
-    global _pin_force, _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body
+    global _pin_force, _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows
     _pin_force = _kn._pin_force
     _solve_in_place = _kn._solve_in_place
     _solve_blocks = _kn._solve_blocks
     _evaluate_one = jit(_evaluate_one_py)
     _carry = jit(_carry_py)
+    _rows = jit(_rows_py)
     _solve_body = jit(_solve_body_py)
     return jit(_evaluate_rows), jit(_newton_rows)
 
@@ -109,17 +110,20 @@ def _evaluate_rows(
     memo = np.zeros((3, D, P))
     pf = np.zeros((A, D, P))
     bf = np.zeros((A, D, hole.shape[3], 3))
+    wrow = np.zeros((D, P), np.bool_)
+    scratch = np.zeros((2, m))
     for i in range(A):
         memo[0] = 0.0
+        _rows(wrow, pin_w, i)
         e[i], status[i] = _evaluate_one(
             i, x[i], pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half,
-            kn, torque, L, True, g[i], H[i], memo, pf, bf,
+            kn, torque, L, True, g[i], H[i], memo, pf, bf, wrow, scratch,
         )  # fmt: skip
 
 
 def _evaluate_one_py(
     i, x, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half, kn, torque,
-    L, want, g, H, memo, pf, bf,
+    L, want, g, H, memo, pf, bf, wrow, scratch,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """Potential of crank angle ``i`` at x (m,) and, with ``want``, its scaled gradient g
     and Hessian H, as :func:`cyclomesh.stage.assembly.evaluate` (``rigid=False``) with the
@@ -154,8 +158,9 @@ def _evaluate_one_py(
             if not np.isfinite(b):
                 continue
             shift = 0.0
-            for s in range(lam):
-                shift += pin_w[i, d, j, s] * x[zd + s]
+            if wrow[d, j]:  # (a row of zeros adds exactly 0)
+                for s in range(lam):
+                    shift += pin_w[i, d, j, s] * x[zd + s]
             delta = pin[1, i, d, j] * (th - b) + pin[2, i, d, j] * ux + pin[3, i, d, j] * uy
             delta = delta - shift
             if delta <= 0.0:
@@ -190,7 +195,7 @@ def _evaluate_one_py(
                     H[r0 + 1, r0 + 2] += k * v1 * v2
                     H[r0 + 2, r0 + 2] += k * v2 * v2
                     # the body: ∂δ/∂z = −w, so g_z −= F·w, H_zz += k·w·wᵀ, H_az −= k·a·wᵀ
-                    for s in range(lam):
+                    for s in range(lam if wrow[d, j] else 0):
                         ws = pin_w[i, d, j, s]
                         if ws == 0.0:
                             continue
@@ -273,15 +278,23 @@ def _evaluate_one_py(
             kxx = kb * cx * cx + secant * cy * cy
             kyy = kb * cy * cy + secant * cx * cx
             kxy = (kb - secant) * cx * cy
-            for u in range(1, cols[d, k, 0] + 1):
-                r = cols[d, k, u]
+            nk = cols[d, k, 0]
+            for u in range(nk):  # this hole's nonzero columns of ∂d/∂x
+                r = cols[d, k, 1 + u]
                 g0, g1 = G[i, d, k, 0, r], G[i, d, k, 1, r]
+                scratch[0, u], scratch[1, u] = g0, g1
                 g[r] += fx * g0 + fy * g1
+            for u in range(nk):  # Gᵀ·K·G, each pair once (H is symmetric)
+                r = cols[d, k, 1 + u]
+                g0, g1 = scratch[0, u], scratch[1, u]
                 ka = kxx * g0 + kxy * g1
                 kc = kxy * g0 + kyy * g1
-                for v in range(1, cols[d, k, 0] + 1):
-                    c2 = cols[d, k, v]
-                    H[r, c2] += ka * G[i, d, k, 0, c2] + kc * G[i, d, k, 1, c2]
+                H[r, r] += ka * g0 + kc * g1
+                for v in range(u + 1, nk):
+                    c2 = cols[d, k, 1 + v]
+                    val = ka * scratch[0, v] + kc * scratch[1, v]
+                    H[r, c2] += val
+                    H[c2, r] += val
     energy_total = energy_total + bearings
     if nw:
         shafts = 0.0
@@ -381,6 +394,20 @@ def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, perm):  # pragma: no c
                 acc -= Y[d, q, a] * sc[a]
             step[z + q] = acc
     return True
+
+
+def _rows_py(wrow, pin_w, i):  # pragma: no cover (compiled)
+    """``wrow`` (D, P): the flanks whose body coefficients at crank angle ``i`` are not all
+    0 (the candidates and the padding's; the body moves no other pin)."""
+    D, P, lam = pin_w.shape[1], pin_w.shape[2], pin_w.shape[3]
+    for d in range(D):
+        for j in range(P):
+            nz = False
+            for s in range(lam):
+                if pin_w[i, d, j, s] != 0.0:
+                    nz = True
+                    break
+            wrow[d, j] = nz
 
 
 def _carry_py(out, x, own, pins, i, back, z0, lam):  # pragma: no cover (compiled)
@@ -491,7 +518,10 @@ def _newton_rows(
     memo = np.zeros((3, D, P))
     pf = np.zeros((A, D, P))  # (the state at each evaluation: not kept)
     bf = np.zeros((A, D, hole.shape[3], 3))
+    wrow = np.zeros((D, P), np.bool_)
+    scratch = np.zeros((2, m))
     for i in range(A):
+        _rows(wrow, pin_w, i)
         # a warm start that ends on the saddle (or fails otherwise) is tried once more
         # from the crank angle's own start before the NumPy path is asked
         cold = False
@@ -518,7 +548,7 @@ def _newton_rows(
                             trial[r] = prev[r]
                     e1, s1 = _evaluate_one(
                         i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                        half, kn, torque, L, True, g, H, memo, pf, bf,
+                        half, kn, torque, L, True, g, H, memo, pf, bf, wrow, scratch,
                     )  # fmt: skip
                     counts[i, 0] += 1
                     if s1 == 0:
@@ -541,7 +571,7 @@ def _newton_rows(
                 if not have:
                     energy_i, status = _evaluate_one(
                         i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                        half, kn, torque, L, True, g, H, memo, pf, bf,
+                        half, kn, torque, L, True, g, H, memo, pf, bf, wrow, scratch,
                     )  # fmt: skip
                     counts[i, 0] += 1
                 have = False
@@ -641,7 +671,7 @@ def _newton_rows(
                         trial[r] = xi[r] + (step[r] * t / L if rot[r] else step[r] * t)
                     e_t, st = _evaluate_one(
                         i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                        half, kn, torque, L, True, gt, Ht, memo, pf, bf,
+                        half, kn, torque, L, True, gt, Ht, memo, pf, bf, wrow, scratch,
                     )  # fmt: skip
                     counts[i, 0] += 1
                     if st == 2:
