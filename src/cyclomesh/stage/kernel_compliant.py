@@ -319,28 +319,37 @@ def _evaluate_one_py(
     return energy_total, status
 
 
-def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, perm):  # pragma: no cover
+def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl):  # pragma: no cover (compiled)
     """step = −H⁻¹g with each disc's body unknowns eliminated first: the unknowns are the
     rest R (the first ``nr``: c, the discs' θ and u, the crankshafts' deflections, the end
     plate's β) and the discs' body unknowns Z_d (``lam`` each, from ``nr``), and Z_d couples
     only to R and to itself (the pins of disc d, its energy E, its crank bearings'
     hole-against-pin vectors: :func:`~cyclomesh.stage.assembly.bearing_jacobian`), so H is
-    block-arrow shaped. Per disc: H_ZZ's LU with partial pivoting inside the block, Y =
-    H_ZZ⁻¹[H_ZR | g_Z] (nr + 1 columns), S −= H_RZ·Y; then S (the Schur complement of R)
-    by :func:`~cyclomesh.stage.kernel_newton._solve_in_place`, and Z_d = y_d − Y_d·s_R.
-    ``S`` (nr, nr), ``Y`` (D, lam, nr + 1), ``rhs``, ``sc`` (nr,), ``perm`` (lam,): work
-    arrays. H is overwritten (its Z blocks by their LU); False where a pivot is 0 (the
-    caller solves the whole H then, from its copy)."""
+    block-arrow shaped. Per disc: the columns of R that Z_d couples to (``cl``: c, θ_d,
+    u_d, its crankshafts' deflections, β), H_ZZ's LU with partial pivoting inside the
+    block, Y = H_ZZ⁻¹[H_ZR | g_Z] on those columns, S −= H_RZ·Y; then S (the Schur
+    complement of R) by :func:`~cyclomesh.stage.kernel_newton._solve_in_place`, and
+    Z_d = y_d − Y_d·s_R. ``S`` (nr, nr), ``Y`` (D, lam, nr + 1), ``rhs``, ``sc`` (nr,),
+    ``cl`` (D, nr + 1, count first): work arrays. H is overwritten (its Z blocks by their
+    LU); False where a pivot is 0 (the caller solves the whole H then, from its copy)."""
     for a in range(nr):
         for b in range(nr):
             S[a, b] = H[a, b]
         rhs[a] = g[a]
     for d in range(D):
         z = nr + d * lam
+        nc = 0
+        for a in range(nr):
+            for q in range(lam):
+                if H[z + q, a] != 0.0:
+                    cl[d, 1 + nc] = a
+                    nc += 1
+                    break
+        cl[d, 0] = nc
         for q in range(lam):
-            for a in range(nr):
-                Y[d, q, a] = H[z + q, a]
-            Y[d, q, nr] = g[z + q]
+            for b in range(nc):
+                Y[d, q, b] = H[z + q, cl[d, 1 + b]]
+            Y[d, q, nc] = g[z + q]
         # LU of the block in H's rows z … z + lam − 1 (columns z …), rows pivoted
         for k in range(lam):
             piv = k
@@ -355,7 +364,7 @@ def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, perm):  # pragma: no c
             if piv != k:
                 for c in range(lam):
                     H[z + k, z + c], H[z + piv, z + c] = H[z + piv, z + c], H[z + k, z + c]
-                for c in range(nr + 1):
+                for c in range(nc + 1):
                     Y[d, k, c], Y[d, piv, c] = Y[d, piv, c], Y[d, k, c]
             inv = 1.0 / H[z + k, z + k]
             for r in range(k + 1, lam):
@@ -363,35 +372,37 @@ def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, perm):  # pragma: no c
                 if f != 0.0:
                     for c in range(k + 1, lam):
                         H[z + r, z + c] -= f * H[z + k, z + c]
-                    for c in range(nr + 1):
+                    for c in range(nc + 1):
                         Y[d, r, c] -= f * Y[d, k, c]
         for k in range(lam - 1, -1, -1):
             for q in range(k + 1, lam):
                 h = H[z + k, z + q]
                 if h != 0.0:
-                    for c in range(nr + 1):
+                    for c in range(nc + 1):
                         Y[d, k, c] -= h * Y[d, q, c]
             inv = 1.0 / H[z + k, z + k]
-            for c in range(nr + 1):
+            for c in range(nc + 1):
                 Y[d, k, c] *= inv
-        # S −= H_RZ·Y, rhs −= H_RZ·y
-        for a in range(nr):
+        # S −= H_RZ·Y, rhs −= H_RZ·y (H_RZ's nonzero rows are H_ZR's nonzero columns)
+        for u in range(nc):
+            a = cl[d, 1 + u]
             for q in range(lam):
                 h = H[a, z + q]
                 if h != 0.0:
-                    for b in range(nr):
-                        S[a, b] -= h * Y[d, q, b]
-                    rhs[a] -= h * Y[d, q, nr]
+                    for b in range(nc):
+                        S[a, cl[d, 1 + b]] -= h * Y[d, q, b]
+                    rhs[a] -= h * Y[d, q, nc]
     if not _solve_in_place(S, rhs, sc):
         return False
     for a in range(nr):
         step[a] = sc[a]
     for d in range(D):
         z = nr + d * lam
+        nc = cl[d, 0]
         for q in range(lam):
-            acc = -Y[d, q, nr]
-            for a in range(nr):
-                acc -= Y[d, q, a] * sc[a]
+            acc = -Y[d, q, nc]
+            for b in range(nc):
+                acc -= Y[d, q, b] * sc[cl[d, 1 + b]]
             step[z + q] = acc
     return True
 
@@ -513,7 +524,7 @@ def _newton_rows(
     Yb = np.zeros((D, lam, nr + 1))
     rb = np.zeros(nr)
     sb = np.zeros(nr)
-    perm = np.zeros(lam, np.int64)
+    cl = np.zeros((D, nr + 1), np.int64)
     Hc = np.zeros((m, m))
     memo = np.zeros((3, D, P))
     pf = np.zeros((A, D, P))  # (the state at each evaluation: not kept)
@@ -623,7 +634,7 @@ def _newton_rows(
                 for r in range(m):
                     for c in range(m):
                         Hc[r, c] = H[r, c]
-                solved = _solve_body(H, g, step, nr, D, lam, Sb, Yb, rb, sb, perm)
+                solved = _solve_body(H, g, step, nr, D, lam, Sb, Yb, rb, sb, cl)
                 if not solved:  # a body block's pivot 0: the whole H
                     if blocks.shape[0]:
                         solved = _solve_blocks(Hc, g, step, core, blocks, S, Z, rhs, sc)
