@@ -112,18 +112,19 @@ def _evaluate_rows(
     bf = np.zeros((A, D, hole.shape[3], 3))
     wrow = np.zeros((D, P), np.bool_)
     scratch = np.zeros((2, m))
+    zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
     for i in range(A):
         memo[0] = 0.0
         _rows(wrow, pin_w, i)
         e[i], status[i] = _evaluate_one(
             i, x[i], pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half,
-            kn, torque, L, True, g[i], H[i], memo, pf, bf, wrow, scratch,
+            kn, torque, L, True, g[i], H[i], memo, pf, bf, wrow, scratch, zz,
         )  # fmt: skip
 
 
 def _evaluate_one_py(
     i, x, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half, kn, torque,
-    L, want, g, H, memo, pf, bf, wrow, scratch,
+    L, want, g, H, memo, pf, bf, wrow, scratch, zz,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """Potential of crank angle ``i`` at x (m,) and, with ``want``, its scaled gradient g
     and Hessian H, as :func:`cyclomesh.stage.assembly.evaluate` (``rigid=False``) with the
@@ -147,6 +148,7 @@ def _evaluate_one_py(
         for d in range(D):
             for j in range(P):
                 pf[i, d, j] = 0.0
+        zz[:, :, :] = 0.0
     status = 0
     pins = 0.0
     for d in range(D):
@@ -195,8 +197,9 @@ def _evaluate_one_py(
                     H[r0 + 1, r0 + 2] += k * v1 * v2
                     H[r0 + 2, r0 + 2] += k * v2 * v2
                     # the body: ∂δ/∂z = −w, so g_z −= F·w, H_zz += k·w·wᵀ, H_az −= k·a·wᵀ
+                    w = pin_w[i, d, j]
                     for s in range(lam if wrow[d, j] else 0):
-                        ws = pin_w[i, d, j, s]
+                        ws = w[s]
                         if ws == 0.0:
                             continue
                         g[zd + s] -= f * ws
@@ -204,8 +207,9 @@ def _evaluate_one_py(
                         H[r0, zd + s] -= v0 * kw
                         H[r0 + 1, zd + s] -= v1 * kw
                         H[r0 + 2, zd + s] -= v2 * kw
-                        for q in range(s, lam):
-                            H[zd + s, zd + q] += kw * pin_w[i, d, j, q]
+                        row = zz[d, s]  # (whole rows: the inner loop vectorises)
+                        for q in range(lam):
+                            row[q] += kw * w[q]
     # the body's energy ½·zᵀEz per disc, its gradient E·z and Hessian E
     body = 0.0
     for d in range(D):
@@ -220,18 +224,6 @@ def _evaluate_one_py(
                 for q in range(s, lam):
                     H[zd + s, zd + q] += energy[i, d, s, q]
     if want:
-        for d in range(D):
-            r0 = 1 + 3 * d
-            zd = z0 + d * lam
-            H[r0 + 1, r0] = H[r0, r0 + 1]
-            H[r0 + 2, r0] = H[r0, r0 + 2]
-            H[r0 + 2, r0 + 1] = H[r0 + 1, r0 + 2]
-            for s in range(lam):
-                H[zd + s, r0] = H[r0, zd + s]
-                H[zd + s, r0 + 1] = H[r0 + 1, zd + s]
-                H[zd + s, r0 + 2] = H[r0 + 2, zd + s]
-                for q in range(s + 1, lam):
-                    H[zd + q, zd + s] = H[zd + s, zd + q]
         g[0] -= torque / L
     energy_total = pins - torque * x[0] + 0.5 * body
     base = 1 + 3 * D
@@ -286,15 +278,21 @@ def _evaluate_one_py(
                 g[r] += fx * g0 + fy * g1
             for u in range(nk):  # Gᵀ·K·G, each pair once (H is symmetric)
                 r = cols[d, k, 1 + u]
+                if r >= zd:  # the body's own columns: into zz, whole rows
+                    break
                 g0, g1 = scratch[0, u], scratch[1, u]
                 ka = kxx * g0 + kxy * g1
                 kc = kxy * g0 + kyy * g1
                 H[r, r] += ka * g0 + kc * g1
-                for v in range(u + 1, nk):
-                    c2 = cols[d, k, 1 + v]
-                    val = ka * scratch[0, v] + kc * scratch[1, v]
-                    H[r, c2] += val
-                    H[c2, r] += val
+                for v in range(u + 1, nk):  # (the columns in increasing order: r < c2)
+                    H[r, cols[d, k, 1 + v]] += ka * scratch[0, v] + kc * scratch[1, v]
+            hx_, hy_ = G[i, d, k, 0, zd : zd + lam], G[i, d, k, 1, zd : zd + lam]
+            for q in range(lam):
+                ka = kxx * hx_[q] + kxy * hy_[q]
+                kc = kxy * hx_[q] + kyy * hy_[q]
+                row = zz[d, q]
+                for v in range(lam):
+                    row[v] += ka * hx_[v] + kc * hy_[v]
     energy_total = energy_total + bearings
     if nw:
         shafts = 0.0
@@ -308,7 +306,7 @@ def _evaluate_one_py(
                     if want:
                         r = base + 2 * (d * N + k) + c
                         g[r] += kw
-                        for e in range(D):
+                        for e in range(d, D):  # (the upper triangle)
                             H[r, base + 2 * (e * N + k) + c] += const[R + D + d * D + e]
         energy_total = energy_total + 0.5 * shafts
     if carrier:
@@ -316,6 +314,15 @@ def _evaluate_one_py(
         if want:
             g[base + nw] += kcarrier * beta / L
             H[base + nw, base + nw] += kcarrier / (L * L)
+    if want:  # every term above was added to the upper triangle: mirrored
+        for d in range(D):  # (the body's Σ k·w·wᵀ and its bearings' terms)
+            zd = z0 + d * lam
+            for s in range(lam):
+                for q in range(s, lam):
+                    H[zd + s, zd + q] += zz[d, s, q]
+        for r in range(m):
+            for c in range(r + 1, m):
+                H[c, r] = H[r, c]
     return energy_total, status
 
 
@@ -525,12 +532,12 @@ def _newton_rows(
     rb = np.zeros(nr)
     sb = np.zeros(nr)
     cl = np.zeros((D, nr + 1), np.int64)
-    Hc = np.zeros((m, m))
     memo = np.zeros((3, D, P))
     pf = np.zeros((A, D, P))  # (the state at each evaluation: not kept)
     bf = np.zeros((A, D, hole.shape[3], 3))
     wrow = np.zeros((D, P), np.bool_)
     scratch = np.zeros((2, m))
+    zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
     for i in range(A):
         _rows(wrow, pin_w, i)
         # a warm start that ends on the saddle (or fails otherwise) is tried once more
@@ -559,7 +566,7 @@ def _newton_rows(
                             trial[r] = prev[r]
                     e1, s1 = _evaluate_one(
                         i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                        half, kn, torque, L, True, g, H, memo, pf, bf, wrow, scratch,
+                        half, kn, torque, L, True, g, H, memo, pf, bf, wrow, scratch, zz,
                     )  # fmt: skip
                     counts[i, 0] += 1
                     if s1 == 0:
@@ -582,7 +589,7 @@ def _newton_rows(
                 if not have:
                     energy_i, status = _evaluate_one(
                         i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                        half, kn, torque, L, True, g, H, memo, pf, bf, wrow, scratch,
+                        half, kn, torque, L, True, g, H, memo, pf, bf, wrow, scratch, zz,
                     )  # fmt: skip
                     counts[i, 0] += 1
                 have = False
@@ -631,15 +638,19 @@ def _newton_rows(
                 diag = max(diag, 1e-300)
                 for r in range(m):
                     H[r, r] += 1e-14 * diag
-                for r in range(m):
-                    for c in range(m):
-                        Hc[r, c] = H[r, c]
                 solved = _solve_body(H, g, step, nr, D, lam, Sb, Yb, rb, sb, cl)
-                if not solved:  # a body block's pivot 0: the whole H
+                if not solved:  # a body block's pivot 0: the whole H, evaluated again
+                    _evaluate_one(
+                        i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier,
+                        carrier, half, kn, torque, L, True, g, H, memo, pf, bf, wrow, scratch,
+                        zz,
+                    )  # fmt: skip
+                    for r in range(m):
+                        H[r, r] += 1e-14 * diag
                     if blocks.shape[0]:
-                        solved = _solve_blocks(Hc, g, step, core, blocks, S, Z, rhs, sc)
+                        solved = _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc)
                     else:
-                        solved = _solve_in_place(Hc, g, step)
+                        solved = _solve_in_place(H, g, step)
                 if not solved:
                     how = 4
                     break
@@ -682,7 +693,7 @@ def _newton_rows(
                         trial[r] = xi[r] + (step[r] * t / L if rot[r] else step[r] * t)
                     e_t, st = _evaluate_one(
                         i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                        half, kn, torque, L, True, gt, Ht, memo, pf, bf, wrow, scratch,
+                        half, kn, torque, L, True, gt, Ht, memo, pf, bf, wrow, scratch, zz,
                     )  # fmt: skip
                     counts[i, 0] += 1
                     if st == 2:
