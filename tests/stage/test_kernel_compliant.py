@@ -193,7 +193,7 @@ def test_the_block_arrow_solve_is_lapacks(zero_pivot):
     step = np.zeros(g.size)
     ok = kc._solve_body(
         H.copy(), g, step, nr, D, lam, np.zeros((nr, nr)), np.zeros((D, lam, nr + 1)),
-        np.zeros(nr), np.zeros(nr), np.zeros((D, nr + 1), np.int64),
+        np.zeros(nr), np.zeros(nr), np.zeros((D, nr + 1), np.int64), np.zeros((nr + 1, nr + 1)),
     )  # fmt: skip
     if zero_pivot:  # a body block singular: the caller solves the whole H
         assert not ok

@@ -326,7 +326,7 @@ def _evaluate_one_py(
     return energy_total, status
 
 
-def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl):  # pragma: no cover (compiled)
+def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T):  # pragma: no cover
     """step = −H⁻¹g with each disc's body unknowns eliminated first: the unknowns are the
     rest R (the first ``nr``: c, the discs' θ and u, the crankshafts' deflections, the end
     plate's β) and the discs' body unknowns Z_d (``lam`` each, from ``nr``), and Z_d couples
@@ -337,8 +337,9 @@ def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl):  # pragma: no cov
     block, Y = H_ZZ⁻¹[H_ZR | g_Z] on those columns, S −= H_RZ·Y; then S (the Schur
     complement of R) by :func:`~cyclomesh.stage.kernel_newton._solve_in_place`, and
     Z_d = y_d − Y_d·s_R. ``S`` (nr, nr), ``Y`` (D, lam, nr + 1), ``rhs``, ``sc`` (nr,),
-    ``cl`` (D, nr + 1, count first): work arrays. H is overwritten (its Z blocks by their
-    LU); False where a pivot is 0 (the caller solves the whole H then, from its copy)."""
+    ``cl`` (D, nr + 1, count first), ``T`` (nr + 1, nr + 1): work arrays. H is
+    overwritten (its Z blocks by their LU); False where a pivot is 0 (the caller then
+    evaluates H again and solves it whole)."""
     for a in range(nr):
         for b in range(nr):
             S[a, b] = H[a, b]
@@ -391,14 +392,18 @@ def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl):  # pragma: no cov
             for c in range(nc + 1):
                 Y[d, k, c] *= inv
         # S −= H_RZ·Y, rhs −= H_RZ·y (H_RZ's nonzero rows are H_ZR's nonzero columns)
-        for u in range(nc):
+        for u in range(nc):  # (summed in T's contiguous rows, then scattered)
             a = cl[d, 1 + u]
+            for b in range(nc + 1):
+                T[u, b] = 0.0
             for q in range(lam):
                 h = H[a, z + q]
                 if h != 0.0:
-                    for b in range(nc):
-                        S[a, cl[d, 1 + b]] -= h * Y[d, q, b]
-                    rhs[a] -= h * Y[d, q, nc]
+                    for b in range(nc + 1):
+                        T[u, b] += h * Y[d, q, b]
+            for b in range(nc):
+                S[a, cl[d, 1 + b]] -= T[u, b]
+            rhs[a] -= T[u, nc]
     if not _solve_in_place(S, rhs, sc):
         return False
     for a in range(nr):
@@ -532,6 +537,7 @@ def _newton_rows(
     rb = np.zeros(nr)
     sb = np.zeros(nr)
     cl = np.zeros((D, nr + 1), np.int64)
+    Tb = np.zeros((nr + 1, nr + 1))
     memo = np.zeros((3, D, P))
     pf = np.zeros((A, D, P))  # (the state at each evaluation: not kept)
     bf = np.zeros((A, D, hole.shape[3], 3))
@@ -638,7 +644,7 @@ def _newton_rows(
                 diag = max(diag, 1e-300)
                 for r in range(m):
                     H[r, r] += 1e-14 * diag
-                solved = _solve_body(H, g, step, nr, D, lam, Sb, Yb, rb, sb, cl)
+                solved = _solve_body(H, g, step, nr, D, lam, Sb, Yb, rb, sb, cl, Tb)
                 if not solved:  # a body block's pivot 0: the whole H, evaluated again
                     _evaluate_one(
                         i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier,
