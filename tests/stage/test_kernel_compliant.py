@@ -61,9 +61,9 @@ def problems(example, coarse):
     found = []
     compiled = eq._body_kernel
 
-    def kept(p, law, x, discs, phi):
+    def kept(p, law, x, discs, phi, state=None):
         start = x.copy()
-        out = compiled(p, law, x, discs, phi)
+        out = compiled(p, law, x, discs, phi, state)
         found.append((p, law, start, out.copy(), discs))
         return out
 
@@ -224,3 +224,41 @@ def test_a_warm_start_carries_each_pins_unknown_as_the_reference():
             got = np.zeros(9)
             kc._carry(got, x, own, pins, i, back, 4, lam)
             np.testing.assert_array_equal(got, ref)
+
+
+def test_the_kernels_state_is_the_references_at_its_solution(problems, monkeypatch):
+    """The state the kernel hands the caller (so that it need not evaluate the solution
+    again) against stage.assembly.evaluate's there: 1e-13 of each one's largest (the
+    gradient: of T/r_c)."""
+    import cyclomesh.stage.newton as reference
+
+    settings = (
+        reference.FORCE_TOLERANCE,
+        reference._MAX_ITERATIONS,
+        reference._MAX_HALVINGS,
+        reference._STEP_CAP,
+        *reference._LINEAR,
+        reference.ROUND_OFF_FORCE,
+        reference._STALL_HALVINGS,
+        reference._STALL_ITERATIONS,
+        reference._QUADRATIC,
+        True,
+        10**6,
+    )
+    for p, law, start, _sol, D in problems:
+        x = start.copy()
+        state: dict = {}
+        failed = kc.newton(p, law, x, D, p.jacobian, settings, state=state)
+        assert not np.any(failed) and state
+        monkeypatch.setenv("CYCLOMESH_KERNEL", "numpy")
+        _, g, _, st = eq._evaluate(p, law, x, D, False, hessian=False)
+        monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
+        for name in ("pin_force", "pin_shift", "bearing_fx", "bearing_fy", "deflection"):
+            ref = st[name]
+            got = state[name]
+            if name == "pin_shift":  # (only the pins with a law enter anything)
+                usable = np.isfinite(p.bl)
+                ref, got = np.where(usable, ref, 0.0), np.where(usable, got, 0.0)
+            _close(ref, got, 1e-13, name)
+        scale = max(np.max(np.abs(g)), abs(p.torque) / p.scale)
+        assert np.max(np.abs(state["gradient"] - g)) <= 1e-13 * scale

@@ -108,7 +108,7 @@ def _evaluate_rows(
     A, m = x.shape
     D, P = pin.shape[2], pin.shape[3]
     memo = np.zeros((3, D, P))
-    pf = np.zeros((A, D, P))
+    pf = np.zeros((2, A, D, P))
     bf = np.zeros((A, D, hole.shape[3], 3))
     wrow = np.zeros((D, P), np.bool_)
     scratch = np.zeros((2, m))
@@ -118,7 +118,7 @@ def _evaluate_rows(
         _rows(wrow, pin_w, i)
         e[i], status[i] = _evaluate_one(
             i, x[i], pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half,
-            kn, torque, L, True, g[i], H[i], memo, pf, bf, wrow, scratch, zz,
+            kn, torque, L, 2, g[i], H[i], memo, pf, bf, wrow, scratch, zz,
         )  # fmt: skip
 
 
@@ -126,28 +126,33 @@ def _evaluate_one_py(
     i, x, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half, kn, torque,
     L, want, g, H, memo, pf, bf, wrow, scratch, zz,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """Potential of crank angle ``i`` at x (m,) and, with ``want``, its scaled gradient g
-    and Hessian H, as :func:`cyclomesh.stage.assembly.evaluate` (``rigid=False``) with the
-    compliant disc: the pins' δ less the body's displacement at the pin
+    """Potential of crank angle ``i`` at x (m,) and, with ``want`` ≥ 1, its scaled gradient
+    g (and with ``want`` = 2 its Hessian H), as :func:`cyclomesh.stage.assembly.evaluate`
+    (``rigid=False``) with the compliant disc: the pins' δ less the body's displacement at the pin
     Σ_s pin_w[i, d, j, s]·z_ds, the body's energy ½·zᵀEz per disc, the crank bearings'
     hole-against-pin vector with the hole centre's displacement by the body (the columns
     of ``G`` that are the body's, :func:`~cyclomesh.stage.assembly.bearing_jacobian`).
     Returns (energy, status) as :func:`cyclomesh.stage.kernel_newton._evaluate_one`;
-    ``pf[i]`` the pins' forces, ``bf[i]`` the bearings' (fx, fy, s) with ``want``."""
+    with ``want`` ≥ 1 the state: ``pf[0, i]`` the pins' forces, ``pf[1, i]`` the body's
+    displacement at them (0 where it moves none), ``bf[i]`` the bearings' (fx, fy, s)."""
     m = x.size
     D, P = pin.shape[2], pin.shape[3]
     lam = energy.shape[3]
     z0 = m - D * lam
     N = hole.shape[3]
     R = const.size - D - D * D
+    hess = want >= 2
     if want:
         for r in range(m):
             g[r] = 0.0
-            for s in range(m):
-                H[r, s] = 0.0
         for d in range(D):
             for j in range(P):
-                pf[i, d, j] = 0.0
+                pf[0, i, d, j] = 0.0
+                pf[1, i, d, j] = 0.0
+    if hess:
+        for r in range(m):
+            for s in range(m):
+                H[r, s] = 0.0
         zz[:, :, :] = 0.0
     status = 0
     pins = 0.0
@@ -165,6 +170,8 @@ def _evaluate_one_py(
                     shift += pin_w[i, d, j, s] * x[zd + s]
             delta = pin[1, i, d, j] * (th - b) + pin[2, i, d, j] * ux + pin[3, i, d, j] * uy
             delta = delta - shift
+            if want:
+                pf[1, i, d, j] = shift
             if delta <= 0.0:
                 continue
             if delta >= pin[6, i, d, j]:
@@ -184,12 +191,17 @@ def _evaluate_one_py(
                     logf = np.log(f)
                 pins += 0.5 * f * f * (a - 0.5 * gm - gm * logf)
                 if want:
-                    pf[i, d, j] = f
+                    pf[0, i, d, j] = f
                     k = 1.0 / (a - gm * (1.0 + logf))
                     v0, v1, v2 = pin[1, i, d, j] / L, pin[2, i, d, j], pin[3, i, d, j]
                     g[r0] += f * v0
                     g[r0 + 1] += f * v1
                     g[r0 + 2] += f * v2
+                    w = pin_w[i, d, j]
+                    if not hess:
+                        for s in range(lam if wrow[d, j] else 0):
+                            g[zd + s] -= f * w[s]
+                        continue
                     H[r0, r0] += k * v0 * v0
                     H[r0, r0 + 1] += k * v0 * v1
                     H[r0, r0 + 2] += k * v0 * v2
@@ -197,7 +209,6 @@ def _evaluate_one_py(
                     H[r0 + 1, r0 + 2] += k * v1 * v2
                     H[r0 + 2, r0 + 2] += k * v2 * v2
                     # the body: ∂δ/∂z = −w, so g_z −= F·w, H_zz += k·w·wᵀ, H_az −= k·a·wᵀ
-                    w = pin_w[i, d, j]
                     for s in range(lam if wrow[d, j] else 0):
                         ws = w[s]
                         if ws == 0.0:
@@ -221,6 +232,7 @@ def _evaluate_one_py(
             body += x[zd + s] * ez
             if want:
                 g[zd + s] += ez
+            if hess:
                 for q in range(s, lam):
                     H[zd + s, zd + q] += energy[i, d, s, q]
     if want:
@@ -276,6 +288,8 @@ def _evaluate_one_py(
                 g0, g1 = G[i, d, k, 0, r], G[i, d, k, 1, r]
                 scratch[0, u], scratch[1, u] = g0, g1
                 g[r] += fx * g0 + fy * g1
+            if not hess:
+                continue
             for u in range(nk):  # Gᵀ·K·G, each pair once (H is symmetric)
                 r = cols[d, k, 1 + u]
                 if r >= zd:  # the body's own columns: into zz, whole rows
@@ -303,9 +317,10 @@ def _evaluate_one_py(
                     for e in range(D):
                         kw += const[R + D + d * D + e] * x[base + 2 * (e * N + k) + c]
                     shafts += x[base + 2 * (d * N + k) + c] * kw
+                    r = base + 2 * (d * N + k) + c
                     if want:
-                        r = base + 2 * (d * N + k) + c
                         g[r] += kw
+                    if hess:
                         for e in range(d, D):  # (the upper triangle)
                             H[r, base + 2 * (e * N + k) + c] += const[R + D + d * D + e]
         energy_total = energy_total + 0.5 * shafts
@@ -313,8 +328,9 @@ def _evaluate_one_py(
         energy_total = energy_total + 0.5 * kcarrier * beta * beta
         if want:
             g[base + nw] += kcarrier * beta / L
+        if hess:
             H[base + nw, base + nw] += kcarrier / (L * L)
-    if want:  # every term above was added to the upper triangle: mirrored
+    if hess:  # every term above was added to the upper triangle: mirrored
         for d in range(D):  # (the body's Σ k·w·wᵀ and its bearings' terms)
             zd = z0 + d * lam
             for s in range(lam):
@@ -464,6 +480,7 @@ def newton(
     jacobian: FloatArray,
     settings: tuple,
     stats: dict | None = None,
+    state: dict | None = None,
 ) -> NDArray[np.bool_]:
     """The compliant disc's :func:`cyclomesh.stage.newton.newton` (with ``failed``), every
     crank angle to its end in one compiled pass, in order, warm from the ones before
@@ -475,7 +492,11 @@ def newton(
     ``stats``: a dict that receives ``counts`` (A, 3): each crank angle's evaluations, its
     Newton steps and how it ended (0 converged, 1 the last step, 2 an inversion failed,
     3 the saddle's stall, 4 a singular step, 5 the line search's give-up, 6 the steps'
-    limit)."""
+    limit). ``state``: a dict that receives, where every crank angle was finished, the
+    state at the solution as :func:`cyclomesh.stage.assembly.evaluate`'s (``pin_force``,
+    ``pin_shift`` (A, D, P), ``bearing_fx``, ``bearing_fy``, ``deflection`` (A, D, N))
+    and ``gradient`` (A, m), the scaled gradient there (the evaluation the caller need
+    not repeat)."""
     (force, iterations, halvings, cap, low, high, round_off, stall_h, stall_it, quad, last,
      run) = settings  # fmt: skip
     A, m = x.shape
@@ -485,23 +506,35 @@ def newton(
     sup = p.supports
     failed = np.zeros(A, np.bool_)
     counts = np.zeros((A, 3), np.int64)  # evaluations, Newton steps, how it ended
+    D, P, N = p.bl.shape[1], p.bl.shape[2], p.hx.shape[-1]
+    pf, bf, gout = np.zeros((2, A, D, P)), np.zeros((A, D, N, 3)), np.zeros((A, m))
+    whole = np.ones(1, np.bool_)  # the state at every solution formed
     own = x.copy()
     _kernels()[1](
         x, own, block, pin_w, energy, pins, hole, G, cols, core, blocks, const, nw,
         float(sup.carrier) if carrier else 0.0, carrier, 0.5 * law.rs.clearance,
         law.rs.constant, float(p.torque), float(p.scale), force * abs(p.torque) / p.scale,
         round_off * abs(p.torque) / p.scale, iterations, halvings, cap, low, high, stall_h,
-        stall_it, quad, bool(last), int(run), failed, counts,
+        stall_it, quad, bool(last), int(run), failed, counts, pf, bf, gout, whole,
     )  # fmt: skip
     if stats is not None:
         stats["counts"] = counts
+    if state is not None and whole[0] and not np.any(failed):
+        state.update(
+            pin_force=pf[0],
+            pin_shift=pf[1],
+            bearing_fx=bf[..., 0],
+            bearing_fy=bf[..., 1],
+            deflection=bf[..., 2],
+            gradient=gout,
+        )
     return failed
 
 
 def _newton_rows(
     x, own, pin, pin_w, energy, pins, hole, G, cols, core, blocks, const, nw, kcarrier,
     carrier, half, kn, torque, L, tol, floor, iterations, halvings, cap, low, high, stall_h,
-    stall_it, quad, last_on, run, failed, counts,
+    stall_it, quad, last_on, run, failed, counts, pf, bf, gout, whole,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`newton` written for numba: cyclomesh.stage.newton.newton's iteration with
     ``failed`` (rigid=False, the compliant disc), crank angle by crank angle."""
@@ -539,8 +572,6 @@ def _newton_rows(
     cl = np.zeros((D, nr + 1), np.int64)
     Tb = np.zeros((nr + 1, nr + 1))
     memo = np.zeros((3, D, P))
-    pf = np.zeros((A, D, P))  # (the state at each evaluation: not kept)
-    bf = np.zeros((A, D, hole.shape[3], 3))
     wrow = np.zeros((D, P), np.bool_)
     scratch = np.zeros((2, m))
     zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
@@ -572,7 +603,7 @@ def _newton_rows(
                             trial[r] = prev[r]
                     e1, s1 = _evaluate_one(
                         i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                        half, kn, torque, L, True, g, H, memo, pf, bf, wrow, scratch, zz,
+                        half, kn, torque, L, 2, g, H, memo, pf, bf, wrow, scratch, zz,
                     )  # fmt: skip
                     counts[i, 0] += 1
                     if s1 == 0:
@@ -595,7 +626,7 @@ def _newton_rows(
                 if not have:
                     energy_i, status = _evaluate_one(
                         i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                        half, kn, torque, L, True, g, H, memo, pf, bf, wrow, scratch, zz,
+                        half, kn, torque, L, 2, g, H, memo, pf, bf, wrow, scratch, zz,
                     )  # fmt: skip
                     counts[i, 0] += 1
                 have = False
@@ -648,7 +679,7 @@ def _newton_rows(
                 if not solved:  # a body block's pivot 0: the whole H, evaluated again
                     _evaluate_one(
                         i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier,
-                        carrier, half, kn, torque, L, True, g, H, memo, pf, bf, wrow, scratch,
+                        carrier, half, kn, torque, L, 2, g, H, memo, pf, bf, wrow, scratch,
                         zz,
                     )  # fmt: skip
                     for r in range(m):
@@ -699,7 +730,7 @@ def _newton_rows(
                         trial[r] = xi[r] + (step[r] * t / L if rot[r] else step[r] * t)
                     e_t, st = _evaluate_one(
                         i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                        half, kn, torque, L, True, gt, Ht, memo, pf, bf, wrow, scratch, zz,
+                        half, kn, torque, L, 2, gt, Ht, memo, pf, bf, wrow, scratch, zz,
                     )  # fmt: skip
                     counts[i, 0] += 1
                     if st == 2:
@@ -733,8 +764,16 @@ def _newton_rows(
             cold = True
         counts[i, 2] = how
         if ok_angle:
+            if how == 1:  # the last step was taken untried: the state there
+                _, st = _evaluate_one(
+                    i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                    half, kn, torque, L, 1, g, H, memo, pf, bf, wrow, scratch, zz,
+                )  # fmt: skip
+                if st == 2:
+                    whole[0] = False
             for r in range(m):
                 x[i, r] = xi[r]
+                gout[i, r] = g[r]
         else:
             failed[i] = True
             for r in range(m):
