@@ -5,7 +5,7 @@ the NumPy reference :func:`cyclomesh.stage.newton.newton` on a problem with a
 With ``CYCLOMESH_KERNEL=numba`` the compliant disc's stage without friction (a bearing law
 without a series spring) solves each crank angle to its end in one compiled pass, as
 :mod:`cyclomesh.stage.kernel_newton` does for the rigid discs: the potential, gradient and
-Hessian of :func:`cyclomesh.stage.assembly.evaluate` (:func:`evaluate_one`: the pins with
+Hessian of :func:`cyclomesh.stage.assembly.evaluate` (:func:`_evaluate_one_py`: the pins with
 the body's displacement δ −= (C'·λ)_i, the body's energy ½·zᵀEz, the crank bearings with
 the hole centres moved by the body, the crankshafts and the end plate) on the crank
 angle's own arrays, the same step, stretched step (``_LINEAR``), step cap, line search
@@ -21,9 +21,17 @@ law it cannot invert, a stall) are left to the NumPy path from their own start
 residual Newton), exactly as there. The iteration runs to round-off, so the root is the
 reference's to round-off.
 
-The Newton step eliminates the crankshafts' pin deflections first, as the rigid discs'
-kernel (:func:`cyclomesh.stage.kernel_newton._solve_blocks`), the rest (c, the discs' θ,
-u, the end plate's β and the body unknowns) by pivoted Gaussian elimination.
+The Newton step eliminates each disc's body unknowns first (:func:`_solve_body`: the
+Hessian is block-arrow shaped, each disc's body block coupled only to itself and to c, the
+disc's θ and u, its crankshafts' deflections and the end plate's β), leaving the Schur
+complement of those ~20 unknowns (a zero pivot in a body block: the whole Hessian by the
+rigid discs' elimination, :func:`cyclomesh.stage.kernel_newton._solve_blocks`). Where
+every crank angle was finished, the state at the solution (the pins' forces and the
+body's shift there, the bearings' forces and deflections, the gradient) is handed to the
+caller, which need not evaluate the solution again (:func:`newton` ``state``).
+Measured (task i38b, docs/stage.md): an evaluation with its Hessian ~13 µs, a Newton step's
+solve ~20 µs (72 unknowns, two 26-unknown body blocks), 3.6 evaluations a crank angle at
+the rated torque and 5–7 at ±3 %; a stage tolerance ring's three solves ~0.13 CPU-s.
 """
 
 from __future__ import annotations
@@ -80,7 +88,7 @@ def _prepare(p, law, x: FloatArray, discs: int, jacobian: FloatArray):
 def evaluate(p, law, x: FloatArray, discs: int, jacobian: FloatArray | None = None):
     """Potential (A,), scaled gradient (A, m) and Hessian (A, m, m) and status (A,: 0
     usable, 1 a pin at or past its law's reach, 2 a law it cannot invert) of the compliant
-    disc's stage at ``x`` (A, m), every crank angle by :func:`evaluate_one`
+    disc's stage at ``x`` (A, m), every crank angle by :func:`_evaluate_one_py`
     (the reference: :func:`cyclomesh.stage.assembly.evaluate`, ``rigid=False``)."""
     from cyclomesh.stage.assembly import bearing_jacobian
 
@@ -105,6 +113,7 @@ def _evaluate_rows(
     x, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half, kn, torque, L,
     e, g, H, status,
 ):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`evaluate` written for numba (each crank angle from a fresh inversion memo)."""
     A, m = x.shape
     D, P = pin.shape[2], pin.shape[3]
     memo = np.zeros((3, D, P))
