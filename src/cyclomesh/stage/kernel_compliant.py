@@ -21,7 +21,7 @@ law it cannot invert, a stall) are left to the NumPy path from their own start
 residual Newton), exactly as there. The iteration runs to round-off, so the root is the
 reference's to round-off.
 
-The Newton step eliminates each disc's body unknowns first (:func:`_solve_body`: the
+The Newton step eliminates each disc's body unknowns first (:func:`_solve_body_py`: the
 Hessian is block-arrow shaped, each disc's body block coupled only to itself and to c, the
 disc's θ and u, its crankshafts' deflections and the end plate's β), leaving the Schur
 complement of those ~20 unknowns (a zero pivot in a body block: the whole Hessian by the
