@@ -69,6 +69,7 @@ from cyclomesh.stage.kernel import (
     mesh_work,
     single_rotation,
 )
+from cyclomesh.stage.kernel_compliant import newton as kernel_compliant
 from cyclomesh.stage.kernel_newton import PIN_BLOCK, pin_block
 from cyclomesh.stage.kernel_newton import newton as kernel_newton
 from cyclomesh.stage.kernel_newton import rigid_newton as kernel_rigid_newton
@@ -299,14 +300,15 @@ def _solve(
     again from there with all pins (the answer is the whole problem's either way). If
     the near pins alone do not converge (a left-out pin that would have held a disc),
     the whole problem is solved from the start, so this fails only where it fails. The
-    compliant disc's problem goes through :func:`_body_newton`. The rigid discs' stage
+    compliant disc's problem goes through :func:`_body_newton` (with numba and without
+    friction, each crank angle's Newton compiled, :func:`_body_kernel`). The rigid discs' stage
     without friction (the compiled iteration's problems) starts the crank angles in runs
     from the one before: the NumPy reference in runs of
     :data:`~cyclomesh.stage.newton.WARM_RUN` (:func:`_warm`), the compiled iteration in
     one run over the revolution from the line through the two solutions before
     (:func:`cyclomesh.stage.kernel_newton.run`). ``state``: a dict that the compiled
-    iteration fills with the state at the solution (:func:`_kernel_newton`), left empty
-    otherwise."""
+    iteration fills with the state at the solution (:func:`_kernel_newton`,
+    :func:`_body_kernel`), left empty otherwise."""
     if p.slip is None and (rigid or (p.body is None and law.k is None)):
         if compiled():
             # CYCLOMESH_KERNEL=numba: every pin in the compiled pass (an open pin costs it
@@ -314,6 +316,10 @@ def _solve(
             return _kernel_newton(p, _evaluate, law, x, discs, rigid, phi, state)
         return _warm(p, law, x, discs, rigid, phi)
     if p.slip is None and not rigid and p.body is not None and p.body.pins is not None:
+        if compiled() and law is not None and law.k is None and p.frozen is None:
+            # CYCLOMESH_KERNEL=numba: each crank angle's Newton compiled, warm from the ones
+            # before; the angles it gives up go to the NumPy path from their own start
+            return _body_kernel(p, law, x, discs, phi, state)
         return _body_warm(p, law, x, discs, phi)
     return _solve_near(p, law, x, discs, rigid, phi)
 
@@ -372,6 +378,37 @@ def _body_warm(p: _Problem, law, x: FloatArray, discs: int, phi: FloatArray) -> 
                 use = check[~s1["bad"]]
                 x[idx[use]] = prev[use]
         x[idx] = _solve_near(sub, law, x[idx], discs, False, phi[idx])
+    return x
+
+
+def _body_kernel(
+    p: _Problem, law, x: FloatArray, discs: int, phi: FloatArray, state: dict | None = None
+) -> FloatArray:
+    """The compliant disc's equilibrium compiled (:func:`cyclomesh.stage.kernel_compliant.
+    newton`: the reference's Newton with ``failed``, crank angle by crank angle, each warm
+    from the ones before, its body unknowns carried by pin as :func:`_body_carried`); the
+    crank angles it does not finish are solved by the NumPy path (:func:`_solve_near` with
+    :func:`_body_newton`) from their own start. The root is the reference's to round-off.
+    ``state``: where the kernel finished every crank angle, the state at the solution
+    (:func:`cyclomesh.stage.kernel_compliant.newton`'s), as :func:`_kernel_newton`'s."""
+    jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, x.shape[1])
+    settings = (
+        reference.FORCE_TOLERANCE,
+        reference._MAX_ITERATIONS,
+        reference._MAX_HALVINGS,
+        reference._STEP_CAP,
+        *reference._LINEAR,
+        reference.ROUND_OFF_FORCE,
+        reference._STALL_HALVINGS,
+        reference._STALL_ITERATIONS,
+        reference._QUADRATIC,
+        reference._REUSE_TRIAL and reference._LAST_STEP,
+        kernel_run(x.shape[0]),
+    )
+    failed = kernel_compliant(p, law, x, discs, jacobian, settings, state=state)
+    if np.any(failed):
+        idx = np.flatnonzero(failed)
+        x[idx] = _solve_near(p.take(idx), law, x[idx], discs, False, phi[idx])
     return x
 
 

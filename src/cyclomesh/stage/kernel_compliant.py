@@ -1,0 +1,789 @@
+"""The compliant disc's stage: each crank angle's Newton iteration compiled (numba), beside
+the NumPy reference :func:`cyclomesh.stage.newton.newton` on a problem with a
+:class:`~cyclomesh.stage.assembly.Body`.
+
+With ``CYCLOMESH_KERNEL=numba`` the compliant disc's stage without friction (a bearing law
+without a series spring) solves each crank angle to its end in one compiled pass, as
+:mod:`cyclomesh.stage.kernel_newton` does for the rigid discs: the potential, gradient and
+Hessian of :func:`cyclomesh.stage.assembly.evaluate` (:func:`_evaluate_one_py`: the pins with
+the body's displacement δ −= (C'·λ)_i, the body's energy ½·zᵀEz, the crank bearings with
+the hole centres moved by the body, the crankshafts and the end plate) on the crank
+angle's own arrays, the same step, stretched step (``_LINEAR``), step cap, line search
+(Armijo, or the residual's norm where the potential has no digits left), convergence test,
+the quadratic last step (``_LAST_STEP``) and the give-ups of :func:`newton`'s ``failed``
+(``_STALL_ITERATIONS``, ``_STALL_HALVINGS``). The crank angles are solved in order, each
+after the first started from the line through the solutions of the two before (else the
+one before; else its own start), each pin's body unknown carried by its pin
+(:attr:`~cyclomesh.stage.assembly.Body.pins`, as :func:`~cyclomesh.stage.equilibrium.
+_body_carried`). The crank angles it cannot finish (the saddle of the body's unknowns, a
+law it cannot invert, a stall) are left to the NumPy path from their own start
+(:func:`~cyclomesh.stage.equilibrium._body_newton`: the reference's Newton, then the
+residual Newton), exactly as there. The iteration runs to round-off, so the root is the
+reference's to round-off.
+
+The Newton step eliminates each disc's body unknowns first (:func:`_solve_body_py`: the
+Hessian is block-arrow shaped, each disc's body block coupled only to itself and to c, the
+disc's θ and u, its crankshafts' deflections and the end plate's β), leaving the Schur
+complement of those ~20 unknowns (a zero pivot in a body block: the whole Hessian by the
+rigid discs' elimination, :func:`cyclomesh.stage.kernel_newton._solve_blocks`). Where
+every crank angle was finished, the state at the solution (the pins' forces and the
+body's shift there, the bearings' forces and deflections, the gradient) is handed to the
+caller, which need not evaluate the solution again (:func:`newton` ``state``).
+Measured (task i38b, docs/stage.md): an evaluation with its Hessian ~13 µs, a Newton step's
+solve ~20 µs (72 unknowns, two 26-unknown body blocks), 3.6 evaluations a crank angle at
+the rated torque and 5–7 at ±3 %; a stage tolerance ring's three solves ~0.13 CPU-s.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from cyclomesh.stage import kernel_newton as _kn
+
+__all__ = ["newton", "evaluate"]
+
+FloatArray = NDArray[np.float64]
+
+
+@cache
+def _kernels() -> tuple[Any, Any]:
+    import numba
+
+    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
+    global _pin_force, _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows
+    _pin_force = _kn._pin_force
+    _solve_in_place = _kn._solve_in_place
+    _solve_blocks = _kn._solve_blocks
+    _evaluate_one = jit(_evaluate_one_py)
+    _carry = jit(_carry_py)
+    _rows = jit(_rows_py)
+    _solve_body = jit(_solve_body_py)
+    return jit(_evaluate_rows), jit(_newton_rows)
+
+
+def _prepare(p, law, x: FloatArray, discs: int, jacobian: FloatArray):
+    """The arrays of the compiled calls: the pins' block, the body's pin coefficients and
+    energy, the bearings' columns of ``jacobian`` and the block structure, the holes, the
+    constants (kernel_newton's)."""
+    sup = p.supports
+    m = x.shape[1]
+    N = p.hx.shape[-1]
+    nw = 2 * discs * N if sup is not None and sup.stiffness is not None else 0
+    carrier = sup is not None and sup.carrier is not None
+    G = np.ascontiguousarray(jacobian)
+    cols, core, blocks, hole, const = _kn._arrays(p, law, G, discs, nw, m)
+    b = p.body
+    pin_w = np.ascontiguousarray(b.pin_w, dtype=float)
+    energy = np.ascontiguousarray(b.energy, dtype=float)
+    pins = np.ascontiguousarray(b.pins, dtype=np.int64)
+    block = _kn.pin_block(p)
+    return G, cols, core, blocks, hole, const, nw, carrier, pin_w, energy, pins, block
+
+
+def evaluate(p, law, x: FloatArray, discs: int, jacobian: FloatArray | None = None):
+    """Potential (A,), scaled gradient (A, m) and Hessian (A, m, m) and status (A,: 0
+    usable, 1 a pin at or past its law's reach, 2 a law it cannot invert) of the compliant
+    disc's stage at ``x`` (A, m), every crank angle by :func:`_evaluate_one_py`
+    (the reference: :func:`cyclomesh.stage.assembly.evaluate`, ``rigid=False``)."""
+    from cyclomesh.stage.assembly import bearing_jacobian
+
+    A, m = x.shape
+    if jacobian is None:
+        jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, m)
+    G, cols, _, _, hole, const, nw, carrier, pin_w, energy, _, block = _prepare(
+        p, law, x, discs, jacobian
+    )
+    sup = p.supports
+    e, g, H = np.zeros(A), np.zeros((A, m)), np.zeros((A, m, m))
+    status = np.zeros(A, np.int64)
+    _kernels()[0](
+        np.ascontiguousarray(x, dtype=float), block, pin_w, energy, hole, G, cols, const, nw,
+        float(sup.carrier) if carrier else 0.0, carrier, 0.5 * law.rs.clearance,
+        law.rs.constant, float(p.torque), float(p.scale), e, g, H, status,
+    )  # fmt: skip
+    return e, g, H, status
+
+
+def _evaluate_rows(
+    x, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half, kn, torque, L,
+    e, g, H, status,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`evaluate` written for numba (each crank angle from a fresh inversion memo)."""
+    A, m = x.shape
+    D, P = pin.shape[2], pin.shape[3]
+    memo = np.zeros((3, D, P))
+    pf = np.zeros((2, A, D, P))
+    bf = np.zeros((A, D, hole.shape[3], 3))
+    wrow = np.zeros((D, P), np.bool_)
+    scratch = np.zeros((2, m))
+    zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
+    for i in range(A):
+        memo[0] = 0.0
+        _rows(wrow, pin_w, i)
+        e[i], status[i] = _evaluate_one(
+            i, x[i], pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half,
+            kn, torque, L, 2, g[i], H[i], memo, pf, bf, wrow, scratch, zz,
+        )  # fmt: skip
+
+
+def _evaluate_one_py(
+    i, x, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half, kn, torque,
+    L, want, g, H, memo, pf, bf, wrow, scratch, zz,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """Potential of crank angle ``i`` at x (m,) and, with ``want`` ≥ 1, its scaled gradient
+    g (and with ``want`` = 2 its Hessian H), as :func:`cyclomesh.stage.assembly.evaluate`
+    (``rigid=False``) with the compliant disc: the pins' δ less the body's displacement at the pin
+    Σ_s pin_w[i, d, j, s]·z_ds, the body's energy ½·zᵀEz per disc, the crank bearings'
+    hole-against-pin vector with the hole centre's displacement by the body (the columns
+    of ``G`` that are the body's, :func:`~cyclomesh.stage.assembly.bearing_jacobian`).
+    Returns (energy, status) as :func:`cyclomesh.stage.kernel_newton._evaluate_one`;
+    with ``want`` ≥ 1 the state: ``pf[0, i]`` the pins' forces, ``pf[1, i]`` the body's
+    displacement at them (0 where it moves none), ``bf[i]`` the bearings' (fx, fy, s)."""
+    m = x.size
+    D, P = pin.shape[2], pin.shape[3]
+    lam = energy.shape[3]
+    z0 = m - D * lam
+    N = hole.shape[3]
+    R = const.size - D - D * D
+    hess = want >= 2
+    if want:
+        for r in range(m):
+            g[r] = 0.0
+        for d in range(D):
+            for j in range(P):
+                pf[0, i, d, j] = 0.0
+                pf[1, i, d, j] = 0.0
+    if hess:
+        for r in range(m):
+            for s in range(m):
+                H[r, s] = 0.0
+        zz[:, :, :] = 0.0
+    status = 0
+    pins = 0.0
+    for d in range(D):
+        th, ux, uy = x[1 + 3 * d], x[2 + 3 * d], x[3 + 3 * d]
+        zd = z0 + d * lam
+        r0 = 1 + 3 * d
+        for j in range(P):
+            b = pin[0, i, d, j]
+            if not np.isfinite(b):
+                continue
+            shift = 0.0
+            if wrow[d, j]:  # (a row of zeros adds exactly 0)
+                for s in range(lam):
+                    shift += pin_w[i, d, j, s] * x[zd + s]
+            delta = pin[1, i, d, j] * (th - b) + pin[2, i, d, j] * ux + pin[3, i, d, j] * uy
+            delta = delta - shift
+            if want:
+                pf[1, i, d, j] = shift
+            if delta <= 0.0:
+                continue
+            if delta >= pin[6, i, d, j]:
+                status = 1
+                continue
+            a, gm = pin[4, i, d, j], pin[5, i, d, j]
+            f, logf = _pin_force(
+                delta, a, gm, np.isfinite(pin[6, i, d, j]), memo[0, d, j], memo[1, d, j],
+                memo[2, d, j],
+            )  # fmt: skip
+            if f > 0.0 and gm != 0.0:
+                memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, logf, f
+            if f < 0.0:
+                return 0.0, 2
+            if f > 0.0:
+                if gm == 0.0:
+                    logf = np.log(f)
+                pins += 0.5 * f * f * (a - 0.5 * gm - gm * logf)
+                if want:
+                    pf[0, i, d, j] = f
+                    k = 1.0 / (a - gm * (1.0 + logf))
+                    v0, v1, v2 = pin[1, i, d, j] / L, pin[2, i, d, j], pin[3, i, d, j]
+                    g[r0] += f * v0
+                    g[r0 + 1] += f * v1
+                    g[r0 + 2] += f * v2
+                    w = pin_w[i, d, j]
+                    if not hess:
+                        for s in range(lam if wrow[d, j] else 0):
+                            g[zd + s] -= f * w[s]
+                        continue
+                    H[r0, r0] += k * v0 * v0
+                    H[r0, r0 + 1] += k * v0 * v1
+                    H[r0, r0 + 2] += k * v0 * v2
+                    H[r0 + 1, r0 + 1] += k * v1 * v1
+                    H[r0 + 1, r0 + 2] += k * v1 * v2
+                    H[r0 + 2, r0 + 2] += k * v2 * v2
+                    # the body: ∂δ/∂z = −w, so g_z −= F·w, H_zz += k·w·wᵀ, H_az −= k·a·wᵀ
+                    for s in range(lam if wrow[d, j] else 0):
+                        ws = w[s]
+                        if ws == 0.0:
+                            continue
+                        g[zd + s] -= f * ws
+                        kw = k * ws
+                        H[r0, zd + s] -= v0 * kw
+                        H[r0 + 1, zd + s] -= v1 * kw
+                        H[r0 + 2, zd + s] -= v2 * kw
+                        row = zz[d, s]  # (whole rows: the inner loop vectorises)
+                        for q in range(lam):
+                            row[q] += kw * w[q]
+    # the body's energy ½·zᵀEz per disc, its gradient E·z and Hessian E
+    body = 0.0
+    for d in range(D):
+        zd = z0 + d * lam
+        for s in range(lam):
+            ez = 0.0
+            for q in range(lam):
+                ez += energy[i, d, s, q] * x[zd + q]
+            body += x[zd + s] * ez
+            if want:
+                g[zd + s] += ez
+            if hess:
+                for q in range(s, lam):
+                    H[zd + s, zd + q] += energy[i, d, s, q]
+    if want:
+        g[0] -= torque / L
+    energy_total = pins - torque * x[0] + 0.5 * body
+    base = 1 + 3 * D
+    beta = x[base + nw] if carrier else 0.0
+    p = 10.0 / 9.0
+    bearings = 0.0
+    for d in range(D):
+        rot = (x[1 + 3 * d] - x[0]) - const[R + d] * beta
+        zd = z0 + d * lam
+        for k in range(N):
+            wx = x[base + 2 * (d * N + k)] if nw else 0.0
+            wy = x[base + 2 * (d * N + k) + 1] if nw else 0.0
+            dx = x[2 + 3 * d] + rot * (-hole[1, i, d, k]) + hole[2, i, d, k] - wx
+            dy = x[3 + 3 * d] + rot * hole[0, i, d, k] + hole[3, i, d, k] - wy
+            hx = 0.0
+            hy = 0.0
+            for s in range(lam):
+                hx += G[i, d, k, 0, zd + s] * x[zd + s]
+                hy += G[i, d, k, 1, zd + s] * x[zd + s]
+            dx = dx + hx
+            dy = dy + hy
+            s_ = np.hypot(dx, dy)
+            B = 0.0
+            kb = 0.0
+            ub = 0.0
+            for j in range(R):
+                cj = const[j]
+                dj = s_ * cj - half
+                if dj > 0.0:
+                    root = dj ** (1.0 / 9.0)
+                    q = dj * root
+                    B += kn * q * cj
+                    kb += p * kn * root * cj * cj
+                    ub += kn * (dj * q)
+            bearings += ub / (p + 1.0)
+            if not want:
+                continue
+            if s_ > 0.0:
+                cx, cy, secant = dx / s_, dy / s_, B / s_
+            else:
+                cx, cy, secant = 1.0, 0.0, kb
+            fx, fy = B * cx, B * cy
+            bf[i, d, k, 0], bf[i, d, k, 1], bf[i, d, k, 2] = fx, fy, s_
+            kxx = kb * cx * cx + secant * cy * cy
+            kyy = kb * cy * cy + secant * cx * cx
+            kxy = (kb - secant) * cx * cy
+            nk = cols[d, k, 0]
+            for u in range(nk):  # this hole's nonzero columns of ∂d/∂x
+                r = cols[d, k, 1 + u]
+                g0, g1 = G[i, d, k, 0, r], G[i, d, k, 1, r]
+                scratch[0, u], scratch[1, u] = g0, g1
+                g[r] += fx * g0 + fy * g1
+            if not hess:
+                continue
+            for u in range(nk):  # Gᵀ·K·G, each pair once (H is symmetric)
+                r = cols[d, k, 1 + u]
+                if r >= zd:  # the body's own columns: into zz, whole rows
+                    break
+                g0, g1 = scratch[0, u], scratch[1, u]
+                ka = kxx * g0 + kxy * g1
+                kc = kxy * g0 + kyy * g1
+                H[r, r] += ka * g0 + kc * g1
+                for v in range(u + 1, nk):  # (the columns in increasing order: r < c2)
+                    H[r, cols[d, k, 1 + v]] += ka * scratch[0, v] + kc * scratch[1, v]
+            hx_, hy_ = G[i, d, k, 0, zd : zd + lam], G[i, d, k, 1, zd : zd + lam]
+            for q in range(lam):
+                ka = kxx * hx_[q] + kxy * hy_[q]
+                kc = kxy * hx_[q] + kyy * hy_[q]
+                row = zz[d, q]
+                for v in range(lam):
+                    row[v] += ka * hx_[v] + kc * hy_[v]
+    energy_total = energy_total + bearings
+    if nw:
+        shafts = 0.0
+        for d in range(D):
+            for k in range(N):
+                for c in range(2):
+                    kw = 0.0
+                    for e in range(D):
+                        kw += const[R + D + d * D + e] * x[base + 2 * (e * N + k) + c]
+                    shafts += x[base + 2 * (d * N + k) + c] * kw
+                    r = base + 2 * (d * N + k) + c
+                    if want:
+                        g[r] += kw
+                    if hess:
+                        for e in range(d, D):  # (the upper triangle)
+                            H[r, base + 2 * (e * N + k) + c] += const[R + D + d * D + e]
+        energy_total = energy_total + 0.5 * shafts
+    if carrier:
+        energy_total = energy_total + 0.5 * kcarrier * beta * beta
+        if want:
+            g[base + nw] += kcarrier * beta / L
+        if hess:
+            H[base + nw, base + nw] += kcarrier / (L * L)
+    if hess:  # every term above was added to the upper triangle: mirrored
+        for d in range(D):  # (the body's Σ k·w·wᵀ and its bearings' terms)
+            zd = z0 + d * lam
+            for s in range(lam):
+                for q in range(s, lam):
+                    H[zd + s, zd + q] += zz[d, s, q]
+        for r in range(m):
+            for c in range(r + 1, m):
+                H[c, r] = H[r, c]
+    return energy_total, status
+
+
+def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T):  # pragma: no cover
+    """step = −H⁻¹g with each disc's body unknowns eliminated first: the unknowns are the
+    rest R (the first ``nr``: c, the discs' θ and u, the crankshafts' deflections, the end
+    plate's β) and the discs' body unknowns Z_d (``lam`` each, from ``nr``), and Z_d couples
+    only to R and to itself (the pins of disc d, its energy E, its crank bearings'
+    hole-against-pin vectors: :func:`~cyclomesh.stage.assembly.bearing_jacobian`), so H is
+    block-arrow shaped. Per disc: the columns of R that Z_d couples to (``cl``: c, θ_d,
+    u_d, its crankshafts' deflections, β), H_ZZ's LU with partial pivoting inside the
+    block, Y = H_ZZ⁻¹[H_ZR | g_Z] on those columns, S −= H_RZ·Y; then S (the Schur
+    complement of R) by :func:`~cyclomesh.stage.kernel_newton._solve_in_place`, and
+    Z_d = y_d − Y_d·s_R. ``S`` (nr, nr), ``Y`` (D, lam, nr + 1), ``rhs``, ``sc`` (nr,),
+    ``cl`` (D, nr + 1, count first), ``T`` (nr + 1, nr + 1): work arrays. H is
+    overwritten (its Z blocks by their LU); False where a pivot is 0 (the caller then
+    evaluates H again and solves it whole)."""
+    for a in range(nr):
+        for b in range(nr):
+            S[a, b] = H[a, b]
+        rhs[a] = g[a]
+    for d in range(D):
+        z = nr + d * lam
+        nc = 0
+        for a in range(nr):
+            for q in range(lam):
+                if H[z + q, a] != 0.0:
+                    cl[d, 1 + nc] = a
+                    nc += 1
+                    break
+        cl[d, 0] = nc
+        for q in range(lam):
+            for b in range(nc):
+                Y[d, q, b] = H[z + q, cl[d, 1 + b]]
+            Y[d, q, nc] = g[z + q]
+        # LU of the block in H's rows z … z + lam − 1 (columns z …), rows pivoted
+        for k in range(lam):
+            piv = k
+            big = abs(H[z + k, z + k])
+            for r in range(k + 1, lam):
+                v = abs(H[z + r, z + k])
+                if v > big:
+                    big = v
+                    piv = r
+            if big == 0.0:
+                return False
+            if piv != k:
+                for c in range(lam):
+                    H[z + k, z + c], H[z + piv, z + c] = H[z + piv, z + c], H[z + k, z + c]
+                for c in range(nc + 1):
+                    Y[d, k, c], Y[d, piv, c] = Y[d, piv, c], Y[d, k, c]
+            inv = 1.0 / H[z + k, z + k]
+            for r in range(k + 1, lam):
+                f = H[z + r, z + k] * inv
+                if f != 0.0:
+                    for c in range(k + 1, lam):
+                        H[z + r, z + c] -= f * H[z + k, z + c]
+                    for c in range(nc + 1):
+                        Y[d, r, c] -= f * Y[d, k, c]
+        for k in range(lam - 1, -1, -1):
+            for q in range(k + 1, lam):
+                h = H[z + k, z + q]
+                if h != 0.0:
+                    for c in range(nc + 1):
+                        Y[d, k, c] -= h * Y[d, q, c]
+            inv = 1.0 / H[z + k, z + k]
+            for c in range(nc + 1):
+                Y[d, k, c] *= inv
+        # S −= H_RZ·Y, rhs −= H_RZ·y (H_RZ's nonzero rows are H_ZR's nonzero columns)
+        for u in range(nc):  # (summed in T's contiguous rows, then scattered)
+            a = cl[d, 1 + u]
+            for b in range(nc + 1):
+                T[u, b] = 0.0
+            for q in range(lam):
+                h = H[a, z + q]
+                if h != 0.0:
+                    for b in range(nc + 1):
+                        T[u, b] += h * Y[d, q, b]
+            for b in range(nc):
+                S[a, cl[d, 1 + b]] -= T[u, b]
+            rhs[a] -= T[u, nc]
+    if not _solve_in_place(S, rhs, sc):
+        return False
+    for a in range(nr):
+        step[a] = sc[a]
+    for d in range(D):
+        z = nr + d * lam
+        nc = cl[d, 0]
+        for q in range(lam):
+            acc = -Y[d, q, nc]
+            for b in range(nc):
+                acc -= Y[d, q, b] * sc[cl[d, 1 + b]]
+            step[z + q] = acc
+    return True
+
+
+def _rows_py(wrow, pin_w, i):  # pragma: no cover (compiled)
+    """``wrow`` (D, P): the flanks whose body coefficients at crank angle ``i`` are not all
+    0 (the candidates and the padding's; the body moves no other pin)."""
+    D, P, lam = pin_w.shape[1], pin_w.shape[2], pin_w.shape[3]
+    for d in range(D):
+        for j in range(P):
+            nz = False
+            for s in range(lam):
+                if pin_w[i, d, j, s] != 0.0:
+                    nz = True
+                    break
+            wrow[d, j] = nz
+
+
+def _carry_py(out, x, own, pins, i, back, z0, lam):  # pragma: no cover (compiled)
+    """``out`` = the solution at crank angle i − back with each pin unknown carried by its
+    pin, ``own``'s where that pin was no candidate there (equilibrium._body_carried)."""
+    m = out.size
+    D, P = pins.shape[1], pins.shape[2]
+    for r in range(m):
+        out[r] = x[i - back, r]
+    for d in range(D):
+        zd = z0 + d * lam
+        for q in range(P):
+            pin = pins[i, d, q]
+            found = -1
+            if pin >= 0:
+                for q2 in range(P):
+                    if pins[i - back, d, q2] == pin:
+                        found = q2
+                        break
+            if found >= 0:
+                out[zd + q] = x[i - back, zd + found]
+            else:
+                out[zd + q] = own[zd + q]
+
+
+def newton(
+    p,
+    law,
+    x: FloatArray,
+    discs: int,
+    jacobian: FloatArray,
+    settings: tuple,
+    stats: dict | None = None,
+    state: dict | None = None,
+) -> NDArray[np.bool_]:
+    """The compliant disc's :func:`cyclomesh.stage.newton.newton` (with ``failed``), every
+    crank angle to its end in one compiled pass, in order, warm from the ones before
+    (module docstring). ``x`` (A, m): every crank angle's own start, overwritten by the
+    solution where the kernel finished it (its own start left where it did not);
+    ``settings``: the reference's (FORCE_TOLERANCE, _MAX_ITERATIONS, _MAX_HALVINGS,
+    _STEP_CAP, *_LINEAR, ROUND_OFF_FORCE, _STALL_HALVINGS, _STALL_ITERATIONS,
+    _QUADRATIC, _LAST_STEP, run). Returns the crank angles it could not finish.
+    ``stats``: a dict that receives ``counts`` (A, 3): each crank angle's evaluations, its
+    Newton steps and how it ended (0 converged, 1 the last step, 2 an inversion failed,
+    3 the saddle's stall, 4 a singular step, 5 the line search's give-up, 6 the steps'
+    limit). ``state``: a dict that receives, where every crank angle was finished, the
+    state at the solution as :func:`cyclomesh.stage.assembly.evaluate`'s (``pin_force``,
+    ``pin_shift`` (A, D, P), ``bearing_fx``, ``bearing_fy``, ``deflection`` (A, D, N))
+    and ``gradient`` (A, m), the scaled gradient there (the evaluation the caller need
+    not repeat)."""
+    (force, iterations, halvings, cap, low, high, round_off, stall_h, stall_it, quad, last,
+     run) = settings  # fmt: skip
+    A, m = x.shape
+    G, cols, core, blocks, hole, const, nw, carrier, pin_w, energy, pins, block = _prepare(
+        p, law, x, discs, jacobian
+    )
+    sup = p.supports
+    failed = np.zeros(A, np.bool_)
+    counts = np.zeros((A, 3), np.int64)  # evaluations, Newton steps, how it ended
+    D, P, N = p.bl.shape[1], p.bl.shape[2], p.hx.shape[-1]
+    pf, bf, gout = np.zeros((2, A, D, P)), np.zeros((A, D, N, 3)), np.zeros((A, m))
+    whole = np.ones(1, np.bool_)  # the state at every solution formed
+    own = x.copy()
+    _kernels()[1](
+        x, own, block, pin_w, energy, pins, hole, G, cols, core, blocks, const, nw,
+        float(sup.carrier) if carrier else 0.0, carrier, 0.5 * law.rs.clearance,
+        law.rs.constant, float(p.torque), float(p.scale), force * abs(p.torque) / p.scale,
+        round_off * abs(p.torque) / p.scale, iterations, halvings, cap, low, high, stall_h,
+        stall_it, quad, bool(last), int(run), failed, counts, pf, bf, gout, whole,
+    )  # fmt: skip
+    if stats is not None:
+        stats["counts"] = counts
+    if state is not None and whole[0] and not np.any(failed):
+        state.update(
+            pin_force=pf[0],
+            pin_shift=pf[1],
+            bearing_fx=bf[..., 0],
+            bearing_fy=bf[..., 1],
+            deflection=bf[..., 2],
+            gradient=gout,
+        )
+    return failed
+
+
+def _newton_rows(
+    x, own, pin, pin_w, energy, pins, hole, G, cols, core, blocks, const, nw, kcarrier,
+    carrier, half, kn, torque, L, tol, floor, iterations, halvings, cap, low, high, stall_h,
+    stall_it, quad, last_on, run, failed, counts, pf, bf, gout, whole,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`newton` written for numba: cyclomesh.stage.newton.newton's iteration with
+    ``failed`` (rigid=False, the compliant disc), crank angle by crank angle."""
+    A, m = x.shape
+    D, P = pin.shape[2], pin.shape[3]
+    lam = energy.shape[3]
+    z0 = m - D * lam
+    eps = 2.220446049250313e-16
+    p = 10.0 / 9.0
+    base = 1 + 3 * D
+    rot = np.zeros(m, np.bool_)
+    rot[0] = True
+    for d in range(D):
+        rot[1 + 3 * d] = True
+    if carrier:
+        rot[base + nw] = True
+    g = np.zeros(m)
+    H = np.zeros((m, m))
+    gt = np.zeros(m)
+    Ht = np.zeros((m, m))
+    trial = np.zeros(m)
+    prev = np.zeros(m)
+    step = np.zeros(m)
+    xi = np.zeros(m)
+    nc = core.size
+    S = np.zeros((nc, nc))
+    Z = np.zeros((blocks.shape[1], nc + 1))
+    rhs = np.zeros(nc)
+    sc = np.zeros(nc)
+    nr = z0
+    Sb = np.zeros((nr, nr))
+    Yb = np.zeros((D, lam, nr + 1))
+    rb = np.zeros(nr)
+    sb = np.zeros(nr)
+    cl = np.zeros((D, nr + 1), np.int64)
+    Tb = np.zeros((nr + 1, nr + 1))
+    memo = np.zeros((3, D, P))
+    wrow = np.zeros((D, P), np.bool_)
+    scratch = np.zeros((2, m))
+    zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
+    for i in range(A):
+        _rows(wrow, pin_w, i)
+        # a warm start that ends on the saddle (or fails otherwise) is tried once more
+        # from the crank angle's own start before the NumPy path is asked
+        cold = False
+        while True:
+            for r in range(m):
+                xi[r] = own[i, r]
+            have = False
+            energy_i, status = 0.0, 0
+            warm = i % run != 0 and not failed[i - 1] and not cold
+            if warm:
+                # warm start: the line through the two solutions before, else the one before,
+                # each pin unknown carried by its pin (equilibrium._body_warm)
+                line = i % run >= 2 and not failed[i - 2]
+                _carry(prev, x, own[i], pins, i, 1, z0, lam)
+                s1 = 1
+                e1 = 0.0
+                for attempt in range(0 if line else 1, 2):
+                    if attempt == 0:
+                        _carry(trial, x, prev, pins, i, 2, z0, lam)
+                        for r in range(m):
+                            trial[r] = 2.0 * prev[r] - trial[r]
+                    else:
+                        for r in range(m):
+                            trial[r] = prev[r]
+                    e1, s1 = _evaluate_one(
+                        i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                        half, kn, torque, L, 2, g, H, memo, pf, bf, wrow, scratch, zz,
+                    )  # fmt: skip
+                    counts[i, 0] += 1
+                    if s1 == 0:
+                        break
+                if s1 == 0:
+                    for r in range(m):
+                        xi[r] = trial[r]
+                    energy_i, status, have = e1, s1, True
+            else:
+                memo[0] = 0.0
+            previous = np.inf
+            extended = False
+            linear = False
+            best = np.inf
+            since = 0
+            ok_angle = False
+            stay = False
+            how = 6
+            for _ in range(iterations):
+                if not have:
+                    energy_i, status = _evaluate_one(
+                        i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                        half, kn, torque, L, 2, g, H, memo, pf, bf, wrow, scratch, zz,
+                    )  # fmt: skip
+                    counts[i, 0] += 1
+                have = False
+                if status == 2:
+                    how = 2
+                    break
+                near = True
+                res = 0.0
+                for r in range(m):
+                    res = max(res, abs(g[r]))
+                    if near and not (abs(g[r]) <= tol):  # the round-off of the unknowns?
+                        noise = 0.0
+                        for s in range(m):
+                            xs = abs(xi[s]) * L if rot[s] else abs(xi[s])
+                            noise += abs(H[r, s]) * xs
+                        noise *= 16.0 * eps
+                        if not (abs(g[r]) <= max(tol, noise)):
+                            near = False
+                if near and (res <= floor or res >= previous or stay):
+                    ok_angle = True
+                    how = 0
+                    break
+                stay = False
+                take_last = (
+                    last_on
+                    and near
+                    and res <= quad * previous
+                    and res * res * res <= floor * previous * previous
+                    and not linear
+                )
+                if res < best:
+                    best = res
+                    since = 0
+                else:
+                    since += 1
+                if not near and since >= stall_it:
+                    how = 3
+                    break  # the saddle: given up to the caller
+                ratio = res > low * previous and res < high * previous
+                stretch = (not extended) and ratio and linear
+                linear = ratio and not extended
+                previous = res
+                diag = 0.0
+                for r in range(m):
+                    diag = max(diag, abs(H[r, r]))
+                diag = max(diag, 1e-300)
+                for r in range(m):
+                    H[r, r] += 1e-14 * diag
+                solved = _solve_body(H, g, step, nr, D, lam, Sb, Yb, rb, sb, cl, Tb)
+                if not solved:  # a body block's pivot 0: the whole H, evaluated again
+                    _evaluate_one(
+                        i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier,
+                        carrier, half, kn, torque, L, 2, g, H, memo, pf, bf, wrow, scratch,
+                        zz,
+                    )  # fmt: skip
+                    for r in range(m):
+                        H[r, r] += 1e-14 * diag
+                    if blocks.shape[0]:
+                        solved = _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc)
+                    else:
+                        solved = _solve_in_place(H, g, step)
+                if not solved:
+                    how = 4
+                    break
+                counts[i, 1] += 1
+                slope = 0.0
+                for r in range(m):
+                    slope += g[r] * step[r]
+                flip = not slope < 0.0
+                if flip:
+                    slope = 0.0
+                    for r in range(m):
+                        step[r] = -g[r] / diag
+                        slope += g[r] * step[r]
+                t = p if stretch else 1.0
+                reach = 0.0
+                for r in range(m):
+                    reach = max(reach, abs(step[r]))
+                if reach * t > cap:
+                    t = cap / (reach if reach > 0 else 1.0)
+                extended = stretch
+                if take_last and not flip and t == 1.0:  # the last step, without a trial
+                    for r in range(m):
+                        xi[r] = xi[r] + (step[r] / L if rot[r] else step[r])
+                    ok_angle = True
+                    how = 1
+                    break
+                tiny = -slope <= 1e-13 * max(abs(energy_i), 1e-300)
+                work = torque * xi[0]
+                flat = (not tiny) and -slope <= 1e-13 * (abs(energy_i + work) + abs(work))
+                norm = 0.0
+                if flat:
+                    for r in range(m):
+                        norm += g[r] * g[r]
+                    norm = np.sqrt(norm)
+                moved = False
+                st = 0
+                gave_up = False
+                for _h in range(halvings):
+                    for r in range(m):
+                        trial[r] = xi[r] + (step[r] * t / L if rot[r] else step[r] * t)
+                    e_t, st = _evaluate_one(
+                        i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                        half, kn, torque, L, 2, gt, Ht, memo, pf, bf, wrow, scratch, zz,
+                    )  # fmt: skip
+                    counts[i, 0] += 1
+                    if st == 2:
+                        break
+                    ok = e_t <= energy_i + 1e-4 * t * slope or tiny
+                    if flat:
+                        norm_t = 0.0
+                        for r in range(m):
+                            norm_t += gt[r] * gt[r]
+                        ok = np.sqrt(norm_t) <= (1.0 - 1e-4 * t) * norm
+                    if st == 0 and ok:
+                        for r in range(m):
+                            xi[r] = trial[r]
+                        g, gt = gt, g
+                        H, Ht = Ht, H
+                        energy_i, status, have = e_t, st, True
+                        moved = True
+                        break
+                    if _h + 1 >= stall_h and not near:
+                        gave_up = True
+                        break
+                    extended = False
+                    t = 1.0 if t > 1.0 else 0.5 * t
+                if not moved:
+                    if gave_up or not (near and flat and st != 2):
+                        how = 5 if st != 2 else 2
+                        break
+                    stay = True
+            if ok_angle or cold or not warm:
+                break
+            cold = True
+        counts[i, 2] = how
+        if ok_angle:
+            if how == 1:  # the last step was taken untried: the state there
+                _, st = _evaluate_one(
+                    i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                    half, kn, torque, L, 1, g, H, memo, pf, bf, wrow, scratch, zz,
+                )  # fmt: skip
+                if st == 2:
+                    whole[0] = False
+            for r in range(m):
+                x[i, r] = xi[r]
+                gout[i, r] = g[r]
+        else:
+            failed[i] = True
+            for r in range(m):
+                x[i, r] = own[i, r]

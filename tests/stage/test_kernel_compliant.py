@@ -1,0 +1,264 @@
+"""stage.kernel_compliant (the compliant disc's Newton compiled per crank angle) against
+the NumPy reference: its evaluation against stage.assembly.evaluate, its block-arrow
+solve against LAPACK, its warm start's carried unknowns against equilibrium._body_carried,
+and the solves (coarse FE disc, the example's three-crankshaft case) against the NumPy
+path, with the crank angles it gives up handed to that path."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+try:  # the fe extra; gmsh's wheel also needs X11/OpenGL client libraries (see .ci/run)
+    import gmsh  # noqa: F401
+    import skfem  # noqa: F401
+except (ImportError, OSError) as exc:  # pragma: no cover
+    pytest.skip(f"fe extra not usable here: {exc}", allow_module_level=True)
+
+import cyclomesh.stage.equilibrium as eq  # noqa: E402
+import cyclomesh.stage.newton as nt  # noqa: E402
+from cyclomesh.fe.influence import free_influence  # noqa: E402
+from cyclomesh.stage import kernel_compliant as kc  # noqa: E402
+from cyclomesh.stage.solve import solve  # noqa: E402
+from cyclomesh.studyfile.schema import load_study  # noqa: E402
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "rv_stage.toml"
+COARSE = dict(points=7, far_size=4e-3, flank_size=1.5e-3, elements_per_half_width=2.0)
+PHI = np.radians(np.arange(0.0, 360.0, 15.0))
+FIELDS = ("twist", "bearing_load", "pin_load", "torque_share")
+
+
+@pytest.fixture(scope="module")
+def example():
+    return load_study(EXAMPLE).cases[0].to_core()
+
+
+@pytest.fixture(scope="module")
+def coarse(example, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("cache")
+    ex = example
+    return free_influence(ex.design, ex.modification, ex.crank_holes, folder, **COARSE)
+
+
+def _solve(example, body, torque, phi=PHI):
+    case = example.case().replace(torque=torque, crank_angles=phi)
+    return solve(case, example.model().replace(disc_body=body))
+
+
+def _close(a, b, rtol, name):
+    assert np.max(np.abs(a - b)) <= rtol * np.max(np.abs(a)), (name, np.max(np.abs(a - b)))
+
+
+@pytest.fixture(scope="module")
+def problems(example, coarse):
+    """The compliant problems the numba path hands the kernel (±412 and ±12.36 N·m), with
+    their starts and the kernel's solutions."""
+    mp = pytest.MonkeyPatch()
+    mp.setenv("CYCLOMESH_KERNEL", "numba")
+    found = []
+    compiled = eq._body_kernel
+
+    def kept(p, law, x, discs, phi, state=None):
+        start = x.copy()
+        out = compiled(p, law, x, discs, phi, state)
+        found.append((p, law, start, out.copy(), discs))
+        return out
+
+    mp.setattr(eq, "_body_kernel", kept)
+    try:
+        _solve(example, coarse, [-412.0, 412.0])
+        _solve(example, coarse, [-12.36, 12.36])
+    finally:
+        mp.undo()
+    assert len(found) == 4
+    return found
+
+
+def test_the_compiled_evaluation_is_the_references(problems, monkeypatch):
+    """Potential, gradient and Hessian of every crank angle at its start and at the
+    solution: 1e-13 of each one's largest entry (the gradient's: or of T/r_c)."""
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numpy")
+    for p, law, start, sol, D in problems:
+        for x in (start, sol):
+            e, g, H, status = kc.evaluate(p, law, x, D)
+            e0, g0, H0, st = eq._evaluate(p, law, x, D, False)
+            np.testing.assert_array_equal(status != 0, st["bad"])
+            _close(e0, e, 1e-13, "energy")
+            # (at the solution the gradient is its round-off: measured against T/r_c, the
+            # size of its terms)
+            scale = max(np.max(np.abs(g0)), abs(p.torque) / p.scale)
+            assert np.max(np.abs(g - g0)) <= 1e-13 * scale
+            _close(H0, H, 1e-13, "hessian")
+
+
+def test_the_kernel_finishes_at_the_references_residual(problems, monkeypatch):
+    """At the kernel's solution every residual is within the reference's test (its largest
+    below 1e-12·T/r_c: the iteration ran to round-off)."""
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numpy")
+    for p, law, _start, sol, D in problems:
+        _, g, _, _ = eq._evaluate(p, law, sol, D, False)
+        assert np.max(np.abs(g)) <= nt.FORCE_TOLERANCE * abs(p.torque) / p.scale
+
+
+@pytest.mark.parametrize("torque", [[-412.0, 412.0], [-12.36, 12.36]])
+def test_the_compiled_newton_reaches_the_numpy_root(example, coarse, monkeypatch, torque):
+    """The whole solve, numba (the kernel) against NumPy: 1e-13 of each field's largest
+    (measured 1e-15 to 5e-15), and the kernel finished every crank angle here."""
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numpy")
+    ref = _solve(example, coarse, torque)
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
+    handed = []
+    compiled = eq.kernel_compliant
+
+    def counted(*args, **kw):
+        failed = compiled(*args, **kw)
+        handed.append(int(failed.sum()))
+        return failed
+
+    monkeypatch.setattr(eq, "kernel_compliant", counted)
+    got = _solve(example, coarse, torque)
+    assert len(handed) == 2 and sum(handed) == 0
+    for name in FIELDS:
+        _close(getattr(ref, name), getattr(got, name), 1e-13, name)
+
+
+def test_angles_the_kernel_gives_up_go_to_the_numpy_path(example, coarse, monkeypatch):
+    """A stall declared after 0 steps: the kernel gives up every crank angle not near the
+    root at its start, the NumPy path (its Newton, then the residual Newton) solves them
+    from their own start, to the same root."""
+    torque = [-412.0, 412.0]
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
+    ref = _solve(example, coarse, torque)
+    handed = []
+    compiled = eq.kernel_compliant
+
+    def counted(*args, **kw):
+        failed = compiled(*args, **kw)
+        handed.append(int(failed.sum()))
+        return failed
+
+    monkeypatch.setattr(eq, "kernel_compliant", counted)
+    monkeypatch.setattr(nt, "_STALL_ITERATIONS", 0)
+    got = _solve(example, coarse, torque)
+    assert sum(handed) == 2 * PHI.size
+    for name in FIELDS:
+        _close(getattr(ref, name), getattr(got, name), 1e-13, name)
+
+
+def test_friction_keeps_the_numpy_path(monkeypatch):
+    """The kernel is asked only without friction (p.slip None) and a series spring."""
+    called = []
+    monkeypatch.setattr(eq, "_body_kernel", lambda *a: called.append(1))
+    monkeypatch.setattr(eq, "_solve_near", lambda p, law, x, *a: x)
+    monkeypatch.setattr(eq, "_body_warm", lambda p, law, x, *a: x)
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
+    body = type("B", (), {"pins": np.zeros((1, 1, 1), np.int64)})()
+    law = type("L", (), {"k": None})()
+    p = type("P", (), {"slip": np.zeros(1), "body": body, "frozen": None})()
+    x = np.zeros((1, 3))
+    eq._solve(p, law, x, 1, False, np.zeros(1))
+    assert not called
+    p.slip = None
+    law.k = 1e9
+    eq._solve(p, law, x, 1, False, np.zeros(1))
+    assert not called
+
+
+def _arrow(rng, nr, D, lam, zero_pivot=False):
+    """A block-arrow matrix: R (nr) coupled to all, each Z_d (lam) to R's columns of its
+    own and to itself."""
+    m = nr + D * lam
+    H = np.zeros((m, m))
+    H[:nr, :nr] = rng.standard_normal((nr, nr)) + nr * np.eye(nr)
+    for d in range(D):
+        z = slice(nr + d * lam, nr + (d + 1) * lam)
+        own = rng.choice(nr, size=nr // 2, replace=False)
+        H[z, z] = rng.standard_normal((lam, lam)) + 3 * np.eye(lam)
+        H[z, own] = rng.standard_normal((lam, own.size))
+        H[own, z] = rng.standard_normal((own.size, lam))
+        if zero_pivot:
+            H[z, z][:, 0] = 0.0
+    return H, rng.standard_normal(m)
+
+
+@pytest.mark.parametrize("zero_pivot", [False, True])
+def test_the_block_arrow_solve_is_lapacks(zero_pivot):
+    kc._kernels()
+    rng = np.random.default_rng(3)
+    nr, D, lam = 9, 2, 7
+    H, g = _arrow(rng, nr, D, lam, zero_pivot)
+    step = np.zeros(g.size)
+    ok = kc._solve_body(
+        H.copy(), g, step, nr, D, lam, np.zeros((nr, nr)), np.zeros((D, lam, nr + 1)),
+        np.zeros(nr), np.zeros(nr), np.zeros((D, nr + 1), np.int64), np.zeros((nr + 1, nr + 1)),
+    )  # fmt: skip
+    if zero_pivot:  # a body block singular: the caller solves the whole H
+        assert not ok
+        return
+    assert ok
+    ref = np.linalg.solve(H, -g)
+    _close(ref, step, 1e-12, "step")
+
+
+def test_a_warm_start_carries_each_pins_unknown_as_the_reference():
+    """The kernel's carried start (by pin) is equilibrium._body_carried's, bit for bit."""
+    kc._kernels()
+    lam = 5
+    pins = np.array([[[4, 5, 6]], [[5, 6, -1]], [[6, 7, 8]], [[8, 6, 9]]])  # (A, D, P)
+    body = eq._Body(
+        pin_w=np.zeros((4, 1, 10, lam)),
+        hole_w=np.zeros((4, 1, 3, 2, lam)),
+        energy=np.zeros((4, 1, lam, lam)),
+        pins=pins,
+    )
+    p = type("P", (), {"body": body})()
+    rng = np.random.default_rng(4)
+    x = rng.standard_normal((4, 9))
+    for i in (1, 2, 3):
+        for back in (1, 2) if i >= 2 else (1,):
+            own = rng.standard_normal(9)
+            ref = eq._body_carried(p, x, np.array([i]), back, own[None, :])[0]
+            got = np.zeros(9)
+            kc._carry(got, x, own, pins, i, back, 4, lam)
+            np.testing.assert_array_equal(got, ref)
+
+
+def test_the_kernels_state_is_the_references_at_its_solution(problems, monkeypatch):
+    """The state the kernel hands the caller (so that it need not evaluate the solution
+    again) against stage.assembly.evaluate's there: 1e-13 of each one's largest (the
+    gradient: of T/r_c)."""
+    import cyclomesh.stage.newton as reference
+
+    settings = (
+        reference.FORCE_TOLERANCE,
+        reference._MAX_ITERATIONS,
+        reference._MAX_HALVINGS,
+        reference._STEP_CAP,
+        *reference._LINEAR,
+        reference.ROUND_OFF_FORCE,
+        reference._STALL_HALVINGS,
+        reference._STALL_ITERATIONS,
+        reference._QUADRATIC,
+        True,
+        10**6,
+    )
+    for p, law, start, _sol, D in problems:
+        x = start.copy()
+        state: dict = {}
+        failed = kc.newton(p, law, x, D, p.jacobian, settings, state=state)
+        assert not np.any(failed) and state
+        monkeypatch.setenv("CYCLOMESH_KERNEL", "numpy")
+        _, g, _, st = eq._evaluate(p, law, x, D, False, hessian=False)
+        monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
+        for name in ("pin_force", "pin_shift", "bearing_fx", "bearing_fy", "deflection"):
+            ref = st[name]
+            got = state[name]
+            if name == "pin_shift":  # (only the pins with a law enter anything)
+                usable = np.isfinite(p.bl)
+                ref, got = np.where(usable, ref, 0.0), np.where(usable, got, 0.0)
+            _close(ref, got, 1e-13, name)
+        scale = max(np.max(np.abs(g)), abs(p.torque) / p.scale)
+        assert np.max(np.abs(state["gradient"] - g)) <= 1e-13 * scale
