@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from cyclomesh.core.contact import UnloadedContact
 from cyclomesh.core.discbody import FREE_HELD, FreeDiscBody
-from cyclomesh.core.fields import contact_fields, contact_stresses
+from cyclomesh.core.fields import CONTACT_LOAD_FRACTION, contact_fields, contact_stresses
 from cyclomesh.core.friction import Friction
 from cyclomesh.core.lubrication import Film
 from cyclomesh.core.pair import CrankHoles, PairDesign
@@ -72,6 +72,7 @@ from cyclomesh.stage.kernel_newton import PIN_BLOCK, pin_block
 from cyclomesh.stage.kernel_newton import newton as kernel_newton
 from cyclomesh.stage.kernel_newton import rigid_newton as kernel_rigid_newton
 from cyclomesh.stage.kernel_newton import run as kernel_run
+from cyclomesh.stage.kernel_outputs import DISC_FIELDS, stage_fields
 from cyclomesh.stage.newton import (
     FORCE_TOLERANCE,
     newton,
@@ -935,6 +936,16 @@ def solve_direction(
             fr = {**fr, **lubricated_state(prob, F)}
         out.update(_friction_fields(prob, mesh, fr, st, motion, friction.speed, n1))
     loaded = [n for n in ("groove_load", "contact_stress", "groove_stress", "contacts") if want(n)]
+    sums = [n for n in DISC_FIELDS if want(n)]
+    if compiled() and (sums or len(loaded) > 1 or (loaded and fields is None)):
+        # CYCLOMESH_KERNEL=numba: the contact fields and the discs' sums in one pass
+        # (the same bits as contact_fields' and disc_sums' below)
+        out.update(
+            stage_fields(
+                F, pin_block(prob), mesh.geo, mesh.design, CONTACT_LOAD_FRACTION, {*loaded, *sums}
+            )
+        )
+        loaded, sums = [], []
     if fields is not None and loaded == ["contact_stress"]:  # the loaded pins' alone
         if cache is None or "geometry" not in cache:  # the stresses' geometry, flat
             geometry = [
@@ -950,7 +961,7 @@ def solve_direction(
         out.update(
             contact_fields(loaded, mesh.design, mesh.geo, F[..., :n1], stack_axes=2)
         )  # per disc, against the stack
-    if want("torque_share") or want("mesh_fx") or want("mesh_fy"):
+    if sums:
         disc = _disc_loads(mesh, prob, F)
         out.update(
             torque_share=disc["torque_share"],
