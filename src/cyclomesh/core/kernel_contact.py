@@ -779,7 +779,9 @@ def contact_arrays(
     n_angles = shape[-2]
 
     def rows(x, tail):  # (..., 1 or A, n1 or 1) → (R, tail) contiguous
-        return np.ascontiguousarray(np.broadcast_to(x, (*ring, *tail)).reshape(-1, math.prod(tail)))
+        full = (*ring, *tail)  # (np.broadcast_to's wrapper, ~5 µs, only where it broadcasts)
+        x = x if np.shape(x) == full else np.broadcast_to(x, full)
+        return np.ascontiguousarray(x).reshape(-1, math.prod(tail))
 
     pcx = rows(pin_r * np.cos(pin_angle), (1, n1))
     pcy = rows(pin_r * np.sin(pin_angle), (1, n1))
@@ -883,7 +885,8 @@ def _pin_rows(pin_radius, shape):
     """(pin radii (rows, n1), repeat) of contacts of ``shape``: one row per ring when
     the radii are broadcast along the crank angles (repeat = the angles; no copy of a
     revolution's worth of equal rows), else every row (repeat = 1)."""
-    rp = np.broadcast_to(np.asarray(pin_radius, float), shape)
+    rp = np.asarray(pin_radius, float)
+    rp = rp if rp.shape == shape else np.broadcast_to(rp, shape)
     if rp.ndim >= 2 and rp.strides[-2] == 0:
         return np.ascontiguousarray(rp[..., 0, :]).reshape(-1, shape[-1]), shape[-2]
     return np.ascontiguousarray(rp).reshape(-1, shape[-1]), 1
@@ -902,7 +905,8 @@ def compliance_arrays(
     reference :func:`~cyclomesh.core.hertz.compliance_coefficients`), in one pass."""
     from cyclomesh.core.hertz import effective_modulus
 
-    shape = np.broadcast_shapes(*(np.shape(v) for v in (pin_radius, curvature_radius, cos_beta)))
+    shapes = {np.shape(v) for v in (pin_radius, curvature_radius, cos_beta)}
+    shape = shapes.pop() if len(shapes) == 1 else np.broadcast_shapes(*shapes)
     c_pin = design.pin_material.compliance
     c_disc = design.disc_material.compliance
     c_ring = design.ring_material.compliance
