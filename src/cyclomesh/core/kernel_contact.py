@@ -892,6 +892,12 @@ def _pin_rows(pin_radius, shape):
     return np.ascontiguousarray(rp).reshape(-1, shape[-1]), 1
 
 
+flat_rows = _flat
+"""Public name of :func:`_flat` (the stage's output pass reads its contacts so)."""
+pin_radius_rows = _pin_rows
+"""Public name of :func:`_pin_rows` (the stage's output pass reads its pin radii so)."""
+
+
 def compliance_arrays(
     pin_radius,
     curvature_radius,

@@ -62,7 +62,7 @@ def stage_fields(
     radius, cos β of the stresses), ``design`` its :class:`~cyclomesh.core.pair.PairDesign`.
     Each output is the same whatever else is asked."""
     from cyclomesh.core.hertz import effective_modulus
-    from cyclomesh.core.kernel_contact import _flat, _pin_rows
+    from cyclomesh.core.kernel_contact import flat_rows, pin_radius_rows
 
     A, D, P = force.shape
     n1 = P // 2
@@ -75,9 +75,9 @@ def stage_fields(
     out_count = np.empty((A, D) if count else (0, 0), np.int64)
     out_disc = [np.empty((A, D) if disc else (0, 0)) for _ in range(3)]
     if stress:
-        rp_rows, repeat = _pin_rows(geo.pin_radius, shape)
-        rc = _flat(geo.curvature_radius, shape).reshape(shape)
-        cb = _flat(geo.cos_beta, shape).reshape(shape)
+        rp_rows, repeat = pin_radius_rows(geo.pin_radius, shape)
+        rc = flat_rows(geo.curvature_radius, shape).reshape(shape)
+        cb = flat_rows(geo.cos_beta, shape).reshape(shape)
     else:
         rp_rows, repeat, rc, cb = np.empty((0, 0)), 1, empty, empty
     c_pin = design.pin_material.compliance
