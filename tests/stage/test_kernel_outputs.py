@@ -12,6 +12,7 @@ from cyclomesh.core import kernel
 from cyclomesh.core.fields import CONTACT_LOAD_FRACTION, contact_fields
 from cyclomesh.stage import solve_stage
 from cyclomesh.stage.kernel import disc_sums
+from cyclomesh.stage.kernel_newton import newton as kernel_newton
 from cyclomesh.stage.kernel_outputs import stage_fields
 
 pytest.importorskip("numba")
@@ -87,3 +88,41 @@ def test_the_stage_outputs_agree_with_the_reference(monkeypatch):
         a, b = getattr(ref, name), getattr(got, name)
         assert np.max(np.abs(a - b)) <= 1e-13 * np.max(np.abs(a)), name
     assert np.array_equal(ref.contacts, got.contacts)
+
+
+def _starts(monkeypatch, compiled_start, torques, stage, errors):
+    """The bearing phase's starts the compiled iteration asked for (crank angle, start)."""
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    if not compiled_start:
+        monkeypatch.setattr(eq, "compiled_start", lambda *args, **kwargs: None)
+    seen = []
+    real = kernel_newton  # the module's own (a second call does not wrap the first's)
+
+    def recording(p, law, x, discs, jacobian, settings, found, start, keep):
+        def asked(idx):
+            got = start(idx)
+            seen.append((idx.copy(), got.copy()))
+            return got
+
+        return real(p, law, x, discs, jacobian, settings, found, asked, keep)
+
+    monkeypatch.setattr(eq, "kernel_newton", recording)
+    out = solve_stage(RV40, stage, MOD, errors, torques, PHI, discs=2)
+    return seen, out
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_compiled_bearing_start_is_the_numpy_start_bit_for_bit(monkeypatch, seed):
+    """stage.kernel.bearing_start (the start of a crank angle the compiled iteration asks
+    for, in one pass) against solve_direction's NumPy start: the same starts, bit for
+    bit, so the same solution (crankshafts and carrier from geometry, pin and crank hole
+    errors, the rated torque and ∓3 % of it: discs that float)."""
+    errors, stage = _hard_stage(seed)
+    torques = [412.0, -LIGHT, LIGHT]
+    got, a = _starts(monkeypatch, True, torques, stage, errors)
+    ref, b = _starts(monkeypatch, False, torques, stage, errors)
+    assert len(got) == len(ref) >= 3
+    for (i, x), (j, y) in zip(got, ref, strict=True):
+        assert np.array_equal(i, j) and np.array_equal(x, y)
+    for name in ("twist", "bearing_load", "pin_load", "disc_rotation"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name

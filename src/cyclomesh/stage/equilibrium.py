@@ -59,6 +59,7 @@ from cyclomesh.stage.friction import (
     pin_slip,
     power_terms,
 )
+from cyclomesh.stage.kernel import bearing_start as compiled_start
 from cyclomesh.stage.kernel import (
     compiled,
     disc_sums,
@@ -81,6 +82,7 @@ from cyclomesh.stage.newton import (
     rotation_index,
 )
 from cyclomesh.stage.supports import (
+    SPLIT_ITERATIONS,
     BearingLaw,
     Supports,
     bearing_deflection,
@@ -856,6 +858,17 @@ def solve_direction(
                 xr, Fr, kr, _ = rigid_stage(sub, mesh.phi[idx])
             else:
                 xr, Fr, kr = (v[idx] for v in rigid)
+            if lazy:  # numba, rigid discs, no friction, no series spring: in one pass
+                holes = (sub.hx, sub.hy, sub.ex, sub.ey)
+                got = compiled_start(
+                    pin_block(sub), Fr, kr, xr, holes, sub.scale, law.rs, LOAD_EXPONENT,
+                    SPLIT_ITERATIONS,
+                )  # fmt: skip
+                if got is not None:  # (else the NumPy start, which raises)
+                    if supports is None:
+                        return got
+                    extra = supports.extra(D, stage.holes.count)
+                    return np.concatenate([got, np.zeros((got.shape[0], extra))], axis=-1)
             return bearing_start(sub, xr, Fr, kr)[0]
 
         x = None if lazy else start(np.arange(A))
