@@ -303,7 +303,16 @@ def test_the_compiled_newton_asks_for_the_starts_it_needs(monkeypatch):
         phases.append((law is None, x.shape[0]))
         return rigid(p, law, x, *args, **kwargs)
 
+    start = eq.compiled_start  # the start in one compiled pass (its split inside)
+
+    def counted_start(block, force, stiffness, x, *args):
+        got = start(block, force, stiffness, x, *args)
+        if got is not None:  # (else the NumPy start, counted by its split)
+            asked.append(x.shape[0])
+        return got
+
     monkeypatch.setattr(eq, "stiff_limit_split", counted_split)
+    monkeypatch.setattr(eq, "compiled_start", counted_start)
     monkeypatch.setattr(eq, "_solve", counted_solve)
     monkeypatch.setenv(kernel.ENV_VAR, "numba")
     ring = solve(

@@ -779,7 +779,9 @@ def contact_arrays(
     n_angles = shape[-2]
 
     def rows(x, tail):  # (..., 1 or A, n1 or 1) → (R, tail) contiguous
-        return np.ascontiguousarray(np.broadcast_to(x, (*ring, *tail)).reshape(-1, math.prod(tail)))
+        full = (*ring, *tail)  # (np.broadcast_to's wrapper, ~5 µs, only where it broadcasts)
+        x = x if np.shape(x) == full else np.broadcast_to(x, full)
+        return np.ascontiguousarray(x).reshape(-1, math.prod(tail))
 
     pcx = rows(pin_r * np.cos(pin_angle), (1, n1))
     pcy = rows(pin_r * np.sin(pin_angle), (1, n1))
@@ -788,37 +790,40 @@ def contact_arrays(
     s_rows = rows(s_pin, (1, n1))
     flat = (pcx.shape[0], n_angles, n1)
     n_rows = flat[0] * n_angles
-    out = {
-        name: np.empty(flat)
-        for name in (
-            "rotation",
-            "reverse_rotation",
-            "moment_arm",
-            "cos_beta",
-            "profile_angle",
-            "contact_radius",
-            "curvature_radius",
-        )
-    }
-    residual, arg_w = np.empty(flat), np.empty(flat)
-    normal = [np.empty(flat if normals else (0, 0, 0)) for _ in range(2)]
-    outs = [v.reshape(n_rows, n1) for v in out.values()]
-    normal_rows = [v.reshape(n_rows, n1) if normals else v.reshape(0, 0) for v in normal]
-    residual_rows, arg_w_rows = residual.reshape(n_rows, n1), arg_w.reshape(n_rows, n1)
+    # the results as views of one array (each C-contiguous): the seven contact arrays,
+    # the residual and arg w, then the normals
+    names = (
+        "rotation",
+        "reverse_rotation",
+        "moment_arm",
+        "cos_beta",
+        "profile_angle",
+        "contact_radius",
+        "curvature_radius",
+        "residual",
+        "arg_w",
+        *(("normal_x", "normal_y") if normals else ()),
+    )
+    whole = np.empty((len(names), n_rows, n1))
+    outs = list(whole[:7])
+    residual_rows, arg_w_rows = whole[7], whole[8]
+    normal_rows = list(whole[9:]) if normals else [np.empty((0, 0))] * 2
     phi_t = np.ascontiguousarray(-phi[:, 0] / n2)
     phi_rows = np.ascontiguousarray(phi[:, 0])
     pin_phase = np.ascontiguousarray(pin_phase, float)
     pin_rows = rows(pin_angle, (1, n1))
     # blocks of rows (crank angles of a ring) whose intermediates stay in the cache
     block = max(1, min(n_rows, BLOCK_CONTACTS // n1))
-    wx, wy, c, zx, zy, nx, ny, sin_u, d, arg_n, u = (np.empty((block, n1)) for _ in range(11))
-    reach = np.empty((block, n1), np.bool_)
+    # the eleven intermediates of a block as views of one array (each C-contiguous), the
+    # last block's rows of them sliced once
+    full = (*np.empty((11, block, n1)), np.empty((block, n1), np.bool_))
+    views = full
+    turn, normals = float(turn), bool(normals)
     for q0 in range(0, n_rows, block):
         q1 = min(q0 + block, n_rows)
-        m = q1 - q0
-        bwx, bwy, bc, bzx, bzy, bnx, bny, bsin, bd, barg_n, bu, breach = (
-            v[:m] for v in (wx, wy, c, zx, zy, nx, ny, sin_u, d, arg_n, u, reach)
-        )
+        if q1 - q0 < block:
+            views = tuple(v[: q1 - q0] for v in full)
+        bwx, bwy, bc, bzx, bzy, bnx, bny, bsin, bd, barg_n, bu, breach = views
         bad = passes.contact_phase(
             pcx, pcy, ecx, ecy, s_rows, a, e, n1, q0, q1,
             bwx, bwy, bc, bzx, bzy, bnx, bny, bsin, bd, residual_rows, breach,
@@ -849,19 +854,15 @@ def contact_arrays(
             n1,
             n2,
             rho_gen,
-            float(turn),
+            turn,
             *outs,
-            bool(normals),
+            normals,
             *normal_rows,
             n_angles,
             q0,
             q1,
         )
-    out["residual"] = residual
-    out["arg_w"] = arg_w
-    if normals:
-        out["normal_x"], out["normal_y"] = normal
-    return {name: value.reshape(shape) for name, value in out.items()}
+    return dict(zip(names, whole.reshape(len(names), *shape), strict=True))
 
 
 BLOCK_CONTACTS = 8192
@@ -884,10 +885,17 @@ def _pin_rows(pin_radius, shape):
     """(pin radii (rows, n1), repeat) of contacts of ``shape``: one row per ring when
     the radii are broadcast along the crank angles (repeat = the angles; no copy of a
     revolution's worth of equal rows), else every row (repeat = 1)."""
-    rp = np.broadcast_to(np.asarray(pin_radius, float), shape)
+    rp = np.asarray(pin_radius, float)
+    rp = rp if rp.shape == shape else np.broadcast_to(rp, shape)
     if rp.ndim >= 2 and rp.strides[-2] == 0:
         return np.ascontiguousarray(rp[..., 0, :]).reshape(-1, shape[-1]), shape[-2]
     return np.ascontiguousarray(rp).reshape(-1, shape[-1]), 1
+
+
+flat_rows = _flat
+"""Public name of :func:`_flat` (the stage's output pass reads its contacts so)."""
+pin_radius_rows = _pin_rows
+"""Public name of :func:`_pin_rows` (the stage's output pass reads its pin radii so)."""
 
 
 def compliance_arrays(
@@ -903,7 +911,8 @@ def compliance_arrays(
     reference :func:`~cyclomesh.core.hertz.compliance_coefficients`), in one pass."""
     from cyclomesh.core.hertz import effective_modulus
 
-    shape = np.broadcast_shapes(*(np.shape(v) for v in (pin_radius, curvature_radius, cos_beta)))
+    shapes = {np.shape(v) for v in (pin_radius, curvature_radius, cos_beta)}
+    shape = shapes.pop() if len(shapes) == 1 else np.broadcast_shapes(*shapes)
     c_pin = design.pin_material.compliance
     c_disc = design.disc_material.compliance
     c_ring = design.ring_material.compliance

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from cyclomesh.core.contact import UnloadedContact
 from cyclomesh.core.discbody import FREE_HELD, FreeDiscBody
-from cyclomesh.core.fields import contact_fields, contact_stresses
+from cyclomesh.core.fields import CONTACT_LOAD_FRACTION, contact_fields, contact_stresses
 from cyclomesh.core.friction import Friction
 from cyclomesh.core.lubrication import Film
 from cyclomesh.core.pair import CrankHoles, PairDesign
@@ -60,6 +60,7 @@ from cyclomesh.stage.friction import (
     pin_slip,
     power_terms,
 )
+from cyclomesh.stage.kernel import bearing_start as compiled_start
 from cyclomesh.stage.kernel import (
     compiled,
     disc_sums,
@@ -74,6 +75,7 @@ from cyclomesh.stage.kernel_newton import PIN_BLOCK, pin_block
 from cyclomesh.stage.kernel_newton import newton as kernel_newton
 from cyclomesh.stage.kernel_newton import rigid_newton as kernel_rigid_newton
 from cyclomesh.stage.kernel_newton import run as kernel_run
+from cyclomesh.stage.kernel_outputs import DISC_FIELDS, stage_fields
 from cyclomesh.stage.newton import (
     FORCE_TOLERANCE,
     newton,
@@ -82,6 +84,7 @@ from cyclomesh.stage.newton import (
     rotation_index,
 )
 from cyclomesh.stage.supports import (
+    SPLIT_ITERATIONS,
     BearingLaw,
     Supports,
     bearing_deflection,
@@ -902,6 +905,17 @@ def solve_direction(
                 xr, Fr, kr, _ = rigid_stage(sub, mesh.phi[idx])
             else:
                 xr, Fr, kr = (v[idx] for v in rigid)
+            if lazy:  # numba, rigid discs, no friction, no series spring: in one pass
+                holes = (sub.hx, sub.hy, sub.ex, sub.ey)
+                got = compiled_start(
+                    pin_block(sub), Fr, kr, xr, holes, sub.scale, law.rs, LOAD_EXPONENT,
+                    SPLIT_ITERATIONS,
+                )  # fmt: skip
+                if got is not None:  # (else the NumPy start, which raises)
+                    if supports is None:
+                        return got
+                    extra = supports.extra(D, stage.holes.count)
+                    return np.concatenate([got, np.zeros((got.shape[0], extra))], axis=-1)
             return bearing_start(sub, xr, Fr, kr)[0]
 
         x = None if lazy else start(np.arange(A))
@@ -982,6 +996,16 @@ def solve_direction(
             fr = {**fr, **lubricated_state(prob, F)}
         out.update(_friction_fields(prob, mesh, fr, st, motion, friction.speed, n1))
     loaded = [n for n in ("groove_load", "contact_stress", "groove_stress", "contacts") if want(n)]
+    sums = [n for n in DISC_FIELDS if want(n)]
+    if compiled() and (sums or len(loaded) > 1 or (loaded and fields is None)):
+        # CYCLOMESH_KERNEL=numba: the contact fields and the discs' sums in one pass
+        # (the same bits as contact_fields' and disc_sums' below)
+        out.update(
+            stage_fields(
+                F, pin_block(prob), mesh.geo, mesh.design, CONTACT_LOAD_FRACTION, {*loaded, *sums}
+            )
+        )
+        loaded, sums = [], []
     if fields is not None and loaded == ["contact_stress"]:  # the loaded pins' alone
         if cache is None or "geometry" not in cache:  # the stresses' geometry, flat
             geometry = [
@@ -997,7 +1021,7 @@ def solve_direction(
         out.update(
             contact_fields(loaded, mesh.design, mesh.geo, F[..., :n1], stack_axes=2)
         )  # per disc, against the stack
-    if want("torque_share") or want("mesh_fx") or want("mesh_fy"):
+    if sums:
         disc = _disc_loads(mesh, prob, F)
         out.update(
             torque_share=disc["torque_share"],

@@ -29,6 +29,7 @@ References
 
 from __future__ import annotations
 
+import math
 from functools import cache
 from typing import Any
 
@@ -220,19 +221,124 @@ def _start_kernels() -> tuple[Any, Any]:
     import numba
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _roller_point, _solve3
+    global _roller_point, _solve3, _split_rows, _deflection_rows, _disc_sum_rows, _turn_rows
     _roller_point = jit(_roller_point)
     _solve3 = jit(_solve3)
+    _split_rows = jit(_split_rows)  # compiled in place: _start_rows calls them
+    _deflection_rows = jit(_deflection_rows)
+    _disc_sum_rows = jit(_disc_sum_rows)
+    _turn_rows = jit(_turn_rows)
     return (
-        jit(_split_rows),
-        jit(_deflection_rows),
-        jit(_disc_sum_rows),
-        jit(_turn_rows),
+        _split_rows,
+        _deflection_rows,
+        _disc_sum_rows,
+        _turn_rows,
         jit(_single_rows),
         jit(_mesh_work_rows),
         jit(_flank_rows),
         jit(_dmax_rows),
+        jit(_start_rows),
     )
+
+
+def bearing_start(
+    block: FloatArray,
+    force: FloatArray,
+    stiffness: FloatArray,
+    x: FloatArray,
+    holes: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
+    L: float,
+    rs,
+    exponent: float,
+    split_iterations: int,
+) -> FloatArray | None:
+    """The bearing phase's start of :func:`cyclomesh.stage.equilibrium.solve_direction`
+    (its ``bearing_start``, rigid discs, no friction, no series spring) in one compiled
+    pass: from the rigid solution ``x`` (k, 1 + 3D), its pins' forces [N] and
+    stiffnesses [N/m] (k, D, P), the stiff limit's split of each disc's load
+    (:func:`split`), the bearings' deflections under it (:func:`deflection`, roller set
+    ``rs``), each disc's mean translation and turn and the carrier's rotation, as the
+    NumPy start forms them: the same operations in the same order (NumPy's sums of these
+    few terms along the last axis are in order, from the first; numba's hypot is the C
+    library's, as NumPy's), so the same bits. ``block`` the problem's pins (7, k, D, P),
+    ``holes`` (hx, hy (k, N), ex, ey (k, D, N)) [m], ``L`` r_c [m]. None where the split
+    does not converge (the caller takes the NumPy start, which raises)."""
+    out = np.array(x, dtype=float)
+    ok = _start_kernels()[8](
+        block,
+        np.ascontiguousarray(force, dtype=float),
+        np.ascontiguousarray(stiffness, dtype=float),
+        *(np.ascontiguousarray(v, dtype=float) for v in holes),
+        float(L),
+        float(exponent),
+        int(split_iterations),
+        np.cos(rs.angles),
+        0.5 * rs.clearance,
+        float(rs.constant),
+        out,
+    )
+    return out if ok else None
+
+
+def _start_rows(
+    pin, force, k_pin, hx, hy, ex, ey, L, p, split_iterations, cosines, half, constant, x,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`bearing_start` written for numba (``x`` the rigid solution, overwritten)."""
+    A, D, P = force.shape
+    N = hx.shape[1]
+    share = np.empty((A, D))
+    rfx = np.empty((A, D))
+    rfy = np.empty((A, D))
+    weight = np.empty((A, D))
+    _disc_sum_rows(force, pin[1], pin[2], pin[3], k_pin, share, rfx, rfy, weight)
+    moment = -share
+    bfx = np.zeros((A, D, N))
+    bfy = np.zeros((A, D, N))
+    if not _split_rows(hx, hy, rfx, rfy, moment, L, p, split_iterations, bfx, bfy):
+        return False
+    B = np.empty((A, D, N))
+    for i in range(A):
+        for d in range(D):
+            for k in range(N):
+                B[i, d, k] = math.hypot(bfx[i, d, k], bfy[i, d, k])
+    s = np.empty(A * D * N)
+    _deflection_rows(cosines, half, constant, p, B.reshape(-1), 100, D * N, s)
+    dx = np.empty((A, D, N))
+    dy = np.empty((A, D, N))
+    omega = np.empty((A, D))
+    ux = np.empty((A, D))
+    uy = np.empty((A, D))
+    scale = N * L * L
+    for i in range(A):
+        for d in range(D):
+            for k in range(N):
+                b = B[i, d, k]
+                sk = s[(i * D + d) * N + k]
+                dx[i, d, k] = (bfx[i, d, k] / b * sk if b > 0 else 0.0) - ex[i, d, k]
+                dy[i, d, k] = (bfy[i, d, k] / b * sk if b > 0 else 0.0) - ey[i, d, k]
+            om = dx[i, d, 0] * -hy[i, 0] + dy[i, d, 0] * hx[i, 0]
+            sx = dx[i, d, 0]
+            sy = dy[i, d, 0]
+            for k in range(1, N):
+                om += dx[i, d, k] * -hy[i, k] + dy[i, d, k] * hx[i, k]
+                sx += dx[i, d, k]
+                sy += dy[i, d, k]
+            omega[i, d] = om / scale
+            ux[i, d] = sx / N
+            uy[i, d] = sy / N
+    turn = np.empty((A, D))
+    _turn_rows(k_pin, pin[1], pin[2], pin[3], ux, uy, weight, turn)
+    for i in range(A):
+        c = (x[i, 1] + turn[i, 0]) - omega[i, 0]
+        for d in range(1, D):
+            c += (x[i, 1 + 3 * d] + turn[i, d]) - omega[i, d]
+        c = c / D
+        x[i, 0] = c
+        for d in range(D):
+            x[i, 1 + 3 * d] = c + omega[i, d]
+            x[i, 2 + 3 * d] = ux[i, d]
+            x[i, 3 + 3 * d] = uy[i, d]
+    return True
 
 
 def split(

@@ -170,14 +170,7 @@ def _arrays(p, law, G: FloatArray, discs: int, nw: int, m: int):
     A, N = p.hx.shape
     # (D, N, m): the structure, any crank angle (the crank angles reduced first, along
     # the contiguous leading axis: the same booleans as np.any over axes (0, 3))
-    A_, D_, N_, two, m_ = G.shape
-    nonzero = np.any(G.reshape(A_, -1) != 0.0, axis=0).reshape(D_, N_, two, m_).any(axis=2)
-    count = nonzero.sum(-1)
-    cols = np.zeros((*count.shape, max(int(count.max()), 1) + 1), np.int64)  # count first
-    for d in range(discs):
-        for k in range(N):
-            cols[d, k, 0] = count[d, k]
-            cols[d, k, 1 : 1 + count[d, k]] = np.flatnonzero(nonzero[d, k])
+    nonzero, cols = _kernels_columns()(G)
     core, blocks = _structure(nonzero, discs, N, nw, m)
     hole = np.empty((4, A, discs, N))
     hole[0], hole[1], hole[2], hole[3] = p.hx[:, None, :], p.hy[:, None, :], p.ex, p.ey
@@ -189,6 +182,43 @@ def _arrays(p, law, G: FloatArray, discs: int, nw: int, m: int):
         ]
     )
     return cols, core, blocks, hole, const
+
+
+@cache
+def _kernels_columns() -> Any:
+    import numba
+
+    return numba.njit(cache=True, nogil=True, error_model="numpy")(_column_rows)
+
+
+def _column_rows(G):  # pragma: no cover (compiled)
+    """The columns of :func:`_arrays` in one pass: ``nonzero`` (D, N, m), True where
+    ∂d/∂x (``G`` (A, D, N, 2, m)) of hole (d, k) has a nonzero (or NaN) entry in column j
+    at any crank angle (np.any's booleans), and ``cols`` (D, N, 1 + c): each hole's count
+    of them, then their indices in increasing order (c the largest count, at least 1)."""
+    A, D, N, two, m = G.shape
+    nonzero = np.zeros((D, N, m), np.bool_)
+    for i in range(A):
+        for d in range(D):
+            for k in range(N):
+                for r in range(two):
+                    for j in range(m):
+                        if G[i, d, k, r, j] != 0.0:
+                            nonzero[d, k, j] = True
+    width = 1
+    for d in range(D):
+        for k in range(N):
+            width = max(width, int(np.sum(nonzero[d, k])))
+    cols = np.zeros((D, N, width + 1), np.int64)  # the count first
+    for d in range(D):
+        for k in range(N):
+            c = 0
+            for j in range(m):
+                if nonzero[d, k, j]:
+                    c += 1
+                    cols[d, k, c] = j
+            cols[d, k, 0] = c
+    return nonzero, cols
 
 
 def pin_block(p) -> FloatArray:

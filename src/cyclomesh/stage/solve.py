@@ -516,12 +516,11 @@ def _by_torque(results: list[dict[str, FloatArray]]) -> dict[str, FloatArray]:
     """The fields of every torque stacked (a leading torque axis); NaN at the torques
     where a field was not asked for (``only_at``). One torque: each field's own array
     with the axis added (no copy where it is C-contiguous; the same values)."""
+    if len(results) == 1:
+        return {name: np.ascontiguousarray(value)[None] for name, value in results[0].items()}
     out = {}
     for name in dict.fromkeys(name for r in results for name in r):
         like = next(r[name] for r in results if name in r)
-        if len(results) == 1:
-            out[name] = np.ascontiguousarray(like)[None]
-            continue
         out[name] = np.stack(
             [r[name] if name in r else np.full(like.shape, np.nan) for r in results]
         )

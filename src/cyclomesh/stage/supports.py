@@ -41,6 +41,8 @@ FloatArray = NDArray[np.float64]
 
 _SPLIT_ITERATIONS = 200
 """Newton steps of :func:`stiff_limit_split` before it gives up (as the stage's own)."""
+SPLIT_ITERATIONS = _SPLIT_ITERATIONS
+"""Its public name (the compiled bearing start of cyclomesh.stage.kernel takes it)."""
 
 
 # --- the bearing law with its optional series spring ---------------------------------
