@@ -277,7 +277,7 @@ def _symmetric_arrow(rng, nr, D, lam):
 def _spd_solve(H, g, nr, D, lam):
     step = np.zeros(g.size)
     H0 = H.copy()
-    ok = kc._solve_spd(
+    ok = kc._solve_ldl(
         H, g, step, nr, D, lam, np.zeros((nr, nr)), np.zeros((D, lam, nr + 1)),
         np.zeros(nr), np.zeros(nr), np.zeros((D, nr + 1), np.int64), np.zeros((nr + 1, nr + 1)),
         np.zeros((D, lam)), np.zeros((D, lam, lam)),

@@ -21,17 +21,20 @@ law it cannot invert, a stall) are left to the NumPy path from their own start
 residual Newton), exactly as there. The iteration runs to round-off, so the root is the
 reference's to round-off.
 
-The Newton step eliminates each disc's body unknowns first (:func:`_solve_body_py`: the
+The Newton step eliminates each disc's body unknowns first (:func:`_solve_ldl_py`: the
 Hessian is block-arrow shaped, each disc's body block coupled only to itself and to c, the
-disc's θ and u, its crankshafts' deflections and the end plate's β), leaving the Schur
-complement of those ~20 unknowns (a zero pivot in a body block: the whole Hessian by the
-rigid discs' elimination, :func:`cyclomesh.stage.kernel_newton._solve_blocks`). Where
+disc's θ and u, its crankshafts' deflections and the end plate's β; each body block by
+L·Δ·Lᵀ without pivoting, else by LU with partial pivoting, :func:`_solve_body_py`),
+leaving the Schur complement of those ~20 unknowns (a zero pivot in a body block: the
+whole Hessian by the rigid discs' elimination,
+:func:`cyclomesh.stage.kernel_newton._solve_blocks`). Where
 every crank angle was finished, the state at the solution (the pins' forces and the
 body's shift there, the bearings' forces and deflections, the gradient) is handed to the
 caller, which need not evaluate the solution again (:func:`newton` ``state``).
-Measured (task i38b, docs/stage.md): an evaluation with its Hessian ~13 µs, a Newton step's
-solve ~20 µs (72 unknowns, two 26-unknown body blocks), 3.6 evaluations a crank angle at
-the rated torque and 5–7 at ±3 %; a stage tolerance ring's three solves ~0.13 CPU-s.
+Measured (tasks i38b, i39b, docs/stage.md): an evaluation with its Hessian ~13 µs, a
+Newton step's solve ~10 µs (72 unknowns, two 26-unknown body blocks; ~20 by their LUs),
+3.6 evaluations a crank angle at the rated torque and 4–7 at ±3 %; a stage tolerance
+ring's three solves ~0.11 CPU-s.
 """
 
 from __future__ import annotations
@@ -56,7 +59,7 @@ def _kernels() -> tuple[Any, Any]:
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
     global _pin_force, _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows
-    global _solve_spd
+    global _solve_ldl
     _pin_force = _kn._pin_force
     _solve_in_place = _kn._solve_in_place
     _solve_blocks = _kn._solve_blocks
@@ -64,7 +67,7 @@ def _kernels() -> tuple[Any, Any]:
     _carry = jit(_carry_py)
     _rows = jit(_rows_py)
     _solve_body = jit(_solve_body_py)
-    _solve_spd = jit(_solve_spd_py)
+    _solve_ldl = jit(_solve_ldl_py)
     return jit(_evaluate_rows), jit(_newton_rows)
 
 
@@ -449,7 +452,7 @@ def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T):  # pragma: no 
 _GROWTH = 1e3  # the largest |L_rk| of the LDLᵀ without pivoting; beyond: the LU's
 
 
-def _solve_spd_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb):  # pragma: no cover
+def _solve_ldl_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb):  # pragma: no cover
     """step = −H⁻¹g as :func:`_solve_body_py` (each disc's body unknowns Z_d eliminated
     first, the block-arrow Hessian), each body block H_ZZ = L·Δ·Lᵀ (symmetric, L unit lower
     triangular, Δ diagonal; H_ZZ is symmetric but not definite: the body's energy E is
@@ -780,7 +783,7 @@ def _newton_rows(
                 diag = max(diag, 1e-300)
                 for r in range(m):
                     H[r, r] += 1e-14 * diag
-                solved = _solve_spd(H, g, step, nr, D, lam, Sb, Yb, rb, sb, cl, Tb, dg, Lb)
+                solved = _solve_ldl(H, g, step, nr, D, lam, Sb, Yb, rb, sb, cl, Tb, dg, Lb)
                 if not solved:  # a body block's pivot 0: the whole H, evaluated again
                     _evaluate_one(
                         i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier,
