@@ -262,3 +262,64 @@ def test_the_kernels_state_is_the_references_at_its_solution(problems, monkeypat
             _close(ref, got, 1e-13, name)
         scale = max(np.max(np.abs(g)), abs(p.torque) / p.scale)
         assert np.max(np.abs(state["gradient"] - g)) <= 1e-13 * scale
+
+
+def _symmetric_arrow(rng, nr, D, lam):
+    """A symmetric block-arrow matrix with indefinite body blocks (as the body's energy)."""
+    H, g = _arrow(rng, nr, D, lam)
+    H = 0.5 * (H + H.T)
+    for d in range(D):
+        z = slice(nr + d * lam, nr + (d + 1) * lam)
+        H[z, z] -= 1.5 * np.eye(lam)  # (some eigenvalues below 0)
+    return H, g
+
+
+def _spd_solve(H, g, nr, D, lam):
+    step = np.zeros(g.size)
+    H0 = H.copy()
+    ok = kc._solve_ldl(
+        H, g, step, nr, D, lam, np.zeros((nr, nr)), np.zeros((D, lam, nr + 1)),
+        np.zeros(nr), np.zeros(nr), np.zeros((D, nr + 1), np.int64), np.zeros((nr + 1, nr + 1)),
+        np.zeros((D, lam)), np.zeros((D, lam, lam)),
+    )  # fmt: skip
+    return ok, step, H0
+
+
+@pytest.mark.parametrize("seed", [5, 6, 7])
+def test_the_symmetric_block_solve_is_lapacks(seed):
+    """The LΔLᵀ elimination of the body blocks (symmetric, indefinite) against LAPACK's
+    solve; H is left as it was (the LU fallback needs it)."""
+    kc._kernels()
+    rng = np.random.default_rng(seed)
+    nr, D, lam = 9, 2, 7
+    H, g = _symmetric_arrow(rng, nr, D, lam)
+    assert np.min(np.linalg.eigvalsh(H[nr : nr + lam, nr : nr + lam])) < 0.0
+    ok, step, H0 = _spd_solve(H, g, nr, D, lam)
+    assert ok
+    np.testing.assert_array_equal(H, H0)
+    _close(np.linalg.solve(H0, -g), step, 1e-12, "step")
+
+
+@pytest.mark.parametrize("case", ["zero pivot", "growth", "singular"])
+def test_the_symmetric_block_solve_falls_back_to_the_lu(case):
+    """A body block whose first pivot is 0 or whose L would grow beyond _GROWTH goes to
+    the LU with partial pivoting (_solve_body), whose result is LAPACK's; a singular body
+    block: False (the caller solves the whole H)."""
+    kc._kernels()
+    rng = np.random.default_rng(8)
+    nr, D, lam = 9, 2, 7
+    H, g = _symmetric_arrow(rng, nr, D, lam)
+    z = nr + lam  # the second disc's block
+    if case == "zero pivot":
+        H[z, z] = 0.0
+    elif case == "growth":
+        H[z, z] = 1e-6 * abs(H[z + 1, z])
+    else:
+        H[z : z + lam, z] = 0.0
+        H[z, z : z + lam] = 0.0
+    ok, step, H0 = _spd_solve(H, g, nr, D, lam)
+    if case == "singular":
+        assert not ok
+        return
+    assert ok
+    _close(np.linalg.solve(H0, -g), step, 1e-10, "step")

@@ -21,17 +21,20 @@ law it cannot invert, a stall) are left to the NumPy path from their own start
 residual Newton), exactly as there. The iteration runs to round-off, so the root is the
 reference's to round-off.
 
-The Newton step eliminates each disc's body unknowns first (:func:`_solve_body_py`: the
+The Newton step eliminates each disc's body unknowns first (:func:`_solve_ldl_py`: the
 Hessian is block-arrow shaped, each disc's body block coupled only to itself and to c, the
-disc's θ and u, its crankshafts' deflections and the end plate's β), leaving the Schur
-complement of those ~20 unknowns (a zero pivot in a body block: the whole Hessian by the
-rigid discs' elimination, :func:`cyclomesh.stage.kernel_newton._solve_blocks`). Where
+disc's θ and u, its crankshafts' deflections and the end plate's β; each body block by
+L·Δ·Lᵀ without pivoting, else by LU with partial pivoting, :func:`_solve_body_py`),
+leaving the Schur complement of those ~20 unknowns (a zero pivot in a body block: the
+whole Hessian by the rigid discs' elimination,
+:func:`cyclomesh.stage.kernel_newton._solve_blocks`). Where
 every crank angle was finished, the state at the solution (the pins' forces and the
 body's shift there, the bearings' forces and deflections, the gradient) is handed to the
 caller, which need not evaluate the solution again (:func:`newton` ``state``).
-Measured (task i38b, docs/stage.md): an evaluation with its Hessian ~13 µs, a Newton step's
-solve ~20 µs (72 unknowns, two 26-unknown body blocks), 3.6 evaluations a crank angle at
-the rated torque and 5–7 at ±3 %; a stage tolerance ring's three solves ~0.13 CPU-s.
+Measured (tasks i38b, i39b, docs/stage.md): an evaluation with its Hessian ~13 µs, a
+Newton step's solve ~10 µs (72 unknowns, two 26-unknown body blocks; ~20 by their LUs),
+3.6 evaluations a crank angle at the rated torque and 4–7 at ±3 %; a stage tolerance
+ring's three solves ~0.11 CPU-s.
 """
 
 from __future__ import annotations
@@ -56,6 +59,7 @@ def _kernels() -> tuple[Any, Any]:
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
     global _pin_force, _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows
+    global _solve_ldl
     _pin_force = _kn._pin_force
     _solve_in_place = _kn._solve_in_place
     _solve_blocks = _kn._solve_blocks
@@ -63,6 +67,7 @@ def _kernels() -> tuple[Any, Any]:
     _carry = jit(_carry_py)
     _rows = jit(_rows_py)
     _solve_body = jit(_solve_body_py)
+    _solve_ldl = jit(_solve_ldl_py)
     return jit(_evaluate_rows), jit(_newton_rows)
 
 
@@ -444,6 +449,98 @@ def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T):  # pragma: no 
     return True
 
 
+_GROWTH = 1e3  # the largest |L_rk| of the LDLᵀ without pivoting; beyond: the LU's
+
+
+def _solve_ldl_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb):  # pragma: no cover
+    """step = −H⁻¹g as :func:`_solve_body_py` (each disc's body unknowns Z_d eliminated
+    first, the block-arrow Hessian), each body block H_ZZ = L·Δ·Lᵀ (symmetric, L unit lower
+    triangular, Δ diagonal; H_ZZ is symmetric but not definite: the body's energy E is
+    not), without pivoting: W = L⁻¹[H_ZR | g_Z] on the columns of R that Z_d couples to
+    (``cl``), S −= W_Rᵀ·Δ⁻¹·W_R, rhs −= W_Rᵀ·Δ⁻¹·w_g; then S by
+    :func:`~cyclomesh.stage.kernel_newton._solve_in_place` and Z_d = −L⁻ᵀΔ⁻¹(w_g +
+    W_R·s_R). About half the arithmetic of the LU's (no back substitution of Y, half the
+    factorisation). Where a pivot is 0 or an entry of L beyond ``_GROWTH`` (the elimination
+    without pivoting not stable), the LU's :func:`_solve_body_py` instead (its False: a
+    pivot 0 there too). H is not written; ``dg`` (D, lam), ``Lb`` (D, lam, lam): work."""
+    for a in range(nr):
+        for b in range(nr):
+            S[a, b] = H[a, b]
+        rhs[a] = g[a]
+    for d in range(D):
+        z = nr + d * lam
+        nc = 0
+        for a in range(nr):
+            for q in range(lam):
+                if H[z + q, a] != 0.0:
+                    cl[d, 1 + nc] = a
+                    nc += 1
+                    break
+        cl[d, 0] = nc
+        for q in range(lam):
+            for b in range(nc):
+                Y[d, q, b] = H[z + q, cl[d, 1 + b]]
+            Y[d, q, nc] = g[z + q]
+        # L·Δ·Lᵀ by rows: Lb[r, j] (j < r) holds L_rj·Δ_j while row r is formed, then L_rj
+        for r in range(lam):
+            hr = H[z + r]
+            lr = Lb[d, r]
+            for k in range(r):
+                lk = Lb[d, k]
+                acc = hr[z + k]
+                for j in range(k):
+                    acc -= lr[j] * lk[j]  # (L_rj·Δ_j)·L_kj
+                lr[k] = acc  # L_rk·Δ_k
+            dr = hr[z + r]
+            for k in range(r):
+                t = lr[k]
+                lr[k] = t / dg[d, k]
+                dr -= lr[k] * t
+                if abs(lr[k]) > _GROWTH:
+                    return _solve_body(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T)
+            if dr == 0.0:
+                return _solve_body(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T)
+            dg[d, r] = dr
+            # the forward substitution's row r: W_r = Y_r − Σ_k<r L_rk·W_k
+            for k in range(r):
+                f = lr[k]
+                if f != 0.0:
+                    for c in range(nc + 1):
+                        Y[d, r, c] -= f * Y[d, k, c]
+        # S −= W_Rᵀ·Δ⁻¹·W_R, rhs −= W_Rᵀ·Δ⁻¹·w_g (T's contiguous rows, then scattered)
+        for u in range(nc):
+            a = cl[d, 1 + u]
+            for b in range(nc + 1):
+                T[u, b] = 0.0
+            for q in range(lam):
+                w = Y[d, q, u] / dg[d, q]
+                if w != 0.0:
+                    for b in range(nc + 1):
+                        T[u, b] += w * Y[d, q, b]
+            for b in range(nc):
+                S[a, cl[d, 1 + b]] -= T[u, b]
+            rhs[a] -= T[u, nc]
+    if not _solve_in_place(S, rhs, sc):
+        return False
+    for a in range(nr):
+        step[a] = sc[a]
+    for d in range(D):
+        z = nr + d * lam
+        nc = cl[d, 0]
+        for q in range(lam):  # Δ⁻¹(w_g + W_R·s_R)
+            acc = Y[d, q, nc]
+            for b in range(nc):
+                acc += Y[d, q, b] * sc[cl[d, 1 + b]]
+            dg[d, q] = acc / dg[d, q]
+        for k in range(lam - 1, -1, -1):  # Lᵀ·v = that, by L's rows
+            lk = Lb[d, k]
+            v = dg[d, k]
+            step[z + k] = -v
+            for j in range(k):
+                dg[d, j] -= lk[j] * v
+    return True
+
+
 def _rows_py(wrow, pin_w, i):  # pragma: no cover (compiled)
     """``wrow`` (D, P): the flanks whose body coefficients at crank angle ``i`` are not all
     0 (the candidates and the padding's; the body moves no other pin)."""
@@ -580,6 +677,8 @@ def _newton_rows(
     sb = np.zeros(nr)
     cl = np.zeros((D, nr + 1), np.int64)
     Tb = np.zeros((nr + 1, nr + 1))
+    dg = np.zeros((D, lam))
+    Lb = np.zeros((D, lam, lam))
     memo = np.zeros((3, D, P))
     wrow = np.zeros((D, P), np.bool_)
     scratch = np.zeros((2, m))
@@ -684,7 +783,7 @@ def _newton_rows(
                 diag = max(diag, 1e-300)
                 for r in range(m):
                     H[r, r] += 1e-14 * diag
-                solved = _solve_body(H, g, step, nr, D, lam, Sb, Yb, rb, sb, cl, Tb)
+                solved = _solve_ldl(H, g, step, nr, D, lam, Sb, Yb, rb, sb, cl, Tb, dg, Lb)
                 if not solved:  # a body block's pivot 0: the whole H, evaluated again
                     _evaluate_one(
                         i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier,
