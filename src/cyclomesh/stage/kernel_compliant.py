@@ -59,8 +59,9 @@ def _kernels() -> tuple[Any, Any]:
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
     global _pin_force, _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows
-    global _solve_ldl
+    global _solve_ldl, _rollers
     _pin_force = _kn._pin_force
+    _rollers = _kn._rollers
     _solve_in_place = _kn._solve_in_place
     _solve_blocks = _kn._solve_blocks
     _evaluate_one = jit(_evaluate_one_py)
@@ -272,18 +273,7 @@ def _evaluate_one_py(
             dx = dx + hx
             dy = dy + hy
             s_ = np.hypot(dx, dy)
-            B = 0.0
-            kb = 0.0
-            ub = 0.0
-            for j in range(R):
-                cj = const[j]
-                dj = s_ * cj - half
-                if dj > 0.0:
-                    root = dj ** (1.0 / 9.0)
-                    q = dj * root
-                    B += kn * q * cj
-                    kb += p * kn * root * cj * cj
-                    ub += kn * (dj * q)
+            B, kb, ub = _rollers(s_, const, R, half, kn)
             bearings += ub / (p + 1.0)
             if not want:
                 continue

@@ -270,8 +270,9 @@ def _kernels_newton() -> Any:
     import numba
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _evaluate_one, _pin_force, _solve_in_place, _solve_blocks
+    global _evaluate_one, _pin_force, _solve_in_place, _solve_blocks, _rollers
     _pin_force = jit(_pin_force)
+    _rollers = jit(_rollers)
     _solve_in_place = jit(_solve_in_place)
     _solve_blocks = jit(_solve_blocks)
     _evaluate_one = jit(_evaluate_one)
@@ -428,6 +429,30 @@ def _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc):  # pragma: no cover 
     return True
 
 
+def _rollers(s, const, R, half, kn):  # pragma: no cover (compiled)
+    """One crank bearing's rollers at the deflection s [m] of its hole against its crank pin
+    (the roller law of :mod:`cyclomesh.stage.bearing`, Q = kn·δ^p with p = 10/9 on each of
+    the R rollers, δ_j = s·cos ψ_j − e/2, ``const[:R]`` the cosines, ``half`` = e/2):
+    the bearing's load B = Σ Q_j·cos ψ_j [N], its stiffness dB/ds = Σ p·kn·δ_j^(1/9)·cos²ψ_j
+    [N/m] and Σ kn·δ_j^(p+1) (the energy times p + 1 [J]). Shared by the rigid discs'
+    compiled evaluation (:func:`_evaluate_one`) and the compliant disc's
+    (:mod:`cyclomesh.stage.kernel_compliant`), the same operations in the same order."""
+    p = 10.0 / 9.0
+    B = 0.0
+    kb = 0.0
+    ub = 0.0
+    for j in range(R):
+        cj = const[j]
+        dj = s * cj - half
+        if dj > 0.0:
+            root = dj ** (1.0 / 9.0)
+            q = dj * root
+            B += kn * q * cj
+            kb += p * kn * root * cj * cj
+            ub += kn * (dj * q)
+    return B, kb, ub
+
+
 def _evaluate_one(
     i, x, pin, hole, G, cols, const, nw, kcarrier, carrier, half, kn, torque, L, want, g, H, memo,
     pf, bf,
@@ -510,18 +535,7 @@ def _evaluate_one(
             dx = x[2 + 3 * d] + rot * (-hole[1, i, d, k]) + hole[2, i, d, k] - wx
             dy = x[3 + 3 * d] + rot * hole[0, i, d, k] + hole[3, i, d, k] - wy
             s = np.hypot(dx, dy)
-            B = 0.0
-            kb = 0.0
-            ub = 0.0
-            for j in range(R):
-                cj = const[j]
-                dj = s * cj - half
-                if dj > 0.0:
-                    root = dj ** (1.0 / 9.0)
-                    q = dj * root
-                    B += kn * q * cj
-                    kb += p * kn * root * cj * cj
-                    ub += kn * (dj * q)
+            B, kb, ub = _rollers(s, const, R, half, kn)
             bearings += ub / (p + 1.0)
             if not want:
                 continue
