@@ -59,7 +59,7 @@ def _kernels() -> tuple[Any, Any]:
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
     global _pin_force, _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows
-    global _solve_ldl, _rollers
+    global _solve_ldl, _rollers, _coupled
     _pin_force = _kn._pin_force
     _rollers = _kn._rollers
     _solve_in_place = _kn._solve_in_place
@@ -67,6 +67,7 @@ def _kernels() -> tuple[Any, Any]:
     _evaluate_one = jit(_evaluate_one_py)
     _carry = jit(_carry_py)
     _rows = jit(_rows_py)
+    _coupled = jit(_coupled_py)
     _solve_body = jit(_solve_body_py)
     _solve_ldl = jit(_solve_ldl_py)
     return jit(_evaluate_rows), jit(_newton_rows)
@@ -346,20 +347,12 @@ def _evaluate_one_py(
     return energy_total, status
 
 
-def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T):  # pragma: no cover
-    """step = −H⁻¹g with each disc's body unknowns eliminated first: the unknowns are the
-    rest R (the first ``nr``: c, the discs' θ and u, the crankshafts' deflections, the end
-    plate's β) and the discs' body unknowns Z_d (``lam`` each, from ``nr``), and Z_d couples
-    only to R and to itself (the pins of disc d, its energy E, its crank bearings'
-    hole-against-pin vectors: :func:`~cyclomesh.stage.assembly.bearing_jacobian`), so H is
-    block-arrow shaped. Per disc: the columns of R that Z_d couples to (``cl``: c, θ_d,
-    u_d, its crankshafts' deflections, β), H_ZZ's LU with partial pivoting inside the
-    block, Y = H_ZZ⁻¹[H_ZR | g_Z] on those columns, S −= H_RZ·Y; then S (the Schur
-    complement of R) by :func:`~cyclomesh.stage.kernel_newton._solve_in_place`, and
-    Z_d = y_d − Y_d·s_R. ``S`` (nr, nr), ``Y`` (D, lam, nr + 1), ``rhs``, ``sc`` (nr,),
-    ``cl`` (D, nr + 1, count first), ``T`` (nr + 1, nr + 1): work arrays. H is
-    overwritten (its Z blocks by their LU); False where a pivot is 0 (the caller then
-    evaluates H again and solves it whole)."""
+def _coupled_py(H, g, nr, D, lam, S, rhs, cl, Y):  # pragma: no cover (compiled)
+    """The start of both body-block eliminations (:func:`_solve_body_py`,
+    :func:`_solve_ldl_py`): S = H_RR and rhs = g_R (R the nr unknowns before the body's),
+    and per disc d the columns of R that its body block Z_d couples to (``cl[d]``: their
+    count, then their indices, from H's nonzeros) with Y_d = [H_ZR | g_Z] on them. Only
+    H's and g's entries are read; a disc's later elimination does not touch another's."""
     for a in range(nr):
         for b in range(nr):
             S[a, b] = H[a, b]
@@ -378,6 +371,26 @@ def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T):  # pragma: no 
             for b in range(nc):
                 Y[d, q, b] = H[z + q, cl[d, 1 + b]]
             Y[d, q, nc] = g[z + q]
+
+
+def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T):  # pragma: no cover
+    """step = −H⁻¹g with each disc's body unknowns eliminated first: the unknowns are the
+    rest R (the first ``nr``: c, the discs' θ and u, the crankshafts' deflections, the end
+    plate's β) and the discs' body unknowns Z_d (``lam`` each, from ``nr``), and Z_d couples
+    only to R and to itself (the pins of disc d, its energy E, its crank bearings'
+    hole-against-pin vectors: :func:`~cyclomesh.stage.assembly.bearing_jacobian`), so H is
+    block-arrow shaped. Per disc: the columns of R that Z_d couples to (``cl``: c, θ_d,
+    u_d, its crankshafts' deflections, β), H_ZZ's LU with partial pivoting inside the
+    block, Y = H_ZZ⁻¹[H_ZR | g_Z] on those columns, S −= H_RZ·Y; then S (the Schur
+    complement of R) by :func:`~cyclomesh.stage.kernel_newton._solve_in_place`, and
+    Z_d = y_d − Y_d·s_R. ``S`` (nr, nr), ``Y`` (D, lam, nr + 1), ``rhs``, ``sc`` (nr,),
+    ``cl`` (D, nr + 1, count first), ``T`` (nr + 1, nr + 1): work arrays. H is
+    overwritten (its Z blocks by their LU); False where a pivot is 0 (the caller then
+    evaluates H again and solves it whole)."""
+    _coupled(H, g, nr, D, lam, S, rhs, cl, Y)
+    for d in range(D):
+        z = nr + d * lam
+        nc = cl[d, 0]
         # LU of the block in H's rows z … z + lam − 1 (columns z …), rows pivoted
         for k in range(lam):
             piv = k
@@ -453,24 +466,10 @@ def _solve_ldl_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb):  # prag
     factorisation). Where a pivot is 0 or an entry of L beyond ``_GROWTH`` (the elimination
     without pivoting not stable), the LU's :func:`_solve_body_py` instead (its False: a
     pivot 0 there too). H is not written; ``dg`` (D, lam), ``Lb`` (D, lam, lam): work."""
-    for a in range(nr):
-        for b in range(nr):
-            S[a, b] = H[a, b]
-        rhs[a] = g[a]
+    _coupled(H, g, nr, D, lam, S, rhs, cl, Y)
     for d in range(D):
         z = nr + d * lam
-        nc = 0
-        for a in range(nr):
-            for q in range(lam):
-                if H[z + q, a] != 0.0:
-                    cl[d, 1 + nc] = a
-                    nc += 1
-                    break
-        cl[d, 0] = nc
-        for q in range(lam):
-            for b in range(nc):
-                Y[d, q, b] = H[z + q, cl[d, 1 + b]]
-            Y[d, q, nc] = g[z + q]
+        nc = cl[d, 0]
         # L·Δ·Lᵀ by rows: Lb[r, j] (j < r) holds L_rj·Δ_j while row r is formed, then L_rj
         for r in range(lam):
             hr = H[z + r]
