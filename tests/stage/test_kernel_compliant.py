@@ -232,19 +232,7 @@ def test_the_kernels_state_is_the_references_at_its_solution(problems, monkeypat
     gradient: of T/r_c)."""
     import cyclomesh.stage.newton as reference
 
-    settings = (
-        reference.FORCE_TOLERANCE,
-        reference._MAX_ITERATIONS,
-        reference._MAX_HALVINGS,
-        reference._STEP_CAP,
-        *reference._LINEAR,
-        reference.ROUND_OFF_FORCE,
-        reference._STALL_HALVINGS,
-        reference._STALL_ITERATIONS,
-        reference._QUADRATIC,
-        True,
-        10**6,
-    )
+    settings = reference.kernel_settings(10**6, compliant=True)
     for p, law, start, _sol, D in problems:
         x = start.copy()
         state: dict = {}

@@ -395,19 +395,7 @@ def _body_kernel(
     ``state``: where the kernel finished every crank angle, the state at the solution
     (:func:`cyclomesh.stage.kernel_compliant.newton`'s), as :func:`_kernel_newton`'s."""
     jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, x.shape[1])
-    settings = (
-        reference.FORCE_TOLERANCE,
-        reference._MAX_ITERATIONS,
-        reference._MAX_HALVINGS,
-        reference._STEP_CAP,
-        *reference._LINEAR,
-        reference.ROUND_OFF_FORCE,
-        reference._STALL_HALVINGS,
-        reference._STALL_ITERATIONS,
-        reference._QUADRATIC,
-        reference._REUSE_TRIAL and reference._LAST_STEP,
-        kernel_run(x.shape[0]),
-    )
+    settings = reference.kernel_settings(kernel_run(x.shape[0]), compliant=True)
     failed = kernel_compliant(p, law, x, discs, jacobian, settings, state=state)
     if np.any(failed):
         idx = np.flatnonzero(failed)
@@ -532,15 +520,7 @@ def _kernel_newton(
         m = p.jacobian.shape[-1] if p.jacobian is not None else 1 + 3 * discs
         x = np.zeros((p.bl.shape[0], m))
     begin = None if x is None else x.copy()
-    settings = (
-        reference.FORCE_TOLERANCE,
-        reference._MAX_ITERATIONS,
-        reference._MAX_HALVINGS,
-        reference._STEP_CAP,
-        *reference._LINEAR,
-        reference.ROUND_OFF_FORCE,
-        kernel_run(x.shape[0]),
-    )
+    settings = reference.kernel_settings(kernel_run(x.shape[0]))
     found: dict = {}
     if rigid:
         failed = kernel_rigid_newton(p, x, discs, settings, found)

@@ -23,6 +23,7 @@ from cyclomesh.stage.kernel_body import hessian_noise
 
 __all__ = [
     "newton",
+    "kernel_settings",
     "residual_newton",
     "rotation_index",
     "FORCE_TOLERANCE",
@@ -303,6 +304,21 @@ def newton(
         f"residual above {FORCE_TOLERANCE:.0e}·T/r_c or still falling after {_MAX_ITERATIONS} "
         "Newton steps"
     )
+
+
+def kernel_settings(run: int, compliant: bool = False) -> tuple:
+    """The iteration's constants as the compiled Newtons take them, in their order
+    (:func:`cyclomesh.stage.kernel_newton.newton`; with ``compliant`` the compliant disc's
+    :func:`cyclomesh.stage.kernel_compliant.newton`, which adds the give-ups and the last
+    step): :data:`FORCE_TOLERANCE`, the iteration and halving limits, :data:`_STEP_CAP`
+    [m], :data:`_LINEAR`, :data:`ROUND_OFF_FORCE`, (compliant: :data:`_STALL_HALVINGS`,
+    :data:`_STALL_ITERATIONS`, :data:`_QUADRATIC`, :data:`_LAST_STEP` with
+    :data:`_REUSE_TRIAL`), then ``run``, the crank angles of a warm run."""
+    head = (FORCE_TOLERANCE, _MAX_ITERATIONS, _MAX_HALVINGS, _STEP_CAP, *_LINEAR, ROUND_OFF_FORCE)
+    if not compliant:
+        return (*head, run)
+    last = _REUSE_TRIAL and _LAST_STEP
+    return (*head, _STALL_HALVINGS, _STALL_ITERATIONS, _QUADRATIC, last, run)
 
 
 def residual_newton(
