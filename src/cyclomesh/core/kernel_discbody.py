@@ -78,9 +78,9 @@ table's most negative response to the loads before, raised by the same fraction.
 
 @cache
 def compiled() -> Any:
-    """The compiled passes as a namespace (``candidates``: :func:`_candidates`,
-    ``solve_sets``: :func:`_solve_sets`, ``suspects``: :func:`_suspects`, ``teeth``:
-    :func:`_teeth`), or None
+    """The compiled passes as a namespace (``cell``: :func:`_cell`, ``candidates``:
+    :func:`_candidates`, ``solve_sets``: :func:`_solve_sets`, ``suspects``:
+    :func:`_suspects`, ``teeth``: :func:`_teeth`), or None
     without numba (imported on first use)."""
     try:
         import numba
@@ -106,6 +106,7 @@ def compiled() -> Any:
     _give_up = jit(_give_up)
 
     class Passes:
+        cell = _cell  # (the Catmull–Rom cell, also the stage's coupling's: stage.coupling)
         candidates = jit(_candidates)
         solve_sets = jit(_solve_sets)
         suspects = jit(_suspects)

@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from cyclomesh.core import kernel_discbody
 from cyclomesh.core.discbody import FREE_HELD, FreeDiscBody
 
 __all__ = ["coupling", "positions"]
@@ -56,6 +57,8 @@ def _kernels() -> tuple[Any, Any, Any, Any]:
     import numba
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    global _cell  # the Catmull–Rom cell of core.kernel_discbody's passes (one formula)
+    _cell = kernel_discbody.compiled().cell
     return jit(_candidates), jit(_own_rows), jit(_fill), jit(_position_rows)
 
 
@@ -202,17 +205,7 @@ def _own_rows(tooth, angle, order, count, diagonal, grid, cell, weights, own):  
         for d in range(D):
             for p in range(count[a, d]):
                 i = order[a, d, p]
-                ang = angle[a, d, i]
-                if np.isnan(ang):
-                    ang = u0
-                s = (min(max(ang, u0), u_last) - u0) / h
-                c = min(max(int(np.floor(s)), 0), m - 2)
-                t = s - c
-                t2, t3 = t * t, t * t * t
-                w0 = 0.5 * (-t3 + 2.0 * t2 - t)
-                w1 = 0.5 * (3.0 * t3 - 5.0 * t2 + 2.0)
-                w2 = 0.5 * (-3.0 * t3 + 4.0 * t2 + t)
-                w3 = 0.5 * (t3 - t2)
+                c, w0, w1, w2, w3 = _cell(angle[a, d, i], u0, u_last, h, m)
                 cell[a, d, p] = c
                 weights[a, d, p, 0] = w0
                 weights[a, d, p, 1] = w1
