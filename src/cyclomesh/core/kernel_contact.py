@@ -70,7 +70,8 @@ _MAX_ITERATIONS = 40
 @cache
 def compiled() -> Any:
     """The compiled passes as a namespace (``contact_phase``, ``contact_finish``,
-    ``compliance``, ``stresses``, ``rests``; the inlined ``log``, ``cos``, ``sin``), or
+    ``compliance``, ``stresses``, ``rests``; the inlined ``log``, ``cos``, ``sin``,
+    ``pin_row_pressures``, ``pressures``), or
     None without numba (imported on first use)."""
     try:
         import numba
@@ -85,7 +86,9 @@ def compiled() -> Any:
     _libm_cos = jit(_libm_cos)
     _finish_pin = inline(_finish_pin)
     _row_min = jit(_row_min)
-    global _compliance_row, _coefficients, _pin_terms
+    global _compliance_row, _coefficients, _pin_terms, _pin_row_pressures, _pressures
+    _pin_row_pressures = inline(_pin_row_pressures)
+    _pressures = inline(_pressures)
     _coefficients = inline(_coefficients)
     _pin_terms = inline(_pin_terms)
     _compliance_row = inline(_compliance_row)
@@ -99,6 +102,7 @@ def compiled() -> Any:
         rest_backlash = jit(_rest_backlash)
         overlap_contacts = jit(_overlap_contacts)
         log, cos, sin = _log, _cos, _sin
+        pin_row_pressures, pressures = _pin_row_pressures, _pressures
 
     return Passes
 
@@ -614,22 +618,40 @@ def _stresses(
     tooth = e_tooth / pi_width
     per_pin = np.empty((2, n_pins))  # E*/(πB·ρp) of the tooth, E*/(πB·ρg) of the groove
     for q in range(force.size // n_pins):
-        rp_row = rp_in[q // repeat]
         if q % repeat == 0:
-            for i in range(n_pins):
-                rp = rp_row[i]
-                per_pin[0, i] = tooth / rp
-                rho_g = rp * groove_radius / (groove_radius - rp)
-                per_pin[1, i] = e_groove / (pi_width * rho_g)
-        k_tooth, k_groove = per_pin[0], per_pin[1]
+            _pin_row_pressures(
+                rp_in[q // repeat], tooth, e_groove, pi_width, groove_radius, per_pin
+            )
         for i in range(n_pins):
             j = q * n_pins + i
-            f = force[j]
-            gf = f * cos_beta[j]
-            k = k_tooth[i] + tooth / rc_in[j] if f > 0 else tooth  # (an unloaded pin: 0)
-            groove[j] = gf
-            stress[j] = math.sqrt(f * k)
-            g_stress[j] = math.sqrt(gf * k_groove[i])
+            groove[j], stress[j], g_stress[j] = _pressures(
+                force[j], cos_beta[j], rc_in[j], per_pin[0, i], per_pin[1, i], tooth
+            )
+
+
+def _pin_row_pressures(
+    rp_row, tooth, e_groove, pi_width, groove_radius, per_pin
+):  # pragma: no cover
+    """What the pressures of Eqs. 18 and 24 of [1] take from the pin alone, for a row of
+    pin radii ``rp_row`` [m]: ``per_pin[0]`` = E*/(πB·ρp) of the tooth (``tooth`` =
+    E*/(πB) [Pa/m]), ``per_pin[1]`` = the groove's E*/(πB·ρg) with 1/ρg = 1/rp − 1/R_g
+    (``groove_radius`` R_g [m]) [Pa/m] (:func:`_stresses`, and the stage's output pass
+    :func:`cyclomesh.stage.kernel_outputs.stage_fields`: one formula)."""
+    for i in range(rp_row.size):
+        rp = rp_row[i]
+        per_pin[0, i] = tooth / rp
+        rho_g = rp * groove_radius / (groove_radius - rp)
+        per_pin[1, i] = e_groove / (pi_width * rho_g)
+
+
+def _pressures(f, cos_beta, rc, k_tooth, k_groove, tooth):  # pragma: no cover (compiled)
+    """One contact's groove load F·cos β [N] and the Hertzian pressures of tooth and
+    groove [Pa] (Eqs. 18, 24 of [1]): p = √(F·(E*/(πB·ρp) + E*/(πB·ρc))) with ρc = ``rc``
+    the tooth's radius of curvature [m] (an unloaded pin: 0), p_g = √(F·cos β·E*/(πB·ρg));
+    ``k_tooth``, ``k_groove`` from :func:`_pin_row_pressures`."""
+    gf = f * cos_beta
+    k = k_tooth + tooth / rc if f > 0 else tooth  # (an unloaded pin: 0)
+    return gf, math.sqrt(f * k), math.sqrt(gf * k_groove)
 
 
 def _overlap_contacts(reverse, rotation, force, m, fraction, overlap, contacts):  # pragma: no cover

@@ -39,6 +39,11 @@ DISC_FIELDS = ("torque_share", "mesh_fx", "mesh_fy")
 def _kernel() -> Any:
     import numba
 
+    from cyclomesh.core.kernel_contact import compiled
+
+    global _pin_row_pressures, _pressures  # Eqs. 18, 24: core.kernel_contact's (one formula)
+    passes = compiled()
+    _pin_row_pressures, _pressures = passes.pin_row_pressures, passes.pressures
     return numba.njit(cache=True, nogil=True, error_model="numpy")(_field_rows)
 
 
@@ -129,20 +134,15 @@ def _field_rows(
         if do_stress:
             for d in range(D):
                 q = i * D + d
-                rp_row = rp_in[q // repeat]
                 if q % repeat == 0:
-                    for j in range(n1):
-                        rp = rp_row[j]
-                        per_pin[0, j] = tooth / rp
-                        rho_g = rp * groove_radius / (groove_radius - rp)
-                        per_pin[1, j] = e_groove / (pi_width * rho_g)
+                    _pin_row_pressures(
+                        rp_in[q // repeat], tooth, e_groove, pi_width, groove_radius, per_pin
+                    )
                 for j in range(n1):
-                    f = force[i, d, j]
-                    gf = f * cb[i, d, j]
-                    k = per_pin[0, j] + tooth / rc[i, d, j] if f > 0 else tooth
-                    groove[i, d, j] = gf
-                    stress[i, d, j] = math.sqrt(f * k)
-                    g_stress[i, d, j] = math.sqrt(gf * per_pin[1, j])
+                    groove[i, d, j], stress[i, d, j], g_stress[i, d, j] = _pressures(
+                        force[i, d, j], cb[i, d, j], rc[i, d, j], per_pin[0, j], per_pin[1, j],
+                        tooth,
+                    )  # fmt: skip
         if do_count:
             top = -math.inf
             nan = False
