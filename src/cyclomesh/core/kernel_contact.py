@@ -801,9 +801,7 @@ def contact_arrays(
     n_angles = shape[-2]
 
     def rows(x, tail):  # (..., 1 or A, n1 or 1) → (R, tail) contiguous
-        full = (*ring, *tail)  # (np.broadcast_to's wrapper, ~5 µs, only where it broadcasts)
-        x = x if np.shape(x) == full else np.broadcast_to(x, full)
-        return np.ascontiguousarray(x).reshape(-1, math.prod(tail))
+        return np.ascontiguousarray(np.broadcast_to(x, (*ring, *tail)).reshape(-1, math.prod(tail)))
 
     pcx = rows(pin_r * np.cos(pin_angle), (1, n1))
     pcy = rows(pin_r * np.sin(pin_angle), (1, n1))
@@ -812,40 +810,37 @@ def contact_arrays(
     s_rows = rows(s_pin, (1, n1))
     flat = (pcx.shape[0], n_angles, n1)
     n_rows = flat[0] * n_angles
-    # the results as views of one array (each C-contiguous): the seven contact arrays,
-    # the residual and arg w, then the normals
-    names = (
-        "rotation",
-        "reverse_rotation",
-        "moment_arm",
-        "cos_beta",
-        "profile_angle",
-        "contact_radius",
-        "curvature_radius",
-        "residual",
-        "arg_w",
-        *(("normal_x", "normal_y") if normals else ()),
-    )
-    whole = np.empty((len(names), n_rows, n1))
-    outs = list(whole[:7])
-    residual_rows, arg_w_rows = whole[7], whole[8]
-    normal_rows = list(whole[9:]) if normals else [np.empty((0, 0))] * 2
+    out = {
+        name: np.empty(flat)
+        for name in (
+            "rotation",
+            "reverse_rotation",
+            "moment_arm",
+            "cos_beta",
+            "profile_angle",
+            "contact_radius",
+            "curvature_radius",
+        )
+    }
+    residual, arg_w = np.empty(flat), np.empty(flat)
+    normal = [np.empty(flat if normals else (0, 0, 0)) for _ in range(2)]
+    outs = [v.reshape(n_rows, n1) for v in out.values()]
+    normal_rows = [v.reshape(n_rows, n1) if normals else v.reshape(0, 0) for v in normal]
+    residual_rows, arg_w_rows = residual.reshape(n_rows, n1), arg_w.reshape(n_rows, n1)
     phi_t = np.ascontiguousarray(-phi[:, 0] / n2)
     phi_rows = np.ascontiguousarray(phi[:, 0])
     pin_phase = np.ascontiguousarray(pin_phase, float)
     pin_rows = rows(pin_angle, (1, n1))
     # blocks of rows (crank angles of a ring) whose intermediates stay in the cache
     block = max(1, min(n_rows, BLOCK_CONTACTS // n1))
-    # the eleven intermediates of a block as views of one array (each C-contiguous), the
-    # last block's rows of them sliced once
-    full = (*np.empty((11, block, n1)), np.empty((block, n1), np.bool_))
-    views = full
-    turn, normals = float(turn), bool(normals)
+    wx, wy, c, zx, zy, nx, ny, sin_u, d, arg_n, u = (np.empty((block, n1)) for _ in range(11))
+    reach = np.empty((block, n1), np.bool_)
     for q0 in range(0, n_rows, block):
         q1 = min(q0 + block, n_rows)
-        if q1 - q0 < block:
-            views = tuple(v[: q1 - q0] for v in full)
-        bwx, bwy, bc, bzx, bzy, bnx, bny, bsin, bd, barg_n, bu, breach = views
+        m = q1 - q0
+        bwx, bwy, bc, bzx, bzy, bnx, bny, bsin, bd, barg_n, bu, breach = (
+            v[:m] for v in (wx, wy, c, zx, zy, nx, ny, sin_u, d, arg_n, u, reach)
+        )
         bad = passes.contact_phase(
             pcx, pcy, ecx, ecy, s_rows, a, e, n1, q0, q1,
             bwx, bwy, bc, bzx, bzy, bnx, bny, bsin, bd, residual_rows, breach,
@@ -876,15 +871,19 @@ def contact_arrays(
             n1,
             n2,
             rho_gen,
-            turn,
+            float(turn),
             *outs,
-            normals,
+            bool(normals),
             *normal_rows,
             n_angles,
             q0,
             q1,
         )
-    return dict(zip(names, whole.reshape(len(names), *shape), strict=True))
+    out["residual"] = residual
+    out["arg_w"] = arg_w
+    if normals:
+        out["normal_x"], out["normal_y"] = normal
+    return {name: value.reshape(shape) for name, value in out.items()}
 
 
 BLOCK_CONTACTS = 8192
