@@ -103,14 +103,10 @@ def test_the_kernel_finishes_at_the_references_residual(problems, monkeypatch):
         assert np.max(np.abs(g)) <= nt.FORCE_TOLERANCE * abs(p.torque) / p.scale
 
 
-@pytest.mark.parametrize("torque", [[-412.0, 412.0], [-12.36, 12.36]])
-def test_the_compiled_newton_reaches_the_numpy_root(example, coarse, monkeypatch, torque):
-    """The whole solve, numba (the kernel) against NumPy: 1e-13 of each field's largest
-    (measured 1e-15 to 5e-15), and the kernel finished every crank angle here."""
-    monkeypatch.setenv("CYCLOMESH_KERNEL", "numpy")
-    ref = _solve(example, coarse, torque)
-    monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
-    handed = []
+def _count_given_up(monkeypatch) -> list[int]:
+    """The crank angles the compiled Newton hands to the NumPy path, one count per call
+    (equilibrium's kernel_compliant wrapped for the test)."""
+    handed: list[int] = []
     compiled = eq.kernel_compliant
 
     def counted(*args, **kw):
@@ -119,6 +115,17 @@ def test_the_compiled_newton_reaches_the_numpy_root(example, coarse, monkeypatch
         return failed
 
     monkeypatch.setattr(eq, "kernel_compliant", counted)
+    return handed
+
+
+@pytest.mark.parametrize("torque", [[-412.0, 412.0], [-12.36, 12.36]])
+def test_the_compiled_newton_reaches_the_numpy_root(example, coarse, monkeypatch, torque):
+    """The whole solve, numba (the kernel) against NumPy: 1e-13 of each field's largest
+    (measured 1e-15 to 5e-15), and the kernel finished every crank angle here."""
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numpy")
+    ref = _solve(example, coarse, torque)
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
+    handed = _count_given_up(monkeypatch)
     got = _solve(example, coarse, torque)
     assert len(handed) == 2 and sum(handed) == 0
     for name in FIELDS:
@@ -132,15 +139,7 @@ def test_angles_the_kernel_gives_up_go_to_the_numpy_path(example, coarse, monkey
     torque = [-412.0, 412.0]
     monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
     ref = _solve(example, coarse, torque)
-    handed = []
-    compiled = eq.kernel_compliant
-
-    def counted(*args, **kw):
-        failed = compiled(*args, **kw)
-        handed.append(int(failed.sum()))
-        return failed
-
-    monkeypatch.setattr(eq, "kernel_compliant", counted)
+    handed = _count_given_up(monkeypatch)
     monkeypatch.setattr(nt, "_STALL_ITERATIONS", 0)
     got = _solve(example, coarse, torque)
     assert sum(handed) == 2 * PHI.size
