@@ -58,9 +58,9 @@ def _kernels() -> tuple[Any, Any]:
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
-    global _pin_force, _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows
-    global _solve_ldl, _rollers, _coupled
-    _pin_force = _kn._pin_force
+    global _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows
+    global _solve_ldl, _rollers, _coupled, _pin_law
+    _pin_law = _kn._pin_law
     _rollers = _kn._rollers
     _solve_in_place = _kn._solve_in_place
     _solve_blocks = _kn._solve_blocks
@@ -190,21 +190,13 @@ def _evaluate_one_py(
                 pf[1, i, d, j] = shift
             if delta <= 0.0:
                 continue
-            if delta >= pin[6, i, d, j]:
+            code, f, logf, a, gm = _pin_law(delta, pin, i, d, j, memo)
+            if code == 1:
                 status = 1
                 continue
-            a, gm = pin[4, i, d, j], pin[5, i, d, j]
-            f, logf = _pin_force(
-                delta, a, gm, np.isfinite(pin[6, i, d, j]), memo[0, d, j], memo[1, d, j],
-                memo[2, d, j],
-            )  # fmt: skip
-            if f > 0.0 and gm != 0.0:
-                memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, logf, f
-            if f < 0.0:
+            if code == 2:
                 return 0.0, 2
             if f > 0.0:
-                if gm == 0.0:
-                    logf = np.log(f)
                 pins += 0.5 * f * f * (a - 0.5 * gm - gm * logf)
                 if want:
                     pf[0, i, d, j] = f

@@ -270,8 +270,9 @@ def _kernels_newton() -> Any:
     import numba
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    global _evaluate_one, _pin_force, _solve_in_place, _solve_blocks, _rollers
+    global _evaluate_one, _pin_force, _solve_in_place, _solve_blocks, _rollers, _pin_law
     _pin_force = jit(_pin_force)
+    _pin_law = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(_pin_law)
     _rollers = jit(_rollers)
     _solve_in_place = jit(_solve_in_place)
     _solve_blocks = jit(_solve_blocks)
@@ -429,6 +430,29 @@ def _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc):  # pragma: no cover 
     return True
 
 
+def _pin_law(delta, pin, i, d, j, memo):  # pragma: no cover (compiled)
+    """One closing pin's law at its approach δ > 0 [m] (crank angle ``i``, disc ``d``, pin
+    ``j`` of the block ``pin`` (7, A, D, P): α, γ in rows 4 and 5, the reach dmax in row
+    6): (code, F [N], ln F, α, γ) with code 1 where δ is at or past dmax (F not formed), 2
+    where the law cannot be inverted (F < 0), else 0; F by :func:`_pin_force` from the
+    pin's last inversion in ``memo`` (3, D, P), which it updates, and ln F where F > 0
+    (γ = 0: formed here). The one place the compiled evaluations (:func:`_evaluate_one`,
+    :func:`_rigid_one`, :mod:`cyclomesh.stage.kernel_compliant`) take a pin's law."""
+    if delta >= pin[6, i, d, j]:
+        return 1, 0.0, 0.0, 0.0, 0.0
+    a, gm = pin[4, i, d, j], pin[5, i, d, j]
+    f, logf = _pin_force(
+        delta, a, gm, np.isfinite(pin[6, i, d, j]), memo[0, d, j], memo[1, d, j], memo[2, d, j]
+    )
+    if f > 0.0 and gm != 0.0:
+        memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, logf, f
+    if f < 0.0:
+        return 2, f, logf, a, gm
+    if f > 0.0 and gm == 0.0:
+        logf = np.log(f)
+    return 0, f, logf, a, gm
+
+
 def _rollers(s, const, R, half, kn):  # pragma: no cover (compiled)
     """One crank bearing's rollers at the deflection s [m] of its hole against its crank pin
     (the roller law of :mod:`cyclomesh.stage.bearing`, Q = kn·δ^p with p = 10/9 on each of
@@ -485,21 +509,13 @@ def _evaluate_one(
             delta = pin[1, i, d, j] * (th - b) + pin[2, i, d, j] * ux + pin[3, i, d, j] * uy
             if delta <= 0.0:
                 continue
-            if delta >= pin[6, i, d, j]:
+            code, f, logf, a, gm = _pin_law(delta, pin, i, d, j, memo)
+            if code == 1:
                 status = 1
                 continue
-            a, gm = pin[4, i, d, j], pin[5, i, d, j]
-            f, logf = _pin_force(
-                delta, a, gm, np.isfinite(pin[6, i, d, j]), memo[0, d, j], memo[1, d, j],
-                memo[2, d, j],
-            )  # fmt: skip
-            if f > 0.0 and gm != 0.0:
-                memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, logf, f
-            if f < 0.0:
+            if code == 2:
                 return 0.0, 2
             if f > 0.0:
-                if gm == 0.0:
-                    logf = np.log(f)
                 pins += 0.5 * f * f * (a - 0.5 * gm - gm * logf)
                 if want:
                     pf[i, d, j] = f
@@ -884,21 +900,13 @@ def _rigid_one(i, x, pin, torque, L, memo, store, pf, pk, opens):  # pragma: no 
             delta = pin[1, i, d, j] * (th - b)
             if delta <= 0.0:
                 continue
-            if delta >= pin[6, i, d, j]:
+            code, f, logf, a, gm = _pin_law(delta, pin, i, d, j, memo)
+            if code == 1:
                 status = 1
                 continue
-            a, gm = pin[4, i, d, j], pin[5, i, d, j]
-            f, logf = _pin_force(
-                delta, a, gm, np.isfinite(pin[6, i, d, j]), memo[0, d, j], memo[1, d, j],
-                memo[2, d, j],
-            )  # fmt: skip
-            if f > 0.0 and gm != 0.0:
-                memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, logf, f
-            if f < 0.0:
+            if code == 2:
                 return 0.0, 0.0, 0.0, 2
             if f > 0.0:
-                if gm == 0.0:
-                    logf = np.log(f)
                 pins += 0.5 * f * f * (a - 0.5 * gm - gm * logf)
                 v = pin[1, i, d, j] / L
                 g += f * v
