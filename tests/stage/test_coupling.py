@@ -59,7 +59,7 @@ def _direction(A: int = 7, D: int = 2, n1: int = 40, seed: int = 1, N: int = 3):
 
 def _equal(ref, got):
     (b0, z0), (b1, z1) = ref, got
-    for name in ("pin_w", "hole_w", "energy", "pins"):
+    for name in ("pin_w", "w", "flank", "hole_w", "energy", "pins"):
         np.testing.assert_array_equal(getattr(b1, name), getattr(b0, name), name)
     np.testing.assert_array_equal(z1, z0)
 
@@ -74,7 +74,7 @@ def test_the_compiled_coupling_is_the_references_bit_for_bit(monkeypatch, period
     got = eq.body_coupling(mesh, prob, body, reach, start)
     _equal(ref, got)
     b = got[0]
-    for name in ("pin_w", "hole_w", "energy"):  # the compiled Hessian reads them as they are
+    for name in ("w", "hole_w", "energy"):  # the compiled Hessian reads them as they are
         assert getattr(b, name).flags.c_contiguous, name
     assert np.all(b.pins[1, D - 1] == -1)  # padding only
     # a padding unknown moves its row's pin by itself (the reference's c0/c0)

@@ -207,7 +207,7 @@ def test_a_warm_start_carries_each_pins_unknown_as_the_reference():
     kc._kernels()
     lam = 5
     pins = np.array([[[4, 5, 6]], [[5, 6, -1]], [[6, 7, 8]], [[8, 6, 9]]])  # (A, D, P)
-    body = eq._Body(
+    body = eq._Body.of_dense(
         pin_w=np.zeros((4, 1, 10, lam)),
         hole_w=np.zeros((4, 1, 3, 2, lam)),
         energy=np.zeros((4, 1, lam, lam)),

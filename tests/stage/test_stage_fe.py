@@ -587,7 +587,7 @@ def test_a_warm_start_carries_each_pins_unknown_by_its_pin():
     pin's from the same pin there, its own start's where that pin was no candidate."""
     lam = 5  # 3 pin unknowns, 2 hole components a disc; one disc, no supports
     pins = np.array([[[4, 5, 6]], [[5, 6, -1]], [[6, 7, 8]]])  # (A, D, P)
-    body = eq._Body(
+    body = eq._Body.of_dense(
         pin_w=np.zeros((3, 1, 10, lam)),
         hole_w=np.zeros((3, 1, 3, 2, lam)),
         energy=np.zeros((3, 1, lam, lam)),

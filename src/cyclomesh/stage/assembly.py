@@ -13,7 +13,9 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -94,18 +96,60 @@ class Body:
     (radial and tangential, less the three components that fix the rigid motion). The body's
     displacement is C'·λ (:class:`~cyclomesh.core.discbody.FreeDiscBody`), its energy
     ½·λᵀC'λ = ½·zᵀEz; at the stationary point λ is the load on the disc.
+
+    The pins' coefficients are kept compact: ``w`` has a row for each of the P pin
+    unknowns only (the candidates and the padding's), ``flank`` the pin (flank index) that
+    row moves; every other flank's row of :attr:`pin_w` is 0 (the body moves no other
+    pin). :attr:`pin_w` is the whole (A, D, 2·n1, Λ) array, formed from them when read.
     """
 
-    pin_w: FloatArray  # (A, D, 2·n1, Λ): into-disc displacement of every pin per unit z
+    w: FloatArray  # (A, D, P', Λ): into-disc displacement of the pin of each row per unit z
     hole_w: FloatArray  # (A, D, N, 2, Λ): hole centre displacement (fixed frame, x y)
     energy: FloatArray  # (A, D, Λ, Λ): E = C'/c0² on the free components
     # the pin (index into the flanks, 0 … 2·n1 − 1) of each pin unknown, −1 for padding,
     # (A, D, P): a crank angle's unknowns carried to the next one's (a warm start)
     pins: NDArray[np.int64] | None = None
+    # the flank (0 … flanks − 1) each row of ``w`` moves, −1: none, (A, D, P'); the rows of
+    # the padding's unknowns move the pins after the candidates (body_coupling's order)
+    flank: NDArray[np.int64] | None = None
+    flanks: int = 0  # the pins of the problem (2·n1)
+
+    @classmethod
+    def of_dense(
+        cls,
+        pin_w: FloatArray,
+        hole_w: FloatArray,
+        energy: FloatArray,
+        pins: NDArray[np.int64] | None = None,
+    ) -> Body:
+        """The Body of a whole ``pin_w`` (A, D, 2·n1, Λ): every flank a row."""
+        A, D, F = pin_w.shape[:3]
+        flank = np.ascontiguousarray(np.broadcast_to(np.arange(F), (A, D, F)))
+        return cls(pin_w, hole_w, energy, pins, flank, F)
+
+    @cached_property
+    def pin_w(self) -> FloatArray:
+        """(A, D, 2·n1, Λ): into-disc displacement of every pin per unit z (the rows of
+        ``w`` at their flanks, 0 elsewhere)."""
+        A, D, _, lam = self.w.shape
+        out = np.zeros((A, D, self.flanks, lam))
+        a, d, q = np.nonzero(self.flank >= 0)
+        out[a, d, self.flank[a, d, q]] = self.w[a, d, q]
+        return out
 
     def __getitem__(self, idx: NDArray[np.int64]) -> Body:
         pins = None if self.pins is None else self.pins[idx]
-        return Body(self.pin_w[idx], self.hole_w[idx], self.energy[idx], pins)
+        return Body(
+            self.w[idx], self.hole_w[idx], self.energy[idx], pins, self.flank[idx], self.flanks
+        )
+
+    def near(self, order: NDArray[np.int64]) -> Body:
+        """The Body of a problem on the flanks ``order`` (A, D, K) of this one's (the
+        flank of its pin k is ``order[..., k]``): ``pin_w`` becomes
+        ``np.take_along_axis(pin_w, order[..., None], 2)``, the same numbers."""
+        hit = (self.flank[..., :, None] == order[..., None, :]) & (self.flank[..., :, None] >= 0)
+        flank = np.where(np.any(hit, axis=-1), np.argmax(hit, axis=-1), -1)
+        return dataclasses.replace(self, flank=flank, flanks=order.shape[-1])
 
     @property
     def size(self) -> int:

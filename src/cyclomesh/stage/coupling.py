@@ -110,8 +110,7 @@ def coupling(
     pin_force: FloatArray,
     bearing_fx: FloatArray,
     bearing_fy: FloatArray,
-    n_flanks: int,
-) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64], FloatArray]:
+) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.int64], NDArray[np.int64], FloatArray]:
     """The compliant disc's coupling of one direction (the arrays of
     :func:`cyclomesh.stage.equilibrium.body_coupling`, the same numbers).
 
@@ -120,11 +119,13 @@ def coupling(
     and moment arm, ``reach`` (A,) [rad] the largest backlash of a candidate; ``hx``,
     ``hy`` (A, N) [m] the hole centres in the fixed frame, ``scale`` r_c [m];
     ``pin_force`` (A, D, ≥ n1) [N], ``bearing_fx``, ``bearing_fy`` (A, D, N) [N] the
-    start's loads (the disc's pins, the crank bearings on the crank pins);
-    ``n_flanks`` the pins of ``pin_w`` (2·n1, both flanks).
+    start's loads (the disc's pins, the crank bearings on the crank pins).
 
-    Returns ``pin_w`` (A, D, n_flanks, Λ), ``hole_w`` (A, D, N, 2, Λ), ``energy``
-    (A, D, Λ, Λ), ``pins`` (A, D, P) (−1 for padding) and the start z (A, D·Λ).
+    Returns the pins' rows ``w`` (A, D, P, Λ) (:attr:`Body.w
+    <cyclomesh.stage.assembly.Body>`), ``hole_w`` (A, D, N, 2, Λ), ``energy``
+    (A, D, Λ, Λ), ``pins`` (A, D, P) (−1 for padding), ``flank`` (A, D, P) the pin of each
+    row of ``w`` (the candidates, then the padding's: the next pins in order) and the start
+    z (A, D·Λ).
     """
     cand_pass, own_pass, fill_pass, _ = _kernels()
     A, D, n1 = bl.shape
@@ -156,7 +157,7 @@ def coupling(
     lam = P + free_holes.size
     hh = body.hole_hole.reshape(2 * N, 2 * N)
     hh = 0.5 * (hh + hh.T)
-    pin_w = np.zeros((A, D, n_flanks, lam))
+    pin_w = np.empty((A, D, P, lam))  # every row written
     hole_w = np.empty((A, D, N, 2, lam))
     energy = np.empty((A, D, lam, lam))
     z = np.empty((A, D, lam))
@@ -167,7 +168,8 @@ def coupling(
         np.ascontiguousarray(pin_force), np.ascontiguousarray(bearing_fx),
         np.ascontiguousarray(bearing_fy), pin_w, hole_w, energy, z,
     )  # fmt: skip
-    return pin_w, hole_w, energy, pins, z.reshape(A, -1)
+    flank = np.ascontiguousarray(order[..., :P])
+    return pin_w, hole_w, energy, pins, flank, z.reshape(A, -1)
 
 
 def _candidates(bl, arm, reach, order, count):  # pragma: no cover (compiled)
@@ -224,8 +226,8 @@ def _fill(
     c0, hx, hy, scale, pin_force, bearing_fx, bearing_fy, pin_w, hole_w, energy, z
 ):  # fmt: skip  # pragma: no cover (compiled)
     """The Body's arrays of every crank angle and disc (:func:`coupling`): C' of the
-    candidates and hole components into a scratch matrix, then ``pin_w`` (rows of the
-    candidates' and padding's pins; the others stay 0), ``hole_w``, ``energy``, ``z``."""
+    candidates and hole components into a scratch matrix, then ``pin_w`` (A, D, P, Λ)
+    (the rows of the candidates' and padding's unknowns), ``hole_w``, ``energy``, ``z``."""
     A, D, P = cell.shape
     N = hh.shape[0] // 2
     F = free_holes.size
@@ -331,11 +333,10 @@ def _fill(
             for i in range(2 * N):
                 for j in range(2 * N):
                     cmat[pos[i], pos[j]] = hh[i, j]
-            # the pins' displacements per unit z (C'/c0 on the free columns), by pin
+            # the pins' displacements per unit z (C'/c0 on the free columns), by unknown
             for p in range(P):
-                row = order[a, d, p]
                 for col in range(lam):
-                    pin_w[a, d, row, col] = cmat[p, col] / c0
+                    pin_w[a, d, p, col] = cmat[p, col] / c0
             # the holes', turned from the disc's radial/tangential to the fixed frame
             for hole in range(N):
                 ex, ey = erx[hole], ery[hole]

@@ -163,11 +163,11 @@ def body_coupling(
     angle = mesh.geo.profile_angle.reshape(A, D, n1)
     bl = prob.bl[..., :n1]
     if compiled():  # CYCLOMESH_KERNEL=numba: the same arrays in three compiled passes
-        pin_w, hole_w, energy, pins, z = coupling(
+        w, hole_w, energy, pins, flank, z = coupling(
             tooth, angle, bl, prob.arm[..., :n1], reach, body, prob.hx, prob.hy, prob.scale,
-            start["pin_force"], start["bearing_fx"], start["bearing_fy"], 2 * n1,
+            start["pin_force"], start["bearing_fx"], start["bearing_fy"],
         )  # fmt: skip
-        return _Body(pin_w=pin_w, hole_w=hole_w, energy=energy, pins=pins), z
+        return _Body(w, hole_w, energy, pins, flank, 2 * n1), z
     cand = np.isfinite(bl) & (prob.arm[..., :n1] > 0) & (bl < reach[:, None, None])
     P = max(int(np.max(np.sum(cand, axis=-1))), 1)
     order = np.argsort(~cand, axis=-1, kind="stable")[..., :P]
@@ -193,8 +193,7 @@ def body_coupling(
         flat[pad // P, j, j] = c0
     scaled = cmat[..., free] / c0  # (A, D, P + 2N, Λ)
     lam = free.size
-    pin_w = np.zeros((A, D, 2 * n1, lam))
-    np.put_along_axis(pin_w, order[..., None], scaled[..., :P, :], axis=2)
+    w = scaled[..., :P, :]  # the pins' rows (Body.pin_w: at the flanks ``order``)
     holes = scaled[..., P:, :].reshape(A, D, N, 2, lam)  # radial, tangential
     L = prob.scale
     erx, ery = prob.hx[:, None, :, None] / L, prob.hy[:, None, :, None] / L  # (A, 1, N, 1)
@@ -214,7 +213,8 @@ def body_coupling(
     lam[..., P::2] = fx * erx[..., 0] + fy * ery[..., 0]
     lam[..., P + 1 :: 2] = -fx * ery[..., 0] + fy * erx[..., 0]
     z = c0 * lam[..., free]
-    return _Body(pin_w=pin_w, hole_w=hole_w, energy=energy, pins=pins), z.reshape(A, -1)
+    body = _Body(w, hole_w, energy, pins, np.ascontiguousarray(order), 2 * n1)
+    return body, z.reshape(A, -1)
 
 
 def _positions(here: NDArray[np.int64], there: NDArray[np.int64]):
@@ -284,8 +284,7 @@ def _near(p: _Problem, x: FloatArray, discs: int, rigid: bool) -> _Problem:
         }
     fields["bl"] = np.where(kept, fields["bl"], np.inf)
     if p.body is not None:  # the same pins of the compliant disc's coefficients
-        pin_w = np.take_along_axis(p.body.pin_w, order[..., None], axis=2)
-        fields["body"] = dataclasses.replace(p.body, pin_w=pin_w)
+        fields["body"] = p.body.near(order)
     return dataclasses.replace(p, **fields)
 
 

@@ -85,7 +85,8 @@ def _prepare(p, law, x: FloatArray, discs: int, jacobian: FloatArray):
     G = np.ascontiguousarray(jacobian)
     cols, core, blocks, hole, const = _kn._arrays(p, law, G, discs, nw, m)
     b = p.body
-    pin_w = np.ascontiguousarray(b.pin_w, dtype=float)
+    # the body's pin rows and the flank each moves (Body.w, Body.flank): _rows' map
+    pin_w = (np.ascontiguousarray(b.w, dtype=float), np.ascontiguousarray(b.flank, np.int64))
     energy = np.ascontiguousarray(b.energy, dtype=float)
     pins = np.ascontiguousarray(b.pins, dtype=np.int64)
     block = _kn.pin_block(p)
@@ -126,7 +127,7 @@ def _evaluate_rows(
     memo = np.zeros((3, D, P))
     pf = np.zeros((2, A, D, P))
     bf = np.zeros((A, D, hole.shape[3], 3))
-    wrow = np.zeros((D, P), np.bool_)
+    wrow = np.zeros((D, P), np.int64)  # the row of pin_w of each flank, −1: none
     scratch = np.zeros((2, m))
     zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
     for i in range(A):
@@ -144,10 +145,12 @@ def _evaluate_one_py(
 ):  # fmt: skip  # pragma: no cover (compiled)
     """Potential of crank angle ``i`` at x (m,) and, with ``want`` ≥ 1, its scaled gradient
     g (and with ``want`` = 2 its Hessian H), as :func:`cyclomesh.stage.assembly.evaluate`
-    (``rigid=False``) with the compliant disc: the pins' δ less the body's displacement at the pin
-    Σ_s pin_w[i, d, j, s]·z_ds, the body's energy ½·zᵀEz per disc, the crank bearings'
-    hole-against-pin vector with the hole centre's displacement by the body (the columns
-    of ``G`` that are the body's, :func:`~cyclomesh.stage.assembly.bearing_jacobian`).
+    (``rigid=False``) with the compliant disc: the pins' δ less the body's displacement at
+    the pin Σ_s w[i, d, q, s]·z_ds of its row q (``pin_w`` = (Body.w, Body.flank), the
+    row of each pin in ``wrow``, :func:`_rows_py`), the body's energy ½·zᵀEz per disc, the
+    crank bearings' hole-against-pin vector with the hole centre's displacement by the
+    body (the columns of ``G`` that are the body's,
+    :func:`~cyclomesh.stage.assembly.bearing_jacobian`).
     Returns (energy, status) as :func:`cyclomesh.stage.kernel_newton._evaluate_one`;
     with ``want`` ≥ 1 the state: ``pf[0, i]`` the pins' forces, ``pf[1, i]`` the body's
     displacement at them (0 where it moves none), ``bf[i]`` the bearings' (fx, fy, s)."""
@@ -181,9 +184,10 @@ def _evaluate_one_py(
             if not np.isfinite(b):
                 continue
             shift = 0.0
-            if wrow[d, j]:  # (a row of zeros adds exactly 0)
+            wq = wrow[d, j]  # the pin's row of the body's, −1: none (a row of 0 adds 0)
+            if wq >= 0:
                 for s in range(lam):
-                    shift += pin_w[i, d, j, s] * x[zd + s]
+                    shift += pin_w[0][i, d, wq, s] * x[zd + s]
             delta = pin[1, i, d, j] * (th - b) + pin[2, i, d, j] * ux + pin[3, i, d, j] * uy
             delta = delta - shift
             if want:
@@ -205,9 +209,9 @@ def _evaluate_one_py(
                     g[r0] += f * v0
                     g[r0 + 1] += f * v1
                     g[r0 + 2] += f * v2
-                    w = pin_w[i, d, j]
+                    w = pin_w[0][i, d, max(wq, 0)]
                     if not hess:
-                        for s in range(lam if wrow[d, j] else 0):
+                        for s in range(lam if wq >= 0 else 0):
                             g[zd + s] -= f * w[s]
                         continue
                     H[r0, r0] += k * v0 * v0
@@ -217,7 +221,7 @@ def _evaluate_one_py(
                     H[r0 + 1, r0 + 2] += k * v1 * v2
                     H[r0 + 2, r0 + 2] += k * v2 * v2
                     # the body: ∂δ/∂z = −w, so g_z −= F·w, H_zz += k·w·wᵀ, H_az −= k·a·wᵀ
-                    for s in range(lam if wrow[d, j] else 0):
+                    for s in range(lam if wq >= 0 else 0):
                         ws = w[s]
                         if ws == 0.0:
                             continue
@@ -523,17 +527,21 @@ def _solve_ldl_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb):  # prag
 
 
 def _rows_py(wrow, pin_w, i):  # pragma: no cover (compiled)
-    """``wrow`` (D, P): the flanks whose body coefficients at crank angle ``i`` are not all
-    0 (the candidates and the padding's; the body moves no other pin)."""
-    D, P, lam = pin_w.shape[1], pin_w.shape[2], pin_w.shape[3]
+    """``wrow`` (D, P): the row of ``pin_w`` = (w, flank) (Body.w, Body.flank) of each
+    flank at crank angle ``i`` whose body coefficients are not all 0, −1 for the others
+    (the body moves no other pin)."""
+    w, flank = pin_w
+    D, Q, lam = w.shape[1], w.shape[2], w.shape[3]
+    wrow[:, :] = -1
     for d in range(D):
-        for j in range(P):
-            nz = False
+        for q in range(Q):
+            j = flank[i, d, q]
+            if j < 0:
+                continue
             for s in range(lam):
-                if pin_w[i, d, j, s] != 0.0:
-                    nz = True
+                if w[i, d, q, s] != 0.0:
+                    wrow[d, j] = q
                     break
-            wrow[d, j] = nz
 
 
 def _carry_py(out, x, own, pins, i, back, z0, lam):  # pragma: no cover (compiled)
@@ -661,7 +669,7 @@ def _newton_rows(
     dg = np.zeros((D, lam))
     Lb = np.zeros((D, lam, lam))
     memo = np.zeros((3, D, P))
-    wrow = np.zeros((D, P), np.bool_)
+    wrow = np.zeros((D, P), np.int64)  # the row of pin_w of each flank, −1: none
     scratch = np.zeros((2, m))
     zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
     for i in range(A):
