@@ -423,13 +423,23 @@ def _shaft_entries(stiffness: FloatArray, base: int, size: int):
     return base + d * size + r, base + e * size + r, stiffness[d, e]
 
 
-def bearing_jacobian(p: Problem, discs: int, m: int) -> FloatArray:
+def bearing_jacobian(
+    p: Problem, discs: int, m: int, supported: FloatArray | None = None
+) -> FloatArray:
     """∂d/∂x of every hole against its crank pin with :class:`Supports` or the compliant
     disc, (n, D, N, 2, m).
 
     Scaled unknowns (rotations × r_c); d is affine in x, so this depends on the crank
     angle only (:func:`solve_direction` forms it once, :attr:`Problem.jacobian`).
+    ``supported``: this Jacobian without the compliant disc's columns (of the same
+    problem without its body, (n, D, N, 2, m − body.size), formed before: the body's
+    columns depend on the torque, the others do not); its columns are taken as they are.
     """
+    if supported is not None and p.body is not None:
+        G = np.zeros((*supported.shape[:-1], m))
+        G[..., : supported.shape[-1]] = supported
+        _body_columns(p, discs, m, G)
+        return G
     sup = p.supports
     n, N, L = p.hx.shape[0], p.hx.shape[-1], p.scale
     base = 1 + 3 * discs
@@ -453,9 +463,15 @@ def bearing_jacobian(p: Problem, discs: int, m: int) -> FloatArray:
     if carrier is not None:
         G[..., 0, base + nw] = -a * jxb
         G[..., 1, base + nw] = -a * jyb
-    if p.body is not None:  # the hole centres' displacement by the compliant disc
-        lam = p.body.energy.shape[-1]
-        for d in range(discs):
-            z0 = m - p.body.size + d * lam
-            G[:, d, :, :, z0 : z0 + lam] = p.body.hole_w[:, d]
+    if p.body is not None:
+        _body_columns(p, discs, m, G)
     return G
+
+
+def _body_columns(p: Problem, discs: int, m: int, G: FloatArray) -> None:
+    """The hole centres' displacement by the compliant disc into ``G``'s last
+    ``p.body.size`` columns (:func:`bearing_jacobian`)."""
+    lam = p.body.energy.shape[-1]
+    for d in range(discs):
+        z0 = m - p.body.size + d * lam
+        G[:, d, :, :, z0 : z0 + lam] = p.body.hole_w[:, d]

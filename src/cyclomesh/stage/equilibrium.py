@@ -884,7 +884,9 @@ def solve_direction(
                 xr, Fr, kr, _ = rigid_stage(sub, mesh.phi[idx])
             else:
                 xr, Fr, kr = (v[idx] for v in rigid)
-            if lazy:  # numba, rigid discs, no friction, no series spring: in one pass
+            if compiled() and law.k is None and fr is None:
+                # numba, no friction, no series spring (the rigid discs' lazy start, and
+                # the compliant disc's whole one): in one pass, the NumPy start's bits
                 holes = (sub.hx, sub.hy, sub.ex, sub.ey)
                 got = compiled_start(
                     pin_block(sub), Fr, kr, xr, holes, sub.scale, law.rs, LOAD_EXPONENT,
@@ -906,10 +908,17 @@ def solve_direction(
             prob = dataclasses.replace(prob, body=coupling)
             x = np.concatenate([x, z], axis=-1)
         if supports is not None or body is not None:
-            if cache is None or "jacobian" not in cache:
+            if body is not None:  # the body's columns depend on the torque, the others not
+                m_all = x.shape[1] - coupling.size
+                supported = None if cache is None else cache.get("supported")
+                if supported is None and cache is not None:
+                    supported = bearing_jacobian(dataclasses.replace(prob, body=None), D, m_all)
+                    cache["supported"] = supported
+                jacobian = bearing_jacobian(prob, D, x.shape[1], supported)
+            elif cache is None or "jacobian" not in cache:
                 m_all = m + (0 if supports is None else supports.extra(D, stage.holes.count))
                 jacobian = bearing_jacobian(prob, D, m_all if x is None else x.shape[1])
-                if cache is not None and body is None:  # the body's depends on the torque
+                if cache is not None:
                     cache["jacobian"] = jacobian
             else:
                 jacobian = cache["jacobian"]
