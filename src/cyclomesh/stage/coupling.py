@@ -18,7 +18,8 @@ temporaries:
    pair's 4×4 window of the reciprocal table ``DiscBody._padded`` and its weights, the
    load's nodes first; the pin–hole terms interpolated along u; the hole–hole block
    symmetrised), and from them, with c0 the mean of |C_ii| (NumPy's mean, between passes
-   2 and 3), the pins' and holes' displacements per unit body unknown (``pin_w``,
+   2 and 3), the pins' and holes' displacements per unit body unknown (the P rows of
+   the candidates' and padding's pins, ``Body.w``, with the pin each moves, and
    ``hole_w``, the holes turned to the fixed frame), the energy matrix E = C'/c0² on the
    free components and the start z = c0·λ from the rigid disc's loads.
 
