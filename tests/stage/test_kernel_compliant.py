@@ -185,10 +185,15 @@ def _arrow(rng, nr, D, lam, zero_pivot=False):
 
 @pytest.mark.parametrize("zero_pivot", [False, True])
 def test_the_block_arrow_solve_is_lapacks(zero_pivot):
+    """The LU of the body blocks on a symmetric block-arrow H (a Hessian: _coupled reads
+    its upper triangle only, task i40k)."""
     kc._kernels()
     rng = np.random.default_rng(3)
     nr, D, lam = 9, 2, 7
-    H, g = _arrow(rng, nr, D, lam, zero_pivot)
+    H, g = _arrow(rng, nr, D, lam)
+    H = 0.5 * (H + H.T)
+    if zero_pivot:  # the first body block's first row and column 0: singular
+        H[nr, nr : nr + lam] = H[nr : nr + lam, nr] = 0.0
     step = np.zeros(g.size)
     ok = kc._solve_body(
         H.copy(), g, step, nr, D, lam, np.zeros((nr, nr)), np.zeros((D, lam, nr + 1)),
@@ -267,7 +272,7 @@ def _spd_solve(H, g, nr, D, lam):
     ok = kc._solve_ldl(
         H, g, step, nr, D, lam, np.zeros((nr, nr)), np.zeros((D, lam, nr + 1)),
         np.zeros(nr), np.zeros(nr), np.zeros((D, nr + 1), np.int64), np.zeros((nr + 1, nr + 1)),
-        np.zeros((D, lam)), np.zeros((D, lam, lam)),
+        np.zeros((D, lam)), np.zeros((D, lam, lam)), np.zeros(nr, np.int64), np.zeros((D, lam)),
     )  # fmt: skip
     return ok, step, H0
 
