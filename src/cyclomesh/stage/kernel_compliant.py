@@ -635,14 +635,16 @@ def _lu_py(S, rhs, sc, piv):  # pragma: no cover (compiled)
 
 
 def _lu_solve_py(S, rhs, sc, piv):  # pragma: no cover (compiled)
-    """sc = −S⁻¹·rhs with the LU and row swaps :func:`_lu_py` left (the same operations)."""
+    """sc = −S⁻¹·rhs with the LU and row swaps :func:`_lu_py` left (LAPACK's getrs order:
+    every swap, then L and U; each entry the same operations in the same order as there)."""
     m = rhs.size
     for r in range(m):
         sc[r] = -rhs[r]
-    for k in range(m):
+    for k in range(m):  # the row swaps first: L's rows were swapped with the later ones
         p = piv[k]
         if p != k:
             sc[k], sc[p] = sc[p], sc[k]
+    for k in range(m):
         for r in range(k + 1, m):
             f = S[r, k]
             if f != 0.0:
