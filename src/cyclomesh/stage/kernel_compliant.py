@@ -904,13 +904,16 @@ def _newton_rows(
                     if status == 2:
                         how = 2
                         break
+                # the last step untried where the next residual is predicted at the
+                # round-off: Newton's quadratically, a chord step's at its linear rate
                 take_last = (
                     last_on
                     and near
-                    and fresh
-                    and res <= quad * previous
-                    and res * res * res <= floor * previous * previous
                     and not linear
+                    and (
+                        (fresh and res <= quad * previous and res**3 <= floor * previous**2)
+                        or (chord and res * res <= floor * previous)
+                    )
                 )
                 saved = (previous, extended, linear, best, since)  # (a chord step's retry)
                 # the trial's Hessian where the next step is predicted Newton's: every step,
