@@ -185,10 +185,15 @@ def _arrow(rng, nr, D, lam, zero_pivot=False):
 
 @pytest.mark.parametrize("zero_pivot", [False, True])
 def test_the_block_arrow_solve_is_lapacks(zero_pivot):
+    """The LU of the body blocks on a symmetric block-arrow H (a Hessian: _coupled reads
+    its upper triangle only, task i40k)."""
     kc._kernels()
     rng = np.random.default_rng(3)
     nr, D, lam = 9, 2, 7
-    H, g = _arrow(rng, nr, D, lam, zero_pivot)
+    H, g = _arrow(rng, nr, D, lam)
+    H = 0.5 * (H + H.T)
+    if zero_pivot:  # the first body block's first row and column 0: singular
+        H[nr, nr : nr + lam] = H[nr : nr + lam, nr] = 0.0
     step = np.zeros(g.size)
     ok = kc._solve_body(
         H.copy(), g, step, nr, D, lam, np.zeros((nr, nr)), np.zeros((D, lam, nr + 1)),
@@ -267,7 +272,7 @@ def _spd_solve(H, g, nr, D, lam):
     ok = kc._solve_ldl(
         H, g, step, nr, D, lam, np.zeros((nr, nr)), np.zeros((D, lam, nr + 1)),
         np.zeros(nr), np.zeros(nr), np.zeros((D, nr + 1), np.int64), np.zeros((nr + 1, nr + 1)),
-        np.zeros((D, lam)), np.zeros((D, lam, lam)),
+        np.zeros((D, lam)), np.zeros((D, lam, lam)), np.zeros(nr, np.int64), np.zeros((D, lam)),
     )  # fmt: skip
     return ok, step, H0
 
@@ -310,3 +315,138 @@ def test_the_symmetric_block_solve_falls_back_to_the_lu(case):
         return
     assert ok
     _close(np.linalg.solve(H0, -g), step, 1e-10, "step")
+
+
+# --- chord (modified Newton) steps and the Hessian's upper triangle (task i40k) ---
+
+
+def _ldl_work(nr, D, lam):
+    return (
+        np.zeros((nr, nr)), np.zeros((D, lam, nr + 1)), np.zeros(nr), np.zeros(nr),
+        np.zeros((D, nr + 1), np.int64), np.zeros((nr + 1, nr + 1)), np.zeros((D, lam)),
+        np.zeros((D, lam, lam)), np.zeros(nr, np.int64), np.zeros((D, lam)),
+    )  # fmt: skip
+
+
+def _upper_only(H):
+    """H with its strict lower triangle spoiled (what the compiled Newton's H holds there)."""
+    spoiled = H.copy()
+    low = np.tril_indices(H.shape[0], -1)
+    spoiled[low] = np.nan
+    return spoiled
+
+
+@pytest.mark.parametrize("seed", [5, 6, 7])
+def test_a_chord_step_reuses_the_factors(seed):
+    """_resolve with the factors _solve_ldl kept: the factored gradient's step bit for bit,
+    another gradient's step LAPACK's (1e-12); only H's upper triangle is read."""
+    kc._kernels()
+    rng = np.random.default_rng(seed)
+    nr, D, lam = 9, 2, 7
+    H, g = _symmetric_arrow(rng, nr, D, lam)
+    S, Y, rhs, sc, cl, T, dg, Lb, piv, v = _ldl_work(nr, D, lam)
+    step = np.zeros(g.size)
+    code = kc._solve_ldl(_upper_only(H), g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb, piv, v)
+    assert code == 1
+    _close(np.linalg.solve(H, -g), step, 1e-12, "step")
+    again = np.zeros(g.size)
+    kc._resolve(g, again, nr, D, lam, S, Y, rhs, sc, cl, dg, Lb, piv, v)
+    np.testing.assert_array_equal(again, step)
+    g2 = rng.standard_normal(g.size)
+    kc._resolve(g2, again, nr, D, lam, S, Y, rhs, sc, cl, dg, Lb, piv, v)
+    _close(np.linalg.solve(H, -g2), again, 1e-12, "chord step")
+
+
+def test_the_lu_with_its_swaps_is_solve_in_place():
+    """_lu: kernel_newton._solve_in_place's step bit for bit, its LU and row swaps kept
+    for _lu_solve (another right-hand side: LAPACK's)."""
+    from cyclomesh.stage import kernel_newton as kn
+
+    kc._kernels()
+    rng = np.random.default_rng(11)
+    n = 12
+    A = rng.standard_normal((n, n))
+    b = rng.standard_normal(n)
+    ref = np.zeros(n)
+    assert kn._solve_in_place(A.copy(), b, ref)
+    S, got, piv = A.copy(), np.zeros(n), np.zeros(n, np.int64)
+    assert kc._lu(S, b, got, piv)
+    np.testing.assert_array_equal(got, ref)
+    b2 = rng.standard_normal(n)
+    kc._lu_solve(S, b2, got, piv)
+    _close(np.linalg.solve(A, -b2), got, 1e-12, "lu solve")
+    singular = A.copy()
+    singular[:, 3] = 0.0
+    assert not kc._lu(singular, b, got, piv)
+
+
+@pytest.mark.parametrize("case", ["zero pivot", "growth"])
+def test_the_lu_fallback_mirrors_the_upper_triangle(case):
+    """_solve_ldl's LU fallback (2: no factors kept) from H's upper triangle only."""
+    kc._kernels()
+    rng = np.random.default_rng(8)
+    nr, D, lam = 9, 2, 7
+    H, g = _symmetric_arrow(rng, nr, D, lam)
+    z = nr + lam
+    H[z, z] = 0.0 if case == "zero pivot" else 1e-6 * abs(H[z + 1, z])
+    step = np.zeros(g.size)
+    code = kc._solve_ldl(_upper_only(H), g, step, nr, D, lam, *_ldl_work(nr, D, lam))
+    assert code == 2
+    _close(np.linalg.solve(H, -g), step, 1e-10, "step")
+
+
+def test_the_upper_triangle_evaluation_is_the_whole_ones(problems):
+    """_evaluate_one with want 3 (the compiled Newton's): the energy, gradient and the
+    Hessian's upper triangle of want 2 bit for bit."""
+    kc._kernels()
+    p, law, start, _sol, D = problems[0]
+    A, m = start.shape
+    G, cols, _, _, hole, const, nw, carrier, pin_w, energy, _, block = kc._prepare(
+        p, law, start, D, p.jacobian
+    )
+    sup = p.supports
+    P = block.shape[3]
+    upper = np.triu_indices(m)
+    for i in (0, A // 3, A - 1):
+        out = []
+        for want in (2, 3):
+            memo, pf = np.zeros((3, D, P)), np.zeros((2, A, D, P))
+            bf, wrow = np.zeros((A, D, hole.shape[3], 3)), np.zeros((D, P), np.int64)
+            g, H = np.zeros(m), np.full((m, m), np.nan)
+            kc._rows(wrow, pin_w, i)
+            e, st = kc._evaluate_one(
+                i, start[i].copy(), block, pin_w, energy, hole, G, cols, const, nw,
+                float(sup.carrier) if carrier else 0.0, carrier, 0.5 * law.rs.clearance,
+                law.rs.constant, float(p.torque), float(p.scale), want, g, H, memo, pf, bf,
+                wrow, np.zeros((2, m)), np.zeros((D, energy.shape[3], energy.shape[3])),
+            )  # fmt: skip
+            out.append((e, st, g, H))
+        (e2, s2, g2, H2), (e3, s3, g3, H3) = out
+        assert e2 == e3 and s2 == s3
+        np.testing.assert_array_equal(g2, g3)
+        np.testing.assert_array_equal(H2[upper], H3[upper])
+        np.testing.assert_array_equal(H2, H2.T)
+
+
+def test_chord_steps_reach_the_newton_steps_root(problems):
+    """The kernel with chord steps (newton._CHORD) against every step Newton's (_CHORD =
+    0): the same root, the state at it within 1e-13 of each one's largest; fewer
+    Hessians at the rated torque; with _CHORD = 0 every evaluation has its Hessian."""
+    import cyclomesh.stage.newton as reference
+
+    settings = reference.kernel_settings(10**6, compliant=True)
+    assert settings[-2] == reference._CHORD > 0.0
+    newton_only = (*settings[:-2], 0.0, settings[-1])
+    for p, law, start, _sol, D in problems:
+        out = []
+        for s in (settings, newton_only):
+            x, state, stats = start.copy(), {}, {}
+            failed = kc.newton(p, law, x, D, p.jacobian, s, stats=stats, state=state)
+            assert not np.any(failed) and state
+            out.append((state, stats["counts"]))
+        (chord, c1), (newton, c0) = out
+        for name in ("pin_force", "bearing_fx", "bearing_fy"):
+            _close(newton[name], chord[name], 1e-13, name)
+        np.testing.assert_array_equal(c0[:, 3], c0[:, 0])  # (every evaluation's Hessian)
+        if abs(p.torque) > 100.0:
+            assert c1[:, 3].sum() < c0[:, 3].sum()

@@ -21,6 +21,16 @@ law it cannot invert, a stall) are left to the NumPy path from their own start
 residual Newton), exactly as there. The iteration runs to round-off, so the root is the
 reference's to round-off.
 
+Not every step is Newton's (:data:`cyclomesh.stage.newton._CHORD`, task i40k): where the
+last step cut the largest residual by ``_CHORD`` at least, the next one reuses the last
+Newton step's factors (a chord, or modified Newton, step: :func:`_resolve_py`, a back
+substitution), every trial evaluates its gradient only (its Hessian where the next step
+is predicted Newton's: a linear tail, this step's rate poor), and a chord step that does
+not cut the residual at its first trial is redone as Newton's from the same point (and
+no chord step follows in that crank angle). The same test ends the iteration (with the
+H in hand for the round-off of the unknowns), so the root is the same to round-off;
+``_CHORD`` = 0: every step Newton's, bit for bit the iteration before.
+
 The Newton step eliminates each disc's body unknowns first (:func:`_solve_ldl_py`: the
 Hessian is block-arrow shaped, each disc's body block coupled only to itself and to c, the
 disc's θ and u, its crankshafts' deflections and the end plate's β; each body block by
@@ -59,7 +69,7 @@ def _kernels() -> tuple[Any, Any]:
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
     global _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows
-    global _solve_ldl, _rollers, _coupled, _pin_law
+    global _solve_ldl, _rollers, _coupled, _pin_law, _back, _resolve, _lu, _lu_solve, _by_lu
     _pin_law = _kn._pin_law
     _rollers = _kn._rollers
     _solve_in_place = _kn._solve_in_place
@@ -69,6 +79,11 @@ def _kernels() -> tuple[Any, Any]:
     _rows = jit(_rows_py)
     _coupled = jit(_coupled_py)
     _solve_body = jit(_solve_body_py)
+    _lu = jit(_lu_py)
+    _lu_solve = jit(_lu_solve_py)
+    _back = jit(_back_py)
+    _resolve = jit(_resolve_py)
+    _by_lu = jit(_by_lu_py)
     _solve_ldl = jit(_solve_ldl_py)
     return jit(_evaluate_rows), jit(_newton_rows)
 
@@ -151,6 +166,8 @@ def _evaluate_one_py(
     crank bearings' hole-against-pin vector with the hole centre's displacement by the
     body (the columns of ``G`` that are the body's,
     :func:`~cyclomesh.stage.assembly.bearing_jacobian`).
+    With ``want`` = 3 the Hessian's upper triangle only (the lower one neither zeroed nor
+    formed: what the compiled Newton's solve and test read, :func:`_coupled_py`).
     Returns (energy, status) as :func:`cyclomesh.stage.kernel_newton._evaluate_one`;
     with ``want`` ≥ 1 the state: ``pf[0, i]`` the pins' forces, ``pf[1, i]`` the body's
     displacement at them (0 where it moves none), ``bf[i]`` the bearings' (fx, fy, s)."""
@@ -168,9 +185,9 @@ def _evaluate_one_py(
             for j in range(P):
                 pf[0, i, d, j] = 0.0
                 pf[1, i, d, j] = 0.0
-    if hess:
+    if hess:  # (want 3: the upper triangle only, the lower one neither zeroed nor formed)
         for r in range(m):
-            for s in range(m):
+            for s in range(0 if want == 2 else r, m):
                 H[r, s] = 0.0
         zz[:, :, :] = 0.0
     status = 0
@@ -331,15 +348,16 @@ def _evaluate_one_py(
             g[base + nw] += kcarrier * beta / L
         if hess:
             H[base + nw, base + nw] += kcarrier / (L * L)
-    if hess:  # every term above was added to the upper triangle: mirrored
+    if hess:  # every term above was added to the upper triangle: mirrored (want 2)
         for d in range(D):  # (the body's Σ k·w·wᵀ and its bearings' terms)
             zd = z0 + d * lam
             for s in range(lam):
                 for q in range(s, lam):
                     H[zd + s, zd + q] += zz[d, s, q]
-        for r in range(m):
-            for c in range(r + 1, m):
-                H[c, r] = H[r, c]
+        if want == 2:
+            for r in range(m):
+                for c in range(r + 1, m):
+                    H[c, r] = H[r, c]
     return energy_total, status
 
 
@@ -348,24 +366,26 @@ def _coupled_py(H, g, nr, D, lam, S, rhs, cl, Y):  # pragma: no cover (compiled)
     :func:`_solve_ldl_py`): S = H_RR and rhs = g_R (R the nr unknowns before the body's),
     and per disc d the columns of R that its body block Z_d couples to (``cl[d]``: their
     count, then their indices, from H's nonzeros) with Y_d = [H_ZR | g_Z] on them. Only
-    H's and g's entries are read; a disc's later elimination does not touch another's."""
+    H's and g's entries are read, of its upper triangle (H symmetric: a lower one need not
+    be formed); a disc's later elimination does not touch another's."""
     for a in range(nr):
         for b in range(nr):
-            S[a, b] = H[a, b]
+            S[a, b] = H[a, b] if a <= b else H[b, a]
         rhs[a] = g[a]
     for d in range(D):
         z = nr + d * lam
         nc = 0
         for a in range(nr):
+            ha = H[a]
             for q in range(lam):
-                if H[z + q, a] != 0.0:
+                if ha[z + q] != 0.0:
                     cl[d, 1 + nc] = a
                     nc += 1
                     break
         cl[d, 0] = nc
         for q in range(lam):
             for b in range(nc):
-                Y[d, q, b] = H[z + q, cl[d, 1 + b]]
+                Y[d, q, b] = H[cl[d, 1 + b], z + q]
             Y[d, q, nc] = g[z + q]
 
 
@@ -451,7 +471,7 @@ def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T):  # pragma: no 
 _GROWTH = 1e3  # the largest |L_rk| of the LDLᵀ without pivoting; beyond: the LU's
 
 
-def _solve_ldl_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb):  # pragma: no cover
+def _solve_ldl_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb, piv, v):  # pragma: no cover
     """step = −H⁻¹g as :func:`_solve_body_py` (each disc's body unknowns Z_d eliminated
     first, the block-arrow Hessian), each body block H_ZZ = L·Δ·Lᵀ (symmetric, L unit lower
     triangular, Δ diagonal; H_ZZ is symmetric but not definite: the body's energy E is
@@ -461,30 +481,34 @@ def _solve_ldl_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb):  # prag
     W_R·s_R). About half the arithmetic of the LU's (no back substitution of Y, half the
     factorisation). Where a pivot is 0 or an entry of L beyond ``_GROWTH`` (the elimination
     without pivoting not stable), the LU's :func:`_solve_body_py` instead (its False: a
-    pivot 0 there too). H is not written; ``dg`` (D, lam), ``Lb`` (D, lam, lam): work."""
+    pivot 0 there too). Only H's upper triangle is read, and H is not written but by the
+    LU's fallback (:func:`_by_lu_py`); ``dg`` (D, lam), ``Lb`` (D, lam, lam), ``piv``
+    (nr,) int, ``v`` (D, lam): work. Returns 0 where no step was formed, 1 where it was by
+    the L·Δ·Lᵀ, whose factors stay for :func:`_resolve_py` (another gradient, the same H:
+    Lb, dg, the coupled columns ``cl`` and W_R in Y's first columns, S's LU with its row
+    swaps ``piv``), 2 where by the LU's (nothing kept)."""
     _coupled(H, g, nr, D, lam, S, rhs, cl, Y)
     for d in range(D):
         z = nr + d * lam
         nc = cl[d, 0]
         # L·Δ·Lᵀ by rows: Lb[r, j] (j < r) holds L_rj·Δ_j while row r is formed, then L_rj
         for r in range(lam):
-            hr = H[z + r]
             lr = Lb[d, r]
             for k in range(r):
                 lk = Lb[d, k]
-                acc = hr[z + k]
+                acc = H[z + k, z + r]  # (the upper triangle: H_rk = H_kr)
                 for j in range(k):
                     acc -= lr[j] * lk[j]  # (L_rj·Δ_j)·L_kj
                 lr[k] = acc  # L_rk·Δ_k
-            dr = hr[z + r]
+            dr = H[z + r, z + r]
             for k in range(r):
                 t = lr[k]
                 lr[k] = t / dg[d, k]
                 dr -= lr[k] * t
                 if abs(lr[k]) > _GROWTH:
-                    return _solve_body(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T)
+                    return _by_lu(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T)
             if dr == 0.0:
-                return _solve_body(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T)
+                return _by_lu(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T)
             dg[d, r] = dr
             # the forward substitution's row r: W_r = Y_r − Σ_k<r L_rk·W_k
             for k in range(r):
@@ -505,8 +529,28 @@ def _solve_ldl_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb):  # prag
             for b in range(nc):
                 S[a, cl[d, 1 + b]] -= T[u, b]
             rhs[a] -= T[u, nc]
-    if not _solve_in_place(S, rhs, sc):
-        return False
+    if not _lu(S, rhs, sc, piv):
+        return 0
+    _back(step, nr, D, lam, Y, sc, cl, dg, Lb, v)
+    return 1
+
+
+def _by_lu_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T):  # pragma: no cover (compiled)
+    """:func:`_solve_ldl_py`'s fallback: the body blocks' lower triangles mirrored from
+    their upper ones (which is all :func:`_solve_ldl_py` reads), then :func:`_solve_body_py`;
+    2 where it solved, else 0."""
+    for d in range(D):
+        z = nr + d * lam
+        for r in range(lam):
+            for c in range(r):
+                H[z + r, z + c] = H[z + c, z + r]
+    return 2 if _solve_body(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T) else 0
+
+
+def _back_py(step, nr, D, lam, Y, sc, cl, dg, Lb, v):  # pragma: no cover (compiled)
+    """The end of :func:`_solve_ldl_py` and :func:`_resolve_py`: step_R = s_R (``sc``) and
+    each disc's Z_d = −L⁻ᵀΔ⁻¹(w_g + W_R·s_R) (w_g in Y's column ``cl[d, 0]``); ``v``:
+    work (D, lam)."""
     for a in range(nr):
         step[a] = sc[a]
     for d in range(D):
@@ -516,14 +560,104 @@ def _solve_ldl_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb):  # prag
             acc = Y[d, q, nc]
             for b in range(nc):
                 acc += Y[d, q, b] * sc[cl[d, 1 + b]]
-            dg[d, q] = acc / dg[d, q]
+            v[d, q] = acc / dg[d, q]
         for k in range(lam - 1, -1, -1):  # Lᵀ·v = that, by L's rows
             lk = Lb[d, k]
-            v = dg[d, k]
-            step[z + k] = -v
+            vk = v[d, k]
+            step[z + k] = -vk
             for j in range(k):
-                dg[d, j] -= lk[j] * v
+                v[d, j] -= lk[j] * vk
+
+
+def _resolve_py(g, step, nr, D, lam, S, Y, rhs, sc, cl, dg, Lb, piv, v):  # pragma: no cover
+    """step = −H⁻¹g for another gradient ``g`` with the factors :func:`_solve_ldl_py` kept
+    of H (its return 1): the same operations on g as there (w_g = L⁻¹g_Z into Y's column
+    ``cl[d, 0]``, rhs = g_R − W_Rᵀ·Δ⁻¹·w_g, S's LU solve, :func:`_back_py`), so with the
+    gradient it factored the same step bit for bit. A chord (modified Newton) step: a
+    back substitution, ~1 µs against ~10 µs for the factorisation."""
+    for a in range(nr):
+        rhs[a] = g[a]
+    for d in range(D):
+        z = nr + d * lam
+        nc = cl[d, 0]
+        for r in range(lam):
+            lr = Lb[d, r]
+            acc = g[z + r]
+            for k in range(r):
+                f = lr[k]
+                if f != 0.0:
+                    acc -= f * Y[d, k, nc]
+            Y[d, r, nc] = acc
+        for u in range(nc):
+            a = cl[d, 1 + u]
+            t = 0.0
+            for q in range(lam):
+                w = Y[d, q, u] / dg[d, q]
+                if w != 0.0:
+                    t += w * Y[d, q, nc]
+            rhs[a] -= t
+    _lu_solve(S, rhs, sc, piv)
+    _back(step, nr, D, lam, Y, sc, cl, dg, Lb, v)
+
+
+def _lu_py(S, rhs, sc, piv):  # pragma: no cover (compiled)
+    """sc = −S⁻¹·rhs by Gaussian elimination with partial pivoting, the operations of
+    :func:`~cyclomesh.stage.kernel_newton._solve_in_place` (so the same bits), S
+    overwritten by its LU (the multipliers below the diagonal, rows swapped as LAPACK's)
+    and the row swaps in ``piv`` for :func:`_lu_solve_py`; False if a pivot is 0."""
+    m = rhs.size
+    for r in range(m):
+        sc[r] = -rhs[r]
+    for k in range(m):
+        p = k
+        big = abs(S[k, k])
+        for r in range(k + 1, m):
+            if abs(S[r, k]) > big:
+                big = abs(S[r, k])
+                p = r
+        if big == 0.0:
+            return False
+        piv[k] = p
+        if p != k:
+            for c in range(m):
+                S[k, c], S[p, c] = S[p, c], S[k, c]
+            sc[k], sc[p] = sc[p], sc[k]
+        inv = 1.0 / S[k, k]
+        for r in range(k + 1, m):
+            f = S[r, k] * inv
+            S[r, k] = f
+            if f != 0.0:
+                for c in range(k + 1, m):
+                    S[r, c] -= f * S[k, c]
+                sc[r] -= f * sc[k]
+    for k in range(m - 1, -1, -1):
+        acc = sc[k]
+        for c in range(k + 1, m):
+            acc -= S[k, c] * sc[c]
+        sc[k] = acc / S[k, k]
     return True
+
+
+def _lu_solve_py(S, rhs, sc, piv):  # pragma: no cover (compiled)
+    """sc = −S⁻¹·rhs with the LU and row swaps :func:`_lu_py` left (LAPACK's getrs order:
+    every swap, then L and U; each entry the same operations in the same order as there)."""
+    m = rhs.size
+    for r in range(m):
+        sc[r] = -rhs[r]
+    for k in range(m):  # the row swaps first: L's rows were swapped with the later ones
+        p = piv[k]
+        if p != k:
+            sc[k], sc[p] = sc[p], sc[k]
+    for k in range(m):
+        for r in range(k + 1, m):
+            f = S[r, k]
+            if f != 0.0:
+                sc[r] -= f * sc[k]
+    for k in range(m - 1, -1, -1):
+        acc = sc[k]
+        for c in range(k + 1, m):
+            acc -= S[k, c] * sc[c]
+        sc[k] = acc / S[k, k]
 
 
 def _rows_py(wrow, pin_w, i):  # pragma: no cover (compiled)
@@ -583,24 +717,25 @@ def newton(
     solution where the kernel finished it (its own start left where it did not);
     ``settings``: the reference's (FORCE_TOLERANCE, _MAX_ITERATIONS, _MAX_HALVINGS,
     _STEP_CAP, *_LINEAR, ROUND_OFF_FORCE, _STALL_HALVINGS, _STALL_ITERATIONS,
-    _QUADRATIC, _LAST_STEP, run). Returns the crank angles it could not finish.
-    ``stats``: a dict that receives ``counts`` (A, 3): each crank angle's evaluations, its
-    Newton steps and how it ended (0 converged, 1 the last step, 2 an inversion failed,
-    3 the saddle's stall, 4 a singular step, 5 the line search's give-up, 6 the steps'
-    limit). ``state``: a dict that receives, where every crank angle was finished, the
-    state at the solution as :func:`cyclomesh.stage.assembly.evaluate`'s (``pin_force``,
-    ``pin_shift`` (A, D, P), ``bearing_fx``, ``bearing_fy``, ``deflection`` (A, D, N))
-    and ``gradient`` (A, m), the scaled gradient there (the evaluation the caller need
-    not repeat)."""
+    _QUADRATIC, _LAST_STEP, _CHORD, run). Returns the crank angles it could not finish.
+    ``stats``: a dict that receives ``counts`` (A, 5): each crank angle's evaluations, its
+    steps (Newton's and chord steps), how it ended (0 converged, 1 the last step, 2 an
+    inversion failed, 3 the saddle's stall, 4 a singular step, 5 the line search's
+    give-up, 6 the steps' limit), its evaluations with the Hessian and its
+    factorisations (each step not a chord step). ``state``: a dict that receives, where
+    every crank angle was finished, the state at the solution as
+    :func:`cyclomesh.stage.assembly.evaluate`'s (``pin_force``, ``pin_shift`` (A, D, P),
+    ``bearing_fx``, ``bearing_fy``, ``deflection`` (A, D, N)) and ``gradient`` (A, m), the
+    scaled gradient there (the evaluation the caller need not repeat)."""
     (force, iterations, halvings, cap, low, high, round_off, stall_h, stall_it, quad, last,
-     run) = settings  # fmt: skip
+     reuse, run) = settings  # fmt: skip
     A, m = x.shape
     G, cols, core, blocks, hole, const, nw, carrier, pin_w, energy, pins, block = _prepare(
         p, law, x, discs, jacobian
     )
     sup = p.supports
     failed = np.zeros(A, np.bool_)
-    counts = np.zeros((A, 3), np.int64)  # evaluations, Newton steps, how it ended
+    counts = np.zeros((A, 5), np.int64)  # evaluations, steps, how it ended, Hessians, LDLᵀs
     D, P, N = p.bl.shape[1], p.bl.shape[2], p.hx.shape[-1]
     pf, bf, gout = np.zeros((2, A, D, P)), np.zeros((A, D, N, 3)), np.zeros((A, m))
     whole = np.ones(1, np.bool_)  # the state at every solution formed
@@ -610,7 +745,8 @@ def newton(
         float(sup.carrier) if carrier else 0.0, carrier, 0.5 * law.rs.clearance,
         law.rs.constant, float(p.torque), float(p.scale), force * abs(p.torque) / p.scale,
         round_off * abs(p.torque) / p.scale, iterations, halvings, cap, low, high, stall_h,
-        stall_it, quad, bool(last), int(run), failed, counts, pf, bf, gout, whole,
+        stall_it, quad, bool(last), float(reuse), int(run), failed, counts, pf, bf, gout,
+        whole,
     )  # fmt: skip
     if stats is not None:
         stats["counts"] = counts
@@ -629,7 +765,7 @@ def newton(
 def _newton_rows(
     x, own, pin, pin_w, energy, pins, hole, G, cols, core, blocks, const, nw, kcarrier,
     carrier, half, kn, torque, L, tol, floor, iterations, halvings, cap, low, high, stall_h,
-    stall_it, quad, last_on, run, failed, counts, pf, bf, gout, whole,
+    stall_it, quad, last_on, reuse, run, failed, counts, pf, bf, gout, whole,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`newton` written for numba: cyclomesh.stage.newton.newton's iteration with
     ``failed`` (rigid=False, the compliant disc), crank angle by crank angle."""
@@ -668,10 +804,15 @@ def _newton_rows(
     Tb = np.zeros((nr + 1, nr + 1))
     dg = np.zeros((D, lam))
     Lb = np.zeros((D, lam, lam))
+    pv = np.zeros(nr, np.int64)
+    vb = np.zeros((D, lam))
     memo = np.zeros((3, D, P))
     wrow = np.zeros((D, P), np.int64)  # the row of pin_w of each flank, −1: none
     scratch = np.zeros((2, m))
     zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
+    want_t = 3  # a trial's evaluation: 3 with its Hessian (the next step Newton's), else 1
+    diag = 1.0
+    first = False  # the last angle's first step too slow for a chord step after it
     for i in range(A):
         _rows(wrow, pin_w, i)
         # a warm start that ends on the saddle (or fails otherwise) is tried once more
@@ -700,9 +841,10 @@ def _newton_rows(
                             trial[r] = prev[r]
                     e1, s1 = _evaluate_one(
                         i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                        half, kn, torque, L, 2, g, H, memo, pf, bf, wrow, scratch, zz,
+                        half, kn, torque, L, 3, g, H, memo, pf, bf, wrow, scratch, zz,
                     )  # fmt: skip
                     counts[i, 0] += 1
+                    counts[i, 3] += 1
                     if s1 == 0:
                         break
                 if s1 == 0:
@@ -719,13 +861,19 @@ def _newton_rows(
             ok_angle = False
             stay = False
             how = 6
+            fresh = have  # H is the Hessian at xi (the warm start's evaluation)
+            kept = False  # the factors of a Hessian kept (_solve_ldl's 1): chord steps
+            barred = False  # a chord step failed: Newton's steps to the end of the angle
+            moves = 0
             for _ in range(iterations):
                 if not have:
                     energy_i, status = _evaluate_one(
                         i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                        half, kn, torque, L, 2, g, H, memo, pf, bf, wrow, scratch, zz,
+                        half, kn, torque, L, 3, g, H, memo, pf, bf, wrow, scratch, zz,
                     )  # fmt: skip
                     counts[i, 0] += 1
+                    counts[i, 3] += 1
+                    fresh = True
                 have = False
                 if status == 2:
                     how = 2
@@ -736,9 +884,9 @@ def _newton_rows(
                     res = max(res, abs(g[r]))
                     if near and not (abs(g[r]) <= tol):  # the round-off of the unknowns?
                         noise = 0.0
-                        for s in range(m):
+                        for s in range(m):  # (H's upper triangle: H_rs = H_sr)
                             xs = abs(xi[s]) * L if rot[s] else abs(xi[s])
-                            noise += abs(H[r, s]) * xs
+                            noise += abs(H[r, s] if s >= r else H[s, r]) * xs
                         noise *= 16.0 * eps
                         if not (abs(g[r]) <= max(tol, noise)):
                             near = False
@@ -747,13 +895,45 @@ def _newton_rows(
                     how = 0
                     break
                 stay = False
+                # a chord step (the kept factors of an earlier Hessian) where the last step
+                # cut the residual by ``reuse`` at least; else Newton's (a linear tail, a
+                # nearly singular H: a chord step there can run far, the round-off)
+                chord = (not fresh) and kept and res <= reuse * previous and not barred
+                if moves == 1:  # the first step's rate: the next angle's guess
+                    first = res > reuse * previous
+                if not fresh and not chord:
+                    energy_i, status = _evaluate_one(
+                        i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                        half, kn, torque, L, 3, g, H, memo, pf, bf, wrow, scratch, zz,
+                    )  # fmt: skip
+                    counts[i, 0] += 1
+                    counts[i, 3] += 1
+                    fresh = True
+                    if status == 2:
+                        how = 2
+                        break
+                # the last step untried where the next residual is predicted at the
+                # round-off: Newton's quadratically, a chord step's at its linear rate
                 take_last = (
                     last_on
                     and near
-                    and res <= quad * previous
-                    and res * res * res <= floor * previous * previous
                     and not linear
+                    and (
+                        (fresh and res <= quad * previous and res**3 <= floor * previous**2)
+                        or (chord and res * res <= floor * previous)
+                    )
                 )
+                saved = (previous, extended, linear, best, since)  # (a chord step's retry)
+                # the trial's Hessian where the next step is predicted Newton's: every step,
+                # else a linear tail (this step's rate poor), the first step as the last angle's
+                if reuse <= 0.0:
+                    want_t = 3
+                elif chord or near:
+                    want_t = 1
+                elif previous == np.inf:
+                    want_t = 3 if first else 1
+                else:
+                    want_t = 3 if res > reuse * previous else 1
                 if res < best:
                     best = res
                     since = 0
@@ -766,25 +946,36 @@ def _newton_rows(
                 stretch = (not extended) and ratio and linear
                 linear = ratio and not extended
                 previous = res
-                diag = 0.0
-                for r in range(m):
-                    diag = max(diag, abs(H[r, r]))
-                diag = max(diag, 1e-300)
-                for r in range(m):
-                    H[r, r] += 1e-14 * diag
-                solved = _solve_ldl(H, g, step, nr, D, lam, Sb, Yb, rb, sb, cl, Tb, dg, Lb)
-                if not solved:  # a body block's pivot 0: the whole H, evaluated again
-                    _evaluate_one(
-                        i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier,
-                        carrier, half, kn, torque, L, 2, g, H, memo, pf, bf, wrow, scratch,
-                        zz,
-                    )  # fmt: skip
+                if chord:
+                    _resolve(g, step, nr, D, lam, Sb, Yb, rb, sb, cl, dg, Lb, pv, vb)
+                    solved = True
+                else:
+                    diag = 0.0
+                    for r in range(m):
+                        diag = max(diag, abs(H[r, r]))
+                    diag = max(diag, 1e-300)
                     for r in range(m):
                         H[r, r] += 1e-14 * diag
-                    if blocks.shape[0]:
-                        solved = _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc)
-                    else:
-                        solved = _solve_in_place(H, g, step)
+                    code = _solve_ldl(
+                        H, g, step, nr, D, lam, Sb, Yb, rb, sb, cl, Tb, dg, Lb, pv, vb
+                    )  # fmt: skip
+                    counts[i, 4] += 1
+                    kept = code == 1 and reuse > 0.0
+                    solved = code != 0
+                    if code != 1:  # H overwritten by an LU: the trial's Hessian for the test
+                        want_t = 3
+                    if not solved:  # a body block's pivot 0: the whole H, evaluated again
+                        _evaluate_one(
+                            i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier,
+                            carrier, half, kn, torque, L, 2, g, H, memo, pf, bf, wrow,
+                            scratch, zz,
+                        )  # fmt: skip
+                        for r in range(m):
+                            H[r, r] += 1e-14 * diag
+                        if blocks.shape[0]:
+                            solved = _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc)
+                        else:
+                            solved = _solve_in_place(H, g, step)
                 if not solved:
                     how = 4
                     break
@@ -793,6 +984,11 @@ def _newton_rows(
                 for r in range(m):
                     slope += g[r] * step[r]
                 flip = not slope < 0.0
+                if flip and chord:  # not a descent: the Hessian here instead
+                    previous, extended, linear, best, since = saved
+                    kept = False
+                    barred = True
+                    continue
                 if flip:
                     slope = 0.0
                     for r in range(m):
@@ -825,11 +1021,15 @@ def _newton_rows(
                 for _h in range(halvings):
                     for r in range(m):
                         trial[r] = xi[r] + (step[r] * t / L if rot[r] else step[r] * t)
+                    # the trial's gradient, and its Hessian where the next step is predicted
+                    # to be Newton's (every step; a linear tail: this step's rate poor)
                     e_t, st = _evaluate_one(
                         i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
-                        half, kn, torque, L, 2, gt, Ht, memo, pf, bf, wrow, scratch, zz,
+                        half, kn, torque, L, want_t, gt, Ht, memo, pf, bf, wrow, scratch, zz,
                     )  # fmt: skip
                     counts[i, 0] += 1
+                    if want_t == 3:
+                        counts[i, 3] += 1
                     if st == 2:
                         break
                     ok = e_t <= energy_i + 1e-4 * t * slope or tiny
@@ -838,19 +1038,36 @@ def _newton_rows(
                         for r in range(m):
                             norm_t += gt[r] * gt[r]
                         ok = np.sqrt(norm_t) <= (1.0 - 1e-4 * t) * norm
+                    if st == 0 and ok and chord:  # a chord step: the residual falls too
+                        res_t = 0.0
+                        for r in range(m):
+                            res_t = max(res_t, abs(gt[r]))
+                        ok = res_t < res
                     if st == 0 and ok:
                         for r in range(m):
                             xi[r] = trial[r]
                         g, gt = gt, g
-                        H, Ht = Ht, H
+                        if want_t == 3:
+                            H, Ht = Ht, H
                         energy_i, status, have = e_t, st, True
+                        fresh = want_t == 3
+                        if fresh:
+                            kept = False
+                        moves += 1
                         moved = True
+                        break
+                    if chord:  # (one trial: else Newton's step from here)
                         break
                     if _h + 1 >= stall_h and not near:
                         gave_up = True
                         break
                     extended = False
                     t = 1.0 if t > 1.0 else 0.5 * t
+                if not moved and chord:  # the chord step failed: Newton's from here
+                    previous, extended, linear, best, since = saved
+                    kept = False
+                    barred = True
+                    continue  # (xi evaluated again: the state there)
                 if not moved:
                     if gave_up or not (near and flat and st != 2):
                         how = 5 if st != 2 else 2

@@ -76,6 +76,19 @@ round-off polish after it are saved (task i36b)."""
 _QUADRATIC = 1e-3
 """Largest ratio of two Newton steps' residuals taken as quadratic convergence
 (:data:`_LAST_STEP`; a linear tail falls by 0.03–0.1 a step)."""
+_CHORD = 1e-2
+"""The compliant disc's compiled iteration (:func:`cyclomesh.stage.kernel_compliant.newton`):
+where the last step cut the largest residual to this fraction of the one before or less,
+the next step reuses the last Newton step's factorisation of the Hessian (a chord, or
+modified Newton, step: Ortega & Rheinboldt §7.1; the Shamanskii iteration), a gradient's
+evaluation and a back substitution instead of the Hessian's evaluation and
+factorisation; a chord step whose residual falls less, or that the line search refuses,
+is followed by (or redone as) Newton's. Every trial evaluates only the gradient (its
+Hessian only where the iteration goes on with Newton's step there). The same test ends
+the iteration, so the root is the same to round-off; :data:`_LAST_STEP` takes a chord
+step untried where its linear rate predicts the next residual at the round-off
+(res²/res_before ≤ :data:`ROUND_OFF_FORCE`·T/r_c). 0: every step Newton's, as the
+NumPy reference (measured, task i40k: 1e-3 to 3e-2 alike, 0.1 more evaluations)."""
 _ROUND_OFF_HALVINGS = 3
 """With ``round_off`` (:func:`residual_newton`), a crank angle near the root whose residual's
 norm no trial of this many halvings reduces stays where it is (the round-off)."""
@@ -313,12 +326,12 @@ def kernel_settings(run: int, compliant: bool = False) -> tuple:
     step): :data:`FORCE_TOLERANCE`, the iteration and halving limits, :data:`_STEP_CAP`
     [m], :data:`_LINEAR`, :data:`ROUND_OFF_FORCE`, (compliant: :data:`_STALL_HALVINGS`,
     :data:`_STALL_ITERATIONS`, :data:`_QUADRATIC`, :data:`_LAST_STEP` with
-    :data:`_REUSE_TRIAL`), then ``run``, the crank angles of a warm run."""
+    :data:`_REUSE_TRIAL`, :data:`_CHORD`), then ``run``, the crank angles of a warm run."""
     head = (FORCE_TOLERANCE, _MAX_ITERATIONS, _MAX_HALVINGS, _STEP_CAP, *_LINEAR, ROUND_OFF_FORCE)
     if not compliant:
         return (*head, run)
     last = _REUSE_TRIAL and _LAST_STEP
-    return (*head, _STALL_HALVINGS, _STALL_ITERATIONS, _QUADRATIC, last, run)
+    return (*head, _STALL_HALVINGS, _STALL_ITERATIONS, _QUADRATIC, last, _CHORD, run)
 
 
 def residual_newton(
