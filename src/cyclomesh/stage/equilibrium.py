@@ -509,8 +509,8 @@ def _kernel_newton(
     angle's iteration in one pass, the crank angles in order, each started from the
     solutions of the ones before, :data:`~cyclomesh.stage.kernel_newton.RUN`); the crank
     angles it cannot finish are solved by the reference from their start, which raises
-    its own error if it fails. ``state``, when every crank angle was finished by the
-    kernel, receives its state at the solution (the kernels' ``state``). ``start`` (the
+    its own error if it fails. ``state`` receives the state at the solution (the kernels'
+    ``state``; a crank angle the reference finished evaluated there). ``start`` (the
     bearing phase only): None, ``x`` holds every crank angle's start; else ``x`` is None
     and ``start(idx)`` gives the starts (len(idx), m) of the crank angles ``idx``, asked
     for where the kernel needs them only (:func:`~cyclomesh.stage.kernel_newton.newton`);
@@ -526,8 +526,6 @@ def _kernel_newton(
     else:
         jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, x.shape[1])
         failed, started = kernel_newton(p, law, x, discs, jacobian, settings, found, start, keep)
-    if state is not None and not np.any(failed):
-        state.update(found)
     if np.any(failed):
         idx = np.flatnonzero(failed)
         if start is None:
@@ -537,7 +535,14 @@ def _kernel_newton(
             ask = ~started[idx]
             if np.any(ask):
                 first[ask] = start(idx[ask])
-        x[idx] = newton(p.take(idx), evaluate, law, first, discs, rigid, phi[idx])
+        sub = p.take(idx)
+        x[idx] = newton(sub, evaluate, law, first, discs, rigid, phi[idx])
+        if state is not None:  # the state of the crank angles the reference finished
+            _, g, _, st = evaluate(sub, law, x[idx], discs, rigid, hessian=False)
+            for key, value in found.items():
+                value[idx] = g if key == "gradient" else st[key]
+    if state is not None:  # (each crank angle's state as the kernel or the reference
+        state.update(found)  # ended it: the same whichever others failed)
     return x
 
 
@@ -879,7 +884,11 @@ def solve_direction(
 
         def start(idx: NDArray[np.int64]) -> FloatArray:
             """The bearing phase's start of the crank angles ``idx``."""
-            sub = unsupported.take(idx)
+            if lazy and rigid[0] is not None:  # the few arrays of the compiled start alone
+                sub, block = unsupported, pin_block(unsupported)[:, idx]  # (the same values)
+                holes = tuple(v[idx] for v in (sub.hx, sub.hy, sub.ex, sub.ey))
+            else:
+                sub, block, holes = unsupported.take(idx), None, None
             if rigid[0] is None:
                 xr, Fr, kr, _ = rigid_stage(sub, mesh.phi[idx])
             else:
@@ -887,16 +896,17 @@ def solve_direction(
             if compiled() and law.k is None and fr is None:
                 # numba, no friction, no series spring (the rigid discs' lazy start, and
                 # the compliant disc's whole one): in one pass, the NumPy start's bits
-                holes = (sub.hx, sub.hy, sub.ex, sub.ey)
+                if block is None:
+                    block, holes = pin_block(sub), (sub.hx, sub.hy, sub.ex, sub.ey)
                 got = compiled_start(
-                    pin_block(sub), Fr, kr, xr, holes, sub.scale, law.rs, LOAD_EXPONENT,
-                    SPLIT_ITERATIONS,
+                    block, Fr, kr, xr, holes, sub.scale, law.rs, LOAD_EXPONENT, SPLIT_ITERATIONS
                 )  # fmt: skip
                 if got is not None:  # (else the NumPy start, which raises)
                     if supports is None:
                         return got
                     extra = supports.extra(D, stage.holes.count)
                     return np.concatenate([got, np.zeros((got.shape[0], extra))], axis=-1)
+                sub = unsupported.take(idx)
             return bearing_start(sub, xr, Fr, kr)[0]
 
         x = None if lazy else start(np.arange(A))
