@@ -313,12 +313,14 @@ def _kernels_newton() -> Any:
     global _hole_offset, _last_state, _rollers_curved, _curvature
     _pin_force = jit(_pin_force)
     _pin_law = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(_pin_law)
+    _rollers_curved = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(
+        _rollers_curved
+    )
     _rollers = jit(_rollers)
     _solve_in_place = jit(_solve_in_place)
     _solve_blocks = jit(_solve_blocks)
     _evaluate_one = jit(_evaluate_one)
     _hole_offset = jit(_hole_offset)
-    _rollers_curved = jit(_rollers_curved)
     _curvature = jit(_curvature)
     _last_state = jit(_last_state)
     return jit(_newton_rows)
@@ -505,25 +507,14 @@ def _rollers(s, const, R, half, kn):  # pragma: no cover (compiled)
     [N/m] and Σ kn·δ_j^(p+1) (the energy times p + 1 [J]). Shared by the rigid discs'
     compiled evaluation (:func:`_evaluate_one`) and the compliant disc's
     (:mod:`cyclomesh.stage.kernel_compliant`), the same operations in the same order."""
-    p = 10.0 / 9.0
-    B = 0.0
-    kb = 0.0
-    ub = 0.0
-    for j in range(R):
-        cj = const[j]
-        dj = s * cj - half
-        if dj > 0.0:
-            root = dj ** (1.0 / 9.0)
-            q = dj * root
-            B += kn * q * cj
-            kb += p * kn * root * cj * cj
-            ub += kn * (dj * q)
+    B, kb, ub, _ = _rollers_curved(s, const, R, half, kn)  # (d²B/ds² unused: dropped)
     return B, kb, ub
 
 
 def _rollers_curved(s, const, R, half, kn):  # pragma: no cover (compiled)
-    """:func:`_rollers` (the same operations, the same bits) and d²B/ds² = Σ p·(p − 1)·kn·
-    δ_j^(p−2)·cos³ψ_j [N/m²] (the bearing phase's third derivative, :func:`_curvature`)."""
+    """:func:`_rollers`' B, dB/ds and Σ kn·δ_j^(p+1), and d²B/ds² = Σ p·(p − 1)·kn·
+    δ_j^(p−2)·cos³ψ_j [N/m²] (the bearing phase's third derivative, :func:`_curvature`);
+    :func:`_rollers` is this without the last."""
     p = 10.0 / 9.0
     B = 0.0
     kb = 0.0
