@@ -869,11 +869,13 @@ def solve_direction(
         return x, bfx, bfy
 
     law = None if stage.bearing is None else BearingLaw(stage.bearing, stage.crankshaft_stiffness)
-    # the compiled iteration (the rigid discs' stage without friction, a bearing law
-    # without a series spring) asks for the start of the crank angles it cannot start
-    # from the ones before (the first, mostly): the others' rigid solutions (unless the
-    # mesh's TE is wanted), splits and deflections are not formed
-    lazy = compiled() and law is not None and law.k is None and body is None and fr is None
+    # ``fast``: numba, no friction, a bearing law without a series spring: the bearing
+    # start in one compiled pass (``start``). ``lazy``: that with the rigid discs, whose
+    # compiled iteration asks for the start of the crank angles it cannot start from the
+    # ones before (the first, mostly): the others' rigid solutions (unless the mesh's TE
+    # is wanted), splits and deflections are not formed
+    fast = compiled() and law is not None and law.k is None and fr is None
+    lazy = fast and body is None
     if lazy and not want("mesh_te"):
         x, F, k_pin, bound, mesh_te = None, None, None, None, None
     else:
@@ -893,9 +895,8 @@ def solve_direction(
                 xr, Fr, kr, _ = rigid_stage(sub, mesh.phi[idx])
             else:
                 xr, Fr, kr = (v[idx] for v in rigid)
-            if compiled() and law.k is None and fr is None:
-                # numba, no friction, no series spring (the rigid discs' lazy start, and
-                # the compliant disc's whole one): in one pass, the NumPy start's bits
+            if fast:  # numba, no friction, no series spring (the rigid discs' lazy start,
+                # and the compliant disc's whole one): in one pass, the NumPy start's bits
                 if block is None:
                     block, holes = pin_block(sub), (sub.hx, sub.hy, sub.ex, sub.ey)
                 got = compiled_start(
