@@ -50,6 +50,7 @@ from cyclomesh.exceptions import ConvergenceError, DesignError
 __all__ = [
     "UnloadedContact",
     "unloaded_contact",
+    "unloaded_contact_stack",
     "contact_phase",
     "contact_normal",
     "normals_at",
@@ -205,41 +206,20 @@ def unloaded_contact(
     e = design.eccentricity
     ring_shape = errors.ring_shape(n1)
     phi = np.asarray(crank_angles, dtype=float)[:, None]  # (A, 1)
-
-    def per_pin(x: ArrayLike) -> FloatArray:  # (..., 1, n1)
-        return np.broadcast_to(np.asarray(x, float), (*ring_shape, n1))[..., None, :]
-
-    index = np.arange(n1)
-    pin_angle = index * design.pitch + per_pin(errors.angular)
-    pin_r = design.pin_circle_radius + per_pin(errors.radial)
-    r_pin = design.pin_radius + per_pin(errors.pin_radius)
-    ecc = e + np.broadcast_to(errors.eccentricity, ring_shape)[..., None, None]
+    pin_angle, pin_r, r_pin, ecc = _ring(design, errors, ring_shape)
 
     phi_t = -phi / n2
     # nominal tooth phase n2·(i·ψ + φ/n2) of the pin, and its nearest tooth-space bottom
     # (the compiled passes take the bottom themselves, from n2·i·ψ and φ)
-    pin_phase = n2 * index * design.pitch
+    pin_phase = n2 * np.arange(n1) * design.pitch
     if modification.profile is None and kernel_name() == "numba":
         # the compiled passes (cyclomesh.core.kernel_contact); None: the reference refuses
         shape = (*ring_shape, phi.size, n1)
-        got = contact_arrays(
-            pin_r, pin_angle, ecc, phi, r_pin - rho_gen, pin_phase, a, e, n1, n2, rho_gen,
-            modification.rotation, shape, normals,
-        )  # fmt: skip
+        got = _compiled_contact(
+            design, modification, pin_r, pin_angle, ecc, phi, r_pin, shape, normals
+        )
         if got is not None:
-            arg_w = got.pop("arg_w")
-            if normals:  # at a tip, or unreachable (φ1 = −π), the reference's normal: along
-                # w but for the last bits of sin(−π) (the kernel's sin φ1 = −√(1 − c²) is
-                # 0), which decide the side of ±π of its force angle when w lies on the
-                # x-axis; a few % of the contacts, taken by their flat indices (C order)
-                tip = np.flatnonzero(got["profile_angle"].reshape(-1) == -np.pi)
-                if tip.size:
-                    radius = r_pin.reshape(-1)[tip // (phi.size * n1) * n1 + tip % n1]
-                    angle = got["profile_angle"].reshape(-1)[tip]
-                    nx, ny = _fixed_normal(arg_w.reshape(-1)[tip], angle, radius, a, e, n1, rho_gen)
-                    np.put(got["normal_x"], tip, nx)
-                    np.put(got["normal_y"], tip, ny)
-            return UnloadedContact(**got, pin_radius=np.broadcast_to(r_pin, shape))
+            return got
     u_nominal = pin_phase + phi
     t_root = 2.0 * np.pi * np.round(u_nominal / (2.0 * np.pi)) / n2
 
@@ -309,6 +289,101 @@ def unloaded_contact(
         residual=residual,
         normal_x=normal[0],
         normal_y=normal[1],
+    )
+
+
+def _ring(
+    design: PairDesign, errors: PinErrors, ring_shape: tuple[int, ...]
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Pin angles, pin-circle radii and pin radii (..., 1, n1) and the eccentricity
+    (..., 1, 1) of a ring of pins with ``errors`` (Eq. 5) [rad, m]."""
+    n1 = design.pins
+
+    def per_pin(x: ArrayLike) -> FloatArray:  # (..., 1, n1)
+        return np.broadcast_to(np.asarray(x, float), (*ring_shape, n1))[..., None, :]
+
+    pin_angle = np.arange(n1) * design.pitch + per_pin(errors.angular)
+    pin_r = design.pin_circle_radius + per_pin(errors.radial)
+    r_pin = design.pin_radius + per_pin(errors.pin_radius)
+    ecc = design.eccentricity + np.broadcast_to(errors.eccentricity, ring_shape)[..., None, None]
+    return pin_angle, pin_r, r_pin, ecc
+
+
+def _compiled_contact(
+    design: PairDesign,
+    modification: Modification,
+    pin_r: FloatArray,
+    pin_angle: FloatArray,
+    ecc: FloatArray,
+    phi: FloatArray,
+    r_pin: FloatArray,
+    shape: tuple[int, ...],
+    normals: bool,
+) -> UnloadedContact | None:
+    """:func:`unloaded_contact`'s arrays of ``shape`` (..., A, n1) by the compiled passes
+    (undeviated profile; :func:`cyclomesh.core.kernel_contact.contact_arrays`, whose
+    inputs these are), or None for a case the reference must refuse."""
+    n1, n2 = design.pins, design.teeth
+    a, rho_gen = generating_radii(design, modification)
+    e = design.eccentricity
+    pin_phase = n2 * np.arange(n1) * design.pitch
+    got = contact_arrays(
+        pin_r, pin_angle, ecc, phi, r_pin - rho_gen, pin_phase, a, e, n1, n2, rho_gen,
+        modification.rotation, shape, normals,
+    )  # fmt: skip
+    if got is None:
+        return None
+    arg_w = got.pop("arg_w")
+    if normals:  # at a tip, or unreachable (φ1 = −π), the reference's normal: along
+        # w but for the last bits of sin(−π) (the kernel's sin φ1 = −√(1 − c²) is
+        # 0), which decide the side of ±π of its force angle when w lies on the
+        # x-axis; a few % of the contacts, taken by their flat indices (C order)
+        tip = np.flatnonzero(got["profile_angle"].reshape(-1) == -np.pi)
+        if tip.size:
+            radius = r_pin.reshape(-1)[tip // (shape[-2] * n1) * n1 + tip % n1]
+            angle = got["profile_angle"].reshape(-1)[tip]
+            nx, ny = _fixed_normal(arg_w.reshape(-1)[tip], angle, radius, a, e, n1, rho_gen)
+            np.put(got["normal_x"], tip, nx)
+            np.put(got["normal_y"], tip, ny)
+    return UnloadedContact(**got, pin_radius=np.broadcast_to(r_pin, shape))
+
+
+def unloaded_contact_stack(
+    design: PairDesign,
+    modification: Modification | None,
+    problems: list[tuple[PinErrors | None, ArrayLike]],
+    normals: bool = False,
+) -> UnloadedContact | None:
+    """:func:`unloaded_contact` of several problems that share the design and the
+    modification, each ``(errors, crank_angles)`` (the same ring shape and number of
+    crank angles), in one pass of the compiled kernel: arrays (P, ..., A, n1), problem p's
+    at [p], each of them :func:`unloaded_contact`'s bit for bit (each contact is
+    computed alone; the problems are rows of the kernel's ring axis, each with its crank
+    angles). For a drive's forward and mirror problems (:func:`cyclomesh.drive.mesh.stack_meshes`),
+    which would otherwise go through the kernel's per-call work twice.
+
+    None where the compiled passes do not apply (the NumPy kernel, a profile deviation,
+    problems of other ring shapes or numbers of crank angles) or refuse a case (a jammed
+    or unconverged contact: :func:`unloaded_contact` of each problem then raises).
+    """
+    modification = modification or Modification()
+    if modification.profile is not None or kernel_name() != "numba":
+        return None
+    n1 = design.pins
+    problems = [(errors or PinErrors(), np.asarray(phi, dtype=float)) for errors, phi in problems]
+    ring_shape = problems[0][0].ring_shape(n1)
+    n_angles = problems[0][1].size
+    if any(
+        errors.ring_shape(n1) != ring_shape or phi.shape != (n_angles,) for errors, phi in problems
+    ):
+        return None
+    rings = [_ring(design, errors, ring_shape) for errors, _ in problems]
+    pin_angle, pin_r, r_pin, ecc = (np.stack(parts) for parts in zip(*rings, strict=True))
+    lead = (len(problems),) + (1,) * len(ring_shape)
+    phi = np.stack([phi for _, phi in problems]).reshape(*lead, n_angles, 1)
+    shape = (len(problems), *ring_shape, n_angles, n1)
+    return _compiled_contact(
+        design, modification, pin_r, pin_angle, ecc, phi, r_pin, shape, normals
     )
 
 

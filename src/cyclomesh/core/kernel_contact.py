@@ -267,6 +267,7 @@ def _contact_finish(
     d_in,
     phi_t,
     phi,
+    group,
     pin_phase,
     pin_angle,
     a,
@@ -294,7 +295,9 @@ def _contact_finish(
     The rows q0 ≤ q < q1 of the (R·A, n1) contacts (row q: ring q // A, crank angle
     q % A): arg_w, arg_z, arg_n = arg w, arg P_s, arg n, u = −arccos c, c, ``reach`` and
     the tooth frame's normal, sin u and D of :func:`_contact_phase` of the block (rows
-    q − q0); phi_t, phi (A,); pin_phase = n2·i·ψ (n1,), from which the nearest
+    q − q0); phi_t, phi (P, A): the crank angles of the ring rows r with r // ``group``
+    = p (one row for all rings, or one a problem of a stack of them,
+    :func:`contact_arrays`); pin_phase = n2·i·ψ (n1,), from which the nearest
     tooth-space bottom of the nominal tooth phase, t_root = 2π·rint((n2·i·ψ + φ)/2π)/n2,
     is taken here as the reference takes it (``np.round``: halves to even);
     pin_angle (R, n1); ``turn`` the rotation modification [rad]. Fills the block's rows q
@@ -314,8 +317,8 @@ def _contact_finish(
     redo_row = np.empty(n_pins, np.bool_)
     for q in range(q0, q1):
         r, k, b = q // n_angles, q % n_angles, q - q0
-        pt = phi_t[k]
-        tr = (phi[k], pin_phase)
+        pt = phi_t[r // group, k]
+        tr = (phi[r // group, k], pin_phase)
         pa = pin_angle[r]
         # a view per row: with them the compiler vectorises the loop below (with flat
         # offsets it does not)
@@ -789,7 +792,9 @@ def contact_arrays(
     from the compiled passes and NumPy's inverse trigonometric functions (module doc).
 
     Inputs as the reference builds them: pin_r, pin_angle, s_pin = r_pin − ρ' of shape
-    (..., 1, n1), ecc (..., 1, 1), phi (A, 1) [rad], pin_phase = n2·i·ψ (n1,); ``shape`` the
+    (..., 1, n1), ecc (..., 1, 1), phi (A, 1) [rad] (or (P, 1, …, 1, A, 1): P problems
+    stacked on the first ring axis, each with its own crank angles,
+    :func:`cyclomesh.core.contact.unloaded_contact_stack`), pin_phase = n2·i·ψ (n1,); ``shape`` the
     contact arrays' (..., A, n1); ``normals``: also the outward flank normals in the
     fixed frame (``normal_x``, ``normal_y``; those of the unreachable pins, φ1 = −π, the
     caller takes from the reference, see :func:`cyclomesh.core.contact.unloaded_contact`).
@@ -827,8 +832,9 @@ def contact_arrays(
     outs = [v.reshape(n_rows, n1) for v in out.values()]
     normal_rows = [v.reshape(n_rows, n1) if normals else v.reshape(0, 0) for v in normal]
     residual_rows, arg_w_rows = residual.reshape(n_rows, n1), arg_w.reshape(n_rows, n1)
-    phi_t = np.ascontiguousarray(-phi[:, 0] / n2)
-    phi_rows = np.ascontiguousarray(phi[:, 0])
+    phi_rows = np.ascontiguousarray(phi.reshape(-1, n_angles))  # (P, A): P = 1 or problems
+    phi_t = -phi_rows / n2
+    group = flat[0] // phi_rows.shape[0]  # ring rows a row of crank angles
     pin_phase = np.ascontiguousarray(pin_phase, float)
     pin_rows = rows(pin_angle, (1, n1))
     # blocks of rows (crank angles of a ring) whose intermediates stay in the cache
@@ -864,6 +870,7 @@ def contact_arrays(
             bd,
             phi_t,
             phi_rows,
+            group,
             pin_phase,
             pin_rows,
             a,

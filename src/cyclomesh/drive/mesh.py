@@ -21,7 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from cyclomesh.core.contact import UnloadedContact, normals_at, unloaded_contact
+from cyclomesh.core.contact import (
+    UnloadedContact,
+    normals_at,
+    unloaded_contact,
+    unloaded_contact_stack,
+)
 from cyclomesh.core.discbody import DiscBody, share_load_coupled, tooth_index
 from cyclomesh.core.fields import CONTACT_FIELDS, PIN_FIELDS, contact_fields
 from cyclomesh.core.kernel import kernel_name, share_load
@@ -144,6 +149,50 @@ def stacked_contact(
     )
 
 
+def _stacked_pair(
+    design: PairDesign,
+    modification: Modification,
+    problems: list[tuple[PinErrors, FloatArray]],
+    discs: int,
+    normals: bool,
+) -> UnloadedContact | None:
+    """:func:`stacked_contact` of problems ``(errors, phi)`` that share the design and the
+    modification in one pass of the compiled contact
+    (:func:`~cyclomesh.core.contact.unloaded_contact_stack`): arrays (P, ..., A, N, n1),
+    problem p's at [p], each :func:`stacked_contact`'s bit for bit (the eccentric angles
+    as its compiled path takes them); None where that pass does not apply."""
+    offsets = 2.0 * np.pi * np.arange(discs) / discs
+    raw = unloaded_contact_stack(
+        design,
+        modification,
+        [(errors, (phi[:, None] + offsets[None, :]).ravel()) for errors, phi in problems],
+        normals,
+    )
+    if raw is None:
+        return None
+    n_angles = problems[0][1].size
+    return UnloadedContact(
+        **{
+            name: None
+            if value is None
+            else value.reshape(*value.shape[:-2], n_angles, discs, value.shape[-1])
+            for name in UnloadedContact.__dataclass_fields__
+            for value in (getattr(raw, name),)
+        }
+    )
+
+
+def _part(geo: UnloadedContact, p: int) -> UnloadedContact:
+    """Problem ``p`` of a stack of problems' contact (:func:`_stacked_pair`), views."""
+    return UnloadedContact(
+        **{
+            name: None if value is None else value[p]
+            for name in UnloadedContact.__dataclass_fields__
+            for value in (getattr(geo, name),)
+        }
+    )
+
+
 def loaded_normals(mesh: StackMesh, force: FloatArray) -> tuple[FloatArray, FloatArray]:
     """The outward flank normals (..., A, N, n1) of a mesh built without them, at the
     pins that carry load (F ≠ 0) only, 0 elsewhere: those pins' normals bit for bit
@@ -205,21 +254,26 @@ def _mesh(
     force_angle: bool = True,
     normals: bool = True,
     rests: bool = True,
+    formed: tuple[UnloadedContact, FloatArray, FloatArray] | None = None,
 ) -> StackMesh:
     """Unloaded contact, rest positions and compliance of a stack (forward flanks);
     ``force_angle``: also the direction of every pin's force (else None); ``normals``:
     the flank normals of every contact (else None: :func:`load_stack` takes those of the
     loaded pins, :func:`loaded_normals`; no force angle then); ``rests``: the rest
     positions and the backlash (else None: a mesh only the flanks' geometry and
-    compliance of which are read)."""
+    compliance of which are read); ``formed``: the contact and the compliance (α, γ)
+    already formed (:func:`stack_meshes`' two problems in one pass), else formed here."""
     ring_shape = errors.ring_shape(design.pins)
-    geo = stacked_contact(design, modification, errors, phi, discs, normals)
+    if formed is None:
+        geo = stacked_contact(design, modification, errors, phi, discs, normals)
+        alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
+    else:
+        geo, alpha, gamma = formed
     flat = (*geo.rotation.shape[:-2], discs * design.pins)
     rest = reverse_rest = backlash = None
     if rests:
         rest, reverse_rest = rest_positions(geo, design.pins, discs)
         backlash = geo.rotation.reshape(flat) - rest[..., None]
-    alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
     return StackMesh(
         design=design,
         geo=geo,
@@ -348,16 +402,52 @@ def stack_meshes(
     ``reverse_rests``: the mirror problem's rest positions and backlash (else None in its
     mesh: the RV stage under positive torques reads only its flanks' geometry and
     compliance, as the opposite flanks of the forward problem).
+
+    With numba (an undeviated profile) both problems' contact is one compiled pass and
+    their compliance one call (:func:`_formed_pair`: the two problems as two rows of the
+    kernel's ring axis, each with its pins and crank angles), each mesh's arrays views of
+    the pair's, C-contiguous: each contact is computed alone, so the meshes are those of
+    the problems formed one after the other, bit for bit.
     """
     fwd = rev = None
     args = (discs, groove_deformation, contact_law, body, force_angle, normals)
-    if forward:
-        fwd = _mesh(design, modification, errors, phi, *args)
+    formed = (None, None)
     if reverse:
         mod_m, errors_m = mirror_problem(modification, errors, design.pins)
         # the mirror of crank angle φ is −φ; solve increasing angles and flip back below
-        rev = _mesh(design, mod_m, errors_m, -phi[::-1], *args, reverse_rests)
+        phi_m = -phi[::-1]
+        if forward and mod_m is modification:  # both problems' contact in one pass
+            formed = _formed_pair(
+                design, modification, [(errors, phi), (errors_m, phi_m)], *args[:3], normals
+            )
+    if forward:
+        fwd = _mesh(design, modification, errors, phi, *args, formed=formed[0])
+    if reverse:
+        rev = _mesh(design, mod_m, errors_m, phi_m, *args, reverse_rests, formed=formed[1])
     return fwd, rev
+
+
+def _formed_pair(
+    design: PairDesign,
+    modification: Modification,
+    problems: list[tuple[PinErrors, FloatArray]],
+    discs: int,
+    groove_deformation: bool,
+    contact_law: str,
+    normals: bool,
+) -> tuple:
+    """The contact and the compliance (α, γ) of problems that share the design and the
+    modification (:func:`stack_meshes`' forward and mirror problems) in one compiled pass
+    each, then taken apart: each problem's the same bits as its own
+    (:func:`_stacked_pair`; the compliance is per contact); (None, …) where the compiled
+    contact does not apply (each problem then formed alone)."""
+    geo = _stacked_pair(design, modification, problems, discs, normals)
+    if geo is None:
+        return (None,) * len(problems)
+    alpha, gamma = pin_compliance(geo, design, groove_deformation, contact_law)
+    flat = (*alpha.shape[:-2], discs * design.pins)
+    alpha, gamma = alpha.reshape(flat), gamma.reshape(flat)
+    return tuple((_part(geo, p), alpha[p], gamma[p]) for p in range(len(problems)))
 
 
 _CONTACT = [
