@@ -322,10 +322,13 @@ def _kernels_newton() -> Any:
     _rollers = jit(_rollers)
     _solve_in_place = jit(_solve_in_place)
     _solve_blocks = jit(_solve_blocks)
-    _evaluate_one = jit(_evaluate_one)
-    _hole_offset = jit(_hole_offset)
-    _curvature = jit(_curvature)
-    _last_state = jit(_last_state)
+    # inlined (numba's IR): a compiled call pays two atomic reference counts per array
+    # argument, which also stall the pipeline (the evaluation has twelve)
+    inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+    _evaluate_one = inline(_evaluate_one)
+    _hole_offset = inline(_hole_offset)
+    _curvature = inline(_curvature)
+    _last_state = inline(_last_state)
     return jit(_newton_rows)
 
 
@@ -634,13 +637,23 @@ def _evaluate_one(
             delta = pin[1, i, d, j] * (th - b) + pin[2, i, d, j] * ux + pin[3, i, d, j] * uy
             if delta <= 0.0:
                 continue
-            code, f, logf, a, gm = _pin_law(delta, pin, i, d, j, memo)
-            if code == 1:
+            # _pin_law written out: an array passed to even an inlined function costs
+            # two atomic reference counts, which stall the pipeline (two arrays a pin)
+            reach = pin[6, i, d, j]
+            if delta >= reach:
                 status = 1
                 continue
-            if code == 2:
+            a, gm = pin[4, i, d, j], pin[5, i, d, j]
+            f, logf = _pin_force(
+                delta, a, gm, np.isfinite(reach), memo[0, d, j], memo[1, d, j], memo[2, d, j]
+            )
+            if f > 0.0 and gm != 0.0:
+                memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, logf, f
+            if f < 0.0:
                 return 0.0, 2
             if f > 0.0:
+                if gm == 0.0:
+                    logf = np.log(f)
                 pins += 0.5 * f * f * (a - 0.5 * gm - gm * logf)
                 if want:
                     pf[i, d, j] = f
@@ -678,7 +691,18 @@ def _evaluate_one(
             dx = x[2 + 3 * d] + rot * (-hole[1, i, d, k]) + hole[2, i, d, k] - wx
             dy = x[3 + 3 * d] + rot * hole[0, i, d, k] + hole[3, i, d, k] - wy
             s = np.hypot(dx, dy)
-            B, kb, ub, b2 = _rollers_curved(s, const, R, half, kn)
+            # _rollers_curved written out (no array passed: see the pins)
+            B = kb = ub = b2 = 0.0
+            for q in range(R):
+                cq = const[q]
+                dq = s * cq - half
+                if dq > 0.0:
+                    root = dq ** (1.0 / 9.0)
+                    qq = dq * root
+                    B += kn * qq * cq
+                    kb += p * kn * root * cq * cq
+                    ub += kn * (dq * qq)
+                    b2 += (p - 1.0) * p * kn * root / dq * cq * cq * cq
             bearings += ub / (p + 1.0)
             if not want:
                 continue
@@ -1140,8 +1164,9 @@ def _kernels_rigid() -> Any:
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     global _rigid_one, _rigid_same
-    _rigid_one = jit(_rigid_one)
-    _rigid_same = jit(_rigid_same)
+    inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+    _rigid_one = inline(_rigid_one)
+    _rigid_same = inline(_rigid_same)
     return jit(_rigid_rows)
 
 
@@ -1172,13 +1197,21 @@ def _rigid_one(i, x, pin, torque, L, memo, store, pf, pk, opens):  # pragma: no 
             delta = pin[1, i, d, j] * (th - b)
             if delta <= 0.0:
                 continue
-            code, f, logf, a, gm = _pin_law(delta, pin, i, d, j, memo)
-            if code == 1:
+            reach = pin[6, i, d, j]  # _pin_law written out, as in _evaluate_one
+            if delta >= reach:
                 status = 1
                 continue
-            if code == 2:
+            a, gm = pin[4, i, d, j], pin[5, i, d, j]
+            f, logf = _pin_force(
+                delta, a, gm, np.isfinite(reach), memo[0, d, j], memo[1, d, j], memo[2, d, j]
+            )
+            if f > 0.0 and gm != 0.0:
+                memo[0, d, j], memo[1, d, j], memo[2, d, j] = delta, logf, f
+            if f < 0.0:
                 return 0.0, 0.0, 0.0, 0.0, 2
             if f > 0.0:
+                if gm == 0.0:
+                    logf = np.log(f)
                 pins += 0.5 * f * f * (a - 0.5 * gm - gm * logf)
                 v = pin[1, i, d, j] / L
                 k = 1.0 / (a - gm * (1.0 + logf))  # dF/dδ (Eq. 20)
