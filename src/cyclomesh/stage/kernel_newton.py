@@ -325,7 +325,7 @@ def _kernels_newton() -> Any:
     # inlined (numba's IR): a compiled call pays two atomic reference counts per array
     # argument, which also stall the pipeline (the evaluation has twelve)
     inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
-    _evaluate_one = inline(_evaluate_one)
+    _evaluate_one = jit(_evaluate_one)
     _hole_offset = inline(_hole_offset)
     _curvature = inline(_curvature)
     _last_state = inline(_last_state)
