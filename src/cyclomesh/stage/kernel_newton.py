@@ -313,7 +313,7 @@ def _kernels_newton() -> Any:
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     global _evaluate_one, _pin_force, _solve_in_place, _solve_blocks, _rollers, _pin_law
-    global _hole_offset, _last_state, _rollers_curved, _curvature
+    global _hole_offset, _last_state, _rollers_curved, _curvature, _solve_lu, _lu_again
     _pin_force = jit(_pin_force)
     _pin_law = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(_pin_law)
     _rollers_curved = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(
@@ -322,6 +322,8 @@ def _kernels_newton() -> Any:
     _rollers = jit(_rollers)
     _solve_in_place = jit(_solve_in_place)
     _solve_blocks = jit(_solve_blocks)
+    _solve_lu = jit(_solve_lu)
+    _lu_again = jit(_lu_again)
     # inlined (numba's IR): a compiled call pays two atomic reference counts per array
     # argument, which also stall the pipeline (the evaluation has twelve)
     inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -410,6 +412,65 @@ def _solve_in_place(H, g, step):  # pragma: no cover (compiled)
             acc -= H[k, c] * step[c]
         step[k] = acc / H[k, k]
     return True
+
+
+def _solve_lu(H, g, step, perm):  # pragma: no cover (compiled)
+    """:func:`_solve_in_place` (the same operations in the same order) that also keeps
+    its factors: the multipliers in H's lower triangle and the pivot rows in ``perm``
+    (m,), for :func:`_lu_again` (LAPACK's dgetrf layout)."""
+    m = g.size
+    for r in range(m):
+        step[r] = -g[r]
+    for k in range(m):
+        piv = k
+        big = abs(H[k, k])
+        for r in range(k + 1, m):
+            if abs(H[r, k]) > big:
+                big = abs(H[r, k])
+                piv = r
+        if big == 0.0:
+            return False
+        perm[k] = piv
+        if piv != k:
+            for c in range(m):
+                H[k, c], H[piv, c] = H[piv, c], H[k, c]
+            step[k], step[piv] = step[piv], step[k]
+        inv = 1.0 / H[k, k]
+        for r in range(k + 1, m):
+            f = H[r, k] * inv
+            H[r, k] = f
+            if f != 0.0:
+                for c in range(k + 1, m):
+                    H[r, c] -= f * H[k, c]
+                step[r] -= f * step[k]
+    for k in range(m - 1, -1, -1):
+        acc = step[k]
+        for c in range(k + 1, m):
+            acc -= H[k, c] * step[c]
+        step[k] = acc / H[k, k]
+    return True
+
+
+def _lu_again(H, perm, b, out):  # pragma: no cover (compiled)
+    """out = −A⁻¹b from :func:`_solve_lu`'s factors of A (H, ``perm``): bit for bit
+    :func:`_solve_in_place` on a copy of A (the same pivots, multipliers and operations
+    on the right-hand side in the same order), without its elimination."""
+    m = b.size
+    for r in range(m):
+        out[r] = -b[r]
+    for k in range(m):
+        piv = perm[k]
+        if piv != k:
+            out[k], out[piv] = out[piv], out[k]
+        for r in range(k + 1, m):
+            f = H[r, k]
+            if f != 0.0:
+                out[r] -= f * out[k]
+    for k in range(m - 1, -1, -1):
+        acc = out[k]
+        for c in range(k + 1, m):
+            acc -= H[k, c] * out[c]
+        out[k] = acc / H[k, k]
 
 
 def _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc):  # pragma: no cover (compiled)
@@ -845,7 +906,7 @@ def _newton_rows(
     Ht = np.zeros((m, m))
     Hc = np.zeros((m, m))  # H before a last step's solve (its gradient at the end)
     kp = np.zeros((2, D, pin.shape[3]))  # the pins' k and dk/dδ of the last evaluation
-    Hs = np.zeros((m, m))  # H of a Chebyshev step's second solve
+    perm = np.zeros(m, np.int64)  # the pivots of H's factors (_solve_lu)
     third = np.zeros(m)  # T[step, step]
     quad = -1.0  # Newton's constant r₊/r² of the step before, where it was Chebyshev's
     # Chebyshev's step without the crankshafts' blocks only: with them (20 unknowns) its
@@ -995,14 +1056,10 @@ def _newton_rows(
             for r in range(m):
                 H[r, r] += 1e-14 * diag
             cheb = dense and not last and not stretch
-            if cheb:
-                for r in range(m):
-                    for c in range(m):
-                        Hs[r, c] = H[r, c]
             if blocks.shape[0]:
                 solved = _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc)
-            else:
-                solved = _solve_in_place(H, g, step)
+            else:  # its factors kept for Chebyshev's second solve
+                solved = _solve_lu(H, g, step, perm)
             if not solved:
                 break  # singular: the reference's LinAlgError, or its own way out
             if cheb:  # Chebyshev's step (CHEBYSHEV): step − H⁻¹·T[step, step]/2
@@ -1011,10 +1068,7 @@ def _newton_rows(
                 )
                 for r in range(m):
                     third[r] *= 0.5
-                if blocks.shape[0]:
-                    solved = _solve_blocks(Hs, third, gt, core, blocks, S, Z, rhs, sc)
-                else:
-                    solved = _solve_in_place(Hs, third, gt)
+                _lu_again(H, perm, third, gt)  # (dense: no blocks) H's factors kept
                 big, size = 0.0, 0.0
                 for r in range(m):
                     big = max(big, abs(gt[r]))
