@@ -340,10 +340,11 @@ def _pin_force(delta, a, g, checked, d0, y0, f0):  # pragma: no cover (compiled)
     this pin's last inversion (δ0, y0, F0) was at an approach within a factor of 2, from
     that solution moved along the inverse's Taylor series to third order (the previous
     step or trial is near: one exponential and one step, where the tangent alone needs
-    three), else as the reference (two fixed-point steps from ln(δ/α)). Returns (F, ln F), F = −1 if it cannot; the caller keeps (δ, ln
-    F, F) as the pin's last inversion where γ ≠ 0 and F > 0 (scalars in and out: an
-    array argument costs a compiled call two atomic reference counts). ``checked``: δ
-    lies below the stiffest point (δ < dmax), so its test is left out."""
+    three), else as the reference (two fixed-point steps from ln(δ/α)). Returns (F, ln
+    F), F = −1 if it cannot; the caller keeps (δ, ln F, F) as the pin's last inversion
+    where γ ≠ 0 and F > 0 (scalars in and out: an array argument costs a compiled call
+    two atomic reference counts). ``checked``: δ lies below the stiffest point (δ <
+    dmax), so its test is left out."""
     if g == 0.0:
         return delta / a, 0.0
     if not checked and np.log(delta / g) - a / g >= -1.0:
