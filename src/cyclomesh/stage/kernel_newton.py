@@ -22,11 +22,13 @@ and gets the same numbers: each pin's inversion starts from its memo at the same
 approach); the round-off of the unknowns (16ε·|H|·|x|) is formed only for a residual
 above the tolerance, the only place it decides; the Newton step eliminates the crank
 pins' deflections crankshaft by crankshaft before the pivoted elimination of the rest
-(:func:`_solve_blocks`); a pin's inversion starts from its last root by the inverse's
-second-order Taylor series and ends without a last exponential after a tiny step
-(:data:`TINY_STEP`); a crank angle's own start is asked of the caller only where the
-iteration needs it (:func:`newton` ``start``); the problem's arrays are passed packed
-(:func:`pin_block`: a compiled call pays two atomic reference counts per array).
+(:func:`_solve_blocks`; Chebyshev's second solve from the first's LU factors,
+:func:`_lu_again`); a pin's inversion starts from its last root by the inverse's
+third-order Taylor series, takes Halley's steps and ends without a last exponential
+after a small one (:data:`TINY_STEP`); a crank angle's own start is asked of the
+caller only where the iteration needs it (:func:`newton` ``start``); the problem's arrays
+are passed packed (:func:`pin_block`: a compiled call pays two atomic reference counts
+per array; the pins' and rollers' laws are written out in the evaluations for that).
 Steps of higher order and a last step left unevaluated (the root the same to
 round-off, reached in fewer evaluations): the rigid phase's step is Halley's
 (:data:`HALLEY`), the bearing phase's Chebyshev's (:data:`CHEBYSHEV`, the potential's third
