@@ -70,6 +70,7 @@ def _kernels() -> tuple[Any, Any]:
     _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
     global _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows
     global _solve_ldl, _rollers, _coupled, _pin_law, _back, _resolve, _lu, _lu_solve, _by_lu
+    global _dots
     _pin_law = _kn._pin_law
     _rollers = _kn._rollers
     _solve_in_place = _kn._solve_in_place
@@ -78,6 +79,7 @@ def _kernels() -> tuple[Any, Any]:
     _carry = jit(_carry_py)
     _rows = jit(_rows_py)
     _coupled = jit(_coupled_py)
+    _dots = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(_dots_py)
     _solve_body = jit(_solve_body_py)
     _lu = jit(_lu_py)
     _lu_solve = jit(_lu_solve_py)
@@ -143,7 +145,7 @@ def _evaluate_rows(
     pf = np.zeros((2, A, D, P))
     bf = np.zeros((A, D, hole.shape[3], 3))
     wrow = np.zeros((D, P), np.int64)  # the row of pin_w of each flank, −1: none
-    scratch = np.zeros((2, m))
+    scratch = np.zeros((2, max(m, D * pin_w[0].shape[2], energy.shape[3])))
     zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
     for i in range(A):
         memo[0] = 0.0
@@ -185,13 +187,19 @@ def _evaluate_one_py(
             for j in range(P):
                 pf[0, i, d, j] = 0.0
                 pf[1, i, d, j] = 0.0
-    if hess:  # (want 3: the upper triangle only, the lower one neither zeroed nor formed)
-        for r in range(m):
-            for s in range(0 if want == 2 else r, m):
-                H[r, s] = 0.0
+    if hess:  # (want 3: the upper triangle only is formed; the whole H zeroed as one
+        # flat run, cheaper than the triangle's rows)
+        Hf = H.reshape(m * m)
+        for r in range(m * m):
+            Hf[r] = 0.0
         zz[:, :, :] = 0.0
     status = 0
     pins = 0.0
+    W = pin_w[0]
+    Q = W.shape[2]
+    for d in range(D):  # the body's displacement at each row of pin_w: scratch[0, d·Q + q]
+        zd = z0 + d * lam
+        _dots(W[i, d], x, zd, scratch[0], d * Q)
     for d in range(D):
         th, ux, uy = x[1 + 3 * d], x[2 + 3 * d], x[3 + 3 * d]
         zd = z0 + d * lam
@@ -200,11 +208,8 @@ def _evaluate_one_py(
             b = pin[0, i, d, j]
             if not np.isfinite(b):
                 continue
-            shift = 0.0
             wq = wrow[d, j]  # the pin's row of the body's, −1: none (a row of 0 adds 0)
-            if wq >= 0:
-                for s in range(lam):
-                    shift += pin_w[0][i, d, wq, s] * x[zd + s]
+            shift = scratch[0, d * Q + wq] if wq >= 0 else 0.0
             delta = pin[1, i, d, j] * (th - b) + pin[2, i, d, j] * ux + pin[3, i, d, j] * uy
             delta = delta - shift
             if want:
@@ -254,10 +259,9 @@ def _evaluate_one_py(
     body = 0.0
     for d in range(D):
         zd = z0 + d * lam
+        _dots(energy[i, d], x, zd, scratch[1], 0)  # E·z (each row summed in order)
         for s in range(lam):
-            ez = 0.0
-            for q in range(lam):
-                ez += energy[i, d, s, q] * x[zd + q]
+            ez = scratch[1, s]
             body += x[zd + s] * ez
             if want:
                 g[zd + s] += ez
@@ -316,8 +320,21 @@ def _evaluate_one_py(
                 ka = kxx * g0 + kxy * g1
                 kc = kxy * g0 + kyy * g1
                 H[r, r] += ka * g0 + kc * g1
+                body = nk
                 for v in range(u + 1, nk):  # (the columns in increasing order: r < c2)
-                    H[r, cols[d, k, 1 + v]] += ka * scratch[0, v] + kc * scratch[1, v]
+                    c2 = cols[d, k, 1 + v]
+                    if c2 >= zd:
+                        body = v
+                        break
+                    H[r, c2] += ka * scratch[0, v] + kc * scratch[1, v]
+                if body == nk:
+                    continue
+                for q in range(lam):  # the body's columns as one run (a zero column adds 0)
+                    H[r, zd + q] += ka * G[i, d, k, 0, zd + q] + kc * G[i, d, k, 1, zd + q]
+                for v in range(body, nk):  # (none: a hole moves its own disc's body only)
+                    c2 = cols[d, k, 1 + v]
+                    if c2 >= zd + lam:
+                        H[r, c2] += ka * scratch[0, v] + kc * scratch[1, v]
             hx_, hy_ = G[i, d, k, 0, zd : zd + lam], G[i, d, k, 1, zd : zd + lam]
             for q in range(lam):
                 ka = kxx * hx_[q] + kxy * hy_[q]
@@ -359,6 +376,36 @@ def _evaluate_one_py(
                 for c in range(r + 1, m):
                     H[c, r] = H[r, c]
     return energy_total, status
+
+
+def _dots_py(M, x, z, out, o):  # pragma: no cover (compiled)
+    """out[o + q] = Σ_s M[q, s]·x[z + s] for each row q of M (n, lam), each sum from 0 in
+    s's order (the bits of the plain loop), four rows at a time: four independent chains
+    of additions where one row's chain waits on each addition."""
+    n, lam = M.shape
+    q = 0
+    while q + 4 <= n:
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        a3 = 0.0
+        for s in range(lam):
+            xs = x[z + s]
+            a0 += M[q, s] * xs
+            a1 += M[q + 1, s] * xs
+            a2 += M[q + 2, s] * xs
+            a3 += M[q + 3, s] * xs
+        out[o + q] = a0
+        out[o + q + 1] = a1
+        out[o + q + 2] = a2
+        out[o + q + 3] = a3
+        q += 4
+    while q < n:
+        a0 = 0.0
+        for s in range(lam):
+            a0 += M[q, s] * x[z + s]
+        out[o + q] = a0
+        q += 1
 
 
 def _coupled_py(H, g, nr, D, lam, S, rhs, cl, Y):  # pragma: no cover (compiled)
@@ -808,7 +855,7 @@ def _newton_rows(
     vb = np.zeros((D, lam))
     memo = np.zeros((3, D, P))
     wrow = np.zeros((D, P), np.int64)  # the row of pin_w of each flank, −1: none
-    scratch = np.zeros((2, m))
+    scratch = np.zeros((2, max(m, D * pin_w[0].shape[2], lam)))
     zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
     want_t = 3  # a trial's evaluation: 3 with its Hessian (the next step Newton's), else 1
     diag = 1.0
