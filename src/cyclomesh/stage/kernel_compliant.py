@@ -145,7 +145,7 @@ def _evaluate_rows(
     pf = np.zeros((2, A, D, P))
     bf = np.zeros((A, D, hole.shape[3], 3))
     wrow = np.zeros((D, P), np.int64)  # the row of pin_w of each flank, −1: none
-    scratch = np.zeros((2, max(m, D * pin_w[0].shape[2], energy.shape[3])))
+    scratch = np.zeros((3, max(m, D * pin_w[0].shape[2], energy.shape[3], 9)))
     zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
     for i in range(A):
         memo[0] = 0.0
@@ -335,6 +335,9 @@ def _evaluate_one_py(
                     c2 = cols[d, k, 1 + v]
                     if c2 >= zd + lam:
                         H[r, c2] += ka * scratch[0, v] + kc * scratch[1, v]
+            if N == 3:  # (the three holes' body terms in one pass below)
+                scratch[2, 3 * k], scratch[2, 3 * k + 1], scratch[2, 3 * k + 2] = kxx, kxy, kyy
+                continue
             hx_, hy_ = G[i, d, k, 0, zd : zd + lam], G[i, d, k, 1, zd : zd + lam]
             for q in range(lam):
                 ka = kxx * hx_[q] + kxy * hy_[q]
@@ -342,6 +345,26 @@ def _evaluate_one_py(
                 row = zz[d, q]
                 for v in range(lam):
                     row[v] += ka * hx_[v] + kc * hy_[v]
+        if hess and N == 3:  # the holes' Gᵀ·K·G on the body's columns, each entry's three
+            # terms added in the holes' order (the bits of one hole at a time)
+            h0, y0 = G[i, d, 0, 0, zd : zd + lam], G[i, d, 0, 1, zd : zd + lam]
+            h1, y1 = G[i, d, 1, 0, zd : zd + lam], G[i, d, 1, 1, zd : zd + lam]
+            h2, y2 = G[i, d, 2, 0, zd : zd + lam], G[i, d, 2, 1, zd : zd + lam]
+            xx0, xy0, yy0 = scratch[2, 0], scratch[2, 1], scratch[2, 2]
+            xx1, xy1, yy1 = scratch[2, 3], scratch[2, 4], scratch[2, 5]
+            xx2, xy2, yy2 = scratch[2, 6], scratch[2, 7], scratch[2, 8]
+            for q in range(lam):
+                a0, c0 = xx0 * h0[q] + xy0 * y0[q], xy0 * h0[q] + yy0 * y0[q]
+                a1, c1 = xx1 * h1[q] + xy1 * y1[q], xy1 * h1[q] + yy1 * y1[q]
+                a2, c2 = xx2 * h2[q] + xy2 * y2[q], xy2 * h2[q] + yy2 * y2[q]
+                row = zz[d, q]
+                for v in range(lam):
+                    row[v] = (
+                        row[v]
+                        + (a0 * h0[v] + c0 * y0[v])
+                        + (a1 * h1[v] + c1 * y1[v])
+                        + (a2 * h2[v] + c2 * y2[v])
+                    )
     energy_total = energy_total + bearings
     if nw:
         shafts = 0.0
@@ -855,7 +878,7 @@ def _newton_rows(
     vb = np.zeros((D, lam))
     memo = np.zeros((3, D, P))
     wrow = np.zeros((D, P), np.int64)  # the row of pin_w of each flank, −1: none
-    scratch = np.zeros((2, max(m, D * pin_w[0].shape[2], lam)))
+    scratch = np.zeros((3, max(m, D * pin_w[0].shape[2], lam, 9)))
     zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
     want_t = 3  # a trial's evaluation: 3 with its Hessian (the next step Newton's), else 1
     diag = 1.0
