@@ -439,23 +439,26 @@ def _coupled_py(H, g, nr, D, lam, S, rhs, cl, Y):  # pragma: no cover (compiled)
     H's and g's entries are read, of its upper triangle (H symmetric: a lower one need not
     be formed); a disc's later elimination does not touch another's."""
     for a in range(nr):
-        for b in range(nr):
-            S[a, b] = H[a, b] if a <= b else H[b, a]
+        for b in range(a, nr):  # (H's rows contiguous, S's columns written across)
+            h = H[a, b]
+            S[a, b] = h
+            S[b, a] = h
         rhs[a] = g[a]
     for d in range(D):
         z = nr + d * lam
         nc = 0
         for a in range(nr):
-            ha = H[a]
             for q in range(lam):
-                if ha[z + q] != 0.0:
+                if H[a, z + q] != 0.0:
                     cl[d, 1 + nc] = a
                     nc += 1
                     break
         cl[d, 0] = nc
+        for b in range(nc):  # (H's rows read contiguous)
+            a = cl[d, 1 + b]
+            for q in range(lam):
+                Y[d, q, b] = H[a, z + q]
         for q in range(lam):
-            for b in range(nc):
-                Y[d, q, b] = H[cl[d, 1 + b], z + q]
             Y[d, q, nc] = g[z + q]
 
 
