@@ -265,9 +265,7 @@ def _evaluate_one_py(
             body += x[zd + s] * ez
             if want:
                 g[zd + s] += ez
-            if hess:
-                for q in range(s, lam):
-                    H[zd + s, zd + q] += energy[i, d, s, q]
+            # (its Hessian E: added with zz at the end, the body block's one pass)
     if want:
         g[0] -= torque / L
     energy_total = pins - torque * x[0] + 0.5 * body
@@ -391,9 +389,9 @@ def _evaluate_one_py(
     if hess:  # every term above was added to the upper triangle: mirrored (want 2)
         for d in range(D):  # (the body's Σ k·w·wᵀ and its bearings' terms)
             zd = z0 + d * lam
-            for s in range(lam):
+            for s in range(lam):  # (0 + E) + zz: the bits of E added to the zeroed H first
                 for q in range(s, lam):
-                    H[zd + s, zd + q] += zz[d, s, q]
+                    H[zd + s, zd + q] = (0.0 + energy[i, d, s, q]) + zz[d, s, q]
         if want == 2:
             for r in range(m):
                 for c in range(r + 1, m):
