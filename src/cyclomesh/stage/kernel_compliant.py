@@ -694,12 +694,15 @@ def _lu_py(S, rhs, sc, piv):  # pragma: no cover (compiled)
                 S[k, c], S[p, c] = S[p, c], S[k, c]
             sc[k], sc[p] = sc[p], sc[k]
         inv = 1.0 / S[k, k]
+        pk = S[k, k + 1 :]  # (1-D views of the rows: the update loop vectorises)
+        n = m - k - 1
         for r in range(k + 1, m):
             f = S[r, k] * inv
             S[r, k] = f
             if f != 0.0:
-                for c in range(k + 1, m):
-                    S[r, c] -= f * S[k, c]
+                row = S[r, k + 1 :]
+                for c in range(n):
+                    row[c] -= f * pk[c]
                 sc[r] -= f * sc[k]
     for k in range(m - 1, -1, -1):
         acc = sc[k]
