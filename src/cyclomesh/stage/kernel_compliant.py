@@ -41,8 +41,9 @@ whole Hessian by the rigid discs' elimination,
 every crank angle was finished, the state at the solution (the pins' forces and the
 body's shift there, the bearings' forces and deflections, the gradient) is handed to the
 caller, which need not evaluate the solution again (:func:`newton` ``state``).
-Measured (tasks i38b, i39b, docs/stage.md): an evaluation with its Hessian ~13 µs, a
-Newton step's solve ~10 µs (72 unknowns, two 26-unknown body blocks; ~20 by their LUs),
+Measured (tasks i38b, i39b, i42c, docs/stage.md): an evaluation with its Hessian ~11 µs
+at the rated torque (~6 at ±3 %), a Newton step's solve ~8.5 µs (~6.5; 72 unknowns, two
+26-unknown body blocks; ~20 by their LUs),
 3.6 evaluations a crank angle at the rated torque and 4–7 at ±3 %; a stage tolerance
 ring's three solves ~0.11 CPU-s.
 """
@@ -172,7 +173,10 @@ def _evaluate_one_py(
     formed: what the compiled Newton's solve and test read, :func:`_coupled_py`).
     Returns (energy, status) as :func:`cyclomesh.stage.kernel_newton._evaluate_one`;
     with ``want`` ≥ 1 the state: ``pf[0, i]`` the pins' forces, ``pf[1, i]`` the body's
-    displacement at them (0 where it moves none), ``bf[i]`` the bearings' (fx, fy, s)."""
+    displacement at them (0 where it moves none), ``bf[i]`` the bearings' (fx, fy, s).
+    ``scratch`` (3, ≥ max(m, D·Q, Λ, 9)), Q the rows of Body.w a disc: work (the pins'
+    body shifts by :func:`_dots_py`, E·z, the bearings' Jacobian rows and stiffnesses);
+    ``zz`` (D, Λ, Λ): work (the pins' and bearings' terms of each body block)."""
     m = x.size
     D, P = pin.shape[2], pin.shape[3]
     lam = energy.shape[3]
