@@ -418,7 +418,8 @@ def test_the_upper_triangle_evaluation_is_the_whole_ones(problems):
                 i, start[i].copy(), block, pin_w, energy, hole, G, cols, const, nw,
                 float(sup.carrier) if carrier else 0.0, carrier, 0.5 * law.rs.clearance,
                 law.rs.constant, float(p.torque), float(p.scale), want, g, H, memo, pf, bf,
-                wrow, np.zeros((2, m)), np.zeros((D, energy.shape[3], energy.shape[3])),
+                wrow, np.zeros((3, max(m, D * pin_w[0].shape[2], energy.shape[3], 9))),
+                np.zeros((D, energy.shape[3], energy.shape[3])),
             )  # fmt: skip
             out.append((e, st, g, H))
         (e2, s2, g2, H2), (e3, s3, g3, H3) = out

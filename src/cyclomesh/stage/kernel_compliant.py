@@ -41,8 +41,9 @@ whole Hessian by the rigid discs' elimination,
 every crank angle was finished, the state at the solution (the pins' forces and the
 body's shift there, the bearings' forces and deflections, the gradient) is handed to the
 caller, which need not evaluate the solution again (:func:`newton` ``state``).
-Measured (tasks i38b, i39b, docs/stage.md): an evaluation with its Hessian ~13 µs, a
-Newton step's solve ~10 µs (72 unknowns, two 26-unknown body blocks; ~20 by their LUs),
+Measured (tasks i38b, i39b, i42c, docs/stage.md): an evaluation with its Hessian ~11 µs
+at the rated torque (~6 at ±3 %), a Newton step's solve ~8.5 µs (~6.5; 72 unknowns, two
+26-unknown body blocks; ~20 by their LUs),
 3.6 evaluations a crank angle at the rated torque and 4–7 at ±3 %; a stage tolerance
 ring's three solves ~0.11 CPU-s.
 """
@@ -70,6 +71,7 @@ def _kernels() -> tuple[Any, Any]:
     _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
     global _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows
     global _solve_ldl, _rollers, _coupled, _pin_law, _back, _resolve, _lu, _lu_solve, _by_lu
+    global _dots
     _pin_law = _kn._pin_law
     _rollers = _kn._rollers
     _solve_in_place = _kn._solve_in_place
@@ -78,6 +80,7 @@ def _kernels() -> tuple[Any, Any]:
     _carry = jit(_carry_py)
     _rows = jit(_rows_py)
     _coupled = jit(_coupled_py)
+    _dots = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(_dots_py)
     _solve_body = jit(_solve_body_py)
     _lu = jit(_lu_py)
     _lu_solve = jit(_lu_solve_py)
@@ -143,7 +146,7 @@ def _evaluate_rows(
     pf = np.zeros((2, A, D, P))
     bf = np.zeros((A, D, hole.shape[3], 3))
     wrow = np.zeros((D, P), np.int64)  # the row of pin_w of each flank, −1: none
-    scratch = np.zeros((2, m))
+    scratch = np.zeros((3, max(m, D * pin_w[0].shape[2], energy.shape[3], 9)))
     zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
     for i in range(A):
         memo[0] = 0.0
@@ -170,7 +173,10 @@ def _evaluate_one_py(
     formed: what the compiled Newton's solve and test read, :func:`_coupled_py`).
     Returns (energy, status) as :func:`cyclomesh.stage.kernel_newton._evaluate_one`;
     with ``want`` ≥ 1 the state: ``pf[0, i]`` the pins' forces, ``pf[1, i]`` the body's
-    displacement at them (0 where it moves none), ``bf[i]`` the bearings' (fx, fy, s)."""
+    displacement at them (0 where it moves none), ``bf[i]`` the bearings' (fx, fy, s).
+    ``scratch`` (3, ≥ max(m, D·Q, Λ, 9)), Q the rows of Body.w a disc: work (the pins'
+    body shifts by :func:`_dots_py`, E·z, the bearings' Jacobian rows and stiffnesses);
+    ``zz`` (D, Λ, Λ): work (the pins' and bearings' terms of each body block)."""
     m = x.size
     D, P = pin.shape[2], pin.shape[3]
     lam = energy.shape[3]
@@ -185,13 +191,19 @@ def _evaluate_one_py(
             for j in range(P):
                 pf[0, i, d, j] = 0.0
                 pf[1, i, d, j] = 0.0
-    if hess:  # (want 3: the upper triangle only, the lower one neither zeroed nor formed)
-        for r in range(m):
-            for s in range(0 if want == 2 else r, m):
-                H[r, s] = 0.0
+    if hess:  # (want 3: the upper triangle only is formed; the whole H zeroed as one
+        # flat run, cheaper than the triangle's rows)
+        Hf = H.reshape(m * m)
+        for r in range(m * m):
+            Hf[r] = 0.0
         zz[:, :, :] = 0.0
     status = 0
     pins = 0.0
+    W = pin_w[0]
+    Q = W.shape[2]
+    for d in range(D):  # the body's displacement at each row of pin_w: scratch[0, d·Q + q]
+        zd = z0 + d * lam
+        _dots(W[i, d], x, zd, scratch[0], d * Q)
     for d in range(D):
         th, ux, uy = x[1 + 3 * d], x[2 + 3 * d], x[3 + 3 * d]
         zd = z0 + d * lam
@@ -200,11 +212,8 @@ def _evaluate_one_py(
             b = pin[0, i, d, j]
             if not np.isfinite(b):
                 continue
-            shift = 0.0
             wq = wrow[d, j]  # the pin's row of the body's, −1: none (a row of 0 adds 0)
-            if wq >= 0:
-                for s in range(lam):
-                    shift += pin_w[0][i, d, wq, s] * x[zd + s]
+            shift = scratch[0, d * Q + wq] if wq >= 0 else 0.0
             delta = pin[1, i, d, j] * (th - b) + pin[2, i, d, j] * ux + pin[3, i, d, j] * uy
             delta = delta - shift
             if want:
@@ -254,16 +263,13 @@ def _evaluate_one_py(
     body = 0.0
     for d in range(D):
         zd = z0 + d * lam
+        _dots(energy[i, d], x, zd, scratch[1], 0)  # E·z (each row summed in order)
         for s in range(lam):
-            ez = 0.0
-            for q in range(lam):
-                ez += energy[i, d, s, q] * x[zd + q]
+            ez = scratch[1, s]
             body += x[zd + s] * ez
             if want:
                 g[zd + s] += ez
-            if hess:
-                for q in range(s, lam):
-                    H[zd + s, zd + q] += energy[i, d, s, q]
+            # (its Hessian E: added with zz at the end, the body block's one pass)
     if want:
         g[0] -= torque / L
     energy_total = pins - torque * x[0] + 0.5 * body
@@ -316,8 +322,24 @@ def _evaluate_one_py(
                 ka = kxx * g0 + kxy * g1
                 kc = kxy * g0 + kyy * g1
                 H[r, r] += ka * g0 + kc * g1
+                body = nk
                 for v in range(u + 1, nk):  # (the columns in increasing order: r < c2)
-                    H[r, cols[d, k, 1 + v]] += ka * scratch[0, v] + kc * scratch[1, v]
+                    c2 = cols[d, k, 1 + v]
+                    if c2 >= zd:
+                        body = v
+                        break
+                    H[r, c2] += ka * scratch[0, v] + kc * scratch[1, v]
+                if body == nk:
+                    continue
+                for q in range(lam):  # the body's columns as one run (a zero column adds 0)
+                    H[r, zd + q] += ka * G[i, d, k, 0, zd + q] + kc * G[i, d, k, 1, zd + q]
+                for v in range(body, nk):  # (none: a hole moves its own disc's body only)
+                    c2 = cols[d, k, 1 + v]
+                    if c2 >= zd + lam:
+                        H[r, c2] += ka * scratch[0, v] + kc * scratch[1, v]
+            if N == 3:  # (the three holes' body terms in one pass below)
+                scratch[2, 3 * k], scratch[2, 3 * k + 1], scratch[2, 3 * k + 2] = kxx, kxy, kyy
+                continue
             hx_, hy_ = G[i, d, k, 0, zd : zd + lam], G[i, d, k, 1, zd : zd + lam]
             for q in range(lam):
                 ka = kxx * hx_[q] + kxy * hy_[q]
@@ -325,6 +347,26 @@ def _evaluate_one_py(
                 row = zz[d, q]
                 for v in range(lam):
                     row[v] += ka * hx_[v] + kc * hy_[v]
+        if hess and N == 3:  # the holes' Gᵀ·K·G on the body's columns, each entry's three
+            # terms added in the holes' order (the bits of one hole at a time)
+            h0, y0 = G[i, d, 0, 0, zd : zd + lam], G[i, d, 0, 1, zd : zd + lam]
+            h1, y1 = G[i, d, 1, 0, zd : zd + lam], G[i, d, 1, 1, zd : zd + lam]
+            h2, y2 = G[i, d, 2, 0, zd : zd + lam], G[i, d, 2, 1, zd : zd + lam]
+            xx0, xy0, yy0 = scratch[2, 0], scratch[2, 1], scratch[2, 2]
+            xx1, xy1, yy1 = scratch[2, 3], scratch[2, 4], scratch[2, 5]
+            xx2, xy2, yy2 = scratch[2, 6], scratch[2, 7], scratch[2, 8]
+            for q in range(lam):
+                a0, c0 = xx0 * h0[q] + xy0 * y0[q], xy0 * h0[q] + yy0 * y0[q]
+                a1, c1 = xx1 * h1[q] + xy1 * y1[q], xy1 * h1[q] + yy1 * y1[q]
+                a2, c2 = xx2 * h2[q] + xy2 * y2[q], xy2 * h2[q] + yy2 * y2[q]
+                row = zz[d, q]
+                for v in range(lam):
+                    row[v] = (
+                        row[v]
+                        + (a0 * h0[v] + c0 * y0[v])
+                        + (a1 * h1[v] + c1 * y1[v])
+                        + (a2 * h2[v] + c2 * y2[v])
+                    )
     energy_total = energy_total + bearings
     if nw:
         shafts = 0.0
@@ -351,14 +393,44 @@ def _evaluate_one_py(
     if hess:  # every term above was added to the upper triangle: mirrored (want 2)
         for d in range(D):  # (the body's Σ k·w·wᵀ and its bearings' terms)
             zd = z0 + d * lam
-            for s in range(lam):
+            for s in range(lam):  # (0 + E) + zz: the bits of E added to the zeroed H first
                 for q in range(s, lam):
-                    H[zd + s, zd + q] += zz[d, s, q]
+                    H[zd + s, zd + q] = (0.0 + energy[i, d, s, q]) + zz[d, s, q]
         if want == 2:
             for r in range(m):
                 for c in range(r + 1, m):
                     H[c, r] = H[r, c]
     return energy_total, status
+
+
+def _dots_py(M, x, z, out, o):  # pragma: no cover (compiled)
+    """out[o + q] = Σ_s M[q, s]·x[z + s] for each row q of M (n, lam), each sum from 0 in
+    s's order (the bits of the plain loop), four rows at a time: four independent chains
+    of additions where one row's chain waits on each addition."""
+    n, lam = M.shape
+    q = 0
+    while q + 4 <= n:
+        a0 = 0.0
+        a1 = 0.0
+        a2 = 0.0
+        a3 = 0.0
+        for s in range(lam):
+            xs = x[z + s]
+            a0 += M[q, s] * xs
+            a1 += M[q + 1, s] * xs
+            a2 += M[q + 2, s] * xs
+            a3 += M[q + 3, s] * xs
+        out[o + q] = a0
+        out[o + q + 1] = a1
+        out[o + q + 2] = a2
+        out[o + q + 3] = a3
+        q += 4
+    while q < n:
+        a0 = 0.0
+        for s in range(lam):
+            a0 += M[q, s] * x[z + s]
+        out[o + q] = a0
+        q += 1
 
 
 def _coupled_py(H, g, nr, D, lam, S, rhs, cl, Y):  # pragma: no cover (compiled)
@@ -369,23 +441,26 @@ def _coupled_py(H, g, nr, D, lam, S, rhs, cl, Y):  # pragma: no cover (compiled)
     H's and g's entries are read, of its upper triangle (H symmetric: a lower one need not
     be formed); a disc's later elimination does not touch another's."""
     for a in range(nr):
-        for b in range(nr):
-            S[a, b] = H[a, b] if a <= b else H[b, a]
+        for b in range(a, nr):  # (H's rows contiguous, S's columns written across)
+            h = H[a, b]
+            S[a, b] = h
+            S[b, a] = h
         rhs[a] = g[a]
     for d in range(D):
         z = nr + d * lam
         nc = 0
         for a in range(nr):
-            ha = H[a]
             for q in range(lam):
-                if ha[z + q] != 0.0:
+                if H[a, z + q] != 0.0:
                     cl[d, 1 + nc] = a
                     nc += 1
                     break
         cl[d, 0] = nc
+        for b in range(nc):  # (H's rows read contiguous)
+            a = cl[d, 1 + b]
+            for q in range(lam):
+                Y[d, q, b] = H[a, z + q]
         for q in range(lam):
-            for b in range(nc):
-                Y[d, q, b] = H[cl[d, 1 + b], z + q]
             Y[d, q, nc] = g[z + q]
 
 
@@ -623,12 +698,15 @@ def _lu_py(S, rhs, sc, piv):  # pragma: no cover (compiled)
                 S[k, c], S[p, c] = S[p, c], S[k, c]
             sc[k], sc[p] = sc[p], sc[k]
         inv = 1.0 / S[k, k]
+        pk = S[k, k + 1 :]  # (1-D views of the rows: the update loop vectorises)
+        n = m - k - 1
         for r in range(k + 1, m):
             f = S[r, k] * inv
             S[r, k] = f
             if f != 0.0:
-                for c in range(k + 1, m):
-                    S[r, c] -= f * S[k, c]
+                row = S[r, k + 1 :]
+                for c in range(n):
+                    row[c] -= f * pk[c]
                 sc[r] -= f * sc[k]
     for k in range(m - 1, -1, -1):
         acc = sc[k]
@@ -808,7 +886,7 @@ def _newton_rows(
     vb = np.zeros((D, lam))
     memo = np.zeros((3, D, P))
     wrow = np.zeros((D, P), np.int64)  # the row of pin_w of each flank, −1: none
-    scratch = np.zeros((2, m))
+    scratch = np.zeros((3, max(m, D * pin_w[0].shape[2], lam, 9)))
     zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
     want_t = 3  # a trial's evaluation: 3 with its Hessian (the next step Newton's), else 1
     diag = 1.0
