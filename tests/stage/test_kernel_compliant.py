@@ -273,6 +273,7 @@ def _spd_solve(H, g, nr, D, lam):
         H, g, step, nr, D, lam, np.zeros((nr, nr)), np.zeros((D, lam, nr + 1)),
         np.zeros(nr), np.zeros(nr), np.zeros((D, nr + 1), np.int64), np.zeros((nr + 1, nr + 1)),
         np.zeros((D, lam)), np.zeros((D, lam, lam)), np.zeros(nr, np.int64), np.zeros((D, lam)),
+        np.zeros((D, lam, nr)), np.zeros(nr),
     )  # fmt: skip
     return ok, step, H0
 
@@ -325,6 +326,7 @@ def _ldl_work(nr, D, lam):
         np.zeros((nr, nr)), np.zeros((D, lam, nr + 1)), np.zeros(nr), np.zeros(nr),
         np.zeros((D, nr + 1), np.int64), np.zeros((nr + 1, nr + 1)), np.zeros((D, lam)),
         np.zeros((D, lam, lam)), np.zeros(nr, np.int64), np.zeros((D, lam)),
+        np.zeros((D, lam, nr)), np.zeros(nr),
     )  # fmt: skip
 
 
@@ -344,17 +346,45 @@ def test_a_chord_step_reuses_the_factors(seed):
     rng = np.random.default_rng(seed)
     nr, D, lam = 9, 2, 7
     H, g = _symmetric_arrow(rng, nr, D, lam)
-    S, Y, rhs, sc, cl, T, dg, Lb, piv, v = _ldl_work(nr, D, lam)
+    S, Y, rhs, sc, cl, T, dg, Lb, piv, v, Wd, ds = _ldl_work(nr, D, lam)
     step = np.zeros(g.size)
-    code = kc._solve_ldl(_upper_only(H), g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb, piv, v)
+    code = kc._solve_ldl(
+        _upper_only(H), g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb, piv, v, Wd, ds
+    )
     assert code == 1
     _close(np.linalg.solve(H, -g), step, 1e-12, "step")
     again = np.zeros(g.size)
-    kc._resolve(g, again, nr, D, lam, S, Y, rhs, sc, cl, dg, Lb, piv, v)
+    kc._resolve(g, again, nr, D, lam, S, Y, rhs, sc, cl, dg, Lb, piv, v, Wd, ds)
     np.testing.assert_array_equal(again, step)
     g2 = rng.standard_normal(g.size)
-    kc._resolve(g2, again, nr, D, lam, S, Y, rhs, sc, cl, dg, Lb, piv, v)
+    kc._resolve(g2, again, nr, D, lam, S, Y, rhs, sc, cl, dg, Lb, piv, v, Wd, ds)
     _close(np.linalg.solve(H, -g2), again, 1e-12, "chord step")
+
+
+def test_a_chord_step_after_the_schur_complements_lu():
+    """A Schur complement S whose L·Δ·Lᵀ would grow (its first pivot ~1e-9 of its row):
+    _solve_ldl still keeps the factors (1), S's by _lu (piv[0] ≥ 0), and _resolve solves
+    with those: the factored gradient's step bit for bit, another's LAPACK's (task i43c)."""
+    kc._kernels()
+    rng = np.random.default_rng(12)
+    nr, D, lam = 9, 2, 7
+    H, g = _symmetric_arrow(rng, nr, D, lam)
+    Z = slice(nr, None)
+    S = H[:nr, :nr] - H[:nr, Z] @ np.linalg.solve(H[Z, Z], H[Z, :nr])
+    H[0, 0] += 1e-9 * np.max(np.abs(S[0])) - S[0, 0]  # (S_00 ~1e-9 of S's first row)
+    S, Y, rhs, sc, cl, T, dg, Lb, piv, v, Wd, ds = _ldl_work(nr, D, lam)
+    step = np.zeros(g.size)
+    code = kc._solve_ldl(
+        _upper_only(H), g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb, piv, v, Wd, ds
+    )
+    assert code == 1 and piv[0] >= 0
+    _close(np.linalg.solve(H, -g), step, 1e-9, "step")
+    again = np.zeros(g.size)
+    kc._resolve(g, again, nr, D, lam, S, Y, rhs, sc, cl, dg, Lb, piv, v, Wd, ds)
+    np.testing.assert_array_equal(again, step)
+    g2 = rng.standard_normal(g.size)
+    kc._resolve(g2, again, nr, D, lam, S, Y, rhs, sc, cl, dg, Lb, piv, v, Wd, ds)
+    _close(np.linalg.solve(H, -g2), again, 1e-9, "chord step")
 
 
 def test_the_lu_with_its_swaps_is_solve_in_place():

@@ -70,3 +70,85 @@ def test_the_lu_by_row_views_is_solve_in_place(n):
     assert ok == ok_ref
     if ok:
         np.testing.assert_array_equal(got, ref)
+
+
+# --- the Schur complement's L·Δ·Lᵀ (task i43c) ---
+
+
+def _close_to(ref, got, rtol):
+    assert np.max(np.abs(got - ref)) <= rtol * np.max(np.abs(ref))
+
+
+def _upper_read(S):
+    """S with its strict lower triangle spoiled: _ldl reads the upper one only."""
+    spoiled = S.copy()
+    spoiled[np.tril_indices(S.shape[0], -1)] = np.nan
+    return spoiled
+
+
+def _symmetric(rng, n, kind):
+    A = rng.standard_normal((n, n))
+    if kind == "spd":
+        return A @ A.T + n * np.eye(n)
+    # indefinite: eigenvalues of both signs, the pivots far from 0 (no growth)
+    A = 0.5 * (A + A.T)
+    return A + np.diag(np.where(np.arange(n) % 3 == 1, -1.0, 1.0) * (2.0 * n + 3.0))
+
+
+@pytest.mark.parametrize("kind", ["spd", "indefinite"])
+@pytest.mark.parametrize("n", [1, 2, 7, 20, 33])
+def test_the_schur_ldl_is_lapacks(kind, n):
+    """_ldl on symmetric S (its upper triangle only read): numpy.linalg.solve's −S⁻¹·rhs
+    to 1e-12, its factors kept (piv[0] = −1) and _ldl_solve with them another right-hand
+    side's; indefinite S too (the pivots' signs mixed)."""
+    kc._kernels()
+    rng = np.random.default_rng(100 + n)
+    S = _symmetric(rng, n, kind)
+    if kind == "indefinite" and n > 2:
+        assert np.min(np.linalg.eigvalsh(S)) < 0.0 < np.max(np.linalg.eigvalsh(S))
+    b = rng.standard_normal(n)
+    W, got, piv, ds = _upper_read(S), np.zeros(n), np.zeros(n, np.int64), np.zeros(n)
+    assert kc._ldl(W, b, got, piv, ds)
+    assert piv[0] == -1
+    np.testing.assert_array_equal(np.triu(W), np.triu(S))  # (the upper triangle kept)
+    _close_to(np.linalg.solve(S, -b), got, 1e-12)
+    if kind == "spd":  # (Δ: the squares of Cholesky's diagonal)
+        np.testing.assert_allclose(1.0 / ds, np.diag(np.linalg.cholesky(S)) ** 2, rtol=1e-10)
+    b2 = rng.standard_normal(n)
+    again = np.zeros(n)
+    kc._ldl_solve(W, b, again, ds)
+    np.testing.assert_array_equal(again, got)  # (the same operations as at the factoring)
+    kc._ldl_solve(W, b2, again, ds)
+    _close_to(np.linalg.solve(S, -b2), again, 1e-12)
+
+
+@pytest.mark.parametrize("case", ["zero pivot", "growth", "singular"])
+def test_the_schur_ldl_falls_back_to_the_lu(case):
+    """A first pivot 0 (S indefinite: [[0, 1], [1, 0]]-like) or an L beyond _GROWTH (a
+    tiny pivot): S mirrored from its upper triangle and _lu's (row swaps kept, piv[0] ≥
+    0), numpy.linalg.solve's to 1e-10, _lu_solve with them another right-hand side's; S
+    singular: False."""
+    kc._kernels()
+    rng = np.random.default_rng(21)
+    n = 9
+    S = _symmetric(rng, n, "indefinite")
+    if case == "zero pivot":
+        S[0, 0] = 0.0
+    elif case == "growth":
+        S[2, 2] = 1e-6 * abs(S[2, 5])
+        S[2, 2] += S[:2, 2] @ np.linalg.solve(S[:2, :2], S[:2, 2])  # (Δ_2 tiny)
+    else:
+        S[:, 4] = 0.0
+        S[4, :] = 0.0
+    b = rng.standard_normal(n)
+    W, got, piv, ds = _upper_read(S), np.zeros(n), np.zeros(n, np.int64), np.zeros(n)
+    ok = kc._ldl(W, b, got, piv, ds)
+    if case == "singular":
+        assert not ok
+        return
+    assert ok and piv[0] >= 0
+    _close_to(np.linalg.solve(S, -b), got, 1e-10)
+    b2 = rng.standard_normal(n)
+    again = np.zeros(n)
+    kc._lu_solve(W, b2, again, piv)
+    _close_to(np.linalg.solve(S, -b2), again, 1e-10)

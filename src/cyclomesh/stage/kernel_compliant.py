@@ -35,15 +35,17 @@ The Newton step eliminates each disc's body unknowns first (:func:`_solve_ldl_py
 Hessian is block-arrow shaped, each disc's body block coupled only to itself and to c, the
 disc's θ and u, its crankshafts' deflections and the end plate's β; each body block by
 L·Δ·Lᵀ without pivoting, else by LU with partial pivoting, :func:`_solve_body_py`),
-leaving the Schur complement of those ~20 unknowns (a zero pivot in a body block: the
-whole Hessian by the rigid discs' elimination,
-:func:`cyclomesh.stage.kernel_newton._solve_blocks`). Where
+leaving the Schur complement S of those ~20 unknowns, symmetric, by L·Δ·Lᵀ too
+(:func:`_ldl_py`; indefinite with a small pivot, ~1 in 9: its LU) (a zero pivot in a
+body block: the whole Hessian by the rigid discs' elimination,
+:func:`cyclomesh.stage.kernel_newton._solve_blocks`). The factors keep the reciprocal
+pivots and Δ⁻¹·W, so a chord step divides nothing but in S's LU (task i43c). Where
 every crank angle was finished, the state at the solution (the pins' forces and the
 body's shift there, the bearings' forces and deflections, the gradient) is handed to the
 caller, which need not evaluate the solution again (:func:`newton` ``state``).
-Measured (tasks i38b, i39b, i42c, docs/stage.md): an evaluation with its Hessian ~11 µs
-at the rated torque (~6 at ±3 %), a Newton step's solve ~8.5 µs (~6.5; 72 unknowns, two
-26-unknown body blocks; ~20 by their LUs),
+Measured (tasks i38b, i39b, i42c, i43c, docs/stage.md): an evaluation with its Hessian
+~11 µs at the rated torque (~6 at ±3 %), a Newton step's solve ~8.3 µs (~6.3; 72
+unknowns, two 26-unknown body blocks; ~20 by their L·Δ·Lᵀ), a chord step's ~1.5,
 3.6 evaluations a crank angle at the rated torque and 4–7 at ±3 %; a stage tolerance
 ring's three solves ~0.11 CPU-s.
 """
@@ -71,7 +73,7 @@ def _kernels() -> tuple[Any, Any]:
     _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
     global _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows
     global _solve_ldl, _rollers, _coupled, _pin_law, _back, _resolve, _lu, _lu_solve, _by_lu
-    global _dots
+    global _dots, _ldl, _ldl_solve
     _pin_law = _kn._pin_law
     _rollers = _kn._rollers
     _solve_in_place = _kn._solve_in_place
@@ -84,6 +86,8 @@ def _kernels() -> tuple[Any, Any]:
     _solve_body = jit(_solve_body_py)
     _lu = jit(_lu_py)
     _lu_solve = jit(_lu_solve_py)
+    _ldl = jit(_ldl_py)
+    _ldl_solve = jit(_ldl_solve_py)
     _back = jit(_back_py)
     _resolve = jit(_resolve_py)
     _by_lu = jit(_by_lu_py)
@@ -546,22 +550,27 @@ def _solve_body_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T):  # pragma: no 
 _GROWTH = 1e3  # the largest |L_rk| of the LDLᵀ without pivoting; beyond: the LU's
 
 
-def _solve_ldl_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb, piv, v):  # pragma: no cover
+def _solve_ldl_py(
+    H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb, piv, v, Wd, ds
+):  # fmt: skip  # pragma: no cover (compiled)
     """step = −H⁻¹g as :func:`_solve_body_py` (each disc's body unknowns Z_d eliminated
     first, the block-arrow Hessian), each body block H_ZZ = L·Δ·Lᵀ (symmetric, L unit lower
     triangular, Δ diagonal; H_ZZ is symmetric but not definite: the body's energy E is
     not), without pivoting: W = L⁻¹[H_ZR | g_Z] on the columns of R that Z_d couples to
-    (``cl``), S −= W_Rᵀ·Δ⁻¹·W_R, rhs −= W_Rᵀ·Δ⁻¹·w_g; then S by
-    :func:`~cyclomesh.stage.kernel_newton._solve_in_place` and Z_d = −L⁻ᵀΔ⁻¹(w_g +
-    W_R·s_R). About half the arithmetic of the LU's (no back substitution of Y, half the
-    factorisation). Where a pivot is 0 or an entry of L beyond ``_GROWTH`` (the elimination
-    without pivoting not stable), the LU's :func:`_solve_body_py` instead (its False: a
-    pivot 0 there too). Only H's upper triangle is read, and H is not written but by the
-    LU's fallback (:func:`_by_lu_py`); ``dg`` (D, lam), ``Lb`` (D, lam, lam), ``piv``
-    (nr,) int, ``v`` (D, lam): work. Returns 0 where no step was formed, 1 where it was by
-    the L·Δ·Lᵀ, whose factors stay for :func:`_resolve_py` (another gradient, the same H:
-    Lb, dg, the coupled columns ``cl`` and W_R in Y's first columns, S's LU with its row
-    swaps ``piv``), 2 where by the LU's (nothing kept)."""
+    (``cl``), S −= W_Rᵀ·Δ⁻¹·W_R (its upper triangle only: S is symmetric), rhs −=
+    W_Rᵀ·Δ⁻¹·w_g; then S by :func:`_ldl_py` (S = L·Δ·Lᵀ, else its LU) and Z_d =
+    −L⁻ᵀΔ⁻¹(w_g + W_R·s_R). About half the arithmetic of the LU's (no back substitution
+    of Y, half the factorisation). Where a pivot is 0 or an entry of L beyond ``_GROWTH``
+    (the elimination without pivoting not stable), the LU's :func:`_solve_body_py` instead
+    (its False: a pivot 0 there too). Only H's upper triangle is read, and H is not written
+    but by the LU's fallback (:func:`_by_lu_py`); ``dg`` (D, lam): the reciprocal pivots
+    1/Δ, ``Lb`` (D, lam, lam): L, ``Wd`` (D, lam, nr): Δ⁻¹·W_R, ``ds`` (nr,): S's
+    reciprocal pivots, ``piv`` (nr,) int, ``v`` (D, lam): work. Each division once, at
+    the factorisation (task i43c: ~1,300 divisions a step before, ~600 a chord step).
+    Returns 0 where no step was formed, 1 where it was by the L·Δ·Lᵀ, whose factors stay
+    for :func:`_resolve_py` (another gradient, the same H: Lb, dg, the coupled columns
+    ``cl``, W_R in Y's first columns and Δ⁻¹·W_R in Wd, S's factors with ``ds`` or its LU
+    with its row swaps ``piv``), 2 where by the LU's (nothing kept)."""
     _coupled(H, g, nr, D, lam, S, rhs, cl, Y)
     for d in range(D):
         z = nr + d * lam
@@ -578,33 +587,38 @@ def _solve_ldl_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T, dg, Lb, piv, v):
             dr = H[z + r, z + r]
             for k in range(r):
                 t = lr[k]
-                lr[k] = t / dg[d, k]
-                dr -= lr[k] * t
-                if abs(lr[k]) > _GROWTH:
+                f = t * dg[d, k]
+                lr[k] = f
+                dr -= f * t
+                if abs(f) > _GROWTH:
                     return _by_lu(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T)
             if dr == 0.0:
                 return _by_lu(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T)
-            dg[d, r] = dr
-            # the forward substitution's row r: W_r = Y_r − Σ_k<r L_rk·W_k
+            rd = 1.0 / dr
+            dg[d, r] = rd
+            # the forward substitution's row r: W_r = Y_r − Σ_k<r L_rk·W_k, then Δ⁻¹·W_r
             for k in range(r):
                 f = lr[k]
                 if f != 0.0:
                     for c in range(nc + 1):
                         Y[d, r, c] -= f * Y[d, k, c]
-        # S −= W_Rᵀ·Δ⁻¹·W_R, rhs −= W_Rᵀ·Δ⁻¹·w_g (T's contiguous rows, then scattered)
+            for c in range(nc):
+                Wd[d, r, c] = Y[d, r, c] * rd
+        # S −= W_Rᵀ·Δ⁻¹·W_R, rhs −= W_Rᵀ·Δ⁻¹·w_g: T's contiguous rows (each entry summed
+        # over q in order, as _resolve_py's), then scattered
         for u in range(nc):
             a = cl[d, 1 + u]
             for b in range(nc + 1):
                 T[u, b] = 0.0
             for q in range(lam):
-                w = Y[d, q, u] / dg[d, q]
+                w = Wd[d, q, u]
                 if w != 0.0:
                     for b in range(nc + 1):
                         T[u, b] += w * Y[d, q, b]
             for b in range(nc):
                 S[a, cl[d, 1 + b]] -= T[u, b]
             rhs[a] -= T[u, nc]
-    if not _lu(S, rhs, sc, piv):
+    if not _ldl(S, rhs, sc, piv, ds):
         return 0
     _back(step, nr, D, lam, Y, sc, cl, dg, Lb, v)
     return 1
@@ -624,8 +638,8 @@ def _by_lu_py(H, g, step, nr, D, lam, S, Y, rhs, sc, cl, T):  # pragma: no cover
 
 def _back_py(step, nr, D, lam, Y, sc, cl, dg, Lb, v):  # pragma: no cover (compiled)
     """The end of :func:`_solve_ldl_py` and :func:`_resolve_py`: step_R = s_R (``sc``) and
-    each disc's Z_d = −L⁻ᵀΔ⁻¹(w_g + W_R·s_R) (w_g in Y's column ``cl[d, 0]``); ``v``:
-    work (D, lam)."""
+    each disc's Z_d = −L⁻ᵀΔ⁻¹(w_g + W_R·s_R) (w_g in Y's column ``cl[d, 0]``, ``dg`` the
+    reciprocal pivots 1/Δ); ``v``: work (D, lam)."""
     for a in range(nr):
         step[a] = sc[a]
     for d in range(D):
@@ -635,7 +649,7 @@ def _back_py(step, nr, D, lam, Y, sc, cl, dg, Lb, v):  # pragma: no cover (compi
             acc = Y[d, q, nc]
             for b in range(nc):
                 acc += Y[d, q, b] * sc[cl[d, 1 + b]]
-            v[d, q] = acc / dg[d, q]
+            v[d, q] = acc * dg[d, q]
         for k in range(lam - 1, -1, -1):  # Lᵀ·v = that, by L's rows
             lk = Lb[d, k]
             vk = v[d, k]
@@ -644,12 +658,15 @@ def _back_py(step, nr, D, lam, Y, sc, cl, dg, Lb, v):  # pragma: no cover (compi
                 v[d, j] -= lk[j] * vk
 
 
-def _resolve_py(g, step, nr, D, lam, S, Y, rhs, sc, cl, dg, Lb, piv, v):  # pragma: no cover
+def _resolve_py(
+    g, step, nr, D, lam, S, Y, rhs, sc, cl, dg, Lb, piv, v, Wd, ds
+):  # fmt: skip  # pragma: no cover (compiled)
     """step = −H⁻¹g for another gradient ``g`` with the factors :func:`_solve_ldl_py` kept
     of H (its return 1): the same operations on g as there (w_g = L⁻¹g_Z into Y's column
-    ``cl[d, 0]``, rhs = g_R − W_Rᵀ·Δ⁻¹·w_g, S's LU solve, :func:`_back_py`), so with the
-    gradient it factored the same step bit for bit. A chord (modified Newton) step: a
-    back substitution, ~1 µs against ~10 µs for the factorisation."""
+    ``cl[d, 0]``, rhs = g_R − (Δ⁻¹·W_R)ᵀ·w_g with Δ⁻¹·W_R from ``Wd``, S's solve by its
+    factors (:func:`_ldl_solve_py`, or its LU's where ``piv[0]`` ≥ 0), :func:`_back_py`), so
+    with the gradient it factored the same step bit for bit. A chord (modified Newton)
+    step: triangular solves and products, no division (but S's LU's, where it has one)."""
     for a in range(nr):
         rhs[a] = g[a]
     for d in range(D):
@@ -663,16 +680,81 @@ def _resolve_py(g, step, nr, D, lam, S, Y, rhs, sc, cl, dg, Lb, piv, v):  # prag
                 if f != 0.0:
                     acc -= f * Y[d, k, nc]
             Y[d, r, nc] = acc
+        for u in range(nc):  # (sc: work here, each sum over q in order as T's)
+            sc[u] = 0.0
+        for q in range(lam):
+            y = Y[d, q, nc]
+            for u in range(nc):
+                sc[u] += Wd[d, q, u] * y
         for u in range(nc):
-            a = cl[d, 1 + u]
-            t = 0.0
-            for q in range(lam):
-                w = Y[d, q, u] / dg[d, q]
-                if w != 0.0:
-                    t += w * Y[d, q, nc]
-            rhs[a] -= t
-    _lu_solve(S, rhs, sc, piv)
+            rhs[cl[d, 1 + u]] -= sc[u]
+    if piv[0] < 0:
+        _ldl_solve(S, rhs, sc, ds)
+    else:
+        _lu_solve(S, rhs, sc, piv)
     _back(step, nr, D, lam, Y, sc, cl, dg, Lb, v)
+
+
+def _ldl_py(S, rhs, sc, piv, ds):  # pragma: no cover (compiled)
+    """sc = −S⁻¹·rhs for a symmetric S (its upper triangle read, not written) by
+    S = L·Δ·Lᵀ without pivoting, by rows as the body blocks' (:func:`_solve_ldl_py`; ~n³/6
+    multiply-adds, half the LU's; 20 unknowns: ~0.5 µs against the LU's ~1.2): L unit
+    lower triangular into S's strict lower triangle, the reciprocal pivots 1/Δ into
+    ``ds``, ``piv[0]`` = −1 (the mark :func:`_resolve_py` reads). Where a pivot is 0 or an
+    entry of L beyond ``_GROWTH`` (the elimination without pivoting not stable: S
+    indefinite, a small pivot; ~1 in 9 of a stage ring's), S's lower triangle mirrored
+    from its upper one and :func:`_lu_py` instead (its row swaps in ``piv``, ≥ 0). False
+    where that finds a pivot 0 (S singular)."""
+    m = rhs.size
+    ok = True
+    for r in range(m):
+        lr = S[r]
+        for k in range(r):
+            lk = S[k]
+            acc = S[k, r]  # (the upper triangle: S_rk = S_kr)
+            for j in range(k):
+                acc -= lr[j] * lk[j]  # (L_rj·Δ_j)·L_kj
+            lr[k] = acc  # L_rk·Δ_k
+        dr = S[r, r]
+        for k in range(r):
+            t = lr[k]
+            f = t * ds[k]
+            lr[k] = f
+            dr -= f * t
+            if abs(f) > _GROWTH:
+                ok = False
+        if not ok or dr == 0.0:
+            ok = False
+            break
+        ds[r] = 1.0 / dr
+    if not ok:
+        for r in range(m):
+            for c in range(r):
+                S[r, c] = S[c, r]
+        return _lu(S, rhs, sc, piv)
+    if m:
+        piv[0] = -1
+    _ldl_solve(S, rhs, sc, ds)
+    return True
+
+
+def _ldl_solve_py(S, rhs, sc, ds):  # pragma: no cover (compiled)
+    """sc = −S⁻¹·rhs with the factors :func:`_ldl_py` left (L in S's strict lower
+    triangle, 1/Δ in ``ds``): L·y = −rhs by L's rows, Δ⁻¹·y, Lᵀ·sc = that by L's rows."""
+    m = rhs.size
+    for r in range(m):
+        lr = S[r]
+        acc = -rhs[r]
+        for k in range(r):
+            acc -= lr[k] * sc[k]
+        sc[r] = acc
+    for r in range(m):
+        sc[r] *= ds[r]
+    for k in range(m - 1, -1, -1):
+        lk = S[k]
+        xk = sc[k]
+        for j in range(k):
+            sc[j] -= lk[j] * xk
 
 
 def _lu_py(S, rhs, sc, piv):  # pragma: no cover (compiled)
@@ -884,6 +966,8 @@ def _newton_rows(
     Lb = np.zeros((D, lam, lam))
     pv = np.zeros(nr, np.int64)
     vb = np.zeros((D, lam))
+    Wd = np.zeros((D, lam, nr))  # Δ⁻¹·W_R of the kept factors
+    ds = np.zeros(nr)  # S's reciprocal pivots
     memo = np.zeros((3, D, P))
     wrow = np.zeros((D, P), np.int64)  # the row of pin_w of each flank, −1: none
     scratch = np.zeros((3, max(m, D * pin_w[0].shape[2], lam, 9)))
@@ -1025,7 +1109,7 @@ def _newton_rows(
                 linear = ratio and not extended
                 previous = res
                 if chord:
-                    _resolve(g, step, nr, D, lam, Sb, Yb, rb, sb, cl, dg, Lb, pv, vb)
+                    _resolve(g, step, nr, D, lam, Sb, Yb, rb, sb, cl, dg, Lb, pv, vb, Wd, ds)
                     solved = True
                 else:
                     diag = 0.0
@@ -1035,7 +1119,7 @@ def _newton_rows(
                     for r in range(m):
                         H[r, r] += 1e-14 * diag
                     code = _solve_ldl(
-                        H, g, step, nr, D, lam, Sb, Yb, rb, sb, cl, Tb, dg, Lb, pv, vb
+                        H, g, step, nr, D, lam, Sb, Yb, rb, sb, cl, Tb, dg, Lb, pv, vb, Wd, ds
                     )  # fmt: skip
                     counts[i, 4] += 1
                     kept = code == 1 and reuse > 0.0
