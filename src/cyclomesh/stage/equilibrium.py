@@ -217,6 +217,58 @@ def body_coupling(
     return body, z.reshape(A, -1)
 
 
+def _body_starts(
+    mesh: StackMesh,
+    prob: _Problem,
+    body: FreeDiscBody,
+    reach: FloatArray,
+    law,
+    start: FloatArray,
+    memo: dict | None = None,
+):
+    """The compliant disc's coupling (:func:`body_coupling`) and a function of crank-angle
+    indices giving their own starts (the bearing start ``start`` (A, m) of ``prob``'s
+    crank angles with the body's start z = c0·λ from the loads on the disc there,
+    :func:`body_coupling`'s), for :func:`cyclomesh.stage.kernel_compliant.newton`'s
+    ``start``: the state at the bearing start (the pins' laws inverted, ~10 µs a crank
+    angle) and z formed only for the crank angles the kernel reads, each row the one
+    formed with every crank angle's (:func:`~cyclomesh.stage.assembly.evaluate` and z
+    are crank angle by crank angle; the bearing start is not: the stiff limit's split
+    starts from the crank angle before's, so it is formed for all). The coupling's own z
+    is formed from unit pin loads: its candidates' entries are c0."""
+    A, D, n1 = mesh.geo.rotation.shape
+    N = prob.hx.shape[-1]
+    unit = {
+        "pin_force": np.ones((A, D, n1)),
+        "bearing_fx": np.zeros((A, D, N)),
+        "bearing_fy": np.zeros((A, D, N)),
+    }
+    coupling, z1 = body_coupling(mesh, prob, body, reach, unit, memo)
+    P = coupling.pins.shape[-1]
+    ones = z1.reshape(A, D, -1)[..., :P][coupling.pins >= 0]
+    c0 = ones[0] if ones.size else np.nan  # (the candidates' c0·1: c0)
+    held = [2 * h + c for h, c in FREE_HELD]
+    comp = np.array([j for j in range(2 * N) if j not in held], np.int64)
+    hole, even = comp // 2, comp % 2 == 0
+
+    def own(idx: NDArray[np.int64]) -> FloatArray:
+        """The own starts (len(idx), m) of the crank angles ``idx``."""
+        x = start[idx]
+        _, _, _, st = _evaluate(prob.take(idx), law, x, D, False, gradient=False)
+        pins = coupling.pins[idx]
+        ok = pins >= 0
+        load = np.take_along_axis(st["pin_force"], coupling.flank[idx], -1)
+        zp = c0 * np.where(ok, load, 0.0)
+        fx, fy = -st["bearing_fx"][..., hole], -st["bearing_fy"][..., hole]  # (n, D, F)
+        erx = (prob.hx[idx][:, hole] / prob.scale)[:, None, :]
+        ery = (prob.hy[idx][:, hole] / prob.scale)[:, None, :]
+        value = np.where(even, fx * erx + fy * ery, -fx * ery + fy * erx)
+        z = np.concatenate([zp, c0 * value], axis=-1)
+        return np.concatenate([x, z.reshape(idx.size, -1)], axis=-1)
+
+    return coupling, own
+
+
 def _positions(here: NDArray[np.int64], there: NDArray[np.int64]):
     """Where each candidate pin of ``here`` stands among those of ``there`` (pin indices,
     −1 for padding, (..., P) and (..., P')): (found, its position; 0 where not found).
@@ -384,7 +436,13 @@ def _body_warm(p: _Problem, law, x: FloatArray, discs: int, phi: FloatArray) -> 
 
 
 def _body_kernel(
-    p: _Problem, law, x: FloatArray, discs: int, phi: FloatArray, state: dict | None = None
+    p: _Problem,
+    law,
+    x: FloatArray | None,
+    discs: int,
+    phi: FloatArray,
+    state: dict | None = None,
+    start=None,
 ) -> FloatArray:
     """The compliant disc's equilibrium compiled (:func:`cyclomesh.stage.kernel_compliant.
     newton`: the reference's Newton with ``failed``, crank angle by crank angle, each warm
@@ -392,10 +450,15 @@ def _body_kernel(
     crank angles it does not finish are solved by the NumPy path (:func:`_solve_near` with
     :func:`_body_newton`) from their own start. The root is the reference's to round-off.
     ``state``: where the kernel finished every crank angle, the state at the solution
-    (:func:`cyclomesh.stage.kernel_compliant.newton`'s), as :func:`_kernel_newton`'s."""
+    (:func:`cyclomesh.stage.kernel_compliant.newton`'s), as :func:`_kernel_newton`'s.
+    ``start``: None, ``x`` holds every crank angle's own start; else ``x`` is None and
+    ``start(idx)`` gives the own starts of the crank angles ``idx``, formed only where the
+    kernel reads them (its ``start``; those of the angles it gives up among them)."""
+    if start is not None:
+        x = np.zeros((p.bl.shape[0], p.jacobian.shape[-1]))
     jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, x.shape[1])
     settings = reference.kernel_settings(kernel_run(x.shape[0]), compliant=True)
-    failed = kernel_compliant(p, law, x, discs, jacobian, settings, state=state)
+    failed = kernel_compliant(p, law, x, discs, jacobian, settings, state=state, start=start)
     if np.any(failed):
         idx = np.flatnonzero(failed)
         x[idx] = _solve_near(p.take(idx), law, x[idx], discs, False, phi[idx])
@@ -910,25 +973,34 @@ def solve_direction(
                 sub = unsupported.take(idx)
             return bearing_start(sub, xr, Fr, kr)[0]
 
+        # numba, the compliant disc's compiled Newton (no friction, no series spring): the
+        # bearing start's state and the body's start formed for the crank angles whose
+        # own start the kernel reads only (:func:`_body_starts`)
+        lazy_body = compiled() and body is not None and law.k is None and fr is None
+        lazy_body = lazy_body and prob.frozen is None
         x = None if lazy else start(np.arange(A))
         if supports is not None:
             prob = dataclasses.replace(prob, supports=supports)
-        if body is not None:  # the compliant disc, from the rigid disc's loads
+        m_sup = m + (0 if supports is None else supports.extra(D, stage.holes.count))
+        own = None
+        if body is not None and lazy_body:
+            coupling, own = _body_starts(mesh, prob, body, _BODY_REACH * bound, law, x, cache)
+            prob = dataclasses.replace(prob, body=coupling)
+        elif body is not None:  # the compliant disc, from the rigid disc's loads
             _, _, _, begin = _evaluate(prob, law, x, D, False, gradient=False)
             coupling, z = body_coupling(mesh, prob, body, _BODY_REACH * bound, begin, cache)
             prob = dataclasses.replace(prob, body=coupling)
             x = np.concatenate([x, z], axis=-1)
         if supports is not None or body is not None:
             if body is not None:  # the body's columns depend on the torque, the others not
-                m_all = x.shape[1] - coupling.size
+                m_all = m_sup
                 supported = None if cache is None else cache.get("supported")
                 if supported is None and cache is not None:
                     supported = bearing_jacobian(dataclasses.replace(prob, body=None), D, m_all)
                     cache["supported"] = supported
-                jacobian = bearing_jacobian(prob, D, x.shape[1], supported)
+                jacobian = bearing_jacobian(prob, D, m_sup + coupling.size, supported)
             elif cache is None or "jacobian" not in cache:
-                m_all = m + (0 if supports is None else supports.extra(D, stage.holes.count))
-                jacobian = bearing_jacobian(prob, D, m_all if x is None else x.shape[1])
+                jacobian = bearing_jacobian(prob, D, m_sup if x is None else x.shape[1])
                 if cache is not None:
                     cache["jacobian"] = jacobian
             else:
@@ -938,6 +1010,8 @@ def solve_direction(
         if lazy:
             keep = cache if body is None else None  # this direction's (the same jacobian)
             x = _kernel_newton(prob, _evaluate, law, None, D, False, mesh.phi, st, start, keep)
+        elif own is not None:
+            x = _body_kernel(prob, law, None, D, mesh.phi, st, own)
         else:
             x = _solve(prob, law, x, D, False, mesh.phi, st)
         if st:  # the compiled iteration's state at the solution (the rigid discs' stage)
