@@ -70,6 +70,7 @@ def _kernels() -> tuple[Any, Any]:
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
     global _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows, _carried
+    global _owned_rows
     global _solve_ldl, _rollers, _coupled, _pin_law, _back, _resolve, _lu, _lu_solve, _by_lu
     global _dots
     _pin_law = _kn._pin_law
@@ -80,6 +81,7 @@ def _kernels() -> tuple[Any, Any]:
     _carry = jit(_carry_py)
     _rows = jit(_rows_py)
     _carried = jit(_carried_py)
+    _owned_rows = jit(_owned_rows_py)
     _coupled = jit(_coupled_py)
     _dots = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(_dots_py)
     _solve_body = jit(_solve_body_py)
@@ -832,11 +834,13 @@ def newton(
     if start is None:
         own = x.copy()
         have = np.ones(A, np.bool_)
+        need = have
     else:
         own = np.zeros_like(x)
         have = np.zeros(A, np.bool_)
+        need = _owned(pins, int(run))
         if ahead:
-            idx = np.flatnonzero(_owned(pins, int(run)))
+            idx = np.flatnonzero(need)
             if idx.size:
                 own[idx] = start(idx)
                 have[idx] = True
@@ -845,7 +849,7 @@ def newton(
     first = 0
     while first < A:
         first = _kernels()[1](
-            first, have, memo, resume, x, own, block, pin_w, energy, pins, hole, G, cols,
+            first, have, need, memo, resume, x, own, block, pin_w, energy, pins, hole, G, cols,
             core, blocks, const, nw, float(sup.carrier) if carrier else 0.0, carrier,
             0.5 * law.rs.clearance, law.rs.constant, float(p.torque), float(p.scale),
             force * abs(p.torque) / p.scale, round_off * abs(p.torque) / p.scale,
@@ -874,14 +878,18 @@ def _owned(pins: NDArray[np.int64], run: int) -> NDArray[np.bool_]:
     iteration does: the first of each run of ``run`` and those with a candidate pin
     (``pins`` (A, D, P), −1 padding) that was no candidate at the crank angle before
     (``_carry`` takes its unknown from the own start; padding's is 0 in any start)."""
-    A = pins.shape[0]
-    need = np.zeros(A, np.bool_)
-    need[::run] = True
-    if A > 1:
-        here, there = pins[1:], pins[:-1]
-        match = np.any(here[..., :, None] == there[..., None, :], axis=-1)
-        need[1:] |= np.any((here >= 0) & ~match, axis=(1, 2))
+    need = np.zeros(pins.shape[0], np.bool_)
+    _kernels()  # (compiles _owned_rows)
+    _owned_rows(pins, run, need)
     return need
+
+
+def _owned_rows_py(pins, run, need):  # pragma: no cover (compiled)
+    """:func:`_owned` written for numba."""
+    A = pins.shape[0]
+    none = np.zeros(A, np.bool_)
+    for i in range(A):
+        need[i] = i % run == 0 or _carried(none, pins, i)
 
 
 def _carried_py(have, pins, i):  # pragma: no cover (compiled)
@@ -906,10 +914,10 @@ def _carried_py(have, pins, i):  # pragma: no cover (compiled)
 
 
 def _newton_rows(
-    begin, has, memo, resume, x, own, pin, pin_w, energy, pins, hole, G, cols, core, blocks,
-    const, nw, kcarrier, carrier, half, kn, torque, L, tol, floor, iterations, halvings, cap,
-    low, high, stall_h, stall_it, quad, last_on, reuse, run, failed, counts, pf, bf, gout,
-    whole,
+    begin, has, need, memo, resume, x, own, pin, pin_w, energy, pins, hole, G, cols, core,
+    blocks, const, nw, kcarrier, carrier, half, kn, torque, L, tol, floor, iterations,
+    halvings, cap, low, high, stall_h, stall_it, quad, last_on, reuse, run, failed, counts,
+    pf, bf, gout, whole,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`newton` written for numba: cyclomesh.stage.newton.newton's iteration with
     ``failed`` (rigid=False, the compliant disc), crank angle by crank angle, from crank
@@ -917,7 +925,8 @@ def _newton_rows(
     not (A when all are done), with ``memo`` (3, D, P) (each pin's last inversion) and
     ``resume`` (2,) as they are there: where it stopped (0 the crank angle's top, 1 after
     its warm starts failed, 2 its cold retry) and its chord guess (``first``), which the
-    call that goes on from there reads."""
+    call that goes on from there reads. ``need`` (A,): the crank angles whose own start
+    the warm start's ``_carry`` reads (:func:`_owned`)."""
     A, m = x.shape
     D, P = pin.shape[2], pin.shape[3]
     lam = energy.shape[3]
@@ -978,7 +987,7 @@ def _newton_rows(
             energy_i, status = 0.0, 0
             warm = i % run != 0 and not failed[i - 1] and not cold
             ask = not warm and not has[i]  # (from its top, or its cold retry: 2)
-            if ask or (warm and again == 0 and _carried(has, pins, i)):
+            if ask or (warm and again == 0 and need[i] and not has[i]):
                 resume[0] = 2 if cold else 0
                 resume[1] = 1 if first else 0
                 return i
