@@ -223,19 +223,22 @@ def _body_starts(
     body: FreeDiscBody,
     reach: FloatArray,
     law,
-    start: FloatArray,
+    start,
     memo: dict | None = None,
 ):
     """The compliant disc's coupling (:func:`body_coupling`) and a function of crank-angle
-    indices giving their own starts (the bearing start ``start`` (A, m) of ``prob``'s
-    crank angles with the body's start z = c0·λ from the loads on the disc there,
-    :func:`body_coupling`'s), for :func:`cyclomesh.stage.kernel_compliant.newton`'s
-    ``start``: the state at the bearing start (the pins' laws inverted, ~10 µs a crank
-    angle) and z formed only for the crank angles the kernel reads, each row the one
-    formed with every crank angle's (:func:`~cyclomesh.stage.assembly.evaluate` and z
-    are crank angle by crank angle; the bearing start is not: the stiff limit's split
-    starts from the crank angle before's, so it is formed for all). The coupling's own z
-    is formed from unit pin loads: its candidates' entries are c0."""
+    indices giving their own starts (the bearing start ``start(idx)`` (len(idx), m) of
+    ``prob``'s crank angles ``idx`` with the body's start z = c0·λ from the loads on the
+    disc there, :func:`body_coupling`'s), for
+    :func:`cyclomesh.stage.kernel_compliant.newton`'s ``start``: the rigid stage, the
+    bearing start, the state there (the pins' laws inverted, ~10 µs a crank angle) and z
+    formed only for the crank angles the kernel reads. :func:`~cyclomesh.stage.assembly.
+    evaluate` and z are crank angle by crank angle; the rigid stage and the bearing
+    start's stiff-limit split are not (each crank angle warm from the one before in the
+    rows asked for together), so the own starts, and the roots from them, differ from
+    those with every crank angle's start formed at round-off (a 4-ring compliant study
+    ~7·10⁻¹⁶ of a field's largest). The coupling's own z is formed from unit pin loads:
+    its candidates' entries are c0."""
     A, D, n1 = mesh.geo.rotation.shape
     N = prob.hx.shape[-1]
     unit = {
@@ -253,7 +256,7 @@ def _body_starts(
 
     def own(idx: NDArray[np.int64]) -> FloatArray:
         """The own starts (len(idx), m) of the crank angles ``idx``."""
-        x = start[idx]
+        x = start(idx)
         _, _, _, st = _evaluate(prob.take(idx), law, x, D, False, gradient=False)
         pins = coupling.pins[idx]
         ok = pins >= 0
@@ -856,22 +859,29 @@ def solve_direction(
         )
     m = 1 + 3 * D
 
-    def rigid_stage(sub: _Problem, phi: FloatArray):
-        """The rigid stage (θ_d = c, u = 0) of ``sub``'s crank angles from the rotation at
-        which the stiffest pin alone would carry T (an upper bound of the root, as in
-        cyclomesh.loadsharing): x, the pins' forces and stiffnesses, that bound."""
-        x = np.zeros((sub.bl.shape[0], m))
+    def rotation_bound(sub: _Problem, phi: FloatArray) -> FloatArray:
+        """The rotation (A,) at which the stiffest pin alone would carry T at each of
+        ``sub``'s crank angles (an upper bound of the rigid mesh's root, as in
+        cyclomesh.loadsharing), crank angle by crank angle."""
         # (the loaded flanks: an opposite flank's arm −l' ≤ 0 never carries T alone)
         if compiled():  # CYCLOMESH_KERNEL=numba: in one pass
-            x[:, 0] = single_rotation(sub.bl, sub.arm, sub.alpha, sub.gamma, torque, n1)
+            bound = single_rotation(sub.bl, sub.arm, sub.alpha, sub.gamma, torque, n1)
         else:
-            x[:, 0] = _single_rotation(sub, torque, n1)
-        if not np.all(np.isfinite(x[:, 0])):
-            bad = int(np.argmin(np.isfinite(x[:, 0])))
+            bound = _single_rotation(sub, torque, n1)
+        if not np.all(np.isfinite(bound)):
+            bad = int(np.argmin(np.isfinite(bound)))
             raise ConvergenceError(
                 f"crank angle {np.degrees(phi[bad]):.6g}°: no pin can carry the torque "
                 "alone within the line-contact law (Eq. 20)"
             )
+        return bound
+
+    def rigid_stage(sub: _Problem, phi: FloatArray):
+        """The rigid stage (θ_d = c, u = 0) of ``sub``'s crank angles from the rotation at
+        which the stiffest pin alone would carry T (:func:`rotation_bound`): x, the pins'
+        forces and stiffnesses, that bound."""
+        x = np.zeros((sub.bl.shape[0], m))
+        x[:, 0] = rotation_bound(sub, phi)
         x[:, 1::3] = x[:, [0]]
         bound = x[:, 0].copy()  # one pin alone: an upper bound of the rigid mesh's rotation
         st: dict = {}  # the compiled iteration's state at the solution, else evaluated here
@@ -939,8 +949,16 @@ def solve_direction(
     # is wanted), splits and deflections are not formed
     fast = compiled() and law is not None and law.k is None and fr is None
     lazy = fast and body is None
+    # ``lazy_body``: ``fast`` with the compliant disc (whose compiled Newton asks for the
+    # own starts it reads, :func:`_body_starts`): the rigid stage and the bearing start
+    # formed for those crank angles only (the rotation bound, which the coupling's reach
+    # reads, for all)
+    lazy_body = fast and body is not None and prob.frozen is None
     if lazy and not want("mesh_te"):
         x, F, k_pin, bound, mesh_te = None, None, None, None, None
+    elif lazy_body and not want("mesh_te"):
+        x, F, k_pin, mesh_te = None, None, None, None
+        bound = rotation_bound(prob, mesh.phi)
     else:
         x, F, k_pin, bound = rigid_stage(prob, mesh.phi)
         mesh_te = transmission_error(mesh.rest, x[:, 0])
@@ -959,7 +977,7 @@ def solve_direction(
             else:
                 xr, Fr, kr = (v[idx] for v in rigid)
             if fast:  # numba, no friction, no series spring (the rigid discs' lazy start,
-                # and the compliant disc's whole one): in one pass, the NumPy start's bits
+                # and the compliant disc's, lazy_body): in one pass, the NumPy start's bits
                 if block is None:
                     block, holes = pin_block(sub), (sub.hx, sub.hy, sub.ex, sub.ey)
                 got = compiled_start(
@@ -973,18 +991,15 @@ def solve_direction(
                 sub = unsupported.take(idx)
             return bearing_start(sub, xr, Fr, kr)[0]
 
-        # numba, the compliant disc's compiled Newton (no friction, no series spring): the
-        # bearing start's state and the body's start formed for the crank angles whose
-        # own start the kernel reads only (:func:`_body_starts`)
-        lazy_body = compiled() and body is not None and law.k is None and fr is None
-        lazy_body = lazy_body and prob.frozen is None
-        x = None if lazy else start(np.arange(A))
+        x = None if lazy or lazy_body else start(np.arange(A))
         if supports is not None:
             prob = dataclasses.replace(prob, supports=supports)
         m_sup = m + (0 if supports is None else supports.extra(D, stage.holes.count))
         own = None
         if body is not None and lazy_body:
-            coupling, own = _body_starts(mesh, prob, body, _BODY_REACH * bound, law, x, cache)
+            coupling, own = _body_starts(
+                mesh, prob, body, _BODY_REACH * bound, law, start, cache
+            )  # fmt: skip
             prob = dataclasses.replace(prob, body=coupling)
         elif body is not None:  # the compliant disc, from the rigid disc's loads
             _, _, _, begin = _evaluate(prob, law, x, D, False, gradient=False)
