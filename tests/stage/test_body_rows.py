@@ -90,9 +90,10 @@ def test_the_compiled_newton_reads_the_compact_rows_as_the_whole(monkeypatch, tm
     found = []
     compiled = eq._body_kernel
 
-    def kept(p, law, x, discs, phi, state=None):
-        found.append((p, law, x.copy(), discs))
-        return compiled(p, law, x, discs, phi, state)
+    def kept(p, law, x, discs, phi, state=None, start=None):
+        first = x.copy() if start is None else start(np.arange(p.bl.shape[0]))
+        found.append((p, law, first, discs))
+        return compiled(p, law, x, discs, phi, state, start)
 
     monkeypatch.setattr(eq, "_body_kernel", kept)
     case = ex.case().replace(torque=412.0, crank_angles=np.radians(np.arange(0.0, 360.0, 30)))

@@ -61,10 +61,10 @@ def problems(example, coarse):
     found = []
     compiled = eq._body_kernel
 
-    def kept(p, law, x, discs, phi, state=None):
-        start = x.copy()
-        out = compiled(p, law, x, discs, phi, state)
-        found.append((p, law, start, out.copy(), discs))
+    def kept(p, law, x, discs, phi, state=None, start=None):
+        first = x.copy() if start is None else start(np.arange(p.bl.shape[0]))
+        out = compiled(p, law, x, discs, phi, state, start)
+        found.append((p, law, first, out.copy(), discs))
         return out
 
     mp.setattr(eq, "_body_kernel", kept)

@@ -653,9 +653,9 @@ def test_the_last_step_reaches_the_polished_root(example, coarse, monkeypatch, t
     monkeypatch.setattr(eq, "_evaluate", counted)
     compiled = eq.kernel_compliant  # (numba: the compiled Newton's evaluations, counted)
 
-    def kernel_counted(p, law, x, discs, jacobian, settings, stats=None, state=None):
+    def kernel_counted(p, law, x, discs, jacobian, settings, stats=None, state=None, start=None):
         found: dict = {}
-        failed = compiled(p, law, x, discs, jacobian, settings, found, state)
+        failed = compiled(p, law, x, discs, jacobian, settings, found, state, start)
         rows[-1] += int(found["counts"][:, 0].sum())
         return failed
 

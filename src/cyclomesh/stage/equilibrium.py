@@ -217,6 +217,61 @@ def body_coupling(
     return body, z.reshape(A, -1)
 
 
+def _body_starts(
+    mesh: StackMesh,
+    prob: _Problem,
+    body: FreeDiscBody,
+    reach: FloatArray,
+    law,
+    start,
+    memo: dict | None = None,
+):
+    """The compliant disc's coupling (:func:`body_coupling`) and a function of crank-angle
+    indices giving their own starts (the bearing start ``start(idx)`` (len(idx), m) of
+    ``prob``'s crank angles ``idx`` with the body's start z = c0·λ from the loads on the
+    disc there, :func:`body_coupling`'s), for
+    :func:`cyclomesh.stage.kernel_compliant.newton`'s ``start``: the rigid stage, the
+    bearing start, the state there (the pins' laws inverted, ~10 µs a crank angle) and z
+    formed only for the crank angles the kernel reads. :func:`~cyclomesh.stage.assembly.
+    evaluate` and z are crank angle by crank angle; the rigid stage and the bearing
+    start's stiff-limit split are not (each crank angle warm from the one before in the
+    rows asked for together), so the own starts, and the roots from them, differ from
+    those with every crank angle's start formed at round-off (a 4-ring compliant study
+    ~7·10⁻¹⁶ of a field's largest). The coupling's own z is formed from unit pin loads:
+    its candidates' entries are c0."""
+    A, D, n1 = mesh.geo.rotation.shape
+    N = prob.hx.shape[-1]
+    unit = {
+        "pin_force": np.ones((A, D, n1)),
+        "bearing_fx": np.zeros((A, D, N)),
+        "bearing_fy": np.zeros((A, D, N)),
+    }
+    coupling, z1 = body_coupling(mesh, prob, body, reach, unit, memo)
+    P = coupling.pins.shape[-1]
+    ones = z1.reshape(A, D, -1)[..., :P][coupling.pins >= 0]
+    c0 = ones[0] if ones.size else np.nan  # (the candidates' c0·1: c0)
+    held = [2 * h + c for h, c in FREE_HELD]
+    comp = np.array([j for j in range(2 * N) if j not in held], np.int64)
+    hole, even = comp // 2, comp % 2 == 0
+
+    def own(idx: NDArray[np.int64]) -> FloatArray:
+        """The own starts (len(idx), m) of the crank angles ``idx``."""
+        x = start(idx)
+        _, _, _, st = _evaluate(prob.take(idx), law, x, D, False, gradient=False)
+        pins = coupling.pins[idx]
+        ok = pins >= 0
+        load = np.take_along_axis(st["pin_force"], coupling.flank[idx], -1)
+        zp = c0 * np.where(ok, load, 0.0)
+        fx, fy = -st["bearing_fx"][..., hole], -st["bearing_fy"][..., hole]  # (n, D, F)
+        erx = (prob.hx[idx][:, hole] / prob.scale)[:, None, :]
+        ery = (prob.hy[idx][:, hole] / prob.scale)[:, None, :]
+        value = np.where(even, fx * erx + fy * ery, -fx * ery + fy * erx)
+        z = np.concatenate([zp, c0 * value], axis=-1)
+        return np.concatenate([x, z.reshape(idx.size, -1)], axis=-1)
+
+    return coupling, own
+
+
 def _positions(here: NDArray[np.int64], there: NDArray[np.int64]):
     """Where each candidate pin of ``here`` stands among those of ``there`` (pin indices,
     −1 for padding, (..., P) and (..., P')): (found, its position; 0 where not found).
@@ -384,7 +439,13 @@ def _body_warm(p: _Problem, law, x: FloatArray, discs: int, phi: FloatArray) -> 
 
 
 def _body_kernel(
-    p: _Problem, law, x: FloatArray, discs: int, phi: FloatArray, state: dict | None = None
+    p: _Problem,
+    law,
+    x: FloatArray | None,
+    discs: int,
+    phi: FloatArray,
+    state: dict | None = None,
+    start=None,
 ) -> FloatArray:
     """The compliant disc's equilibrium compiled (:func:`cyclomesh.stage.kernel_compliant.
     newton`: the reference's Newton with ``failed``, crank angle by crank angle, each warm
@@ -392,10 +453,15 @@ def _body_kernel(
     crank angles it does not finish are solved by the NumPy path (:func:`_solve_near` with
     :func:`_body_newton`) from their own start. The root is the reference's to round-off.
     ``state``: where the kernel finished every crank angle, the state at the solution
-    (:func:`cyclomesh.stage.kernel_compliant.newton`'s), as :func:`_kernel_newton`'s."""
+    (:func:`cyclomesh.stage.kernel_compliant.newton`'s), as :func:`_kernel_newton`'s.
+    ``start``: None, ``x`` holds every crank angle's own start; else ``x`` is None and
+    ``start(idx)`` gives the own starts of the crank angles ``idx``, formed only where the
+    kernel reads them (its ``start``; those of the angles it gives up among them)."""
+    if start is not None:
+        x = np.zeros((p.bl.shape[0], p.jacobian.shape[-1]))
     jacobian = p.jacobian if p.jacobian is not None else bearing_jacobian(p, discs, x.shape[1])
     settings = reference.kernel_settings(kernel_run(x.shape[0]), compliant=True)
-    failed = kernel_compliant(p, law, x, discs, jacobian, settings, state=state)
+    failed = kernel_compliant(p, law, x, discs, jacobian, settings, state=state, start=start)
     if np.any(failed):
         idx = np.flatnonzero(failed)
         x[idx] = _solve_near(p.take(idx), law, x[idx], discs, False, phi[idx])
@@ -793,22 +859,29 @@ def solve_direction(
         )
     m = 1 + 3 * D
 
-    def rigid_stage(sub: _Problem, phi: FloatArray):
-        """The rigid stage (θ_d = c, u = 0) of ``sub``'s crank angles from the rotation at
-        which the stiffest pin alone would carry T (an upper bound of the root, as in
-        cyclomesh.loadsharing): x, the pins' forces and stiffnesses, that bound."""
-        x = np.zeros((sub.bl.shape[0], m))
+    def rotation_bound(sub: _Problem, phi: FloatArray) -> FloatArray:
+        """The rotation (A,) at which the stiffest pin alone would carry T at each of
+        ``sub``'s crank angles (an upper bound of the rigid mesh's root, as in
+        cyclomesh.loadsharing), crank angle by crank angle."""
         # (the loaded flanks: an opposite flank's arm −l' ≤ 0 never carries T alone)
         if compiled():  # CYCLOMESH_KERNEL=numba: in one pass
-            x[:, 0] = single_rotation(sub.bl, sub.arm, sub.alpha, sub.gamma, torque, n1)
+            bound = single_rotation(sub.bl, sub.arm, sub.alpha, sub.gamma, torque, n1)
         else:
-            x[:, 0] = _single_rotation(sub, torque, n1)
-        if not np.all(np.isfinite(x[:, 0])):
-            bad = int(np.argmin(np.isfinite(x[:, 0])))
+            bound = _single_rotation(sub, torque, n1)
+        if not np.all(np.isfinite(bound)):
+            bad = int(np.argmin(np.isfinite(bound)))
             raise ConvergenceError(
                 f"crank angle {np.degrees(phi[bad]):.6g}°: no pin can carry the torque "
                 "alone within the line-contact law (Eq. 20)"
             )
+        return bound
+
+    def rigid_stage(sub: _Problem, phi: FloatArray):
+        """The rigid stage (θ_d = c, u = 0) of ``sub``'s crank angles from the rotation at
+        which the stiffest pin alone would carry T (:func:`rotation_bound`): x, the pins'
+        forces and stiffnesses, that bound."""
+        x = np.zeros((sub.bl.shape[0], m))
+        x[:, 0] = rotation_bound(sub, phi)
         x[:, 1::3] = x[:, [0]]
         bound = x[:, 0].copy()  # one pin alone: an upper bound of the rigid mesh's rotation
         st: dict = {}  # the compiled iteration's state at the solution, else evaluated here
@@ -876,8 +949,16 @@ def solve_direction(
     # is wanted), splits and deflections are not formed
     fast = compiled() and law is not None and law.k is None and fr is None
     lazy = fast and body is None
+    # ``lazy_body``: ``fast`` with the compliant disc (whose compiled Newton asks for the
+    # own starts it reads, :func:`_body_starts`): the rigid stage and the bearing start
+    # formed for those crank angles only (the rotation bound, which the coupling's reach
+    # reads, for all)
+    lazy_body = fast and body is not None and prob.frozen is None
     if lazy and not want("mesh_te"):
         x, F, k_pin, bound, mesh_te = None, None, None, None, None
+    elif lazy_body and not want("mesh_te"):
+        x, F, k_pin, mesh_te = None, None, None, None
+        bound = rotation_bound(prob, mesh.phi)
     else:
         x, F, k_pin, bound = rigid_stage(prob, mesh.phi)
         mesh_te = transmission_error(mesh.rest, x[:, 0])
@@ -896,7 +977,7 @@ def solve_direction(
             else:
                 xr, Fr, kr = (v[idx] for v in rigid)
             if fast:  # numba, no friction, no series spring (the rigid discs' lazy start,
-                # and the compliant disc's whole one): in one pass, the NumPy start's bits
+                # and the compliant disc's, lazy_body): in one pass, the NumPy start's bits
                 if block is None:
                     block, holes = pin_block(sub), (sub.hx, sub.hy, sub.ex, sub.ey)
                 got = compiled_start(
@@ -910,25 +991,31 @@ def solve_direction(
                 sub = unsupported.take(idx)
             return bearing_start(sub, xr, Fr, kr)[0]
 
-        x = None if lazy else start(np.arange(A))
+        x = None if lazy or lazy_body else start(np.arange(A))
         if supports is not None:
             prob = dataclasses.replace(prob, supports=supports)
-        if body is not None:  # the compliant disc, from the rigid disc's loads
+        m_sup = m + (0 if supports is None else supports.extra(D, stage.holes.count))
+        own = None
+        if body is not None and lazy_body:
+            coupling, own = _body_starts(
+                mesh, prob, body, _BODY_REACH * bound, law, start, cache
+            )  # fmt: skip
+            prob = dataclasses.replace(prob, body=coupling)
+        elif body is not None:  # the compliant disc, from the rigid disc's loads
             _, _, _, begin = _evaluate(prob, law, x, D, False, gradient=False)
             coupling, z = body_coupling(mesh, prob, body, _BODY_REACH * bound, begin, cache)
             prob = dataclasses.replace(prob, body=coupling)
             x = np.concatenate([x, z], axis=-1)
         if supports is not None or body is not None:
             if body is not None:  # the body's columns depend on the torque, the others not
-                m_all = x.shape[1] - coupling.size
+                m_all = m_sup
                 supported = None if cache is None else cache.get("supported")
                 if supported is None and cache is not None:
                     supported = bearing_jacobian(dataclasses.replace(prob, body=None), D, m_all)
                     cache["supported"] = supported
-                jacobian = bearing_jacobian(prob, D, x.shape[1], supported)
+                jacobian = bearing_jacobian(prob, D, m_sup + coupling.size, supported)
             elif cache is None or "jacobian" not in cache:
-                m_all = m + (0 if supports is None else supports.extra(D, stage.holes.count))
-                jacobian = bearing_jacobian(prob, D, m_all if x is None else x.shape[1])
+                jacobian = bearing_jacobian(prob, D, m_sup if x is None else x.shape[1])
                 if cache is not None:
                     cache["jacobian"] = jacobian
             else:
@@ -938,6 +1025,8 @@ def solve_direction(
         if lazy:
             keep = cache if body is None else None  # this direction's (the same jacobian)
             x = _kernel_newton(prob, _evaluate, law, None, D, False, mesh.phi, st, start, keep)
+        elif own is not None:
+            x = _body_kernel(prob, law, None, D, mesh.phi, st, own)
         else:
             x = _solve(prob, law, x, D, False, mesh.phi, st)
         if st:  # the compiled iteration's state at the solution (the rigid discs' stage)

@@ -71,7 +71,8 @@ def _kernels() -> tuple[Any, Any]:
 
     jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
-    global _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows
+    global _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows, _carried
+    global _owned_rows
     global _solve_ldl, _rollers, _coupled, _pin_law, _back, _resolve, _lu, _lu_solve, _by_lu
     global _dots, _ldl, _ldl_solve
     _pin_law = _kn._pin_law
@@ -81,6 +82,8 @@ def _kernels() -> tuple[Any, Any]:
     _evaluate_one = jit(_evaluate_one_py)
     _carry = jit(_carry_py)
     _rows = jit(_rows_py)
+    _carried = jit(_carried_py)
+    _owned_rows = jit(_owned_rows_py)
     _coupled = jit(_coupled_py)
     _dots = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(_dots_py)
     _solve_body = jit(_solve_body_py)
@@ -870,6 +873,8 @@ def newton(
     settings: tuple,
     stats: dict | None = None,
     state: dict | None = None,
+    start=None,
+    ahead: bool = True,
 ) -> NDArray[np.bool_]:
     """The compliant disc's :func:`cyclomesh.stage.newton.newton` (with ``failed``), every
     crank angle to its end in one compiled pass, in order, warm from the ones before
@@ -886,7 +891,16 @@ def newton(
     every crank angle was finished, the state at the solution as
     :func:`cyclomesh.stage.assembly.evaluate`'s (``pin_force``, ``pin_shift`` (A, D, P),
     ``bearing_fx``, ``bearing_fy``, ``deflection`` (A, D, N)) and ``gradient`` (A, m), the
-    scaled gradient there (the evaluation the caller need not repeat)."""
+    scaled gradient there (the evaluation the caller need not repeat). ``start``: None,
+    every row of ``x`` is a crank angle's own start; else ``x``'s rows are ignored and
+    ``start(idx)`` gives the own starts (len(idx), m) of the crank angles ``idx``, formed
+    only where the iteration reads them (:func:`_owned`): those it reads whatever the
+    iteration does (the first of each run, and where ``_carry`` takes a pin unknown of a
+    pin that was no candidate at the crank angle before: in one call, with ``ahead``),
+    then, one call each, the crank angles whose warm starts it cannot evaluate or whose
+    warm iteration fails (the cold retry): the kernel stops there and goes on from where
+    it stopped, its memo kept. Each start is the caller's row, so the solution's bits
+    are those from every start formed (tests/stage/test_own_starts.py)."""
     (force, iterations, halvings, cap, low, high, round_off, stall_h, stall_it, quad, last,
      reuse, run) = settings  # fmt: skip
     A, m = x.shape
@@ -899,15 +913,34 @@ def newton(
     D, P, N = p.bl.shape[1], p.bl.shape[2], p.hx.shape[-1]
     pf, bf, gout = np.zeros((2, A, D, P)), np.zeros((A, D, N, 3)), np.zeros((A, m))
     whole = np.ones(1, np.bool_)  # the state at every solution formed
-    own = x.copy()
-    _kernels()[1](
-        x, own, block, pin_w, energy, pins, hole, G, cols, core, blocks, const, nw,
-        float(sup.carrier) if carrier else 0.0, carrier, 0.5 * law.rs.clearance,
-        law.rs.constant, float(p.torque), float(p.scale), force * abs(p.torque) / p.scale,
-        round_off * abs(p.torque) / p.scale, iterations, halvings, cap, low, high, stall_h,
-        stall_it, quad, bool(last), float(reuse), int(run), failed, counts, pf, bf, gout,
-        whole,
-    )  # fmt: skip
+    if start is None:
+        own = x.copy()
+        have = np.ones(A, np.bool_)
+        need = have
+    else:
+        own = np.zeros_like(x)
+        have = np.zeros(A, np.bool_)
+        need = _owned(pins, int(run))
+        if ahead:
+            idx = np.flatnonzero(need)
+            if idx.size:
+                own[idx] = start(idx)
+                have[idx] = True
+    memo = np.zeros((3, D, P))  # each pin's last inversion (δ, y, F), call to call
+    resume = np.zeros(2, np.int64)  # where the kernel stopped, its chord guess (call to call)
+    first = 0
+    while first < A:
+        first = _kernels()[1](
+            first, have, need, memo, resume, x, own, block, pin_w, energy, pins, hole, G, cols,
+            core, blocks, const, nw, float(sup.carrier) if carrier else 0.0, carrier,
+            0.5 * law.rs.clearance, law.rs.constant, float(p.torque), float(p.scale),
+            force * abs(p.torque) / p.scale, round_off * abs(p.torque) / p.scale,
+            iterations, halvings, cap, low, high, stall_h, stall_it, quad, bool(last),
+            float(reuse), int(run), failed, counts, pf, bf, gout, whole,
+        )  # fmt: skip
+        if first < A:  # the own start of crank angle ``first`` asked for
+            own[first] = start(np.array([first]))[0]
+            have[first] = True
     if stats is not None:
         stats["counts"] = counts
     if state is not None and whole[0] and not np.any(failed):
@@ -922,13 +955,60 @@ def newton(
     return failed
 
 
+def _owned(pins: NDArray[np.int64], run: int) -> NDArray[np.bool_]:
+    """The crank angles (A,) whose own start :func:`_newton_rows` reads whatever its
+    iteration does: the first of each run of ``run`` and those with a candidate pin
+    (``pins`` (A, D, P), −1 padding) that was no candidate at the crank angle before
+    (``_carry`` takes its unknown from the own start; padding's is 0 in any start)."""
+    need = np.zeros(pins.shape[0], np.bool_)
+    _kernels()  # (compiles _owned_rows)
+    _owned_rows(pins, run, need)
+    return need
+
+
+def _owned_rows_py(pins, run, need):  # pragma: no cover (compiled)
+    """:func:`_owned` written for numba."""
+    A = pins.shape[0]
+    none = np.zeros(A, np.bool_)
+    for i in range(A):
+        need[i] = i % run == 0 or _carried(none, pins, i)
+
+
+def _carried_py(have, pins, i):  # pragma: no cover (compiled)
+    """Whether ``_carry`` at crank angle i from i − 1 reads an own start it does not
+    ``have`` (a candidate pin that was none at i − 1)."""
+    if have[i]:
+        return False
+    D, P = pins.shape[1], pins.shape[2]
+    for d in range(D):
+        for q in range(P):
+            pin = pins[i, d, q]
+            if pin < 0:
+                continue
+            found = False
+            for q2 in range(P):
+                if pins[i - 1, d, q2] == pin:
+                    found = True
+                    break
+            if not found:
+                return True
+    return False
+
+
 def _newton_rows(
-    x, own, pin, pin_w, energy, pins, hole, G, cols, core, blocks, const, nw, kcarrier,
-    carrier, half, kn, torque, L, tol, floor, iterations, halvings, cap, low, high, stall_h,
-    stall_it, quad, last_on, reuse, run, failed, counts, pf, bf, gout, whole,
+    begin, has, need, memo, resume, x, own, pin, pin_w, energy, pins, hole, G, cols, core,
+    blocks, const, nw, kcarrier, carrier, half, kn, torque, L, tol, floor, iterations,
+    halvings, cap, low, high, stall_h, stall_it, quad, last_on, reuse, run, failed, counts,
+    pf, bf, gout, whole,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`newton` written for numba: cyclomesh.stage.newton.newton's iteration with
-    ``failed`` (rigid=False, the compliant disc), crank angle by crank angle."""
+    ``failed`` (rigid=False, the compliant disc), crank angle by crank angle, from crank
+    angle ``begin`` on; returns the first crank angle whose own start it reads and ``has``
+    not (A when all are done), with ``memo`` (3, D, P) (each pin's last inversion) and
+    ``resume`` (2,) as they are there: where it stopped (0 the crank angle's top, 1 after
+    its warm starts failed, 2 its cold retry) and its chord guess (``first``), which the
+    call that goes on from there reads. ``need`` (A,): the crank angles whose own start
+    the warm start's ``_carry`` reads (:func:`_owned`)."""
     A, m = x.shape
     D, P = pin.shape[2], pin.shape[3]
     lam = energy.shape[3]
@@ -968,25 +1048,34 @@ def _newton_rows(
     vb = np.zeros((D, lam))
     Wd = np.zeros((D, lam, nr))  # Δ⁻¹·W_R of the kept factors
     ds = np.zeros(nr)  # S's reciprocal pivots
-    memo = np.zeros((3, D, P))
     wrow = np.zeros((D, P), np.int64)  # the row of pin_w of each flank, −1: none
     scratch = np.zeros((3, max(m, D * pin_w[0].shape[2], lam, 9)))
     zz = np.zeros((D, energy.shape[3], energy.shape[3]))  # Σ k·w·wᵀ of each disc's pins
     want_t = 3  # a trial's evaluation: 3 with its Hessian (the next step Newton's), else 1
     diag = 1.0
-    first = False  # the last angle's first step too slow for a chord step after it
-    for i in range(A):
+    first = resume[1] != 0  # the last angle's first step too slow for a chord step after it
+    for i in range(begin, A):
         _rows(wrow, pin_w, i)
         # a warm start that ends on the saddle (or fails otherwise) is tried once more
         # from the crank angle's own start before the NumPy path is asked
         cold = False
+        again = 0  # the call goes on at crank angle ``begin`` from where the last stopped
+        if i == begin:
+            again = resume[0]
+            resume[0] = 0
+            cold = again == 2
         while True:
             for r in range(m):
                 xi[r] = own[i, r]
             have = False
             energy_i, status = 0.0, 0
             warm = i % run != 0 and not failed[i - 1] and not cold
-            if warm:
+            ask = not warm and not has[i]  # (from its top, or its cold retry: 2)
+            if ask or (warm and again == 0 and need[i] and not has[i]):
+                resume[0] = 2 if cold else 0
+                resume[1] = 1 if first else 0
+                return i
+            if warm and again == 0:
                 # warm start: the line through the two solutions before, else the one before,
                 # each pin unknown carried by its pin (equilibrium._body_warm)
                 line = i % run >= 2 and not failed[i - 2]
@@ -1013,6 +1102,12 @@ def _newton_rows(
                     for r in range(m):
                         xi[r] = trial[r]
                     energy_i, status, have = e1, s1, True
+                elif not has[i]:  # neither warm start evaluated: from its own, asked for
+                    resume[0] = 1
+                    resume[1] = 1 if first else 0
+                    return i
+            elif warm:  # (again 1: the warm starts failed before the call, from the own)
+                again = 0
             else:
                 memo[0] = 0.0
             previous = np.inf
@@ -1254,3 +1349,5 @@ def _newton_rows(
             failed[i] = True
             for r in range(m):
                 x[i, r] = own[i, r]
+    resume[1] = 1 if first else 0
+    return A
