@@ -12,20 +12,10 @@ from cyclomesh.core.contact import UnloadedContact, unloaded_contact, unloaded_c
 from cyclomesh.core.ltca import pin_compliance
 from cyclomesh.drive.mesh import stack_meshes, stacked_contact
 from cyclomesh.drive.mirror import mirror_problem
+from tests.drive.test_drive import ring_errors
 
 TPM = Modification(pin_radius=8e-6)
 PHI = np.deg2rad(np.arange(0.0, 360.0, 5.0))
-
-
-def ring_errors(seed, rings=()):
-    rng = np.random.default_rng(seed)
-    shape = (*rings, TABLE1.pins)
-    return PinErrors(
-        radial=rng.uniform(-4e-6, 4e-6, shape),
-        angular=rng.uniform(-2e-5, 2e-5, shape),
-        pin_radius=rng.uniform(-2e-6, 2e-6, shape),
-        eccentricity=2e-6,
-    )
 
 
 ERRORS = {
