@@ -1008,10 +1008,9 @@ def solve_direction(
             x = np.concatenate([x, z], axis=-1)
         if supports is not None or body is not None:
             if body is not None:  # the body's columns depend on the torque, the others not
-                m_all = m_sup
                 supported = None if cache is None else cache.get("supported")
                 if supported is None and cache is not None:
-                    supported = bearing_jacobian(dataclasses.replace(prob, body=None), D, m_all)
+                    supported = bearing_jacobian(dataclasses.replace(prob, body=None), D, m_sup)
                     cache["supported"] = supported
                 jacobian = bearing_jacobian(prob, D, m_sup + coupling.size, supported)
             elif cache is None or "jacobian" not in cache:
