@@ -201,12 +201,20 @@ def test_tolerance_and_design_map_take_a_body():
     assert not np.allclose(ds[name].values, rigid[name].values)
 
 
-def test_pins_beyond_the_first_set_are_added_exactly(monkeypatch):
+@pytest.mark.parametrize("name", ["numpy", "numba"])
+def test_pins_beyond_the_first_set_are_added_exactly(monkeypatch, name):
     # the first candidate set made too small on purpose (the last loaded pin of the
     # solution dropped): the check after the solve must find the pin that would
-    # penetrate, add it and solve again, to the same solution as all pins
+    # penetrate, add it and solve again, to the same solution as all pins. The compiled
+    # kernel starts each ring from the rigid disc with the pins that start can reach
+    # added to the given set (and later angles with their own): the dropped pin back in
+    # the set, the check has nothing to add there
     import cyclomesh.core.discbody as cdb
+    from cyclomesh.core import kernel, kernel_discbody
 
+    if name == "numba" and kernel_discbody.compiled() is None:
+        pytest.skip("numba not installed")
+    monkeypatch.setenv(kernel.ENV_VAR, name)
     body = synthetic_body()
     full = solve_ltca(TABLE1, MOD, None, 250.0, PHI, True, "half_plane", body)
     calls = []
@@ -222,7 +230,7 @@ def test_pins_beyond_the_first_set_are_added_exactly(monkeypatch):
 
     monkeypatch.setattr(cdb, "_solve_set", shrunk)
     r = solve_ltca(TABLE1, MOD, None, 250.0, PHI, True, "half_plane", body)
-    assert len(calls) > 1
+    assert (len(calls) > 1) == (name == "numpy")
     np.testing.assert_allclose(r.pin_load, full.pin_load, rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(r.loaded_rotation, full.loaded_rotation, rtol=1e-12)
 

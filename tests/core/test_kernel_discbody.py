@@ -247,6 +247,24 @@ def test_the_cholesky_solve():
     assert not kernel_discbody._cholesky2(2, indefinite, np.ones((2, 2)))
 
 
+def test_the_warm_start_order():
+    """A pin's loads extrapolated cubically on a smooth run of four loaded cases, linearly
+    where it enters contact or its loads' third difference exceeds their second."""
+    kernel_discbody.compiled()
+    order = kernel_discbody._order
+    smooth = [100.0 + 10.0 * t + 0.5 * t * t for t in (3.0, 2.0, 1.0, 0.0)]  # f1 … f4
+    assert order(*smooth, 4) == 4
+    assert order(*smooth, 9) == 4  # a long streak: still four loads
+    assert order(*smooth, 3) == 2 and order(*smooth, 2) == 2 and order(*smooth, 1) == 1
+    assert order(30.0, 10.0, 0.0, 0.0, 4) == 2  # entering contact
+    assert order(100.0, 100.0, 100.0, 0.0, 4) == 2
+    assert order(130.0, 100.0, 100.0, 100.0, 4) == 4  # |Δ³| = |Δ²| = 30: still smooth
+    assert order(100.0, 130.0, 100.0, 130.0, 4) == 2  # |Δ³| = 120 > |Δ²| = 60
+    ext = kernel_discbody._extrapolate
+    assert ext(*smooth, 4) == pytest.approx(100.0 + 40.0 + 8.0, rel=1e-14)  # exact: cubic
+    assert ext(*smooth, 2) == pytest.approx(2.0 * smooth[0] - smooth[1], rel=1e-15)
+
+
 def test_a_case_without_its_start_takes_the_rigid_disc(monkeypatch):
     """The compiled solve of cases whose rigid start is not given (NaN) and that have no
     case before them to start from: the rigid disc is solved for them and they are
@@ -355,6 +373,36 @@ def test_a_warm_start_candidate_set_and_the_check_after(monkeypatch):
         np.testing.assert_allclose(
             got.pin_load, ref.pin_load, rtol=0, atol=1e-14 * np.max(ref.pin_load)
         )
+
+
+def test_a_rings_first_case_takes_the_pins_its_start_can_reach(monkeypatch):
+    """A ring's first crank angle (the rigid disc's start) is solved on the single-pin
+    bound's candidates and the pins that start can reach by the table's most negative
+    coefficient (as a warm start's): written into the caller's candidates, a superset of
+    the bound's, and the check after the solve has no case to look at; the solution is
+    the reference's."""
+    import cyclomesh.core.discbody as cdb
+
+    monkeypatch.setenv(kernel.ENV_VAR, "numba")
+    body = _body(far=-1e-9)  # strongly negative: the start reaches past the bound
+    bl, arm, alpha, gamma, torque, body, tooth, angle = _problem(body)
+    tooth = np.ascontiguousarray(np.broadcast_to(tooth, bl.shape))
+    own, bound = cdb._candidates(bl, arm, alpha, gamma, tooth, angle, torque, body)
+    arrays = (bl, arm, alpha, gamma, tooth, angle, own)
+    x0, f0 = np.full(PHI.size, np.nan), np.zeros(bl.shape)
+    cdb._rigid_start(arrays, torque, x0, f0, np.array([0]))
+    candidate, flags = bound.copy(), np.empty(PHI.size, bool)
+    x, force = cdb._solve_set(candidate, arrays, x0, f0, torque, body, 40, PHI.size, flags)
+    usable = np.isfinite(bl[0]) & (arm[0] > 0)
+    reach = x0[0] * 1.05 + 1.05 * body._lowest * np.sum(f0[0]) / np.where(usable, arm[0], 1.0)
+    assert np.all(candidate[0] >= bound[0])
+    np.testing.assert_array_equal(candidate[0], bound[0] | (usable & (bl[0] < reach)))
+    assert np.sum(candidate[0]) > np.sum(bound[0])  # here the start reaches more pins
+    assert not np.any(flags)
+    monkeypatch.setenv(kernel.ENV_VAR, "numpy")
+    ref = share_load_coupled(*_problem(body))
+    np.testing.assert_allclose(x, ref[0], rtol=1e-14, atol=0)
+    np.testing.assert_allclose(force, ref[1], rtol=0, atol=1e-14 * np.max(ref[1]))
 
 
 def test_the_tooth_index_on_both_kernels(monkeypatch):

@@ -524,7 +524,8 @@ def _solve_set(
     solved, the kernel's own start; filled in place where a case needs it). The compiled
     path chooses the candidates of a case it starts from the cases before (the pins its
     start can reach: ``candidate``'s rows at ring starts only are read, the others
-    written, in place), and restores the single-pin bound's where it gives a case up.
+    written, in place), adds to a ring start's the pins its rigid start can reach (in
+    place too), and restores the single-pin bound's where it gives a case up.
     ``flags`` (B,) bool, given with the numba kernel only: filled with the cases the
     check after the solve may flag (:func:`kernel_discbody._suspects`' test, taken by
     the compiled solve as it finishes each case)."""
@@ -552,11 +553,13 @@ def _solve_set(
         if failed and start.size == failed:
             _rigid_start(arrays, torque, x0, f0, start)
             out = (rotation[start], force[start], status[start], suspect[start])
+            chosen = candidate[start]
             failed = passes.solve_sets(
-                candidate[start], *(a[start] for a in (bl, arm, alpha, gamma, tooth, angle, own)),
+                chosen, *(a[start] for a in (bl, arm, alpha, gamma, tooth, angle, own)),
                 x0[start], f0[start], *settings, 1, *out
             )  # fmt: skip
             rotation[start], force[start], suspect[start] = out[0], out[1], out[3]
+            candidate[start] = chosen  # the kernel's (its start's reach added)
         if candidate is not given:  # the rows the kernel chose, for the check after
             given[...] = candidate
         if not failed:

@@ -18,18 +18,19 @@ reduces the residual), with each force the exact inverse of the contact law as
 :func:`cyclomesh.core.hertz.force_from_approach` (two fixed-point steps and Newton's
 method in ln F to 2e-15·δ).
 
-Both run to the root, so the kernel need not follow the reference's path: a ring's
-first crank angle starts as the reference does (the rigid disc's solution, w = 0, on
-the pins below the single-pin bound), each later one from the roots before it,
-extrapolated (Δφc and every pin load cubically; a loaded pin's state is its load with
-δ = F(α − γ ln F) and w = l·(Δφc − φbl) − δ, no inversion), on the pins that start can
-reach (φbl below Δφc, with margins, plus the reach of the table's most negative
-coefficient: the check after the solve then finds nothing to add). Near the root a
-Newton step with the engaged pins of the last factorisation reuses its factor (a chord
-step), and the last such step from within the tolerances updates the loads linearly
-(F + ΔF, exact to (1e-12)²) instead of inverting the law again. The results agree with
-the reference's to a few units in the last place (tested to 1e-14 of the largest load,
-and to 1e-13 of each field's scale through the solvers,
+Both run to the root, so the kernel need not follow the reference's path: a ring's first
+crank angle starts as the reference does (the rigid disc's solution, w = 0, on the pins
+below the single-pin bound, and those the start can reach as a later one's), each later
+one from the roots before it, extrapolated (Δφc cubically, every pin load cubically on a
+smooth run of four loaded angles, else linearly: :func:`_order`; a loaded pin's state is
+its load with δ = F(α − γ ln F) and w = l·(Δφc − φbl) − δ, no inversion), on the pins
+that start can reach (φbl below Δφc, with margins, plus the reach of the table's most
+negative coefficient: the check after the solve then finds nothing to add). Near the
+root a Newton step with the engaged pins of the last factorisation reuses its factor (a
+chord step), and the last such step from within the tolerances updates the loads
+linearly (F + ΔF, exact to (1e-12)²) instead of inverting the law again. The results
+agree with the reference's to a few units in the last place (tested to 1e-14 of the
+largest load, and to 1e-13 of each field's scale through the solvers,
 ``tests/core/test_kernel_discbody.py``), not bit for bit: the sums run in pin order and
 the logarithms and exponentials are the C library's, not NumPy's SIMD ones.
 
@@ -90,6 +91,7 @@ def compiled() -> Any:
     # compiled in place: the passes call them
     global _cell, _bound_row, _own_row, _own, _exp_step, _force, _evaluate, _residuals
     global _solve2, _cholesky2, _extrapolate, _cholesky_solve, _factor_solve, _give_up
+    global _order
     _cell = jit(_cell)
     _bound_row = jit(_bound_row)
     _own = jit(_own)
@@ -104,6 +106,7 @@ def compiled() -> Any:
     _factor_solve = jit(_factor_solve)
     _extrapolate = jit(_extrapolate)
     _give_up = jit(_give_up)
+    _order = jit(_order)
 
     class Passes:
         cell = _cell  # (the Catmull–Rom cell, also the stage's coupling's: stage.coupling)
@@ -479,6 +482,21 @@ def _give_up(
     suspect[k] = True
 
 
+def _order(f1, f2, f3, f4, streak):  # pragma: no cover (compiled)
+    """How many of a pin's loads before a case its warm start extrapolates
+    (:func:`_extrapolate`'s ``streak``) from the last four, f1 the last [N]: cubically
+    (4) where the pin was loaded at all four and the loads' third difference is within
+    their second (a smooth run), else linearly (at most 2). The cubic's error grows with
+    the third difference, which a pin entering contact (its load is 0, then a power of
+    the approach) or a coefficient's Catmull–Rom node (C¹: its second derivative jumps)
+    makes large; at 1° steps (a tolerance study's) every fourth pin-case or so.
+    Either start goes on to the same root: only the number of Newton steps differs."""
+    if streak >= 4 and f4 > 0.0 and f3 > 0.0 and f2 > 0.0:
+        if abs(f1 - 3.0 * (f2 - f3) - f4) <= abs(f1 - 2.0 * f2 + f3):
+            return 4
+    return min(streak, 2)
+
+
 def _extrapolate(v1, v2, v3, v4, streak):  # pragma: no cover (compiled)
     """The value at the next of evenly spaced crank angles from the ``streak`` (≥ 1)
     values just before it (v1 the last): constant, linear, quadratic or cubic in the
@@ -511,21 +529,22 @@ def _solve_sets(
     own).
 
     A case with ``x0`` starts from the rigid disc's solution with w = 0 on the given
-    candidates. A case without it after others of its ring starts from their roots,
-    extrapolated (:func:`_extrapolate`: Δφc and each pin's load; a loaded pin's w from
-    its load, an unloaded one's C·F of the loads; after a case given up, the last one
-    solved as it is), on the pins that start can reach (written into ``candidate``;
-    their own coefficients into ``own``). Newton's steps (a backtracking line search on
-    the scaled residual) run to the tolerances, then on to round-off (``round_off``) or
-    to a step that does not reduce the residual, with the last Cholesky factor where the
-    engaged pins are the same and the residual below :data:`_CHORD`, the last of them
-    from within the tolerances a linear update of the loads (F + ΔF). Fills
-    ``rotation`` (B,), ``force`` (B, n) (zero on entry), ``suspect`` (B,) bool
-    (:func:`_suspects`' flag of each case solved, from the same sum and test while its
-    row is at hand; True where not solved) and ``status`` (B,): 0 solved, 1
-    not finished (the caller then takes the reference), 2 needs ``x0`` (its candidates
-    and own coefficients then the single-pin bound's, :func:`_candidates`); returns the
-    number of cases not solved.
+    candidates and the pins that start can reach (added to ``candidate``, as a warm
+    start's below with the rigid ΣF and Δφc). A case without it after others of its ring
+    starts from their roots, extrapolated (:func:`_extrapolate`, :func:`_order`: Δφc and
+    each pin's load; a loaded pin's w from its load, an unloaded one's C·F of the loads;
+    after a case given up, the last one solved as it is), on the pins that start can
+    reach (written into ``candidate``; their own coefficients into ``own``). Newton's
+    steps (a backtracking line search on the scaled residual) run to the tolerances,
+    then on to round-off (``round_off``) or to a step that does not reduce the residual,
+    with the last Cholesky factor where the engaged pins are the same and the residual
+    below :data:`_CHORD`, the last of them from within the tolerances a linear update of
+    the loads (F + ΔF). Fills ``rotation`` (B,), ``force`` (B, n) (zero on entry),
+    ``suspect`` (B,) bool (:func:`_suspects`' flag of each case solved, from the same
+    sum and test while its row is at hand; True where not solved) and ``status`` (B,): 0
+    solved, 1 not finished (the caller then takes the reference), 2 needs ``x0`` (its
+    candidates and own coefficients then the single-pin bound's, :func:`_candidates`);
+    returns the number of cases not solved.
     """
     n_cases, n = bl.shape
     u0, u_last, h, m = grid[0], grid[1], grid[2], int(grid[3])
@@ -590,6 +609,19 @@ def _solve_sets(
             for i in range(n):
                 b, lk = bl[k, i], arm[k, i]  # φbl < reach + push/l, l > 0, no quotient
                 candidate[k, i] = np.isfinite(b) and lk > 0.0 and (b - reach) * lk < push
+        else:  # the rigid disc's start: the single-pin bound's candidates (_candidates) and
+            # the pins the table's most negative coefficient lets the start reach, as a warm
+            # start's (the root's Δφc is above the rigid one: the check after the solve
+            # then rarely has a case to look at, nor the reference's coefficients to form)
+            total = 0.0
+            for i in range(n):
+                total += f0[k, i]
+            push = (1.0 + _REACH) * lowest * total
+            reach = x + _REACH * abs(x)
+            for i in range(n):
+                b, lk = bl[k, i], arm[k, i]
+                if not candidate[k, i] and np.isfinite(b) and lk > 0.0:
+                    candidate[k, i] = (b - reach) * lk < push
         nc = 0
         for i in range(n):
             if candidate[k, i]:
@@ -670,9 +702,9 @@ def _solve_sets(
             for a in range(nc):
                 i = idx[a]
                 if streak > 0:
-                    fa = _extrapolate(
-                        force[k - 1, i], force[k - 2, i], force[k - 3, i], force[k - 4, i], streak
-                    )
+                    f1, f2, f3 = force[k - 1, i], force[k - 2, i], force[k - 3, i]
+                    f4 = force[k - 4, i]
+                    fa = _extrapolate(f1, f2, f3, f4, _order(f1, f2, f3, f4, streak))
                 else:
                     fa = force[last, i]
                 step_f[a] = fa if fa > 0.0 else 0.0
