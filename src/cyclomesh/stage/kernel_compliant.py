@@ -1019,8 +1019,9 @@ def _newton_rows(
     call that goes on from there reads. ``need`` (A,): the crank angles whose own start
     the warm start's ``_carry`` reads (:func:`_owned`). ``active`` 1: each warm crank
     angle iterated on an active set of the body's pin unknowns (:func:`_choose_py`; 2: an
-    empty one, every pin added by the check; 0: all of them), ``astats`` (A, 3): its pin
-    unknowns a disc (0: all), the times the set grew, 1 where it was left for all."""
+    empty one, every pin added by the check; 0: all of them), ``astats`` (A, 3): its body
+    unknowns a disc at the start (the holes' too; 0: all), the times the set grew, 1
+    where it was left for all."""
     A, mf = x.shape
     m = mf
     D, P = pin.shape[2], pin.shape[3]
@@ -1098,11 +1099,11 @@ def _newton_rows(
         )
         la = lam
         if red:
-            la = _choose(act, amap, loaded, pf, pin_w[1], i, lam, Q, active == 2)
+            la = _choose(act, amap, loaded, pf, pins, i, lam, active == 2)
             red = la < lam
         grows = 0
         restart = False
-        astats[i, 0] = la - (lam - Q) if red else 0
+        astats[i, 0] = la if red else 0  # (its checks, not in ``counts``: 1 + its grows)
         while True:
             if red:
                 en, wa = _reduce(
@@ -1399,8 +1400,7 @@ def _newton_rows(
                     i, i, xF, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
                     half, kn, torque, L, 1, gF, HF, memo, pf, bf, wrow, scratch, zz,
                 )  # fmt: skip
-                counts[i, 0] += 1
-                grown = _grow(act, amap, pf, pin_w[1], xF, i, z0, lam, Q)
+                grown = _grow(act, amap, pf, pins, xF, i, z0, lam)
                 if grown:  # those pins' unknowns added (z = c0·F), from the root reached
                     grows += 1
                     astats[i, 1] += 1
@@ -1477,12 +1477,14 @@ def _fill_py(act, amap, lam):  # pragma: no cover (compiled)
     return la
 
 
-def _choose_py(act, amap, loaded, pf, flank, i, lam, Q, empty):  # pragma: no cover
-    """Crank angle i's active set ``act`` (D, Λ): the hole unknowns (from Q on), and each
-    pin unknown whose pin (``flank``, Body.flank) or a neighbour of it (the next pin each
-    side, of the same flank's n1) carried load at crank angle i − 1 (``pf[0, i − 1]``);
-    ``empty``: the hole unknowns only. Returns Λ_a (:func:`_fill_py`)."""
+def _choose_py(act, amap, loaded, pf, pins, i, lam, empty):  # pragma: no cover
+    """Crank angle i's active set ``act`` (D, Λ): the hole unknowns (after the pins'), and
+    each pin unknown whose pin (``pins``, Body.pins: its flank; −1, padding: none) or a
+    neighbour of it (the next pin each side, of the same flank's n1) carried load at crank
+    angle i − 1 (``pf[0, i − 1]``); ``empty``: the hole unknowns only. Returns Λ_a
+    (:func:`_fill_py`)."""
     D, P = loaded.shape
+    Q = pins.shape[2]
     for d in range(D):
         for j in range(P):
             loaded[d, j] = (not empty) and i > 0 and pf[0, i - 1, d, j] > 0.0
@@ -1492,7 +1494,7 @@ def _choose_py(act, amap, loaded, pf, flank, i, lam, Q, empty):  # pragma: no co
             if q >= Q:
                 act[d, q] = True
                 continue
-            j = flank[i, d, q]
+            j = pins[i, d, q]
             if j < 0:
                 act[d, q] = False
                 continue
@@ -1505,24 +1507,25 @@ def _choose_py(act, amap, loaded, pf, flank, i, lam, Q, empty):  # pragma: no co
     return _fill(act, amap, lam)
 
 
-def _grow_py(act, amap, pf, flank, xF, i, z0, lam, Q):  # pragma: no cover (compiled)
+def _grow_py(act, amap, pf, pins, xF, i, z0, lam):  # pragma: no cover (compiled)
     """The check of a reduced root (``pf[0, i]``: the pins' forces at ``xF``, K's layout):
     each left-out pin unknown whose pin carries load F is added, its z set to c0·F (c0
     = z/F of the most loaded pin in the set: at the root z = c0·λ, λ the load). Returns the
     new Λ_a (:func:`_fill_py`), 0 where none carries load (the reduced root is K's)."""
     D = act.shape[0]
+    Q = pins.shape[2]
     big = 0.0
     c0 = 0.0
     for d in range(D):
         for q in range(Q):
-            j = flank[i, d, q]
+            j = pins[i, d, q]
             if act[d, q] and j >= 0 and pf[0, i, d, j] > big:
                 big = pf[0, i, d, j]
                 c0 = xF[z0 + d * lam + q] / big
     added = 0
     for d in range(D):
         for q in range(Q):
-            j = flank[i, d, q]
+            j = pins[i, d, q]
             if not act[d, q] and j >= 0 and pf[0, i, d, j] > 0.0:
                 act[d, q] = True
                 xF[z0 + d * lam + q] = c0 * pf[0, i, d, j]
