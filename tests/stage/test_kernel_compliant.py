@@ -445,7 +445,7 @@ def test_the_upper_triangle_evaluation_is_the_whole_ones(problems):
             g, H = np.zeros(m), np.full((m, m), np.nan)
             kc._rows(wrow, pin_w, i)
             e, st = kc._evaluate_one(
-                i, start[i].copy(), block, pin_w, energy, hole, G, cols, const, nw,
+                i, i, start[i].copy(), block, pin_w, energy, hole, G, cols, const, nw,
                 float(sup.carrier) if carrier else 0.0, carrier, 0.5 * law.rs.clearance,
                 law.rs.constant, float(p.torque), float(p.scale), want, g, H, memo, pf, bf,
                 wrow, np.zeros((3, max(m, D * pin_w[0].shape[2], energy.shape[3], 9))),

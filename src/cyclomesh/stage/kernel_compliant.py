@@ -43,6 +43,14 @@ pivots and Δ⁻¹·W, so a chord step divides nothing but in S's LU (task i43c)
 every crank angle was finished, the state at the solution (the pins' forces and the
 body's shift there, the bearings' forces and deflections, the gradient) is handed to the
 caller, which need not evaluate the solution again (:func:`newton` ``state``).
+Each warm crank angle is iterated on an active set of the body's unknowns (task i45e,
+``_ACTIVE``, :func:`_newton_rows`' ``active``): the holes' and those of the pins loaded at
+the crank angle before and their neighbours (:func:`_choose_py`), the others held at 0
+and left out of every array (:func:`_reduce_py`: no padding but the discs' equal
+sizes), the reduced root checked on K's layout (:func:`_grow_py`: every left-out pin
+without load, so the root is K's; else those pins added, z = c0·F, and the iteration
+goes on; a failure there: K's iteration from the same start). ~10 pin unknowns of ~21
+at a stage tolerance ring's crank angles: the compiled Newton −22 %.
 Measured (tasks i38b, i39b, i42c, i43c, docs/stage.md): an evaluation with its Hessian
 ~11 µs at the rated torque (~6 at ±3 %), a Newton step's solve ~8.3 µs (~6.3; 72
 unknowns, two 26-unknown body blocks; ~20 by their L·Δ·Lᵀ), a chord step's ~1.5,
@@ -75,6 +83,13 @@ def _kernels() -> tuple[Any, Any]:
     global _owned_rows
     global _solve_ldl, _rollers, _coupled, _pin_law, _back, _resolve, _lu, _lu_solve, _by_lu
     global _dots, _ldl, _ldl_solve
+    global _fill, _choose, _grow, _reduce, _compact, _expand
+    _fill = jit(_fill_py)
+    _choose = jit(_choose_py)
+    _grow = jit(_grow_py)
+    _reduce = jit(_reduce_py)
+    _compact = jit(_compact_py)
+    _expand = jit(_expand_py)
     _pin_law = _kn._pin_law
     _rollers = _kn._rollers
     _solve_in_place = _kn._solve_in_place
@@ -159,13 +174,13 @@ def _evaluate_rows(
         memo[0] = 0.0
         _rows(wrow, pin_w, i)
         e[i], status[i] = _evaluate_one(
-            i, x[i], pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half,
+            i, i, x[i], pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half,
             kn, torque, L, 2, g[i], H[i], memo, pf, bf, wrow, scratch, zz,
         )  # fmt: skip
 
 
 def _evaluate_one_py(
-    i, x, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half, kn, torque,
+    i, ib, x, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier, half, kn, torque,
     L, want, g, H, memo, pf, bf, wrow, scratch, zz,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """Potential of crank angle ``i`` at x (m,) and, with ``want`` ≥ 1, its scaled gradient
@@ -210,7 +225,7 @@ def _evaluate_one_py(
     Q = W.shape[2]
     for d in range(D):  # the body's displacement at each row of pin_w: scratch[0, d·Q + q]
         zd = z0 + d * lam
-        _dots(W[i, d], x, zd, scratch[0], d * Q)
+        _dots(W[ib, d], x, zd, scratch[0], d * Q)
     for d in range(D):
         th, ux, uy = x[1 + 3 * d], x[2 + 3 * d], x[3 + 3 * d]
         zd = z0 + d * lam
@@ -242,7 +257,7 @@ def _evaluate_one_py(
                     g[r0] += f * v0
                     g[r0 + 1] += f * v1
                     g[r0 + 2] += f * v2
-                    w = pin_w[0][i, d, max(wq, 0)]
+                    w = pin_w[0][ib, d, max(wq, 0)]
                     if not hess:
                         for s in range(lam if wq >= 0 else 0):
                             g[zd + s] -= f * w[s]
@@ -270,7 +285,7 @@ def _evaluate_one_py(
     body = 0.0
     for d in range(D):
         zd = z0 + d * lam
-        _dots(energy[i, d], x, zd, scratch[1], 0)  # E·z (each row summed in order)
+        _dots(energy[ib, d], x, zd, scratch[1], 0)  # E·z (each row summed in order)
         for s in range(lam):
             ez = scratch[1, s]
             body += x[zd + s] * ez
@@ -295,8 +310,8 @@ def _evaluate_one_py(
             hx = 0.0
             hy = 0.0
             for s in range(lam):
-                hx += G[i, d, k, 0, zd + s] * x[zd + s]
-                hy += G[i, d, k, 1, zd + s] * x[zd + s]
+                hx += G[ib, d, k, 0, zd + s] * x[zd + s]
+                hy += G[ib, d, k, 1, zd + s] * x[zd + s]
             dx = dx + hx
             dy = dy + hy
             s_ = np.hypot(dx, dy)
@@ -316,7 +331,7 @@ def _evaluate_one_py(
             nk = cols[d, k, 0]
             for u in range(nk):  # this hole's nonzero columns of ∂d/∂x
                 r = cols[d, k, 1 + u]
-                g0, g1 = G[i, d, k, 0, r], G[i, d, k, 1, r]
+                g0, g1 = G[ib, d, k, 0, r], G[ib, d, k, 1, r]
                 scratch[0, u], scratch[1, u] = g0, g1
                 g[r] += fx * g0 + fy * g1
             if not hess:
@@ -339,7 +354,7 @@ def _evaluate_one_py(
                 if body == nk:
                     continue
                 for q in range(lam):  # the body's columns as one run (a zero column adds 0)
-                    H[r, zd + q] += ka * G[i, d, k, 0, zd + q] + kc * G[i, d, k, 1, zd + q]
+                    H[r, zd + q] += ka * G[ib, d, k, 0, zd + q] + kc * G[ib, d, k, 1, zd + q]
                 for v in range(body, nk):  # (none: a hole moves its own disc's body only)
                     c2 = cols[d, k, 1 + v]
                     if c2 >= zd + lam:
@@ -347,7 +362,7 @@ def _evaluate_one_py(
             if N == 3:  # (the three holes' body terms in one pass below)
                 scratch[2, 3 * k], scratch[2, 3 * k + 1], scratch[2, 3 * k + 2] = kxx, kxy, kyy
                 continue
-            hx_, hy_ = G[i, d, k, 0, zd : zd + lam], G[i, d, k, 1, zd : zd + lam]
+            hx_, hy_ = G[ib, d, k, 0, zd : zd + lam], G[ib, d, k, 1, zd : zd + lam]
             for q in range(lam):
                 ka = kxx * hx_[q] + kxy * hy_[q]
                 kc = kxy * hx_[q] + kyy * hy_[q]
@@ -356,9 +371,9 @@ def _evaluate_one_py(
                     row[v] += ka * hx_[v] + kc * hy_[v]
         if hess and N == 3:  # the holes' Gᵀ·K·G on the body's columns, each entry's three
             # terms added in the holes' order (the bits of one hole at a time)
-            h0, y0 = G[i, d, 0, 0, zd : zd + lam], G[i, d, 0, 1, zd : zd + lam]
-            h1, y1 = G[i, d, 1, 0, zd : zd + lam], G[i, d, 1, 1, zd : zd + lam]
-            h2, y2 = G[i, d, 2, 0, zd : zd + lam], G[i, d, 2, 1, zd : zd + lam]
+            h0, y0 = G[ib, d, 0, 0, zd : zd + lam], G[ib, d, 0, 1, zd : zd + lam]
+            h1, y1 = G[ib, d, 1, 0, zd : zd + lam], G[ib, d, 1, 1, zd : zd + lam]
+            h2, y2 = G[ib, d, 2, 0, zd : zd + lam], G[ib, d, 2, 1, zd : zd + lam]
             xx0, xy0, yy0 = scratch[2, 0], scratch[2, 1], scratch[2, 2]
             xx1, xy1, yy1 = scratch[2, 3], scratch[2, 4], scratch[2, 5]
             xx2, xy2, yy2 = scratch[2, 6], scratch[2, 7], scratch[2, 8]
@@ -402,7 +417,7 @@ def _evaluate_one_py(
             zd = z0 + d * lam
             for s in range(lam):  # (0 + E) + zz: the bits of E added to the zeroed H first
                 for q in range(s, lam):
-                    H[zd + s, zd + q] = (0.0 + energy[i, d, s, q]) + zz[d, s, q]
+                    H[zd + s, zd + q] = (0.0 + energy[ib, d, s, q]) + zz[d, s, q]
         if want == 2:
             for r in range(m):
                 for c in range(r + 1, m):
@@ -910,6 +925,7 @@ def newton(
     sup = p.supports
     failed = np.zeros(A, np.bool_)
     counts = np.zeros((A, 5), np.int64)  # evaluations, steps, how it ended, Hessians, LDLᵀs
+    astats = np.zeros((A, 3), np.int64)  # the active set's pin unknowns, grows, left for K
     D, P, N = p.bl.shape[1], p.bl.shape[2], p.hx.shape[-1]
     pf, bf, gout = np.zeros((2, A, D, P)), np.zeros((A, D, N, 3)), np.zeros((A, m))
     whole = np.ones(1, np.bool_)  # the state at every solution formed
@@ -936,13 +952,14 @@ def newton(
             0.5 * law.rs.clearance, law.rs.constant, float(p.torque), float(p.scale),
             force * abs(p.torque) / p.scale, round_off * abs(p.torque) / p.scale,
             iterations, halvings, cap, low, high, stall_h, stall_it, quad, bool(last),
-            float(reuse), int(run), failed, counts, pf, bf, gout, whole,
+            float(reuse), int(run), failed, counts, pf, bf, gout, whole, int(_ACTIVE), astats,
         )  # fmt: skip
         if first < A:  # the own start of crank angle ``first`` asked for
             own[first] = start(np.array([first]))[0]
             have[first] = True
     if stats is not None:
         stats["counts"] = counts
+        stats["active"] = astats
     if state is not None and whole[0] and not np.any(failed):
         state.update(
             pin_force=pf[0],
@@ -999,7 +1016,7 @@ def _newton_rows(
     begin, has, need, memo, resume, x, own, pin, pin_w, energy, pins, hole, G, cols, core,
     blocks, const, nw, kcarrier, carrier, half, kn, torque, L, tol, floor, iterations,
     halvings, cap, low, high, stall_h, stall_it, quad, last_on, reuse, run, failed, counts,
-    pf, bf, gout, whole,
+    pf, bf, gout, whole, active, astats,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`newton` written for numba: cyclomesh.stage.newton.newton's iteration with
     ``failed`` (rigid=False, the compliant disc), crank angle by crank angle, from crank
@@ -1008,8 +1025,13 @@ def _newton_rows(
     ``resume`` (2,) as they are there: where it stopped (0 the crank angle's top, 1 after
     its warm starts failed, 2 its cold retry) and its chord guess (``first``), which the
     call that goes on from there reads. ``need`` (A,): the crank angles whose own start
-    the warm start's ``_carry`` reads (:func:`_owned`)."""
-    A, m = x.shape
+    the warm start's ``_carry`` reads (:func:`_owned`). ``active`` 1: each warm crank
+    angle iterated on an active set of the body's pin unknowns (:func:`_choose_py`; 2: an
+    empty one, every pin added by the check; 0: all of them), ``astats`` (A, 3): its body
+    unknowns a disc at the start (the holes' too; 0: all), the times the set grew, 1
+    where it was left for all."""
+    A, mf = x.shape
+    m = mf
     D, P = pin.shape[2], pin.shape[3]
     lam = energy.shape[3]
     z0 = m - D * lam
@@ -1022,14 +1044,31 @@ def _newton_rows(
         rot[1 + 3 * d] = True
     if carrier:
         rot[base + nw] = True
-    g = np.zeros(m)
-    H = np.zeros((m, m))
-    gt = np.zeros(m)
-    Ht = np.zeros((m, m))
-    trial = np.zeros(m)
-    prev = np.zeros(m)
-    step = np.zeros(m)
-    xi = np.zeros(m)
+    gB, gtB, trialB = np.zeros(mf), np.zeros(mf), np.zeros(mf)
+    stepB, xiB = np.zeros(mf), np.zeros(mf)
+    HB, HtB = np.zeros(mf * mf), np.zeros(mf * mf)
+    g, gt, trial, step, xi = gB[:mf], gtB[:mf], trialB[:mf], stepB[:mf], xiB[:mf]
+    H, Ht = HB[: mf * mf].reshape((mf, mf)), HtB[: mf * mf].reshape((mf, mf))
+    prev = np.zeros(mf)  # the warm starts, the solution, its gradient: K's layout
+    trialF = np.zeros(mf)
+    xF = np.zeros(mf)
+    gF = np.zeros(mf)
+    HF = np.zeros((mf, mf))
+    # the active set (task i45e): the reduced problem's arrays at index 0, its map
+    Q = pin_w[0].shape[2]
+    N = hole.shape[3]
+    ebuf = np.zeros(D * lam * lam)
+    wbuf = np.zeros(D * Q * lam)
+    fa = np.zeros((1, D, Q), np.int64)
+    Ga = np.zeros((1, D, N, 2, mf))
+    ca = np.zeros((D, N, 1 + mf), np.int64)
+    act = np.zeros((D, lam), np.bool_)
+    amap = np.zeros((D, lam), np.int64)
+    ident = np.zeros((D, lam), np.int64)
+    for d in range(D):
+        for q in range(lam):
+            ident[d, q] = q
+    loaded = np.zeros((D, P), np.bool_)
     nc = core.size
     S = np.zeros((nc, nc))
     Z = np.zeros((blocks.shape[1], nc + 1))
@@ -1055,7 +1094,6 @@ def _newton_rows(
     diag = 1.0
     first = resume[1] != 0  # the last angle's first step too slow for a chord step after it
     for i in range(begin, A):
-        _rows(wrow, pin_w, i)
         # a warm start that ends on the saddle (or fails otherwise) is tried once more
         # from the crank angle's own start before the NumPy path is asked
         cold = False
@@ -1064,18 +1102,45 @@ def _newton_rows(
             again = resume[0]
             resume[0] = 0
             cold = again == 2
+        red = active == 2 or (
+            active == 1 and i % run != 0 and not failed[i - 1] and not (i == begin and again)
+        )
+        la = lam
+        if red:
+            la = _choose(act, amap, loaded, pf, pins, i, lam, active == 2)
+            red = la < lam
+        grows = 0
+        restart = False
+        astats[i, 0] = la if red else 0  # (its checks, not in ``counts``: 1 + its grows)
         while True:
-            for r in range(m):
-                xi[r] = own[i, r]
+            if red:
+                en, wa = _reduce(
+                    i, amap, la, energy, pin_w[0], pin_w[1], G, cols, z0, ebuf, wbuf, fa,
+                    Ga, ca,
+                )  # fmt: skip
+                pw = (wa, fa)
+                Gu, cu, ib, mp = Ga, ca, 0, amap
+            else:
+                la = lam
+                en, pw, Gu, cu, ib, mp = energy, pin_w, G, cols, i, ident
+            m = z0 + D * la
+            _rows(wrow, pw, ib)
+            g, gt, trial, step, xi = gB[:m], gtB[:m], trialB[:m], stepB[:m], xiB[:m]
+            H, Ht = HB[: m * m].reshape((m, m)), HtB[: m * m].reshape((m, m))
+            _compact(xi, own[i], z0, D, lam, la, mp)
             have = False
             energy_i, status = 0.0, 0
             warm = i % run != 0 and not failed[i - 1] and not cold
             ask = not warm and not has[i]  # (from its top, or its cold retry: 2)
-            if ask or (warm and again == 0 and need[i] and not has[i]):
+            if restart:  # a grown set's, or K's after it: from the reduced root (xF)
+                _compact(xi, xF, z0, D, lam, la, mp)
+                memo[0] = 0.0
+                restart = False
+            elif ask or (warm and again == 0 and need[i] and not has[i]):
                 resume[0] = 2 if cold else 0
                 resume[1] = 1 if first else 0
                 return i
-            if warm and again == 0:
+            elif warm and again == 0:
                 # warm start: the line through the two solutions before, else the one before,
                 # each pin unknown carried by its pin (equilibrium._body_warm)
                 line = i % run >= 2 and not failed[i - 2]
@@ -1084,14 +1149,14 @@ def _newton_rows(
                 e1 = 0.0
                 for attempt in range(0 if line else 1, 2):
                     if attempt == 0:
-                        _carry(trial, x, prev, pins, i, 2, z0, lam)
-                        for r in range(m):
-                            trial[r] = 2.0 * prev[r] - trial[r]
+                        _carry(trialF, x, prev, pins, i, 2, z0, lam)
+                        for r in range(mf):
+                            trialF[r] = 2.0 * prev[r] - trialF[r]
+                        _compact(trial, trialF, z0, D, lam, la, mp)
                     else:
-                        for r in range(m):
-                            trial[r] = prev[r]
+                        _compact(trial, prev, z0, D, lam, la, mp)
                     e1, s1 = _evaluate_one(
-                        i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                        i, ib, trial, pin, pw, en, hole, Gu, cu, const, nw, kcarrier, carrier,
                         half, kn, torque, L, 3, g, H, memo, pf, bf, wrow, scratch, zz,
                     )  # fmt: skip
                     counts[i, 0] += 1
@@ -1125,7 +1190,7 @@ def _newton_rows(
             for _ in range(iterations):
                 if not have:
                     energy_i, status = _evaluate_one(
-                        i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                        i, ib, xi, pin, pw, en, hole, Gu, cu, const, nw, kcarrier, carrier,
                         half, kn, torque, L, 3, g, H, memo, pf, bf, wrow, scratch, zz,
                     )  # fmt: skip
                     counts[i, 0] += 1
@@ -1160,7 +1225,7 @@ def _newton_rows(
                     first = res > reuse * previous
                 if not fresh and not chord:
                     energy_i, status = _evaluate_one(
-                        i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                        i, ib, xi, pin, pw, en, hole, Gu, cu, const, nw, kcarrier, carrier,
                         half, kn, torque, L, 3, g, H, memo, pf, bf, wrow, scratch, zz,
                     )  # fmt: skip
                     counts[i, 0] += 1
@@ -1204,7 +1269,7 @@ def _newton_rows(
                 linear = ratio and not extended
                 previous = res
                 if chord:
-                    _resolve(g, step, nr, D, lam, Sb, Yb, rb, sb, cl, dg, Lb, pv, vb, Wd, ds)
+                    _resolve(g, step, nr, D, la, Sb, Yb, rb, sb, cl, dg, Lb, pv, vb, Wd, ds)
                     solved = True
                 else:
                     diag = 0.0
@@ -1214,7 +1279,7 @@ def _newton_rows(
                     for r in range(m):
                         H[r, r] += 1e-14 * diag
                     code = _solve_ldl(
-                        H, g, step, nr, D, lam, Sb, Yb, rb, sb, cl, Tb, dg, Lb, pv, vb, Wd, ds
+                        H, g, step, nr, D, la, Sb, Yb, rb, sb, cl, Tb, dg, Lb, pv, vb, Wd, ds
                     )  # fmt: skip
                     counts[i, 4] += 1
                     kept = code == 1 and reuse > 0.0
@@ -1223,13 +1288,15 @@ def _newton_rows(
                         want_t = 3
                     if not solved:  # a body block's pivot 0: the whole H, evaluated again
                         _evaluate_one(
-                            i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier,
+                            i, ib, xi, pin, pw, en, hole, Gu, cu, const, nw, kcarrier,
                             carrier, half, kn, torque, L, 2, g, H, memo, pf, bf, wrow,
                             scratch, zz,
                         )  # fmt: skip
                         for r in range(m):
                             H[r, r] += 1e-14 * diag
-                        if blocks.shape[0]:
+                        if red:  # (the reduced H: K's retry does it)
+                            solved = False
+                        elif blocks.shape[0]:
                             solved = _solve_blocks(H, g, step, core, blocks, S, Z, rhs, sc)
                         else:
                             solved = _solve_in_place(H, g, step)
@@ -1281,7 +1348,7 @@ def _newton_rows(
                     # the trial's gradient, and its Hessian where the next step is predicted
                     # to be Newton's (every step; a linear tail: this step's rate poor)
                     e_t, st = _evaluate_one(
-                        i, trial, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                        i, ib, trial, pin, pw, en, hole, Gu, cu, const, nw, kcarrier, carrier,
                         half, kn, torque, L, want_t, gt, Ht, memo, pf, bf, wrow, scratch, zz,
                     )  # fmt: skip
                     counts[i, 0] += 1
@@ -1330,14 +1397,44 @@ def _newton_rows(
                         how = 5 if st != 2 else 2
                         break
                     stay = True
+            if not ok_angle and red:  # the reduced iteration failed: K's from its start
+                red = False
+                astats[i, 2] = 1
+                continue
+            if ok_angle and red:  # the check: every pin left out carries no load
+                _expand(xF, xi, z0, D, lam, la, mp)
+                _rows(wrow, pin_w, i)
+                _, st = _evaluate_one(
+                    i, i, xF, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                    half, kn, torque, L, 1, gF, HF, memo, pf, bf, wrow, scratch, zz,
+                )  # fmt: skip
+                grown = _grow(act, amap, pf, pins, xF, i, z0, lam)
+                if grown:  # those pins' unknowns added (z = c0·F), from the root reached
+                    grows += 1
+                    astats[i, 1] += 1
+                    restart = True
+                    ok_angle = False
+                    if grows > _GROWS:
+                        red = False
+                        astats[i, 2] = 1
+                    else:
+                        la = grown
+                    continue
+                if st == 2:
+                    whole[0] = False
+                break
             if ok_angle or cold or not warm:
                 break
             cold = True
         counts[i, 2] = how
-        if ok_angle:
+        if ok_angle and red:  # (the state at xF formed by the check)
+            for r in range(mf):
+                x[i, r] = xF[r]
+                gout[i, r] = gF[r]
+        elif ok_angle:
             if how == 1:  # the last step was taken untried: the state there
                 _, st = _evaluate_one(
-                    i, xi, pin, pin_w, energy, hole, G, cols, const, nw, kcarrier, carrier,
+                    i, ib, xi, pin, pw, en, hole, Gu, cu, const, nw, kcarrier, carrier,
                     half, kn, torque, L, 1, g, H, memo, pf, bf, wrow, scratch, zz,
                 )  # fmt: skip
                 if st == 2:
@@ -1347,7 +1444,163 @@ def _newton_rows(
                 gout[i, r] = g[r]
         else:
             failed[i] = True
-            for r in range(m):
+            for r in range(mf):
                 x[i, r] = own[i, r]
     resume[1] = 1 if first else 0
     return A
+
+
+_GROWS = 3  # the times a crank angle's active set may grow; then all the pins'
+_ACTIVE = 1  # newton's active set (_newton_rows' ``active``): 1 on, 0 off, 2 from empty
+
+
+def _fill_py(act, amap, lam):  # pragma: no cover (compiled)
+    """The active set's size Λ_a (the most of any disc's; a disc with fewer takes its
+    first left-out unknowns too: the kernel's discs share Λ_a) and ``amap`` (D, Λ_a): the
+    unknowns of each disc in their order."""
+    D = act.shape[0]
+    la = 0
+    for d in range(D):
+        n = 0
+        for q in range(lam):
+            if act[d, q]:
+                n += 1
+        la = max(la, n)
+    for d in range(D):
+        n = 0
+        for q in range(lam):
+            if act[d, q]:
+                n += 1
+        for q in range(lam):
+            if n >= la:
+                break
+            if not act[d, q]:
+                act[d, q] = True
+                n += 1
+        n = 0
+        for q in range(lam):
+            if act[d, q]:
+                amap[d, n] = q
+                n += 1
+    return la
+
+
+def _choose_py(act, amap, loaded, pf, pins, i, lam, empty):  # pragma: no cover
+    """Crank angle i's active set ``act`` (D, Λ): the hole unknowns (after the pins'), and
+    each pin unknown whose pin (``pins``, Body.pins: its flank; −1, padding: none) or a
+    neighbour of it (the next pin each side, of the same flank's n1) carried load at crank
+    angle i − 1 (``pf[0, i − 1]``); ``empty``: the hole unknowns only. Returns Λ_a
+    (:func:`_fill_py`)."""
+    D, P = loaded.shape
+    Q = pins.shape[2]
+    for d in range(D):
+        for j in range(P):
+            loaded[d, j] = (not empty) and i > 0 and pf[0, i - 1, d, j] > 0.0
+    n1 = P // 2
+    for d in range(D):
+        for q in range(lam):
+            if q >= Q:
+                act[d, q] = True
+                continue
+            j = pins[i, d, q]
+            if j < 0:
+                act[d, q] = False
+                continue
+            a = loaded[d, j]
+            if not a and n1 > 0 and P == 2 * n1:
+                h = (j // n1) * n1
+                r = j - h
+                a = loaded[d, h + (r + 1) % n1] or loaded[d, h + (r + n1 - 1) % n1]
+            act[d, q] = a
+    return _fill(act, amap, lam)
+
+
+def _grow_py(act, amap, pf, pins, xF, i, z0, lam):  # pragma: no cover (compiled)
+    """The check of a reduced root (``pf[0, i]``: the pins' forces at ``xF``, K's layout):
+    each left-out pin unknown whose pin carries load F is added, its z set to c0·F (c0
+    = z/F of the most loaded pin in the set: at the root z = c0·λ, λ the load). Returns the
+    new Λ_a (:func:`_fill_py`), 0 where none carries load (the reduced root is K's)."""
+    D = act.shape[0]
+    Q = pins.shape[2]
+    big = 0.0
+    c0 = 0.0
+    for d in range(D):
+        for q in range(Q):
+            j = pins[i, d, q]
+            if act[d, q] and j >= 0 and pf[0, i, d, j] > big:
+                big = pf[0, i, d, j]
+                c0 = xF[z0 + d * lam + q] / big
+    added = 0
+    for d in range(D):
+        for q in range(Q):
+            j = pins[i, d, q]
+            if not act[d, q] and j >= 0 and pf[0, i, d, j] > 0.0:
+                act[d, q] = True
+                xF[z0 + d * lam + q] = c0 * pf[0, i, d, j]
+                added += 1
+    if added == 0:
+        return 0
+    return _fill(act, amap, lam)
+
+
+def _reduce_py(i, amap, la, energy, w, flank, G, cols, z0, ebuf, wbuf, fa, Ga, ca):
+    """Crank angle i's arrays on the active set (``amap`` (D, Λ_a)) at index 0, the body
+    unknowns of disc d from z0 + d·Λ_a: E's rows and columns, Body.w's columns (every
+    row: each pin still moved by the set's unknowns), the bearing Jacobian's columns
+    (``Ga``) and each hole's columns (``ca``). Returns (E_a, w_a), views of ``ebuf``,
+    ``wbuf``."""  # pragma: no cover (compiled)
+    D, lam = energy.shape[1], energy.shape[3]
+    Q = w.shape[2]
+    N = G.shape[2]
+    en = ebuf[: D * la * la].reshape((1, D, la, la))
+    wa = wbuf[: D * Q * la].reshape((1, D, Q, la))
+    for d in range(D):
+        for a in range(la):
+            qa = amap[d, a]
+            for b in range(la):
+                en[0, d, a, b] = energy[i, d, qa, amap[d, b]]
+        for q in range(Q):
+            fa[0, d, q] = flank[i, d, q]
+            for b in range(la):
+                wa[0, d, q, b] = w[i, d, q, amap[d, b]]
+    m = z0 + D * la
+    for d in range(D):
+        for k in range(N):
+            for c in range(2):
+                for r in range(z0):
+                    Ga[0, d, k, c, r] = G[i, d, k, c, r]
+                for r in range(z0, m):
+                    Ga[0, d, k, c, r] = 0.0
+                for b in range(la):
+                    Ga[0, d, k, c, z0 + d * la + b] = G[i, d, k, c, z0 + d * lam + amap[d, b]]
+            n = 0
+            for u in range(cols[d, k, 0]):
+                r = cols[d, k, 1 + u]
+                if r < z0:
+                    ca[d, k, 1 + n] = r
+                    n += 1
+            for b in range(la):
+                ca[d, k, 1 + n] = z0 + d * la + b
+                n += 1
+            ca[d, k, 0] = n
+    return en, wa
+
+
+def _compact_py(out, full, z0, D, lam, la, amap):  # pragma: no cover (compiled)
+    """``out`` (z0 + D·Λ_a) = ``full`` (K's layout) on the active set ``amap``."""
+    for r in range(z0):
+        out[r] = full[r]
+    for d in range(D):
+        for b in range(la):
+            out[z0 + d * la + b] = full[z0 + d * lam + amap[d, b]]
+
+
+def _expand_py(out, red, z0, D, lam, la, amap):  # pragma: no cover (compiled)
+    """``out`` (K's layout) = ``red`` on the active set, 0 on the unknowns left out."""
+    for r in range(z0):
+        out[r] = red[r]
+    for r in range(z0, out.size):
+        out[r] = 0.0
+    for d in range(D):
+        for b in range(la):
+            out[z0 + d * lam + amap[d, b]] = red[z0 + d * la + b]
