@@ -10,17 +10,14 @@ stiff-limit split are warm from the crank angle before among the rows asked for)
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 pytest.importorskip("numba")
-try:  # the fe extra; gmsh's wheel also needs X11/OpenGL client libraries (see .ci/run)
-    import gmsh  # noqa: F401
-    import skfem  # noqa: F401
-except (ImportError, OSError) as exc:  # pragma: no cover
-    pytest.skip(f"fe extra not usable here: {exc}", allow_module_level=True)
+from tests.stage.fe_cases import COARSE, EXAMPLE, require_fe
+
+require_fe()
 
 import cyclomesh.stage.equilibrium as eq  # noqa: E402
 import cyclomesh.stage.newton as nt  # noqa: E402
@@ -29,8 +26,6 @@ from cyclomesh.stage import kernel_compliant as kc  # noqa: E402
 from cyclomesh.stage.solve import solve  # noqa: E402
 from cyclomesh.studyfile.schema import load_study  # noqa: E402
 
-EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "rv_stage.toml"
-COARSE = dict(points=7, far_size=4e-3, flank_size=1.5e-3, elements_per_half_width=2.0)
 PHI = np.radians(np.arange(0.0, 360.0, 2.0))
 
 

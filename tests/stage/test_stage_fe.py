@@ -10,21 +10,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-try:  # the fe extra; gmsh's wheel also needs X11/OpenGL client libraries (see .ci/run)
-    import gmsh  # noqa: F401
-    import skfem  # noqa: F401
-except (ImportError, OSError) as exc:  # pragma: no cover
-    pytest.skip(f"fe extra not usable here: {exc}", allow_module_level=True)
+from tests.stage.fe_cases import COARSE, EXAMPLE, require_fe
 
-import cyclomesh.stage.equilibrium as eq
-import cyclomesh.stage.newton as nt
-from cyclomesh.core.discbody import FREE_HELD, FreeDiscBody
-from cyclomesh.fe.influence import free_influence
-from cyclomesh.stage.solve import solve
-from cyclomesh.studyfile.schema import load_study
+require_fe()
 
-EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "rv_stage.toml"
-COARSE = dict(points=7, far_size=4e-3, flank_size=1.5e-3, elements_per_half_width=2.0)
+import cyclomesh.stage.equilibrium as eq  # noqa: E402
+import cyclomesh.stage.newton as nt  # noqa: E402
+from cyclomesh.core.discbody import FREE_HELD, FreeDiscBody  # noqa: E402
+from cyclomesh.fe.influence import free_influence  # noqa: E402
+from cyclomesh.stage.solve import solve  # noqa: E402
+from cyclomesh.studyfile.schema import load_study  # noqa: E402
+
 PHI = np.radians(np.arange(0.0, 360.0, 15.0))
 
 
