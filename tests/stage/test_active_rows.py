@@ -15,16 +15,14 @@ import numpy as np
 import pytest
 
 pytest.importorskip("numba")
-from tests.stage.fe_cases import COARSE, EXAMPLE, require_fe
+from tests.stage.fe_cases import require_fe
 
 require_fe()
 
 import cyclomesh.stage.equilibrium as eq  # noqa: E402
 from cyclomesh.core.pair import PinErrors  # noqa: E402
-from cyclomesh.fe.influence import free_influence  # noqa: E402
 from cyclomesh.stage import kernel_compliant as kc  # noqa: E402
 from cyclomesh.stage.solve import solve  # noqa: E402
-from cyclomesh.studyfile.schema import load_study  # noqa: E402
 
 PHI = np.radians(np.arange(0.0, 360.0, 3.0))
 TORQUES = ([-412.0, 412.0], [-12.36, 12.36])
@@ -33,18 +31,6 @@ TORQUES = ([-412.0, 412.0], [-12.36, 12.36])
 # the loads (main's compiled Newton against the NumPy path: 0.56 of the largest
 # disc_translation_x); every load is (5e-14)
 FLOATING = ("disc_translation_x", "disc_translation_y", "disc_rotation", "bearing_deflection")
-
-
-@pytest.fixture(scope="module")
-def example():
-    return load_study(EXAMPLE).cases[0].to_core()
-
-
-@pytest.fixture(scope="module")
-def coarse(example, tmp_path_factory):
-    folder = tmp_path_factory.mktemp("cache")
-    ex = example
-    return free_influence(ex.design, ex.modification, ex.crank_holes, folder, **COARSE)
 
 
 def _solve(example, body, torque):

@@ -10,31 +10,17 @@ import numpy as np
 import pytest
 
 pytest.importorskip("numba")
-from tests.stage.fe_cases import COARSE, EXAMPLE, require_fe
+from tests.stage.fe_cases import require_fe
 
 require_fe()
 
 import cyclomesh.stage.equilibrium as eq  # noqa: E402
 import cyclomesh.stage.newton as nt  # noqa: E402
-from cyclomesh.fe.influence import free_influence  # noqa: E402
 from cyclomesh.stage import kernel_compliant as kc  # noqa: E402
 from cyclomesh.stage.solve import solve  # noqa: E402
-from cyclomesh.studyfile.schema import load_study  # noqa: E402
 
 PHI = np.radians(np.arange(0.0, 360.0, 15.0))
 FIELDS = ("twist", "bearing_load", "pin_load", "torque_share")
-
-
-@pytest.fixture(scope="module")
-def example():
-    return load_study(EXAMPLE).cases[0].to_core()
-
-
-@pytest.fixture(scope="module")
-def coarse(example, tmp_path_factory):
-    folder = tmp_path_factory.mktemp("cache")
-    ex = example
-    return free_influence(ex.design, ex.modification, ex.crank_holes, folder, **COARSE)
 
 
 def _solve(example, body, torque, phi=PHI):

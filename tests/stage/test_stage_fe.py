@@ -25,14 +25,9 @@ PHI = np.radians(np.arange(0.0, 360.0, 15.0))
 
 
 @pytest.fixture(scope="module")
-def example():
-    """The example's first case (three crankshafts, crankshafts and carrier from geometry)
-    and its coarse free disc, cached in a folder of its own."""
-    return load_study(EXAMPLE).cases[0].to_core()
-
-
-@pytest.fixture(scope="module")
 def coarse(example, tmp_path_factory):
+    """The example's coarse free disc (``example``: tests/stage/conftest.py) and the folder
+    it is cached in."""
     folder = tmp_path_factory.mktemp("cache")
     ex = example
     return free_influence(ex.design, ex.modification, ex.crank_holes, folder, **COARSE), folder
