@@ -233,9 +233,10 @@ def unloaded_contact(
             design, modification, w2, wx, wy, r_pin, phi, phi_t, t_root, pin_angle, normals
         )
     jammed = np.sqrt(w2) < a - e + s - CONTACT_TOLERANCE
-    if np.any(jammed):
-        where = np.unravel_index(np.argmax(jammed), jammed.shape)
-        depth = float(np.max(a - e + s - np.sqrt(w2))) * 1e6  # deepest overlap [µm]
+    if np.any(jammed):  # the deepest overlap named: its pin, crank angle and depth
+        overlap = a - e + s - np.sqrt(w2)
+        where = np.unravel_index(np.argmax(overlap), overlap.shape)
+        depth = float(overlap[where]) * 1e6  # [µm]
         raise DesignError(
             f"pin {where[-1] + 1} overlaps the disc at its tooth-space bottom by {depth:.3g} µm "
             f"at crank angle {np.degrees(phi[where[-2], 0]):.6g}° whatever the disc rotation: "
@@ -602,12 +603,16 @@ def _deviated_contact(
     r_pin = np.broadcast_to(r_pin, w2.shape)
     space = np.broadcast_to(np.round(t_root * n2 / (2.0 * np.pi)).astype(np.int64) % n2, w2.shape)
     u, residual, reach, jammed, _ = _flank_phase(design, modification, w2, r_pin, space, -1.0)
-    if np.any(jammed):
-        where = np.unravel_index(np.argmax(jammed), jammed.shape)
+    if np.any(jammed):  # the deepest overlap named: |Q| at the bottom against |w|
+        root = deviated_geometry(np.zeros(w2.shape), design, modification, r_pin, space)
+        overlap = np.where(jammed, np.hypot(root.qx, root.qy) - np.sqrt(w2), -np.inf)
+        where = np.unravel_index(np.argmax(overlap), overlap.shape)
         raise DesignError(
-            f"pin {where[-1] + 1} overlaps the disc at its tooth-space bottom at crank angle "
-            f"{np.degrees(phi[where[-2], 0]):.6g}° whatever the disc rotation: its radius, "
-            "a negative radial error or the profile deviation exceeds the clearance"
+            f"pin {where[-1] + 1} overlaps the disc at its tooth-space bottom by "
+            f"{overlap[where] * 1e6:.3g} µm at crank angle {np.degrees(phi[where[-2], 0]):.6g}° "
+            "whatever the disc rotation: its radius, a negative radial error or the profile "
+            "deviation exceeds the clearance; raise modification.pin_radius_um (Δρ) or "
+            "reduce the pin's radius, its negative radial error or the profile deviation"
         )
     if not np.all(residual <= CONTACT_TOLERANCE):
         flat = np.unravel_index(np.argmax(residual), residual.shape)
