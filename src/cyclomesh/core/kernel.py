@@ -60,6 +60,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from cyclomesh.core import loadsharing
+from cyclomesh.core.jit import njit
 from cyclomesh.core.loadsharing import ROUND_OFF_TORQUE, TORQUE_TOLERANCE
 from cyclomesh.exceptions import CyclomeshError
 
@@ -154,10 +155,9 @@ taken again at round-off forces instead of stepping on its loose ones."""
 def _compiled() -> Any:
     """The compiled kernel, or None without numba (imported on first use only)."""
     try:
-        import numba
+        jit = njit()
     except ImportError:
         return None
-    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     global _invert_cold, _newton_y, _exp_step  # compiled in place: the kernel calls them
     global _warm_start, _bounded_start, _solve_case, _secant_start, _secant_root, _usable
     _usable = jit(_usable)

@@ -59,6 +59,8 @@ from typing import Any
 
 import numpy as np
 
+from cyclomesh.core.jit import njit
+
 __all__ = ["compiled"]
 
 _TOLERANCE = 1e-13
@@ -77,8 +79,8 @@ def compiled() -> Any:
         import numba
     except ImportError:
         return None
-    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-    inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+    jit = njit()
+    inline = njit(inline=True)
     global _mod_2pi, _row_min, _mod_2pi_near, _libm_cos, _finish_pin  # compiled in place:
     _math(numba)  # the passes call them compiled
     _mod_2pi = jit(_mod_2pi)
@@ -1026,7 +1028,7 @@ def _math(numba):
 
     global _to_bits, _from_bits, _reduce, _kernels, _log, _cos, _sin
     _to_bits, _from_bits = to_bits, from_bits
-    inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+    inline = njit(inline=True)
     _reduce, _kernels = inline(_reduce), inline(_kernels)
     _log, _cos, _sin = inline(_log), inline(_cos), inline(_sin)
 
@@ -1252,12 +1254,12 @@ def _stack_fields(
 def _fields_compiled() -> Any:
     """:func:`_stack_fields` compiled (numba imported on first use; None without it)."""
     try:
-        import numba
+        inline = njit(inline=True)
     except ImportError:
         return None
     global _row_dot
-    _row_dot = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(_row_dot)
-    return numba.njit(cache=True, nogil=True, error_model="numpy")(_stack_fields)
+    _row_dot = inline(_row_dot)
+    return njit()(_stack_fields)
 
 
 def stack_fields(force, stack_axes, fraction, arm=None, normal=None, reverse=None, rotation=None):

@@ -53,6 +53,8 @@ from typing import Any
 
 import numpy as np
 
+from cyclomesh.core.jit import njit
+
 __all__ = ["compiled"]
 
 _MAX_NEWTON = 50
@@ -84,10 +86,9 @@ def compiled() -> Any:
     :func:`_suspects`, ``teeth``: :func:`_teeth`), or None
     without numba (imported on first use)."""
     try:
-        import numba
+        jit = njit()
     except ImportError:
         return None
-    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
     # compiled in place: the passes call them
     global _cell, _bound_row, _own_row, _own, _exp_step, _force, _evaluate, _residuals
     global _solve2, _cholesky2, _extrapolate, _cholesky_solve, _factor_solve, _give_up

@@ -47,6 +47,7 @@ from numpy.typing import NDArray
 
 from cyclomesh.core import kernel_discbody
 from cyclomesh.core.discbody import FREE_HELD, FreeDiscBody
+from cyclomesh.core.jit import njit
 
 __all__ = ["coupling", "positions"]
 
@@ -55,9 +56,7 @@ FloatArray = NDArray[np.float64]
 
 @cache
 def _kernels() -> tuple[Any, Any, Any, Any]:
-    import numba
-
-    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    jit = njit()
     global _cell  # the Catmull–Rom cell of core.kernel_discbody's passes (one formula)
     _cell = kernel_discbody.compiled().cell
     return jit(_candidates), jit(_own_rows), jit(_fill), jit(_position_rows)

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from cyclomesh.core.jit import njit
 from cyclomesh.core.kernel import kernel_name
 
 __all__ = ["MAX_NEWTON", "ROUND_OFF", "compiled", "pin_law", "roller_law"]
@@ -55,9 +56,7 @@ def compiled() -> bool:
 
 @cache
 def _kernels() -> tuple[Any, Any]:
-    import numba
-
-    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    jit = njit()
     return jit(_pin_rows), jit(_roller_rows)
 
 
@@ -218,9 +217,7 @@ def _roller_rows(cosines, half, constant, s, force, stiff, energy):  # pragma: n
 
 @cache
 def _start_kernels() -> tuple[Any, Any]:
-    import numba
-
-    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    jit = njit()
     global _roller_point, _solve3, _split_rows, _deflection_rows, _disc_sum_rows, _turn_rows
     _roller_point = jit(_roller_point)
     _solve3 = jit(_solve3)

@@ -29,6 +29,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from cyclomesh.core.jit import njit
+
 __all__ = ["body_pin_hessian", "bearing_hessian", "hessian_noise"]
 
 FloatArray = NDArray[np.float64]
@@ -36,9 +38,7 @@ FloatArray = NDArray[np.float64]
 
 @cache
 def _kernels() -> tuple[Any, Any, Any]:
-    import numba
-
-    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    jit = njit()
     return jit(_body_pin_rows), jit(_bearing_rows), jit(_noise_rows)
 
 

@@ -66,6 +66,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from cyclomesh.core.jit import njit
 from cyclomesh.stage import kernel_newton as _kn
 
 __all__ = ["newton", "evaluate"]
@@ -75,9 +76,7 @@ FloatArray = NDArray[np.float64]
 
 @cache
 def _kernels() -> tuple[Any, Any]:
-    import numba
-
-    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    jit = njit()
     _kn._kernels_newton()  # compiles kernel_newton's pieces (their module's globals)
     global _solve_in_place, _solve_blocks, _evaluate_one, _carry, _solve_body, _rows, _carried
     global _owned_rows
@@ -100,7 +99,7 @@ def _kernels() -> tuple[Any, Any]:
     _carried = jit(_carried_py)
     _owned_rows = jit(_owned_rows_py)
     _coupled = jit(_coupled_py)
-    _dots = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(_dots_py)
+    _dots = njit(inline=True)(_dots_py)
     _solve_body = jit(_solve_body_py)
     _lu = jit(_lu_py)
     _lu_solve = jit(_lu_solve_py)

@@ -53,6 +53,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from cyclomesh.core.jit import njit
 from cyclomesh.stage.kernel import MAX_NEWTON, ROUND_OFF
 
 __all__ = ["newton", "rigid_newton", "run", "pin_block", "PIN_BLOCK"]
@@ -230,9 +231,7 @@ def _arrays(p, law, G: FloatArray, discs: int, nw: int, m: int):
 
 @cache
 def _kernels_columns() -> Any:
-    import numba
-
-    return numba.njit(cache=True, nogil=True, error_model="numpy")(_column_rows)
+    return njit()(_column_rows)
 
 
 def _column_rows(G):  # pragma: no cover (compiled)
@@ -311,16 +310,12 @@ def _structure(nonzero, discs: int, N: int, nw: int, m: int):
 
 @cache
 def _kernels_newton() -> Any:
-    import numba
-
-    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    jit = njit()
     global _evaluate_one, _pin_force, _solve_in_place, _solve_blocks, _rollers, _pin_law
     global _hole_offset, _last_state, _rollers_curved, _curvature, _solve_lu, _lu_again
     _pin_force = jit(_pin_force)
-    _pin_law = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(_pin_law)
-    _rollers_curved = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(
-        _rollers_curved
-    )
+    _pin_law = njit(inline=True)(_pin_law)
+    _rollers_curved = njit(inline=True)(_rollers_curved)
     _rollers = jit(_rollers)
     _solve_in_place = jit(_solve_in_place)
     _solve_blocks = jit(_solve_blocks)
@@ -1215,9 +1210,7 @@ def rigid_newton(
 
 @cache
 def _kernels_rigid() -> Any:
-    import numba
-
-    jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+    jit = njit()
     global _rigid_one, _rigid_same
     _rigid_one = jit(_rigid_one)
     _rigid_same = jit(_rigid_same)

@@ -25,6 +25,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from cyclomesh.core.jit import njit
+
 __all__ = ["stage_fields"]
 
 FloatArray = NDArray[np.float64]
@@ -37,14 +39,12 @@ DISC_FIELDS = ("torque_share", "mesh_fx", "mesh_fy")
 
 @cache
 def _kernel() -> Any:
-    import numba
-
     from cyclomesh.core.kernel_contact import compiled
 
     global _pin_row_pressures, _pressures  # Eqs. 18, 24: core.kernel_contact's (one formula)
     passes = compiled()
     _pin_row_pressures, _pressures = passes.pin_row_pressures, passes.pressures
-    return numba.njit(cache=True, nogil=True, error_model="numpy")(_field_rows)
+    return njit()(_field_rows)
 
 
 def stage_fields(
