@@ -39,10 +39,9 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-_SPLIT_ITERATIONS = 200
-"""Newton steps of :func:`stiff_limit_split` before it gives up (as the stage's own)."""
-SPLIT_ITERATIONS = _SPLIT_ITERATIONS
-"""Its public name (the compiled bearing start of cyclomesh.stage.kernel takes it)."""
+SPLIT_ITERATIONS = 200
+"""Newton steps of :func:`stiff_limit_split` before it gives up (as the stage's own; the
+compiled bearing start of :mod:`cyclomesh.stage.kernel` takes it too)."""
 
 
 # --- the bearing law with its optional series spring ---------------------------------
@@ -174,7 +173,7 @@ def stiff_limit_split(
     the crank pins [N], (A, D, N) each (Harris & Kotzalas's roller law, B = s^(10/9)).
     """
     if compiled():  # CYCLOMESH_KERNEL=numba: each (crank angle, disc) in one compiled pass
-        out = split(hx, hy, L, mesh_fx, mesh_fy, moment, LOAD_EXPONENT, _SPLIT_ITERATIONS)
+        out = split(hx, hy, L, mesh_fx, mesh_fy, moment, LOAD_EXPONENT, SPLIT_ITERATIONS)
         if out is None:
             raise ConvergenceError("stage: the stiff-limit bearing load split did not converge")
         return out
@@ -203,7 +202,7 @@ def stiff_limit_split(
     # s^(19/9) potential vanishes, so Newton is not applied to it)
     active = np.argwhere(np.any(target != 0.0, axis=-1))  # (k, 2) of (angle, disc)
     ia, idisc = active[:, 0], active[:, 1]
-    for _ in range(_SPLIT_ITERATIONS):
+    for _ in range(SPLIT_ITERATIONS):
         if ia.size == 0:
             return fx, fy
         yk, tk = y[ia, idisc], target[ia, idisc]
