@@ -1052,18 +1052,20 @@ def solve_direction(
         work = _work(prob, stage, x, D, st) if any(want(n) for n in _WORK) else {}
         if fr is not None and want("work_friction"):
             work["work_friction"] = _friction_work(prob, x, q, D)
-        if body is None:  # a disc that carries nothing: no load, its canonical position
-            idle = floating_discs(F, np.hypot(bfx, bfy), FLOATING_LOAD * abs(torque) / prob.scale)
-            if np.any(idle):  # the solve's loads on it are its round-off: reported as 0
-                F = np.where(idle[..., None], 0.0, F)
-                bfx = np.where(idle[..., None], 0.0, bfx)
-                bfy = np.where(idle[..., None], 0.0, bfy)
-            if positions and any(want(name) for name in _POSITIONS):
-                x, idle_deflection = canonical_positions(
-                    prob, x, D, idle, 0.5 * stage.bearing.clearance
-                )
-                deflection = deflection.copy()
-                deflection[idle] = idle_deflection
+        # a disc that carries nothing: no load, its canonical position. The compliant
+        # disc's too: without load its body is undeformed (z = 0), so its free set is the
+        # rigid disc's, and the rigid problem's pin gaps and holes are its own
+        idle = floating_discs(F, np.hypot(bfx, bfy), FLOATING_LOAD * abs(torque) / prob.scale)
+        if np.any(idle):  # the solve's loads on it are its round-off: reported as 0
+            F = np.where(idle[..., None], 0.0, F)
+            bfx = np.where(idle[..., None], 0.0, bfx)
+            bfy = np.where(idle[..., None], 0.0, bfy)
+        if positions and any(want(name) for name in _POSITIONS):
+            x, idle_deflection = canonical_positions(
+                prob, x, D, idle, 0.5 * stage.bearing.clearance
+            )
+            deflection = deflection.copy()
+            deflection[idle] = idle_deflection
     else:  # rigid bearings: the stiff limit's split is the bearings' loads
         x, bfx, bfy = bearing_start(prob, x, F, k_pin)
         deflection = np.zeros_like(bfx)

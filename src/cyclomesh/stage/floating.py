@@ -69,7 +69,9 @@ def canonical_positions(
     bearings' deflections |d_dk| [m] (A', D', N) there of the moved discs, in the order of
     ``np.argwhere(floating)``.
 
-    ``p``: the problem (:class:`~cyclomesh.stage.assembly.Problem`, rigid discs),
+    ``p``: the problem (:class:`~cyclomesh.stage.assembly.Problem`; with the compliant
+    disc its rigid arrays: a disc without load is undeformed, its body unknowns left as
+    they are in ``x``),
     ``half_clearance``: P_d/2 [m]. Returns ``(x, deflection)``.
     """
     out = x.copy()
