@@ -37,6 +37,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NoReturn
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -232,26 +233,16 @@ def unloaded_contact(
         return _deviated_contact(
             design, modification, w2, wx, wy, r_pin, phi, phi_t, t_root, pin_angle, normals
         )
-    jammed = np.sqrt(w2) < a - e + s - CONTACT_TOLERANCE
-    if np.any(jammed):  # the deepest overlap named: its pin, crank angle and depth
-        overlap = a - e + s - np.sqrt(w2)
-        where = np.unravel_index(np.argmax(overlap), overlap.shape)
-        depth = float(overlap[where]) * 1e6  # [µm]
-        raise DesignError(
-            f"pin {where[-1] + 1} overlaps the disc at its tooth-space bottom by {depth:.3g} µm "
-            f"at crank angle {np.degrees(phi[where[-2], 0]):.6g}° whatever the disc rotation: "
+    if np.any(np.sqrt(w2) < a - e + s - CONTACT_TOLERANCE):
+        _refuse_overlap(
+            a - e + s - np.sqrt(w2),
+            phi,
             "its radius or negative radial error exceeds the clearance of the modification; "
-            f"raise modification.pin_radius_um (Δρ) by at least {depth:.3g} µm or reduce the "
-            "pin's radius or negative radial error"
+            "raise modification.pin_radius_um (Δρ) by at least {depth:.3g} µm or reduce the "
+            "pin's radius or negative radial error",
         )
     c, residual, reach = contact_phase(w2, a, e, n1, s)
-    if not np.all(residual <= CONTACT_TOLERANCE):
-        flat = np.unravel_index(np.argmax(residual), residual.shape)
-        raise ConvergenceError(
-            f"unloaded contact did not converge at crank angle "
-            f"{np.degrees(phi[flat[-2], 0]):.6g}°, pin {flat[-1] + 1}: residual "
-            f"{residual[flat] * 1e3:.3g} mm (limit {CONTACT_TOLERANCE * 1e3:.0e} mm)"
-        )
+    _require_converged(residual, phi)
     # loaded flank: u = −arccos c ∈ [−π, 0], sin u ≤ 0
     u = -np.arccos(c)
     sin_u = -np.sqrt(1.0 - c * c)
@@ -533,6 +524,33 @@ def contact_tangent(normal_x: FloatArray, normal_y: FloatArray) -> tuple[FloatAr
     return -normal_y, normal_x
 
 
+def _refuse_overlap(overlap: FloatArray, phi: FloatArray, cause: str) -> NoReturn:
+    """Raise the one-line error of a pin ring that jams the disc, naming the deepest
+    overlap (``overlap`` [m], (..., A, n1), positive where a pin overlaps the disc at its
+    tooth-space bottom): its pin, crank angle ``phi`` (A, 1) [rad] and depth; ``cause``
+    may format ``{depth}`` [µm]."""
+    where = np.unravel_index(np.argmax(overlap), overlap.shape)
+    depth = float(overlap[where]) * 1e6
+    raise DesignError(
+        f"pin {where[-1] + 1} overlaps the disc at its tooth-space bottom by {depth:.3g} µm "
+        f"at crank angle {np.degrees(phi[where[-2], 0]):.6g}° whatever the disc rotation: "
+        + cause.format(depth=depth)
+    )
+
+
+def _require_converged(residual: FloatArray, phi: FloatArray) -> None:
+    """Raise :class:`ConvergenceError` naming the worst contact where the unloaded contact
+    condition's ``residual`` [m] (..., A, n1) exceeds :data:`CONTACT_TOLERANCE`."""
+    if np.all(residual <= CONTACT_TOLERANCE):
+        return
+    flat = np.unravel_index(np.argmax(residual), residual.shape)
+    raise ConvergenceError(
+        f"unloaded contact did not converge at crank angle "
+        f"{np.degrees(phi[flat[-2], 0]):.6g}°, pin {flat[-1] + 1}: residual "
+        f"{residual[flat] * 1e3:.3g} mm (limit {CONTACT_TOLERANCE * 1e3:.0e} mm)"
+    )
+
+
 def _flank_phase(
     design: PairDesign,
     modification: Modification,
@@ -603,24 +621,16 @@ def _deviated_contact(
     r_pin = np.broadcast_to(r_pin, w2.shape)
     space = np.broadcast_to(np.round(t_root * n2 / (2.0 * np.pi)).astype(np.int64) % n2, w2.shape)
     u, residual, reach, jammed, _ = _flank_phase(design, modification, w2, r_pin, space, -1.0)
-    if np.any(jammed):  # the deepest overlap named: |Q| at the bottom against |w|
+    if np.any(jammed):  # |Q| at the tooth-space bottom against |w|
         root = deviated_geometry(np.zeros(w2.shape), design, modification, r_pin, space)
-        overlap = np.where(jammed, np.hypot(root.qx, root.qy) - np.sqrt(w2), -np.inf)
-        where = np.unravel_index(np.argmax(overlap), overlap.shape)
-        raise DesignError(
-            f"pin {where[-1] + 1} overlaps the disc at its tooth-space bottom by "
-            f"{overlap[where] * 1e6:.3g} µm at crank angle {np.degrees(phi[where[-2], 0]):.6g}° "
-            "whatever the disc rotation: its radius, a negative radial error or the profile "
-            "deviation exceeds the clearance; raise modification.pin_radius_um (Δρ) or "
-            "reduce the pin's radius, its negative radial error or the profile deviation"
+        _refuse_overlap(
+            np.where(jammed, np.hypot(root.qx, root.qy) - np.sqrt(w2), -np.inf),
+            phi,
+            "its radius, a negative radial error or the profile deviation exceeds the "
+            "clearance; raise modification.pin_radius_um (Δρ) or reduce the pin's radius, "
+            "its negative radial error or the profile deviation",
         )
-    if not np.all(residual <= CONTACT_TOLERANCE):
-        flat = np.unravel_index(np.argmax(residual), residual.shape)
-        raise ConvergenceError(
-            f"unloaded contact did not converge at crank angle "
-            f"{np.degrees(phi[flat[-2], 0]):.6g}°, pin {flat[-1] + 1}: residual "
-            f"{residual[flat] * 1e3:.3g} mm (limit {CONTACT_TOLERANCE * 1e3:.0e} mm)"
-        )
+    _require_converged(residual, phi)
     geo = deviated_geometry(u, design, modification, r_pin, space)
     arg_w = np.arctan2(wy, wx)
     t = t_root + u / n2
