@@ -78,3 +78,14 @@ def test_the_package_cache_is_stamped_with_its_sources():
         stamp = jit.cache_folder(source) / f"{source.stem}{jit.STAMP_SUFFIX}"
         if os.access(stamp.parent, os.W_OK):  # (a read-only install's cache: numba's none)
             assert stamp.read_text().strip() == digest, module
+
+
+def test_the_cache_folder_is_the_one_numba_picks(tmp_path, monkeypatch):
+    """NUMBA_CACHE_DIR (numba.config.CACHE_DIR) moves numba's cache, and the guard's."""
+    numba = pytest.importorskip("numba")
+    source = PACKAGE / "core" / "kernel.py"
+    monkeypatch.setattr(numba.config, "CACHE_DIR", "")
+    assert jit.cache_folder(source) == source.parent / "__pycache__"
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path))
+    folder = jit.cache_folder(source)
+    assert folder.is_relative_to(tmp_path) and folder.is_dir()

@@ -109,9 +109,10 @@ def cache_folder(source: Path) -> Path:
         pass
 
     try:
-        from numba.core.caching import _CacheImpl
+        from numba.core import caching
 
-        for locator in _CacheImpl._locator_classes:
+        impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl  # (before 0.61)
+        for locator in impl._locator_classes:
             found = locator.from_function(probe, str(source))
             if found is not None:
                 return Path(found.get_cache_path())
