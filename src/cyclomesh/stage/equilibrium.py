@@ -256,8 +256,9 @@ def _body_starts(
 
     def own(idx: NDArray[np.int64]) -> FloatArray:
         """The own starts (len(idx), m) of the crank angles ``idx``."""
-        x = start(idx)
-        _, _, _, st = _evaluate(prob.take(idx), law, x, D, False, gradient=False)
+        sub = prob.take(idx)  # (one take for the start and the loads there)
+        x = start(idx, sub)
+        _, _, _, st = _evaluate(sub, law, x, D, False, gradient=False)
         pins = coupling.pins[idx]
         ok = pins >= 0
         load = np.take_along_axis(st["pin_force"], coupling.flank[idx], -1)
@@ -876,12 +877,13 @@ def solve_direction(
             )
         return bound
 
-    def rigid_stage(sub: _Problem, phi: FloatArray):
+    def rigid_stage(sub: _Problem, phi: FloatArray, known: FloatArray | None = None):
         """The rigid stage (θ_d = c, u = 0) of ``sub``'s crank angles from the rotation at
-        which the stiffest pin alone would carry T (:func:`rotation_bound`): x, the pins'
-        forces and stiffnesses, that bound."""
+        which the stiffest pin alone would carry T (:func:`rotation_bound`; ``known``: that
+        rotation of these crank angles, formed before): x, the pins' forces and
+        stiffnesses, that bound."""
         x = np.zeros((sub.bl.shape[0], m))
-        x[:, 0] = rotation_bound(sub, phi)
+        x[:, 0] = rotation_bound(sub, phi) if known is None else known
         x[:, 1::3] = x[:, [0]]
         bound = x[:, 0].copy()  # one pin alone: an upper bound of the rigid mesh's rotation
         st: dict = {}  # the compiled iteration's state at the solution, else evaluated here
@@ -965,15 +967,22 @@ def solve_direction(
     if law is not None:
         unsupported, rigid = prob, (x, F, k_pin)  # the problem before the supports
 
-        def start(idx: NDArray[np.int64]) -> FloatArray:
-            """The bearing phase's start of the crank angles ``idx``."""
+        def start(idx: NDArray[np.int64], taken: _Problem | None = None) -> FloatArray:
+            """The bearing phase's start of the crank angles ``idx``; ``taken``: the
+            problem at them (``prob.take(idx)``, supported or not: the same arrays), if
+            the caller has it."""
             if lazy and rigid[0] is not None:  # the few arrays of the compiled start alone
                 sub, block = unsupported, pin_block(unsupported)[:, idx]  # (the same values)
                 holes = tuple(v[idx] for v in (sub.hx, sub.hy, sub.ex, sub.ey))
+            elif taken is not None:
+                sub = dataclasses.replace(taken, supports=unsupported.supports)
+                block, holes = None, None
             else:
                 sub, block, holes = unsupported.take(idx), None, None
-            if rigid[0] is None:
-                xr, Fr, kr, _ = rigid_stage(sub, mesh.phi[idx])
+            if rigid[0] is None:  # (the rotation bound of every crank angle, if formed:
+                # each crank angle's on its own, the same numbers)
+                known = None if bound is None else bound[idx]
+                xr, Fr, kr, _ = rigid_stage(sub, mesh.phi[idx], known)
             else:
                 xr, Fr, kr = (v[idx] for v in rigid)
             if fast:  # numba, no friction, no series spring (the rigid discs' lazy start,
