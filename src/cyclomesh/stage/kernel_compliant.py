@@ -12,14 +12,16 @@ angle's own arrays, the same step, stretched step (``_LINEAR``), step cap, line 
 (Armijo, or the residual's norm where the potential has no digits left), convergence test,
 the quadratic last step (``_LAST_STEP``) and the give-ups of :func:`newton`'s ``failed``
 (``_STALL_ITERATIONS``, ``_STALL_HALVINGS``). The crank angles are solved in order, each
-after the first started from the line through the solutions of the two before (else the
-one before; else its own start), each pin's body unknown carried by its pin
-(:attr:`~cyclomesh.stage.assembly.Body.pins`, as :func:`~cyclomesh.stage.equilibrium.
-_body_carried`). The crank angles it cannot finish (the saddle of the body's unknowns, a
-law it cannot invert, a stall) are left to the NumPy path from their own start
-(:func:`~cyclomesh.stage.equilibrium._body_newton`: the reference's Newton, then the
-residual Newton), exactly as there. The iteration runs to round-off, so the root is the
-reference's to round-off.
+after the first started from the line through the solutions of the two before (where the
+default active set's iteration chooses: the solution before where it predicted the crank
+angle before better than the line, the parabola through three on a smooth stretch,
+``_WARM``, task i46a; else the one before; else its own start), each pin's body unknown
+carried by its pin (:attr:`~cyclomesh.stage.assembly.Body.pins`, as
+:func:`~cyclomesh.stage.equilibrium._body_carried`). The crank angles it cannot finish
+(the saddle of the body's unknowns, a law it cannot invert, a stall) are left to the NumPy
+path from their own start (:func:`~cyclomesh.stage.equilibrium._body_newton`: the
+reference's Newton, then the residual Newton), exactly as there. The iteration runs to
+round-off, so the root is the reference's to round-off.
 
 Not every step is Newton's (:data:`cyclomesh.stage.newton._CHORD`, task i40k): where the
 last step cut the largest residual by ``_CHORD`` at least, the next one reuses the last
@@ -54,8 +56,8 @@ at a stage tolerance ring's crank angles: the compiled Newton −22 %.
 Measured (tasks i38b, i39b, i42c, i43c, docs/stage.md): an evaluation with its Hessian
 ~11 µs at the rated torque (~6 at ±3 %), a Newton step's solve ~8.3 µs (~6.3; 72
 unknowns, two 26-unknown body blocks; ~20 by their L·Δ·Lᵀ), a chord step's ~1.5,
-3.6 evaluations a crank angle at the rated torque and 4–7 at ±3 %; a stage tolerance
-ring's three solves ~0.11 CPU-s.
+5.5 evaluations a crank angle at the rated torque and 5.8 at ±3 % (task i46a); a stage
+tolerance ring's three solves ~0.095 CPU-s.
 """
 
 from __future__ import annotations
@@ -82,7 +84,10 @@ def _kernels() -> tuple[Any, Any]:
     global _owned_rows
     global _solve_ldl, _rollers, _coupled, _pin_law, _back, _resolve, _lu, _lu_solve, _by_lu
     global _dots, _ldl, _ldl_solve
-    global _fill, _choose, _grow, _reduce, _compact, _expand
+    global _fill, _choose, _grow, _reduce, _compact, _expand, _smooth, _bend, _still
+    _smooth = jit(_smooth_py)
+    _bend = jit(_bend_py)
+    _still = jit(_still_py)
     _fill = jit(_fill_py)
     _choose = jit(_choose_py)
     _grow = jit(_grow_py)
@@ -878,6 +883,108 @@ def _carry_py(out, x, own, pins, i, back, z0, lam):  # pragma: no cover (compile
                 out[zd + q] = own[zd + q]
 
 
+_WARM = True  # the warm start chosen by the crank angles before (task i46a)
+"""The warm start of a crank angle of the default active set's reduced iteration
+(``_ACTIVE`` 1), chosen by the crank angles before: the solution before (each pin unknown
+carried by its pin) where at the crank angle before it was nearer the solution than the
+line through the two before it (:func:`_still_py`: at a light torque the disc moves in
+its bearings' play and the solution jumps between crank angles, where a line overshoots);
+else the parabola through the three solutions before where those three were one smooth
+stretch (:func:`_smooth_py`: the same loaded pins and crank bearings, none at the edge of
+its clearance; :func:`_bend_py`); else the line through two, as before. On the 8-ring
+stage tolerance study's 24 solves (numba, main's kernel replayed): at 412 N·m
+evaluations 5.67 → 5.48 a crank angle, Hessians 2.01 → 2.00, factorisations 1.60 →
+1.60; at ±12.36 N·m 6.61 → 5.82, 3.28 → 2.81, 3.09 → 2.66. Where a contact's load is set on
+or off the solution has a kink and the parabola does worse than the line (without the
+check more Hessians than the line). K's iteration and ``_ACTIVE`` 2 keep the line: a
+crank bearing entering contact at a light torque carries a load the iteration resolves
+only to ~10⁻¹¹ N (its δ^(10/9) law's linear convergence), and there the parabola's start
+moved it by 1.3–2.1·10⁻¹³ of the largest roller load. False: the line everywhere, bit
+for bit the kernel before."""
+_EDGE = 1e-6
+"""A contact's load at the edge of its clearance (:func:`_smooth_py`): at most this
+fraction of the largest load of its kind (pins, crank bearings) at the crank angle
+before."""
+
+
+def _smooth_py(pf, bf, i):  # pragma: no cover (compiled)
+    """Whether crank angles i − 3, i − 2 and i − 1 were one smooth run: each pin (``pf[0]``,
+    the pins' forces at each solution) and each crank bearing (``bf``'s forces) without
+    load at all three or loaded at all three beyond ``_EDGE`` of the largest load of its
+    kind (a contact at the edge of its clearance: a kink of the solution near, and its load
+    the round-off's to ~1e-13 of the largest, task i46a)."""
+    D, P, N = pf.shape[2], pf.shape[3], bf.shape[2]
+    big = 0.0
+    bigb = 0.0
+    for d in range(D):
+        for j in range(P):
+            big = max(big, pf[0, i - 1, d, j])
+        for k in range(N):
+            bigb = max(bigb, bf[i - 1, d, k, 0] ** 2 + bf[i - 1, d, k, 1] ** 2)
+    edge = _EDGE * big
+    edgeb = _EDGE * _EDGE * bigb
+    for d in range(D):
+        for j in range(P):
+            a = pf[0, i - 1, d, j] > 0.0
+            for b in range(1, 4):
+                f = pf[0, i - b, d, j]
+                if a != (f > 0.0) or (a and f <= edge):
+                    return False
+        for k in range(N):
+            a = bf[i - 1, d, k, 0] != 0.0 or bf[i - 1, d, k, 1] != 0.0
+            for b in range(1, 4):
+                f = bf[i - b, d, k, 0] ** 2 + bf[i - b, d, k, 1] ** 2
+                if a != (f > 0.0) or (a and f <= edgeb):
+                    return False
+    return True
+
+
+def _still_py(x, i, z0, rot, L):  # pragma: no cover (compiled)
+    """Whether the solution at crank angle i − 2 was nearer that at i − 1 than the line
+    through i − 3 and i − 2 (the largest difference of the unknowns before the body's,
+    rotations times the reference length ``L``): the warm start at i from i − 1 alone."""
+    el = 0.0
+    ec = 0.0
+    for r in range(z0):
+        w = L if rot[r] else 1.0
+        el = max(el, abs(2.0 * x[i - 2, r] - x[i - 3, r] - x[i - 1, r]) * w)
+        ec = max(ec, abs(x[i - 2, r] - x[i - 1, r]) * w)
+    return ec < el
+
+
+def _bend_py(out, x, prev, pins, i, z0, lam):  # pragma: no cover (compiled)
+    """``out`` = the parabola through the solutions at crank angles i − 3, i − 2, i − 1,
+    evaluated at i (3·x₋₁ − 3·x₋₂ + x₋₃), each pin unknown carried by its pin; where that
+    pin was no candidate at i − 3 the line through i − 2, i − 1, at i − 2 ``prev``'s (the
+    solution at i − 1 carried: :func:`_carry_py`'s start)."""
+    m = out.size
+    D, P = pins.shape[1], pins.shape[2]
+    for r in range(m):  # (the holes' unknowns, after the pins' of each disc, too)
+        out[r] = 3.0 * (x[i - 1, r] - x[i - 2, r]) + x[i - 3, r]
+    for d in range(D):
+        zd = z0 + d * lam
+        for q in range(P):
+            pin = pins[i, d, q]
+            f2 = -1
+            f3 = -1
+            if pin >= 0:
+                for q2 in range(P):
+                    if pins[i - 2, d, q2] == pin:
+                        f2 = q2
+                        break
+                for q2 in range(P):
+                    if pins[i - 3, d, q2] == pin:
+                        f3 = q2
+                        break
+            v1 = prev[zd + q]
+            if f2 >= 0 and f3 >= 0:
+                out[zd + q] = 3.0 * (v1 - x[i - 2, zd + f2]) + x[i - 3, zd + f3]
+            elif f2 >= 0:
+                out[zd + q] = 2.0 * v1 - x[i - 2, zd + f2]
+            else:
+                out[zd + q] = v1
+
+
 def newton(
     p,
     law,
@@ -952,6 +1059,7 @@ def newton(
             force * abs(p.torque) / p.scale, round_off * abs(p.torque) / p.scale,
             iterations, halvings, cap, low, high, stall_h, stall_it, quad, bool(last),
             float(reuse), int(run), failed, counts, pf, bf, gout, whole, int(_ACTIVE), astats,
+            bool(_WARM),
         )  # fmt: skip
         if first < A:  # the own start of crank angle ``first`` asked for
             own[first] = start(np.array([first]))[0]
@@ -1015,7 +1123,7 @@ def _newton_rows(
     begin, has, need, memo, resume, x, own, pin, pin_w, energy, pins, hole, G, cols, core,
     blocks, const, nw, kcarrier, carrier, half, kn, torque, L, tol, floor, iterations,
     halvings, cap, low, high, stall_h, stall_it, quad, last_on, reuse, run, failed, counts,
-    pf, bf, gout, whole, active, astats,
+    pf, bf, gout, whole, active, astats, chosen,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`newton` written for numba: cyclomesh.stage.newton.newton's iteration with
     ``failed`` (rigid=False, the compliant disc), crank angle by crank angle, from crank
@@ -1028,7 +1136,8 @@ def _newton_rows(
     angle iterated on an active set of the body's pin unknowns (:func:`_choose_py`; 2: an
     empty one, every pin added by the check; 0: all of them), ``astats`` (A, 3): its body
     unknowns a disc at the start (the holes' too; 0: all), the times the set grew, 1
-    where it was left for all."""
+    where it was left for all. ``chosen``: the warm start chosen by the crank angles
+    before (:data:`_WARM`), else the line through two."""
     A, mf = x.shape
     m = mf
     D, P = pin.shape[2], pin.shape[3]
@@ -1140,14 +1249,26 @@ def _newton_rows(
                 resume[1] = 1 if first else 0
                 return i
             elif warm and again == 0:
-                # warm start: the line through the two solutions before, else the one before,
-                # each pin unknown carried by its pin (equilibrium._body_warm)
+                # warm start: the line through the two solutions before (the default
+                # active set's: the one before where it predicted the crank angle before
+                # better, the parabola through three on a smooth stretch, task i46a), else
+                # the one before, each pin unknown carried by its pin (equilibrium._body_warm)
                 line = i % run >= 2 and not failed[i - 2]
+                choose = chosen and red and active == 1  # (task i46a)
+                still = (
+                    choose and line and i % run >= 3 and not failed[i - 3]
+                    and _still(x, i, z0, rot, L)
+                )  # fmt: skip
+                bend = choose and line and not still and i % run >= 3 and not failed[i - 3]
+                bend = bend and _smooth(pf, bf, i)
                 _carry(prev, x, own[i], pins, i, 1, z0, lam)
                 s1 = 1
                 e1 = 0.0
-                for attempt in range(0 if line else 1, 2):
-                    if attempt == 0:
+                for attempt in range(0 if line and not still else 1, 2):
+                    if attempt == 0 and bend:
+                        _bend(trialF, x, prev, pins, i, z0, lam)
+                        _compact(trial, trialF, z0, D, lam, la, mp)
+                    elif attempt == 0:
                         _carry(trialF, x, prev, pins, i, 2, z0, lam)
                         for r in range(mf):
                             trialF[r] = 2.0 * prev[r] - trialF[r]

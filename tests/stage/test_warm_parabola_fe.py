@@ -1,0 +1,60 @@
+"""The compliant kernel's warm start chosen by the crank angles before (task i46a,
+stage.kernel_compliant._WARM) on the example's stage with the coarse FE disc, pin and
+crank-hole errors: the same root as with the line through two (``_WARM`` False, the
+kernel before), at the rated torque and a light one, on fewer evaluations; K's iteration
+(``_ACTIVE`` 0) keeps the line, so it is the same bit for bit with or without."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+from tests.stage.fe_cases import require_fe
+
+require_fe()
+
+import cyclomesh.stage.equilibrium as eq  # noqa: E402
+from cyclomesh.stage import kernel_compliant as kc  # noqa: E402
+from tests.stage.test_active_rows import TORQUES, _arrays, _close_all, _solve  # noqa: E402
+
+
+def _run(example, coarse, monkeypatch, chosen, active=1):
+    """The numba path's results at both torques and the kernel's evaluations summed."""
+    monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
+    monkeypatch.setattr(kc, "_WARM", chosen)
+    monkeypatch.setattr(kc, "_ACTIVE", active)
+    evaluations = [0]
+    compiled = eq.kernel_compliant
+
+    def counted(*args, **kwargs):
+        stats = kwargs.setdefault("stats", {})
+        failed = compiled(*args, **kwargs)
+        evaluations[0] += int(stats["counts"][:, 0].sum())
+        return failed
+
+    monkeypatch.setattr(eq, "kernel_compliant", counted)
+    out = [_solve(example, coarse, t) for t in TORQUES]
+    monkeypatch.undo()
+    return out, evaluations[0]
+
+
+def test_the_chosen_start_finds_the_lines_root(example, coarse, monkeypatch):
+    """Every output within 1e-13 of its largest of the line's (as test_active_rows
+    compares), in fewer evaluations."""
+    line, n_line = _run(example, coarse, monkeypatch, False)
+    bend, n_bend = _run(example, coarse, monkeypatch, True)
+    for ref, res in zip(line, bend, strict=True):
+        _close_all(ref, res)
+    assert n_bend < n_line
+
+
+def test_ks_iteration_keeps_the_line(example, coarse, monkeypatch):
+    """``_ACTIVE`` 0 (every crank angle on K): no chosen start, bit for bit."""
+    line, n_line = _run(example, coarse, monkeypatch, False, active=0)
+    bend, n_bend = _run(example, coarse, monkeypatch, True, active=0)
+    assert n_bend == n_line
+    for ref, res in zip(line, bend, strict=True):
+        a, b = _arrays(ref), _arrays(res)
+        for name, value in a.items():
+            np.testing.assert_array_equal(b[name], value, err_msg=name)
