@@ -84,7 +84,8 @@ def _kernels() -> tuple[Any, Any]:
     global _owned_rows
     global _solve_ldl, _rollers, _coupled, _pin_law, _back, _resolve, _lu, _lu_solve, _by_lu
     global _dots, _ldl, _ldl_solve
-    global _fill, _choose, _grow, _reduce, _compact, _expand, _smooth, _bend, _still
+    global _fill, _choose, _grow, _reduce, _compact, _expand, _smooth, _bend, _still, _slot
+    _slot = njit(inline=True)(_slot_py)
     _smooth = jit(_smooth_py)
     _bend = jit(_bend_py)
     _still = jit(_still_py)
@@ -860,6 +861,20 @@ def _rows_py(wrow, pin_w, i):  # pragma: no cover (compiled)
                     break
 
 
+def _slot_py(pins, row, d, pin):  # pragma: no cover (compiled)
+    """Where ``pin`` stands among disc d's candidates at crank angle ``row`` (``pins``
+    (A, D, P), −1 for padding): its position, −1 where it is none (or ``pin`` < 0)."""
+    if pin < 0:
+        return -1
+    for q in range(pins.shape[2]):
+        if pins[row, d, q] == pin:
+            return q
+    return -1
+
+
+_slot = _slot_py  # compiled in place (inlined) by _kernels
+
+
 def _carry_py(out, x, own, pins, i, back, z0, lam):  # pragma: no cover (compiled)
     """``out`` = the solution at crank angle i − back with each pin unknown carried by its
     pin, ``own``'s where that pin was no candidate there (equilibrium._body_carried)."""
@@ -870,13 +885,7 @@ def _carry_py(out, x, own, pins, i, back, z0, lam):  # pragma: no cover (compile
     for d in range(D):
         zd = z0 + d * lam
         for q in range(P):
-            pin = pins[i, d, q]
-            found = -1
-            if pin >= 0:
-                for q2 in range(P):
-                    if pins[i - back, d, q2] == pin:
-                        found = q2
-                        break
+            found = _slot(pins, i - back, d, pins[i, d, q])
             if found >= 0:
                 out[zd + q] = x[i - back, zd + found]
             else:
@@ -964,18 +973,8 @@ def _bend_py(out, x, prev, pins, i, z0, lam):  # pragma: no cover (compiled)
     for d in range(D):
         zd = z0 + d * lam
         for q in range(P):
-            pin = pins[i, d, q]
-            f2 = -1
-            f3 = -1
-            if pin >= 0:
-                for q2 in range(P):
-                    if pins[i - 2, d, q2] == pin:
-                        f2 = q2
-                        break
-                for q2 in range(P):
-                    if pins[i - 3, d, q2] == pin:
-                        f3 = q2
-                        break
+            f2 = _slot(pins, i - 2, d, pins[i, d, q])
+            f3 = _slot(pins, i - 3, d, pins[i, d, q])
             v1 = prev[zd + q]
             if f2 >= 0 and f3 >= 0:
                 out[zd + q] = 3.0 * (v1 - x[i - 2, zd + f2]) + x[i - 3, zd + f3]
@@ -1106,15 +1105,7 @@ def _carried_py(have, pins, i):  # pragma: no cover (compiled)
     D, P = pins.shape[1], pins.shape[2]
     for d in range(D):
         for q in range(P):
-            pin = pins[i, d, q]
-            if pin < 0:
-                continue
-            found = False
-            for q2 in range(P):
-                if pins[i - 1, d, q2] == pin:
-                    found = True
-                    break
-            if not found:
+            if pins[i, d, q] >= 0 and _slot(pins, i - 1, d, pins[i, d, q]) < 0:
                 return True
     return False
 
