@@ -18,6 +18,7 @@ from cyclomesh.results.requirements import (
     checks_rows,
     design_warnings,
     jam_row,
+    jam_warning,
     jams,
     min_play_arcmin,
     peak_stress_warning,
@@ -29,7 +30,27 @@ if TYPE_CHECKING:
     from cyclomesh.publish.report import Section
     from cyclomesh.studyfile.schema import CaseInputs, CaseSpec, Study
 
-__all__ = ["case_checks", "checks_section", "percentile_summary"]
+__all__ = ["case_checks", "case_warnings", "checks_section", "percentile_summary"]
+
+
+def case_warnings(case: CaseSpec, inputs: CaseInputs, ds: Any, *extra: str | None) -> list[str]:
+    """The warnings of one solved case of a run or a torsion study: the study's (contact
+    law, crank-angle coverage of pin errors), the jam of its smallest play ``ds``
+    (:func:`~cyclomesh.results.requirements.min_play_arcmin`), the stage's notes, then
+    the kind's own ``extra`` notes (None: no note), in that order."""
+    from cyclomesh.studyfile.warnings import (
+        has_pin_errors,
+        stage_friction_note,
+        stage_warning,
+        study_warnings,
+    )
+
+    notes = (jam_warning(min_play_arcmin(ds)), stage_warning(inputs), stage_friction_note(inputs))
+    return study_warnings(
+        inputs.contact_law,
+        case.analysis.crank_angles_deg(),
+        has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
+    ) + [w for w in (*notes, *extra) if w]
 
 
 def case_checks(

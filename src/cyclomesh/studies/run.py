@@ -165,15 +165,8 @@ def compute_run(
     """
     from cyclomesh.exceptions import CyclomeshError
     from cyclomesh.results.dataset import analyse_frame, summary_frame
-    from cyclomesh.results.requirements import jam_warning, min_play_arcmin
-    from cyclomesh.studies.checks import case_checks
+    from cyclomesh.studies.checks import case_checks, case_warnings
     from cyclomesh.studyfile.usage import check_keys
-    from cyclomesh.studyfile.warnings import (
-        has_pin_errors,
-        stage_friction_note,
-        stage_warning,
-        study_warnings,
-    )
 
     check_keys(study.raw, "run")
     run = RunResult(study=study)
@@ -200,21 +193,9 @@ def compute_run(
         if sheet is not None:
             run.summaries[case.name].update(sheet)
         run.frames[case.name] = ds
-        run.warnings[case.name] = study_warnings(
-            inputs.contact_law,
-            case.analysis.crank_angles_deg(),
-            has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
-        ) + [
-            w
-            for w in (
-                jam_warning(min_play_arcmin(ds)),
-                stage_warning(inputs),
-                stage_friction_note(inputs),
-                _zero_friction(case, inputs),
-                _support_range(sheet),
-            )
-            if w
-        ]
+        run.warnings[case.name] = case_warnings(
+            case, inputs, ds, _zero_friction(case, inputs), _support_range(sheet)
+        )
         run.checks[case.name] = case_checks(study, case, inputs, run.summaries[case.name], ds)
         if on_done:
             on_done(case.name)

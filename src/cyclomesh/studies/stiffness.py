@@ -132,16 +132,9 @@ def compute_stiffness(
     torque (0.4 s for 42 torques × 360 crank angles × 40 pins), so the cases run here.
     """
     from cyclomesh.output.writers import jsonable
-    from cyclomesh.results.requirements import jam_warning, min_play_arcmin
     from cyclomesh.results.torsion import stiffness, summarize_stiffness
-    from cyclomesh.studies.checks import case_checks
+    from cyclomesh.studies.checks import case_checks, case_warnings
     from cyclomesh.studyfile.usage import check_keys
-    from cyclomesh.studyfile.warnings import (
-        has_pin_errors,
-        stage_friction_note,
-        stage_warning,
-        study_warnings,
-    )
 
     check_stiffness(study)
     check_keys(study.raw, "stiffness")
@@ -195,20 +188,9 @@ def compute_stiffness(
         )
         record.update(stage_summary)
         result.summaries[case.name] = record
-        result.warnings[case.name] = study_warnings(
-            inputs.contact_law,
-            case.analysis.crank_angles_deg(),
-            has_pin_errors(inputs.errors_um, case.errors.eccentricity_um),
-        ) + [
-            w
-            for w in (
-                jam_warning(min_play_arcmin(ds)),
-                stage_warning(inputs),
-                stage_friction_note(inputs),
-                _lubricant_note(inputs.friction),
-            )
-            if w
-        ]
+        result.warnings[case.name] = case_warnings(
+            case, inputs, ds, _lubricant_note(inputs.friction)
+        )
         result.checks[case.name] = case_checks(study, case, inputs, record, ds[["play"]])
         if progress:
             progress(1)
