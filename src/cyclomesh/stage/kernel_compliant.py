@@ -8,7 +8,8 @@ without a series spring) solves each crank angle to its end in one compiled pass
 Hessian of :func:`cyclomesh.stage.assembly.evaluate` (:func:`_evaluate_one_py`: the pins with
 the body's displacement δ −= (C'·λ)_i, the body's energy ½·zᵀEz, the crank bearings with
 the hole centres moved by the body, the crankshafts and the end plate) on the crank
-angle's own arrays, the same step, stretched step (``_LINEAR``), step cap, line search
+angle's own arrays, the same step, stretched step (``_LINEAR``; after one ratio, not two,
+in the active set's iteration: ``_ONCE``, task i47a), step cap, line search
 (Armijo, or the residual's norm where the potential has no digits left), convergence test,
 the quadratic last step (``_LAST_STEP``) and the give-ups of :func:`newton`'s ``failed``
 (``_STALL_ITERATIONS``, ``_STALL_HALVINGS``). The crank angles are solved in order, each
@@ -1058,7 +1059,7 @@ def newton(
             force * abs(p.torque) / p.scale, round_off * abs(p.torque) / p.scale,
             iterations, halvings, cap, low, high, stall_h, stall_it, quad, bool(last),
             float(reuse), int(run), failed, counts, pf, bf, gout, whole, int(_ACTIVE), astats,
-            bool(_WARM),
+            bool(_WARM), bool(_ONCE),
         )  # fmt: skip
         if first < A:  # the own start of crank angle ``first`` asked for
             own[first] = start(np.array([first]))[0]
@@ -1114,7 +1115,7 @@ def _newton_rows(
     begin, has, need, memo, resume, x, own, pin, pin_w, energy, pins, hole, G, cols, core,
     blocks, const, nw, kcarrier, carrier, half, kn, torque, L, tol, floor, iterations,
     halvings, cap, low, high, stall_h, stall_it, quad, last_on, reuse, run, failed, counts,
-    pf, bf, gout, whole, active, astats, chosen,
+    pf, bf, gout, whole, active, astats, chosen, once,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """:func:`newton` written for numba: cyclomesh.stage.newton.newton's iteration with
     ``failed`` (rigid=False, the compliant disc), crank angle by crank angle, from crank
@@ -1128,7 +1129,9 @@ def _newton_rows(
     empty one, every pin added by the check; 0: all of them), ``astats`` (A, 3): its body
     unknowns a disc at the start (the holes' too; 0: all), the times the set grew, 1
     where it was left for all. ``chosen``: the warm start chosen by the crank angles
-    before (:data:`_WARM`), else the line through two."""
+    before (:data:`_WARM`), else the line through two. ``once``: the active set's
+    iteration stretches a step after one residual ratio in ``_LINEAR`` (:data:`_ONCE`),
+    else after two as K's."""
     A, mf = x.shape
     m = mf
     D, P = pin.shape[2], pin.shape[3]
@@ -1376,7 +1379,9 @@ def _newton_rows(
                     how = 3
                     break  # the saddle: given up to the caller
                 ratio = res > low * previous and res < high * previous
-                stretch = (not extended) and ratio and linear
+                # the stretched step (×p) after two ratios in the window, after one in
+                # the active set's iteration (task i47a, _ONCE: a roller's linear tail)
+                stretch = (not extended) and ratio and (linear or (once and red))
                 linear = ratio and not extended
                 previous = res
                 if chord:
@@ -1561,6 +1566,15 @@ def _newton_rows(
     return A
 
 
+_ONCE = True
+"""The active set's iteration (``_ACTIVE`` 1 or 2; K's keeps two) stretches its step by
+p = 10/9 after ONE residual ratio in ``_LINEAR`` (task i47a), not two: a linear tail is a
+crank bearing's roller law F ∝ δ^p near δ = 0 (a bearing leaving contact at the root),
+where Newton's step takes δ to δ·(1 − 1/p) = δ/10 (the residual by 10^(−10/9) = 0.077)
+and the step ×p lands δ = 0 at once. At ±12.36 N·m a stage tolerance ring's crank angles
+−10 % Hessians and factorisations (2.80 → 2.52, 2.67 → 2.39), −6 % evaluations; 412 N·m
++1 %. The root is the same to round-off (the same test ends it,
+tests/stage/test_linear_tail_fe.py). False: after two, the iteration before."""
 _GROWS = 3  # the times a crank angle's active set may grow; then all the pins'
 _ACTIVE = 1  # newton's active set (_newton_rows' ``active``): 1 on, 0 off, 2 from empty
 
