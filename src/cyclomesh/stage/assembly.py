@@ -26,7 +26,15 @@ from cyclomesh.stage.kernel import compiled, pin_law
 from cyclomesh.stage.kernel_body import bearing_hessian, body_pin_hessian
 from cyclomesh.stage.supports import Supports
 
-__all__ = ["Problem", "Body", "pin_laws", "unpack", "evaluate", "bearing_jacobian"]
+__all__ = [
+    "Problem",
+    "Body",
+    "pin_laws",
+    "unpack",
+    "evaluate",
+    "bearing_jacobian",
+    "SupportedJacobians",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -466,6 +474,50 @@ def bearing_jacobian(
     if p.body is not None:
         _body_columns(p, discs, m, G)
     return G
+
+
+class SupportedJacobians:
+    """The supported bearing Jacobians (:func:`bearing_jacobian` of a problem without the
+    compliant disc's columns) kept between the rings of a study, the last two formed (a
+    ring's two directions).
+
+    That Jacobian depends on the crank angles' hole centres (``hx``, ``hy``, r_c), the
+    :class:`Supports` and the unknowns only: not on the pins' or the holes' errors nor on
+    the torque, so every ring of a tolerance study has the same one per direction. A
+    kept one is handed out where its inputs are those of the problem (the same
+    :class:`Supports` object, which :func:`~cyclomesh.stage.supports.stage_supports`
+    caches, and equal hole centres), else it is formed: the same arrays, so the same
+    numbers. The kept arrays are read-only. Not pickled (a worker starts empty).
+    """
+
+    KEEP = 2
+
+    def __init__(self) -> None:
+        self._kept: list[tuple[Any, ...]] = []
+
+    def __getstate__(self) -> dict:  # (an empty store: not the arrays)
+        return {"_kept": []}
+
+    def __call__(self, p: Problem, discs: int, m: int) -> FloatArray:
+        """:func:`bearing_jacobian` ``(p, discs, m)`` of ``p`` without a body (read-only)."""
+        if p.body is not None:
+            raise ValueError("SupportedJacobians: the problem without its body")
+        for hx, hy, scale, sup, d, mm, G in self._kept:
+            if (
+                sup is p.supports
+                and d == discs
+                and mm == m
+                and scale == p.scale
+                and hx.shape == p.hx.shape
+                and np.array_equal(hx, p.hx)
+                and np.array_equal(hy, p.hy)
+            ):
+                return G
+        G = bearing_jacobian(p, discs, m)
+        G.flags.writeable = False
+        kept = (p.hx.copy(), p.hy.copy(), p.scale, p.supports, discs, m, G)
+        self._kept = [*self._kept[-(self.KEEP - 1) :], kept]
+        return G
 
 
 def _body_columns(p: Problem, discs: int, m: int, G: FloatArray) -> None:

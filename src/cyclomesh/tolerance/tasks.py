@@ -150,6 +150,17 @@ class RingModel:
     (:func:`cyclomesh.stage.efficiency.stage_efficiency`).
     :attr:`friction` is the mesh's on rigid bearings (None with the compliant disc, whose
     friction only the stage solves)."""
+    stage_keep: Any = field(default=None, init=False, compare=False, repr=False)
+    """With a stage and the compliant disc, its supported bearing Jacobian kept between
+    the rings a process solves (:class:`~cyclomesh.stage.assembly.SupportedJacobians`: the
+    same for every ring, formed once; the same numbers; not pickled: each worker starts
+    its own), else None."""
+
+    def __post_init__(self) -> None:
+        if self.stage is not None and isinstance(self.stage_disc_body, FreeDiscBody):
+            from cyclomesh.stage.assembly import SupportedJacobians
+
+            object.__setattr__(self, "stage_keep", SupportedJacobians())
 
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
@@ -330,6 +341,7 @@ class RingModel:
                 outputs=STAGE_OUTPUTS,
                 meshes=(ring_mesh(fwd, (i,)), ring_mesh(rev, (i,))),
                 only_at={"contact_stress": (0,), "bearing_load": (0,)},  # at the torque
+                keep=self.stage_keep,
             )
             te = res.transmission_error  # (Q, A)
             out["stage_lost_motion_arcmin_max"][i] = np.max(te[1] - te[2]) / RAD_PER_ARCMIN
