@@ -44,6 +44,7 @@ from cyclomesh.stage.assembly import (
     SupportedJacobians,
     bearing_jacobian,
     evaluate,
+    loads,
     pin_laws,
     unpack,
 )
@@ -259,7 +260,7 @@ def _body_starts(
         """The own starts (len(idx), m) of the crank angles ``idx``."""
         sub = prob.take(idx)  # (one take for the start and the loads there)
         x = start(idx, sub)
-        _, _, _, st = _evaluate(sub, law, x, D, False, gradient=False)
+        st = loads(sub, law, x, D)  # (evaluate's, without the potential)
         pins = coupling.pins[idx]
         ok = pins >= 0
         load = np.take_along_axis(st["pin_force"], coupling.flank[idx], -1)
