@@ -114,3 +114,40 @@ def test_a_compliant_stage_solved_with_the_kept_jacobian_is_the_same(example, re
                 a, b = getattr(plain, name), getattr(kept, name)
                 if isinstance(a, np.ndarray):
                     np.testing.assert_array_equal(a, b, err_msg=f"{kernel} ring {ring}: {name}")
+
+
+def test_the_ring_model_holds_a_store_with_the_compliant_stage_only(request, tmp_path):
+    """``RingModel.stage_keep``: a store with a stage and the compliant disc, None
+    otherwise; not a field (the model's fields, equality and ``replace`` are the
+    study's); pickled empty (a worker fills its own)."""
+    import dataclasses
+
+    from tests.stage.fe_cases import EXAMPLE, require_fe
+
+    require_fe()
+    coarse = request.getfixturevalue("coarse")
+    from cyclomesh.studies.rings import ring_model
+    from cyclomesh.studyfile.schema import load_study
+
+    text = EXAMPLE.read_text()
+    path = tmp_path / "tol.toml"
+    path.write_text(
+        text[: text.index("[[cases]]")]
+        + "[tolerance]\nseed = 3\nrings = 2\nallowable_contact_stress_mpa = 1850.0\n"
+        + "crank_step_deg = 30.0\n"
+        + 'radial_um = { distribution = "uniform", half_range = 2.0 }\n'
+    )
+    study = load_study(path)
+    rigid = ring_model(study, study.tolerance)
+    assert rigid.stage is not None and rigid.stage_keep is None
+    compliant = dataclasses.replace(rigid, stage_disc_body=coarse)
+    keep = compliant.stage_keep
+    assert isinstance(keep, SupportedJacobians)
+    assert "stage_keep" not in {f.name for f in dataclasses.fields(compliant)}
+    keep._kept.append(("anything",))
+    again = dataclasses.replace(compliant)
+    assert again == compliant and again.stage_keep is not keep and again.stage_keep._kept == []
+    copy = pickle.loads(pickle.dumps(compliant))
+    assert isinstance(copy.stage_keep, SupportedJacobians) and copy.stage_keep._kept == []
+    assert keep._kept  # (the original's left as it is)
+    assert dataclasses.replace(rigid, stage=None, stage_disc_body=coarse).stage_keep is None

@@ -150,17 +150,26 @@ class RingModel:
     (:func:`cyclomesh.stage.efficiency.stage_efficiency`).
     :attr:`friction` is the mesh's on rigid bearings (None with the compliant disc, whose
     friction only the stage solves)."""
-    stage_keep: Any = field(default=None, init=False, compare=False, repr=False)
-    """With a stage and the compliant disc, its supported bearing Jacobian kept between
-    the rings a process solves (:class:`~cyclomesh.stage.assembly.SupportedJacobians`: the
-    same for every ring, formed once; the same numbers; not pickled: each worker starts
-    its own), else None."""
 
     def __post_init__(self) -> None:
+        # With a stage and the compliant disc, its supported bearing Jacobian kept between
+        # the rings a process solves (:attr:`stage_keep`). An attribute, not a field: the
+        # model's fields (its equality, ``dataclasses.fields``, ``replace``) are the study's
+        keep = None
         if self.stage is not None and isinstance(self.stage_disc_body, FreeDiscBody):
             from cyclomesh.stage.assembly import SupportedJacobians
 
-            object.__setattr__(self, "stage_keep", SupportedJacobians())
+            keep = SupportedJacobians()
+        object.__setattr__(self, "_stage_keep", keep)
+
+    @property
+    def stage_keep(self) -> Any:
+        """With a stage and the compliant disc, the store of its supported bearing Jacobian
+        kept between the rings a process solves
+        (:class:`~cyclomesh.stage.assembly.SupportedJacobians`: the same for every ring,
+        formed once; the same numbers; pickled empty, so each worker fills its own), else
+        None."""
+        return getattr(self, "_stage_keep", None)
 
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
