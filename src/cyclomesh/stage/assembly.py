@@ -26,7 +26,16 @@ from cyclomesh.stage.kernel import compiled, pin_law
 from cyclomesh.stage.kernel_body import bearing_hessian, body_pin_hessian
 from cyclomesh.stage.supports import Supports
 
-__all__ = ["Problem", "Body", "pin_laws", "unpack", "evaluate", "bearing_jacobian"]
+__all__ = [
+    "Problem",
+    "Body",
+    "pin_laws",
+    "unpack",
+    "evaluate",
+    "bearing_jacobian",
+    "SupportedJacobians",
+    "loads",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -338,20 +347,14 @@ def _bearings(law, dx, dy, stiffness: bool, matrix: bool):
     return s, B * cx, B * cy, Ub, sb, k
 
 
-def _evaluate_supported(p: Problem, law, x, discs, hessian, energy, g, H, state):
-    """Bearings, crankshafts and end plate of :func:`evaluate` with :class:`Supports`.
-
-    d_dk = u_d + (θ_d − c)·Jh_k + ε_dk − w'_dk − (x_d/S)·β·Jh_k (hole against crank pin);
-    the gradient and Hessian are assembled from ∂d/∂x (n, D, N, 2, m) in one contraction.
-    With the compliant disc (``p.body``) the hole centre moves by the body's displacement
-    too: d_dk += (C'·λ)_k (:class:`Body`). Either of ``p.supports`` and ``p.body`` may be
-    None.
-    """
+def _supported_holes(p: Problem, x: FloatArray, discs: int):
+    """Every hole against its crank pin with :class:`Supports` or the compliant disc
+    (:func:`_evaluate_supported`'s d_dk, (n, D, N) [m] each), and the crankshafts' w'
+    (n, D, N, 2) and the end plate's β (n,) at x."""
     sup = p.supports
     c, theta, ux, uy = unpack(x, discs)
     n, m = x.shape
     N = p.hx.shape[-1]
-    L = p.scale
     jx, jy = -p.hy[:, None, :], p.hx[:, None, :]  # (n, 1, N)
     base = 1 + 3 * discs
     nw = 2 * discs * N if sup is not None and sup.stiffness is not None else 0
@@ -366,6 +369,47 @@ def _evaluate_supported(p: Problem, law, x, discs, hessian, energy, g, H, state)
         z = x[:, m - p.body.size :].reshape(n, discs, -1)
         wh = np.matmul(p.body.hole_w, z[:, :, None, :, None])[..., 0]
         dx, dy = dx + wh[..., 0], dy + wh[..., 1]
+    return dx, dy, w, beta
+
+
+def loads(p: Problem, law, x: FloatArray, discs: int) -> dict[str, FloatArray]:
+    """The pins' forces ``pin_force`` (n, D, pins) [N] and the crank bearings' forces on
+    the crank pins ``bearing_fx``, ``bearing_fy`` (n, D, N) [N] at x: those of
+    :func:`evaluate`'s state (``rigid`` False), the same arithmetic, without the
+    potential (the compliant disc's own starts read only these). A problem without
+    :class:`Supports` and without the body goes through :func:`evaluate` itself."""
+    if p.supports is None and p.body is None:
+        st = evaluate(p, law, x, discs, False, gradient=False)[3]
+        return {k: st[k] for k in ("pin_force", "bearing_fx", "bearing_fy")}
+    _, theta, ux, uy = unpack(x, discs)
+    shift = None
+    if p.body is not None:  # (evaluate's)
+        n, m = x.shape
+        z = x[:, m - p.body.size :].reshape(n, discs, -1)
+        shift = np.matmul(p.body.pin_w, z[..., None])[..., 0]
+    F = pin_laws(p, theta, ux, uy, shift)[0]
+    dx, dy = _supported_holes(p, x, discs)[:2]
+    _, fx, fy, _, _, _ = _bearings(law, dx, dy, False, False)
+    return {"pin_force": F, "bearing_fx": fx, "bearing_fy": fy}
+
+
+def _evaluate_supported(p: Problem, law, x, discs, hessian, energy, g, H, state):
+    """Bearings, crankshafts and end plate of :func:`evaluate` with :class:`Supports`.
+
+    d_dk = u_d + (θ_d − c)·Jh_k + ε_dk − w'_dk − (x_d/S)·β·Jh_k (hole against crank pin);
+    the gradient and Hessian are assembled from ∂d/∂x (n, D, N, 2, m) in one contraction.
+    With the compliant disc (``p.body``) the hole centre moves by the body's displacement
+    too: d_dk += (C'·λ)_k (:class:`Body`). Either of ``p.supports`` and ``p.body`` may be
+    None.
+    """
+    sup = p.supports
+    n, m = x.shape
+    N = p.hx.shape[-1]
+    L = p.scale
+    base = 1 + 3 * discs
+    nw = 2 * discs * N if sup is not None and sup.stiffness is not None else 0
+    carrier = None if sup is None else sup.carrier
+    dx, dy, w, beta = _supported_holes(p, x, discs)
     s, fx, fy, Ub, sb, k = _bearings(law, dx, dy, hessian, hessian and g is not None)
     energy = energy + np.sum(Ub, axis=(-2, -1))
     if g is None:  # the potential only (a line-search trial)
@@ -466,6 +510,50 @@ def bearing_jacobian(
     if p.body is not None:
         _body_columns(p, discs, m, G)
     return G
+
+
+class SupportedJacobians:
+    """The supported bearing Jacobians (:func:`bearing_jacobian` of a problem without the
+    compliant disc's columns) kept between the rings of a study, the last two formed (a
+    ring's two directions).
+
+    That Jacobian depends on the crank angles' hole centres (``hx``, ``hy``, r_c), the
+    :class:`Supports` and the unknowns only: not on the pins' or the holes' errors nor on
+    the torque, so every ring of a tolerance study has the same one per direction. A
+    kept one is handed out where its inputs are those of the problem (the same
+    :class:`Supports` object, which :func:`~cyclomesh.stage.supports.stage_supports`
+    caches, and equal hole centres), else it is formed: the same arrays, so the same
+    numbers. The kept arrays are read-only. Not pickled (a worker starts empty).
+    """
+
+    KEEP = 2
+
+    def __init__(self) -> None:
+        self._kept: list[tuple[Any, ...]] = []
+
+    def __getstate__(self) -> dict:  # (an empty store: not the arrays)
+        return {"_kept": []}
+
+    def __call__(self, p: Problem, discs: int, m: int) -> FloatArray:
+        """:func:`bearing_jacobian` ``(p, discs, m)`` of ``p`` without a body (read-only)."""
+        if p.body is not None:
+            raise ValueError("SupportedJacobians: the problem without its body")
+        for hx, hy, scale, sup, d, mm, G in self._kept:
+            if (
+                sup is p.supports
+                and d == discs
+                and mm == m
+                and scale == p.scale
+                and hx.shape == p.hx.shape
+                and np.array_equal(hx, p.hx)
+                and np.array_equal(hy, p.hy)
+            ):
+                return G
+        G = bearing_jacobian(p, discs, m)
+        G.flags.writeable = False
+        kept = (p.hx.copy(), p.hy.copy(), p.scale, p.supports, discs, m, G)
+        self._kept = [*self._kept[-(self.KEEP - 1) :], kept]
+        return G
 
 
 def _body_columns(p: Problem, discs: int, m: int, G: FloatArray) -> None:

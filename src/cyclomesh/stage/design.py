@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -25,6 +26,14 @@ from cyclomesh.stage.duty import DutyCycle
 __all__ = ["StageDesign"]
 
 FloatArray = NDArray[np.float64]
+
+
+@lru_cache(maxsize=32)
+def _rating_deflection(bearing: RollerSet) -> float:
+    """The displacement [m] at which one crank bearing carries its dynamic load rating C
+    (:meth:`StageDesign.check_fits`' limit): the bearing's alone, so a study's rings,
+    each its own hole errors on the same bearing, form it once (the same number)."""
+    return float(deflection_for_force(bearing, bearing.rating()))
 
 
 @dataclass(frozen=True)
@@ -155,7 +164,7 @@ class StageDesign:
         n = self.holes.count
         misfit = np.sqrt(np.sum(residual**2, axis=(-2, -1)) / n)
         # displacement of one bearing at its dynamic load rating
-        limit = float(deflection_for_force(self.bearing, self.bearing.rating()))
+        limit = _rating_deflection(self.bearing)
         if np.max(misfit) > limit:
             d = int(np.argmax(misfit))
             raise DesignError(

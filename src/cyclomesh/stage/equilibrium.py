@@ -41,8 +41,10 @@ from cyclomesh.stage import newton as reference
 from cyclomesh.stage.assembly import (
     Body,
     Problem,
+    SupportedJacobians,
     bearing_jacobian,
     evaluate,
+    loads,
     pin_laws,
     unpack,
 )
@@ -258,7 +260,7 @@ def _body_starts(
         """The own starts (len(idx), m) of the crank angles ``idx``."""
         sub = prob.take(idx)  # (one take for the start and the loads there)
         x = start(idx, sub)
-        _, _, _, st = _evaluate(sub, law, x, D, False, gradient=False)
+        st = loads(sub, law, x, D)  # (evaluate's, without the potential)
         pins = coupling.pins[idx]
         ok = pins >= 0
         load = np.take_along_axis(st["pin_force"], coupling.flank[idx], -1)
@@ -802,6 +804,7 @@ def solve_direction(
     positions: bool = True,
     cache: dict | None = None,
     fields: frozenset[str] | None = None,
+    keep: SupportedJacobians | None = None,
 ) -> dict[str, FloatArray]:
     """Stage under a positive torque in the mesh's frame (``other``: the mirror problem).
 
@@ -822,6 +825,9 @@ def solve_direction(
     (the same arrays, so the same numbers). ``fields``: the names of the returned dict
     wanted (None: all); the others are not computed, and each of them is the same, bit for
     bit, whatever else is asked (:func:`cyclomesh.stage.solve.solve` ``outputs``).
+    ``keep``: with the compliant disc, a study's store of the supported bearing Jacobian
+    (:class:`~cyclomesh.stage.assembly.SupportedJacobians`, the same for every ring of
+    the study), which then is not formed again for each ring (the same numbers).
     """
     D, n1 = mesh.geo.rotation.shape[-2:]
 
@@ -1018,9 +1024,14 @@ def solve_direction(
         if supports is not None or body is not None:
             if body is not None:  # the body's columns depend on the torque, the others not
                 supported = None if cache is None else cache.get("supported")
-                if supported is None and cache is not None:
-                    supported = bearing_jacobian(dataclasses.replace(prob, body=None), D, m_sup)
-                    cache["supported"] = supported
+                if supported is None and (cache is not None or keep is not None):
+                    bare = dataclasses.replace(prob, body=None)
+                    if keep is not None:  # a study's, kept between its rings
+                        supported = keep(bare, D, m_sup)
+                    else:
+                        supported = bearing_jacobian(bare, D, m_sup)
+                    if cache is not None:
+                        cache["supported"] = supported
                 jacobian = bearing_jacobian(prob, D, m_sup + coupling.size, supported)
             elif cache is None or "jacobian" not in cache:
                 jacobian = bearing_jacobian(prob, D, m_sup if x is None else x.shape[1])

@@ -74,6 +74,7 @@ from cyclomesh.drive.solve import (
     unmirror,
 )
 from cyclomesh.exceptions import ConvergenceError, DesignError
+from cyclomesh.stage.assembly import SupportedJacobians
 from cyclomesh.stage.bearing import (
     equivalent_load,
     life_hours,
@@ -346,6 +347,7 @@ def solve(
     outputs: Collection[str] | None = None,
     meshes: tuple[StackMesh, StackMesh] | None = None,
     only_at: Mapping[str, Collection[int]] | None = None,
+    keep: SupportedJacobians | None = None,
 ) -> Stage:
     """:func:`solve_stage` of a :class:`~cyclomesh.core.case.Case` and a
     :class:`~cyclomesh.core.case.Model` whose ``stage`` is a :class:`StageDesign`.
@@ -381,7 +383,10 @@ def solve(
     forms them once a ring, for its mesh-alone solve too); None: formed
     here. ``only_at``: outputs (of ``outputs``, float ones) wanted at some torques only,
     name → indices into the torques; NaN at the others (a tolerance ring reads the contact
-    stress at the torque, not at ∓3 % of it).
+    stress at the torque, not at ∓3 % of it). ``keep``: a store kept by a caller that
+    solves many rings of one stage design at the same crank angles (a tolerance study:
+    :class:`~cyclomesh.stage.assembly.SupportedJacobians`): the compliant disc's supported
+    bearing Jacobian, the same for every ring, formed once (the same numbers).
     """
     stage = model.stage
     if not isinstance(stage, StageDesign):
@@ -472,6 +477,7 @@ def solve(
                         positions,
                         caches[0],
                         fields_at(q),
+                        keep,
                     )
                 else:
                     out = _reverse(
@@ -489,6 +495,7 @@ def solve(
                             positions,
                             caches[1],
                             fields_at(q),
+                            keep,
                         )
                     )
             except ConvergenceError as exc:

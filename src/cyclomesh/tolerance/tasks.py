@@ -151,6 +151,26 @@ class RingModel:
     :attr:`friction` is the mesh's on rigid bearings (None with the compliant disc, whose
     friction only the stage solves)."""
 
+    def __post_init__(self) -> None:
+        # With a stage and the compliant disc, its supported bearing Jacobian kept between
+        # the rings a process solves (:attr:`stage_keep`). An attribute, not a field: the
+        # model's fields (its equality, ``dataclasses.fields``, ``replace``) are the study's
+        keep = None
+        if self.stage is not None and isinstance(self.stage_disc_body, FreeDiscBody):
+            from cyclomesh.stage.assembly import SupportedJacobians
+
+            keep = SupportedJacobians()
+        object.__setattr__(self, "_stage_keep", keep)
+
+    @property
+    def stage_keep(self) -> Any:
+        """With a stage and the compliant disc, the store of its supported bearing Jacobian
+        kept between the rings a process solves
+        (:class:`~cyclomesh.stage.assembly.SupportedJacobians`: the same for every ring,
+        formed once; the same numbers; pickled empty, so each worker fills its own), else
+        None."""
+        return getattr(self, "_stage_keep", None)
+
     def draw(self, rings: ArrayLike) -> RingErrors:
         """Sampled errors of the given rings at the stated tolerances [µm, µrad]."""
         holes = None if self.stage is None else (self.discs, self.stage.holes.count)
@@ -330,6 +350,7 @@ class RingModel:
                 outputs=STAGE_OUTPUTS,
                 meshes=(ring_mesh(fwd, (i,)), ring_mesh(rev, (i,))),
                 only_at={"contact_stress": (0,), "bearing_load": (0,)},  # at the torque
+                keep=self.stage_keep,
             )
             te = res.transmission_error  # (Q, A)
             out["stage_lost_motion_arcmin_max"][i] = np.max(te[1] - te[2]) / RAD_PER_ARCMIN
