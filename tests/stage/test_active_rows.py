@@ -77,25 +77,42 @@ def _close_all(ref, got, rtol=1e-13, skip=()):
         assert diff <= rtol * max(scale, 1e-300), (name, diff, scale)
 
 
-def _run(example, coarse, monkeypatch, active):
-    """The numba path's results at both torques with ``_ACTIVE`` = active, and the
-    kernel's active-set statistics summed: (reduced crank angles, grows, left for K)."""
+def solve_counted(example, coarse, monkeypatch, tally, **switches):
+    """The numba path's results at each of :data:`TORQUES` with ``kernel_compliant``'s
+    module switches set (``_ACTIVE=0``, ...), and per torque the sum over the kernel's
+    calls of ``tally(stats)`` (its statistics: ``counts``, ``active``); the switches are
+    undone after."""
     monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
-    monkeypatch.setattr(kc, "_ACTIVE", active)
-    tally = np.zeros(3, np.int64)
+    for name, value in switches.items():
+        monkeypatch.setattr(kc, name, value)
     compiled = eq.kernel_compliant
+    sums: list = []
 
     def counted(*args, **kwargs):
         stats = kwargs.setdefault("stats", {})
         failed = compiled(*args, **kwargs)
-        a = stats["active"]
-        tally[:] += (int(np.sum(a[:, 0] > 0)), int(a[:, 1].sum()), int(a[:, 2].sum()))
+        sums[-1] = sums[-1] + np.asarray(tally(stats))
         return failed
 
     monkeypatch.setattr(eq, "kernel_compliant", counted)
-    out = [_solve(example, coarse, t) for t in TORQUES]
+    out = []
+    for t in TORQUES:
+        sums.append(0)
+        out.append(_solve(example, coarse, t))
     monkeypatch.undo()
-    return out, tally
+    return out, sums
+
+
+def _run(example, coarse, monkeypatch, active):
+    """The numba path's results at both torques with ``_ACTIVE`` = active, and the
+    kernel's active-set statistics summed: (reduced crank angles, grows, left for K)."""
+
+    def tally(stats):
+        a = stats["active"]
+        return int(np.sum(a[:, 0] > 0)), int(a[:, 1].sum()), int(a[:, 2].sum())
+
+    out, sums = solve_counted(example, coarse, monkeypatch, tally, _ACTIVE=active)
+    return out, sum(sums)
 
 
 @pytest.fixture(scope="module")

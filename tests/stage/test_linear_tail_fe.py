@@ -15,33 +15,16 @@ from tests.stage.fe_cases import require_fe
 
 require_fe()
 
-import cyclomesh.stage.equilibrium as eq  # noqa: E402
-from cyclomesh.stage import kernel_compliant as kc  # noqa: E402
-from tests.stage.test_active_rows import TORQUES, _arrays, _close_all, _solve  # noqa: E402
+from tests.stage.test_active_rows import _arrays, _close_all, solve_counted  # noqa: E402
 
 
 def _run(example, coarse, monkeypatch, once, active=1):
     """The numba path's results at both torques and the kernel's Hessians a torque."""
-    monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
-    monkeypatch.setattr(kc, "_ONCE", once)
-    monkeypatch.setattr(kc, "_ACTIVE", active)
-    hessians = [0]
-    compiled = eq.kernel_compliant
-
-    def counted(*args, **kwargs):
-        stats = kwargs.setdefault("stats", {})
-        failed = compiled(*args, **kwargs)
-        hessians[0] += int(stats["counts"][:, 3].sum())
-        return failed
-
-    monkeypatch.setattr(eq, "kernel_compliant", counted)
-    out, counts = [], []
-    for t in TORQUES:
-        hessians[0] = 0
-        out.append(_solve(example, coarse, t))
-        counts.append(hessians[0])
-    monkeypatch.undo()
-    return out, counts
+    out, sums = solve_counted(
+        example, coarse, monkeypatch, lambda st: st["counts"][:, 3].sum(), _ONCE=once,
+        _ACTIVE=active,
+    )  # fmt: skip
+    return out, [int(n) for n in sums]
 
 
 def test_one_ratio_finds_the_same_root(example, coarse, monkeypatch):

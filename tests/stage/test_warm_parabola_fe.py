@@ -14,29 +14,16 @@ from tests.stage.fe_cases import require_fe
 
 require_fe()
 
-import cyclomesh.stage.equilibrium as eq  # noqa: E402
-from cyclomesh.stage import kernel_compliant as kc  # noqa: E402
-from tests.stage.test_active_rows import TORQUES, _arrays, _close_all, _solve  # noqa: E402
+from tests.stage.test_active_rows import _arrays, _close_all, solve_counted  # noqa: E402
 
 
 def _run(example, coarse, monkeypatch, chosen, active=1):
     """The numba path's results at both torques and the kernel's evaluations summed."""
-    monkeypatch.setenv("CYCLOMESH_KERNEL", "numba")
-    monkeypatch.setattr(kc, "_WARM", chosen)
-    monkeypatch.setattr(kc, "_ACTIVE", active)
-    evaluations = [0]
-    compiled = eq.kernel_compliant
-
-    def counted(*args, **kwargs):
-        stats = kwargs.setdefault("stats", {})
-        failed = compiled(*args, **kwargs)
-        evaluations[0] += int(stats["counts"][:, 0].sum())
-        return failed
-
-    monkeypatch.setattr(eq, "kernel_compliant", counted)
-    out = [_solve(example, coarse, t) for t in TORQUES]
-    monkeypatch.undo()
-    return out, evaluations[0]
+    out, sums = solve_counted(
+        example, coarse, monkeypatch, lambda st: st["counts"][:, 0].sum(), _WARM=chosen,
+        _ACTIVE=active,
+    )  # fmt: skip
+    return out, int(sum(sums))
 
 
 def test_the_chosen_start_finds_the_lines_root(example, coarse, monkeypatch):
