@@ -77,6 +77,13 @@ def _close_all(ref, got, rtol=1e-13, skip=()):
         assert diff <= rtol * max(scale, 1e-300), (name, diff, scale)
 
 
+def _equal_all(ref, got):
+    """Every array of ``got`` equal to ``ref``'s, bit for bit."""
+    a, b = _arrays(ref), _arrays(got)
+    for name, value in a.items():
+        np.testing.assert_array_equal(b[name], value, err_msg=name)
+
+
 def solve_counted(example, coarse, monkeypatch, tally, **switches):
     """The numba path's results at each of :data:`TORQUES` with ``kernel_compliant``'s
     module switches set (``_ACTIVE=0``, ...), and per torque the sum over the kernel's

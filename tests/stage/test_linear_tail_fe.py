@@ -7,7 +7,6 @@ path at the light torque (a crank bearing's roller tail); K's iteration (``_ACTI
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 pytest.importorskip("numba")
@@ -15,7 +14,7 @@ from tests.stage.fe_cases import require_fe
 
 require_fe()
 
-from tests.stage.test_active_rows import _arrays, _close_all, solve_counted  # noqa: E402
+from tests.stage.test_active_rows import _close_all, _equal_all, solve_counted  # noqa: E402
 
 
 def _run(example, coarse, monkeypatch, once, active=1):
@@ -44,6 +43,4 @@ def test_ks_iteration_keeps_two(example, coarse, monkeypatch):
     one, n_one = _run(example, coarse, monkeypatch, True, active=0)
     assert n_one == n_two
     for ref, res in zip(two, one, strict=True):
-        a, b = _arrays(ref), _arrays(res)
-        for name, value in a.items():
-            np.testing.assert_array_equal(b[name], value, err_msg=name)
+        _equal_all(ref, res)

@@ -6,7 +6,6 @@ kernel before), at the rated torque and a light one, on fewer evaluations; K's i
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 pytest.importorskip("numba")
@@ -14,7 +13,7 @@ from tests.stage.fe_cases import require_fe
 
 require_fe()
 
-from tests.stage.test_active_rows import _arrays, _close_all, solve_counted  # noqa: E402
+from tests.stage.test_active_rows import _close_all, _equal_all, solve_counted  # noqa: E402
 
 
 def _run(example, coarse, monkeypatch, chosen, active=1):
@@ -42,6 +41,4 @@ def test_ks_iteration_keeps_the_line(example, coarse, monkeypatch):
     bend, n_bend = _run(example, coarse, monkeypatch, True, active=0)
     assert n_bend == n_line
     for ref, res in zip(line, bend, strict=True):
-        a, b = _arrays(ref), _arrays(res)
-        for name, value in a.items():
-            np.testing.assert_array_equal(b[name], value, err_msg=name)
+        _equal_all(ref, res)
